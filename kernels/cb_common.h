@@ -1,0 +1,159 @@
+/* cb_common.h - the common subset of C++ and OpenCL C used by every shared header.
+ *
+ * Everything in kernels/*.h is written once and compiled twice: by PoCL as OpenCL C for the
+ * kernels, and by g++ as C++ for the host (light subpaths for CBDPT, test oracles). On the host
+ * the code lives in namespace `cbk`. Shared structs use plain float arrays, never float3
+ * (16 bytes in OpenCL, 12 in C++), and are padded to 16-byte multiples explicitly. */
+#ifndef CB_COMMON_H
+#define CB_COMMON_H
+
+#ifdef __OPENCL_C_VERSION__
+#define CB_KERNEL_SIDE 1
+#define CB_GLOBAL __global
+#define CB_CONSTANT __constant
+#define CB_BEGIN_NAMESPACE
+#define CB_END_NAMESPACE
+#define CB_STATIC_ASSERT(cond, msg)
+/* C99 inline semantics need `static` so that a call the compiler does not inline still links. */
+#define CB_FN static inline
+#else
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#define CB_GLOBAL
+#define CB_CONSTANT
+#define CB_BEGIN_NAMESPACE namespace cbk {
+#define CB_END_NAMESPACE }
+#define CB_STATIC_ASSERT(cond, msg) static_assert(cond, msg)
+#define CB_FN inline
+#endif
+
+CB_BEGIN_NAMESPACE
+
+#ifndef CB_KERNEL_SIDE
+typedef std::uint32_t uint;
+typedef std::uint64_t ulong;
+using std::cos;
+using std::exp;
+using std::fabs;
+using std::floor;
+using std::fmax;
+using std::fmin;
+using std::isfinite;
+using std::log;
+using std::sin;
+using std::sqrt;
+CB_FN uint cbFloatAsUint(float f) {
+    uint u;
+    std::memcpy(&u, &f, sizeof u);
+    return u;
+}
+CB_FN float cbUintAsFloat(uint u) {
+    float f;
+    std::memcpy(&f, &u, sizeof f);
+    return f;
+}
+#else
+CB_FN uint cbFloatAsUint(float f) { return as_uint(f); }
+CB_FN float cbUintAsFloat(uint u) { return as_float(u); }
+#endif
+
+#define CB_PI 3.14159265358979323846f
+#define CB_INV_PI 0.31830988618379067154f
+#define CB_INV_2PI 0.15915494309189533577f
+#define CB_INV_4PI 0.07957747154594766788f
+#define CB_INFINITY 3.402823466e+38f
+/* Unit roundoff of float arithmetic, as in pbrt (Higham's gamma_n = n*u/(1-n*u)). */
+#define CB_MACHINE_EPSILON 5.960464477539063e-08f
+
+CB_FN float cbGamma(int n) {
+    return ((float)n * CB_MACHINE_EPSILON) / (1.0f - (float)n * CB_MACHINE_EPSILON);
+}
+
+CB_FN float cbClamp(float x, float lo, float hi) { return fmin(fmax(x, lo), hi); }
+CB_FN float cbSqr(float x) { return x * x; }
+CB_FN float cbSafeSqrt(float x) { return sqrt(fmax(x, 0.0f)); }
+
+/* Next representable float above / below v (pbrt-v4 NextFloatUp/Down). */
+CB_FN float cbNextFloatUp(float v) {
+    if (v == CB_INFINITY) return v;
+    if (v == -0.0f) v = 0.0f;
+    uint ui = cbFloatAsUint(v);
+    if (v >= 0.0f) ++ui;
+    else --ui;
+    return cbUintAsFloat(ui);
+}
+CB_FN float cbNextFloatDown(float v) {
+    if (v == -CB_INFINITY) return v;
+    if (v == 0.0f) v = -0.0f;
+    uint ui = cbFloatAsUint(v);
+    if (v > 0.0f) --ui;
+    else ++ui;
+    return cbUintAsFloat(ui);
+}
+
+/* ---- 3-vectors ---------------------------------------------------------------------------- */
+
+typedef struct Vec3 {
+    float x, y, z;
+} Vec3;
+
+CB_FN Vec3 vec3(float x, float y, float z) {
+    Vec3 v;
+    v.x = x;
+    v.y = y;
+    v.z = z;
+    return v;
+}
+CB_FN Vec3 vec3FromArray(const float* a) { return vec3(a[0], a[1], a[2]); }
+CB_FN Vec3 vec3FromGlobalArray(CB_GLOBAL const float* a) { return vec3(a[0], a[1], a[2]); }
+CB_FN Vec3 vadd(Vec3 a, Vec3 b) { return vec3(a.x + b.x, a.y + b.y, a.z + b.z); }
+CB_FN Vec3 vsub(Vec3 a, Vec3 b) { return vec3(a.x - b.x, a.y - b.y, a.z - b.z); }
+CB_FN Vec3 vmul(Vec3 a, Vec3 b) { return vec3(a.x * b.x, a.y * b.y, a.z * b.z); }
+CB_FN Vec3 vscale(Vec3 a, float s) { return vec3(a.x * s, a.y * s, a.z * s); }
+CB_FN Vec3 vneg(Vec3 a) { return vec3(-a.x, -a.y, -a.z); }
+CB_FN Vec3 vabs(Vec3 a) { return vec3(fabs(a.x), fabs(a.y), fabs(a.z)); }
+CB_FN Vec3 vmin(Vec3 a, Vec3 b) { return vec3(fmin(a.x, b.x), fmin(a.y, b.y), fmin(a.z, b.z)); }
+CB_FN Vec3 vmax(Vec3 a, Vec3 b) { return vec3(fmax(a.x, b.x), fmax(a.y, b.y), fmax(a.z, b.z)); }
+CB_FN float vdot(Vec3 a, Vec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+CB_FN float vabsdot(Vec3 a, Vec3 b) { return fabs(vdot(a, b)); }
+CB_FN Vec3 vcross(Vec3 a, Vec3 b) {
+    return vec3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
+}
+CB_FN float vlength2(Vec3 a) { return vdot(a, a); }
+CB_FN float vlength(Vec3 a) { return sqrt(vdot(a, a)); }
+CB_FN Vec3 vnormalize(Vec3 a) { return vscale(a, 1.0f / vlength(a)); }
+CB_FN float vmaxComponent(Vec3 a) { return fmax(a.x, fmax(a.y, a.z)); }
+CB_FN float vcomponent(Vec3 a, int axis) { return axis == 0 ? a.x : (axis == 1 ? a.y : a.z); }
+/* a + b*s */
+CB_FN Vec3 vmadd(Vec3 a, Vec3 b, float s) {
+    return vec3(a.x + b.x * s, a.y + b.y * s, a.z + b.z * s);
+}
+/* Flip v to the hemisphere of `toward`. */
+CB_FN Vec3 vfaceForward(Vec3 v, Vec3 toward) { return vdot(v, toward) < 0.0f ? vneg(v) : v; }
+
+/* Orthonormal frame around a unit normal (Duff et al. 2017, "Building an Orthonormal Basis,
+ * Revisited"): continuous in n except across the z=0 sign flip, which keeps directions
+ * sampled in it coherent between neighbouring pixels (METHOD.md, coherence). */
+typedef struct Frame {
+    Vec3 s, t, n;
+} Frame;
+
+CB_FN Frame frameFromNormal(Vec3 n) {
+    float sign = n.z >= 0.0f ? 1.0f : -1.0f;
+    float a = -1.0f / (sign + n.z);
+    float b = n.x * n.y * a;
+    Frame f;
+    f.s = vec3(1.0f + sign * n.x * n.x * a, sign * b, -sign * n.x);
+    f.t = vec3(b, sign + n.y * n.y * a, -n.y);
+    f.n = n;
+    return f;
+}
+CB_FN Vec3 frameToLocal(Frame f, Vec3 v) { return vec3(vdot(v, f.s), vdot(v, f.t), vdot(v, f.n)); }
+CB_FN Vec3 frameToWorld(Frame f, Vec3 v) {
+    return vadd(vadd(vscale(f.s, v.x), vscale(f.t, v.y)), vscale(f.n, v.z));
+}
+
+CB_END_NAMESPACE
+
+#endif /* CB_COMMON_H */

@@ -1,0 +1,146 @@
+/* cb_types.h - the scene as the kernels see it: plain structs copied to the device as bytes.
+ *
+ * Layout rules: only float/int/uint fields and arrays of them, every struct a multiple of
+ * 16 bytes, asserted on the host (src/scene/device_scene.cpp). */
+#ifndef CB_TYPES_H
+#define CB_TYPES_H
+
+#include "cb_common.h"
+
+CB_BEGIN_NAMESPACE
+
+/* ---- Geometry ----------------------------------------------------------------------------- */
+
+#define CB_PRIM_TRIANGLE 0
+#define CB_PRIM_SPHERE 1
+
+/* One primitive of the BVH. Triangle: world-space vertices p0, p1, p2 (counter-clockwise seen
+ * from the side the geometric normal cross(p1-p0, p2-p0) points to). Sphere: centre p0, radius
+ * p1[0]; p1[1] is +1 for outward normals and -1 when the orientation is reversed. */
+typedef struct Primitive {
+    float p0[3];
+    int kind; /* CB_PRIM_* */
+    float p1[3];
+    int material; /* index into materials */
+    float p2[3];
+    int light; /* index into lights if this primitive is an area emitter, else -1 */
+} Primitive;
+
+typedef struct Ray {
+    Vec3 o;
+    Vec3 d;
+} Ray;
+
+/* A closest hit: ray parameter, primitive, and the barycentrics (b1, b2) of p1 and p2 for a
+ * triangle (unused for spheres). */
+typedef struct Hit {
+    float t;
+    int primitive;
+    float b1, b2;
+} Hit;
+
+/* Where a ray hit, with the error bound needed to spawn new rays without self-intersection
+ * (pbrt-v4's conservative floating-point error bounds: no scene-scale epsilon). */
+typedef struct SurfacePoint {
+    Vec3 p;      /* the hit point */
+    Vec3 pError; /* per-axis absolute bound on the error of p */
+    Vec3 ng;     /* unit geometric normal (outward / front side) */
+    int primitive;
+    int material;
+    int light;
+} SurfacePoint;
+
+/* ---- Materials ---------------------------------------------------------------------------- */
+
+#define CB_MAT_DIFFUSE 0
+#define CB_MAT_CONDUCTOR 1  /* perfect mirror (alpha == 0) or GGX rough mirror */
+#define CB_MAT_DIELECTRIC 2 /* smooth glass */
+#define CB_MAT_MIX 3        /* mixture of two non-mix materials: second with probability amount */
+
+/* Feature bits: the scene's material kinds and light kinds, passed to the kernel build as
+ * -DCB_FEATURES=... so that unused code is compiled out (MISSION.md, rule 3). */
+#define CB_FEATURE_DIFFUSE (1u << 0)
+#define CB_FEATURE_CONDUCTOR (1u << 1)
+#define CB_FEATURE_DIELECTRIC (1u << 2)
+#define CB_FEATURE_MIX (1u << 3)
+#define CB_FEATURE_AREA_LIGHT (1u << 8)
+#define CB_FEATURE_POINT_LIGHT (1u << 9)
+#define CB_FEATURE_SPHERES (1u << 10)
+
+#ifndef CB_FEATURES
+#define CB_FEATURES 0xffffffffu
+#endif
+#define CB_HAS(feature) ((CB_FEATURES & (feature)) != 0u)
+
+typedef struct Material {
+    int kind;        /* CB_MAT_* */
+    int reflectance; /* index into the spectra table (CB_CHANNELS floats per entry) */
+    float alpha;     /* GGX roughness alpha for conductors (0: perfect mirror) */
+    float eta;       /* relative index of refraction for dielectrics */
+    int mixFirst;    /* CB_MAT_MIX: the two component materials */
+    int mixSecond;
+    float mixAmount; /* probability of mixSecond */
+    int pad;
+} Material;
+
+/* ---- Lights ------------------------------------------------------------------------------- */
+
+#define CB_LIGHT_AREA 0
+#define CB_LIGHT_POINT 1
+
+/* Area lights are one entry per emitting primitive (a triangle or a sphere), so that lights
+ * can be chosen by power and points sampled uniformly by area (METHOD.md, BDPT). Point lights
+ * emit intensity `emission` uniformly in all directions. */
+typedef struct Light {
+    int kind;      /* CB_LIGHT_* */
+    int primitive; /* CB_LIGHT_AREA: the emitting primitive */
+    int emission;  /* index into the spectra table: radiance L (area) or intensity I (point) */
+    int twoSided;  /* area lights: emit on both sides */
+    float position[3]; /* CB_LIGHT_POINT */
+    float area;        /* CB_LIGHT_AREA: surface area of the primitive */
+    float pickProbability; /* probability of choosing this light (proportional to power) */
+    float pad[3];
+} Light;
+
+/* ---- Camera ------------------------------------------------------------------------------- */
+
+/* pbrt-v4's perspective camera: camera space is left-handed, +z forward, +y up, +x right in
+ * the image; raster y grows downwards. cameraToWorld is a 3x4 row-major affine matrix. */
+typedef struct Camera {
+    float cameraToWorld[12];
+    float worldToCamera[12];
+    float tanHalfFovX; /* screen window half-extents at z = 1 */
+    float tanHalfFovY;
+    int width;
+    int height;
+} Camera;
+
+CB_FN Vec3 affineTransformPoint(const float* m, Vec3 p) {
+    return vec3(m[0] * p.x + m[1] * p.y + m[2] * p.z + m[3],
+                m[4] * p.x + m[5] * p.y + m[6] * p.z + m[7],
+                m[8] * p.x + m[9] * p.y + m[10] * p.z + m[11]);
+}
+CB_FN Vec3 affineTransformVector(const float* m, Vec3 v) {
+    return vec3(m[0] * v.x + m[1] * v.y + m[2] * v.z, m[4] * v.x + m[5] * v.y + m[6] * v.z,
+                m[8] * v.x + m[9] * v.y + m[10] * v.z);
+}
+
+/* ---- The scene as one bundle of buffers ------------------------------------------------- */
+
+struct BvhNode; /* defined in cb_bvh.h */
+
+/* Built inside each kernel from its arguments (OpenCL 1.2 allows structs of pointers in
+ * private memory, not as kernel arguments) and passed by pointer to the shared code; on the
+ * host it points at the host-side copies of the same arrays. */
+typedef struct SceneView {
+    CB_GLOBAL const struct BvhNode* nodes;
+    CB_GLOBAL const Primitive* primitives;
+    CB_GLOBAL const Material* materials;
+    CB_GLOBAL const Light* lights;
+    CB_GLOBAL const float* spectra; /* CB_CHANNELS floats per entry */
+    int lightCount;
+} SceneView;
+
+CB_END_NAMESPACE
+
+#endif /* CB_TYPES_H */

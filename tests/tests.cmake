@@ -1,0 +1,8 @@
+# One doctest binary for the fast suites; statistical (slow) suites carry the doctest
+# decorator `* doctest::test_suite("statistical")` and get the CTest label "statistical".
+include(${doctest_DIR}/doctest.cmake)
+file(GLOB CBDPT_TEST_SOURCES CONFIGURE_DEPENDS ${CMAKE_SOURCE_DIR}/tests/*.cpp)
+add_executable(cbdpt_tests ${CBDPT_TEST_SOURCES})
+target_link_libraries(cbdpt_tests PRIVATE cbdpt_core doctest::doctest)
+target_compile_definitions(cbdpt_tests PRIVATE CBDPT_MODELS_DIR="${CMAKE_SOURCE_DIR}/../shared/models")
+doctest_discover_tests(cbdpt_tests ADD_LABELS 1 PROPERTIES ENVIRONMENT "CBDPT_SOURCE_DIR=${CMAKE_SOURCE_DIR}")
