@@ -1,6 +1,6 @@
 /* cb_common.h - the common subset of C++ and OpenCL C used by every shared header.
  *
- * Everything in kernels/*.h is written once and compiled twice: by PoCL as OpenCL C for the
+ * Every shared header in kernels/ is written once and compiled twice: by PoCL as OpenCL C for the
  * kernels, and by g++ as C++ for the host (light subpaths for CBDPT, test oracles). On the host
  * the code lives in namespace `cbk`. Shared structs use plain float arrays, never float3
  * (16 bytes in OpenCL, 12 in C++), and are padded to 16-byte multiples explicitly. */

@@ -99,7 +99,8 @@ typedef struct Light {
     float position[3]; /* CB_LIGHT_POINT */
     float area;        /* CB_LIGHT_AREA: surface area of the primitive */
     float pickProbability; /* probability of choosing this light (proportional to power) */
-    float pad[3];
+    float cdf;             /* sum of pickProbability over lights 0..this one (for binary search) */
+    float pad[2];
 } Light;
 
 /* ---- Camera ------------------------------------------------------------------------------- */

@@ -1,1 +1,267 @@
-int main() { return 0; }
+// cbdpt command line: `cbdpt render SCENE [options]` and `cbdpt info [SCENE]`.
+#include "cl/cl_runtime.h"
+#include "image/image.h"
+#include "integrators/render.h"
+#include "scene/device_scene.h"
+#include "scene/scene_desc.h"
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+#include <fmt/format.h>
+
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <unistd.h>
+
+namespace {
+
+std::atomic<bool> gStopRequested{false};
+
+extern "C" void onStopSignal(int) {
+    gStopRequested.store(true);
+    // A second Ctrl-C ends the program at once.
+    std::signal(SIGINT, SIG_DFL);
+    std::signal(SIGTERM, SIG_DFL);
+}
+
+std::string formatSeconds(double s) {
+    if (s < 60.0) return fmt::format("{:.1f}s", s);
+    if (s < 3600.0) return fmt::format("{}m{:02d}s", int(s) / 60, int(s) % 60);
+    return fmt::format("{}h{:02d}m", int(s) / 3600, (int(s) / 60) % 60);
+}
+
+class ProgressBar {
+  public:
+    explicit ProgressBar(bool enabled) : enabled_(enabled), tty_(::isatty(2)) {}
+    void update(const cb::RenderProgress& p) {
+        if (!enabled_) return;
+        double fraction = p.estimatesTarget > 0
+                              ? double(p.estimatesDone) / double(p.estimatesTarget)
+                              : std::min(1.0, p.elapsedSeconds /
+                                                  std::max(1e-9, p.elapsedSeconds + p.remainingSeconds));
+        if (!tty_) {
+            // Logs get a line per 10% rather than carriage returns.
+            int decile = int(fraction * 10.0);
+            if (decile <= lastDecile_) return;
+            lastDecile_ = decile;
+        }
+        const int width = 30;
+        int filled = int(fraction * width + 0.5);
+        std::string bar(size_t(filled), '#');
+        bar.append(size_t(width - filled), '.');
+        std::string count = p.estimatesTarget > 0
+                                ? fmt::format("{}/{} estimates", p.estimatesDone, p.estimatesTarget)
+                                : fmt::format("{} estimates", p.estimatesDone);
+        fmt::print(stderr, "{}[{}] {}  elapsed {}  remaining {}{}", tty_ ? "\r" : "", bar, count,
+                   formatSeconds(p.elapsedSeconds), formatSeconds(p.remainingSeconds),
+                   tty_ ? "   " : "\n");
+        std::fflush(stderr);
+    }
+    void finish() {
+        if (enabled_ && tty_) fmt::print(stderr, "\n");
+    }
+
+  private:
+    bool enabled_;
+    bool tty_;
+    int lastDecile_ = -1;
+};
+
+cb::ChannelMode parseChannels(const std::string& s) {
+    if (s == "auto") return cb::ChannelMode::Auto;
+    if (s == "rgb") return cb::ChannelMode::Rgb;
+    if (s == "spectral") return cb::ChannelMode::Spectral;
+    throw std::invalid_argument("--channels must be auto, rgb or spectral");
+}
+
+int runInfo(const std::string& scenePath, const std::string& device) {
+    auto devices = cb::listClDevices();
+    fmt::print("OpenCL devices (select with --device P:D or CBDPT_DEVICE=P:D):\n");
+    for (const auto& d : devices)
+        fmt::print("  {}:{}  {} | {} | {} | {} compute units, {:.1f} GiB\n", d.platformIndex,
+                   d.deviceIndex, d.platformName, d.deviceName, d.deviceVersion, d.computeUnits,
+                   double(d.globalMemoryBytes) / (1024.0 * 1024.0 * 1024.0));
+    (void)device;
+    if (scenePath.empty()) return 0;
+    cb::SceneDesc desc = cb::parseSceneFile(scenePath);
+    cb::DeviceScene scene = cb::buildDeviceScene(desc);
+    fmt::print("\nscene {}\n", scenePath);
+    fmt::print("  triangles        {}\n", scene.triangleCount);
+    fmt::print("  vertices         {}\n", scene.vertexCount);
+    fmt::print("  spheres          {}\n", scene.sphereCount);
+    fmt::print("  lights           {} ({} area-light primitives, {} point lights)\n",
+               scene.lights.size(), scene.lights.size() - desc.pointLights.size(),
+               desc.pointLights.size());
+    fmt::print("  materials        {}\n", scene.materials.size());
+    fmt::print("  bounding box     ({:.4g}, {:.4g}, {:.4g}) - ({:.4g}, {:.4g}, {:.4g})\n",
+               scene.boundsMin[0], scene.boundsMin[1], scene.boundsMin[2], scene.boundsMax[0],
+               scene.boundsMax[1], scene.boundsMax[2]);
+    fmt::print("  BVH              {} nodes, depth {}\n", scene.bvh.nodes.size(), scene.bvh.depth);
+    fmt::print("  film             {}x{}\n", scene.camera.width, scene.camera.height);
+    fmt::print("  kernel features  {}\n", scene.featureNames());
+    std::string defines;
+    for (const auto& d : scene.kernelDefines()) defines += " -D" + d;
+    fmt::print("  kernel defines  {}\n", defines);
+    if (desc.droppedDegenerateTriangles)
+        fmt::print("  dropped          {} degenerate triangles\n", desc.droppedDegenerateTriangles);
+    return 0;
+}
+
+struct RenderOptions {
+    std::string scene;
+    std::string output;
+    std::string png;
+    std::string statsPath;
+    std::string channels = "auto";
+    std::string device;
+    long spp = 16;
+    double seconds = 0.0;
+    int width = 0;
+    int height = 0;
+    bool noRoulette = false;
+    bool sppGiven = false;
+    bool quiet = false;
+    cb::IntegratorSettings integrator;
+};
+
+int runRender(RenderOptions& o) {
+    using Clock = std::chrono::steady_clock;
+    auto t0 = Clock::now();
+    cb::SceneDesc desc = cb::parseSceneFile(o.scene);
+    if (o.width > 0) desc.film.width = o.width;
+    if (o.height > 0) desc.film.height = o.height;
+    // Refuse absurd requests before any allocation.
+    const long long pixels = (long long)desc.film.width * desc.film.height;
+    if (desc.film.width <= 0 || desc.film.height <= 0 || desc.film.width > 32768 ||
+        desc.film.height > 32768 || pixels > (1LL << 28))
+        throw std::invalid_argument(fmt::format(
+            "resolution {}x{} is outside what cbdpt renders (each side 1..32768, at most 2^28 "
+            "pixels)",
+            desc.film.width, desc.film.height));
+    cb::DeviceScene scene = cb::buildDeviceScene(desc, parseChannels(o.channels));
+    double loadSeconds = std::chrono::duration<double>(Clock::now() - t0).count();
+    if (o.noRoulette) o.integrator.rouletteVertex = 0;
+
+    std::string output = o.output.empty() ? std::filesystem::path(desc.film.filename).filename().string()
+                                          : o.output;
+    if (std::filesystem::path(output).extension() != ".exr")
+        throw std::invalid_argument(fmt::format("output '{}' must end in .exr", output));
+    std::string png = o.png.empty() ? std::filesystem::path(output).replace_extension(".png").string()
+                                    : o.png;
+
+    cb::ClRuntime runtime(o.device);
+    auto integrator = cb::makeIntegrator(o.integrator, scene, runtime);
+    if (!o.quiet)
+        fmt::print(stderr, "cbdpt: {} on {} | {}x{} {} | {} | Ne={} | kernel build {:.2f}s\n",
+                   o.integrator.name, runtime.info().deviceName, scene.camera.width,
+                   scene.camera.height, scene.channels == 16 ? "spectral-16" : "rgb",
+                   o.scene, o.integrator.eyeVertices, integrator->buildSeconds());
+
+    std::signal(SIGINT, onStopSignal);
+    std::signal(SIGTERM, onStopSignal);
+    cb::EstimateAccumulator accumulator(scene.camera.width, scene.camera.height);
+    ProgressBar bar(!o.quiet);
+    cb::RenderLimits limits;
+    // --time alone renders until the time is up; with --spp too, whichever comes first.
+    limits.estimates = o.seconds > 0.0 && !o.sppGiven ? 0 : o.spp;
+    if (limits.estimates < 0 || limits.estimates > (1L << 40))
+        throw std::invalid_argument(fmt::format("--spp {} is out of range", o.spp));
+    limits.seconds = o.seconds;
+    auto outcome = cb::renderEstimates(*integrator, accumulator, limits, gStopRequested,
+                                       [&](const cb::RenderProgress& p) { bar.update(p); });
+    bar.finish();
+    if (outcome.interrupted)
+        fmt::print(stderr, "cbdpt: interrupted; writing the {} estimates done\n",
+                   accumulator.estimates());
+    if (outcome.nonFiniteSamples > 0)
+        fmt::print(stderr, "cbdpt: warning: {} samples were NaN or infinite and were dropped\n",
+                   outcome.nonFiniteSamples);
+    if (accumulator.estimates() == 0) {
+        fmt::print(stderr, "cbdpt: no estimate finished; nothing written\n");
+        return 130;
+    }
+    cb::RgbImage mean = accumulator.mean();
+    cb::RgbImage error = accumulator.standardError();
+    cb::writeExr(output, mean, &error);
+    cb::writePng(png, mean);
+
+    double meanError = 0.0;
+    for (float e : error.rgb) meanError += e;
+    meanError /= double(std::max<size_t>(1, error.rgb.size()));
+    nlohmann::json stats = {
+        {"scene", o.scene},
+        {"integrator", o.integrator.name},
+        {"eye_vertices", o.integrator.eyeVertices},
+        {"seed", o.integrator.seed},
+        {"width", scene.camera.width},
+        {"height", scene.camera.height},
+        {"channels", scene.channels},
+        {"estimates", accumulator.estimates()},
+        {"render_seconds", outcome.renderSeconds},
+        {"seconds_per_estimate", outcome.renderSeconds / double(accumulator.estimates())},
+        {"kernel_build_seconds", integrator->buildSeconds()},
+        {"scene_load_seconds", loadSeconds},
+        {"non_finite_samples", outcome.nonFiniteSamples},
+        {"mean_standard_error", meanError},
+        {"interrupted", outcome.interrupted},
+        {"device", runtime.info().deviceName},
+    };
+    if (!o.statsPath.empty()) cb::writeFileAtomically(o.statsPath, stats.dump(2) + "\n");
+    if (!o.quiet)
+        fmt::print(stderr, "cbdpt: {} estimates in {} ({:.3f} s/estimate); wrote {} and {}\n",
+                   accumulator.estimates(), formatSeconds(outcome.renderSeconds),
+                   outcome.renderSeconds / double(accumulator.estimates()), output, png);
+    return outcome.interrupted ? 130 : 0;
+}
+
+} // namespace
+
+int main(int argc, char** argv) {
+    CLI::App app{"cbdpt - coherent bidirectional path tracing on OpenCL"};
+    app.require_subcommand(1);
+
+    RenderOptions render;
+    auto* renderCmd = app.add_subcommand("render", "render a scene to EXR and PNG");
+    renderCmd->add_option("scene", render.scene, "scene file (pbrt-v4 subset)")->required();
+    renderCmd->add_option("-o,--output", render.output, "EXR output (default: the Film filename)");
+    renderCmd->add_option("--png", render.png, "PNG preview (default: output with .png)");
+    renderCmd->add_option("--integrator", render.integrator.name, "pt | cpt")
+        ->check(CLI::IsMember({"pt", "cpt"}));
+    renderCmd->add_option("--spp", render.spp, "estimates (samples per pixel)");
+    renderCmd->add_option("--time", render.seconds, "render for this many seconds");
+    renderCmd->add_option("--eye-vertices", render.integrator.eyeVertices,
+                          "Ne: path vertices, the camera included");
+    renderCmd->add_option("--rr-vertex", render.integrator.rouletteVertex,
+                          "Russian roulette from this vertex on (0: off)");
+    renderCmd->add_flag("--no-rr", render.noRoulette, "disable Russian roulette");
+    renderCmd->add_option("--seed", render.integrator.seed, "random seed");
+    renderCmd->add_option("--coherence-tile", render.integrator.coherenceTile,
+                          "cpt: k x k sample vectors per estimate");
+    renderCmd->add_option("--tile", render.integrator.tileSize, "pixel tile (work-group) edge");
+    renderCmd->add_option("--channels", render.channels, "auto | rgb | spectral");
+    renderCmd->add_option("--width", render.width, "override the film width");
+    renderCmd->add_option("--height", render.height, "override the film height");
+    renderCmd->add_option("--device", render.device, "OpenCL device P:D (default: CBDPT_DEVICE or 0:0)");
+    renderCmd->add_option("--stats", render.statsPath, "write render statistics as JSON");
+    renderCmd->add_flag("-q,--quiet", render.quiet, "no progress output");
+
+    std::string infoScene, infoDevice;
+    auto* infoCmd = app.add_subcommand("info", "list OpenCL devices; describe a scene");
+    infoCmd->add_option("scene", infoScene, "scene file");
+    infoCmd->add_option("--device", infoDevice, "OpenCL device P:D");
+
+    CLI11_PARSE(app, argc, argv);
+    render.sppGiven = renderCmd->count("--spp") > 0;
+    try {
+        if (*renderCmd) return runRender(render);
+        if (*infoCmd) return runInfo(infoScene, infoDevice);
+    } catch (const std::exception& e) {
+        fmt::print(stderr, "cbdpt: error: {}\n", e.what());
+        return 1;
+    }
+    return 0;
+}

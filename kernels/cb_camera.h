@@ -1,0 +1,34 @@
+/* cb_camera.h - pinhole perspective camera, pbrt-v4 conventions (see Camera in cb_types.h). */
+#ifndef CB_CAMERA_H
+#define CB_CAMERA_H
+
+#include "cb_types.h"
+
+CB_BEGIN_NAMESPACE
+
+/* Primary ray through raster position (rasterX, rasterY), (0,0) the top-left image corner.
+ * Direction is unit length; origin is the camera position. */
+CB_FN Ray cameraGenerateRay(const Camera* camera, float rasterX, float rasterY) {
+    float sx = (2.0f * rasterX / (float)camera->width - 1.0f) * camera->tanHalfFovX;
+    float sy = (1.0f - 2.0f * rasterY / (float)camera->height) * camera->tanHalfFovY;
+    Ray ray;
+    ray.o = affineTransformPoint(camera->cameraToWorld, vec3(0.0f, 0.0f, 0.0f));
+    ray.d = vnormalize(affineTransformVector(camera->cameraToWorld, vec3(sx, sy, 1.0f)));
+    return ray;
+}
+
+/* Raster position of a world point, if it lies in front of the camera and inside the image. */
+CB_FN bool cameraProjectPoint(const Camera* camera, Vec3 p, float* rasterX, float* rasterY) {
+    Vec3 c = affineTransformPoint(camera->worldToCamera, p);
+    if (c.z <= 0.0f) return false;
+    float sx = c.x / (c.z * camera->tanHalfFovX);
+    float sy = c.y / (c.z * camera->tanHalfFovY);
+    *rasterX = (sx + 1.0f) * 0.5f * (float)camera->width;
+    *rasterY = (1.0f - sy) * 0.5f * (float)camera->height;
+    return *rasterX >= 0.0f && *rasterX < (float)camera->width && *rasterY >= 0.0f &&
+           *rasterY < (float)camera->height;
+}
+
+CB_END_NAMESPACE
+
+#endif /* CB_CAMERA_H */

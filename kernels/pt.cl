@@ -1,0 +1,50 @@
+/* pt.cl - path tracing (PT) and, through the shared sample vector, coherent path tracing
+ * (CPT). One work-item per pixel; work-groups are square pixel tiles. */
+#include "cb_pt.h"
+
+/* streamTile == 0: every pixel has its own sample vector (PT).
+ * streamTile == k > 0: the image is covered by a k x k grid of tiles and the pixel at position
+ * (i, j) inside its tile uses vector (i, j) of the estimate (CPT, METHOD.md). */
+__kernel void renderPathTracing(__global const struct BvhNode* nodes,
+                                __global const Primitive* primitives,
+                                __global const Material* materials,
+                                __global const Light* lights,
+                                __global const float* spectra,
+                                int lightCount,
+                                __global const float* toRgb,
+                                Camera camera,
+                                PathSettings settings,
+                                uint seed,
+                                uint estimate,
+                                int streamTile,
+                                __global float* outRgb,
+                                volatile __global int* nonFiniteCount) {
+    int x = (int)get_global_id(0);
+    int y = (int)get_global_id(1);
+    if (x >= camera.width || y >= camera.height) return;
+
+    SceneView scene;
+    scene.nodes = nodes;
+    scene.primitives = primitives;
+    scene.materials = materials;
+    scene.lights = lights;
+    scene.spectra = spectra;
+    scene.lightCount = lightCount;
+
+    uint pixel = (uint)(y * camera.width + x);
+    uint stream = streamTile > 0 ? (uint)((y % streamTile) * streamTile + (x % streamTile)) : pixel;
+    SampleStream samples = sampleStreamStart(seed, estimate, stream);
+    float jitterX = sampleAt(samples, CB_DIM_PIXEL);
+    float jitterY = sampleAt(samples, CB_DIM_PIXEL + 1u);
+    Ray ray = cameraGenerateRay(&camera, (float)x + jitterX, (float)y + jitterY);
+
+    Spectrum radiance = ptRadiance(&scene, ray, samples, settings);
+    Vec3 rgb = specToRgb(radiance, toRgb);
+    if (!(isfinite(rgb.x) && isfinite(rgb.y) && isfinite(rgb.z))) {
+        atomic_inc(nonFiniteCount);
+        rgb = vec3(0.0f, 0.0f, 0.0f);
+    }
+    outRgb[3 * pixel + 0] = rgb.x;
+    outRgb[3 * pixel + 1] = rgb.y;
+    outRgb[3 * pixel + 2] = rgb.z;
+}

@@ -1,0 +1,209 @@
+#include "cl/cl_runtime.h"
+
+#include "cl/embedded_kernels.h"
+
+#include <chrono>
+#include <cstdlib>
+#include <fmt/format.h>
+#include <set>
+#include <sstream>
+
+namespace cb {
+
+const char* clStatusName(int status) {
+    switch (status) {
+    case CL_SUCCESS: return "CL_SUCCESS";
+    case CL_DEVICE_NOT_FOUND: return "CL_DEVICE_NOT_FOUND";
+    case CL_DEVICE_NOT_AVAILABLE: return "CL_DEVICE_NOT_AVAILABLE";
+    case CL_COMPILER_NOT_AVAILABLE: return "CL_COMPILER_NOT_AVAILABLE";
+    case CL_MEM_OBJECT_ALLOCATION_FAILURE: return "CL_MEM_OBJECT_ALLOCATION_FAILURE";
+    case CL_OUT_OF_RESOURCES: return "CL_OUT_OF_RESOURCES";
+    case CL_OUT_OF_HOST_MEMORY: return "CL_OUT_OF_HOST_MEMORY";
+    case CL_BUILD_PROGRAM_FAILURE: return "CL_BUILD_PROGRAM_FAILURE";
+    case CL_INVALID_VALUE: return "CL_INVALID_VALUE";
+    case CL_INVALID_PLATFORM: return "CL_INVALID_PLATFORM";
+    case CL_INVALID_DEVICE: return "CL_INVALID_DEVICE";
+    case CL_INVALID_CONTEXT: return "CL_INVALID_CONTEXT";
+    case CL_INVALID_COMMAND_QUEUE: return "CL_INVALID_COMMAND_QUEUE";
+    case CL_INVALID_MEM_OBJECT: return "CL_INVALID_MEM_OBJECT";
+    case CL_INVALID_BUILD_OPTIONS: return "CL_INVALID_BUILD_OPTIONS";
+    case CL_INVALID_PROGRAM: return "CL_INVALID_PROGRAM";
+    case CL_INVALID_PROGRAM_EXECUTABLE: return "CL_INVALID_PROGRAM_EXECUTABLE";
+    case CL_INVALID_KERNEL_NAME: return "CL_INVALID_KERNEL_NAME";
+    case CL_INVALID_KERNEL: return "CL_INVALID_KERNEL";
+    case CL_INVALID_ARG_INDEX: return "CL_INVALID_ARG_INDEX";
+    case CL_INVALID_ARG_VALUE: return "CL_INVALID_ARG_VALUE";
+    case CL_INVALID_ARG_SIZE: return "CL_INVALID_ARG_SIZE";
+    case CL_INVALID_KERNEL_ARGS: return "CL_INVALID_KERNEL_ARGS";
+    case CL_INVALID_WORK_DIMENSION: return "CL_INVALID_WORK_DIMENSION";
+    case CL_INVALID_WORK_GROUP_SIZE: return "CL_INVALID_WORK_GROUP_SIZE";
+    case CL_INVALID_GLOBAL_OFFSET: return "CL_INVALID_GLOBAL_OFFSET";
+    case CL_INVALID_BUFFER_SIZE: return "CL_INVALID_BUFFER_SIZE";
+    case CL_INVALID_GLOBAL_WORK_SIZE: return "CL_INVALID_GLOBAL_WORK_SIZE";
+    case -1001: return "CL_PLATFORM_NOT_FOUND_KHR (no OpenCL platform installed)";
+    default: return "unknown OpenCL status";
+    }
+}
+
+namespace {
+
+const char* kNoPlatformHelp =
+    "no OpenCL platform found. cbdpt runs its kernels on the CPU through PoCL: install it "
+    "with `apt-get install pocl-opencl-icd ocl-icd-libopencl1` (Debian/Ubuntu), and check "
+    "with `clinfo -l`.";
+
+std::vector<cl::Platform> platformsOrThrow() {
+    std::vector<cl::Platform> platforms;
+    try {
+        cl::Platform::get(&platforms);
+    } catch (const cl::Error& e) {
+        if (e.err() != -1001) throw ClError(fmt::format("{}: {}", e.what(), clStatusName(e.err())));
+    }
+    if (platforms.empty()) throw ClError(kNoPlatformHelp);
+    return platforms;
+}
+
+ClDeviceInfo describe(int platformIndex, int deviceIndex, const cl::Platform& platform,
+                      const cl::Device& device) {
+    ClDeviceInfo info;
+    info.platformIndex = platformIndex;
+    info.deviceIndex = deviceIndex;
+    info.platformName = platform.getInfo<CL_PLATFORM_NAME>();
+    info.deviceName = device.getInfo<CL_DEVICE_NAME>();
+    info.deviceVersion = device.getInfo<CL_DEVICE_VERSION>();
+    info.driverVersion = device.getInfo<CL_DRIVER_VERSION>();
+    info.computeUnits = device.getInfo<CL_DEVICE_MAX_COMPUTE_UNITS>();
+    info.globalMemoryBytes = device.getInfo<CL_DEVICE_GLOBAL_MEM_SIZE>();
+    info.maxAllocationBytes = device.getInfo<CL_DEVICE_MAX_MEM_ALLOC_SIZE>();
+    return info;
+}
+
+std::vector<cl::Device> devicesOf(const cl::Platform& platform) {
+    std::vector<cl::Device> devices;
+    try {
+        platform.getDevices(CL_DEVICE_TYPE_ALL, &devices);
+    } catch (const cl::Error&) {
+        devices.clear(); // CL_DEVICE_NOT_FOUND: a platform without devices
+    }
+    return devices;
+}
+
+void parseSelector(const std::string& selector, int& platform, int& device) {
+    platform = 0;
+    device = 0;
+    if (selector.empty()) return;
+    std::istringstream in(selector);
+    char colon = 0;
+    if (!(in >> platform) || platform < 0)
+        throw ClError(fmt::format("invalid device selector '{}': expected P or P:D (see `cbdpt "
+                                  "info`)",
+                                  selector));
+    if (in >> colon) {
+        if (colon != ':' || !(in >> device) || device < 0)
+            throw ClError(fmt::format("invalid device selector '{}': expected P or P:D",
+                                      selector));
+    }
+}
+
+} // namespace
+
+std::vector<ClDeviceInfo> listClDevices() {
+    std::vector<ClDeviceInfo> result;
+    auto platforms = platformsOrThrow();
+    for (size_t p = 0; p < platforms.size(); ++p) {
+        auto devices = devicesOf(platforms[p]);
+        for (size_t d = 0; d < devices.size(); ++d)
+            result.push_back(describe(int(p), int(d), platforms[p], devices[d]));
+    }
+    return result;
+}
+
+ClRuntime::ClRuntime(const std::string& selector) {
+    std::string chosen = selector;
+    if (chosen.empty()) {
+        if (const char* env = std::getenv("CBDPT_DEVICE")) chosen = env;
+    }
+    int platformIndex, deviceIndex;
+    parseSelector(chosen, platformIndex, deviceIndex);
+    auto platforms = platformsOrThrow();
+    if (platformIndex >= int(platforms.size()))
+        throw ClError(fmt::format("OpenCL platform {} does not exist ({} found; see `cbdpt info`)",
+                                  platformIndex, platforms.size()));
+    auto devices = devicesOf(platforms[platformIndex]);
+    if (deviceIndex >= int(devices.size()))
+        throw ClError(fmt::format("OpenCL device {}:{} does not exist (platform {} has {} "
+                                  "devices; see `cbdpt info`)",
+                                  platformIndex, deviceIndex, platformIndex, devices.size()));
+    device_ = devices[deviceIndex];
+    info_ = describe(platformIndex, deviceIndex, platforms[platformIndex], device_);
+    try {
+        context_ = cl::Context(device_);
+        queue_ = cl::CommandQueue(context_, device_);
+    } catch (const cl::Error& e) {
+        throw ClError(fmt::format("cannot create an OpenCL context on {}: {} ({})",
+                                  info_.deviceName, e.what(), clStatusName(e.err())));
+    }
+}
+
+std::string assembleKernelSource(const std::string& mainFile) {
+    const auto& sources = embeddedKernelSources();
+    std::set<std::string> included;
+    std::string out;
+    // Recursive inliner; each embedded source already starts with `#line 1 "name"`.
+    auto inlineFile = [&](auto&& self, const std::string& name) -> void {
+        auto it = sources.find(name);
+        if (it == sources.end())
+            throw ClError(fmt::format("kernel source '{}' is not embedded in this binary", name));
+        if (!included.insert(name).second) return;
+        std::istringstream in(it->second);
+        std::string line;
+        int lineNumber = 0; // line 0 is the #line directive added by the embedding
+        while (std::getline(in, line)) {
+            auto first = line.find_first_not_of(" \t");
+            if (first != std::string::npos && line.compare(first, 8, "#include") == 0) {
+                auto open = line.find('"', first);
+                auto close = open == std::string::npos ? open : line.find('"', open + 1);
+                if (close != std::string::npos) {
+                    std::string inc = line.substr(open + 1, close - open - 1);
+                    if (sources.count(inc)) {
+                        self(self, inc);
+                        out += fmt::format("#line {} \"{}\"\n", lineNumber + 1, name);
+                        ++lineNumber;
+                        continue;
+                    }
+                }
+            }
+            out += line;
+            out += '\n';
+            ++lineNumber;
+        }
+    };
+    inlineFile(inlineFile, mainFile);
+    return out;
+}
+
+cl::Program ClRuntime::buildProgram(const std::string& mainFile,
+                                    const std::vector<std::string>& defines) {
+    std::string source = assembleKernelSource(mainFile);
+    std::string options = "-cl-std=CL1.2";
+    for (const auto& d : defines) options += " -D" + d;
+    auto start = std::chrono::steady_clock::now();
+    cl::Program program(context_, source);
+    try {
+        program.build({device_}, options.c_str());
+    } catch (const cl::Error& e) {
+        std::string log;
+        try {
+            log = program.getBuildInfo<CL_PROGRAM_BUILD_LOG>(device_);
+        } catch (const cl::Error&) {
+            log = "(no build log available)";
+        }
+        throw ClError(fmt::format("OpenCL build of {} failed ({}) with options '{}':\n{}",
+                                  mainFile, clStatusName(e.err()), options, log));
+    }
+    lastBuildSeconds_ =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return program;
+}
+
+} // namespace cb

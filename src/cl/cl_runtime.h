@@ -1,0 +1,77 @@
+// OpenCL runtime: device choice, program build from the embedded kernel sources with per-scene
+// feature defines, and clear errors (missing platform, build log on failure).
+#pragma once
+
+#define CL_HPP_TARGET_OPENCL_VERSION 120
+#define CL_HPP_MINIMUM_OPENCL_VERSION 120
+#define CL_HPP_ENABLE_EXCEPTIONS
+#if defined(__GNUC__)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wignored-attributes"
+#pragma GCC diagnostic ignored "-Wdeprecated-declarations"
+#endif
+#include <CL/opencl.hpp>
+#if defined(__GNUC__)
+#pragma GCC diagnostic pop
+#endif
+
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace cb {
+
+class ClError : public std::runtime_error {
+  public:
+    using std::runtime_error::runtime_error;
+};
+
+// Human-readable name of an OpenCL status code, e.g. "CL_OUT_OF_RESOURCES".
+const char* clStatusName(int status);
+
+struct ClDeviceInfo {
+    int platformIndex = 0;
+    int deviceIndex = 0;
+    std::string platformName;
+    std::string deviceName;
+    std::string deviceVersion;
+    std::string driverVersion;
+    unsigned computeUnits = 0;
+    unsigned long long globalMemoryBytes = 0;
+    unsigned long long maxAllocationBytes = 0;
+};
+
+// Every device of every platform. Throws ClError with install instructions when no platform
+// exists.
+std::vector<ClDeviceInfo> listClDevices();
+
+// A device selector is "P:D" (platform, device indices), "P" (first device of platform P), or
+// empty for the environment variable CBDPT_DEVICE, falling back to "0:0".
+class ClRuntime {
+  public:
+    explicit ClRuntime(const std::string& selector = "");
+
+    const ClDeviceInfo& info() const { return info_; }
+    cl::Context& context() { return context_; }
+    cl::Device& device() { return device_; }
+    cl::CommandQueue& queue() { return queue_; }
+
+    // Build `mainFile` (a name in kernels/, e.g. "pt.cl") with its #includes resolved from the
+    // embedded sources (each starting with a #line directive). Throws ClError holding the
+    // build log on failure. Records the build time in lastBuildSeconds().
+    cl::Program buildProgram(const std::string& mainFile, const std::vector<std::string>& defines);
+    double lastBuildSeconds() const { return lastBuildSeconds_; }
+
+  private:
+    ClDeviceInfo info_;
+    cl::Context context_;
+    cl::Device device_;
+    cl::CommandQueue queue_;
+    double lastBuildSeconds_ = 0.0;
+};
+
+// The full source of `mainFile` with every `#include "name"` of an embedded file replaced by
+// that file's text (once per file), keeping #line directives so logs name original lines.
+std::string assembleKernelSource(const std::string& mainFile);
+
+} // namespace cb

@@ -1,0 +1,204 @@
+#include "image/image.h"
+
+#include <ImfChannelList.h>
+#include <ImfFrameBuffer.h>
+#include <ImfHeader.h>
+#include <ImfInputFile.h>
+#include <ImfOutputFile.h>
+#include <png.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <stdexcept>
+#include <unistd.h>
+
+namespace cb {
+
+EstimateAccumulator::EstimateAccumulator(int width, int height)
+    : width_(width), height_(height), mean_(size_t(3) * size_t(width) * size_t(height), 0.0),
+      m2_(mean_.size(), 0.0) {}
+
+void EstimateAccumulator::add(const float* rgb) {
+    ++count_;
+    const double invCount = 1.0 / double(count_);
+    for (size_t i = 0; i < mean_.size(); ++i) {
+        double x = rgb[i];
+        double delta = x - mean_[i];
+        mean_[i] += delta * invCount;
+        m2_[i] += delta * (x - mean_[i]);
+    }
+}
+
+RgbImage EstimateAccumulator::mean() const {
+    RgbImage out(width_, height_);
+    for (size_t i = 0; i < mean_.size(); ++i) out.rgb[i] = float(mean_[i]);
+    return out;
+}
+
+RgbImage EstimateAccumulator::standardError() const {
+    RgbImage out(width_, height_);
+    if (count_ < 2) return out;
+    const double n = double(count_);
+    for (size_t i = 0; i < m2_.size(); ++i)
+        out.rgb[i] = float(std::sqrt(std::max(m2_[i], 0.0) / (n - 1.0) / n));
+    return out;
+}
+
+void EstimateAccumulator::restore(long count, std::vector<double> mean, std::vector<double> m2) {
+    if (mean.size() != mean_.size() || m2.size() != m2_.size())
+        throw std::runtime_error("saved render state does not match the image size");
+    count_ = count;
+    mean_ = std::move(mean);
+    m2_ = std::move(m2);
+}
+
+std::string temporarySiblingPath(const std::string& path) {
+    std::filesystem::path p(path);
+    std::string name = "." + p.filename().string() + ".tmp." + std::to_string(::getpid());
+    return (p.parent_path() / name).string();
+}
+
+void commitTemporary(const std::string& temporary, const std::string& path) {
+    std::error_code ec;
+    std::filesystem::rename(temporary, path, ec);
+    if (ec) {
+        std::filesystem::remove(temporary);
+        throw std::runtime_error("cannot write " + path + ": " + ec.message());
+    }
+}
+
+void writeFileAtomically(const std::string& path, const std::string& bytes) {
+    std::string tmp = temporarySiblingPath(path);
+    {
+        std::ofstream out(tmp, std::ios::binary);
+        if (!out) throw std::runtime_error("cannot create " + tmp);
+        out.write(bytes.data(), std::streamsize(bytes.size()));
+        if (!out) throw std::runtime_error("cannot write " + tmp);
+    }
+    commitTemporary(tmp, path);
+}
+
+void writeExr(const std::string& path, const RgbImage& image, const RgbImage* standardError) {
+    const int w = image.width, h = image.height;
+    Imf::Header header(w, h);
+    header.compression() = Imf::ZIP_COMPRESSION;
+    const char* names[3] = {"R", "G", "B"};
+    const char* errorNames[3] = {"stderr.R", "stderr.G", "stderr.B"};
+    Imf::FrameBuffer fb;
+    const size_t xStride = 3 * sizeof(float), yStride = xStride * size_t(w);
+    for (int c = 0; c < 3; ++c) {
+        header.channels().insert(names[c], Imf::Channel(Imf::FLOAT));
+        fb.insert(names[c], Imf::Slice(Imf::FLOAT, (char*)(image.rgb.data() + c), xStride, yStride));
+        if (standardError) {
+            header.channels().insert(errorNames[c], Imf::Channel(Imf::FLOAT));
+            fb.insert(errorNames[c], Imf::Slice(Imf::FLOAT, (char*)(standardError->rgb.data() + c),
+                                                xStride, yStride));
+        }
+    }
+    std::string tmp = temporarySiblingPath(path);
+    try {
+        Imf::OutputFile file(tmp.c_str(), header);
+        file.setFrameBuffer(fb);
+        file.writePixels(h);
+    } catch (const std::exception& e) {
+        std::filesystem::remove(tmp);
+        throw std::runtime_error("cannot write " + path + ": " + e.what());
+    }
+    commitTemporary(tmp, path);
+}
+
+RgbImage readExr(const std::string& path) {
+    try {
+        Imf::InputFile file(path.c_str());
+        Imath::Box2i dw = file.header().dataWindow();
+        int w = dw.max.x - dw.min.x + 1, h = dw.max.y - dw.min.y + 1;
+        RgbImage image(w, h);
+        Imf::FrameBuffer fb;
+        const size_t xStride = 3 * sizeof(float), yStride = xStride * size_t(w);
+        const char* names[3] = {"R", "G", "B"};
+        char* base = (char*)image.rgb.data() -
+                     (ptrdiff_t(dw.min.x) * ptrdiff_t(xStride) + ptrdiff_t(dw.min.y) * ptrdiff_t(yStride));
+        for (int c = 0; c < 3; ++c)
+            fb.insert(names[c], Imf::Slice(Imf::FLOAT, base + c * sizeof(float), xStride, yStride));
+        file.setFrameBuffer(fb);
+        file.readPixels(dw.min.y, dw.max.y);
+        return image;
+    } catch (const std::exception& e) {
+        throw std::runtime_error("cannot read " + path + ": " + e.what());
+    }
+}
+
+namespace {
+float srgbEncode(float linear) {
+    linear = std::clamp(linear, 0.f, 1.f);
+    return linear <= 0.0031308f ? 12.92f * linear : 1.055f * std::pow(linear, 1.f / 2.4f) - 0.055f;
+}
+float luminance(const float* rgb) { return 0.2126f * rgb[0] + 0.7152f * rgb[1] + 0.0722f * rgb[2]; }
+} // namespace
+
+std::vector<std::uint8_t> tonemapReinhard(const RgbImage& image, float key) {
+    const size_t n = size_t(image.width) * size_t(image.height);
+    // Log-average luminance (Reinhard et al. 2002, eq. 1), delta avoids log(0) on black pixels.
+    const double delta = 1e-6;
+    double logSum = 0.0;
+    for (size_t i = 0; i < n; ++i)
+        logSum += std::log(delta + std::max(0.f, luminance(&image.rgb[3 * i])));
+    const double logAverage = n ? std::exp(logSum / double(n)) : 1.0;
+    const double scale = key / logAverage;
+    double whiteSquared = 0.0;
+    for (size_t i = 0; i < n; ++i) {
+        double l = scale * std::max(0.f, luminance(&image.rgb[3 * i]));
+        whiteSquared = std::max(whiteSquared, l * l);
+    }
+    if (whiteSquared <= 0.0) whiteSquared = 1.0;
+    std::vector<std::uint8_t> out(3 * n);
+    for (size_t i = 0; i < n; ++i) {
+        const float* px = &image.rgb[3 * i];
+        double lw = std::max(0.f, luminance(px));
+        double l = scale * lw;
+        double ld = l * (1.0 + l / whiteSquared) / (1.0 + l); // eq. 4
+        double ratio = lw > 0.0 ? ld / lw : 0.0;
+        for (int c = 0; c < 3; ++c) {
+            float v = srgbEncode(float(std::max(0.f, px[c]) * ratio));
+            out[3 * i + size_t(c)] = std::uint8_t(std::lround(v * 255.f));
+        }
+    }
+    return out;
+}
+
+void writePng8(const std::string& path, int width, int height, const std::vector<std::uint8_t>& rgb) {
+    std::string tmp = temporarySiblingPath(path);
+    FILE* fp = std::fopen(tmp.c_str(), "wb");
+    if (!fp) throw std::runtime_error("cannot create " + tmp);
+    png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
+    png_infop info = png ? png_create_info_struct(png) : nullptr;
+    if (!png || !info || setjmp(png_jmpbuf(png))) {
+        png_destroy_write_struct(&png, &info);
+        std::fclose(fp);
+        std::filesystem::remove(tmp);
+        throw std::runtime_error("cannot write PNG " + path);
+    }
+    png_init_io(png, fp);
+    png_set_IHDR(png, info, png_uint_32(width), png_uint_32(height), 8, PNG_COLOR_TYPE_RGB,
+                 PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+    png_set_sRGB(png, info, PNG_sRGB_INTENT_PERCEPTUAL);
+    png_write_info(png, info);
+    for (int y = 0; y < height; ++y)
+        png_write_row(png, rgb.data() + size_t(y) * size_t(width) * 3);
+    png_write_end(png, nullptr);
+    png_destroy_write_struct(&png, &info);
+    if (std::fclose(fp) != 0) {
+        std::filesystem::remove(tmp);
+        throw std::runtime_error("cannot write PNG " + path);
+    }
+    commitTemporary(tmp, path);
+}
+
+void writePng(const std::string& path, const RgbImage& image, float key) {
+    writePng8(path, image.width, image.height, tonemapReinhard(image, key));
+}
+
+} // namespace cb

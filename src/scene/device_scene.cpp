@@ -1,0 +1,314 @@
+#include "scene/device_scene.h"
+
+#include "spectral/spectral.h"
+
+#include <algorithm>
+#include <cmath>
+#include <fmt/format.h>
+#include <numeric>
+
+namespace cb {
+
+static_assert(sizeof(cbk::Primitive) == 48, "Primitive must match the OpenCL layout");
+static_assert(sizeof(cbk::Material) == 32, "Material must match the OpenCL layout");
+static_assert(sizeof(cbk::Light) == 48, "Light must match the OpenCL layout");
+static_assert(sizeof(cbk::Camera) == 112, "Camera must match the OpenCL layout");
+
+namespace {
+
+class SpectraTable {
+  public:
+    SpectraTable(int channels, std::vector<float>& data) : channels_(channels), data_(data) {}
+
+    int add(const SpectrumValue& value, float scale) {
+        int index = int(data_.size()) / channels_;
+        if (channels_ == kSpectralBins) {
+            std::array<float, kSpectralBins> bins =
+                value.isRgb ? rgbToSpectrum(value.rgb) : binSpectrum(value.samples);
+            for (float b : bins) data_.push_back(b * scale);
+        } else {
+            std::array<float, 3> rgb = value.isRgb ? value.rgb : spectrumToRgb(value.samples);
+            for (float c : rgb) data_.push_back(c * scale);
+        }
+        return index;
+    }
+    float average(int index) const {
+        float sum = 0.f;
+        for (int i = 0; i < channels_; ++i) sum += data_[size_t(index * channels_ + i)];
+        return sum / float(channels_);
+    }
+
+  private:
+    int channels_;
+    std::vector<float>& data_;
+};
+
+std::array<double, 16> invert4x4(const std::array<double, 16>& m, const SourceLocation& where) {
+    // Cofactor expansion; the camera matrix is small and inverted once.
+    std::array<double, 16> inv{};
+    inv[0] = m[5] * m[10] * m[15] - m[5] * m[11] * m[14] - m[9] * m[6] * m[15] +
+             m[9] * m[7] * m[14] + m[13] * m[6] * m[11] - m[13] * m[7] * m[10];
+    inv[4] = -m[4] * m[10] * m[15] + m[4] * m[11] * m[14] + m[8] * m[6] * m[15] -
+             m[8] * m[7] * m[14] - m[12] * m[6] * m[11] + m[12] * m[7] * m[10];
+    inv[8] = m[4] * m[9] * m[15] - m[4] * m[11] * m[13] - m[8] * m[5] * m[15] +
+             m[8] * m[7] * m[13] + m[12] * m[5] * m[11] - m[12] * m[7] * m[9];
+    inv[12] = -m[4] * m[9] * m[14] + m[4] * m[10] * m[13] + m[8] * m[5] * m[14] -
+              m[8] * m[6] * m[13] - m[12] * m[5] * m[10] + m[12] * m[6] * m[9];
+    inv[1] = -m[1] * m[10] * m[15] + m[1] * m[11] * m[14] + m[9] * m[2] * m[15] -
+             m[9] * m[3] * m[14] - m[13] * m[2] * m[11] + m[13] * m[3] * m[10];
+    inv[5] = m[0] * m[10] * m[15] - m[0] * m[11] * m[14] - m[8] * m[2] * m[15] +
+             m[8] * m[3] * m[14] + m[12] * m[2] * m[11] - m[12] * m[3] * m[10];
+    inv[9] = -m[0] * m[9] * m[15] + m[0] * m[11] * m[13] + m[8] * m[1] * m[15] -
+             m[8] * m[3] * m[13] - m[12] * m[1] * m[11] + m[12] * m[3] * m[9];
+    inv[13] = m[0] * m[9] * m[14] - m[0] * m[10] * m[13] - m[8] * m[1] * m[14] +
+              m[8] * m[2] * m[13] + m[12] * m[1] * m[10] - m[12] * m[2] * m[9];
+    inv[2] = m[1] * m[6] * m[15] - m[1] * m[7] * m[14] - m[5] * m[2] * m[15] +
+             m[5] * m[3] * m[14] + m[13] * m[2] * m[7] - m[13] * m[3] * m[6];
+    inv[6] = -m[0] * m[6] * m[15] + m[0] * m[7] * m[14] + m[4] * m[2] * m[15] -
+             m[4] * m[3] * m[14] - m[12] * m[2] * m[7] + m[12] * m[3] * m[6];
+    inv[10] = m[0] * m[5] * m[15] - m[0] * m[7] * m[13] - m[4] * m[1] * m[15] +
+              m[4] * m[3] * m[13] + m[12] * m[1] * m[7] - m[12] * m[3] * m[5];
+    inv[14] = -m[0] * m[5] * m[14] + m[0] * m[6] * m[13] + m[4] * m[1] * m[14] -
+              m[4] * m[2] * m[13] - m[12] * m[1] * m[6] + m[12] * m[2] * m[5];
+    inv[3] = -m[1] * m[6] * m[11] + m[1] * m[7] * m[10] + m[5] * m[2] * m[11] -
+             m[5] * m[3] * m[10] - m[9] * m[2] * m[7] + m[9] * m[3] * m[6];
+    inv[7] = m[0] * m[6] * m[11] - m[0] * m[7] * m[10] - m[4] * m[2] * m[11] +
+             m[4] * m[3] * m[10] + m[8] * m[2] * m[7] - m[8] * m[3] * m[6];
+    inv[11] = -m[0] * m[5] * m[11] + m[0] * m[7] * m[9] + m[4] * m[1] * m[11] -
+              m[4] * m[3] * m[9] - m[8] * m[1] * m[7] + m[8] * m[3] * m[5];
+    inv[15] = m[0] * m[5] * m[10] - m[0] * m[6] * m[9] - m[4] * m[1] * m[10] +
+              m[4] * m[2] * m[9] + m[8] * m[1] * m[6] - m[8] * m[2] * m[5];
+    double det = m[0] * inv[0] + m[1] * inv[4] + m[2] * inv[8] + m[3] * inv[12];
+    if (!(std::fabs(det) > 1e-300) || !std::isfinite(det))
+        throw SceneError(where, "the camera transform is singular (check LookAt/Scale before "
+                                "Camera)");
+    for (double& v : inv) v /= det;
+    return inv;
+}
+
+cbk::Camera makeCamera(const SceneDesc& desc) {
+    const FilmDesc& film = desc.film;
+    SourceLocation where = desc.camera.where;
+    if (film.width <= 0 || film.height <= 0)
+        throw SceneError(where, fmt::format("film resolution {}x{} must be positive", film.width,
+                                            film.height));
+    float fov = desc.camera.fovDegrees;
+    if (!(fov > 0.f && fov < 180.f))
+        throw SceneError(where, fmt::format("field of view {} must be in (0, 180) degrees", fov));
+    cbk::Camera camera{};
+    const auto& w2c = desc.camera.worldToCamera;
+    auto c2w = invert4x4(w2c, where);
+    for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 4; ++c) {
+            camera.worldToCamera[r * 4 + c] = float(w2c[size_t(r * 4 + c)]);
+            camera.cameraToWorld[r * 4 + c] = float(c2w[size_t(r * 4 + c)]);
+        }
+    // pbrt-v4: the field of view spans the shorter image axis.
+    double tanHalf = std::tan(double(fov) * M_PI / 360.0);
+    double aspect = double(film.width) / double(film.height);
+    camera.tanHalfFovX = float(aspect >= 1.0 ? tanHalf * aspect : tanHalf);
+    camera.tanHalfFovY = float(aspect >= 1.0 ? tanHalf : tanHalf / aspect);
+    camera.width = film.width;
+    camera.height = film.height;
+    return camera;
+}
+
+unsigned materialFeature(MaterialKind kind) {
+    switch (kind) {
+    case MaterialKind::Diffuse: return CB_FEATURE_DIFFUSE;
+    case MaterialKind::Conductor: return CB_FEATURE_CONDUCTOR;
+    case MaterialKind::Dielectric: return CB_FEATURE_DIELECTRIC;
+    case MaterialKind::Mix: return CB_FEATURE_MIX;
+    }
+    return 0;
+}
+
+} // namespace
+
+DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
+    DeviceScene scene;
+    bool spectral = mode == ChannelMode::Spectral || (mode == ChannelMode::Auto && desc.usesSpectra);
+    scene.channels = spectral ? kSpectralBins : 3;
+    scene.toRgb = channelsToRgbMatrix(scene.channels);
+    scene.camera = makeCamera(desc);
+    SpectraTable spectra(scene.channels, scene.spectra);
+
+    // Materials: the scene's, plus a constant-one entry used by kinds without a reflectance.
+    std::vector<bool> materialUsed(desc.materials.size(), false);
+    auto markUsed = [&](int m) {
+        if (m >= 0 && size_t(m) < materialUsed.size()) {
+            materialUsed[size_t(m)] = true;
+            for (int c : desc.materials[size_t(m)].mix)
+                if (c >= 0) materialUsed[size_t(c)] = true;
+        }
+    };
+    for (const auto& mesh : desc.meshes) markUsed(mesh.material);
+    for (const auto& sphere : desc.spheres) markUsed(sphere.material);
+
+    int oneSpectrum = spectra.add(SpectrumValue::constant(1.f), 1.f);
+    for (size_t i = 0; i < desc.materials.size(); ++i) {
+        const MaterialDesc& m = desc.materials[i];
+        cbk::Material out{};
+        out.reflectance = oneSpectrum;
+        out.mixFirst = out.mixSecond = -1;
+        switch (m.kind) {
+        case MaterialKind::Diffuse:
+            out.kind = CB_MAT_DIFFUSE;
+            out.reflectance = spectra.add(m.reflectance, 1.f);
+            break;
+        case MaterialKind::Conductor:
+            out.kind = CB_MAT_CONDUCTOR;
+            out.reflectance = spectra.add(m.reflectance, 1.f);
+            out.alpha = m.remapRoughness ? std::sqrt(std::max(m.roughness, 0.f)) : m.roughness;
+            break;
+        case MaterialKind::Dielectric:
+            out.kind = CB_MAT_DIELECTRIC;
+            out.eta = m.eta;
+            break;
+        case MaterialKind::Mix:
+            out.kind = CB_MAT_MIX;
+            out.mixFirst = m.mix[0];
+            out.mixSecond = m.mix[1];
+            out.mixAmount = m.amount;
+            break;
+        }
+        scene.materials.push_back(out);
+        if (materialUsed[i]) scene.features |= materialFeature(m.kind);
+    }
+
+    // Primitives. Area lights get one Light per emitting primitive.
+    std::vector<cbk::Primitive> primitives;
+    std::vector<float> lightPower;
+    auto addAreaLight = [&](int areaLight, float area) {
+        const AreaLightDesc& al = desc.areaLights[size_t(areaLight)];
+        cbk::Light light{};
+        light.kind = CB_LIGHT_AREA;
+        light.primitive = -1; // set once the BVH has placed the primitive
+        light.emission = spectra.add(al.radiance, al.scale);
+        light.twoSided = al.twoSided ? 1 : 0;
+        light.area = area;
+        lightPower.push_back(spectra.average(light.emission) * area * float(M_PI) *
+                             (al.twoSided ? 2.f : 1.f));
+        scene.lights.push_back(light);
+        scene.features |= CB_FEATURE_AREA_LIGHT;
+        return int(scene.lights.size()) - 1;
+    };
+
+    std::array<float, 3> lo{INFINITY, INFINITY, INFINITY}, hi{-INFINITY, -INFINITY, -INFINITY};
+    auto grow = [&](const std::array<float, 3>& p, float r) {
+        for (int a = 0; a < 3; ++a) {
+            lo[size_t(a)] = std::min(lo[size_t(a)], p[size_t(a)] - r);
+            hi[size_t(a)] = std::max(hi[size_t(a)], p[size_t(a)] + r);
+        }
+    };
+
+    for (const auto& mesh : desc.meshes) {
+        scene.vertexCount += long(mesh.positions.size());
+        for (const auto& p : mesh.positions) grow(p, 0.f);
+        for (const auto& tri : mesh.triangles) {
+            cbk::Primitive prim{};
+            prim.kind = CB_PRIM_TRIANGLE;
+            prim.material = mesh.material;
+            prim.light = -1;
+            for (int a = 0; a < 3; ++a) {
+                prim.p0[a] = mesh.positions[tri[0]][size_t(a)];
+                prim.p1[a] = mesh.positions[tri[1]][size_t(a)];
+                prim.p2[a] = mesh.positions[tri[2]][size_t(a)];
+            }
+            if (mesh.areaLight >= 0) {
+                double e1[3], e2[3];
+                for (int a = 0; a < 3; ++a) {
+                    e1[a] = double(prim.p1[a]) - prim.p0[a];
+                    e2[a] = double(prim.p2[a]) - prim.p0[a];
+                }
+                double cx = e1[1] * e2[2] - e1[2] * e2[1], cy = e1[2] * e2[0] - e1[0] * e2[2],
+                       cz = e1[0] * e2[1] - e1[1] * e2[0];
+                float area = float(0.5 * std::sqrt(cx * cx + cy * cy + cz * cz));
+                prim.light = addAreaLight(mesh.areaLight, area);
+            }
+            primitives.push_back(prim);
+            ++scene.triangleCount;
+        }
+    }
+    for (const auto& sphere : desc.spheres) {
+        cbk::Primitive prim{};
+        prim.kind = CB_PRIM_SPHERE;
+        prim.material = sphere.material;
+        prim.light = -1;
+        for (int a = 0; a < 3; ++a) prim.p0[a] = sphere.center[size_t(a)];
+        prim.p1[0] = sphere.radius;
+        prim.p1[1] = sphere.reverseOrientation ? -1.f : 1.f;
+        grow(sphere.center, sphere.radius);
+        if (sphere.areaLight >= 0) {
+            float area = float(4.0 * M_PI * double(sphere.radius) * sphere.radius);
+            prim.light = addAreaLight(sphere.areaLight, area);
+        }
+        primitives.push_back(prim);
+        scene.features |= CB_FEATURE_SPHERES;
+        ++scene.sphereCount;
+    }
+    for (const auto& pl : desc.pointLights) {
+        cbk::Light light{};
+        light.kind = CB_LIGHT_POINT;
+        light.primitive = -1;
+        light.emission = spectra.add(pl.intensity, pl.scale);
+        for (int a = 0; a < 3; ++a) light.position[a] = pl.position[size_t(a)];
+        lightPower.push_back(spectra.average(light.emission) * 4.f * float(M_PI));
+        scene.lights.push_back(light);
+        scene.features |= CB_FEATURE_POINT_LIGHT;
+    }
+    if (scene.lights.empty())
+        throw SceneError(SourceLocation{desc.path, 0, 0},
+                         "the scene has no lights (add an AreaLightSource before a Shape, or a "
+                         "LightSource \"point\")");
+    if (scene.triangleCount + scene.sphereCount > 0) {
+        scene.boundsMin = lo;
+        scene.boundsMax = hi;
+    }
+
+    // Choose lights in proportion to power; fall back to uniform if every light is black.
+    double totalPower = std::accumulate(lightPower.begin(), lightPower.end(), 0.0);
+    double running = 0.0;
+    for (size_t i = 0; i < scene.lights.size(); ++i) {
+        double p = totalPower > 0.0 ? lightPower[i] / totalPower : 1.0 / double(lightPower.size());
+        scene.lights[i].pickProbability = float(p);
+        running += p;
+        scene.lights[i].cdf = float(running);
+    }
+    scene.lights.back().cdf = 1.0f; // rounding must not leave a gap at the top
+
+    scene.bvh = buildBvh(std::move(primitives));
+    // After the BVH reorders primitives, point each area light at its primitive's new slot.
+    for (size_t i = 0; i < scene.bvh.primitives.size(); ++i) {
+        int light = scene.bvh.primitives[i].light;
+        if (light >= 0) scene.lights[size_t(light)].primitive = int(i);
+    }
+    for (size_t i = 0; i < scene.lights.size(); ++i)
+        if (scene.lights[i].kind == CB_LIGHT_AREA && scene.lights[i].primitive < 0)
+            throw std::logic_error("area light lost its primitive in the BVH build");
+    return scene;
+}
+
+std::vector<std::string> DeviceScene::kernelDefines() const {
+    return {fmt::format("CB_CHANNELS={}", channels), fmt::format("CB_FEATURES={}u", features)};
+}
+
+std::string DeviceScene::featureNames() const {
+    std::string names;
+    auto add = [&](unsigned bit, const char* name) {
+        if (!(features & bit)) return;
+        if (!names.empty()) names += ' ';
+        names += name;
+    };
+    add(CB_FEATURE_DIFFUSE, "diffuse");
+    add(CB_FEATURE_CONDUCTOR, "conductor");
+    add(CB_FEATURE_DIELECTRIC, "dielectric");
+    add(CB_FEATURE_MIX, "mix");
+    add(CB_FEATURE_AREA_LIGHT, "area-light");
+    add(CB_FEATURE_POINT_LIGHT, "point-light");
+    add(CB_FEATURE_SPHERES, "spheres");
+    names += channels == 16 ? " spectral-16" : " rgb";
+    return names;
+}
+
+} // namespace cb

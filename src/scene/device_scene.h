@@ -1,0 +1,46 @@
+// The scene as the kernels see it: flat arrays of shared structs (kernels/cb_types.h), a BVH,
+// the spectra table, and the feature set that decides which kernel code is compiled.
+#pragma once
+
+#include "bvh/bvh.h"
+#include "scene/scene_desc.h"
+
+#include "cb_types.h"
+
+#include <array>
+#include <string>
+#include <vector>
+
+namespace cb {
+
+enum class ChannelMode { Auto, Rgb, Spectral };
+
+struct DeviceScene {
+    int channels = 3; // 3 (RGB) or 16 (spectral bins)
+    Bvh bvh;          // nodes and primitives in leaf order
+    std::vector<cbk::Material> materials;
+    std::vector<cbk::Light> lights;
+    std::vector<float> spectra; // `channels` floats per entry
+    std::vector<float> toRgb;   // 3 x channels, row-major: linear sRGB from channels
+    cbk::Camera camera{};
+    unsigned features = 0; // CB_FEATURE_* bits
+    // Statistics for `cbdpt info`.
+    long triangleCount = 0;
+    long vertexCount = 0;
+    long sphereCount = 0;
+    std::array<float, 3> boundsMin{0, 0, 0};
+    std::array<float, 3> boundsMax{0, 0, 0};
+
+    // Kernel -D defines for this scene: channel count and feature bits.
+    std::vector<std::string> kernelDefines() const;
+    // The feature bits as words, e.g. "diffuse conductor area-light spheres".
+    std::string featureNames() const;
+};
+
+// Convert a parsed scene: resolve spectra for the channel mode (Auto: spectral when the file
+// uses any `spectrum` parameter), build the BVH, compute light selection probabilities
+// (proportional to emitted power) and the camera. Throws SceneError for scenes that cannot be
+// rendered (e.g. no lights, invalid film size).
+DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode = ChannelMode::Auto);
+
+} // namespace cb
