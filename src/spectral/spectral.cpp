@@ -1,0 +1,397 @@
+#include "spectral/spectral.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace cb {
+
+namespace {
+
+using Mat3 = std::array<std::array<double, 3>, 3>;
+using Vec3d = std::array<double, 3>;
+
+void validate(const PiecewiseLinear& s) {
+    for (std::size_t i = 0; i < s.size(); ++i) {
+        if (!std::isfinite(s[i].first) || !std::isfinite(s[i].second))
+            throw std::invalid_argument("spectrum sample " + std::to_string(i) + " is not finite");
+        if (i > 0 && !(s[i].first > s[i - 1].first))
+            throw std::invalid_argument(
+                "spectrum wavelengths must be strictly increasing (sample " + std::to_string(i) +
+                ")");
+    }
+}
+
+// One lobe of the Wyman et al. fit: a Gaussian whose inverse width differs on each side of the
+// peak (their eq. 2 with 1/sigma written as in their listing 1).
+double lobe(double nm, double mu, double invSigmaBelow, double invSigmaAbove) {
+    const double t = (nm - mu) * (nm < mu ? invSigmaBelow : invSigmaAbove);
+    return std::exp(-0.5 * t * t);
+}
+
+// Integrates f over [a, b] with two-point Gauss-Legendre on 0.25 nm panels: the fit is smooth
+// except for a jump in the second derivative at each lobe peak, so the error is far below the
+// fit's own error against the CIE tables. A trailing partial panel is handled exactly.
+template <class F> double integrateFine(F&& f, double a, double b) {
+    constexpr double kPanel = 0.25;
+    const double g = 0.5 / std::sqrt(3.0);
+    double sum = 0.0;
+    for (double lo = a; lo < b; lo += kPanel) {
+        const double hi = std::min(b, lo + kPanel);
+        const double mid = 0.5 * (lo + hi), h = hi - lo;
+        sum += 0.5 * h * (f(mid - g * h) + f(mid + g * h));
+    }
+    return sum;
+}
+
+Vec3d mul(const Mat3& m, const Vec3d& v) {
+    Vec3d r{};
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j)
+            r[i] += m[i][j] * v[j];
+    return r;
+}
+
+Mat3 mul(const Mat3& a, const Mat3& b) {
+    Mat3 r{};
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j)
+            for (int k = 0; k < 3; ++k)
+                r[i][j] += a[i][k] * b[k][j];
+    return r;
+}
+
+Mat3 inverse(const Mat3& m) {
+    const double det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) -
+                       m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+                       m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+    Mat3 r{};
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) {
+            // Cofactor of m[j][i] (transposed) via cyclic indices.
+            const int r0 = (j + 1) % 3, r1 = (j + 2) % 3, c0 = (i + 1) % 3, c1 = (i + 2) % 3;
+            r[i][j] = (m[r0][c0] * m[r1][c1] - m[r0][c1] * m[r1][c0]) / det;
+        }
+    return r;
+}
+
+Vec3d xyzFromChromaticity(double x, double y) {
+    return {x / y, 1.0, (1.0 - x - y) / y};
+}
+
+// XYZ -> linear sRGB derived from the Rec. 709 primaries and the D65 chromaticity (0.3127,
+// 0.3290) of IEC 61966-2-1, rather than the rounded published matrix, so that D65 maps to
+// (1,1,1) to double precision.
+Mat3 xyzToLinearSrgb() {
+    const Vec3d r = xyzFromChromaticity(0.64, 0.33), g = xyzFromChromaticity(0.30, 0.60),
+                b = xyzFromChromaticity(0.15, 0.06), w = xyzFromChromaticity(0.3127, 0.3290);
+    const Mat3 primaries{{{r[0], g[0], b[0]}, {r[1], g[1], b[1]}, {r[2], g[2], b[2]}}};
+    const Vec3d scale = mul(inverse(primaries), w);
+    Mat3 rgbToXyz{};
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j)
+            rgbToXyz[i][j] = primaries[i][j] * scale[j];
+    return inverse(rgbToXyz);
+}
+
+// Bradford chromatic adaptation (Lam 1985; the von Kries scaling in the sharpened cone space)
+// from the equal-energy white E (X=Y=Z=1) to D65.
+Mat3 bradfordEToD65() {
+    const Mat3 bradford{
+        {{0.8951, 0.2664, -0.1614}, {-0.7502, 1.7135, 0.0367}, {0.0389, -0.0685, 1.0296}}};
+    const Vec3d src = mul(bradford, Vec3d{1.0, 1.0, 1.0});
+    const Vec3d dst = mul(bradford, xyzFromChromaticity(0.3127, 0.3290));
+    Mat3 scale{};
+    for (int i = 0; i < 3; ++i)
+        scale[i][i] = dst[i] / src[i];
+    return mul(inverse(bradford), mul(scale, bradford));
+}
+
+double ybarIntegral400to700() {
+    return integrateFine([](double nm) { return cieXyz1931Fit(nm)[1]; }, kLambdaMin, kLambdaMax);
+}
+
+// 3 x 16 bins -> linear sRGB, in double.
+const std::array<double, 3 * kSpectralBins>& spectralMatrix() {
+    static const std::array<double, 3 * kSpectralBins> m = [] {
+        const double norm = 1.0 / ybarIntegral400to700();
+        const Mat3 toRgb = mul(xyzToLinearSrgb(), bradfordEToD65());
+        std::array<double, 3 * kSpectralBins> out{};
+        for (int i = 0; i < kSpectralBins; ++i) {
+            // A bin value is the mean of the spectrum over the bin, so its weight is the integral
+            // of the CMF over the bin.
+            Vec3d xyz{};
+            for (int c = 0; c < 3; ++c)
+                xyz[c] = norm * integrateFine([c](double nm) { return cieXyz1931Fit(nm)[c]; },
+                                              binLambdaLow(i), binLambdaHigh(i));
+            const Vec3d rgb = mul(toRgb, xyz);
+            for (int c = 0; c < 3; ++c)
+                out[c * kSpectralBins + i] = rgb[c];
+        }
+        return out;
+    }();
+    return m;
+}
+
+// Dense Gaussian elimination with partial pivoting; false if (numerically) singular.
+bool solveDense(std::vector<double> a, std::vector<double>& x, int n) {
+    for (int col = 0; col < n; ++col) {
+        int piv = col;
+        for (int r = col + 1; r < n; ++r)
+            if (std::abs(a[r * (n + 1) + col]) > std::abs(a[piv * (n + 1) + col])) piv = r;
+        if (std::abs(a[piv * (n + 1) + col]) < 1e-13) return false;
+        if (piv != col)
+            for (int c = 0; c <= n; ++c)
+                std::swap(a[piv * (n + 1) + c], a[col * (n + 1) + c]);
+        for (int r = col + 1; r < n; ++r) {
+            const double f = a[r * (n + 1) + col] / a[col * (n + 1) + col];
+            for (int c = col; c <= n; ++c)
+                a[r * (n + 1) + c] -= f * a[col * (n + 1) + c];
+        }
+    }
+    x.assign(n, 0.0);
+    for (int r = n - 1; r >= 0; --r) {
+        double v = a[r * (n + 1) + n];
+        for (int c = r + 1; c < n; ++c)
+            v -= a[r * (n + 1) + c] * x[c];
+        x[r] = v / a[r * (n + 1) + r];
+    }
+    return true;
+}
+
+// Minimises 0.5 s'Hs - g's subject to A s = b (m rows) and 0 <= s <= 1 with the primal-dual
+// active-set method (Hintermueller, Ito & Kunisch 2003, SIAM J. Optim. 13(3)): each step solves
+// the KKT system with the current bound set fixed, then re-guesses the set from the sign of
+// the bound multipliers. False if it does not settle or the reduced system is singular (e.g. the
+// equalities are infeasible inside the box).
+bool solveBoxQp(const std::vector<double>& h, const std::vector<double>& g,
+                const std::vector<double>& aEq, const std::vector<double>& bEq, int n, int m,
+                std::vector<double>& s) {
+    std::vector<int> state(n, 0), next(n, 0); // -1 at 0, +1 at 1, 0 free
+    s.assign(n, 0.0);
+    for (int iter = 0; iter < 100; ++iter) {
+        std::vector<int> free;
+        for (int i = 0; i < n; ++i) {
+            if (state[i] == 0)
+                free.push_back(i);
+            else
+                s[i] = state[i] < 0 ? 0.0 : 1.0;
+        }
+        const int k = static_cast<int>(free.size()), dim = k + m;
+        if (k < m) return false;
+        std::vector<double> kkt(static_cast<std::size_t>(dim) * (dim + 1), 0.0), sol;
+        auto at = [&](int r, int c) -> double& { return kkt[r * (dim + 1) + c]; };
+        for (int r = 0; r < k; ++r) {
+            const int i = free[r];
+            double rhs = g[i];
+            for (int j = 0; j < n; ++j)
+                if (state[j] != 0) rhs -= h[i * n + j] * s[j];
+            for (int c = 0; c < k; ++c)
+                at(r, c) = h[i * n + free[c]];
+            for (int e = 0; e < m; ++e)
+                at(r, k + e) = aEq[e * n + i];
+            at(r, dim) = rhs;
+        }
+        for (int e = 0; e < m; ++e) {
+            double rhs = bEq[e];
+            for (int j = 0; j < n; ++j)
+                if (state[j] != 0) rhs -= aEq[e * n + j] * s[j];
+            for (int c = 0; c < k; ++c)
+                at(k + e, c) = aEq[e * n + free[c]];
+            at(k + e, dim) = rhs;
+        }
+        if (!solveDense(kkt, sol, dim)) return false;
+        for (int r = 0; r < k; ++r)
+            s[free[r]] = sol[r];
+        bool changed = false;
+        for (int i = 0; i < n; ++i) {
+            // Bound multiplier from stationarity: H s - g + A' nu = lambda.
+            double lambda = -g[i];
+            for (int j = 0; j < n; ++j)
+                lambda += h[i * n + j] * s[j];
+            for (int e = 0; e < m; ++e)
+                lambda += aEq[e * n + i] * sol[k + e];
+            constexpr double tol = 1e-12;
+            next[i] = lambda - s[i] > tol ? -1 : (lambda + (1.0 - s[i]) < -tol ? 1 : 0);
+            changed |= next[i] != state[i];
+        }
+        if (!changed) {
+            for (int e = 0; e < m; ++e) {
+                double r = -bEq[e];
+                for (int j = 0; j < n; ++j)
+                    r += aEq[e * n + j] * s[j];
+                if (std::abs(r) > 1e-9) return false;
+            }
+            for (double& v : s)
+                v = std::clamp(v, 0.0, 1.0);
+            return true;
+        }
+        state = next;
+    }
+    return false;
+}
+
+// The smoothest 16-bin reflectance in [0,1] whose linear sRGB is exactly `target` (Smits 1999
+// asks for the same: smooth, bounded, matching). Smoothness is the squared first difference
+// between adjacent bins; a tiny ridge makes the objective strictly convex. If no bounded
+// spectrum matches exactly, the match becomes a stiff penalty instead.
+std::array<float, kSpectralBins> smoothestReflectance(const Vec3d& target) {
+    constexpr int n = kSpectralBins;
+    std::vector<double> h(n * n, 0.0), g(n, 0.0);
+    for (int i = 0; i + 1 < n; ++i) {
+        h[i * n + i] += 1.0;
+        h[(i + 1) * n + i + 1] += 1.0;
+        h[i * n + i + 1] -= 1.0;
+        h[(i + 1) * n + i] -= 1.0;
+    }
+    for (int i = 0; i < n; ++i)
+        h[i * n + i] += 1e-6;
+    const auto& mm = spectralMatrix();
+    std::vector<double> a(mm.begin(), mm.end()), b(target.begin(), target.end()), s;
+    if (!solveBoxQp(h, g, a, b, n, 3, s)) {
+        constexpr double w = 1e6;
+        for (int i = 0; i < n; ++i) {
+            for (int j = 0; j < n; ++j)
+                for (int e = 0; e < 3; ++e)
+                    h[i * n + j] += w * a[e * n + i] * a[e * n + j];
+            for (int e = 0; e < 3; ++e)
+                g[i] += w * a[e * n + i] * b[e];
+        }
+        if (!solveBoxQp(h, g, {}, {}, n, 0, s))
+            throw std::logic_error("rgbToSpectrum: basis optimisation failed");
+    }
+    std::array<float, kSpectralBins> out{};
+    for (int i = 0; i < n; ++i)
+        out[i] = static_cast<float>(s[i]);
+    return out;
+}
+
+} // namespace
+
+double evalPiecewiseLinear(const PiecewiseLinear& s, double nm) {
+    if (s.empty()) return 0.0;
+    if (nm <= s.front().first) return s.front().second;
+    if (nm >= s.back().first) return s.back().second;
+    const auto it = std::upper_bound(s.begin(), s.end(), nm,
+                                     [](double v, const auto& p) { return v < p.first; });
+    const auto& p1 = *it;
+    const auto& p0 = *(it - 1);
+    const double t = (nm - p0.first) / (static_cast<double>(p1.first) - p0.first);
+    return p0.second + t * (static_cast<double>(p1.second) - p0.second);
+}
+
+double integratePiecewiseLinear(const PiecewiseLinear& s, double a, double b) {
+    if (s.empty() || !(b > a)) return 0.0;
+    double sum = 0.0;
+    // Constant extrapolation on either side.
+    if (a < s.front().first) sum += (std::min<double>(b, s.front().first) - a) * s.front().second;
+    if (b > s.back().first) sum += (b - std::max<double>(a, s.back().first)) * s.back().second;
+    // The trapezoid rule is exact on each linear piece clipped to [a, b].
+    for (std::size_t k = 0; k + 1 < s.size(); ++k) {
+        const double lo = std::max<double>(a, s[k].first), hi = std::min<double>(b, s[k + 1].first);
+        if (hi > lo)
+            sum += 0.5 * (hi - lo) * (evalPiecewiseLinear(s, lo) + evalPiecewiseLinear(s, hi));
+    }
+    return sum;
+}
+
+std::array<float, kSpectralBins> binSpectrum(const PiecewiseLinear& s) {
+    validate(s);
+    std::array<float, kSpectralBins> out{};
+    for (int i = 0; i < kSpectralBins; ++i)
+        out[i] = static_cast<float>(integratePiecewiseLinear(s, binLambdaLow(i), binLambdaHigh(i)) /
+                                    kBinWidth);
+    return out;
+}
+
+std::array<double, 3> cieXyz1931Fit(double nm) {
+    // Wyman, Sloan & Shirley 2013, listing 1 (multi-lobe fit, CIE 1931 2-degree observer).
+    const double x = 0.362 * lobe(nm, 442.0, 0.0624, 0.0374) +
+                     1.056 * lobe(nm, 599.8, 0.0264, 0.0323) -
+                     0.065 * lobe(nm, 501.1, 0.0490, 0.0382);
+    const double y =
+        0.821 * lobe(nm, 568.8, 0.0213, 0.0247) + 0.286 * lobe(nm, 530.9, 0.0613, 0.0322);
+    const double z =
+        1.217 * lobe(nm, 437.0, 0.0845, 0.0278) + 0.681 * lobe(nm, 459.0, 0.0385, 0.0725);
+    return {x, y, z};
+}
+
+std::array<double, 3> spectrumToXyz(const PiecewiseLinear& s) {
+    validate(s);
+    static const double norm = 1.0 / ybarIntegral400to700();
+    std::array<double, 3> xyz{};
+    for (int c = 0; c < 3; ++c)
+        xyz[c] =
+            norm * integrateFine(
+                       [&](double nm) { return evalPiecewiseLinear(s, nm) * cieXyz1931Fit(nm)[c]; },
+                       kLambdaMin, kLambdaMax);
+    return xyz;
+}
+
+std::vector<float> channelsToRgbMatrix(int channels) {
+    if (channels == 3) return {1.f, 0.f, 0.f, 0.f, 1.f, 0.f, 0.f, 0.f, 1.f};
+    if (channels != kSpectralBins)
+        throw std::invalid_argument("channelsToRgbMatrix: unsupported channel count " +
+                                    std::to_string(channels));
+    const auto& m = spectralMatrix();
+    return std::vector<float>(m.begin(), m.end());
+}
+
+std::array<float, 3> binsToRgb(const std::array<float, kSpectralBins>& bins) {
+    const auto& m = spectralMatrix();
+    std::array<float, 3> rgb{};
+    for (int c = 0; c < 3; ++c) {
+        double v = 0.0;
+        for (int i = 0; i < kSpectralBins; ++i)
+            v += m[c * kSpectralBins + i] * bins[i];
+        rgb[c] = static_cast<float>(v);
+    }
+    return rgb;
+}
+
+std::array<float, 3> spectrumToRgb(const PiecewiseLinear& s) {
+    return binsToRgb(binSpectrum(s));
+}
+
+const std::array<std::array<float, kSpectralBins>, 7>& smitsBasis() {
+    static const std::array<std::array<float, kSpectralBins>, 7> basis = [] {
+        std::array<std::array<float, kSpectralBins>, 7> b{};
+        b[0].fill(1.f); // white is exactly flat, so rgb (1,1,1) gives reflectance 1 everywhere
+        const Vec3d targets[6] = {{0, 1, 1}, {1, 0, 1}, {1, 1, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+        for (int k = 0; k < 6; ++k)
+            b[k + 1] = smoothestReflectance(targets[k]);
+        return b;
+    }();
+    return basis;
+}
+
+std::array<float, kSpectralBins> rgbToSpectrum(std::array<float, 3> rgb) {
+    // Smits 1999, section 3: the smallest component times white, the gap to the middle one times
+    // the secondary made of the two larger primaries, the gap to the largest times that primary.
+    // Negative components have no reflectance meaning and are clamped to zero.
+    const auto& basis = smitsBasis();
+    enum { White, Cyan, Magenta, Yellow, Red, Green, Blue };
+    const float r = std::max(rgb[0], 0.f), g = std::max(rgb[1], 0.f), b = std::max(rgb[2], 0.f);
+    // (white weight, secondary, its weight, primary, its weight)
+    struct Split {
+        float cw;
+        int secondary;
+        float c2;
+        int primary;
+        float c1;
+    };
+    Split k{};
+    if (r <= g && r <= b)
+        k = g <= b ? Split{r, Cyan, g - r, Blue, b - g} : Split{r, Cyan, b - r, Green, g - b};
+    else if (g <= r && g <= b)
+        k = r <= b ? Split{g, Magenta, r - g, Blue, b - r} : Split{g, Magenta, b - g, Red, r - b};
+    else
+        k = r <= g ? Split{b, Yellow, r - b, Green, g - r} : Split{b, Yellow, g - b, Red, r - g};
+    std::array<float, kSpectralBins> out{};
+    for (int i = 0; i < kSpectralBins; ++i)
+        out[i] = k.cw * basis[White][i] + k.c2 * basis[k.secondary][i] + k.c1 * basis[k.primary][i];
+    return out;
+}
+
+} // namespace cb

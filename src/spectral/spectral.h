@@ -1,0 +1,70 @@
+// Host-side spectral utilities (METHOD.md, "Spectra, output"): binning of piecewise-linear
+// spectra into the renderer's 16 fixed bins over 400-700 nm, the bins -> linear sRGB matrix the
+// film applies, and the conversions between spectral and RGB parameters. See docs/spectral.md.
+#pragma once
+
+#include <array>
+#include <utility>
+#include <vector>
+
+namespace cb {
+
+constexpr int kSpectralBins = 16;
+constexpr float kLambdaMin = 400.f, kLambdaMax = 700.f;
+constexpr float kBinWidth = (kLambdaMax - kLambdaMin) / kSpectralBins; // 18.75 nm
+
+// Bin i covers [binLambdaLow(i), binLambdaHigh(i)].
+constexpr float binLambdaLow(int i) {
+    return kLambdaMin + kBinWidth * static_cast<float>(i);
+}
+constexpr float binLambdaHigh(int i) {
+    return kLambdaMin + kBinWidth * static_cast<float>(i + 1);
+}
+
+// (wavelength in nm, value) pairs with strictly increasing wavelengths. Between samples the
+// spectrum is linear; beyond the first/last sample it is constant (pbrt's convention).
+using PiecewiseLinear = std::vector<std::pair<float, float>>;
+
+// Value of s at nm. An empty spectrum is zero everywhere.
+double evalPiecewiseLinear(const PiecewiseLinear& s, double nm);
+
+// Exact integral of s over [a, b] (a <= b), nm * value units.
+double integratePiecewiseLinear(const PiecewiseLinear& s, double a, double b);
+
+// Exact mean of s over each 18.75 nm bin. Throws std::invalid_argument if the wavelengths are
+// not strictly increasing or a value is not finite.
+std::array<float, kSpectralBins> binSpectrum(const PiecewiseLinear& s);
+
+// CIE 1931 2-degree colour matching functions (x, y, z) at nm, from the multi-lobe
+// piecewise-Gaussian fit of Wyman, Sloan & Shirley 2013, JCGT 2(2), listing 1.
+std::array<double, 3> cieXyz1931Fit(double nm);
+
+// CIE XYZ of s over the model's range 400-700 nm (fine quadrature, not binned), normalised like
+// the 16-bin pipeline: a flat spectrum of value 1 has Y = 1. Light outside 400-700 nm is
+// ignored, as in the renderer. For reference and tests.
+std::array<double, 3> spectrumToXyz(const PiecewiseLinear& s);
+
+// 3 x channels row-major matrix M with linearSRGB = M * channels.
+// channels == 3: identity. channels == 16: per-bin CMF integrals normalised to Y(flat 1) = 1,
+// Bradford adaptation from the equal-energy white E to D65, then XYZ -> linear sRGB (Rec. 709
+// primaries). Throws std::invalid_argument for any other channel count.
+std::vector<float> channelsToRgbMatrix(int channels);
+
+// Linear sRGB of the binned spectrum: channelsToRgbMatrix(16) * binSpectrum(s). Used to render a
+// spectral parameter in an RGB scene consistently with the 16-bin pipeline.
+std::array<float, 3> spectrumToRgb(const PiecewiseLinear& s);
+
+// Linear sRGB of 16 bin values (channelsToRgbMatrix(16) applied).
+std::array<float, 3> binsToRgb(const std::array<float, kSpectralBins>& bins);
+
+// 16-bin spectrum for an RGB parameter in a spectral scene, after Smits 1999 ("An RGB-to-spectrum
+// conversion for reflectances"): white + one secondary + one primary basis spectrum. (1,1,1)
+// maps to the flat spectrum 1 exactly; rgb in [0,1]^3 gives bins in [0,1]; the map is
+// positively homogeneous, so emission (rgb > 1) scales linearly.
+std::array<float, kSpectralBins> rgbToSpectrum(std::array<float, 3> rgb);
+
+// The seven basis spectra used by rgbToSpectrum, in the order white, cyan, magenta, yellow, red,
+// green, blue (exposed for tests and docs).
+const std::array<std::array<float, kSpectralBins>, 7>& smitsBasis();
+
+} // namespace cb

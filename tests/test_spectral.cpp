@@ -1,0 +1,321 @@
+// Spectral module (src/spectral) and the data of scenes/cornell-box.pbrt.
+#include <doctest/doctest.h>
+
+#include "spectral/spectral.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <fstream>
+#include <regex>
+#include <sstream>
+#include <string>
+#include <vector>
+
+using namespace cb;
+
+namespace {
+
+// The white of the 16-bin pipeline: M * (1,...,1). Documented in docs/spectral.md.
+constexpr std::array<double, 3> kDocumentedWhite{0.994300, 1.002399, 0.993726};
+
+std::array<double, 3> matrixTimesOnes(const std::vector<float>& m, int channels) {
+    std::array<double, 3> r{};
+    for (int c = 0; c < 3; ++c)
+        for (int i = 0; i < channels; ++i)
+            r[c] += m[c * channels + i];
+    return r;
+}
+
+} // namespace
+
+TEST_CASE("spectral: flat spectrum gives the documented white, within 1% of (1,1,1)") {
+    const auto m = channelsToRgbMatrix(kSpectralBins);
+    REQUIRE(m.size() == 3 * kSpectralBins);
+    const auto white = matrixTimesOnes(m, kSpectralBins);
+    const auto viaSpectrum = spectrumToRgb({{500.f, 1.f}});
+    for (int c = 0; c < 3; ++c) {
+        CHECK(std::abs(white[c] - kDocumentedWhite[c]) < 1e-3);
+        CHECK(std::abs(white[c] - 1.0) < 0.01);
+        // M * ones and the full spectrum path agree (binning a constant is exact).
+        CHECK(viaSpectrum[c] == doctest::Approx(white[c]).epsilon(1e-6));
+    }
+    // Y of a flat spectrum is 1 by construction; X and Z fall short only by the CMF mass outside
+    // 400-700 nm and the fit's error (docs/spectral.md).
+    const auto xyz = spectrumToXyz({{400.f, 1.f}, {700.f, 1.f}});
+    CHECK(xyz[1] == doctest::Approx(1.0).epsilon(1e-9));
+    CHECK(xyz[0] == doctest::Approx(0.99738).epsilon(1e-4));
+    CHECK(xyz[2] == doctest::Approx(0.99469).epsilon(1e-4));
+}
+
+TEST_CASE("spectral: CMF fit close to the CIE 1931 table") {
+    // CIE 1931 2-degree tabulated values (x, y, z) at 450, 500, 550, 600, 650 nm.
+    const double table[5][4] = {{450, 0.33620, 0.03800, 1.77211},
+                                {500, 0.00490, 0.32300, 0.27200},
+                                {550, 0.43345, 0.99495, 0.00875},
+                                {600, 1.06220, 0.63100, 0.00080},
+                                {650, 0.28350, 0.10700, 0.00000}};
+    for (const auto& row : table) {
+        const auto f = cieXyz1931Fit(row[0]);
+        for (int c = 0; c < 3; ++c)
+            CHECK(std::abs(f[c] - row[c + 1]) < 0.012);
+    }
+}
+
+TEST_CASE("spectral: binSpectrum is the exact mean over each bin") {
+    SUBCASE("constant") {
+        const auto b = binSpectrum({{550.f, 0.37f}});
+        for (float v : b)
+            CHECK(v == doctest::Approx(0.37f).epsilon(1e-6));
+        for (float v : binSpectrum({}))
+            CHECK(v == 0.f);
+    }
+    SUBCASE("linear: mean is the value at the bin centre") {
+        // f = 2 + 0.01 (nm - 400), sampled only at the ends: no bin contains a sample.
+        const auto b = binSpectrum({{400.f, 2.f}, {700.f, 5.f}});
+        for (int i = 0; i < kSpectralBins; ++i) {
+            const double centre = 0.5 * (binLambdaLow(i) + binLambdaHigh(i));
+            CHECK(b[i] == doctest::Approx(2.0 + 0.01 * (centre - 400.0)).epsilon(1e-6));
+        }
+    }
+    SUBCASE("triangle straddling a bin edge") {
+        // Peak 1 at 460 nm, zero at 450 and 470; the edge between bins 2 and 3 is 456.25 nm.
+        // Bin 2 holds the ramp 450..456.25: 6.25^2 / 20 = 1.953125 nm; bin 3 the rest of the
+        // area 10: 8.046875 nm. Divided by 18.75 nm.
+        const auto b = binSpectrum({{450.f, 0.f}, {460.f, 1.f}, {470.f, 0.f}});
+        for (int i = 0; i < kSpectralBins; ++i) {
+            const double expect = i == 2 ? 1.953125 / 18.75 : i == 3 ? 8.046875 / 18.75 : 0.0;
+            CHECK(b[i] == doctest::Approx(expect).epsilon(1e-6));
+        }
+    }
+    SUBCASE("constant extrapolation and the Cornell emission") {
+        // Table A.1 read as piecewise linear; bin 0 is [400, 418.75]: mean 0.08 * 9.375 = 0.75.
+        // Bin 5 = [493.75, 512.5] straddles the 500 nm sample; by hand, piece by piece:
+        // 6.25 * (7.5 + 8) / 2 + 12.5 * (8 + 8.95) / 2 = 154.375.
+        const auto b = binSpectrum({{400.f, 0.f}, {500.f, 8.f}, {600.f, 15.6f}, {700.f, 18.4f}});
+        CHECK(b[0] == doctest::Approx(0.75).epsilon(1e-6));
+        CHECK(b[5] == doctest::Approx(154.375 / 18.75).epsilon(1e-6));
+        const auto e = binSpectrum({{450.f, 3.f}, {650.f, 7.f}});
+        CHECK(e[0] == doctest::Approx(3.0).epsilon(1e-6));  // wholly below the first sample
+        CHECK(e[15] == doctest::Approx(7.0).epsilon(1e-6)); // wholly above the last
+        // Bin 2 = [437.5, 456.25]: 12.5 nm of 3, then a ramp from 3 to 3.125 over 6.25 nm.
+        CHECK(e[2] == doctest::Approx((12.5 * 3.0 + 6.25 * 3.0625) / 18.75).epsilon(1e-6));
+    }
+    SUBCASE("malformed input throws") {
+        CHECK_THROWS_AS(binSpectrum({{500.f, 1.f}, {500.f, 2.f}}), std::invalid_argument);
+        CHECK_THROWS_AS(binSpectrum({{600.f, 1.f}, {500.f, 2.f}}), std::invalid_argument);
+        CHECK_THROWS_AS(binSpectrum({{500.f, NAN}}), std::invalid_argument);
+    }
+}
+
+TEST_CASE("spectral: narrow spectra have the expected dominant channel") {
+    // Triangles 20 nm wide at the base.
+    const float centres[3] = {450.f, 550.f, 650.f};
+    const int dominant[3] = {2, 1, 0};
+    for (int k = 0; k < 3; ++k) {
+        const float c = centres[k];
+        const auto rgb = spectrumToRgb({{c - 10.f, 0.f}, {c, 1.f}, {c + 10.f, 0.f}});
+        const int d = dominant[k];
+        INFO("centre " << c << " nm");
+        CHECK(rgb[d] > 0.05f);
+        for (int o = 0; o < 3; ++o)
+            if (o != d) CHECK(rgb[d] > 3.f * std::abs(rgb[o]));
+    }
+}
+
+TEST_CASE("spectral: channelsToRgbMatrix") {
+    const auto id = channelsToRgbMatrix(3);
+    REQUIRE(id.size() == 9);
+    for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c)
+            CHECK(id[r * 3 + c] == (r == c ? 1.f : 0.f));
+    CHECK_THROWS_AS(channelsToRgbMatrix(4), std::invalid_argument);
+    // M applied to a binned spectrum equals spectrumToRgb (one matrix for both paths).
+    const PiecewiseLinear s{{420.f, 0.2f}, {530.f, 0.9f}, {690.f, 0.1f}};
+    const auto bins = binSpectrum(s);
+    const auto m = channelsToRgbMatrix(kSpectralBins);
+    const auto rgb = spectrumToRgb(s);
+    for (int c = 0; c < 3; ++c) {
+        double v = 0.0;
+        for (int i = 0; i < kSpectralBins; ++i)
+            v += m[c * kSpectralBins + i] * bins[i];
+        CHECK(rgb[c] == doctest::Approx(v).epsilon(1e-5));
+    }
+}
+
+TEST_CASE("spectral: rgbToSpectrum") {
+    for (float v : rgbToSpectrum({1.f, 1.f, 1.f}))
+        CHECK(v == 1.f);
+    for (float v : rgbToSpectrum({0.f, 0.f, 0.f}))
+        CHECK(v == 0.f);
+    // Each non-white basis spectrum reproduces its target colour exactly (it is the constraint
+    // of its optimisation), so round trips err only by the white's deviation from (1,1,1).
+    const std::array<float, 3> targets[6] = {{0, 1, 1}, {1, 0, 1}, {1, 1, 0},
+                                             {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+    for (int k = 0; k < 6; ++k) {
+        const auto rgb = binsToRgb(smitsBasis()[k + 1]);
+        for (int c = 0; c < 3; ++c)
+            CHECK(rgb[c] == doctest::Approx(targets[k][c]).epsilon(1e-5).scale(1));
+    }
+    const float levels[5] = {0.f, 0.1f, 0.35f, 0.7f, 1.f};
+    for (float r : levels)
+        for (float g : levels)
+            for (float b : levels) {
+                const auto s = rgbToSpectrum({r, g, b});
+                for (float v : s) {
+                    CHECK(v >= -1e-6f);
+                    CHECK(v <= 1.f + 1e-6f);
+                }
+                const auto back = binsToRgb(s);
+                INFO("rgb " << r << " " << g << " " << b);
+                CHECK(std::abs(back[0] - r) < 0.01f);
+                CHECK(std::abs(back[1] - g) < 0.01f);
+                CHECK(std::abs(back[2] - b) < 0.01f);
+            }
+    // Positive homogeneity: emission values above 1 scale linearly.
+    const auto a = rgbToSpectrum({0.2f, 0.5f, 0.9f}), b5 = rgbToSpectrum({1.f, 2.5f, 4.5f});
+    for (int i = 0; i < kSpectralBins; ++i)
+        CHECK(b5[i] == doctest::Approx(5.f * a[i]).epsilon(1e-5));
+}
+
+// ---- Data of scenes/cornell-box.pbrt (no parser needed) ----
+
+namespace {
+
+std::string readCornell() {
+    const std::string path = std::string(CBDPT_SOURCE_DIR) + "/scenes/cornell-box.pbrt";
+    std::ifstream in(path);
+    REQUIRE_MESSAGE(in.good(), "cannot open " << path);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    // Comments would confuse the regexes below.
+    return std::regex_replace(ss.str(), std::regex("#[^\n]*"), "");
+}
+
+std::vector<double> numbers(const std::string& s) {
+    std::vector<double> v;
+    std::istringstream in(s);
+    double x;
+    while (in >> x)
+        v.push_back(x);
+    return v;
+}
+
+using P3 = std::array<double, 3>;
+P3 sub(P3 a, P3 b) {
+    return {a[0] - b[0], a[1] - b[1], a[2] - b[2]};
+}
+P3 cross(P3 a, P3 b) {
+    return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
+double dot(P3 a, P3 b) {
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+} // namespace
+
+TEST_CASE("cornell-box.pbrt: measured reflectance spectra") {
+    const std::string text = readCornell();
+    const std::regex re(
+        R"re(MakeNamedMaterial\s+"(\w+)"[^\[]*"spectrum reflectance"\s*\[([^\]]*)\])re");
+    std::vector<std::string> names;
+    for (auto it = std::sregex_iterator(text.begin(), text.end(), re); it != std::sregex_iterator();
+         ++it) {
+        const std::string name = (*it)[1];
+        names.push_back(name);
+        const auto v = numbers((*it)[2]);
+        if (name == "light") continue; // the emitters' black base material
+        INFO("material " << name);
+        REQUIRE(v.size() == 2 * 76);
+        for (int k = 0; k < 76; ++k) {
+            CHECK(v[2 * k] == 400 + 4 * k);
+            CHECK(v[2 * k + 1] >= 0.0);
+            CHECK(v[2 * k + 1] <= 1.0);
+        }
+        PiecewiseLinear s;
+        for (int k = 0; k < 76; ++k)
+            s.emplace_back(static_cast<float>(v[2 * k]), static_cast<float>(v[2 * k + 1]));
+        const auto rgb = spectrumToRgb(s);
+        // Spot values from tables A.18, A.21, A.23 and the colour each spectrum must have.
+        if (name == "white") {
+            CHECK(v[1] == 0.343);
+            CHECK(*std::min_element(rgb.begin(), rgb.end()) >
+                  0.85f * *std::max_element(rgb.begin(), rgb.end()));
+        } else if (name == "green") {
+            CHECK(v[2 * 75 + 1] == 0.159);
+            CHECK(rgb[1] > 1.5f * rgb[0]);
+            CHECK(rgb[1] > 1.5f * rgb[2]);
+        } else if (name == "red") {
+            CHECK(v[2 * 58 + 1] == doctest::Approx(0.620)); // 632 nm
+            CHECK(rgb[0] > 3.f * rgb[1]);
+            CHECK(rgb[0] > 3.f * rgb[2]);
+        }
+    }
+    std::sort(names.begin(), names.end());
+    CHECK(names == std::vector<std::string>{"green", "light", "red", "white"});
+}
+
+TEST_CASE("cornell-box.pbrt: emitters and orientation") {
+    const std::string text = readCornell();
+    const std::regex emission(R"re("spectrum L"\s*\[([^\]]*)\])re");
+    int emitters = 0;
+    for (auto it = std::sregex_iterator(text.begin(), text.end(), emission);
+         it != std::sregex_iterator(); ++it, ++emitters)
+        CHECK(numbers((*it)[1]) == std::vector<double>{400, 0.0, 500, 8.0, 600, 15.6, 700, 18.4});
+    CHECK(emitters == 2);
+    CHECK(text.find("Translate 0.200 0.100 0.400") != std::string::npos);
+    CHECK(std::regex_search(text, std::regex(R"re(Shape\s+"sphere"\s+"float radius"\s+0\.025)re")));
+
+    // Every mesh: triangles wound so cross(p1-p0, p2-p0) faces into the room; the 20-vertex
+    // block meshes face away from their own centre; the light faces -y.
+    const std::regex meshRe(
+        R"re((AreaLightSource[^\n]*\n(?:[^\n]*\n)*?)?\s*Shape\s+"trianglemesh"\s+"point3 P"\s*\[([^\]]*)\]\s*"integer indices"\s*\[([^\]]*)\])re");
+    const P3 roomCentre{0.278, 0.2744, 0.2796};
+    int meshes = 0, lights = 0;
+    for (auto it = std::sregex_iterator(text.begin(), text.end(), meshRe);
+         it != std::sregex_iterator(); ++it, ++meshes) {
+        const bool isLight = (*it)[1].matched;
+        lights += isLight;
+        const auto p = numbers((*it)[2]);
+        const auto idx = numbers((*it)[3]);
+        REQUIRE(p.size() % 3 == 0);
+        REQUIRE(idx.size() % 3 == 0);
+        const std::size_t nv = p.size() / 3;
+        P3 centre{};
+        for (std::size_t v = 0; v < nv; ++v)
+            for (int c = 0; c < 3; ++c)
+                centre[c] += p[3 * v + c] / static_cast<double>(nv);
+        for (std::size_t v = 0; v < nv; ++v) {
+            CHECK(p[3 * v] >= 0.0);
+            CHECK(p[3 * v] <= 0.556);
+            CHECK(p[3 * v + 1] >= 0.0);
+            CHECK(p[3 * v + 1] <= 0.5488);
+            CHECK(p[3 * v + 2] >= 0.0);
+            CHECK(p[3 * v + 2] <= 0.5592);
+        }
+        for (std::size_t t = 0; t < idx.size(); t += 3) {
+            P3 q[3];
+            for (int k = 0; k < 3; ++k) {
+                const auto i = static_cast<std::size_t>(idx[t + k]);
+                REQUIRE(i < nv);
+                q[k] = {p[3 * i], p[3 * i + 1], p[3 * i + 2]};
+            }
+            const P3 n = cross(sub(q[1], q[0]), sub(q[2], q[0]));
+            const P3 tc{(q[0][0] + q[1][0] + q[2][0]) / 3, (q[0][1] + q[1][1] + q[2][1]) / 3,
+                        (q[0][2] + q[1][2] + q[2][2]) / 3};
+            INFO("mesh " << meshes << " triangle " << t / 3);
+            CHECK(dot(n, n) > 1e-6); // not degenerate
+            if (nv == 20)
+                CHECK(dot(n, sub(tc, centre)) > 0.0);
+            else
+                CHECK(dot(n, sub(roomCentre, tc)) > 0.0);
+            if (isLight) {
+                CHECK(n[1] < 0.0);
+                CHECK(std::abs(n[0]) < 1e-12);
+                CHECK(std::abs(n[2]) < 1e-12);
+            }
+        }
+    }
+    CHECK(meshes == 8); // 5 walls, 2 blocks, 1 light
+    CHECK(lights == 1);
+}
