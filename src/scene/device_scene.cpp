@@ -179,12 +179,15 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
     // Primitives. Area lights get one Light per emitting primitive.
     std::vector<cbk::Primitive> primitives;
     std::vector<float> lightPower;
+    std::vector<int> emissionEntry(desc.areaLights.size(), -1); // one spectrum per AreaLightSource
     auto addAreaLight = [&](int areaLight, float area) {
         const AreaLightDesc& al = desc.areaLights[size_t(areaLight)];
+        int& entry = emissionEntry[size_t(areaLight)];
+        if (entry < 0) entry = spectra.add(al.radiance, al.scale);
         cbk::Light light{};
         light.kind = CB_LIGHT_AREA;
         light.primitive = -1; // set once the BVH has placed the primitive
-        light.emission = spectra.add(al.radiance, al.scale);
+        light.emission = entry;
         light.twoSided = al.twoSided ? 1 : 0;
         light.area = area;
         lightPower.push_back(spectra.average(light.emission) * area * float(M_PI) *

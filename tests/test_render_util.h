@@ -1,0 +1,42 @@
+// Rendering helpers for statistical tests.
+#pragma once
+
+#include "integrators/integrator.h"
+#include "scene/device_scene.h"
+
+#include <cmath>
+#include <vector>
+
+namespace cbtest {
+
+struct PooledStats {
+    double mean = 0;           // mean over all pixels, channels and estimates
+    double standardError = 0;  // of that mean, treating every pixel sample as independent
+    long nonFinite = 0;
+};
+
+// Renders `estimates` estimates and pools every (pixel, estimate) sample's channel average.
+inline PooledStats renderPooled(const cb::DeviceScene& scene, cb::ClRuntime& runtime,
+                                const cb::IntegratorSettings& settings, int estimates) {
+    auto integrator = cb::makeIntegrator(settings, scene, runtime);
+    std::vector<float> rgb;
+    double sum = 0, sumSq = 0;
+    long n = 0;
+    for (int e = 0; e < estimates; ++e) {
+        integrator->renderEstimate(std::uint32_t(e), rgb);
+        for (size_t i = 0; i + 2 < rgb.size(); i += 3) {
+            double v = (double(rgb[i]) + rgb[i + 1] + rgb[i + 2]) / 3.0;
+            sum += v;
+            sumSq += v * v;
+            ++n;
+        }
+    }
+    PooledStats s;
+    s.mean = sum / double(n);
+    double variance = std::max(0.0, sumSq / double(n) - s.mean * s.mean) * double(n) / double(n - 1);
+    s.standardError = std::sqrt(variance / double(n));
+    s.nonFinite = integrator->nonFiniteSamples();
+    return s;
+}
+
+} // namespace cbtest
