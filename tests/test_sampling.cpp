@@ -1,0 +1,301 @@
+// Warps and GGX of kernels/cb_sampling.h: each density integrates to one, each sampler matches its
+// density (chi-square), the maps are continuous (coherence), and GGX stays finite at alpha = 1e-4
+// and grazing angles.
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <limits>
+#include <random>
+#include <vector>
+
+#include "cb_sampling.h"
+#include "chi2.h"
+
+using namespace cbk;
+using cbtest::kPi;
+
+namespace {
+
+// Chi-square tests in this file share one family-wise level of 1% (Sidak).
+constexpr int kChi2Tests = 16;
+const double kLevel = cbtest::sidak(0.01, kChi2Tests);
+
+struct Uniform {
+    std::mt19937 rng;
+    explicit Uniform(unsigned seed) : rng(seed) {}
+    // 24 random mantissa bits: uniform on [0, 1), never 1.
+    float operator()() { return static_cast<float>(rng() >> 8) * (1.0f / 16777216.0f); }
+};
+
+double angleBetween(Vec3 a, Vec3 b) {
+    double d = std::clamp(static_cast<double>(vdot(a, b)) /
+                              std::sqrt(static_cast<double>(vlength2(a)) * vlength2(b)),
+                          -1.0, 1.0);
+    return std::acos(d);
+}
+
+// Chi-square of a direction sampler (local frame) against its claimed density.
+cbtest::Chi2Result sphereChi2(const std::function<Vec3(float, float)>& sample,
+                              const std::function<double(Vec3)>& pdf, int samples, unsigned seed,
+                              double* integral = nullptr) {
+    cbtest::SphereHistogram hist(20, 40);
+    std::vector<double> observed(hist.cells(), 0.0);
+    Uniform u(seed);
+    for (int i = 0; i < samples; ++i) {
+        float u0 = u(), u1 = u();
+        observed[hist.cell(sample(u0, u1))] += 1.0;
+    }
+    std::vector<double> expected = hist.integrate(pdf);
+    double total = 0.0;
+    for (double& e : expected) {
+        total += e;
+        e *= samples;
+    }
+    if (integral) *integral = total;
+    return cbtest::chi2Test(observed, expected, kLevel);
+}
+
+} // namespace
+
+TEST_CASE("concentric disk: inside the unit disk, uniform, continuous") {
+    Uniform u(1);
+    const int n = 200000, nr = 10, nphi = 20;
+    std::vector<double> observed(nr * nphi, 0.0);
+    for (int i = 0; i < n; ++i) {
+        float x, y;
+        sampleConcentricDisk(u(), u(), &x, &y);
+        double r2 = static_cast<double>(x) * x + static_cast<double>(y) * y;
+        REQUIRE(r2 <= 1.0 + 1e-6);
+        double phi = std::atan2(static_cast<double>(y), static_cast<double>(x));
+        if (phi < 0.0) phi += 2.0 * kPi;
+        // Cells of equal area: r^2 and phi uniform for a uniform disk.
+        int ir = std::min(nr - 1, static_cast<int>(r2 * nr));
+        int ip = std::min(nphi - 1, static_cast<int>(phi / (2.0 * kPi) * nphi));
+        observed[ir * nphi + ip] += 1.0;
+    }
+    std::vector<double> expected(nr * nphi, static_cast<double>(n) / (nr * nphi));
+    auto r = cbtest::chi2Test(observed, expected, kLevel);
+    INFO(r.message);
+    CHECK(r.passed);
+
+    // Corners and centre: the map sends the square's boundary to the circle.
+    float x, y;
+    sampleConcentricDisk(0.5f, 0.5f, &x, &y);
+    CHECK(x == 0.0f);
+    CHECK(y == 0.0f);
+    sampleConcentricDisk(1.0f, 1.0f, &x, &y);
+    CHECK(std::hypot(x, y) == doctest::Approx(1.0).epsilon(1e-6));
+    CHECK(std::atan2(y, x) == doctest::Approx(kPi / 4).epsilon(1e-6));
+
+    // Lipschitz: the concentric map stretches distances by at most pi/2 * 2 (Shirley-Chiu).
+    double worst = 0.0;
+    const float h = 1e-3f;
+    for (int i = 0; i <= 100; ++i)
+        for (int j = 0; j <= 100; ++j) {
+            float a = 0.98f * i / 100.0f + 0.01f, b = 0.98f * j / 100.0f + 0.01f;
+            float x0, y0, x1, y1, x2, y2;
+            sampleConcentricDisk(a, b, &x0, &y0);
+            sampleConcentricDisk(a + h, b, &x1, &y1);
+            sampleConcentricDisk(a, b + h, &x2, &y2);
+            worst = std::max(worst, static_cast<double>(std::hypot(x1 - x0, y1 - y0) / h));
+            worst = std::max(worst, static_cast<double>(std::hypot(x2 - x0, y2 - y0) / h));
+        }
+    CHECK(worst < kPi + 0.01);
+}
+
+TEST_CASE("cosine hemisphere: density integrates to 1 and matches the samples") {
+    double integral = 0.0;
+    auto r = sphereChi2(
+        sampleCosineHemisphere, [](Vec3 w) { return cosineHemispherePdf(w.z); }, 300000, 2,
+        &integral);
+    INFO(r.message);
+    CHECK(r.passed);
+    CHECK(integral == doctest::Approx(1.0).epsilon(1e-6));
+    CHECK(cosineHemispherePdf(-0.5f) == 0.0f);
+    CHECK(cosineHemispherePdf(1.0f) == doctest::Approx(1.0 / kPi));
+    Uniform u(3);
+    for (int i = 0; i < 10000; ++i) {
+        Vec3 w = sampleCosineHemisphere(u(), u());
+        REQUIRE(w.z >= 0.0f);
+        REQUIRE(vlength(w) == doctest::Approx(1.0).epsilon(1e-5));
+    }
+}
+
+TEST_CASE("cosine hemisphere is continuous in u (coherent sample vectors)") {
+    // z = sqrt(1 - r^2) has a square-root edge at the horizon, so nearby u give directions within
+    // O(sqrt(du)) there and O(du) elsewhere: bound the angle for du = 1e-4 by 2 sqrt(2 du) * 2.
+    const float h = 1e-4f;
+    double worst = 0.0;
+    for (int i = 0; i < 200; ++i)
+        for (int j = 0; j < 200; ++j) {
+            float a = (i + 0.5f) / 200.0f, b = (j + 0.5f) / 200.0f;
+            Vec3 w = sampleCosineHemisphere(a, b);
+            worst = std::max(worst, angleBetween(w, sampleCosineHemisphere(a + h, b)));
+            worst = std::max(worst, angleBetween(w, sampleCosineHemisphere(a, b + h)));
+        }
+    CHECK(worst < 4.0 * std::sqrt(2.0 * h));
+}
+
+TEST_CASE("uniform sphere and hemisphere: densities integrate to 1 and match the samples") {
+    double integral = 0.0;
+    auto r = sphereChi2(
+        sampleUniformSphere, [](Vec3) { return uniformSpherePdf(); }, 300000, 4, &integral);
+    INFO(r.message);
+    CHECK(r.passed);
+    CHECK(integral == doctest::Approx(1.0).epsilon(1e-6));
+
+    auto r2 = sphereChi2(
+        sampleUniformHemisphere, [](Vec3 w) { return w.z > 0.0f ? uniformHemispherePdf() : 0.0f; },
+        300000, 5, &integral);
+    INFO(r2.message);
+    CHECK(r2.passed);
+    CHECK(integral == doctest::Approx(1.0).epsilon(1e-6));
+}
+
+TEST_CASE("uniform triangle: barycentrics uniform by area, continuous across the diagonal") {
+    const int n = 20, samples = 300000;
+    std::vector<double> observed(n * n, 0.0), expected(n * n, 0.0);
+    Uniform u(6);
+    for (int i = 0; i < samples; ++i) {
+        float b0, b1, b2;
+        sampleUniformTriangle(u(), u(), &b0, &b1, &b2);
+        REQUIRE(b0 >= 0.0f);
+        REQUIRE(b1 >= 0.0f);
+        REQUIRE(b2 >= 0.0f);
+        REQUIRE(b0 + b1 + b2 == doctest::Approx(1.0).epsilon(1e-6));
+        int i1 = std::min(n - 1, static_cast<int>(b1 * n));
+        int i2 = std::min(n - 1, static_cast<int>(b2 * n));
+        observed[i1 * n + i2] += 1.0;
+    }
+    // Grid cells in (b1, b2) cut by the hypotenuse b1 + b2 = 1: whole, half or empty; the pdf
+    // (1 / area = 2) over them sums to exactly 1.
+    double total = 0.0;
+    for (int i = 0; i < n; ++i)
+        for (int j = 0; j < n; ++j) {
+            double area = i + j + 2 <= n ? 1.0 : (i + j + 1 == n ? 0.5 : 0.0);
+            double p = 2.0 * area / (n * n);
+            total += p;
+            expected[i * n + j] = p * samples;
+        }
+    CHECK(total == doctest::Approx(1.0).epsilon(1e-12));
+    auto r = cbtest::chi2Test(observed, expected, kLevel);
+    INFO(r.message);
+    CHECK(r.passed);
+
+    // Both branches agree on the diagonal u0 == u1 and the map is Lipschitz.
+    float a0, a1, a2, c0, c1, c2;
+    sampleUniformTriangle(0.4f, 0.4f, &a0, &a1, &a2);
+    sampleUniformTriangle(0.4f, std::nextafter(0.4f, 1.0f), &c0, &c1, &c2);
+    CHECK(std::fabs(a0 - c0) < 1e-6f);
+    CHECK(std::fabs(a1 - c1) < 1e-6f);
+    // The corners of the square go to the triangle's vertices.
+    sampleUniformTriangle(0.0f, 0.0f, &a0, &a1, &a2);
+    CHECK(a2 == 1.0f);
+    sampleUniformTriangle(1.0f, 0.0f, &a0, &a1, &a2);
+    CHECK(a0 == 1.0f);
+    sampleUniformTriangle(1.0f, 1.0f, &a0, &a1, &a2);
+    CHECK(a0 + a1 == doctest::Approx(1.0));
+}
+
+TEST_CASE("GGX: D is normalised (projected area 1) and the visible-normal pdf integrates to 1") {
+    for (float alpha : {0.05f, 0.3f, 1.0f}) {
+        cbtest::SphereHistogram hist(40, 8);
+        // Fine theta panels resolve the narrow peak at alpha = 0.05.
+        std::vector<double> proj =
+            hist.integrate([&](Vec3 wm) { return ggxD(wm, alpha) * fmax(wm.z, 0.0f); }, 4);
+        double sum = 0.0;
+        for (double v : proj)
+            sum += v;
+        INFO("alpha = " << alpha);
+        CHECK(sum == doctest::Approx(1.0).epsilon(1e-4));
+        for (float cosO : {1.0f, 0.7f, 0.2f, 0.05f}) {
+            Vec3 wo = vec3(std::sqrt(1.0f - cosO * cosO), 0.0f, cosO);
+            std::vector<double> v =
+                hist.integrate([&](Vec3 wm) { return ggxVisibleNormalPdf(wo, wm, alpha); }, 4);
+            double s = 0.0;
+            for (double x : v)
+                s += x;
+            INFO("cos wo = " << cosO);
+            CHECK(s == doctest::Approx(1.0).epsilon(1e-3));
+        }
+    }
+}
+
+TEST_CASE("GGX: Smith G1 and Lambda against closed forms") {
+    // alpha = 1, theta = 60 deg: Lambda = (sqrt(1 + 3) - 1) / 2 = 0.5, G1 = 2/3.
+    Vec3 w = vec3(std::sqrt(3.0f) / 2.0f, 0.0f, 0.5f);
+    CHECK(ggxLambda(w, 1.0f) == doctest::Approx(0.5).epsilon(1e-6));
+    CHECK(ggxG1(w, 1.0f) == doctest::Approx(2.0 / 3.0).epsilon(1e-6));
+    CHECK(ggxG(w, w, 1.0f) == doctest::Approx(0.5).epsilon(1e-6));
+    CHECK(ggxG1(vec3(0.0f, 0.0f, 1.0f), 0.5f) == 1.0f);
+    CHECK(ggxD(vec3(0.0f, 0.0f, 1.0f), 0.5f) == doctest::Approx(1.0 / (kPi * 0.25)));
+    CHECK(ggxD(vec3(0.0f, 0.0f, -1.0f), 0.5f) == 0.0f);
+    // Tangent plane: no visibility.
+    CHECK(ggxG1(vec3(1.0f, 0.0f, 0.0f), 0.3f) < 1e-30f);
+    // Small-slope regime where the naive (sqrt(1+s)-1)/2 would cancel to zero.
+    Vec3 near = vnormalize(vec3(1e-3f, 0.0f, 1.0f));
+    double tan2 = 1e-6 * 1e-8; // alpha = 1e-4
+    CHECK(ggxLambda(near, 1e-4f) == doctest::Approx(tan2 / 4.0).epsilon(1e-3));
+}
+
+TEST_CASE("GGX visible normals: sampled histogram matches ggxVisibleNormalPdf") {
+    int k = 0;
+    for (float alpha : {0.1f, 0.5f, 1.0f})
+        for (float cosO : {0.9f, 0.3f, 0.05f}) {
+            Vec3 wo = vnormalize(vec3(std::sqrt(1.0f - cosO * cosO) * 0.6f,
+                                      std::sqrt(1.0f - cosO * cosO) * -0.8f, cosO));
+            double integral = 0.0;
+            auto r = sphereChi2(
+                [&](float a, float b) { return ggxSampleVisibleNormal(wo, alpha, a, b); },
+                [&](Vec3 wm) { return ggxVisibleNormalPdf(wo, wm, alpha); }, 100000, 100 + k++,
+                &integral);
+            INFO("alpha = " << alpha << ", cos wo = " << cosO << ": " << r.message);
+            CHECK(r.passed);
+            CHECK(integral == doctest::Approx(1.0).epsilon(2e-3));
+        }
+}
+
+TEST_CASE("GGX at alpha = 1e-4 and grazing angles stays finite") {
+    const float alpha = 1e-4f;
+    Uniform u(7);
+    for (float cosO : {1.0f, 0.5f, 0.05f, 1e-4f, 1e-8f, 1e-30f, 0.0f}) {
+        Vec3 wo = vec3(std::sqrt(1.0f - cosO * cosO), 0.0f, cosO);
+        CHECK(std::isfinite(ggxLambda(wo, alpha)));
+        CHECK(std::isfinite(ggxG1(wo, alpha)));
+        int near = 0;
+        for (int i = 0; i < 2000; ++i) {
+            float a = i == 0 ? 0.0f : (i == 1 ? 0.99999994f : u()), b = u();
+            Vec3 wm = ggxSampleVisibleNormal(wo, alpha, a, b);
+            REQUIRE(std::isfinite(wm.x));
+            REQUIRE(std::isfinite(wm.y));
+            REQUIRE(std::isfinite(wm.z));
+            REQUIRE(wm.z >= 0.0f);
+            REQUIRE(vlength(wm) == doctest::Approx(1.0).epsilon(1e-5));
+            float d = ggxD(wm, alpha), p = ggxVisibleNormalPdf(wo, wm, alpha);
+            REQUIRE(std::isfinite(d));
+            REQUIRE(std::isfinite(p));
+            REQUIRE(p >= 0.0f);
+            if (std::acos(std::min(wm.z, 1.0f)) < 5e-3) ++near;
+        }
+        // The normals concentrate at the macro normal: at normal incidence P(tan > T) =
+        // alpha^2 / (alpha^2 + T^2), 4e-4 for T = 5e-3 (the edge u = 0 maps to the horizon).
+        if (cosO > 0.01f) CHECK(near > 2000 * 99 / 100);
+    }
+}
+
+TEST_CASE("power heuristic: values and robustness to zero, infinity and overflow") {
+    const float inf = std::numeric_limits<float>::infinity();
+    CHECK(powerHeuristic(1.0f, 1.0f) == doctest::Approx(0.5));
+    CHECK(powerHeuristic(2.0f, 1.0f) == doctest::Approx(0.8));
+    CHECK(powerHeuristic(1.0f, 3.0f) == doctest::Approx(0.1));
+    CHECK(powerHeuristic(0.0f, 1.0f) == 0.0f);
+    CHECK(powerHeuristic(1.0f, 0.0f) == 1.0f);
+    CHECK(powerHeuristic(0.0f, 0.0f) == 0.0f);
+    CHECK(powerHeuristic(inf, 1.0f) == 1.0f);
+    CHECK(powerHeuristic(1.0f, inf) == 0.0f);
+    CHECK(powerHeuristic(inf, inf) == 0.5f);
+    CHECK(powerHeuristic(1e30f, 1e-30f) == 1.0f);
+    CHECK(powerHeuristic(1e-30f, 1e30f) == 0.0f);
+    CHECK(powerHeuristic(3e20f, 4e20f) == doctest::Approx(9.0 / 25.0));
+    CHECK(powerHeuristic(std::nanf(""), 1.0f) == 0.0f);
+}
