@@ -15,6 +15,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <sstream>
 #include <unistd.h>
 
 namespace {
@@ -124,6 +125,7 @@ struct RenderOptions {
     int height = 0;
     bool noRoulette = false;
     bool sppGiven = false;
+    std::string strategy;
     bool quiet = false;
     cb::IntegratorSettings integrator;
 };
@@ -145,6 +147,15 @@ int runRender(RenderOptions& o) {
     cb::DeviceScene scene = cb::buildDeviceScene(desc, parseChannels(o.channels));
     double loadSeconds = std::chrono::duration<double>(Clock::now() - t0).count();
     if (o.noRoulette) o.integrator.rouletteVertex = 0;
+    if (!o.strategy.empty()) {
+        char comma = 0;
+        std::istringstream in(o.strategy);
+        if (!(in >> o.integrator.debugS >> comma >> o.integrator.debugT) || comma != ',' ||
+            o.integrator.debugS < 0 || o.integrator.debugT < 1)
+            throw std::invalid_argument(fmt::format(
+                "--strategy '{}' must be S,T with S >= 0 light vertices and T >= 1 eye vertices",
+                o.strategy));
+    }
 
     std::string output = o.output.empty() ? std::filesystem::path(desc.film.filename).filename().string()
                                           : o.output;
@@ -229,12 +240,17 @@ int main(int argc, char** argv) {
     renderCmd->add_option("scene", render.scene, "scene file (pbrt-v4 subset)")->required();
     renderCmd->add_option("-o,--output", render.output, "EXR output (default: the Film filename)");
     renderCmd->add_option("--png", render.png, "PNG preview (default: output with .png)");
-    renderCmd->add_option("--integrator", render.integrator.name, "pt | cpt")
-        ->check(CLI::IsMember({"pt", "cpt"}));
+    renderCmd->add_option("--integrator", render.integrator.name, "pt | cpt | bdpt | cbdpt | mlt");
     renderCmd->add_option("--spp", render.spp, "estimates (samples per pixel)");
     renderCmd->add_option("--time", render.seconds, "render for this many seconds");
     renderCmd->add_option("--eye-vertices", render.integrator.eyeVertices,
                           "Ne: path vertices, the camera included");
+    renderCmd->add_option("--light-vertices", render.integrator.lightVertices,
+                          "Nl: light subpath vertices, the point on the light included");
+    renderCmd->add_option("--weights", render.integrator.weights,
+                          "bidirectional MIS weights: power | lafortune");
+    renderCmd->add_option("--strategy", render.strategy,
+                          "debug: render only strategy S,T unweighted (e.g. 2,3)");
     renderCmd->add_option("--rr-vertex", render.integrator.rouletteVertex,
                           "Russian roulette from this vertex on (0: off)");
     renderCmd->add_flag("--no-rr", render.noRoulette, "disable Russian roulette");

@@ -13,8 +13,12 @@
 namespace cb {
 
 struct IntegratorSettings {
-    std::string name = "pt";  // pt | cpt
+    std::string name = "pt";  // pt | cpt | bdpt | cbdpt | mlt
     int eyeVertices = 8;      // Ne, the camera included (thesis convention)
+    int lightVertices = 4;    // Nl, the point on the light included (bidirectional methods)
+    std::string weights = "power"; // bidirectional MIS: power | lafortune
+    int debugS = -1;          // >= 0 with debugT: render only strategy (s, t), unweighted
+    int debugT = -1;
     int rouletteVertex = 3;   // Russian roulette from this vertex on; 0 disables it
     std::uint32_t seed = 0;
     int coherenceTile = 1;    // cpt: k x k distinct sample vectors per estimate
@@ -35,5 +39,9 @@ class Integrator {
 // Validates the settings against the scene (caps, names) and builds the kernels.
 std::unique_ptr<Integrator> makeIntegrator(const IntegratorSettings& settings,
                                            const DeviceScene& scene, ClRuntime& runtime);
+
+// Per-method constructors, called by makeIntegrator after the common checks.
+std::unique_ptr<Integrator> makePathTracingIntegrator(const IntegratorSettings& settings,
+                                                      const DeviceScene& scene, ClRuntime& runtime);
 
 } // namespace cb

@@ -3,8 +3,6 @@
 
 #include "cb_pt.h"
 
-#include <fmt/format.h>
-#include <stdexcept>
 
 namespace cb {
 
@@ -94,22 +92,9 @@ class PathTracingIntegrator final : public Integrator {
 
 } // namespace
 
-std::unique_ptr<Integrator> makeIntegrator(const IntegratorSettings& settings,
-                                           const DeviceScene& scene, ClRuntime& runtime) {
-    if (settings.eyeVertices < 2 || settings.eyeVertices > 1024)
-        throw std::invalid_argument(fmt::format(
-            "--eye-vertices {} is out of range: it counts the camera, so 2 (emitters seen "
-            "directly) to 1024",
-            settings.eyeVertices));
-    if (settings.rouletteVertex < 0)
-        throw std::invalid_argument("--rr-vertex must be >= 0 (0 disables Russian roulette)");
-    if (settings.tileSize < 1 || settings.tileSize > 32)
-        throw std::invalid_argument("--tile must be between 1 and 32 pixels");
-    if (settings.coherenceTile < 1 || settings.coherenceTile > 4096)
-        throw std::invalid_argument("--coherence-tile must be between 1 and 4096");
-    if (settings.name == "pt" || settings.name == "cpt")
-        return std::make_unique<PathTracingIntegrator>(settings, scene, runtime);
-    throw std::invalid_argument(fmt::format("unknown integrator '{}' (available: pt, cpt)", settings.name));
+std::unique_ptr<Integrator> makePathTracingIntegrator(const IntegratorSettings& settings,
+                                                      const DeviceScene& scene, ClRuntime& runtime) {
+    return std::make_unique<PathTracingIntegrator>(settings, scene, runtime);
 }
 
 } // namespace cb

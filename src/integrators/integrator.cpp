@@ -1,0 +1,36 @@
+#include "integrators/integrator.h"
+
+#include <fmt/format.h>
+#include <stdexcept>
+
+namespace cb {
+
+std::unique_ptr<Integrator> makeIntegrator(const IntegratorSettings& settings,
+                                           const DeviceScene& scene, ClRuntime& runtime) {
+    (void)scene;
+    // Caps are checked before anything is allocated or compiled.
+    if (settings.eyeVertices < 2 || settings.eyeVertices > 1024)
+        throw std::invalid_argument(fmt::format(
+            "--eye-vertices {} is out of range: it counts the camera, so 2 (emitters seen "
+            "directly) to 1024",
+            settings.eyeVertices));
+    if (settings.lightVertices < 1 || settings.lightVertices > 1024)
+        throw std::invalid_argument(fmt::format(
+            "--light-vertices {} is out of range: it counts the point on the light, so 1 to 1024",
+            settings.lightVertices));
+    if (settings.rouletteVertex < 0)
+        throw std::invalid_argument("--rr-vertex must be >= 0 (0 disables Russian roulette)");
+    if (settings.tileSize < 1 || settings.tileSize > 32)
+        throw std::invalid_argument("--tile must be between 1 and 32 pixels");
+    if (settings.coherenceTile < 1 || settings.coherenceTile > 4096)
+        throw std::invalid_argument("--coherence-tile must be between 1 and 4096");
+    if (settings.weights != "power" && settings.weights != "lafortune")
+        throw std::invalid_argument(
+            fmt::format("unknown --weights '{}' (power or lafortune)", settings.weights));
+    if (settings.name == "pt" || settings.name == "cpt")
+        return makePathTracingIntegrator(settings, scene, runtime);
+    throw std::invalid_argument(
+        fmt::format("unknown integrator '{}' (available: pt, cpt)", settings.name));
+}
+
+} // namespace cb
