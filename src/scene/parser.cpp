@@ -1,0 +1,1139 @@
+// Parser for the pbrt-v4 scene-format subset documented in docs/scene-format.md.
+//
+// Structure follows pbrt-v4's own parser (src/pbrt/parser.cpp): a tokenizer per file, a loop
+// over directives, parameter lists of `"type name" value(s)`, and a graphics state (CTM,
+// orientation, material, area light) saved and restored by AttributeBegin/AttributeEnd. Unlike
+// pbrt, nothing is ever ignored with a warning: anything outside the subset is a SceneError
+// that points at the offending token.
+#include "scene/ply.h"
+#include "scene/scene_desc.h"
+#include "scene/transform.h"
+
+#include <cctype>
+#include <charconv>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <limits>
+#include <memory>
+#include <optional>
+#include <sstream>
+#include <string_view>
+
+namespace cb {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Token {
+    std::string text; // strings are stored without quotes, escapes resolved
+    bool quoted = false;
+    SourceLocation where;
+    bool isBracket(char c) const { return !quoted && text.size() == 1 && text[0] == c; }
+};
+
+std::string describe(const Token& t) { return t.quoted ? "\"" + t.text + "\"" : "'" + t.text + "'"; }
+
+class Tokenizer {
+  public:
+    Tokenizer(std::string text, std::string path) : text_(std::move(text)), path_(std::move(path)) {
+        if (text_.compare(0, 3, "\xEF\xBB\xBF") == 0) pos_ = 3; // UTF-8 byte order mark
+    }
+
+    const std::string& path() const { return path_; }
+    SourceLocation here() const { return SourceLocation{path_, line_, col_}; }
+
+    std::optional<Token> next() {
+        for (;;) {
+            while (pos_ < text_.size() && isSpace(text_[pos_])) bump();
+            if (pos_ >= text_.size()) return std::nullopt;
+            if (text_[pos_] != '#') break;
+            while (pos_ < text_.size() && text_[pos_] != '\n') bump();
+        }
+        Token t;
+        t.where = here();
+        const char c = text_[pos_];
+        if (c == '"') {
+            t.quoted = true;
+            bump();
+            for (;;) {
+                if (pos_ >= text_.size() || text_[pos_] == '\n')
+                    throw SceneError(t.where, "unterminated string (missing closing '\"')");
+                const char d = text_[pos_];
+                if (d == '"') {
+                    bump();
+                    return t;
+                }
+                if (d == '\\') {
+                    const SourceLocation escLoc = here();
+                    bump();
+                    const char e = pos_ < text_.size() ? text_[pos_] : '\0';
+                    switch (e) {
+                    case 'n': t.text += '\n'; break;
+                    case 't': t.text += '\t'; break;
+                    case 'r': t.text += '\r'; break;
+                    case 'b': t.text += '\b'; break;
+                    case 'f': t.text += '\f'; break;
+                    case '\\': t.text += '\\'; break;
+                    case '"': t.text += '"'; break;
+                    case '\'': t.text += '\''; break;
+                    default: throw SceneError(escLoc, "unknown escape sequence in string");
+                    }
+                    bump();
+                    continue;
+                }
+                t.text += d;
+                bump();
+            }
+        }
+        if (c == '[' || c == ']') {
+            t.text = std::string(1, c);
+            bump();
+            return t;
+        }
+        // Bare tokens end where pbrt-v4's do: whitespace, a quote or a bracket.
+        while (pos_ < text_.size() && !isSpace(text_[pos_]) && text_[pos_] != '"' &&
+               text_[pos_] != '[' && text_[pos_] != ']') {
+            t.text += text_[pos_];
+            bump();
+        }
+        return t;
+    }
+
+  private:
+    static bool isSpace(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\n'; }
+    void bump() {
+        if (text_[pos_] == '\n') {
+            ++line_;
+            col_ = 1;
+        } else {
+            ++col_;
+        }
+        ++pos_;
+    }
+
+    std::string text_;
+    std::string path_;
+    size_t pos_ = 0;
+    int line_ = 1;
+    int col_ = 1;
+};
+
+// A number token; empty when the token is not entirely a number. Leading '+' is allowed as in
+// strtod, which pbrt-v4 uses. Non-finite values are reported by the caller.
+std::optional<double> parseNumber(std::string_view s, bool& outOfRange) {
+    outOfRange = false;
+    if (s.size() > 1 && s[0] == '+' && s[1] != '-') s.remove_prefix(1);
+    if (s.empty()) return std::nullopt;
+    double v = 0.0;
+    auto [p, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
+    if (p != s.data() + s.size()) return std::nullopt;
+    if (ec == std::errc::result_out_of_range) {
+        outOfRange = true;
+        return std::nullopt;
+    }
+    if (ec != std::errc()) return std::nullopt;
+    return v;
+}
+
+double numberFromToken(const Token& t, const std::string& context) {
+    if (t.quoted || t.isBracket('[') || t.isBracket(']'))
+        throw SceneError(t.where, "expected a number " + context + ", found " + describe(t));
+    bool outOfRange = false;
+    const auto v = parseNumber(t.text, outOfRange);
+    if (outOfRange) throw SceneError(t.where, "number '" + t.text + "' is out of range");
+    if (!v) throw SceneError(t.where, "expected a number " + context + ", found " + describe(t));
+    if (!std::isfinite(*v))
+        throw SceneError(t.where, "'" + t.text + "' is not a finite number (NaN/Inf rejected)");
+    return *v;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Parameter lists
+
+struct Param {
+    enum class Kind { None, Number, String, Bool };
+    std::string type, name;
+    SourceLocation where; // of the "type name" string
+    Kind kind = Kind::None;
+    std::vector<double> numbers;
+    std::vector<std::string> strings;
+    std::vector<bool> bools;
+    std::vector<std::pair<int, int>> valuePos; // line, column of each value
+    bool used = false;
+
+    size_t size() const { return valuePos.size(); }
+    SourceLocation valueLoc(size_t i) const {
+        return SourceLocation{where.file, valuePos[i].first, valuePos[i].second};
+    }
+    std::string decl() const { return "\"" + type + " " + name + "\""; }
+};
+
+bool knownParamType(const std::string& t) {
+    for (const char* k : {"bool", "integer", "float", "point2", "vector2", "point3", "vector3",
+                          "normal", "string", "texture", "rgb", "spectrum", "blackbody"})
+        if (t == k) return true;
+    return false;
+}
+
+enum class SpectrumRole { Reflectance, Emission };
+
+class ParamList {
+  public:
+    ParamList(std::vector<Param> params, std::string owner, SceneDesc& scene)
+        : params_(std::move(params)), owner_(std::move(owner)), scene_(scene) {}
+
+    bool has(const std::string& name) const {
+        for (const Param& p : params_)
+            if (p.name == name) return true;
+        return false;
+    }
+    const Param* peek(const std::string& name) const {
+        for (const Param& p : params_)
+            if (p.name == name) return &p;
+        return nullptr;
+    }
+
+    std::optional<double> oneFloat(const std::string& name) {
+        const Param* p = numeric(name, "float", 1);
+        if (!p) return std::nullopt;
+        if (p->size() != 1) wrongCount(*p, "exactly 1 value");
+        return p->numbers[0];
+    }
+
+    std::optional<int> oneInt(const std::string& name) {
+        const Param* p = numeric(name, "integer", 1);
+        if (!p) return std::nullopt;
+        if (p->size() != 1) wrongCount(*p, "exactly 1 value");
+        return static_cast<int>(p->numbers[0]);
+    }
+
+    std::optional<bool> oneBool(const std::string& name) {
+        const Param* p = lookup(name, {"bool"});
+        if (!p) return std::nullopt;
+        if (p->size() != 1) wrongCount(*p, "exactly 1 value");
+        if (p->kind == Param::Kind::Bool) return bool(p->bools[0]);
+        // pbrt-v4 also accepts "true"/"false" in quotes.
+        if (p->kind == Param::Kind::String) {
+            if (p->strings[0] == "true") return true;
+            if (p->strings[0] == "false") return false;
+        }
+        throw SceneError(p->valueLoc(0), "parameter " + p->decl() + " expects true or false");
+    }
+
+    std::optional<std::string> oneString(const std::string& name) {
+        const Param* p = stringList(name);
+        if (!p) return std::nullopt;
+        if (p->size() != 1) wrongCount(*p, "exactly 1 value");
+        return p->strings[0];
+    }
+
+    const Param* stringList(const std::string& name) {
+        const Param* p = lookup(name, {"string"});
+        if (p && p->kind != Param::Kind::String)
+            throw SceneError(p->valueLoc(0), "parameter " + p->decl() + " expects strings");
+        return p;
+    }
+
+    // A numeric array of `type` whose length is a positive multiple of perItem.
+    const Param* numeric(const std::string& name, const char* type, size_t perItem) {
+        const Param* p = lookup(name, {type});
+        if (!p) return nullptr;
+        if (p->kind != Param::Kind::Number)
+            throw SceneError(p->size() ? p->valueLoc(0) : p->where,
+                             "parameter " + p->decl() + " expects numbers");
+        if (p->size() % perItem != 0)
+            wrongCount(*p, "a multiple of " + std::to_string(perItem) + " values");
+        if (std::string(type) == "integer")
+            for (size_t i = 0; i < p->size(); ++i) {
+                const double v = p->numbers[i];
+                if (v != std::floor(v) || v < std::numeric_limits<int>::lowest() ||
+                    v > std::numeric_limits<int>::max())
+                    throw SceneError(p->valueLoc(i), "parameter " + p->decl() +
+                                                         " expects integers (in int range)");
+            }
+        return p;
+    }
+
+    std::optional<SpectrumValue> spectrum(const std::string& name, SpectrumRole role) {
+        const Param* p = lookup(name, {"rgb", "spectrum"});
+        if (!p) return std::nullopt;
+        SpectrumValue s;
+        if (p->type == "spectrum") {
+            scene_.usesSpectra = true;
+            if (p->kind == Param::Kind::String)
+                throw SceneError(p->where, "parameter " + p->decl() + ": named/file spectra not "
+                                                                      "supported (got \"" +
+                                               p->strings[0] +
+                                               "\"); give [lambda value ...] pairs inline");
+            if (p->kind != Param::Kind::Number)
+                throw SceneError(p->valueLoc(0), "parameter " + p->decl() + " expects numbers");
+            if (p->size() % 2 != 0)
+                wrongCount(*p, "(wavelength, value) pairs, i.e. an even number of values");
+            s.isRgb = false;
+            for (size_t i = 0; i < p->size(); i += 2) {
+                const double lambda = p->numbers[i];
+                if (!(lambda > 0.0))
+                    throw SceneError(p->valueLoc(i), "wavelength must be positive (nm)");
+                if (!s.samples.empty() && !(lambda > s.samples.back().first))
+                    throw SceneError(p->valueLoc(i),
+                                     "wavelengths must be strictly increasing in " + p->decl());
+                checkValue(*p, i + 1, role);
+                s.samples.emplace_back(static_cast<float>(lambda),
+                                       static_cast<float>(p->numbers[i + 1]));
+            }
+            return s;
+        }
+        if (p->kind != Param::Kind::Number)
+            throw SceneError(p->valueLoc(0), "parameter " + p->decl() + " expects 3 numbers");
+        if (p->size() != 3) wrongCount(*p, "exactly 3 values");
+        for (size_t i = 0; i < 3; ++i) {
+            checkValue(*p, i, role);
+            s.rgb[i] = static_cast<float>(p->numbers[i]);
+        }
+        return s;
+    }
+
+    // Every parameter must have been consumed: an unknown name is an error, never ignored.
+    void finish() const {
+        for (const Param& p : params_)
+            if (!p.used)
+                throw SceneError(p.where, "unknown or unsupported parameter " + p.decl() +
+                                              " for " + owner_);
+    }
+
+    const std::string& owner() const { return owner_; }
+
+  private:
+    const Param* lookup(const std::string& name, std::initializer_list<const char*> types) {
+        for (Param& p : params_) {
+            if (p.name != name) continue;
+            p.used = true;
+            for (const char* t : types)
+                if (p.type == t) {
+                    if (p.size() == 0)
+                        throw SceneError(p.where, "parameter " + p.decl() + " has no values");
+                    return &p;
+                }
+            std::string expected;
+            for (const char* t : types) expected += (expected.empty() ? "\"" : " or \"") + std::string(t) + "\"";
+            std::string why;
+            if (p.type == "texture") why = " (textures are not supported)";
+            if (p.type == "blackbody") why = " (blackbody spectra are not supported)";
+            throw SceneError(p.where, "parameter \"" + name + "\" of " + owner_ + " must have type " +
+                                          expected + ", not \"" + p.type + "\"" + why);
+        }
+        return nullptr;
+    }
+
+    [[noreturn]] void wrongCount(const Param& p, const std::string& expected) const {
+        throw SceneError(p.where, "parameter " + p.decl() + " of " + owner_ + " expects " +
+                                      expected + ", got " + std::to_string(p.size()));
+    }
+
+    void checkValue(const Param& p, size_t i, SpectrumRole role) const {
+        const double v = p.numbers[i];
+        if (v < 0.0)
+            throw SceneError(p.valueLoc(i), "parameter " + p.decl() + " has a negative value");
+        if (role == SpectrumRole::Reflectance && v > 1.0)
+            throw SceneError(p.valueLoc(i),
+                             "parameter " + p.decl() + " is a reflectance and must be <= 1");
+    }
+
+    std::vector<Param> params_;
+    std::string owner_;
+    SceneDesc& scene_;
+};
+
+// ---------------------------------------------------------------------------------------------
+// The parser proper
+
+struct GraphicsState {
+    Mat4 ctm;
+    bool reverseOrientation = false;
+    int material = -1; // -1: pbrt's default material, created on first use
+    int areaLight = -1;
+    SourceLocation openedAt; // of the AttributeBegin that saved this state
+};
+
+struct SourceFile {
+    Tokenizer tokens;
+    std::string dir; // folder for relative paths ("" = current directory)
+    fs::path key;    // canonical path, for recursive-include detection
+};
+
+std::string readWholeFile(const std::string& path, bool& ok) {
+    std::ifstream f(path, std::ios::binary);
+    ok = static_cast<bool>(f);
+    if (!ok) return {};
+    std::string s((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+    ok = !f.bad();
+    return s;
+}
+
+fs::path canonicalKey(const std::string& path) {
+    std::error_code ec;
+    fs::path p = fs::weakly_canonical(fs::path(path), ec);
+    return ec ? fs::path(path).lexically_normal() : p;
+}
+
+std::string parentDir(const std::string& path) { return fs::path(path).parent_path().string(); }
+
+std::string joinPath(const std::string& dir, const std::string& name) {
+    return dir.empty() ? name : (fs::path(dir) / name).lexically_normal().string();
+}
+
+class Parser {
+  public:
+    explicit Parser(SceneDesc& scene) : scene_(scene) {}
+
+    void run(std::string text, const std::string& path) {
+        topDir_ = parentDir(path);
+        files_.push_back(std::make_unique<SourceFile>(
+            SourceFile{Tokenizer(std::move(text), path), topDir_, canonicalKey(path)}));
+        SourceLocation end;
+        for (;;) {
+            std::optional<Token> t = next();
+            if (!t) {
+                end = files_.back()->tokens.here();
+                if (files_.size() == 1) break;
+                files_.pop_back();
+                continue;
+            }
+            directive(*t);
+        }
+        if (!stack_.empty())
+            throw SceneError(stack_.back().openedAt,
+                             "AttributeBegin without matching AttributeEnd");
+        if (!inWorld_) throw SceneError(end, "end of file before WorldBegin");
+    }
+
+  private:
+    // Tokens come from the innermost file only; the directive loop pops finished files, so a
+    // directive and its parameters can never straddle an Include boundary.
+    std::optional<Token> next() {
+        if (peeked_) return std::exchange(peeked_, std::nullopt);
+        return files_.back()->tokens.next();
+    }
+    const std::optional<Token>& peek() {
+        if (!peeked_) peeked_ = files_.back()->tokens.next();
+        return peeked_;
+    }
+
+    Token required(const Token& dir, const std::string& what) {
+        std::optional<Token> t = next();
+        if (!t)
+            throw SceneError(dir.where, "unexpected end of file: " + dir.text + " expects " + what);
+        return *t;
+    }
+
+    double number(const Token& dir, int count) {
+        const Token t = required(dir, std::to_string(count) + " numbers");
+        return numberFromToken(t, "for " + dir.text);
+    }
+
+    std::array<double, 3> number3(const Token& dir, int count) {
+        const double a = number(dir, count), b = number(dir, count), c = number(dir, count);
+        return {a, b, c};
+    }
+
+    Token quoted(const Token& dir, const std::string& what) {
+        Token t = required(dir, what);
+        if (!t.quoted)
+            throw SceneError(t.where, dir.text + " expects " + what + " in double quotes, found " +
+                                          describe(t));
+        return t;
+    }
+
+    ParamList params(const std::string& owner) {
+        std::vector<Param> list;
+        for (;;) {
+            const std::optional<Token>& pk = peek();
+            if (!pk || !pk->quoted) break;
+            Token declTok = *next();
+            Param p;
+            p.where = declTok.where;
+            std::istringstream words(declTok.text);
+            std::string extra;
+            if (!(words >> p.type >> p.name) || (words >> extra))
+                throw SceneError(p.where, "parameter declaration must be \"type name\", found \"" +
+                                              declTok.text + "\"");
+            if (!knownParamType(p.type)) {
+                std::string hint;
+                if (p.type == "color") hint = " (pbrt-v3 syntax; pbrt-v4 uses \"rgb\")";
+                if (p.type == "point" || p.type == "vector" || p.type == "normal3")
+                    hint = " (pbrt-v4 uses \"point3\", \"vector3\" and \"normal\")";
+                throw SceneError(p.where, "unknown parameter type \"" + p.type + "\"" + hint);
+            }
+            for (const Param& q : list)
+                if (q.name == p.name)
+                    throw SceneError(p.where, "parameter \"" + p.name + "\" given twice");
+            std::optional<Token> v = next();
+            if (!v) throw SceneError(p.where, "parameter " + p.decl() + " has no value (end of file)");
+            if (v->isBracket('[')) {
+                const SourceLocation open = v->where;
+                for (;;) {
+                    std::optional<Token> e = next();
+                    if (!e)
+                        throw SceneError(open, "end of file inside '[' of parameter " + p.decl() +
+                                                   " (missing ']')");
+                    if (e->isBracket(']')) break;
+                    addValue(p, *e, true);
+                }
+            } else {
+                if (looksLikeDirective(*v))
+                    throw SceneError(p.where, "parameter " + p.decl() + " has no value (found " +
+                                                  describe(*v) + ")");
+                addValue(p, *v, false);
+            }
+            list.push_back(std::move(p));
+        }
+        return ParamList(std::move(list), owner, scene_);
+    }
+
+    // A bare capitalised word that is not a number ("Infinity" is one) is a directive name:
+    // the parameter's value or its closing bracket is missing.
+    static bool looksLikeDirective(const Token& t) {
+        if (t.quoted || t.text.empty() || !std::isupper(static_cast<unsigned char>(t.text[0])))
+            return false;
+        bool outOfRange = false;
+        return !parseNumber(t.text, outOfRange) && !outOfRange;
+    }
+
+    static void addValue(Param& p, const Token& t, bool inBrackets) {
+        if (t.isBracket('['))
+            throw SceneError(t.where, "unexpected '[' in the values of parameter " + p.decl());
+        if (t.isBracket(']'))
+            throw SceneError(t.where, "unexpected ']' (no matching '[')");
+        Param::Kind kind;
+        if (t.quoted)
+            kind = Param::Kind::String;
+        else if (t.text == "true" || t.text == "false")
+            kind = Param::Kind::Bool;
+        else
+            kind = Param::Kind::Number;
+        if (p.kind != Param::Kind::None && p.kind != kind)
+            throw SceneError(t.where, "mixed value types in parameter " + p.decl());
+        if (kind == Param::Kind::Number) {
+            if (inBrackets && looksLikeDirective(t))
+                throw SceneError(t.where, "expected a value or ']' in parameter " + p.decl() +
+                                              ", found " + describe(t) + " (missing ']'?)");
+            p.numbers.push_back(numberFromToken(t, "in parameter " + p.decl()));
+        } else if (kind == Param::Kind::String) {
+            p.strings.push_back(t.text);
+        } else {
+            p.bools.push_back(t.text == "true");
+        }
+        p.kind = kind;
+        p.valuePos.emplace_back(t.where.line, t.where.column);
+    }
+
+    void requireWorld(const Token& dir) const {
+        if (!inWorld_)
+            throw SceneError(dir.where, dir.text + " is only allowed after WorldBegin");
+    }
+    void requireOptions(const Token& dir) const {
+        if (inWorld_)
+            throw SceneError(dir.where, dir.text + " is only allowed before WorldBegin");
+    }
+
+    void concat(const Mat4& m) { state_.ctm = state_.ctm * m; }
+
+    void directive(const Token& t) {
+        bool outOfRange = false;
+        if (t.quoted || t.isBracket('[') || t.isBracket(']') || parseNumber(t.text, outOfRange) ||
+            outOfRange)
+            throw SceneError(t.where, "expected a directive, found " + describe(t));
+        const std::string& d = t.text;
+        if (d == "LookAt") {
+            const auto eye = number3(t, 9), look = number3(t, 9), up = number3(t, 9);
+            const auto m = lookAtMatrix(eye, look, up);
+            if (!m)
+                throw SceneError(t.where, "LookAt: eye equals look point, or up is parallel to "
+                                          "the viewing direction");
+            concat(*m);
+        } else if (d == "Translate") {
+            const auto v = number3(t, 3);
+            concat(translateMatrix(v[0], v[1], v[2]));
+        } else if (d == "Scale") {
+            const auto v = number3(t, 3);
+            concat(scaleMatrix(v[0], v[1], v[2]));
+        } else if (d == "Rotate") {
+            const double angle = number(t, 4);
+            const auto axis = number3(t, 4);
+            const auto m = rotateMatrix(angle, axis[0], axis[1], axis[2]);
+            if (!m) throw SceneError(t.where, "Rotate: the axis has zero length");
+            concat(*m);
+        } else if (d == "Transform" || d == "ConcatTransform") {
+            const Token open = required(t, "[ 16 numbers ]");
+            if (!open.isBracket('['))
+                throw SceneError(open.where, d + " expects '[' and 16 numbers, found " + describe(open));
+            std::array<double, 16> v{};
+            for (double& x : v) x = number(t, 16);
+            const Token close = required(t, "']' after 16 numbers");
+            if (!close.isBracket(']'))
+                throw SceneError(close.where, d + " expects exactly 16 numbers then ']', found " +
+                                                  describe(close));
+            const Mat4 m = matrixFromPbrtFileOrder(v);
+            if (d == "Transform")
+                state_.ctm = m;
+            else
+                concat(m);
+        } else if (d == "Identity") {
+            state_.ctm = Mat4::identity();
+        } else if (d == "ReverseOrientation") {
+            requireWorld(t);
+            state_.reverseOrientation = !state_.reverseOrientation;
+        } else if (d == "Camera") {
+            camera(t);
+        } else if (d == "Film") {
+            film(t);
+        } else if (d == "WorldBegin") {
+            if (inWorld_) throw SceneError(t.where, "second WorldBegin");
+            inWorld_ = true;
+            state_.ctm = Mat4::identity();
+        } else if (d == "AttributeBegin") {
+            requireWorld(t);
+            stack_.push_back(state_);
+            stack_.back().openedAt = t.where;
+        } else if (d == "AttributeEnd") {
+            requireWorld(t);
+            if (stack_.empty())
+                throw SceneError(t.where, "AttributeEnd without matching AttributeBegin");
+            state_ = stack_.back();
+            stack_.pop_back();
+        } else if (d == "Material") {
+            requireWorld(t);
+            const Token type = quoted(t, "a material type");
+            ParamList pl = params("Material \"" + type.text + "\"");
+            state_.material = makeMaterial(type.text, type.where, pl, "", t.where);
+        } else if (d == "MakeNamedMaterial") {
+            requireWorld(t);
+            const Token name = quoted(t, "a material name");
+            ParamList pl = params("MakeNamedMaterial \"" + name.text + "\"");
+            for (const MaterialDesc& m : scene_.materials)
+                if (!m.name.empty() && m.name == name.text)
+                    throw SceneError(name.where, "named material \"" + name.text +
+                                                     "\" is already defined (at " + m.where.str() +
+                                                     ")");
+            const Param* typeParam = pl.peek("type");
+            const std::optional<std::string> type = pl.oneString("type");
+            if (!type)
+                throw SceneError(t.where, "MakeNamedMaterial \"" + name.text +
+                                              "\" needs a \"string type\" parameter");
+            makeMaterial(*type, typeParam->valueLoc(0), pl, name.text, t.where);
+        } else if (d == "NamedMaterial") {
+            requireWorld(t);
+            const Token name = quoted(t, "a material name");
+            const int idx = findNamedMaterial(name.text);
+            if (idx < 0)
+                throw SceneError(name.where, "unknown named material \"" + name.text + "\"");
+            state_.material = idx;
+        } else if (d == "AreaLightSource") {
+            requireWorld(t);
+            areaLight(t);
+        } else if (d == "LightSource") {
+            requireWorld(t);
+            lightSource(t);
+        } else if (d == "Shape") {
+            requireWorld(t);
+            shape(t);
+        } else if (d == "Include") {
+            include(t);
+        } else if (d == "Import") {
+            throw SceneError(t.where, "Import is not supported by cbdpt; use Include");
+        } else if (d == "TransformBegin" || d == "TransformEnd") {
+            throw SceneError(t.where, d + " is not part of pbrt-v4; use AttributeBegin/AttributeEnd");
+        } else if (d == "WorldEnd") {
+            throw SceneError(t.where, "WorldEnd is pbrt-v3 syntax and not part of pbrt-v4");
+        } else {
+            for (const char* known :
+                 {"Accelerator", "ActiveTransform", "Attribute", "ColorSpace", "CoordinateSystem",
+                  "CoordSysTransform", "Integrator", "MakeNamedMedium", "MediumInterface",
+                  "ObjectBegin", "ObjectEnd", "ObjectInstance", "Option", "PixelFilter", "Sampler",
+                  "Texture", "TransformTimes"})
+                if (d == known)
+                    throw SceneError(t.where, "pbrt-v4 directive '" + d +
+                                                  "' is not supported by cbdpt (see "
+                                                  "docs/scene-format.md)");
+            throw SceneError(t.where, "unknown directive '" + d + "'");
+        }
+    }
+
+    void camera(const Token& t) {
+        requireOptions(t);
+        if (haveCamera_) throw SceneError(t.where, "second Camera directive");
+        haveCamera_ = true;
+        const Token type = quoted(t, "a camera type");
+        if (type.text != "perspective")
+            throw SceneError(type.where, "unsupported camera \"" + type.text +
+                                             "\" (cbdpt supports \"perspective\" only)");
+        ParamList pl = params("Camera \"perspective\"");
+        CameraDesc& cam = scene_.camera;
+        cam.where = t.where;
+        cam.worldToCamera = state_.ctm.m;
+        if (const Param* p = pl.peek("fov"); p) {
+            const double fov = *pl.oneFloat("fov");
+            if (!(fov > 0.0 && fov < 180.0))
+                throw SceneError(p->where, "\"float fov\" must be in (0, 180) degrees");
+            cam.fovDegrees = static_cast<float>(fov);
+        }
+        pl.finish();
+    }
+
+    void film(const Token& t) {
+        requireOptions(t);
+        if (haveFilm_) throw SceneError(t.where, "second Film directive");
+        haveFilm_ = true;
+        const Token type = quoted(t, "a film type");
+        if (type.text != "rgb")
+            throw SceneError(type.where,
+                             "unsupported film \"" + type.text + "\" (cbdpt supports \"rgb\" only)");
+        ParamList pl = params("Film \"rgb\"");
+        FilmDesc& f = scene_.film;
+        for (const char* axis : {"xresolution", "yresolution"}) {
+            const Param* p = pl.peek(axis);
+            if (!p) continue;
+            const int v = *pl.oneInt(axis);
+            if (v < 1 || v > 65536)
+                throw SceneError(p->where, std::string("\"integer ") + axis +
+                                               "\" must be in [1, 65536]");
+            (std::string(axis) == "xresolution" ? f.width : f.height) = v;
+        }
+        if (const Param* p = pl.peek("filename"); p) {
+            f.filename = *pl.oneString("filename");
+            if (f.filename.empty()) throw SceneError(p->where, "empty \"string filename\"");
+        }
+        pl.finish();
+    }
+
+    int findNamedMaterial(const std::string& name) const {
+        for (size_t i = 0; i < scene_.materials.size(); ++i)
+            if (!scene_.materials[i].name.empty() && scene_.materials[i].name == name)
+                return static_cast<int>(i);
+        return -1;
+    }
+
+    int makeMaterial(const std::string& type, const SourceLocation& typeLoc, ParamList& pl,
+                     const std::string& name, const SourceLocation& where) {
+        MaterialDesc m;
+        m.name = name;
+        m.where = where;
+        if (type == "diffuse") {
+            m.kind = MaterialKind::Diffuse;
+            if (auto r = pl.spectrum("reflectance", SpectrumRole::Reflectance)) m.reflectance = *r;
+        } else if (type == "conductor") {
+            m.kind = MaterialKind::Conductor;
+            for (const char* unsupported : {"eta", "k"})
+                if (const Param* p = pl.peek(unsupported))
+                    throw SceneError(p->where, std::string("conductor \"") + unsupported +
+                                                   "\" is not supported (eta/k are not supported "
+                                                   "by cbdpt); give \"reflectance\" instead");
+            auto r = pl.spectrum("reflectance", SpectrumRole::Reflectance);
+            if (!r)
+                throw SceneError(where, "conductor needs \"reflectance\" (eta/k are not "
+                                        "supported by cbdpt)");
+            m.reflectance = *r;
+            const Param* pr = pl.peek("roughness");
+            const std::optional<double> rough = pl.oneFloat("roughness");
+            const std::optional<double> ur = pl.oneFloat("uroughness");
+            const std::optional<double> vr = pl.oneFloat("vroughness");
+            // pbrt-v4: u/v roughness default to "roughness", which defaults to 0.
+            const double u = ur ? *ur : (rough ? *rough : 0.0);
+            const double v = vr ? *vr : (rough ? *rough : 0.0);
+            if (rough && ur && vr)
+                throw SceneError(pr->where, "\"roughness\" is overridden by \"uroughness\" and "
+                                            "\"vroughness\"; give one or the other");
+            if (u != v) {
+                const Param* pu = pl.peek(ur ? "uroughness" : "vroughness");
+                throw SceneError(pu->where, "anisotropic roughness (uroughness != vroughness) is "
+                                            "not supported");
+            }
+            if (u < 0.0) {
+                const Param* p = pl.peek(ur ? "uroughness" : vr ? "vroughness" : "roughness");
+                throw SceneError(p->where, "roughness must be >= 0");
+            }
+            m.roughness = static_cast<float>(u);
+            if (auto remap = pl.oneBool("remaproughness")) m.remapRoughness = *remap;
+        } else if (type == "dielectric") {
+            m.kind = MaterialKind::Dielectric;
+            if (const Param* p = pl.peek("eta"); p && p->type == "spectrum")
+                throw SceneError(p->where, "spectrally varying dielectric \"eta\" is not "
+                                           "supported; give \"float eta\"");
+            if (const Param* p = pl.peek("eta")) {
+                const double eta = *pl.oneFloat("eta");
+                if (!(eta > 0.0)) throw SceneError(p->where, "\"float eta\" must be > 0");
+                m.eta = static_cast<float>(eta);
+            }
+            for (const char* r : {"roughness", "uroughness", "vroughness"})
+                if (const Param* p = pl.peek(r); p && *pl.oneFloat(r) != 0.0)
+                    throw SceneError(p->where, "rough dielectric not supported (\"" +
+                                                   std::string(r) + "\" must be 0)");
+            // Accepted for compatibility; it has no effect on a smooth dielectric.
+            if (auto remap = pl.oneBool("remaproughness")) m.remapRoughness = *remap;
+        } else if (type == "mix") {
+            m.kind = MaterialKind::Mix;
+            const Param* mats = pl.stringList("materials");
+            if (!mats) throw SceneError(where, "mix needs \"string materials\" [ \"a\" \"b\" ]");
+            if (mats->size() != 2)
+                throw SceneError(mats->where, "\"string materials\" of a mix needs exactly 2 "
+                                              "named materials, got " +
+                                                  std::to_string(mats->size()));
+            for (size_t i = 0; i < 2; ++i) {
+                const int idx = findNamedMaterial(mats->strings[i]);
+                if (idx < 0)
+                    throw SceneError(mats->valueLoc(i),
+                                     "unknown named material \"" + mats->strings[i] + "\" in mix");
+                if (scene_.materials[idx].kind == MaterialKind::Mix)
+                    throw SceneError(mats->valueLoc(i), "mix of mix is not supported (\"" +
+                                                            mats->strings[i] + "\" is a mix)");
+                m.mix[i] = idx;
+            }
+            if (const Param* p = pl.peek("amount")) {
+                const double a = *pl.oneFloat("amount");
+                if (!(a >= 0.0 && a <= 1.0))
+                    throw SceneError(p->where, "\"float amount\" must be in [0, 1]");
+                m.amount = static_cast<float>(a);
+            }
+        } else {
+            throw SceneError(typeLoc, "unsupported material type \"" + type +
+                                          "\" (cbdpt supports diffuse, conductor, dielectric, mix)");
+        }
+        pl.finish();
+        scene_.materials.push_back(std::move(m));
+        return static_cast<int>(scene_.materials.size()) - 1;
+    }
+
+    void areaLight(const Token& t) {
+        const Token type = quoted(t, "an area light type");
+        if (type.text != "diffuse")
+            throw SceneError(type.where, "unsupported area light \"" + type.text +
+                                             "\" (cbdpt supports \"diffuse\" only)");
+        ParamList pl = params("AreaLightSource \"diffuse\"");
+        AreaLightDesc a;
+        a.where = t.where;
+        if (auto l = pl.spectrum("L", SpectrumRole::Emission)) a.radiance = *l;
+        a.scale = static_cast<float>(scaleParam(pl));
+        if (auto two = pl.oneBool("twosided")) a.twoSided = *two;
+        pl.finish();
+        scene_.areaLights.push_back(std::move(a));
+        state_.areaLight = static_cast<int>(scene_.areaLights.size()) - 1;
+    }
+
+    static double scaleParam(ParamList& pl) {
+        const Param* p = pl.peek("scale");
+        if (!p) return 1.0;
+        const double s = *pl.oneFloat("scale");
+        if (s < 0.0) throw SceneError(p->where, "\"float scale\" must be >= 0");
+        return s;
+    }
+
+    void lightSource(const Token& t) {
+        const Token type = quoted(t, "a light type");
+        if (type.text != "point")
+            throw SceneError(type.where, "unsupported light \"" + type.text +
+                                             "\" (cbdpt supports \"point\" only)");
+        ParamList pl = params("LightSource \"point\"");
+        PointLightDesc l;
+        l.where = t.where;
+        if (auto i = pl.spectrum("I", SpectrumRole::Emission)) l.intensity = *i;
+        l.scale = static_cast<float>(scaleParam(pl));
+        std::array<double, 3> from{0, 0, 0};
+        if (const Param* p = pl.numeric("from", "point3", 3)) {
+            if (p->size() != 3) throw SceneError(p->where, "\"point3 from\" expects 3 values");
+            from = {p->numbers[0], p->numbers[1], p->numbers[2]};
+        }
+        pl.finish();
+        requireAffine(t.where);
+        const auto w = state_.ctm.point(from);
+        l.position = toFloat3(w, t.where, "light position");
+        scene_.pointLights.push_back(std::move(l));
+    }
+
+    void requireAffine(const SourceLocation& where) const {
+        if (!state_.ctm.isAffine())
+            throw SceneError(where, "projective transformations are not supported (the CTM's "
+                                    "bottom row is not 0 0 0 1)");
+    }
+
+    static std::array<float, 3> toFloat3(const std::array<double, 3>& v, const SourceLocation& where,
+                                         const char* what) {
+        for (double c : v)
+            if (!std::isfinite(c) || std::fabs(c) > std::numeric_limits<float>::max())
+                throw SceneError(where, std::string(what) + " is not finite after transformation");
+        return {static_cast<float>(v[0]), static_cast<float>(v[1]), static_cast<float>(v[2])};
+    }
+
+    int currentMaterial() {
+        if (state_.material >= 0) return state_.material;
+        if (defaultMaterial_ < 0) {
+            // pbrt-v4's initial graphics state uses a "diffuse" material with reflectance 0.5.
+            MaterialDesc m;
+            m.kind = MaterialKind::Diffuse;
+            scene_.materials.push_back(m);
+            defaultMaterial_ = static_cast<int>(scene_.materials.size()) - 1;
+        }
+        return defaultMaterial_;
+    }
+
+    void shape(const Token& t) {
+        const Token type = quoted(t, "a shape type");
+        if (type.text == "sphere") {
+            ParamList pl = params("Shape \"sphere\"");
+            double radius = 1.0;
+            if (const Param* p = pl.peek("radius")) {
+                radius = *pl.oneFloat("radius");
+                if (!(radius > 0.0)) throw SceneError(p->where, "\"float radius\" must be > 0");
+            }
+            pl.finish();
+            sphere(t.where, radius);
+        } else if (type.text == "trianglemesh") {
+            ParamList pl = params("Shape \"trianglemesh\"");
+            const Param* P = pl.numeric("P", "point3", 3);
+            if (!P) throw SceneError(t.where, "trianglemesh needs \"point3 P\"");
+            const size_t nv = P->size() / 3;
+            std::vector<std::array<double, 3>> pos(nv);
+            for (size_t i = 0; i < nv; ++i)
+                pos[i] = {P->numbers[3 * i], P->numbers[3 * i + 1], P->numbers[3 * i + 2]};
+            std::vector<std::array<unsigned, 3>> tris;
+            if (const Param* I = pl.numeric("indices", "integer", 3)) {
+                tris.resize(I->size() / 3);
+                for (size_t i = 0; i < I->size(); ++i) {
+                    const double v = I->numbers[i];
+                    if (v < 0 || v >= static_cast<double>(nv))
+                        throw SceneError(I->valueLoc(i),
+                                         "index " + std::to_string(static_cast<long long>(v)) +
+                                             " out of range (the mesh has " + std::to_string(nv) +
+                                             " vertices)");
+                    tris[i / 3][i % 3] = static_cast<unsigned>(v);
+                }
+            } else {
+                if (nv != 3)
+                    throw SceneError(t.where, "\"integer indices\" may only be omitted for a "
+                                              "single triangle (exactly 3 vertices); got " +
+                                                  std::to_string(nv));
+                tris.push_back({0u, 1u, 2u});
+            }
+            std::vector<std::array<double, 3>> normals;
+            if (const Param* N = pl.numeric("N", "normal", 3)) {
+                if (N->size() != P->size())
+                    throw SceneError(N->where, "\"normal N\" needs one normal per vertex (" +
+                                                   std::to_string(nv) + "), got " +
+                                                   std::to_string(N->size() / 3));
+                normals.resize(nv);
+                for (size_t i = 0; i < nv; ++i)
+                    normals[i] = {N->numbers[3 * i], N->numbers[3 * i + 1], N->numbers[3 * i + 2]};
+            }
+            pl.finish();
+            addMesh(t.where, pos, std::move(tris), normals);
+        } else if (type.text == "plymesh") {
+            ParamList pl = params("Shape \"plymesh\"");
+            const Param* fp = pl.peek("filename");
+            const std::optional<std::string> file = pl.oneString("filename");
+            if (!file) throw SceneError(t.where, "plymesh needs \"string filename\"");
+            pl.finish();
+            const std::string path = resolveModel(*file, fp->valueLoc(0));
+            PlyMesh ply;
+            try {
+                ply = readPly(path);
+            } catch (const SceneError& e) {
+                throw SceneError(t.where, "cannot load plymesh: " + std::string(e.what()));
+            }
+            std::vector<std::array<double, 3>> pos(ply.positions.size());
+            for (size_t i = 0; i < pos.size(); ++i)
+                pos[i] = {ply.positions[i][0], ply.positions[i][1], ply.positions[i][2]};
+            std::vector<std::array<double, 3>> normals(ply.normals.size());
+            for (size_t i = 0; i < normals.size(); ++i)
+                normals[i] = {ply.normals[i][0], ply.normals[i][1], ply.normals[i][2]};
+            addMesh(t.where, pos, std::move(ply.triangles), normals);
+        } else {
+            throw SceneError(type.where, "unsupported shape \"" + type.text +
+                                             "\" (cbdpt supports trianglemesh, plymesh, sphere)");
+        }
+    }
+
+    void sphere(const SourceLocation& where, double radius) {
+        requireAffine(where);
+        // Only similarities keep a sphere a sphere: A^T A must be s^2 I for the 3x3 block A.
+        const Mat4& m = state_.ctm;
+        double g[3][3];
+        for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j)
+                g[i][j] = m(0, i) * m(0, j) + m(1, i) * m(1, j) + m(2, i) * m(2, j);
+        const double s2 = (g[0][0] + g[1][1] + g[2][2]) / 3.0;
+        bool similar = s2 > 0.0 && std::isfinite(s2);
+        for (int i = 0; i < 3 && similar; ++i)
+            for (int j = 0; j < 3; ++j)
+                if (std::fabs(g[i][j] - (i == j ? s2 : 0.0)) > 1e-6 * s2) similar = false;
+        if (!similar)
+            throw SceneError(where, "a sphere's transformation must be a similarity (rotation, "
+                                    "uniform scale, translation); this CTM is not");
+        SphereDesc s;
+        s.where = where;
+        s.center = toFloat3(m.point({0, 0, 0}), where, "sphere centre");
+        const double r = radius * std::sqrt(s2);
+        if (!(r <= std::numeric_limits<float>::max()))
+            throw SceneError(where, "sphere radius is not finite after transformation");
+        s.radius = static_cast<float>(r);
+        // pbrt flips sphere normals when ReverseOrientation XOR the transform swaps handedness.
+        s.reverseOrientation = state_.reverseOrientation != (m.det3() < 0.0);
+        s.material = currentMaterial();
+        s.areaLight = state_.areaLight;
+        scene_.spheres.push_back(s);
+    }
+
+    // Transform to world space and orient each triangle so that cross(p1-p0, p2-p0) is the
+    // normal pbrt-v4 would use (Triangle::InteractionFromIntersection): the winding normal,
+    // negated when ReverseOrientation XOR the CTM swaps handedness, then - if per-vertex normals
+    // are given - flipped to face them (pbrt does this per hit with the interpolated normal; we
+    // use the triangle's centroid normal, the same for any consistent normal field).
+    void addMesh(const SourceLocation& where, const std::vector<std::array<double, 3>>& objPos,
+                 std::vector<std::array<unsigned, 3>> tris,
+                 const std::vector<std::array<double, 3>>& objNormals) {
+        requireAffine(where);
+        const Mat4& m = state_.ctm;
+        TriangleMeshDesc mesh;
+        mesh.where = where;
+        mesh.positions.resize(objPos.size());
+        for (size_t i = 0; i < objPos.size(); ++i)
+            mesh.positions[i] = toFloat3(m.point(objPos[i]), where, "a vertex position");
+        std::vector<std::array<double, 3>> n(objNormals.size());
+        const double det = m.det3();
+        for (size_t i = 0; i < n.size(); ++i) {
+            n[i] = det != 0.0 ? m.normal(objNormals[i]) : std::array<double, 3>{0, 0, 0};
+            if (state_.reverseOrientation)
+                for (double& c : n[i]) c = -c;
+        }
+        const bool flip = state_.reverseOrientation != (det < 0.0);
+        long dropped = 0;
+        mesh.triangles.reserve(tris.size());
+        for (auto tri : tris) {
+            const auto& p0 = mesh.positions[tri[0]];
+            const auto& p1 = mesh.positions[tri[1]];
+            const auto& p2 = mesh.positions[tri[2]];
+            const double e1[3] = {double(p1[0]) - p0[0], double(p1[1]) - p0[1], double(p1[2]) - p0[2]};
+            const double e2[3] = {double(p2[0]) - p0[0], double(p2[1]) - p0[1], double(p2[2]) - p0[2]};
+            const double c[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
+                                 e1[0] * e2[1] - e1[1] * e2[0]};
+            if (tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2] ||
+                (c[0] == 0.0 && c[1] == 0.0 && c[2] == 0.0)) {
+                ++dropped;
+                continue;
+            }
+            bool reverse = flip;
+            if (!n.empty()) {
+                double ns[3];
+                for (int k = 0; k < 3; ++k) ns[k] = n[tri[0]][k] + n[tri[1]][k] + n[tri[2]][k];
+                const double sign = reverse ? -1.0 : 1.0;
+                const double d = sign * (c[0] * ns[0] + c[1] * ns[1] + c[2] * ns[2]);
+                if (d < 0.0) reverse = !reverse;
+            }
+            if (reverse) std::swap(tri[1], tri[2]);
+            mesh.triangles.push_back(tri);
+        }
+        if (dropped > 0) {
+            scene_.droppedDegenerateTriangles += dropped;
+            std::cerr << "warning: " << where.file << ":" << where.line << ": dropped " << dropped
+                      << " degenerate (zero-area) triangle" << (dropped == 1 ? "" : "s") << "\n";
+        }
+        mesh.material = currentMaterial();
+        mesh.areaLight = state_.areaLight;
+        scene_.meshes.push_back(std::move(mesh));
+    }
+
+    std::vector<std::string> searchDirs() const {
+        std::vector<std::string> dirs{files_.back()->dir};
+        if (topDir_ != dirs[0]) dirs.push_back(topDir_);
+        if (const char* env = std::getenv("CBDPT_MODEL_PATH")) {
+            std::string_view rest(env);
+            while (!rest.empty()) {
+                const size_t colon = rest.find(':');
+                const std::string_view part = rest.substr(0, colon);
+                if (!part.empty()) dirs.emplace_back(part);
+                if (colon == std::string_view::npos) break;
+                rest.remove_prefix(colon + 1);
+            }
+        }
+        return dirs;
+    }
+
+    std::string resolveModel(const std::string& file, const SourceLocation& where) const {
+        std::vector<std::string> tried;
+        if (fs::path(file).is_absolute()) {
+            if (fs::is_regular_file(file)) return file;
+            tried.push_back(fs::path(file).parent_path().string());
+        } else {
+            for (const std::string& dir : searchDirs()) {
+                const std::string p = joinPath(dir, file);
+                if (fs::is_regular_file(p)) return p;
+                tried.push_back(dir.empty() ? "." : dir);
+            }
+        }
+        std::string msg = "cannot find model file \"" + file + "\"; folders tried:";
+        for (const std::string& d : tried) msg += " " + d;
+        msg += ". The Stanford models (bunny.ply, dragon.ply, buddha.ply) can be obtained with "
+               "scripts/get-models, or set CBDPT_MODEL_PATH (':'-separated folders) to a folder "
+               "holding them";
+        throw SceneError(where, msg);
+    }
+
+    void include(const Token& t) {
+        const Token name = quoted(t, "a file name");
+        std::vector<std::string> candidates;
+        if (fs::path(name.text).is_absolute()) {
+            candidates.push_back(name.text);
+        } else {
+            candidates.push_back(joinPath(files_.back()->dir, name.text));
+            // pbrt-v4 resolves against the main scene file's folder; try that second.
+            const std::string top = joinPath(topDir_, name.text);
+            if (top != candidates[0]) candidates.push_back(top);
+        }
+        for (const std::string& path : candidates) {
+            if (!fs::is_regular_file(path)) continue;
+            const fs::path key = canonicalKey(path);
+            for (const auto& f : files_)
+                if (f->key == key)
+                    throw SceneError(name.where, "recursive Include of \"" + path + "\"");
+            bool ok = false;
+            std::string text = readWholeFile(path, ok);
+            if (!ok) throw SceneError(name.where, "cannot read included file \"" + path + "\"");
+            files_.push_back(std::make_unique<SourceFile>(
+                SourceFile{Tokenizer(std::move(text), path), parentDir(path), key}));
+            return;
+        }
+        std::string msg = "cannot find included file \"" + name.text + "\"; tried:";
+        for (const std::string& c : candidates) msg += " " + c;
+        throw SceneError(name.where, msg);
+    }
+
+    SceneDesc& scene_;
+    std::vector<std::unique_ptr<SourceFile>> files_;
+    std::optional<Token> peeked_;
+    std::string topDir_;
+    GraphicsState state_;
+    std::vector<GraphicsState> stack_;
+    bool inWorld_ = false;
+    bool haveCamera_ = false;
+    bool haveFilm_ = false;
+    int defaultMaterial_ = -1;
+};
+
+} // namespace
+
+SceneDesc parseSceneString(const std::string& text, const std::string& virtualPath) {
+    SceneDesc scene;
+    scene.path = virtualPath;
+    Parser(scene).run(text, virtualPath);
+    return scene;
+}
+
+SceneDesc parseSceneFile(const std::string& path) {
+    bool ok = false;
+    std::string text = readWholeFile(path, ok);
+    if (!ok) throw SceneError(SourceLocation{path, 0, 0}, "cannot open scene file");
+    return parseSceneString(text, path);
+}
+
+} // namespace cb
