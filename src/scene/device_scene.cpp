@@ -1,5 +1,6 @@
 #include "scene/device_scene.h"
 
+#include "scene/transform.h"
 #include "spectral/spectral.h"
 
 #include <algorithm>
@@ -43,49 +44,6 @@ class SpectraTable {
     std::vector<float>& data_;
 };
 
-std::array<double, 16> invert4x4(const std::array<double, 16>& m, const SourceLocation& where) {
-    // Cofactor expansion; the camera matrix is small and inverted once.
-    std::array<double, 16> inv{};
-    inv[0] = m[5] * m[10] * m[15] - m[5] * m[11] * m[14] - m[9] * m[6] * m[15] +
-             m[9] * m[7] * m[14] + m[13] * m[6] * m[11] - m[13] * m[7] * m[10];
-    inv[4] = -m[4] * m[10] * m[15] + m[4] * m[11] * m[14] + m[8] * m[6] * m[15] -
-             m[8] * m[7] * m[14] - m[12] * m[6] * m[11] + m[12] * m[7] * m[10];
-    inv[8] = m[4] * m[9] * m[15] - m[4] * m[11] * m[13] - m[8] * m[5] * m[15] +
-             m[8] * m[7] * m[13] + m[12] * m[5] * m[11] - m[12] * m[7] * m[9];
-    inv[12] = -m[4] * m[9] * m[14] + m[4] * m[10] * m[13] + m[8] * m[5] * m[14] -
-              m[8] * m[6] * m[13] - m[12] * m[5] * m[10] + m[12] * m[6] * m[9];
-    inv[1] = -m[1] * m[10] * m[15] + m[1] * m[11] * m[14] + m[9] * m[2] * m[15] -
-             m[9] * m[3] * m[14] - m[13] * m[2] * m[11] + m[13] * m[3] * m[10];
-    inv[5] = m[0] * m[10] * m[15] - m[0] * m[11] * m[14] - m[8] * m[2] * m[15] +
-             m[8] * m[3] * m[14] + m[12] * m[2] * m[11] - m[12] * m[3] * m[10];
-    inv[9] = -m[0] * m[9] * m[15] + m[0] * m[11] * m[13] + m[8] * m[1] * m[15] -
-             m[8] * m[3] * m[13] - m[12] * m[1] * m[11] + m[12] * m[3] * m[9];
-    inv[13] = m[0] * m[9] * m[14] - m[0] * m[10] * m[13] - m[8] * m[1] * m[14] +
-              m[8] * m[2] * m[13] + m[12] * m[1] * m[10] - m[12] * m[2] * m[9];
-    inv[2] = m[1] * m[6] * m[15] - m[1] * m[7] * m[14] - m[5] * m[2] * m[15] +
-             m[5] * m[3] * m[14] + m[13] * m[2] * m[7] - m[13] * m[3] * m[6];
-    inv[6] = -m[0] * m[6] * m[15] + m[0] * m[7] * m[14] + m[4] * m[2] * m[15] -
-             m[4] * m[3] * m[14] - m[12] * m[2] * m[7] + m[12] * m[3] * m[6];
-    inv[10] = m[0] * m[5] * m[15] - m[0] * m[7] * m[13] - m[4] * m[1] * m[15] +
-              m[4] * m[3] * m[13] + m[12] * m[1] * m[7] - m[12] * m[3] * m[5];
-    inv[14] = -m[0] * m[5] * m[14] + m[0] * m[6] * m[13] + m[4] * m[1] * m[14] -
-              m[4] * m[2] * m[13] - m[12] * m[1] * m[6] + m[12] * m[2] * m[5];
-    inv[3] = -m[1] * m[6] * m[11] + m[1] * m[7] * m[10] + m[5] * m[2] * m[11] -
-             m[5] * m[3] * m[10] - m[9] * m[2] * m[7] + m[9] * m[3] * m[6];
-    inv[7] = m[0] * m[6] * m[11] - m[0] * m[7] * m[10] - m[4] * m[2] * m[11] +
-             m[4] * m[3] * m[10] + m[8] * m[2] * m[7] - m[8] * m[3] * m[6];
-    inv[11] = -m[0] * m[5] * m[11] + m[0] * m[7] * m[9] + m[4] * m[1] * m[11] -
-              m[4] * m[3] * m[9] - m[8] * m[1] * m[7] + m[8] * m[3] * m[5];
-    inv[15] = m[0] * m[5] * m[10] - m[0] * m[6] * m[9] - m[4] * m[1] * m[10] +
-              m[4] * m[2] * m[9] + m[8] * m[1] * m[6] - m[8] * m[2] * m[5];
-    double det = m[0] * inv[0] + m[1] * inv[4] + m[2] * inv[8] + m[3] * inv[12];
-    if (!(std::fabs(det) > 1e-300) || !std::isfinite(det))
-        throw SceneError(where, "the camera transform is singular (check LookAt/Scale before "
-                                "Camera)");
-    for (double& v : inv) v /= det;
-    return inv;
-}
-
 cbk::Camera makeCamera(const SceneDesc& desc) {
     const FilmDesc& film = desc.film;
     SourceLocation where = desc.camera.where;
@@ -97,7 +55,13 @@ cbk::Camera makeCamera(const SceneDesc& desc) {
         throw SceneError(where, fmt::format("field of view {} must be in (0, 180) degrees", fov));
     cbk::Camera camera{};
     const auto& w2c = desc.camera.worldToCamera;
-    auto c2w = invert4x4(w2c, where);
+    Mat4 worldToCamera;
+    worldToCamera.m = w2c;
+    std::optional<Mat4> cameraToWorld = inverse(worldToCamera);
+    if (!cameraToWorld)
+        throw SceneError(where, "the camera transform is singular (check LookAt/Scale before "
+                                "Camera)");
+    const auto& c2w = cameraToWorld->m;
     for (int r = 0; r < 3; ++r)
         for (int c = 0; c < 4; ++c) {
             camera.worldToCamera[r * 4 + c] = float(w2c[size_t(r * 4 + c)]);
