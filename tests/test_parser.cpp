@@ -41,8 +41,8 @@ void expectError(const std::string& text, const std::string& where, const std::s
 
 const char* kWorld = "WorldBegin\n";
 
-std::array<double, 3> cross(const std::array<float, 3>& a, const std::array<float, 3>& b,
-                            const std::array<float, 3>& c) {
+std::array<double, 3> cross(const std::array<double, 3>& a, const std::array<double, 3>& b,
+                            const std::array<double, 3>& c) {
     const double e1[3] = {double(b[0]) - a[0], double(b[1]) - a[1], double(b[2]) - a[2]};
     const double e2[3] = {double(c[0]) - a[0], double(c[1]) - a[1], double(c[2]) - a[2]};
     return {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
@@ -82,12 +82,12 @@ void checkMatrix(const std::array<double, 16>& got, const std::array<double, 16>
 
 TEST_CASE("parser: camera, film and the CTM before Camera") {
     // The classic Cornell box camera: pbrt's left-handed camera space plus Scale -1 1 1.
-    const auto s = parseSceneString(
-        "Scale -1 1 1\nLookAt 0.278 0.273 -0.800  0.278 0.273 0  0 1 0\n"
-        "Camera \"perspective\" \"float fov\" [39.3077]\n"
-        "Film \"rgb\" \"integer xresolution\" 512 \"integer yresolution\" [256]\n"
-        "  \"string filename\" \"out.exr\"\nWorldBegin\n",
-        "cam.pbrt");
+    const auto s =
+        parseSceneString("Scale -1 1 1\nLookAt 0.278 0.273 -0.800  0.278 0.273 0  0 1 0\n"
+                         "Camera \"perspective\" \"float fov\" [39.3077]\n"
+                         "Film \"rgb\" \"integer xresolution\" 512 \"integer yresolution\" [256]\n"
+                         "  \"string filename\" \"out.exr\"\nWorldBegin\n",
+                         "cam.pbrt");
     // LookAt along +z with up +y is a pure translation by -eye; Scale -1 1 1 post-multiplies.
     checkMatrix(s.camera.worldToCamera,
                 {-1, 0, 0, 0.278, 0, 1, 0, -0.273, 0, 0, 1, 0.8, 0, 0, 0, 1});
@@ -106,8 +106,8 @@ TEST_CASE("parser: camera, film and the CTM before Camera") {
 
 TEST_CASE("parser: LookAt off-axis matches the hand-computed camera frame") {
     // Looking down +x with up +y: dir=(1,0,0), right=normalize(up x dir)=(0,0,-1), up=(0,1,0).
-    const auto s = parseSceneString("LookAt 1 2 3  2 2 3  0 1 0\nCamera \"perspective\"\nWorldBegin\n",
-                                    "t.pbrt");
+    const auto s = parseSceneString(
+        "LookAt 1 2 3  2 2 3  0 1 0\nCamera \"perspective\"\nWorldBegin\n", "t.pbrt");
     // rows: right, up, dir; last column -R*eye = (3, -2, -1).
     checkMatrix(s.camera.worldToCamera, {0, 0, -1, 3, 0, 1, 0, -2, 1, 0, 0, -1, 0, 0, 0, 1});
     // The look point lands on the camera's +z axis at distance 1.
@@ -126,8 +126,9 @@ TEST_CASE("parser: Translate/Scale/Rotate/Transform/ConcatTransform/Identity com
         REQUIRE(s.pointLights.size() == 1);
         return s.pointLights[0].position;
     };
-    auto near = [](std::array<float, 3> a, std::array<float, 3> b) {
-        for (int i = 0; i < 3; ++i) CHECK(a[i] == doctest::Approx(b[i]).epsilon(1e-6));
+    auto near = [](std::array<double, 3> a, std::array<double, 3> b) {
+        for (int i = 0; i < 3; ++i)
+            CHECK(a[i] == doctest::Approx(b[i]).epsilon(1e-6));
     };
     // Post-multiplication: the last transform is applied to the object first.
     near(lightAt("Translate 1 0 0 Scale 2 2 2"), {3, 0, 0});
@@ -146,8 +147,9 @@ TEST_CASE("parser: Translate/Scale/Rotate/Transform/ConcatTransform/Identity com
     REQUIRE(r);
     checkMatrix(r->m, {0, -1, 0, 0, 1, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1});
     // WorldBegin resets the CTM.
-    const auto s = parseSceneString("Translate 5 5 5\nWorldBegin\nLightSource \"point\"\n", "t.pbrt");
-    CHECK(s.pointLights[0].position == std::array<float, 3>{0, 0, 0});
+    const auto s =
+        parseSceneString("Translate 5 5 5\nWorldBegin\nLightSource \"point\"\n", "t.pbrt");
+    CHECK(s.pointLights[0].position == std::array<double, 3>{0, 0, 0});
 }
 
 TEST_CASE("parser: attribute stack saves CTM, material, area light and orientation") {
@@ -172,14 +174,14 @@ TEST_CASE("parser: attribute stack saves CTM, material, area light and orientati
     CHECK(s.spheres[0].material == 1);
     CHECK(s.spheres[0].areaLight == 0);
     CHECK(s.spheres[0].reverseOrientation);
-    CHECK(s.spheres[0].center == std::array<float, 3>{0, 0, 5});
+    CHECK(s.spheres[0].center == std::array<double, 3>{0, 0, 5});
     CHECK(s.meshes[0].positions[0][2] == 5.f);
     CHECK(windingNormal(s, 0)[2] < 0); // ReverseOrientation
     CHECK(s.meshes[1].material == 0);
     CHECK(s.meshes[1].areaLight == -1);
     CHECK(s.spheres[1].areaLight == -1);
     CHECK_FALSE(s.spheres[1].reverseOrientation);
-    CHECK(s.spheres[1].center == std::array<float, 3>{0, 0, 0});
+    CHECK(s.spheres[1].center == std::array<double, 3>{0, 0, 0});
     CHECK(windingNormal(s, 1)[2] > 0);
     CHECK(s.areaLights[0].radiance.rgb == std::array<float, 3>{4, 5, 6});
     CHECK(s.materials[0].reflectance.rgb == std::array<float, 3>{0.1f, 0.2f, 0.3f});
@@ -187,7 +189,8 @@ TEST_CASE("parser: attribute stack saves CTM, material, area light and orientati
 }
 
 TEST_CASE("parser: default material is pbrt's diffuse 0.5, created once on first use") {
-    const auto s = parseSceneString(std::string(kWorld) + kTri + kTri + "Shape \"sphere\"\n", "t.pbrt");
+    const auto s =
+        parseSceneString(std::string(kWorld) + kTri + kTri + "Shape \"sphere\"\n", "t.pbrt");
     REQUIRE(s.materials.size() == 1);
     CHECK(s.materials[0].kind == cb::MaterialKind::Diffuse);
     CHECK(s.materials[0].reflectance.rgb == std::array<float, 3>{0.5f, 0.5f, 0.5f});
@@ -210,7 +213,7 @@ TEST_CASE("parser: materials, named materials and mix") {
             "MakeNamedMaterial \"dragon\" \"string type\" \"mix\" \"string materials\" "
             "[\"matte\" \"gold\"] \"float amount\" 0.3\n"
             "Material \"conductor\" \"spectrum reflectance\" [400 0.5 700 0.9] "
-            "\"float uroughness\" 0.2 \"float vroughness\" 0.2 \"bool remaproughness\" \"true\"\n" +
+            "\"float uroughness\" 0.2 \"float vroughness\" 0.2 \"bool remaproughness\" [true]\n" +
             kTri + "NamedMaterial \"dragon\"\n" + kTri + "Material \"dielectric\"\n" + kTri,
         "t.pbrt");
     REQUIRE(s.materials.size() == 6);
@@ -258,27 +261,26 @@ TEST_CASE("parser: spectra are kept as written") {
     REQUIRE(s.pointLights.size() == 1);
     CHECK(s.pointLights[0].intensity.rgb == std::array<float, 3>{1, 2, 3});
     CHECK(s.pointLights[0].scale == 0.5f);
-    CHECK(s.pointLights[0].position == std::array<float, 3>{1, 2, 3});
+    CHECK(s.pointLights[0].position == std::array<double, 3>{1, 2, 3});
     CHECK(s.meshes[0].areaLight == 0);
 }
 
 TEST_CASE("parser: sphere transform and orientation") {
     auto one = [](const std::string& xf) {
-        const auto s = parseSceneString(std::string(kWorld) + xf +
-                                            "\nShape \"sphere\" \"float radius\" 0.5\n",
-                                        "t.pbrt");
+        const auto s = parseSceneString(
+            std::string(kWorld) + xf + "\nShape \"sphere\" \"float radius\" 0.5\n", "t.pbrt");
         REQUIRE(s.spheres.size() == 1);
         return s.spheres[0];
     };
     auto a = one("Translate 1 2 3 Scale 2 2 2");
-    CHECK(a.center == std::array<float, 3>{1, 2, 3});
+    CHECK(a.center == std::array<double, 3>{1, 2, 3});
     CHECK(a.radius == doctest::Approx(1.f));
     CHECK_FALSE(a.reverseOrientation);
     a = one("Rotate 33 1 2 3 Scale 3 3 3 Translate 1 0 0");
     CHECK(a.radius == doctest::Approx(1.5f));
     CHECK(std::hypot(a.center[0], a.center[1], a.center[2]) == doctest::Approx(3.0));
-    CHECK(one("Scale -1 1 1").reverseOrientation);             // mirror: normals inward
-    CHECK(one("ReverseOrientation").reverseOrientation);       // explicit flip
+    CHECK(one("Scale -1 1 1").reverseOrientation);       // mirror: normals inward
+    CHECK(one("ReverseOrientation").reverseOrientation); // explicit flip
     CHECK_FALSE(one("ReverseOrientation Scale -2 2 2").reverseOrientation); // both: outward
     CHECK(one("Scale -2 2 2").radius == doctest::Approx(1.f));
     CHECK(one("").radius == 0.5f);
@@ -289,11 +291,12 @@ TEST_CASE("parser: sphere transform and orientation") {
 
 TEST_CASE("parser: triangle winding follows pbrt's normal under mirrors, ReverseOrientation, N") {
     auto normalZ = [](const std::string& pre, const std::string& extra = "") {
-        const auto s = parseSceneString(std::string(kWorld) + pre + "\n" +
-                                            "Shape \"trianglemesh\" \"point3 P\" [0 0 0  1 0 0  0 1 0] "
-                                            "\"integer indices\" [0 1 2] " +
-                                            extra + "\n",
-                                        "t.pbrt");
+        const auto s =
+            parseSceneString(std::string(kWorld) + pre + "\n" +
+                                 "Shape \"trianglemesh\" \"point3 P\" [0 0 0  1 0 0  0 1 0] "
+                                 "\"integer indices\" [0 1 2] " +
+                                 extra + "\n",
+                             "t.pbrt");
         REQUIRE(s.meshes.size() == 1);
         REQUIRE(s.meshes[0].triangles.size() == 1);
         return windingNormal(s)[2];
@@ -397,12 +400,11 @@ TEST_CASE("parser: plymesh search path (scene folder, then CBDPT_MODEL_PATH)") {
     auto s = parseSceneString(scene + "\"quad.ply\"\n", (d / "scene/s.pbrt").string());
     REQUIRE(s.meshes.size() == 1);
     CHECK(s.meshes[0].triangles.size() == 2);
-    CHECK(s.meshes[0].positions[2] == std::array<float, 3>{1, 1, 1});
+    CHECK(s.meshes[0].positions[2] == std::array<double, 3>{1, 1, 1});
     CHECK(windingNormal(s)[2] > 0);
     s = parseSceneString(scene + "\"local.ply\"\n", (d / "scene/s.pbrt").string());
     CHECK(s.meshes.size() == 1);
-    const std::string e =
-        errorOf(scene + "\"bunny2.ply\"\n", (d / "scene/s.pbrt").string());
+    const std::string e = errorOf(scene + "\"bunny2.ply\"\n", (d / "scene/s.pbrt").string());
     CHECK(contains(e, "s.pbrt:3:35: cannot find model file \"bunny2.ply\""));
     CHECK(contains(e, (d / "scene").string()));
     CHECK(contains(e, "/nonexistent"));
@@ -427,8 +429,9 @@ TEST_CASE("parser: the Stanford bunny loads through a scene file") {
         MESSAGE("skipped: " << dir.string() << " is absent");
         return;
     }
-    const auto s = parseSceneString("WorldBegin\nShape \"plymesh\" \"string filename\" \"bunny.ply\"\n",
-                                    (dir / "virtual.pbrt").string());
+    const auto s =
+        parseSceneString("WorldBegin\nShape \"plymesh\" \"string filename\" \"bunny.ply\"\n",
+                         (dir / "virtual.pbrt").string());
     REQUIRE(s.meshes.size() == 1);
     CHECK(s.meshes[0].positions.size() == 17524);
     CHECK(s.meshes[0].triangles.size() == 34831);
@@ -437,8 +440,10 @@ TEST_CASE("parser: the Stanford bunny loads through a scene file") {
 
 TEST_CASE("parser: syntax errors point at the offending token") {
     expectError("WorldBegin\n  Frobnicate 1\n", "t.pbrt:2:3", "unknown directive 'Frobnicate'");
-    expectError("Sampler \"halton\"\n", "t.pbrt:1:1", "pbrt-v4 directive 'Sampler' is not supported");
-    expectError("WorldBegin\n\"diffuse\"\n", "t.pbrt:2:1", "expected a directive, found \"diffuse\"");
+    expectError("Sampler \"halton\"\n", "t.pbrt:1:1",
+                "pbrt-v4 directive 'Sampler' is not supported");
+    expectError("WorldBegin\n\"diffuse\"\n", "t.pbrt:2:1",
+                "expected a directive, found \"diffuse\"");
     expectError("WorldBegin\n 3.5\n", "t.pbrt:2:2", "expected a directive, found '3.5'");
     expectError("WorldBegin\n]\n", "t.pbrt:2:1", "expected a directive");
     expectError("WorldBegin\nShape \"sphere\" \"float radius\" [1\n", "t.pbrt:2:31",
@@ -451,7 +456,8 @@ TEST_CASE("parser: syntax errors point at the offending token") {
                 "has no value (end of file)");
     expectError("WorldBegin\nShape \"sphere\" \"float radius\" [1 Shape\n", "t.pbrt:2:34",
                 "missing ']'");
-    expectError("Translate 1 2\n", "t.pbrt:1:1", "unexpected end of file: Translate expects 3 numbers");
+    expectError("Translate 1 2\n", "t.pbrt:1:1",
+                "unexpected end of file: Translate expects 3 numbers");
     expectError("Translate 1 2\nWorldBegin\n", "t.pbrt:2:1",
                 "expected a number for Translate, found 'WorldBegin'");
     expectError("LookAt 0 0 0 0 0 1 0 1\n", "t.pbrt:1:1", "LookAt expects 9 numbers");
@@ -516,6 +522,8 @@ TEST_CASE("parser: parameter errors name the parameter") {
                 "negative value");
     expectError(w + "AreaLightSource \"diffuse\" \"bool twosided\" \"yes\"\n", "t.pbrt:2:43",
                 "expects true or false");
+    expectError(w + "AreaLightSource \"diffuse\" \"bool twosided\" \"true\"\n", "t.pbrt:2:43",
+                "write bare true/false");
     expectError(w + "AreaLightSource \"diffuse\" \"bool twosided\" [true false]\n", "t.pbrt:2:27",
                 "exactly 1 value");
     expectError(w + "AreaLightSource \"diffuse\" \"float scale\" -2\n", "t.pbrt:2:27", ">= 0");
@@ -527,7 +535,8 @@ TEST_CASE("parser: parameter errors name the parameter") {
                 "expects 3 values");
     expectError("Film \"rgb\" \"integer xresolution\" 1.5\n", "t.pbrt:1:34", "expects integers");
     expectError("Film \"rgb\" \"integer xresolution\" 0\n", "t.pbrt:1:12", "[1, 65536]");
-    expectError("Film \"rgb\" \"float iso\" 100\n", "t.pbrt:1:12", "unknown or unsupported parameter");
+    expectError("Film \"rgb\" \"float iso\" 100\n", "t.pbrt:1:12",
+                "unknown or unsupported parameter");
     expectError("Camera \"perspective\" \"float fov\" 180\n", "t.pbrt:1:22", "(0, 180)");
     expectError("Camera \"perspective\" \"float lensradius\" 0.1\n", "t.pbrt:1:22",
                 "unknown or unsupported parameter");
@@ -567,8 +576,9 @@ TEST_CASE("parser: unsupported types are rejected") {
 TEST_CASE("parser: material errors") {
     const std::string w = kWorld;
     expectError(w + "Material \"conductor\"\n", "t.pbrt:2:1", "conductor needs \"reflectance\"");
-    expectError(w + "Material \"conductor\" \"spectrum eta\" [400 1 700 1] \"rgb reflectance\" [1 1 1]\n",
-                "t.pbrt:2:22", "eta/k are not supported");
+    expectError(
+        w + "Material \"conductor\" \"spectrum eta\" [400 1 700 1] \"rgb reflectance\" [1 1 1]\n",
+        "t.pbrt:2:22", "eta/k are not supported");
     expectError(w + "Material \"conductor\" \"rgb k\" [1 1 1]\n", "t.pbrt:2:22",
                 "eta/k are not supported");
     expectError(w + "Material \"conductor\" \"rgb reflectance\" [1 1 1] \"float uroughness\" 0.1\n",
@@ -605,9 +615,10 @@ TEST_CASE("parser: material errors") {
     expectError(ab + "Material \"mix\"\n", "t.pbrt:4:1", "mix needs \"string materials\"");
     expectError(ab + "Material \"mix\" \"string materials\" [\"a\" \"b\"] \"float amount\" 1.5\n",
                 "t.pbrt:4:45", "[0, 1]");
-    expectError(ab + "MakeNamedMaterial \"m\" \"string type\" \"mix\" \"string materials\" [\"a\" \"b\"]\n"
-                     "Material \"mix\" \"string materials\" [\"m\" \"b\"]\n",
-                "t.pbrt:5:36", "mix of mix is not supported");
+    expectError(
+        ab + "MakeNamedMaterial \"m\" \"string type\" \"mix\" \"string materials\" [\"a\" \"b\"]\n"
+             "Material \"mix\" \"string materials\" [\"m\" \"b\"]\n",
+        "t.pbrt:5:36", "mix of mix is not supported");
 }
 
 TEST_CASE("parser: block-structure errors") {
@@ -644,10 +655,12 @@ TEST_CASE("parser: geometry errors") {
                 "a multiple of 3 values");
     expectError(w + "Shape \"trianglemesh\" \"integer indices\" [0 1 2]\n", "t.pbrt:2:1",
                 "needs \"point3 P\"");
-    expectError(w + "Shape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0] \"normal N\" [0 0 1]\n",
-                "t.pbrt:2:53", "one normal per vertex");
-    expectError(w + "Shape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0] \"point2 uv\" [0 0 1 0 0 1]\n",
-                "t.pbrt:2:53", "unknown or unsupported parameter \"point2 uv\"");
+    expectError(
+        w + "Shape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0] \"normal N\" [0 0 1]\n",
+        "t.pbrt:2:53", "one normal per vertex");
+    expectError(
+        w + "Shape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0] \"point2 uv\" [0 0 1 0 0 1]\n",
+        "t.pbrt:2:53", "unknown or unsupported parameter \"point2 uv\"");
     expectError(w + "Scale 1 2 1\nShape \"sphere\"\n", "t.pbrt:3:1", "must be a similarity");
     expectError(w + "ConcatTransform [1 0 0 0 0 1 0 0 0 0 1 0.5 0 0 0 1]\nShape \"sphere\"\n",
                 "t.pbrt:3:1", "projective transformations are not supported");

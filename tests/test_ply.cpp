@@ -39,7 +39,8 @@ struct Bin {
         unsigned char b[sizeof(T)];
         std::memcpy(b, &v, sizeof(T));
         if (big != (std::endian::native == std::endian::big))
-            for (size_t i = 0; i < sizeof(T) / 2; ++i) std::swap(b[i], b[sizeof(T) - 1 - i]);
+            for (size_t i = 0; i < sizeof(T) / 2; ++i)
+                std::swap(b[i], b[sizeof(T) - 1 - i]);
         out.append(reinterpret_cast<const char*>(b), sizeof(T));
     }
 };
@@ -67,7 +68,8 @@ std::string binaryPly(bool big) {
         b.put<uint8_t>(200);
         b.put<float>(kPos[i][1]);
         b.put<uint8_t>(static_cast<uint8_t>(i)); // list of i extra floats
-        for (int k = 0; k < i; ++k) b.put<float>(9.f);
+        for (int k = 0; k < i; ++k)
+            b.put<float>(9.f);
         b.put<float>(kPos[i][2]);
         b.put<int16_t>(-7);
     }
@@ -75,12 +77,14 @@ std::string binaryPly(bool big) {
     for (const auto& f : faces) {
         b.put<int32_t>(42);
         b.put<uint16_t>(static_cast<uint16_t>(f.size()));
-        for (uint32_t v : f) b.put<uint32_t>(v);
+        for (uint32_t v : f)
+            b.put<uint32_t>(v);
         b.put<float>(1.5f);
     }
     for (int m = 0; m < 2; ++m) {
         b.put<int32_t>(3);
-        for (int k = 0; k < 3; ++k) b.put<int32_t>(k);
+        for (int k = 0; k < 3; ++k)
+            b.put<int32_t>(k);
         b.put<double>(0.25);
     }
     return b.out;
@@ -89,12 +93,14 @@ std::string binaryPly(bool big) {
 void checkTestMesh(const cb::PlyMesh& m) {
     REQUIRE(m.positions.size() == 5);
     for (int i = 0; i < 5; ++i)
-        for (int k = 0; k < 3; ++k) CHECK(m.positions[i][k] == kPos[i][k]);
+        for (int k = 0; k < 3; ++k)
+            CHECK(m.positions[i][k] == kPos[i][k]);
     // quad -> 2, triangle -> 1, pentagon -> 3 (fan from the first vertex)
     REQUIRE(m.triangles.size() == 6);
     const std::array<unsigned, 3> expect[6] = {{0, 1, 2}, {0, 2, 3}, {0, 1, 4},
                                                {0, 1, 2}, {0, 2, 3}, {0, 3, 4}};
-    for (int i = 0; i < 6; ++i) CHECK(m.triangles[i] == expect[i]);
+    for (int i = 0; i < 6; ++i)
+        CHECK(m.triangles[i] == expect[i]);
     CHECK(m.normals.empty());
 }
 
@@ -176,11 +182,12 @@ TEST_CASE("ply: truncated binary payload names element, row and byte offset") {
 TEST_CASE("ply: absurd element counts fail fast without allocating") {
     const auto t0 = std::chrono::steady_clock::now();
     for (const char* fmt : {"binary_little_endian", "ascii"}) {
-        const std::string text = std::string("ply\nformat ") + fmt +
-                                 " 1.0\nelement vertex 1000000000000\nproperty float x\n"
-                                 "property float y\nproperty float z\nelement face 18446744073709551615\n"
-                                 "property list uchar int vertex_indices\nend_header\n" +
-                                 std::string(64, '1');
+        const std::string text =
+            std::string("ply\nformat ") + fmt +
+            " 1.0\nelement vertex 1000000000000\nproperty float x\n"
+            "property float y\nproperty float z\nelement face 18446744073709551615\n"
+            "property list uchar int vertex_indices\nend_header\n" +
+            std::string(64, '1');
         const std::string e = plyError(text, "huge.ply");
         CHECK(contains(e, "huge.ply:9:1:"));
         CHECK(contains(e, "1000000000000 'vertex'"));
@@ -190,7 +197,8 @@ TEST_CASE("ply: absurd element counts fail fast without allocating") {
     Bin b{false, "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\n"
                  "property float y\nproperty float z\nelement face 1\n"
                  "property list uint int vertex_indices\nend_header\n"};
-    for (int i = 0; i < 9; ++i) b.put<float>(float(i));
+    for (int i = 0; i < 9; ++i)
+        b.put<float>(float(i));
     b.put<uint32_t>(4000000000u);
     b.put<int32_t>(0);
     const std::string e = plyError(b.out, "list.ply");
@@ -231,18 +239,22 @@ TEST_CASE("ply: bad indices, counts and values are rejected with their position"
     Bin b{true, "ply\nformat binary_big_endian 1.0\nelement vertex 3\nproperty float x\n"
                 "property float y\nproperty float z\nelement face 2\n"
                 "property list char int vertex_indices\nend_header\n"};
-    for (int i = 0; i < 9; ++i) b.put<float>(float(i));
+    for (int i = 0; i < 9; ++i)
+        b.put<float>(float(i));
     b.put<int8_t>(3);
-    for (int v : {0, 1, 2}) b.put<int32_t>(v);
+    for (int v : {0, 1, 2})
+        b.put<int32_t>(v);
     b.put<int8_t>(3);
-    for (int v : {0, 1, 99}) b.put<int32_t>(v);
+    for (int v : {0, 1, 99})
+        b.put<int32_t>(v);
     e = plyError(b.out);
     CHECK(contains(e, "element 'face' row 1 (byte offset"));
     CHECK(contains(e, "vertex index 99 out of range"));
     Bin c{false, "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\n"
                  "property float y\nproperty float z\nelement face 1\n"
                  "property list char int vertex_indices\nend_header\n"};
-    for (int i = 0; i < 9; ++i) c.put<float>(float(i));
+    for (int i = 0; i < 9; ++i)
+        c.put<float>(float(i));
     c.put<int8_t>(-3);
     c.put<int32_t>(0);
     e = plyError(c.out);
@@ -302,11 +314,20 @@ TEST_CASE("ply: the Stanford models load with the README's counts and bounding b
         float lo[3], hi[3];
     };
     const Expect models[] = {
-        {"bunny.ply", 17524, 34831, {-0.0946795f, 0.0329870f, -0.0618740f},
+        {"bunny.ply",
+         17524,
+         34831,
+         {-0.0946795f, 0.0329870f, -0.0618740f},
          {0.0610090f, 0.1872865f, 0.0587955f}},
-        {"dragon.ply", 15025, 29999, {-0.1080830f, 0.0527261f, -0.0504403f},
+        {"dragon.ply",
+         15025,
+         29999,
+         {-0.1080830f, 0.0527261f, -0.0504403f},
          {0.0964762f, 0.1972240f, 0.0412496f}},
-        {"buddha.ply", 14989, 29998, {-0.0461908f, 0.0497653f, -0.0474474f},
+        {"buddha.ply",
+         14989,
+         29998,
+         {-0.0461908f, 0.0497653f, -0.0474474f},
          {0.0352328f, 0.2477987f, 0.0340584f}},
     };
     for (const Expect& x : models) {

@@ -34,7 +34,9 @@ struct Token {
     bool isBracket(char c) const { return !quoted && text.size() == 1 && text[0] == c; }
 };
 
-std::string describe(const Token& t) { return t.quoted ? "\"" + t.text + "\"" : "'" + t.text + "'"; }
+std::string describe(const Token& t) {
+    return t.quoted ? "\"" + t.text + "\"" : "'" + t.text + "'";
+}
 
 class Tokenizer {
   public:
@@ -47,10 +49,12 @@ class Tokenizer {
 
     std::optional<Token> next() {
         for (;;) {
-            while (pos_ < text_.size() && isSpace(text_[pos_])) bump();
+            while (pos_ < text_.size() && isSpace(text_[pos_]))
+                bump();
             if (pos_ >= text_.size()) return std::nullopt;
             if (text_[pos_] != '#') break;
-            while (pos_ < text_.size() && text_[pos_] != '\n') bump();
+            while (pos_ < text_.size() && text_[pos_] != '\n')
+                bump();
         }
         Token t;
         t.where = here();
@@ -71,15 +75,32 @@ class Tokenizer {
                     bump();
                     const char e = pos_ < text_.size() ? text_[pos_] : '\0';
                     switch (e) {
-                    case 'n': t.text += '\n'; break;
-                    case 't': t.text += '\t'; break;
-                    case 'r': t.text += '\r'; break;
-                    case 'b': t.text += '\b'; break;
-                    case 'f': t.text += '\f'; break;
-                    case '\\': t.text += '\\'; break;
-                    case '"': t.text += '"'; break;
-                    case '\'': t.text += '\''; break;
-                    default: throw SceneError(escLoc, "unknown escape sequence in string");
+                    case 'n':
+                        t.text += '\n';
+                        break;
+                    case 't':
+                        t.text += '\t';
+                        break;
+                    case 'r':
+                        t.text += '\r';
+                        break;
+                    case 'b':
+                        t.text += '\b';
+                        break;
+                    case 'f':
+                        t.text += '\f';
+                        break;
+                    case '\\':
+                        t.text += '\\';
+                        break;
+                    case '"':
+                        t.text += '"';
+                        break;
+                    case '\'':
+                        t.text += '\'';
+                        break;
+                    default:
+                        throw SceneError(escLoc, "unknown escape sequence in string");
                     }
                     bump();
                     continue;
@@ -215,11 +236,12 @@ class ParamList {
         if (!p) return std::nullopt;
         if (p->size() != 1) wrongCount(*p, "exactly 1 value");
         if (p->kind == Param::Kind::Bool) return bool(p->bools[0]);
-        // pbrt-v4 also accepts "true"/"false" in quotes.
-        if (p->kind == Param::Kind::String) {
-            if (p->strings[0] == "true") return true;
-            if (p->strings[0] == "false") return false;
-        }
+        // pbrt-v4 reads quoted "true" only when upgrading pbrt-v3 files (pbrt --upgrade); a
+        // plain render rejects it, so cbdpt does too.
+        if (p->kind == Param::Kind::String && (p->strings[0] == "true" || p->strings[0] == "false"))
+            throw SceneError(p->valueLoc(0), "parameter " + p->decl() +
+                                                 ": write bare true/false (quoted \"" +
+                                                 p->strings[0] + "\" is pbrt-v3 syntax)");
         throw SceneError(p->valueLoc(0), "parameter " + p->decl() + " expects true or false");
     }
 
@@ -251,8 +273,8 @@ class ParamList {
                 const double v = p->numbers[i];
                 if (v != std::floor(v) || v < std::numeric_limits<int>::lowest() ||
                     v > std::numeric_limits<int>::max())
-                    throw SceneError(p->valueLoc(i), "parameter " + p->decl() +
-                                                         " expects integers (in int range)");
+                    throw SceneError(p->valueLoc(i),
+                                     "parameter " + p->decl() + " expects integers (in int range)");
             }
         return p;
     }
@@ -264,8 +286,9 @@ class ParamList {
         if (p->type == "spectrum") {
             scene_.usesSpectra = true;
             if (p->kind == Param::Kind::String)
-                throw SceneError(p->where, "parameter " + p->decl() + ": named/file spectra not "
-                                                                      "supported (got \"" +
+                throw SceneError(p->where, "parameter " + p->decl() +
+                                               ": named/file spectra not "
+                                               "supported (got \"" +
                                                p->strings[0] +
                                                "\"); give [lambda value ...] pairs inline");
             if (p->kind != Param::Kind::Number)
@@ -300,8 +323,8 @@ class ParamList {
     void finish() const {
         for (const Param& p : params_)
             if (!p.used)
-                throw SceneError(p.where, "unknown or unsupported parameter " + p.decl() +
-                                              " for " + owner_);
+                throw SceneError(p.where,
+                                 "unknown or unsupported parameter " + p.decl() + " for " + owner_);
     }
 
     const std::string& owner() const { return owner_; }
@@ -318,12 +341,14 @@ class ParamList {
                     return &p;
                 }
             std::string expected;
-            for (const char* t : types) expected += (expected.empty() ? "\"" : " or \"") + std::string(t) + "\"";
+            for (const char* t : types)
+                expected += (expected.empty() ? "\"" : " or \"") + std::string(t) + "\"";
             std::string why;
             if (p.type == "texture") why = " (textures are not supported)";
             if (p.type == "blackbody") why = " (blackbody spectra are not supported)";
-            throw SceneError(p.where, "parameter \"" + name + "\" of " + owner_ + " must have type " +
-                                          expected + ", not \"" + p.type + "\"" + why);
+            throw SceneError(p.where, "parameter \"" + name + "\" of " + owner_ +
+                                          " must have type " + expected + ", not \"" + p.type +
+                                          "\"" + why);
         }
         return nullptr;
     }
@@ -379,7 +404,9 @@ fs::path canonicalKey(const std::string& path) {
     return ec ? fs::path(path).lexically_normal() : p;
 }
 
-std::string parentDir(const std::string& path) { return fs::path(path).parent_path().string(); }
+std::string parentDir(const std::string& path) {
+    return fs::path(path).parent_path().string();
+}
 
 std::string joinPath(const std::string& dir, const std::string& name) {
     return dir.empty() ? name : (fs::path(dir) / name).lexically_normal().string();
@@ -471,7 +498,8 @@ class Parser {
                 if (q.name == p.name)
                     throw SceneError(p.where, "parameter \"" + p.name + "\" given twice");
             std::optional<Token> v = next();
-            if (!v) throw SceneError(p.where, "parameter " + p.decl() + " has no value (end of file)");
+            if (!v)
+                throw SceneError(p.where, "parameter " + p.decl() + " has no value (end of file)");
             if (v->isBracket('[')) {
                 const SourceLocation open = v->where;
                 for (;;) {
@@ -505,8 +533,7 @@ class Parser {
     static void addValue(Param& p, const Token& t, bool inBrackets) {
         if (t.isBracket('['))
             throw SceneError(t.where, "unexpected '[' in the values of parameter " + p.decl());
-        if (t.isBracket(']'))
-            throw SceneError(t.where, "unexpected ']' (no matching '[')");
+        if (t.isBracket(']')) throw SceneError(t.where, "unexpected ']' (no matching '[')");
         Param::Kind kind;
         if (t.quoted)
             kind = Param::Kind::String;
@@ -531,12 +558,10 @@ class Parser {
     }
 
     void requireWorld(const Token& dir) const {
-        if (!inWorld_)
-            throw SceneError(dir.where, dir.text + " is only allowed after WorldBegin");
+        if (!inWorld_) throw SceneError(dir.where, dir.text + " is only allowed after WorldBegin");
     }
     void requireOptions(const Token& dir) const {
-        if (inWorld_)
-            throw SceneError(dir.where, dir.text + " is only allowed before WorldBegin");
+        if (inWorld_) throw SceneError(dir.where, dir.text + " is only allowed before WorldBegin");
     }
 
     void concat(const Mat4& m) { state_.ctm = state_.ctm * m; }
@@ -569,9 +594,11 @@ class Parser {
         } else if (d == "Transform" || d == "ConcatTransform") {
             const Token open = required(t, "[ 16 numbers ]");
             if (!open.isBracket('['))
-                throw SceneError(open.where, d + " expects '[' and 16 numbers, found " + describe(open));
+                throw SceneError(open.where,
+                                 d + " expects '[' and 16 numbers, found " + describe(open));
             std::array<double, 16> v{};
-            for (double& x : v) x = number(t, 16);
+            for (double& x : v)
+                x = number(t, 16);
             const Token close = required(t, "']' after 16 numbers");
             if (!close.isBracket(']'))
                 throw SceneError(close.where, d + " expects exactly 16 numbers then ']', found " +
@@ -645,7 +672,8 @@ class Parser {
         } else if (d == "Import") {
             throw SceneError(t.where, "Import is not supported by cbdpt; use Include");
         } else if (d == "TransformBegin" || d == "TransformEnd") {
-            throw SceneError(t.where, d + " is not part of pbrt-v4; use AttributeBegin/AttributeEnd");
+            throw SceneError(t.where,
+                             d + " is not part of pbrt-v4; use AttributeBegin/AttributeEnd");
         } else if (d == "WorldEnd") {
             throw SceneError(t.where, "WorldEnd is pbrt-v3 syntax and not part of pbrt-v4");
         } else {
@@ -689,8 +717,8 @@ class Parser {
         haveFilm_ = true;
         const Token type = quoted(t, "a film type");
         if (type.text != "rgb")
-            throw SceneError(type.where,
-                             "unsupported film \"" + type.text + "\" (cbdpt supports \"rgb\" only)");
+            throw SceneError(type.where, "unsupported film \"" + type.text +
+                                             "\" (cbdpt supports \"rgb\" only)");
         ParamList pl = params("Film \"rgb\"");
         FilmDesc& f = scene_.film;
         for (const char* axis : {"xresolution", "yresolution"}) {
@@ -698,8 +726,8 @@ class Parser {
             if (!p) continue;
             const int v = *pl.oneInt(axis);
             if (v < 1 || v > 65536)
-                throw SceneError(p->where, std::string("\"integer ") + axis +
-                                               "\" must be in [1, 65536]");
+                throw SceneError(p->where,
+                                 std::string("\"integer ") + axis + "\" must be in [1, 65536]");
             (std::string(axis) == "xresolution" ? f.width : f.height) = v;
         }
         if (const Param* p = pl.peek("filename"); p) {
@@ -798,8 +826,9 @@ class Parser {
                 m.amount = static_cast<float>(a);
             }
         } else {
-            throw SceneError(typeLoc, "unsupported material type \"" + type +
-                                          "\" (cbdpt supports diffuse, conductor, dielectric, mix)");
+            throw SceneError(typeLoc,
+                             "unsupported material type \"" + type +
+                                 "\" (cbdpt supports diffuse, conductor, dielectric, mix)");
         }
         pl.finish();
         scene_.materials.push_back(std::move(m));
@@ -848,7 +877,7 @@ class Parser {
         pl.finish();
         requireAffine(t.where);
         const auto w = state_.ctm.point(from);
-        l.position = toFloat3(w, t.where, "light position");
+        l.position = checkedPoint(w, t.where, "light position");
         scene_.pointLights.push_back(std::move(l));
     }
 
@@ -858,12 +887,14 @@ class Parser {
                                     "bottom row is not 0 0 0 1)");
     }
 
-    static std::array<float, 3> toFloat3(const std::array<double, 3>& v, const SourceLocation& where,
-                                         const char* what) {
+    // World positions stay in double (see scene_desc.h) but must fit a float once made
+    // camera-relative.
+    static std::array<double, 3> checkedPoint(const std::array<double, 3>& v,
+                                              const SourceLocation& where, const char* what) {
         for (double c : v)
             if (!std::isfinite(c) || std::fabs(c) > std::numeric_limits<float>::max())
                 throw SceneError(where, std::string(what) + " is not finite after transformation");
-        return {static_cast<float>(v[0]), static_cast<float>(v[1]), static_cast<float>(v[2])};
+        return v;
     }
 
     int currentMaterial() {
@@ -972,7 +1003,7 @@ class Parser {
                                     "uniform scale, translation); this CTM is not");
         SphereDesc s;
         s.where = where;
-        s.center = toFloat3(m.point({0, 0, 0}), where, "sphere centre");
+        s.center = checkedPoint(m.point({0, 0, 0}), where, "sphere centre");
         const double r = radius * std::sqrt(s2);
         if (!(r <= std::numeric_limits<float>::max()))
             throw SceneError(where, "sphere radius is not finite after transformation");
@@ -998,13 +1029,14 @@ class Parser {
         mesh.where = where;
         mesh.positions.resize(objPos.size());
         for (size_t i = 0; i < objPos.size(); ++i)
-            mesh.positions[i] = toFloat3(m.point(objPos[i]), where, "a vertex position");
+            mesh.positions[i] = checkedPoint(m.point(objPos[i]), where, "a vertex position");
         std::vector<std::array<double, 3>> n(objNormals.size());
         const double det = m.det3();
         for (size_t i = 0; i < n.size(); ++i) {
             n[i] = det != 0.0 ? m.normal(objNormals[i]) : std::array<double, 3>{0, 0, 0};
             if (state_.reverseOrientation)
-                for (double& c : n[i]) c = -c;
+                for (double& c : n[i])
+                    c = -c;
         }
         const bool flip = state_.reverseOrientation != (det < 0.0);
         long dropped = 0;
@@ -1013,8 +1045,10 @@ class Parser {
             const auto& p0 = mesh.positions[tri[0]];
             const auto& p1 = mesh.positions[tri[1]];
             const auto& p2 = mesh.positions[tri[2]];
-            const double e1[3] = {double(p1[0]) - p0[0], double(p1[1]) - p0[1], double(p1[2]) - p0[2]};
-            const double e2[3] = {double(p2[0]) - p0[0], double(p2[1]) - p0[1], double(p2[2]) - p0[2]};
+            const double e1[3] = {double(p1[0]) - p0[0], double(p1[1]) - p0[1],
+                                  double(p1[2]) - p0[2]};
+            const double e2[3] = {double(p2[0]) - p0[0], double(p2[1]) - p0[1],
+                                  double(p2[2]) - p0[2]};
             const double c[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
                                  e1[0] * e2[1] - e1[1] * e2[0]};
             if (tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2] ||
@@ -1025,7 +1059,8 @@ class Parser {
             bool reverse = flip;
             if (!n.empty()) {
                 double ns[3];
-                for (int k = 0; k < 3; ++k) ns[k] = n[tri[0]][k] + n[tri[1]][k] + n[tri[2]][k];
+                for (int k = 0; k < 3; ++k)
+                    ns[k] = n[tri[0]][k] + n[tri[1]][k] + n[tri[2]][k];
                 const double sign = reverse ? -1.0 : 1.0;
                 const double d = sign * (c[0] * ns[0] + c[1] * ns[1] + c[2] * ns[2]);
                 if (d < 0.0) reverse = !reverse;
@@ -1072,7 +1107,8 @@ class Parser {
             }
         }
         std::string msg = "cannot find model file \"" + file + "\"; folders tried:";
-        for (const std::string& d : tried) msg += " " + d;
+        for (const std::string& d : tried)
+            msg += " " + d;
         msg += ". The Stanford models (bunny.ply, dragon.ply, buddha.ply) can be obtained with "
                "scripts/get-models, or set CBDPT_MODEL_PATH (':'-separated folders) to a folder "
                "holding them";
@@ -1104,7 +1140,8 @@ class Parser {
             return;
         }
         std::string msg = "cannot find included file \"" + name.text + "\"; tried:";
-        for (const std::string& c : candidates) msg += " " + c;
+        for (const std::string& c : candidates)
+            msg += " " + c;
         throw SceneError(name.where, msg);
     }
 

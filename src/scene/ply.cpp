@@ -48,7 +48,9 @@ size_t typeSize(PlyType t) {
     return 0;
 }
 
-bool isIntegerType(PlyType t) { return t != PlyType::Float32 && t != PlyType::Float64; }
+bool isIntegerType(PlyType t) {
+    return t != PlyType::Float32 && t != PlyType::Float64;
+}
 
 struct Property {
     std::string name;
@@ -71,9 +73,11 @@ std::vector<std::string_view> splitWords(std::string_view line) {
     std::vector<std::string_view> words;
     size_t i = 0;
     while (i < line.size()) {
-        while (i < line.size() && (line[i] == ' ' || line[i] == '\t')) ++i;
+        while (i < line.size() && (line[i] == ' ' || line[i] == '\t'))
+            ++i;
         size_t j = i;
-        while (j < line.size() && line[j] != ' ' && line[j] != '\t') ++j;
+        while (j < line.size() && line[j] != ' ' && line[j] != '\t')
+            ++j;
         if (j > i) words.push_back(line.substr(i, j - i));
         i = j;
     }
@@ -106,15 +110,15 @@ class PayloadReader {
             throw SceneError(SourceLocation{path_, 0, 0}, os.str());
         }
         os << ": " << what;
-        throw SceneError(
-            SourceLocation{path_, line_, static_cast<int>(tokStart_ - lineStart_) + 1}, os.str());
+        throw SceneError(SourceLocation{path_, line_, static_cast<int>(tokStart_ - lineStart_) + 1},
+                         os.str());
     }
 
     // Bytes left once trailing whitespace is skipped (ascii files may end in newlines).
     size_t trailing() {
         if (!binary())
             while (pos_ < data_.size() && (data_[pos_] == ' ' || data_[pos_] == '\t' ||
-                                            data_[pos_] == '\r' || data_[pos_] == '\n')) {
+                                           data_[pos_] == '\r' || data_[pos_] == '\n')) {
                 if (data_[pos_] == '\n') {
                     ++line_;
                     lineStart_ = pos_ + 1;
@@ -132,9 +136,8 @@ class PayloadReader {
         tokStart_ = pos_;
         const uint64_t sz = typeSize(t);
         if (n > remaining() / sz)
-            fail("truncated: needs " + std::to_string(n) + " more values of " +
-                 std::to_string(sz) + " bytes, only " + std::to_string(remaining()) +
-                 " bytes left");
+            fail("truncated: needs " + std::to_string(n) + " more values of " + std::to_string(sz) +
+                 " bytes, only " + std::to_string(remaining()) + " bytes left");
         pos_ += static_cast<size_t>(n * sz);
     }
 
@@ -150,7 +153,8 @@ class PayloadReader {
         pos_ += sz;
         const bool swap = (fmt_ == Format::BinaryBE) != (std::endian::native == std::endian::big);
         if (swap)
-            for (size_t i = 0; i < sz / 2; ++i) std::swap(b[i], b[sz - 1 - i]);
+            for (size_t i = 0; i < sz / 2; ++i)
+                std::swap(b[i], b[sz - 1 - i]);
         switch (t) {
         case PlyType::Int8: {
             int8_t v;
@@ -413,15 +417,14 @@ PlyMesh readPlyFromMemory(const std::string& bytes, const std::string& path) {
         os << "the header declares ";
         for (size_t i = 0; i < elements.size(); ++i)
             os << (i ? ", " : "") << elements[i].count << " '" << elements[i].name << "'";
-        os << ", needing at least " << static_cast<double>(minBytes)
-           << " bytes of data, but only " << payloadSize
-           << " bytes follow the header (truncated file or bad counts)";
+        os << ", needing at least " << static_cast<double>(minBytes) << " bytes of data, but only "
+           << payloadSize << " bytes follow the header (truncated file or bad counts)";
         throw headerError(line, os.str());
     }
 
     if (vertexEl->count > std::numeric_limits<unsigned>::max())
-        throw headerError(vertexEl->line, "too many vertices (" +
-                                              std::to_string(vertexEl->count) + ")");
+        throw headerError(vertexEl->line,
+                          "too many vertices (" + std::to_string(vertexEl->count) + ")");
 
     // --- Payload.
     PlyMesh mesh;
@@ -454,7 +457,8 @@ PlyMesh readPlyFromMemory(const std::string& bytes, const std::string& path) {
                     if (in.binary())
                         in.skipBinary(count, p.type);
                     else
-                        for (uint64_t k = 0; k < count; ++k) in.read(p.type);
+                        for (uint64_t k = 0; k < count; ++k)
+                            in.read(p.type);
                     continue;
                 }
                 if (count < 3)
@@ -483,8 +487,8 @@ PlyMesh readPlyFromMemory(const std::string& bytes, const std::string& path) {
                 for (double c : p)
                     if (!std::isfinite(c) || std::fabs(c) > std::numeric_limits<float>::max())
                         in.fail("vertex coordinate is not a finite float");
-                mesh.positions.push_back({static_cast<float>(p[0]), static_cast<float>(p[1]),
-                                          static_cast<float>(p[2])});
+                mesh.positions.push_back(
+                    {static_cast<float>(p[0]), static_cast<float>(p[1]), static_cast<float>(p[2])});
                 if (haveNormals) {
                     const std::array<double, 3> nn{scalars[inx], scalars[iny], scalars[inz]};
                     for (double c : nn)

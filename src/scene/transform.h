@@ -24,7 +24,8 @@ struct Mat4 {
         for (int i = 0; i < 4; ++i)
             for (int j = 0; j < 4; ++j) {
                 double s = 0.0;
-                for (int k = 0; k < 4; ++k) s += a(i, k) * b(k, j);
+                for (int k = 0; k < 4; ++k)
+                    s += a(i, k) * b(k, j);
                 r(i, j) = s;
             }
         return r;
@@ -33,7 +34,8 @@ struct Mat4 {
     Mat4 transposed() const {
         Mat4 r;
         for (int i = 0; i < 4; ++i)
-            for (int j = 0; j < 4; ++j) r(i, j) = (*this)(j, i);
+            for (int j = 0; j < 4; ++j)
+                r(i, j) = (*this)(j, i);
         return r;
     }
 
@@ -43,7 +45,8 @@ struct Mat4 {
     // Affine point transform (the caller checks isAffine()).
     std::array<double, 3> point(const std::array<double, 3>& p) const {
         std::array<double, 3> r{};
-        for (int i = 0; i < 3; ++i) r[i] = m[i * 4] * p[0] + m[i * 4 + 1] * p[1] + m[i * 4 + 2] * p[2] + m[i * 4 + 3];
+        for (int i = 0; i < 3; ++i)
+            r[i] = m[i * 4] * p[0] + m[i * 4 + 1] * p[1] + m[i * 4 + 2] * p[2] + m[i * 4 + 3];
         return r;
     }
 
@@ -139,7 +142,8 @@ inline std::optional<Mat4> lookAtMatrix(const std::array<double, 3>& eye,
     const std::array<std::array<double, 3>, 3> rows{*right, newUp, *dir};
     Mat4 r;
     for (int i = 0; i < 3; ++i) {
-        for (int j = 0; j < 3; ++j) r(i, j) = rows[i][j];
+        for (int j = 0; j < 3; ++j)
+            r(i, j) = rows[i][j];
         r(i, 3) = -(rows[i][0] * eye[0] + rows[i][1] * eye[1] + rows[i][2] * eye[2]);
     }
     return r;
@@ -167,19 +171,23 @@ inline std::optional<Mat4> inverse(const Mat4& a) {
             if (std::fabs(w[r][col]) > std::fabs(w[piv][col])) piv = r;
         if (w[piv][col] == 0.0) return std::nullopt;
         if (piv != col)
-            for (int j = 0; j < 8; ++j) std::swap(w[piv][j], w[col][j]);
+            for (int j = 0; j < 8; ++j)
+                std::swap(w[piv][j], w[col][j]);
         const double inv = 1.0 / w[col][col];
-        for (int j = 0; j < 8; ++j) w[col][j] *= inv;
+        for (int j = 0; j < 8; ++j)
+            w[col][j] *= inv;
         for (int r = 0; r < 4; ++r) {
             if (r == col) continue;
             const double f = w[r][col];
             if (f == 0.0) continue;
-            for (int j = 0; j < 8; ++j) w[r][j] -= f * w[col][j];
+            for (int j = 0; j < 8; ++j)
+                w[r][j] -= f * w[col][j];
         }
     }
     Mat4 r;
     for (int i = 0; i < 4; ++i)
-        for (int j = 0; j < 4; ++j) r(i, j) = w[i][j + 4];
+        for (int j = 0; j < 4; ++j)
+            r(i, j) = w[i][j + 4];
     return r;
 }
 
