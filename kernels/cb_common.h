@@ -132,20 +132,38 @@ CB_FN Vec3 vmadd(Vec3 a, Vec3 b, float s) {
 /* Flip v to the hemisphere of `toward`. */
 CB_FN Vec3 vfaceForward(Vec3 v, Vec3 toward) { return vdot(v, toward) < 0.0f ? vneg(v) : v; }
 
-/* Orthonormal frame around a unit normal (Duff et al. 2017, "Building an Orthonormal Basis,
- * Revisited"): continuous in n except across the z=0 sign flip, which keeps directions
- * sampled in it coherent between neighbouring pixels (METHOD.md, coherence). */
+/* Orthonormal frame around a unit normal, continuous in n (METHOD.md, coherence: neighbouring
+ * pixels with similar normals must get similar directions).
+ *
+ * Duff et al. 2017 ("Building an Orthonormal Basis, Revisited") is continuous except across
+ * the great circle n.z = 0 - exactly where the normals of floors, ceilings and side walls lie,
+ * so rounding noise in n.z (or two triangles of one wall) would flip the frame and scatter
+ * paths that should stay coherent. We apply Duff's construction in a fixed rotated basis whose
+ * third axis g = (1, sqrt 2, sqrt 3)/sqrt 6 has no integer relation to the coordinate axes:
+ * the discontinuity moves to dot(n, g) = 0, which no axis-aligned or 45-degree normal meets. */
+CB_FN Vec3 frameRotateIn(Vec3 v) {
+    return vec3(-0.816496581f * v.x + 0.577350269f * v.y,
+                -0.408248290f * v.x - 0.577350269f * v.y + 0.707106781f * v.z,
+                0.408248290f * v.x + 0.577350269f * v.y + 0.707106781f * v.z);
+}
+CB_FN Vec3 frameRotateOut(Vec3 v) {
+    return vec3(-0.816496581f * v.x - 0.408248290f * v.y + 0.408248290f * v.z,
+                0.577350269f * v.x - 0.577350269f * v.y + 0.577350269f * v.z,
+                0.707106781f * v.y + 0.707106781f * v.z);
+}
+
 typedef struct Frame {
     Vec3 s, t, n;
 } Frame;
 
 CB_FN Frame frameFromNormal(Vec3 n) {
-    float sign = n.z >= 0.0f ? 1.0f : -1.0f;
-    float a = -1.0f / (sign + n.z);
-    float b = n.x * n.y * a;
+    Vec3 r = frameRotateIn(n);
+    float sign = r.z >= 0.0f ? 1.0f : -1.0f;
+    float a = -1.0f / (sign + r.z);
+    float b = r.x * r.y * a;
     Frame f;
-    f.s = vec3(1.0f + sign * n.x * n.x * a, sign * b, -sign * n.x);
-    f.t = vec3(b, sign + n.y * n.y * a, -n.y);
+    f.s = frameRotateOut(vec3(1.0f + sign * r.x * r.x * a, sign * b, -sign * r.x));
+    f.t = frameRotateOut(vec3(b, sign + r.y * r.y * a, -r.y));
     f.n = n;
     return f;
 }

@@ -44,7 +44,18 @@ class SpectraTable {
     std::vector<float>& data_;
 };
 
-cbk::Camera makeCamera(const SceneDesc& desc) {
+// The camera position in world space (double), used as the origin of the device scene.
+std::array<double, 3> cameraPosition(const SceneDesc& desc) {
+    Mat4 worldToCamera;
+    worldToCamera.m = desc.camera.worldToCamera;
+    std::optional<Mat4> cameraToWorld = inverse(worldToCamera);
+    if (!cameraToWorld)
+        throw SceneError(desc.camera.where, "the camera transform is singular (check "
+                                            "LookAt/Scale before Camera)");
+    return {(*cameraToWorld)(0, 3), (*cameraToWorld)(1, 3), (*cameraToWorld)(2, 3)};
+}
+
+cbk::Camera makeCamera(const SceneDesc& desc, const std::array<double, 3>& origin) {
     const FilmDesc& film = desc.film;
     SourceLocation where = desc.camera.where;
     if (film.width <= 0 || film.height <= 0)
@@ -54,9 +65,11 @@ cbk::Camera makeCamera(const SceneDesc& desc) {
     if (!(fov > 0.f && fov < 180.f))
         throw SceneError(where, fmt::format("field of view {} must be in (0, 180) degrees", fov));
     cbk::Camera camera{};
-    const auto& w2c = desc.camera.worldToCamera;
+    // Device coordinates are world coordinates minus `origin`: worldToCamera * Translate(origin).
     Mat4 worldToCamera;
-    worldToCamera.m = w2c;
+    worldToCamera.m = desc.camera.worldToCamera;
+    worldToCamera = worldToCamera * translateMatrix(origin[0], origin[1], origin[2]);
+    const auto& w2c = worldToCamera.m;
     std::optional<Mat4> cameraToWorld = inverse(worldToCamera);
     if (!cameraToWorld)
         throw SceneError(where, "the camera transform is singular (check LookAt/Scale before "
@@ -94,7 +107,14 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
     bool spectral = mode == ChannelMode::Spectral || (mode == ChannelMode::Auto && desc.usesSpectra);
     scene.channels = spectral ? kSpectralBins : 3;
     scene.toRgb = channelsToRgbMatrix(scene.channels);
-    scene.camera = makeCamera(desc);
+    // Camera-relative rendering: positions are made relative to the camera in double, then
+    // rounded to float, so precision is finest where the image needs it and a scene far from
+    // the world origin renders like the same scene at the origin.
+    scene.origin = cameraPosition(desc);
+    scene.camera = makeCamera(desc, scene.origin);
+    auto toDevice = [&](const std::array<double, 3>& p, float* out) {
+        for (int a = 0; a < 3; ++a) out[a] = float(p[size_t(a)] - scene.origin[size_t(a)]);
+    };
     SpectraTable spectra(scene.channels, scene.spectra);
 
     // Materials: the scene's, plus a constant-one entry used by kinds without a reflectance.
@@ -161,8 +181,8 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         return int(scene.lights.size()) - 1;
     };
 
-    std::array<float, 3> lo{INFINITY, INFINITY, INFINITY}, hi{-INFINITY, -INFINITY, -INFINITY};
-    auto grow = [&](const std::array<float, 3>& p, float r) {
+    std::array<double, 3> lo{INFINITY, INFINITY, INFINITY}, hi{-INFINITY, -INFINITY, -INFINITY};
+    auto grow = [&](const std::array<double, 3>& p, double r) {
         for (int a = 0; a < 3; ++a) {
             lo[size_t(a)] = std::min(lo[size_t(a)], p[size_t(a)] - r);
             hi[size_t(a)] = std::max(hi[size_t(a)], p[size_t(a)] + r);
@@ -177,22 +197,23 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
             prim.kind = CB_PRIM_TRIANGLE;
             prim.material = mesh.material;
             prim.light = -1;
+            toDevice(mesh.positions[tri[0]], prim.p0);
+            toDevice(mesh.positions[tri[1]], prim.p1);
+            toDevice(mesh.positions[tri[2]], prim.p2);
+            // Area of the triangle as the kernels see it (float vertices).
+            double e1[3], e2[3];
             for (int a = 0; a < 3; ++a) {
-                prim.p0[a] = mesh.positions[tri[0]][size_t(a)];
-                prim.p1[a] = mesh.positions[tri[1]][size_t(a)];
-                prim.p2[a] = mesh.positions[tri[2]][size_t(a)];
+                e1[a] = double(prim.p1[a]) - prim.p0[a];
+                e2[a] = double(prim.p2[a]) - prim.p0[a];
             }
-            if (mesh.areaLight >= 0) {
-                double e1[3], e2[3];
-                for (int a = 0; a < 3; ++a) {
-                    e1[a] = double(prim.p1[a]) - prim.p0[a];
-                    e2[a] = double(prim.p2[a]) - prim.p0[a];
-                }
-                double cx = e1[1] * e2[2] - e1[2] * e2[1], cy = e1[2] * e2[0] - e1[0] * e2[2],
-                       cz = e1[0] * e2[1] - e1[1] * e2[0];
-                float area = float(0.5 * std::sqrt(cx * cx + cy * cy + cz * cz));
-                prim.light = addAreaLight(mesh.areaLight, area);
+            double cx = e1[1] * e2[2] - e1[2] * e2[1], cy = e1[2] * e2[0] - e1[0] * e2[2],
+                   cz = e1[0] * e2[1] - e1[1] * e2[0];
+            double area = 0.5 * std::sqrt(cx * cx + cy * cy + cz * cz);
+            if (!(area > 0.0)) {
+                ++scene.droppedDegenerateTriangles; // zero area once rounded to float
+                continue;
             }
+            if (mesh.areaLight >= 0) prim.light = addAreaLight(mesh.areaLight, float(area));
             primitives.push_back(prim);
             ++scene.triangleCount;
         }
@@ -202,7 +223,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         prim.kind = CB_PRIM_SPHERE;
         prim.material = sphere.material;
         prim.light = -1;
-        for (int a = 0; a < 3; ++a) prim.p0[a] = sphere.center[size_t(a)];
+        toDevice(sphere.center, prim.p0);
         prim.p1[0] = sphere.radius;
         prim.p1[1] = sphere.reverseOrientation ? -1.f : 1.f;
         grow(sphere.center, sphere.radius);
@@ -219,7 +240,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         light.kind = CB_LIGHT_POINT;
         light.primitive = -1;
         light.emission = spectra.add(pl.intensity, pl.scale);
-        for (int a = 0; a < 3; ++a) light.position[a] = pl.position[size_t(a)];
+        toDevice(pl.position, light.position);
         lightPower.push_back(spectra.average(light.emission) * 4.f * float(M_PI));
         scene.lights.push_back(light);
         scene.features |= CB_FEATURE_POINT_LIGHT;
@@ -231,6 +252,10 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
     if (scene.triangleCount + scene.sphereCount > 0) {
         scene.boundsMin = lo;
         scene.boundsMax = hi;
+    }
+    if (scene.droppedDegenerateTriangles > 0) {
+        fmt::print(stderr, "warning: {}: dropped {} triangles that have zero area in float "
+                           "precision\n", desc.path, scene.droppedDegenerateTriangles);
     }
 
     // Choose lights in proportion to power; fall back to uniform if every light is black.

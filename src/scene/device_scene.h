@@ -23,13 +23,17 @@ struct DeviceScene {
     std::vector<float> spectra; // `channels` floats per entry
     std::vector<float> toRgb;   // 3 x channels, row-major: linear sRGB from channels
     cbk::Camera camera{};
+    // Device coordinates are world coordinates minus this point (the camera position): see
+    // buildDeviceScene.
+    std::array<double, 3> origin{0, 0, 0};
     unsigned features = 0; // CB_FEATURE_* bits
     // Statistics for `cbdpt info`.
     long triangleCount = 0;
     long vertexCount = 0;
     long sphereCount = 0;
-    std::array<float, 3> boundsMin{0, 0, 0};
-    std::array<float, 3> boundsMax{0, 0, 0};
+    long droppedDegenerateTriangles = 0; // zero area once made camera-relative and rounded
+    std::array<double, 3> boundsMin{0, 0, 0}; // world space
+    std::array<double, 3> boundsMax{0, 0, 0};
 
     // Kernel -D defines for this scene: channel count and feature bits.
     std::vector<std::string> kernelDefines() const;

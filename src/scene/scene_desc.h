@@ -59,8 +59,10 @@ struct AreaLightDesc {
     SourceLocation where;
 };
 
+// World-space positions are kept in double: the device scene subtracts the camera position before
+// rounding to float (camera-relative rendering), so a scene far from the origin keeps its detail.
 struct TriangleMeshDesc {
-    std::vector<std::array<float, 3>> positions; // world space
+    std::vector<std::array<double, 3>> positions; // world space
     std::vector<std::array<unsigned, 3>> triangles;
     int material = -1;
     int areaLight = -1; // index into SceneDesc::areaLights, or -1
@@ -68,7 +70,7 @@ struct TriangleMeshDesc {
 };
 
 struct SphereDesc {
-    std::array<float, 3> center{0.f, 0.f, 0.f}; // world space
+    std::array<double, 3> center{0.0, 0.0, 0.0}; // world space
     float radius = 1.f;                          // world space (uniform scale applied)
     bool reverseOrientation = false;             // normals point inward
     int material = -1;
@@ -77,7 +79,7 @@ struct SphereDesc {
 };
 
 struct PointLightDesc {
-    std::array<float, 3> position{0.f, 0.f, 0.f}; // world space
+    std::array<double, 3> position{0.0, 0.0, 0.0}; // world space
     SpectrumValue intensity = SpectrumValue::constant(1.f); // "I"
     float scale = 1.f;
     SourceLocation where;
