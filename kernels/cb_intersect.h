@@ -1,0 +1,266 @@
+/* cb_intersect.h - ray/primitive intersection and robust spawning of secondary rays.
+ *
+ * Nothing here uses a scene-scale epsilon. Intersections are watertight and conservative
+ * (Woop, Benthin, Wald 2013; pbrt-v4), every hit point carries a floating-point error bound
+ * (pbrt 3rd ed. sec. 3.9), and new rays start just outside that bound, so the same code
+ * works for a scene scaled by 1e-4 or 1e4 or translated far from the origin. */
+#ifndef CB_INTERSECT_H
+#define CB_INTERSECT_H
+
+#include "cb_types.h"
+
+#if defined(CB_KERNEL_SIDE) && defined(cl_khr_fp64)
+#pragma OPENCL EXTENSION cl_khr_fp64 : enable
+#define CB_HAS_DOUBLE 1
+#elif !defined(CB_KERNEL_SIDE)
+#define CB_HAS_DOUBLE 1
+#endif
+
+CB_BEGIN_NAMESPACE
+
+/* Relative shortening of shadow rays (pbrt-v4's ShadowEpsilon): the intersection t of the
+ * target surface itself carries a relative error of a few ulps of the distance, which the
+ * endpoint offsets alone do not cover when the target is far from the ray origin. Being
+ * relative, it is independent of the scene scale. */
+#define CB_SHADOW_EPSILON 1.0e-4f
+
+CB_FN Vec3 cbPermute(Vec3 v, int x, int y, int z) {
+    return vec3(vcomponent(v, x), vcomponent(v, y), vcomponent(v, z));
+}
+
+CB_FN int cbMaxAxis(Vec3 v) {
+    return (v.x > v.y) ? (v.x > v.z ? 0 : 2) : (v.y > v.z ? 1 : 2);
+}
+
+/* Watertight ray/triangle intersection (Woop, Benthin, Wald 2013, JCGT 2(1)), with the
+ * conservative t > 0 test of pbrt-v4 (3rd ed. sec. 3.9.6). Rays through a shared edge or
+ * vertex hit at least one of the triangles sharing it: the edge functions are evaluated in a
+ * ray-aligned sheared frame where they are exact up to one rounding, and a zero edge function
+ * is re-evaluated in double precision so that ties are broken consistently. Returns the hit
+ * only for t in (0, tMax); b1, b2 are the barycentric weights of p1 and p2. */
+CB_FN bool intersectTriangle(Ray ray, float tMax, Vec3 p0, Vec3 p1, Vec3 p2, float* t, float* b1,
+                             float* b2) {
+    Vec3 p0t = vsub(p0, ray.o);
+    Vec3 p1t = vsub(p1, ray.o);
+    Vec3 p2t = vsub(p2, ray.o);
+
+    /* Make the largest direction component z so the shear below is well defined. */
+    int kz = cbMaxAxis(vabs(ray.d));
+    int kx = kz + 1;
+    if (kx == 3) kx = 0;
+    int ky = kx + 1;
+    if (ky == 3) ky = 0;
+    Vec3 d = cbPermute(ray.d, kx, ky, kz);
+    p0t = cbPermute(p0t, kx, ky, kz);
+    p1t = cbPermute(p1t, kx, ky, kz);
+    p2t = cbPermute(p2t, kx, ky, kz);
+
+    /* Shear so that the ray runs along +z (paper, sec. 3); z is scaled later, only if needed. */
+    float sx = -d.x / d.z;
+    float sy = -d.y / d.z;
+    float sz = 1.0f / d.z;
+    p0t.x += sx * p0t.z;
+    p0t.y += sy * p0t.z;
+    p1t.x += sx * p1t.z;
+    p1t.y += sy * p1t.z;
+    p2t.x += sx * p2t.z;
+    p2t.y += sy * p2t.z;
+
+    float e0 = p1t.x * p2t.y - p1t.y * p2t.x;
+    float e1 = p2t.x * p0t.y - p2t.y * p0t.x;
+    float e2 = p0t.x * p1t.y - p0t.y * p1t.x;
+#ifdef CB_HAS_DOUBLE
+    if (e0 == 0.0f || e1 == 0.0f || e2 == 0.0f) {
+        e0 = (float)((double)p1t.x * (double)p2t.y - (double)p1t.y * (double)p2t.x);
+        e1 = (float)((double)p2t.x * (double)p0t.y - (double)p2t.y * (double)p0t.x);
+        e2 = (float)((double)p0t.x * (double)p1t.y - (double)p0t.y * (double)p1t.x);
+    }
+#endif
+    /* Edge functions of mixed sign: the ray passes outside. Zero counts as inside. */
+    if ((e0 < 0.0f || e1 < 0.0f || e2 < 0.0f) && (e0 > 0.0f || e1 > 0.0f || e2 > 0.0f))
+        return false;
+    float det = e0 + e1 + e2;
+    if (det == 0.0f) return false;
+
+    p0t.z *= sz;
+    p1t.z *= sz;
+    p2t.z *= sz;
+    float tScaled = e0 * p0t.z + e1 * p1t.z + e2 * p2t.z;
+    /* Range test on the unnormalised t, avoiding the division for most misses. */
+    if (det < 0.0f && (tScaled >= 0.0f || tScaled <= tMax * det)) return false;
+    if (det > 0.0f && (tScaled <= 0.0f || tScaled >= tMax * det)) return false;
+
+    float invDet = 1.0f / det;
+    float tHit = tScaled * invDet;
+    if (!(tHit < tMax)) return false;
+
+    /* Conservative t > 0 (pbrt 3rd ed. sec. 3.9.6): reject hits whose t is within its own
+     * rounding-error bound of zero, which is what keeps spawned rays from re-hitting their
+     * origin triangle. */
+    float maxZt = vmaxComponent(vabs(vec3(p0t.z, p1t.z, p2t.z)));
+    float deltaZ = cbGamma(3) * maxZt;
+    float maxXt = vmaxComponent(vabs(vec3(p0t.x, p1t.x, p2t.x)));
+    float maxYt = vmaxComponent(vabs(vec3(p0t.y, p1t.y, p2t.y)));
+    float deltaX = cbGamma(5) * (maxXt + maxZt);
+    float deltaY = cbGamma(5) * (maxYt + maxZt);
+    float deltaE = 2.0f * (cbGamma(2) * maxXt * maxYt + deltaY * maxXt + deltaX * maxYt);
+    float maxE = vmaxComponent(vabs(vec3(e0, e1, e2)));
+    float deltaT =
+        3.0f * (cbGamma(3) * maxE * maxZt + deltaE * maxZt + deltaZ * maxE) * fabs(invDet);
+    if (tHit <= deltaT) return false;
+
+    *t = tHit;
+    *b1 = e1 * invDet;
+    *b2 = e2 * invDet;
+    return true;
+}
+
+/* Ray/sphere intersection in the form of Haines et al., "Precision Improvements for Ray/Sphere
+ * Intersection" (Ray Tracing Gems, ch. 7): the discriminant is computed from the distance of
+ * the centre to the ray line (b^2 - 4ac = 4a (r^2 - |f - (f.d/a) d|^2)), which avoids
+ * the cancellation of b^2 - 4ac for small or distant spheres, and the two roots come from
+ * q = b' + sign(b') sqrt(disc) (Press et al.) so that neither root subtracts nearly equal
+ * numbers. Returns the nearest root in (0, tMax): the near one from outside, the far one from
+ * inside. ray.d need not be unit. */
+CB_FN bool intersectSphere(Ray ray, float tMax, Vec3 center, float radius, float* t) {
+    Vec3 f = vsub(ray.o, center);
+    float a = vdot(ray.d, ray.d);
+    float bp = -vdot(f, ray.d); /* -b/2 */
+    Vec3 l = vmadd(f, ray.d, bp / a);
+    float r2 = radius * radius;
+    float disc = a * (r2 - vlength2(l)); /* (b^2 - 4ac) / 4 */
+    if (disc < 0.0f) return false;
+    float c = vlength2(f) - r2;
+    float sq = sqrt(disc);
+    float q = bp >= 0.0f ? bp + sq : bp - sq;
+    if (q == 0.0f) return false; /* both roots at t = 0 */
+    float t0 = c / q;
+    float t1 = q / a;
+    if (t0 > t1) {
+        float tmp = t0;
+        t0 = t1;
+        t1 = tmp;
+    }
+    if (t0 > 0.0f && t0 < tMax) {
+        *t = t0;
+        return true;
+    }
+    if (t1 > 0.0f && t1 < tMax) {
+        *t = t1;
+        return true;
+    }
+    return false;
+}
+
+/* Fills hit->t, b1, b2 (b1 = b2 = 0 for spheres); the caller sets hit->primitive. */
+CB_FN bool intersectPrimitive(CB_GLOBAL const Primitive* prim, Ray ray, float tMax, Hit* hit) {
+#if CB_HAS(CB_FEATURE_SPHERES)
+    if (prim->kind == CB_PRIM_SPHERE) {
+        float t;
+        if (!intersectSphere(ray, tMax, vec3FromGlobalArray(prim->p0), prim->p1[0], &t))
+            return false;
+        hit->t = t;
+        hit->b1 = 0.0f;
+        hit->b2 = 0.0f;
+        return true;
+    }
+#endif
+    float t, b1, b2;
+    if (!intersectTriangle(ray, tMax, vec3FromGlobalArray(prim->p0), vec3FromGlobalArray(prim->p1),
+                           vec3FromGlobalArray(prim->p2), &t, &b1, &b2))
+        return false;
+    hit->t = t;
+    hit->b1 = b1;
+    hit->b2 = b2;
+    return true;
+}
+
+/* The hit point with a conservative per-axis error bound (pbrt 3rd ed. sec. 3.9.4-3.9.5).
+ * The point is not o + t d, whose error grows with t, but recomputed from the primitive. */
+CB_FN SurfacePoint surfacePointFromHit(const SceneView* scene, Ray ray, Hit hit) {
+    CB_GLOBAL const Primitive* prim = scene->primitives + hit.primitive;
+    SurfacePoint sp;
+    sp.primitive = hit.primitive;
+    sp.material = prim->material;
+    sp.light = prim->light;
+    (void)ray; /* only spheres need the ray */
+#if CB_HAS(CB_FEATURE_SPHERES)
+    if (prim->kind == CB_PRIM_SPHERE) {
+        Vec3 c = vec3FromGlobalArray(prim->p0);
+        float r = prim->p1[0];
+        /* Reproject onto the sphere: the local point then has error <= gamma(5)|p_local|
+         * (pbrt 3rd ed. sec. 3.9.4, spheres), and adding the centre rounds once more. */
+        Vec3 pLocal = vsub(vmadd(ray.o, ray.d, hit.t), c);
+        pLocal = vscale(pLocal, r / vlength(pLocal));
+        sp.p = vadd(c, pLocal);
+        sp.pError = vadd(vscale(vabs(pLocal), cbGamma(5)), vscale(vabs(sp.p), cbGamma(2)));
+        sp.ng = vscale(vnormalize(pLocal), prim->p1[1] < 0.0f ? -1.0f : 1.0f);
+        return sp;
+    }
+#endif
+    Vec3 p0 = vec3FromGlobalArray(prim->p0);
+    Vec3 p1 = vec3FromGlobalArray(prim->p1);
+    Vec3 p2 = vec3FromGlobalArray(prim->p2);
+    float b0 = 1.0f - hit.b1 - hit.b2;
+    Vec3 w0 = vscale(p0, b0);
+    Vec3 w1 = vscale(p1, hit.b1);
+    Vec3 w2 = vscale(p2, hit.b2);
+    sp.p = vadd(vadd(w0, w1), w2);
+    /* pbrt 3rd ed. sec. 3.9.4 (triangles, barycentric interpolation): gamma(7) sum |b_i p_i|. */
+    sp.pError = vscale(vadd(vadd(vabs(w0), vabs(w1)), vabs(w2)), cbGamma(7));
+    sp.ng = vnormalize(vcross(vsub(p1, p0), vsub(p2, p0)));
+    return sp;
+}
+
+/* pbrt-v4 OffsetRayOrigin: move p along n out of its error box, to the side w leaves
+ * through, then round away from p so the rounding of the addition cannot undo the offset. */
+CB_FN Vec3 offsetRayOrigin(Vec3 p, Vec3 pError, Vec3 n, Vec3 w) {
+    float d = vdot(vabs(n), pError);
+    Vec3 offset = vscale(n, d);
+    if (vdot(w, n) < 0.0f) offset = vneg(offset);
+    Vec3 po = vadd(p, offset);
+    if (offset.x > 0.0f)
+        po.x = cbNextFloatUp(po.x);
+    else if (offset.x < 0.0f)
+        po.x = cbNextFloatDown(po.x);
+    if (offset.y > 0.0f)
+        po.y = cbNextFloatUp(po.y);
+    else if (offset.y < 0.0f)
+        po.y = cbNextFloatDown(po.y);
+    if (offset.z > 0.0f)
+        po.z = cbNextFloatUp(po.z);
+    else if (offset.z < 0.0f)
+        po.z = cbNextFloatDown(po.z);
+    return po;
+}
+
+CB_FN Ray spawnRay(SurfacePoint sp, Vec3 dir) {
+    Ray r;
+    r.o = offsetRayOrigin(sp.p, sp.pError, sp.ng, dir);
+    r.d = dir;
+    return r;
+}
+
+/* pbrt-v4 SpawnRayTo between two interactions: both ends are offset off their surfaces
+ * (the target towards the origin), the direction is normalised, and tMax stops just short of
+ * the offset target. For a point light pass targetError = targetNormal = 0. */
+CB_FN Ray spawnRayTo(SurfacePoint from, Vec3 target, Vec3 targetError, Vec3 targetNormal,
+                     float* tMax) {
+    Ray r;
+    r.o = offsetRayOrigin(from.p, from.pError, from.ng, vsub(target, from.p));
+    Vec3 pt = offsetRayOrigin(target, targetError, targetNormal, vsub(r.o, target));
+    Vec3 d = vsub(pt, r.o);
+    float len = vlength(d);
+    if (len > 0.0f) {
+        r.d = vscale(d, 1.0f / len);
+        *tMax = len * (1.0f - CB_SHADOW_EPSILON);
+    } else {
+        r.d = from.ng;
+        *tMax = 0.0f;
+    }
+    return r;
+}
+
+CB_END_NAMESPACE
+
+#endif /* CB_INTERSECT_H */

@@ -1,0 +1,31 @@
+// Binned-SAH BVH built on the host and flattened for the stackless traversal in cb_bvh.h.
+#pragma once
+
+#include <vector>
+
+#include "cb_bvh.h"
+
+namespace cb {
+
+struct BvhBuildOptions {
+    int maxLeafSize = 4; // leaves never hold more; smaller leaves only where SAH prefers them
+    int bins = 16;       // SAH bins per axis (Wald 2007)
+};
+
+struct Bvh {
+    std::vector<cbk::BvhNode> nodes;        // depth-first preorder, root at 0, never empty
+    std::vector<cbk::Primitive> primitives; // reordered to leaf order
+    std::vector<int> originalIndex;         // primitives[i] was input primitive originalIndex[i]
+    int depth = 0;                          // levels, a lone root leaf counts as 1
+};
+
+// Binned SAH construction (Wald 2007, "On fast construction of SAH-based bounding volume
+// hierarchies"). Primitives with coincident centroids are split at the median instead, so
+// the build always terminates with leaves of at most maxLeafSize primitives. An empty input
+// gives a single empty leaf that every ray misses.
+Bvh buildBvh(std::vector<cbk::Primitive> primitives, const BvhBuildOptions& options = {});
+
+// Conservative bounds of one primitive (spheres are rounded outwards).
+void primitiveBounds(const cbk::Primitive& prim, float lo[3], float hi[3]);
+
+} // namespace cb
