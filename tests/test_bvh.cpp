@@ -9,14 +9,13 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <fstream>
 #include <random>
-#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include "bvh/bvh.h"
+#include "scene/ply.h"
 
 using cbk::Hit;
 using cbk::Primitive;
@@ -26,45 +25,19 @@ using cbk::Vec3;
 
 namespace {
 
-// The project's PLY reader (src/scene/ply.h) was not implemented yet when these tests were
-// written; this reads exactly the documented format of /work/shared/models (binary little
-// endian, float x y z, uchar-int face lists of triangles).
 struct Mesh {
     std::vector<Vec3> positions;
     std::vector<int> indices;
 };
 
 Mesh loadModel(const std::string& name) {
-    std::string path = std::string(CBDPT_MODELS_DIR) + "/" + name;
-    std::ifstream in(path, std::ios::binary);
-    REQUIRE_MESSAGE(in.good(), "cannot open " << path);
-    std::string line;
-    size_t vertices = 0, faces = 0;
-    while (std::getline(in, line) && line != "end_header") {
-        std::istringstream ls(line);
-        std::string word, element;
-        ls >> word;
-        if (word == "element") {
-            size_t count;
-            ls >> element >> count;
-            (element == "vertex" ? vertices : faces) = count;
-        }
-    }
+    cb::PlyMesh ply = cb::readPly(std::string(CBDPT_MODELS_DIR) + "/" + name);
     Mesh mesh;
-    mesh.positions.resize(vertices);
-    for (auto& p : mesh.positions) {
-        float xyz[3];
-        in.read(reinterpret_cast<char*>(xyz), sizeof xyz);
-        p = cbk::vec3(xyz[0], xyz[1], xyz[2]);
-    }
-    mesh.indices.resize(3 * faces);
-    for (size_t f = 0; f < faces; ++f) {
-        unsigned char n = 0;
-        in.read(reinterpret_cast<char*>(&n), 1);
-        REQUIRE(n == 3);
-        in.read(reinterpret_cast<char*>(&mesh.indices[3 * f]), 3 * sizeof(int));
-    }
-    REQUIRE(in.good());
+    for (const auto& p : ply.positions)
+        mesh.positions.push_back(cbk::vec3(p[0], p[1], p[2]));
+    for (const auto& t : ply.triangles)
+        for (unsigned i : t)
+            mesh.indices.push_back(int(i));
     return mesh;
 }
 
