@@ -113,3 +113,184 @@ TEST_CASE("stress: the Cornell box scaled by 1e-4 and 1e4 and moved 1e5 away ren
         }
     }
 }
+
+namespace {
+
+// Mean over pixels and channels of each estimate, for statistics valid for every method: the
+// estimates are independent even when the pixels within one estimate are not (CPT, CBDPT).
+struct EstimateSpread {
+    double mean = 0;
+    double standardError = 0;
+};
+
+EstimateSpread renderEstimateSpread(const cb::SceneDesc& desc, const std::string& integrator,
+                                    int eyeVertices, int estimates, std::uint32_t seed,
+                                    cb::ChannelMode mode = cb::ChannelMode::Auto) {
+    static cb::ClRuntime runtime;
+    cb::DeviceScene scene = cb::buildDeviceScene(desc, mode);
+    cb::IntegratorSettings settings;
+    settings.name = integrator;
+    settings.eyeVertices = eyeVertices;
+    settings.seed = seed;
+    auto renderer = cb::makeIntegrator(settings, scene, runtime);
+    std::vector<float> rgb;
+    std::vector<double> means;
+    for (int e = 0; e < estimates; ++e) {
+        renderer->renderEstimate(std::uint32_t(e), rgb);
+        double sum = 0;
+        for (float v : rgb) {
+            REQUIRE(std::isfinite(v));
+            sum += v;
+        }
+        means.push_back(sum / double(rgb.size()));
+    }
+    REQUIRE(renderer->nonFiniteSamples() == 0);
+    EstimateSpread s;
+    for (double m : means) s.mean += m;
+    s.mean /= double(means.size());
+    double var = 0;
+    for (double m : means) var += (m - s.mean) * (m - s.mean);
+    var /= double(means.size() - 1);
+    s.standardError = std::sqrt(var / double(means.size()));
+    return s;
+}
+
+// A 2 m diffuse floor (albedo 0.5, y = 0, normal +y) seen straight down at (x, 0, 0) by a
+// camera with a 1e-4 degree field of view, so the image measures radiance at one point.
+std::string pointProbeScene(double x, const std::string& film, const std::string& lights) {
+    return "LookAt " + std::to_string(x) + " 1 0  " + std::to_string(x) +
+           " 0 0  0 0 1\n"
+           "Camera \"perspective\" \"float fov\" 0.0001\n"
+           "Film \"rgb\" " + film +
+           "\nWorldBegin\n"
+           "Material \"diffuse\" \"rgb reflectance\" [0.5 0.5 0.5]\n"
+           "Shape \"trianglemesh\" \"point3 P\" [-1 0 -1  1 0 -1  1 0 1  -1 0 1]\n"
+           "    \"integer indices\" [0 2 1  0 3 2]\n" +
+           lights;
+}
+
+} // namespace
+
+TEST_CASE("stress: a point light 1e-4 above a diffuse plane gives the analytic I cos / r^2") {
+    const double h = 1e-4, intensity = 1.0, albedo = 0.5;
+    for (const char* integrator : kStressIntegrators) {
+        CAPTURE(integrator);
+        for (double d : {0.0, 1e-4, 1e-3, 0.1}) {
+            CAPTURE(d);
+            std::string light = "LightSource \"point\" \"rgb I\" [1 1 1] \"point3 from\" [0 " +
+                                std::to_string(h) + " 0]\n";
+            cb::SceneDesc desc = cb::parseSceneString(
+                pointProbeScene(d, "\"integer xresolution\" 1 \"integer yresolution\" 1", light),
+                "<point-probe>");
+            // Direct light only (3 vertices: camera, floor, light).
+            auto s = renderEstimateSpread(desc, integrator, 3, 4, 1);
+            double r2 = h * h + d * d;
+            double expected = albedo / M_PI * intensity * (h / std::sqrt(r2)) / r2;
+            CAPTURE(expected);
+            CAPTURE(s.mean);
+            // The probe's footprint (1.7e-6 wide) spans a 1.3% variation at d = 1e-4, which
+            // averages out to second order; hit points on the 2 m floor carry ~4e-7 absolute
+            // error (0.4% of d = 1e-4). 1% covers both.
+            CHECK(s.mean == doctest::Approx(expected).epsilon(1e-2));
+        }
+    }
+}
+
+TEST_CASE("stress: a sphere light of radius 1e-6 matches a point light of equal power") {
+    const double h = 0.01, radius = 1e-6;
+    // An isotropic sphere of radiance L has intensity L * pi * r^2 in every direction.
+    const double radiance = 1.0 / (M_PI * radius * radius);
+    std::string film = "\"integer xresolution\" 8 \"integer yresolution\" 8";
+    for (const char* integrator : kStressIntegrators) {
+        CAPTURE(integrator);
+        std::string point = "LightSource \"point\" \"rgb I\" [1 1 1] \"point3 from\" [0 " +
+                            std::to_string(h) + " 0]\n";
+        std::string sphere = "AttributeBegin\nAreaLightSource \"diffuse\" \"rgb L\" [" +
+                             std::to_string(radiance) + " " + std::to_string(radiance) + " " +
+                             std::to_string(radiance) + "]\nTranslate 0 " + std::to_string(h) +
+                             " 0\nShape \"sphere\" \"float radius\" " + std::to_string(radius) +
+                             "\nAttributeEnd\n";
+        // Not d = 0: the camera would see the sphere itself between it and the floor.
+        for (double d : {0.005, 0.02}) {
+            CAPTURE(d);
+            auto p = renderEstimateSpread(
+                cb::parseSceneString(pointProbeScene(d, film, point), "<point>"), integrator, 3, 4, 1);
+            auto s = renderEstimateSpread(
+                cb::parseSceneString(pointProbeScene(d, film, sphere), "<sphere>"), integrator, 3,
+                256, 2);
+            CAPTURE(p.mean);
+            CAPTURE(s.mean);
+            CAPTURE(s.standardError);
+            // The point light's estimate is exact; the sphere's is Monte Carlo over its surface
+            // (half of the area samples face away, relative spread 1.3 per sample): within 4
+            // standard errors. With CPT the 64 pixels of an estimate share one sample, so its
+            // error bar is 8x wider than PT's; 10% bounds both.
+            CHECK(std::fabs(s.mean - p.mean) <= 4.0 * s.standardError + 1e-6 * p.mean);
+            CHECK(s.standardError < 0.1 * p.mean);
+        }
+    }
+}
+
+TEST_CASE("stress: emission scaled by 1e8 and 1e-8 scales the image exactly") {
+    cb::SceneDesc base = cb::parseSceneFile(cornellPath());
+    base.film.width = base.film.height = 24;
+    for (const char* integrator : kStressIntegrators) {
+        CAPTURE(integrator);
+        auto reference = renderMean(base, integrator, 6, 4);
+        for (double scale : {1e8, 1e-8}) {
+            CAPTURE(scale);
+            cb::SceneDesc scaled = base;
+            for (auto& light : scaled.areaLights) light.scale = float(double(light.scale) * scale);
+            auto image = renderMean(scaled, integrator, 6, 4);
+            // Same seed, same paths (light choice and roulette depend only on ratios and
+            // throughput), so every pixel scales by exactly `scale` up to float rounding.
+            double worst = 0;
+            for (size_t i = 0; i < image.size(); ++i)
+                if (reference[i] > 1e-6)
+                    worst = std::max(worst, std::fabs(image[i] / (scale * reference[i]) - 1.0));
+            CAPTURE(worst);
+            CHECK(worst < 1e-4);
+        }
+    }
+}
+
+TEST_CASE("stress: albedo 0.999 with 64 eye vertices matches the furnace value") {
+    const float albedo = 0.999f, emission = 1e-3f;
+    const int eyeVertices = 64;
+    for (const char* integrator : kStressIntegrators) {
+        CAPTURE(integrator);
+        auto s = renderEstimateSpread(cbtest::furnaceScene(albedo, emission, 8), integrator,
+                                      eyeVertices, 32, 5);
+        double expected = emission * (1.0 - std::pow(double(albedo), eyeVertices - 1)) /
+                          (1.0 - double(albedo));
+        CAPTURE(expected);
+        CAPTURE(s.mean);
+        CAPTURE(s.standardError);
+        CHECK(std::fabs(s.mean - expected) <= 4.0 * s.standardError + 1e-5 * expected);
+    }
+}
+
+TEST_CASE("stress: a rough conductor of roughness 1e-4 matches the perfect mirror") {
+    // The Cornell box with its white material (walls and blocks) turned into a grey mirror.
+    for (const char* integrator : kStressIntegrators) {
+        CAPTURE(integrator);
+        EstimateSpread results[2];
+        for (int rough = 0; rough < 2; ++rough) {
+            cb::SceneDesc desc = cb::parseSceneFile(cornellPath());
+            desc.film.width = desc.film.height = 24;
+            for (auto& m : desc.materials)
+                if (m.name == "white") {
+                    m.kind = cb::MaterialKind::Conductor;
+                    m.roughness = rough ? 1e-4f : 0.f;
+                    m.remapRoughness = false;
+                }
+            results[rough] = renderEstimateSpread(desc, integrator, 6, 48, 11 + rough,
+                                                  cb::ChannelMode::Rgb);
+        }
+        CAPTURE(results[0].mean);
+        CAPTURE(results[1].mean);
+        double se = std::hypot(results[0].standardError, results[1].standardError);
+        CAPTURE(se);
+        CHECK(std::fabs(results[0].mean - results[1].mean) <= 4.0 * se);
+    }
+}
