@@ -1,0 +1,101 @@
+/* bdpt.cl - bidirectional path tracing (METHOD.md, BDPT). One work-item per pixel, work-groups
+ * are square pixel tiles: each work-item traces a light subpath and an eye subpath into private
+ * arrays and combines every (s,t) allowed by the caps. Light-tracing (t = 1) contributions land
+ * in other pixels and are added to a separate splat image with atomic float adds; the host adds
+ * the splat image to the pixel image after the kernel. */
+#include "cb_path.h"
+
+#ifndef CB_MAX_EYE_VERTICES
+#define CB_MAX_EYE_VERTICES 8
+#endif
+#ifndef CB_MAX_LIGHT_VERTICES
+#define CB_MAX_LIGHT_VERTICES 8
+#endif
+
+/* OpenCL 1.2 has no float atomics: compare-and-swap on the bits until no other work-item wrote
+ * in between. */
+static void atomicAddFloat(volatile __global float* address, float value) {
+    volatile __global uint* bits = (volatile __global uint*)address;
+    uint expected = *bits;
+    for (;;) {
+        uint desired = as_uint(as_float(expected) + value);
+        uint seen = atomic_cmpxchg(bits, expected, desired);
+        if (seen == expected) break;
+        expected = seen;
+    }
+}
+
+__kernel void renderBdpt(__global const struct BvhNode* nodes,
+                         __global const Primitive* primitives,
+                         __global const Material* materials,
+                         __global const Light* lights,
+                         __global const float* spectra,
+                         int lightCount,
+                         __global const float* toRgb,
+                         Camera camera,
+                         BdptSettings settings,
+                         uint seed,
+                         uint estimate,
+                         __global float* outRgb,
+                         volatile __global float* splatRgb,
+                         volatile __global int* nonFiniteCount,
+                         volatile __global uint* rayCount) {
+    int x = (int)get_global_id(0);
+    int y = (int)get_global_id(1);
+    if (x >= camera.width || y >= camera.height) return;
+
+    SceneView scene;
+    scene.nodes = nodes;
+    scene.primitives = primitives;
+    scene.materials = materials;
+    scene.lights = lights;
+    scene.spectra = spectra;
+    scene.lightCount = lightCount;
+
+    uint pixel = (uint)(y * camera.width + x);
+    int rays = 0;
+    PathVertex light[CB_MAX_LIGHT_VERTICES];
+    PathVertex eye[CB_MAX_EYE_VERTICES];
+    int nLight = bdptLightSubpath(&scene, bdptLightStream(seed, estimate, pixel),
+                                  settings.lightVertices, light, &rays);
+    SampleStream eyeStream = sampleStreamStart(seed, estimate, pixel);
+    float jitterX = sampleAt(eyeStream, CB_DIM_PIXEL);
+    float jitterY = sampleAt(eyeStream, CB_DIM_PIXEL + 1u);
+    int nEye = bdptEyeSubpath(&scene, &camera, (float)x + jitterX, (float)y + jitterY, eyeStream,
+                              settings.eyeVertices, eye, &rays);
+
+    Spectrum radiance = specZero();
+    int nonFinite = 0;
+    for (int t = 1; t <= nEye; ++t) {
+        for (int s = 0; s <= nLight; ++s) {
+            float rx = 0.0f, ry = 0.0f;
+            Spectrum c = bdptConnect(&scene, &camera, light, s, eye, t, settings, &rx, &ry, &rays);
+            if (specIsBlack(c)) continue;
+            if (!specIsFinite(c)) {
+                ++nonFinite;
+                continue;
+            }
+            if (t == 1) {
+                Vec3 rgb = specToRgb(c, toRgb);
+                int px = min((int)rx, camera.width - 1);
+                int py = min((int)ry, camera.height - 1);
+                uint target = (uint)(py * camera.width + px);
+                atomicAddFloat(&splatRgb[3 * target + 0], rgb.x);
+                atomicAddFloat(&splatRgb[3 * target + 1], rgb.y);
+                atomicAddFloat(&splatRgb[3 * target + 2], rgb.z);
+            } else {
+                radiance = specAdd(radiance, c);
+            }
+        }
+    }
+    Vec3 rgb = specToRgb(radiance, toRgb);
+    if (!(isfinite(rgb.x) && isfinite(rgb.y) && isfinite(rgb.z))) {
+        ++nonFinite;
+        rgb = vec3(0.0f, 0.0f, 0.0f);
+    }
+    if (nonFinite > 0) atomic_add(nonFiniteCount, nonFinite);
+    atomic_add(rayCount, (uint)rays);
+    outRgb[3 * pixel + 0] = rgb.x;
+    outRgb[3 * pixel + 1] = rgb.y;
+    outRgb[3 * pixel + 2] = rgb.z;
+}

@@ -1,0 +1,159 @@
+// BDPT (kernels/bdpt.cl, shared code in kernels/cb_path.h): one kernel per estimate traces a
+// light and an eye subpath per pixel and combines them; light-tracing splats go to a second
+// image that is added to the pixel image here.
+#include "integrators/integrator.h"
+
+#include "cb_path.h"
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <fmt/format.h>
+#include <stdexcept>
+
+namespace cb {
+
+namespace {
+
+template <typename T> cl::Buffer uploadArray(cl::Context& context, const std::vector<T>& data) {
+    static const T zero{};
+    const void* src = data.empty() ? &zero : data.data();
+    size_t bytes = data.empty() ? sizeof(T) : sizeof(T) * data.size();
+    return cl::Buffer(context, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, bytes,
+                      const_cast<void*>(src));
+}
+
+class BdptIntegrator final : public Integrator {
+  public:
+    BdptIntegrator(const IntegratorSettings& settings, const DeviceScene& scene,
+                   ClRuntime& runtime)
+        : settings_(settings), scene_(scene), runtime_(runtime) {
+        auto defines = scene.kernelDefines();
+        // The private vertex arrays are sized by the caps, so each cap pair is its own build.
+        defines.push_back(fmt::format("CB_MAX_EYE_VERTICES={}", settings.eyeVertices));
+        defines.push_back(fmt::format("CB_MAX_LIGHT_VERTICES={}", settings.lightVertices));
+        program_ = runtime.buildProgram("bdpt.cl", defines);
+        buildSeconds_ = runtime.lastBuildSeconds();
+        kernel_ = cl::Kernel(program_, "renderBdpt");
+        auto& ctx = runtime.context();
+        nodes_ = uploadArray(ctx, scene.bvh.nodes);
+        primitives_ = uploadArray(ctx, scene.bvh.primitives);
+        materials_ = uploadArray(ctx, scene.materials);
+        lights_ = uploadArray(ctx, scene.lights);
+        spectra_ = uploadArray(ctx, scene.spectra);
+        toRgb_ = uploadArray(ctx, scene.toRgb);
+        pixels_ = size_t(scene.camera.width) * size_t(scene.camera.height);
+        output_ = cl::Buffer(ctx, CL_MEM_WRITE_ONLY, 3 * sizeof(float) * pixels_);
+        splat_ = cl::Buffer(ctx, CL_MEM_READ_WRITE, 3 * sizeof(float) * pixels_);
+        int zero = 0;
+        nonFinite_ = cl::Buffer(ctx, CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, sizeof(int), &zero);
+        rays_ = cl::Buffer(ctx, CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, sizeof(int), &zero);
+
+        cbk::BdptSettings bdpt{};
+        bdpt.eyeVertices = settings.eyeVertices;
+        bdpt.lightVertices = settings.lightVertices;
+        bdpt.weights = settings.weights == "lafortune" ? CB_WEIGHTS_LAFORTUNE : CB_WEIGHTS_POWER;
+        bdpt.debugS = settings.debugS;
+        bdpt.debugT = settings.debugT;
+        int arg = 0;
+        kernel_.setArg(arg++, nodes_);
+        kernel_.setArg(arg++, primitives_);
+        kernel_.setArg(arg++, materials_);
+        kernel_.setArg(arg++, lights_);
+        kernel_.setArg(arg++, spectra_);
+        kernel_.setArg(arg++, int(scene.lights.size()));
+        kernel_.setArg(arg++, toRgb_);
+        kernel_.setArg(arg++, scene.camera);
+        kernel_.setArg(arg++, bdpt);
+        kernel_.setArg(arg++, settings.seed);
+        estimateArg_ = arg++;
+        kernel_.setArg(estimateArg_, 0u);
+        kernel_.setArg(arg++, output_);
+        kernel_.setArg(arg++, splat_);
+        kernel_.setArg(arg++, nonFinite_);
+        kernel_.setArg(arg++, rays_);
+        reportRays_ = std::getenv("CBDPT_RAY_STATS") != nullptr;
+    }
+
+    ~BdptIntegrator() override {
+        // Rays per second of the combination kernel, for docs/performance.md.
+        if (reportRays_ && kernelSeconds_ > 0.0)
+            std::fprintf(stderr,
+                         "bdpt: %lld rays (extension + shadow) in %.3f s of kernel time: %.3g "
+                         "rays/s\n",
+                         totalRays_, kernelSeconds_, double(totalRays_) / kernelSeconds_);
+    }
+
+    void renderEstimate(std::uint32_t estimate, std::vector<float>& rgb) override {
+        auto& queue = runtime_.queue();
+        kernel_.setArg(estimateArg_, estimate);
+        queue.enqueueFillBuffer(splat_, 0.0f, 0, 3 * sizeof(float) * pixels_);
+        std::uint32_t zero = 0;
+        queue.enqueueWriteBuffer(rays_, CL_TRUE, 0, sizeof(zero), &zero);
+        const size_t tile = size_t(settings_.tileSize);
+        auto roundUp = [tile](int v) { return (size_t(v) + tile - 1) / tile * tile; };
+        auto start = std::chrono::steady_clock::now();
+        queue.enqueueNDRangeKernel(
+            kernel_, cl::NullRange,
+            cl::NDRange(roundUp(scene_.camera.width), roundUp(scene_.camera.height)),
+            cl::NDRange(tile, tile));
+        queue.finish();
+        kernelSeconds_ +=
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        rgb.resize(3 * pixels_);
+        splatHost_.resize(3 * pixels_);
+        queue.enqueueReadBuffer(output_, CL_TRUE, 0, 3 * sizeof(float) * pixels_, rgb.data());
+        queue.enqueueReadBuffer(splat_, CL_TRUE, 0, 3 * sizeof(float) * pixels_,
+                                splatHost_.data());
+        for (size_t i = 0; i < rgb.size(); ++i) rgb[i] += splatHost_[i];
+        int count = 0;
+        queue.enqueueReadBuffer(nonFinite_, CL_TRUE, 0, sizeof(int), &count);
+        nonFiniteTotal_ = count;
+        std::uint32_t rays = 0;
+        queue.enqueueReadBuffer(rays_, CL_TRUE, 0, sizeof(rays), &rays);
+        totalRays_ += rays;
+    }
+
+    long nonFiniteSamples() const override { return nonFiniteTotal_; }
+    double buildSeconds() const override { return buildSeconds_; }
+
+  private:
+    IntegratorSettings settings_;
+    const DeviceScene& scene_;
+    ClRuntime& runtime_;
+    cl::Program program_;
+    cl::Kernel kernel_;
+    cl::Buffer nodes_, primitives_, materials_, lights_, spectra_, toRgb_, output_, splat_,
+        nonFinite_, rays_;
+    std::vector<float> splatHost_;
+    size_t pixels_ = 0;
+    int estimateArg_ = 0;
+    long nonFiniteTotal_ = 0;
+    long long totalRays_ = 0;
+    double kernelSeconds_ = 0.0;
+    double buildSeconds_ = 0.0;
+    bool reportRays_ = false;
+};
+
+} // namespace
+
+std::unique_ptr<Integrator> makeBdptIntegrator(const IntegratorSettings& settings,
+                                               const DeviceScene& scene, ClRuntime& runtime) {
+    // Private vertex arrays live in each work-item: keep them to a sane size.
+    if (settings.eyeVertices > 64 || settings.lightVertices > 64)
+        throw std::invalid_argument(fmt::format(
+            "bdpt keeps whole subpaths per pixel: --eye-vertices {} / --light-vertices {} must "
+            "be at most 64",
+            settings.eyeVertices, settings.lightVertices));
+    if (settings.debugS >= 0 || settings.debugT >= 0) {
+        if (!cbk::bdptStrategyAllowed(settings.debugS, settings.debugT, settings.eyeVertices,
+                                      settings.lightVertices))
+            throw std::invalid_argument(fmt::format(
+                "--strategy {},{} does not exist with --eye-vertices {} --light-vertices {}: "
+                "need 0 <= s <= Nl, 1 <= t <= Ne, s + t >= 2, and not (1,1)",
+                settings.debugS, settings.debugT, settings.eyeVertices, settings.lightVertices));
+    }
+    return std::make_unique<BdptIntegrator>(settings, scene, runtime);
+}
+
+} // namespace cb
