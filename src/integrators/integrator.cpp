@@ -29,8 +29,9 @@ std::unique_ptr<Integrator> makeIntegrator(const IntegratorSettings& settings,
             fmt::format("unknown --weights '{}' (power or lafortune)", settings.weights));
     if (settings.name == "pt" || settings.name == "cpt")
         return makePathTracingIntegrator(settings, scene, runtime);
+    if (settings.name == "bdpt") return makeBdptIntegrator(settings, scene, runtime);
     throw std::invalid_argument(
-        fmt::format("unknown integrator '{}' (available: pt, cpt)", settings.name));
+        fmt::format("unknown integrator '{}' (available: pt, cpt, bdpt)", settings.name));
 }
 
 } // namespace cb

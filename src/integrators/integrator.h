@@ -43,5 +43,8 @@ std::unique_ptr<Integrator> makeIntegrator(const IntegratorSettings& settings,
 // Per-method constructors, called by makeIntegrator after the common checks.
 std::unique_ptr<Integrator> makePathTracingIntegrator(const IntegratorSettings& settings,
                                                       const DeviceScene& scene, ClRuntime& runtime);
+// BDPT (src/integrators/bdpt.cpp): also validates the debug strategy (--strategy S,T).
+std::unique_ptr<Integrator> makeBdptIntegrator(const IntegratorSettings& settings,
+                                               const DeviceScene& scene, ClRuntime& runtime);
 
 } // namespace cb
