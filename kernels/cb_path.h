@@ -43,17 +43,18 @@ CB_BEGIN_NAMESPACE
 
 typedef struct PathVertex {
     float p[3];
-    int type;      /* CB_VERTEX_* */
-    float n[3];    /* unit geometric normal; the viewing direction for the camera; 0: point light */
-    int material;  /* surfaces; -1 otherwise */
+    int type;     /* CB_VERTEX_* */
+    float n[3];   /* unit geometric normal; the viewing direction for the camera; 0: point light */
+    int material; /* surfaces; -1 otherwise */
     float pError[3];
-    int light;     /* light index of light[0], or of the area light a surface vertex lies on; -1 */
-    float wo[3];   /* unit direction toward the previous vertex of the same subpath */
-    int delta;     /* scattered onward by a delta lobe: no connection can be made here */
-    float pdfFwd;  /* area measure; light[0]: light pick x point density; eye[0]: 1 */
-    float pdfRev;  /* area measure */
+    int light;    /* light index of light[0], or of the area light a surface vertex lies on; -1 */
+    float wo[3];  /* unit direction toward the previous vertex of the same subpath */
+    int delta;    /* scattered onward by a delta lobe: no connection can be made here */
+    float pdfFwd; /* area measure; light[0]: light pick x point density; eye[0]: 1 */
+    float pdfRev; /* area measure */
     float pad0, pad1;
-    Spectrum beta; /* subpath throughput / pdf up to this vertex (light[0]: 1/pdfFwd, Le excluded) */
+    Spectrum
+        beta; /* subpath throughput / pdf up to this vertex (light[0]: 1/pdfFwd, Le excluded) */
     float pad[CB_PATH_VERTEX_PAD];
 } PathVertex;
 
@@ -84,8 +85,12 @@ CB_FN SampleStream bdptLightStream(uint seed, uint estimate, uint stream) {
     return s;
 }
 
-CB_FN Vec3 pvP(const PathVertex* v) { return vec3FromArray(v->p); }
-CB_FN Vec3 pvN(const PathVertex* v) { return vec3FromArray(v->n); }
+CB_FN Vec3 pvP(const PathVertex* v) {
+    return vec3FromArray(v->p);
+}
+CB_FN Vec3 pvN(const PathVertex* v) {
+    return vec3FromArray(v->n);
+}
 CB_FN void cbStore3(float* dst, Vec3 v) {
     dst[0] = v.x;
     dst[1] = v.y;
@@ -155,7 +160,8 @@ CB_FN PathVertex bdptCameraVertex(const Camera* camera) {
     v.pdfRev = 0.0f;
     v.pad0 = v.pad1 = 0.0f;
     v.beta = specConst(1.0f);
-    for (int i = 0; i < CB_PATH_VERTEX_PAD; ++i) v.pad[i] = 0.0f;
+    for (int i = 0; i < CB_PATH_VERTEX_PAD; ++i)
+        v.pad[i] = 0.0f;
     return v;
 }
 
@@ -204,7 +210,8 @@ CB_FN int bdptRandomWalk(const SceneView* scene, Ray ray, Spectrum beta, float p
         v->delta = 0;
         v->pdfRev = 0.0f;
         v->pad0 = v->pad1 = 0.0f;
-        for (int i = 0; i < CB_PATH_VERTEX_PAD; ++i) v->pad[i] = 0.0f;
+        for (int i = 0; i < CB_PATH_VERTEX_PAD; ++i)
+            v->pad[i] = 0.0f;
         v->beta = beta;
         v->pdfFwd = pvConvertPdf(pdfW, pvP(prev), v);
         ++count;
@@ -236,16 +243,15 @@ CB_FN int bdptRandomWalk(const SceneView* scene, Ray ray, Spectrum beta, float p
 
 /* Eye subpath through raster position (rasterX, rasterY). Eye bounces read the same dimensions
  * as PT's (cb_rng.h), so eye[v] scatters with bounceDimension(v - 1, slot). */
-CB_FN int bdptEyeSubpath(const SceneView* scene, const Camera* camera, float rasterX,
-                         float rasterY, SampleStream stream, int maxVertices, PathVertex* eye,
-                         int* rays) {
+CB_FN int bdptEyeSubpath(const SceneView* scene, const Camera* camera, float rasterX, float rasterY,
+                         SampleStream stream, int maxVertices, PathVertex* eye, int* rays) {
     eye[0] = bdptCameraVertex(camera);
     if (maxVertices < 2) return 1;
     Ray ray = cameraGenerateRay(camera, rasterX, rasterY);
     float pdfDir;
     cameraImportance(camera, ray.d, &pdfDir);
-    return bdptRandomWalk(scene, ray, specConst(1.0f), pdfDir, 0, stream, CB_DIM_FIRST_BOUNCE,
-                          eye, 1, maxVertices, rays);
+    return bdptRandomWalk(scene, ray, specConst(1.0f), pdfDir, 0, stream, CB_DIM_FIRST_BOUNCE, eye,
+                          1, maxVertices, rays);
 }
 
 /* Light subpath: a light by power, a point uniformly by area, a cosine-weighted direction in
@@ -256,8 +262,8 @@ CB_FN int bdptLightSubpath(const SceneView* scene, SampleStream stream, int maxV
     LightSample ls;
     if (maxVertices < 1) return 0;
     if (!lightSample(scene, sampleAt(stream, CB_LIGHT_DIM_CHOICE),
-                     sampleAt(stream, CB_LIGHT_DIM_POINT), sampleAt(stream, CB_LIGHT_DIM_POINT + 1u),
-                     &ls))
+                     sampleAt(stream, CB_LIGHT_DIM_POINT),
+                     sampleAt(stream, CB_LIGHT_DIM_POINT + 1u), &ls))
         return 0;
     PathVertex* v = &light[0];
     cbStore3(v->p, ls.p);
@@ -271,7 +277,8 @@ CB_FN int bdptLightSubpath(const SceneView* scene, SampleStream stream, int maxV
     v->pdfFwd = ls.pdfPick * ls.pdfArea;
     v->pdfRev = 0.0f;
     v->pad0 = v->pad1 = 0.0f;
-    for (int i = 0; i < CB_PATH_VERTEX_PAD; ++i) v->pad[i] = 0.0f;
+    for (int i = 0; i < CB_PATH_VERTEX_PAD; ++i)
+        v->pad[i] = 0.0f;
     v->beta = specConst(1.0f / v->pdfFwd);
     if (maxVertices < 2) return 1;
 
@@ -304,7 +311,9 @@ CB_FN bool bdptStrategyAllowed(int s, int t, int eyeVertices, int lightVertices)
            !(s == 1 && t == 1);
 }
 
-CB_FN float cbRemap0(float f) { return f != 0.0f ? f : 1.0f; }
+CB_FN float cbRemap0(float f) {
+    return f != 0.0f ? f : 1.0f;
+}
 
 /* Veach's power heuristic (beta = 2) over the strategies the caps allow, by pbrt-v4's ratio
  * recursion (Veach 1997, eq. 10.9): walking the connection edge toward the camera multiplies the
@@ -334,8 +343,10 @@ CB_FN float bdptPowerWeight(const PathVertex* light, int s, const PathVertex* ey
         ri *= cbRemap0(rev) / cbRemap0(light[i].pdfFwd);
         int deltaHere = i == s - 1 ? 0 : light[i].delta;
         int deltaPrev;
-        if (i > 0) deltaPrev = i - 1 == s - 1 ? 0 : light[i - 1].delta;
-        else deltaPrev = light[0].type == CB_VERTEX_POINT_LIGHT; /* s = 0 cannot hit it */
+        if (i > 0)
+            deltaPrev = i - 1 == s - 1 ? 0 : light[i - 1].delta;
+        else
+            deltaPrev = light[0].type == CB_VERTEX_POINT_LIGHT; /* s = 0 cannot hit it */
         if (!deltaHere && !deltaPrev && !(i == 1 && tNew == 1)) sumRi += ri * ri;
     }
     return 1.0f / (1.0f + sumRi);
@@ -364,9 +375,12 @@ CB_FN float bdptLafortuneW(const SceneView* scene, const PathVertex* light, int 
         deltaHere = j == t ? 0 : light[k - 1 - j].delta;
     }
     int n = j + 1;
-    if (n >= k - 1) deltaNext = 0; /* the light point */
-    else if (n < t) deltaNext = n == t - 1 ? 0 : eye[n].delta;
-    else deltaNext = n == t ? 0 : light[k - 1 - n].delta;
+    if (n >= k - 1)
+        deltaNext = 0; /* the light point */
+    else if (n < t)
+        deltaNext = n == t - 1 ? 0 : eye[n].delta;
+    else
+        deltaNext = n == t ? 0 : light[k - 1 - n].delta;
     if (deltaHere || deltaNext) w = 1.0f;
     return cbClamp(w, 0.0f, 1.0f);
 }
@@ -381,7 +395,8 @@ CB_FN float bdptLafortuneWeight(const SceneView* scene, const PathVertex* light,
     if (y0->type == CB_VERTEX_POINT_LIGHT && tMax > k - 1) tMax = k - 1;
     if (t < tMin || t > tMax) return 0.0f;
     float prefix = 1.0f; /* W_{tMin-1} ... W_{t-2} */
-    for (int j = tMin - 1; j <= t - 2; ++j) prefix *= bdptLafortuneW(scene, light, s, eye, t, j);
+    for (int j = tMin - 1; j <= t - 2; ++j)
+        prefix *= bdptLafortuneW(scene, light, s, eye, t, j);
     if (t == tMax) return prefix;
     return prefix * (1.0f - bdptLafortuneW(scene, light, s, eye, t, t - 1));
 }
@@ -431,8 +446,8 @@ CB_FN bool bdptConnectUnoccluded(const SceneView* scene, const Camera* camera,
         /* Emission density toward eye[t-2], evaluated as if pt were a light vertex. */
         PathVertex asLight = *pt;
         asLight.type = CB_VERTEX_AREA_LIGHT;
-        out->ptMinusPdfRev = pvConvertPdf(bdptLightDirectionPdf(scene, &asLight, wo), pvP(pt),
-                                          &eye[t - 2]);
+        out->ptMinusPdfRev =
+            pvConvertPdf(bdptLightDirectionPdf(scene, &asLight, wo), pvP(pt), &eye[t - 2]);
         return true;
     }
     const PathVertex* qs = &light[s - 1];
@@ -451,8 +466,8 @@ CB_FN bool bdptConnectUnoccluded(const SceneView* scene, const Camera* camera,
         float we = cameraImportance(camera, vneg(w), &pdfCamDir);
         if (!(we > 0.0f)) return false;
         float pdfFwd, pdfRev;
-        Spectrum f = bsdfEval(scene, qs->material, frameFromNormal(pvN(qs)),
-                              vec3FromArray(qs->wo), w, 1, &pdfFwd, &pdfRev);
+        Spectrum f = bsdfEval(scene, qs->material, frameFromNormal(pvN(qs)), vec3FromArray(qs->wo),
+                              w, 1, &pdfFwd, &pdfRev);
         if (specIsBlack(f)) return false;
         Vec3 forward = pvN(&eye[0]);
         float cosCam = vdot(vneg(w), forward);
@@ -472,8 +487,8 @@ CB_FN bool bdptConnectUnoccluded(const SceneView* scene, const Camera* camera,
     if (!(dist2 > 0.0f)) return false;
     Vec3 w = vscale(d, 1.0f / sqrt(dist2)); /* pt -> qs */
     float ptFwd, ptRev;
-    Spectrum fPt = bsdfEval(scene, pt->material, frameFromNormal(pvN(pt)), vec3FromArray(pt->wo),
-                            w, 0, &ptFwd, &ptRev);
+    Spectrum fPt = bsdfEval(scene, pt->material, frameFromNormal(pvN(pt)), vec3FromArray(pt->wo), w,
+                            0, &ptFwd, &ptRev);
     if (specIsBlack(fPt)) return false;
     Spectrum fQs;
     float qsFwd, qsRev = 0.0f;
@@ -519,14 +534,13 @@ CB_FN Spectrum bdptConnect(const SceneView* scene, const Camera* camera, const P
                            int s, const PathVertex* eye, int t, BdptSettings settings,
                            float* rasterX, float* rasterY, int* rays) {
     BdptConnection c;
-    if (!bdptStrategyAllowed(s, t, settings.eyeVertices, settings.lightVertices))
-        return specZero();
+    if (!bdptStrategyAllowed(s, t, settings.eyeVertices, settings.lightVertices)) return specZero();
     if (settings.debugS >= 0 && (s != settings.debugS || t != settings.debugT)) return specZero();
     if (settings.debugS < 0 && settings.weights == CB_WEIGHTS_LAFORTUNE && t == 1)
         return specZero(); /* weight 0: skip the shadow ray */
     if (!bdptConnectUnoccluded(scene, camera, light, s, eye, t, &c)) return specZero();
-    float weight = bdptMisWeight(scene, light, s, eye, t, c.ptPdfRev, c.ptMinusPdfRev,
-                                 c.qsPdfRev, c.qsMinusPdfRev, settings);
+    float weight = bdptMisWeight(scene, light, s, eye, t, c.ptPdfRev, c.ptMinusPdfRev, c.qsPdfRev,
+                                 c.qsMinusPdfRev, settings);
     if (!(weight > 0.0f)) return specZero();
     if (c.needsShadow) {
         *rays += 1;

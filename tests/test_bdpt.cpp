@@ -23,8 +23,10 @@ using cbk::vec3;
 cb::TriangleMeshDesc solidBox(std::array<float, 3> lo, std::array<float, 3> hi, int material) {
     cb::TriangleMeshDesc inside = cbtest::insideOutBox(0.f, 1.f, material, -1);
     for (auto& p : inside.positions)
-        for (int a = 0; a < 3; ++a) p[size_t(a)] = p[size_t(a)] > 0.5f ? hi[size_t(a)] : lo[size_t(a)];
-    for (auto& tri : inside.triangles) std::swap(tri[1], tri[2]);
+        for (int a = 0; a < 3; ++a)
+            p[size_t(a)] = p[size_t(a)] > 0.5f ? hi[size_t(a)] : lo[size_t(a)];
+    for (auto& tri : inside.triangles)
+        std::swap(tri[1], tri[2]);
     return inside;
 }
 
@@ -63,7 +65,8 @@ cb::SceneDesc cornellLike(int size, int lightKind = 0) {
     d.film.width = size;
     d.film.height = size;
     d.camera.fovDegrees = 70.f;
-    d.materials = {diffuse(0.7f, 0.7f, 0.7f), diffuse(0.7f, 0.25f, 0.2f), diffuse(0.4f, 0.4f, 0.4f)};
+    d.materials = {diffuse(0.7f, 0.7f, 0.7f), diffuse(0.7f, 0.25f, 0.2f),
+                   diffuse(0.4f, 0.4f, 0.4f)};
     d.meshes.push_back(cbtest::insideOutBox(-1.f, 1.f, 0, -1));
     d.meshes.push_back(solidBox({-0.6f, -1.f, 0.2f}, {0.0f, -0.2f, 0.7f}, 1));
     const float intensity = 0.6f;
@@ -123,8 +126,8 @@ struct Region {
 // Means of `blocks` x `blocks` image regions over all estimates, each with its standard error
 // from the spread of its pixel samples.
 std::vector<Region> renderRegions(const cb::DeviceScene& scene, cb::ClRuntime& runtime,
-                                  const cb::IntegratorSettings& settings, int estimates,
-                                  int blocks, long* nonFinite = nullptr) {
+                                  const cb::IntegratorSettings& settings, int estimates, int blocks,
+                                  long* nonFinite = nullptr) {
     auto integrator = cb::makeIntegrator(settings, scene, runtime);
     const int w = scene.camera.width, h = scene.camera.height;
     std::vector<double> sum(size_t(blocks * blocks)), sumSq(sum.size());
@@ -180,7 +183,8 @@ void checkRegionsEqual(const std::vector<Region>& a, const std::vector<Region>& 
         CAPTURE(a[i].se);
         CAPTURE(b[i].mean);
         CAPTURE(b[i].se);
-        double tol = 4.0 * std::sqrt(a[i].se * a[i].se + b[i].se * b[i].se) + 1e-5 * std::fabs(b[i].mean);
+        double tol =
+            4.0 * std::sqrt(a[i].se * a[i].se + b[i].se * b[i].se) + 1e-5 * std::fabs(b[i].mean);
         CHECK(std::fabs(a[i].mean - b[i].mean) <= tol);
     }
 }
@@ -268,9 +272,11 @@ double oraclePdf(const cbk::SceneView& scene, const cbk::Camera& camera, const F
         const PathVertex& y0 = path.y[0];
         p *= y0.type == CB_VERTEX_POINT_LIGHT ? scene.lights[y0.light].pickProbability
                                               : cbk::lightPdfArea(&scene, y0.light);
-        for (int i = 0; i + 1 <= s - 1; ++i) p *= oracleStep(scene, camera, path, i, i + 1);
+        for (int i = 0; i + 1 <= s - 1; ++i)
+            p *= oracleStep(scene, camera, path, i, i + 1);
     }
-    for (int i = k - 1; i - 1 >= s; --i) p *= oracleStep(scene, camera, path, i, i - 1);
+    for (int i = k - 1; i - 1 >= s; --i)
+        p *= oracleStep(scene, camera, path, i, i - 1);
     return p;
 }
 
@@ -300,7 +306,8 @@ double oracleLafortuneWeight(const cbk::SceneView& scene, const FullPath& path, 
     if (t < tMin || t > tMax) return 0.0;
     // Products over the allowed eye vertices only: P[j] = W_{tMin-1} ... W_j.
     std::vector<double> P(size_t(k), 1.0);
-    for (int j = tMin - 1; j < k - 1; ++j) P[size_t(j)] = (j > tMin - 1 ? P[size_t(j - 1)] : 1.0) * W(j);
+    for (int j = tMin - 1; j < k - 1; ++j)
+        P[size_t(j)] = (j > tMin - 1 ? P[size_t(j - 1)] : 1.0) * W(j);
     double before = t - 2 >= tMin - 1 ? P[size_t(t - 2)] : 1.0;
     if (t == tMax) return before;
     return before - P[size_t(t - 1)];
@@ -309,12 +316,13 @@ double oracleLafortuneWeight(const cbk::SceneView& scene, const FullPath& path, 
 // The subpaths that strategy s sees for a given full path, with the pdfs a random walk would have
 // stored (from the oracle's step densities), so that the shared weights of every strategy of the
 // same path can be summed.
-void subpathsOf(const cbk::SceneView& scene, const cbk::Camera& camera, const FullPath& path,
-                int s, std::vector<PathVertex>& light, std::vector<PathVertex>& eye) {
+void subpathsOf(const cbk::SceneView& scene, const cbk::Camera& camera, const FullPath& path, int s,
+                std::vector<PathVertex>& light, std::vector<PathVertex>& eye) {
     int k = int(path.y.size()), t = k - s;
     light.assign(path.y.begin(), path.y.begin() + s);
     eye.clear();
-    for (int i = k - 1; i >= s; --i) eye.push_back(path.y[size_t(i)]);
+    for (int i = k - 1; i >= s; --i)
+        eye.push_back(path.y[size_t(i)]);
     for (int i = 0; i < s; ++i) {
         PathVertex& v = light[size_t(i)];
         v.delta = (i >= 1 && i < s - 1) ? path.delta[size_t(i)] : 0;
@@ -335,7 +343,8 @@ void subpathsOf(const cbk::SceneView& scene, const cbk::Camera& camera, const Fu
         PathVertex& v = eye[size_t(j)];
         v.delta = (j >= 1 && j < t - 1) ? path.delta[size_t(yi)] : 0;
         if (j >= 1) cbk::cbStore3(v.wo, dirTo(v, path.y[size_t(yi + 1)]));
-        if (j == 0) v.pdfFwd = 1.f;
+        if (j == 0)
+            v.pdfFwd = 1.f;
         else
             v.pdfFwd = (yi + 1 <= k - 2 && path.delta[size_t(yi + 1)])
                            ? 0.f
@@ -351,12 +360,16 @@ void subpathsOf(const cbk::SceneView& scene, const cbk::Camera& camera, const Fu
 FullPath joinPath(const std::vector<PathVertex>& light, int s, const std::vector<PathVertex>& eye,
                   int t) {
     FullPath p;
-    for (int i = 0; i < s; ++i) p.y.push_back(light[size_t(i)]);
-    for (int j = t - 1; j >= 0; --j) p.y.push_back(eye[size_t(j)]);
+    for (int i = 0; i < s; ++i)
+        p.y.push_back(light[size_t(i)]);
+    for (int j = t - 1; j >= 0; --j)
+        p.y.push_back(eye[size_t(j)]);
     int k = s + t;
     p.delta.assign(size_t(k), 0);
-    for (int i = 1; i < s - 1; ++i) p.delta[size_t(i)] = light[size_t(i)].delta;
-    for (int j = 1; j < t - 1; ++j) p.delta[size_t(k - 1 - j)] = eye[size_t(j)].delta;
+    for (int i = 1; i < s - 1; ++i)
+        p.delta[size_t(i)] = light[size_t(i)].delta;
+    for (int j = 1; j < t - 1; ++j)
+        p.delta[size_t(k - 1 - j)] = eye[size_t(j)].delta;
     return p;
 }
 
@@ -385,7 +398,8 @@ TEST_CASE("BDPT MIS weights equal the explicit-ratio oracle and sum to one") {
             settings.weights = weights;
             settings.debugS = settings.debugT = -1;
             for (unsigned pixel = 0; pixel < 256; ++pixel) {
-                std::vector<PathVertex> light(static_cast<size_t>(nl)), eye(static_cast<size_t>(ne));
+                std::vector<PathVertex> light(static_cast<size_t>(nl)),
+                    eye(static_cast<size_t>(ne));
                 int rays = 0;
                 int nLight = cbk::bdptLightSubpath(&view, cbk::bdptLightStream(3, 0, pixel), nl,
                                                    light.data(), &rays);
@@ -397,17 +411,16 @@ TEST_CASE("BDPT MIS weights equal the explicit-ratio oracle and sum to one") {
                     for (int s = 0; s <= nLight; ++s) {
                         if (!cbk::bdptStrategyAllowed(s, t, ne, nl)) continue;
                         cbk::BdptConnection c;
-                        if (!cbk::bdptConnectUnoccluded(&view, &camera, light.data(), s,
-                                                        eye.data(), t, &c))
+                        if (!cbk::bdptConnectUnoccluded(&view, &camera, light.data(), s, eye.data(),
+                                                        t, &c))
                             continue;
                         float w = cbk::bdptMisWeight(&view, light.data(), s, eye.data(), t,
                                                      c.ptPdfRev, c.ptMinusPdfRev, c.qsPdfRev,
                                                      c.qsMinusPdfRev, settings);
                         FullPath path = joinPath(light, s, eye, t);
-                        double expected =
-                            weights == CB_WEIGHTS_POWER
-                                ? oraclePowerWeight(view, camera, path, s, ne, nl)
-                                : oracleLafortuneWeight(view, path, s, ne, nl);
+                        double expected = weights == CB_WEIGHTS_POWER
+                                              ? oraclePowerWeight(view, camera, path, s, ne, nl)
+                                              : oracleLafortuneWeight(view, path, s, ne, nl);
                         CAPTURE(lightKind);
                         CAPTURE(weights);
                         CAPTURE(s);
@@ -436,7 +449,8 @@ TEST_CASE("BDPT MIS weights equal the explicit-ratio oracle and sum to one") {
                         // a delta vertex at that connection) the path is lost (docs/bdpt.md).
                         int tMax = std::min(ne, k);
                         if (path.y[0].type == CB_VERTEX_POINT_LIGHT) tMax = std::min(tMax, k - 1);
-                        if (weights == CB_WEIGHTS_LAFORTUNE && !oracleFeasible(path, k - tMax, ne, nl))
+                        if (weights == CB_WEIGHTS_LAFORTUNE &&
+                            !oracleFeasible(path, k - tMax, ne, nl))
                             continue;
                         CHECK(sum == doctest::Approx(1.0).epsilon(2e-3));
                         ++sums;
@@ -487,8 +501,8 @@ TEST_CASE("BDPT single strategies equal PT restricted to the same path length" *
                     // Strategies that connect at the perfect mirror cannot sample paths through
                     // it, so only s = 0 sees all of them: the others may only fall short.
                     for (size_t i = 0; i < got.size(); ++i)
-                        CHECK(got[i].mean <= expected[i].mean +
-                                                 4.0 * std::sqrt(got[i].se * got[i].se +
+                        CHECK(got[i].mean <=
+                              expected[i].mean + 4.0 * std::sqrt(got[i].se * got[i].se +
                                                                  expected[i].se * expected[i].se));
                 }
             }
@@ -496,7 +510,8 @@ TEST_CASE("BDPT single strategies equal PT restricted to the same path length" *
     }
 }
 
-TEST_CASE("BDPT with both weightings equals PT and the furnace" * doctest::test_suite("statistical")) {
+TEST_CASE("BDPT with both weightings equals PT and the furnace" *
+          doctest::test_suite("statistical")) {
     cb::ClRuntime runtime;
     SUBCASE("Cornell-like box: BDPT 3+3 against PT 6") {
         cb::DeviceScene scene = cb::buildDeviceScene(cornellLike(24));
@@ -504,8 +519,8 @@ TEST_CASE("BDPT with both weightings equals PT and the furnace" * doctest::test_
         for (const char* weights : {"power", "lafortune"}) {
             CAPTURE(weights);
             long nonFinite = 0;
-            auto b = renderRegions(scene, runtime, bdptSettings(3, 3, weights, 12), 128, 2,
-                                   &nonFinite);
+            auto b =
+                renderRegions(scene, runtime, bdptSettings(3, 3, weights, 12), 128, 2, &nonFinite);
             checkRegionsEqual(b, pt);
             CHECK(nonFinite == 0);
         }

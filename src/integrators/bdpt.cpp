@@ -25,8 +25,7 @@ template <typename T> cl::Buffer uploadArray(cl::Context& context, const std::ve
 
 class BdptIntegrator final : public Integrator {
   public:
-    BdptIntegrator(const IntegratorSettings& settings, const DeviceScene& scene,
-                   ClRuntime& runtime)
+    BdptIntegrator(const IntegratorSettings& settings, const DeviceScene& scene, ClRuntime& runtime)
         : settings_(settings), scene_(scene), runtime_(runtime) {
         auto defines = scene.kernelDefines();
         // The private vertex arrays are sized by the caps, so each cap pair is its own build.
@@ -103,9 +102,9 @@ class BdptIntegrator final : public Integrator {
         rgb.resize(3 * pixels_);
         splatHost_.resize(3 * pixels_);
         queue.enqueueReadBuffer(output_, CL_TRUE, 0, 3 * sizeof(float) * pixels_, rgb.data());
-        queue.enqueueReadBuffer(splat_, CL_TRUE, 0, 3 * sizeof(float) * pixels_,
-                                splatHost_.data());
-        for (size_t i = 0; i < rgb.size(); ++i) rgb[i] += splatHost_[i];
+        queue.enqueueReadBuffer(splat_, CL_TRUE, 0, 3 * sizeof(float) * pixels_, splatHost_.data());
+        for (size_t i = 0; i < rgb.size(); ++i)
+            rgb[i] += splatHost_[i];
         int count = 0;
         queue.enqueueReadBuffer(nonFinite_, CL_TRUE, 0, sizeof(int), &count);
         nonFiniteTotal_ = count;
