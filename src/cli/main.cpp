@@ -1,20 +1,24 @@
 // cbdpt command line: `cbdpt render SCENE [options]` and `cbdpt info [SCENE]`.
 #include "cl/cl_runtime.h"
 #include "image/image.h"
+#include "image/metrics.h"
 #include "integrators/render.h"
 #include "scene/device_scene.h"
 #include "scene/scene_desc.h"
 
 #include <CLI/CLI.hpp>
-#include <nlohmann/json.hpp>
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <limits>
+#include <optional>
 #include <sstream>
 #include <unistd.h>
 
@@ -40,10 +44,11 @@ class ProgressBar {
     explicit ProgressBar(bool enabled) : enabled_(enabled), tty_(::isatty(2)) {}
     void update(const cb::RenderProgress& p) {
         if (!enabled_) return;
-        double fraction = p.estimatesTarget > 0
-                              ? double(p.estimatesDone) / double(p.estimatesTarget)
-                              : std::min(1.0, p.elapsedSeconds /
-                                                  std::max(1e-9, p.elapsedSeconds + p.remainingSeconds));
+        double fraction =
+            p.estimatesTarget > 0
+                ? double(p.estimatesDone) / double(p.estimatesTarget)
+                : std::min(1.0, p.elapsedSeconds /
+                                    std::max(1e-9, p.elapsedSeconds + p.remainingSeconds));
         if (!tty_) {
             // Logs get a line per 10% rather than carriage returns.
             int decile = int(fraction * 10.0);
@@ -105,7 +110,8 @@ int runInfo(const std::string& scenePath, const std::string& device) {
     fmt::print("  film             {}x{}\n", scene.camera.width, scene.camera.height);
     fmt::print("  kernel features  {}\n", scene.featureNames());
     std::string defines;
-    for (const auto& d : scene.kernelDefines()) defines += " -D" + d;
+    for (const auto& d : scene.kernelDefines())
+        defines += " -D" + d;
     fmt::print("  kernel defines  {}\n", defines);
     if (desc.droppedDegenerateTriangles)
         fmt::print("  dropped          {} degenerate triangles\n", desc.droppedDegenerateTriangles);
@@ -128,6 +134,81 @@ struct RenderOptions {
     std::string strategy;
     bool quiet = false;
     cb::IntegratorSettings integrator;
+    // Error against time (issue 7).
+    std::string checkpoints;
+    double checkpointEvery = 0.0;
+    std::string reference;
+    std::string logPath;
+    std::string checkpointImages;
+};
+
+// A number for the CSV log: empty when not available (no reference, fewer than 2 estimates).
+std::string csvNumber(double v) {
+    return std::isfinite(v) ? fmt::format("{:.9g}", v) : "";
+}
+nlohmann::json jsonNumber(double v) {
+    return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json();
+}
+
+// The checkpoint log: a header describing the run (set-up times excluded from the rows' render
+// seconds), then one row per checkpoint. Rewritten atomically at every checkpoint so that an
+// interrupted render still leaves a complete, parseable log.
+class CheckpointLog {
+  public:
+    static constexpr const char* columns[] = {"estimates",  "seconds",    "rmse",
+                                              "rel_mse",    "mae",        "mean_stderr",
+                                              "rms_stderr", "image_mean", "checkpoint_seconds"};
+    CheckpointLog(std::string path, nlohmann::json header)
+        : path_(std::move(path)), header_(std::move(header)) {
+        const auto ext = std::filesystem::path(path_).extension();
+        if (ext == ".json")
+            json_ = true;
+        else if (ext != ".csv")
+            throw std::invalid_argument(fmt::format("--log '{}' must end in .csv or .json", path_));
+    }
+    void add(const std::vector<double>& row) {
+        rows_.push_back(row);
+        write();
+    }
+
+  private:
+    void write() const {
+        if (json_) {
+            nlohmann::json doc = header_;
+            doc["columns"] = columns;
+            nlohmann::json rows = nlohmann::json::array();
+            for (const auto& r : rows_) {
+                nlohmann::json o;
+                for (size_t i = 0; i < r.size(); ++i)
+                    o[columns[i]] = i == 0 ? nlohmann::json(long(r[i])) : jsonNumber(r[i]);
+                rows.push_back(o);
+            }
+            doc["checkpoints"] = rows;
+            cb::writeFileAtomically(path_, doc.dump(2) + "\n");
+            return;
+        }
+        std::string text = "# cbdpt checkpoint log\n";
+        for (const auto& [key, value] : header_.items())
+            text += fmt::format("# {}: {}\n", key,
+                                value.is_string() ? value.get<std::string>() : value.dump());
+        for (size_t i = 0; i < std::size(columns); ++i) {
+            if (i) text += ',';
+            text += columns[i];
+        }
+        text += '\n';
+        for (const auto& r : rows_) {
+            for (size_t i = 0; i < r.size(); ++i) {
+                if (i) text += ',';
+                text += i == 0 ? std::to_string(long(r[i])) : csvNumber(r[i]);
+            }
+            text += '\n';
+        }
+        cb::writeFileAtomically(path_, text);
+    }
+    std::string path_;
+    nlohmann::json header_;
+    bool json_ = false;
+    std::vector<std::vector<double>> rows_;
 };
 
 int runRender(RenderOptions& o) {
@@ -144,6 +225,33 @@ int runRender(RenderOptions& o) {
             "resolution {}x{} is outside what cbdpt renders (each side 1..32768, at most 2^28 "
             "pixels)",
             desc.film.width, desc.film.height));
+    // Checkpoint requests are checked before the scene is built or kernels compiled.
+    cb::CheckpointSchedule schedule;
+    if (!o.checkpoints.empty()) schedule.estimates = cb::parseCheckpointList(o.checkpoints);
+    if (o.checkpointEvery < 0.0 || !std::isfinite(o.checkpointEvery))
+        throw std::invalid_argument("--checkpoint-every must be a positive number of seconds");
+    schedule.everySeconds = o.checkpointEvery;
+    // --checkpoints alone renders up to the last checkpoint.
+    if (!schedule.estimates.empty() && !o.sppGiven && o.seconds <= 0.0) {
+        o.spp = schedule.estimates.back();
+        o.sppGiven = true;
+    }
+    std::optional<cb::RgbImage> reference;
+    double referenceRmsError = std::numeric_limits<double>::quiet_NaN();
+    if (!o.reference.empty()) {
+        reference = cb::readExr(o.reference);
+        if (reference->width != desc.film.width || reference->height != desc.film.height)
+            throw std::invalid_argument(fmt::format(
+                "--reference {} is {}x{} but the render is {}x{} (set --width/--height to match)",
+                o.reference, reference->width, reference->height, desc.film.width,
+                desc.film.height));
+        cb::RgbImage referenceError;
+        if (cb::readExrStandardError(o.reference, referenceError))
+            referenceRmsError = cb::rootMeanSquareOf(referenceError.rgb);
+    }
+    const bool wantCheckpoints =
+        !schedule.empty() || !o.logPath.empty() || !o.checkpointImages.empty();
+    if (!o.checkpointImages.empty()) std::filesystem::create_directories(o.checkpointImages);
     cb::DeviceScene scene = cb::buildDeviceScene(desc, parseChannels(o.channels));
     double loadSeconds = std::chrono::duration<double>(Clock::now() - t0).count();
     if (o.noRoulette) o.integrator.rouletteVertex = 0;
@@ -157,20 +265,20 @@ int runRender(RenderOptions& o) {
                 o.strategy));
     }
 
-    std::string output = o.output.empty() ? std::filesystem::path(desc.film.filename).filename().string()
-                                          : o.output;
+    std::string output =
+        o.output.empty() ? std::filesystem::path(desc.film.filename).filename().string() : o.output;
     if (std::filesystem::path(output).extension() != ".exr")
         throw std::invalid_argument(fmt::format("output '{}' must end in .exr", output));
-    std::string png = o.png.empty() ? std::filesystem::path(output).replace_extension(".png").string()
-                                    : o.png;
+    std::string png =
+        o.png.empty() ? std::filesystem::path(output).replace_extension(".png").string() : o.png;
 
     cb::ClRuntime runtime(o.device);
     auto integrator = cb::makeIntegrator(o.integrator, scene, runtime);
     if (!o.quiet)
         fmt::print(stderr, "cbdpt: {} on {} | {}x{} {} | {} | Ne={} | kernel build {:.2f}s\n",
                    o.integrator.name, runtime.info().deviceName, scene.camera.width,
-                   scene.camera.height, scene.channels == 16 ? "spectral-16" : "rgb",
-                   o.scene, o.integrator.eyeVertices, integrator->buildSeconds());
+                   scene.camera.height, scene.channels == 16 ? "spectral-16" : "rgb", o.scene,
+                   o.integrator.eyeVertices, integrator->buildSeconds());
 
     std::signal(SIGINT, onStopSignal);
     std::signal(SIGTERM, onStopSignal);
@@ -182,8 +290,58 @@ int runRender(RenderOptions& o) {
     if (limits.estimates < 0 || limits.estimates > (1L << 40))
         throw std::invalid_argument(fmt::format("--spp {} is out of range", o.spp));
     limits.seconds = o.seconds;
-    auto outcome = cb::renderEstimates(*integrator, accumulator, limits, gStopRequested,
-                                       [&](const cb::RenderProgress& p) { bar.update(p); });
+    if (!schedule.estimates.empty() && limits.estimates > 0 &&
+        schedule.estimates.back() > limits.estimates && !o.quiet)
+        fmt::print(stderr, "cbdpt: warning: checkpoints past --spp {} will not be reached\n",
+                   limits.estimates);
+
+    std::optional<CheckpointLog> log;
+    if (!o.logPath.empty())
+        log.emplace(o.logPath,
+                    nlohmann::json{
+                        {"scene", o.scene},
+                        {"integrator", o.integrator.name},
+                        {"eye_vertices", o.integrator.eyeVertices},
+                        {"light_vertices", o.integrator.lightVertices},
+                        {"seed", o.integrator.seed},
+                        {"width", scene.camera.width},
+                        {"height", scene.camera.height},
+                        {"channels", scene.channels},
+                        {"device", runtime.info().deviceName},
+                        {"scene_load_seconds", loadSeconds},
+                        {"kernel_build_seconds", integrator->buildSeconds()},
+                        {"reference", o.reference},
+                        {"reference_rms_stderr", jsonNumber(referenceRmsError)},
+                        {"rel_mse_epsilon", cb::kRelMseEpsilon},
+                        {"seconds_note", "render wall seconds: estimates only, scene load, "
+                                         "kernel build and checkpoint evaluation excluded"},
+                    });
+    double checkpointSeconds = 0.0;
+    auto onCheckpoint = [&](const cb::Checkpoint& c) {
+        const auto before = Clock::now();
+        cb::NoiseEstimate noise = cb::estimateNoise(accumulator);
+        cb::ImageMetrics metrics;
+        if (reference || !o.checkpointImages.empty()) {
+            cb::RgbImage mean = accumulator.mean();
+            if (reference) metrics = cb::compareImages(mean, *reference);
+            if (!o.checkpointImages.empty()) {
+                cb::RgbImage error = accumulator.standardError();
+                auto name = fmt::format("{}-{:08d}.exr",
+                                        std::filesystem::path(output).stem().string(), c.estimates);
+                cb::writeExr((std::filesystem::path(o.checkpointImages) / name).string(), mean,
+                             &error);
+            }
+        }
+        checkpointSeconds += std::chrono::duration<double>(Clock::now() - before).count();
+        if (log)
+            log->add({double(c.estimates), c.renderSeconds, metrics.rmse, metrics.relMse,
+                      metrics.mae, noise.meanStandardError, noise.rmsStandardError, noise.imageMean,
+                      checkpointSeconds});
+    };
+    auto outcome = cb::renderEstimates(
+        *integrator, accumulator, limits, gStopRequested,
+        [&](const cb::RenderProgress& p) { bar.update(p); }, schedule,
+        wantCheckpoints ? std::function<void(const cb::Checkpoint&)>(onCheckpoint) : nullptr);
     bar.finish();
     if (outcome.interrupted)
         fmt::print(stderr, "cbdpt: interrupted; writing the {} estimates done\n",
@@ -201,7 +359,8 @@ int runRender(RenderOptions& o) {
     cb::writePng(png, mean);
 
     double meanError = 0.0;
-    for (float e : error.rgb) meanError += e;
+    for (float e : error.rgb)
+        meanError += e;
     meanError /= double(std::max<size_t>(1, error.rgb.size()));
     nlohmann::json stats = {
         {"scene", o.scene},
@@ -221,12 +380,77 @@ int runRender(RenderOptions& o) {
         {"interrupted", outcome.interrupted},
         {"device", runtime.info().deviceName},
     };
+    if (wantCheckpoints) stats["checkpoint_seconds"] = checkpointSeconds;
+    if (reference) {
+        cb::ImageMetrics m = cb::compareImages(mean, *reference);
+        stats["reference"] = o.reference;
+        stats["rmse"] = jsonNumber(m.rmse);
+        stats["rel_mse"] = jsonNumber(m.relMse);
+        stats["mae"] = jsonNumber(m.mae);
+    }
     if (!o.statsPath.empty()) cb::writeFileAtomically(o.statsPath, stats.dump(2) + "\n");
     if (!o.quiet)
         fmt::print(stderr, "cbdpt: {} estimates in {} ({:.3f} s/estimate); wrote {} and {}\n",
                    accumulator.estimates(), formatSeconds(outcome.renderSeconds),
                    outcome.renderSeconds / double(accumulator.estimates()), output, png);
     return outcome.interrupted ? 130 : 0;
+}
+
+struct CompareOptions {
+    std::string image;
+    std::string reference;
+    std::string diffPng;
+    double diffScale = 1.0;
+    bool json = false;
+};
+
+int runCompare(const CompareOptions& o) {
+    cb::RgbImage image = cb::readExr(o.image);
+    cb::RgbImage reference = cb::readExr(o.reference);
+    cb::requireSameSize(image, reference,
+                        fmt::format("{} ({}x{})", o.image, image.width, image.height),
+                        fmt::format("{} ({}x{})", o.reference, reference.width, reference.height));
+    if (!(o.diffScale > 0.0) || !std::isfinite(o.diffScale))
+        throw std::invalid_argument("--diff-scale must be a positive number");
+    cb::ImageMetrics m = cb::compareImages(image, reference);
+    double imageSe = std::numeric_limits<double>::quiet_NaN();
+    double referenceSe = imageSe;
+    cb::RgbImage se;
+    if (cb::readExrStandardError(o.image, se)) imageSe = cb::meanOf(se.rgb);
+    if (cb::readExrStandardError(o.reference, se)) referenceSe = cb::rootMeanSquareOf(se.rgb);
+    if (!o.diffPng.empty())
+        cb::writePng8(o.diffPng, image.width, image.height,
+                      cb::relativeErrorColourMap(image, reference, o.diffScale));
+    if (o.json) {
+        nlohmann::json j = {{"image", o.image},
+                            {"reference", o.reference},
+                            {"width", image.width},
+                            {"height", image.height},
+                            {"rmse", jsonNumber(m.rmse)},
+                            {"rel_mse", jsonNumber(m.relMse)},
+                            {"rel_mse_epsilon", cb::kRelMseEpsilon},
+                            {"mae", jsonNumber(m.mae)},
+                            {"image_mean", jsonNumber(cb::meanValue(image))},
+                            {"reference_mean", jsonNumber(m.referenceMean)},
+                            {"mean_stderr", jsonNumber(imageSe)},
+                            {"reference_rms_stderr", jsonNumber(referenceSe)}};
+        fmt::print("{}\n", j.dump(2));
+        return 0;
+    }
+    auto optional = [](double v) { return std::isfinite(v) ? fmt::format("{:.6g}", v) : "n/a"; };
+    fmt::print("image           {} ({}x{})\n", o.image, image.width, image.height);
+    fmt::print("reference       {}\n", o.reference);
+    fmt::print("rmse            {:.6g}\n", m.rmse);
+    fmt::print("rel_mse         {:.6g}  (mean (x-ref)^2/(ref^2+{}))\n", m.relMse,
+               cb::kRelMseEpsilon);
+    fmt::print("mae             {:.6g}\n", m.mae);
+    fmt::print("image mean      {:.6g}\n", cb::meanValue(image));
+    fmt::print("reference mean  {:.6g}\n", m.referenceMean);
+    fmt::print("mean stderr     {}  (image's stderr layer)\n", optional(imageSe));
+    fmt::print("ref rms stderr  {}  (reference's stderr layer: the RMSE floor)\n",
+               optional(referenceSe));
+    if (!o.diffPng.empty()) fmt::print("wrote           {}\n", o.diffPng);
+    return 0;
 }
 
 } // namespace
@@ -261,9 +485,34 @@ int main(int argc, char** argv) {
     renderCmd->add_option("--channels", render.channels, "auto | rgb | spectral");
     renderCmd->add_option("--width", render.width, "override the film width");
     renderCmd->add_option("--height", render.height, "override the film height");
-    renderCmd->add_option("--device", render.device, "OpenCL device P:D (default: CBDPT_DEVICE or 0:0)");
+    renderCmd->add_option("--device", render.device,
+                          "OpenCL device P:D (default: CBDPT_DEVICE or 0:0)");
     renderCmd->add_option("--stats", render.statsPath, "write render statistics as JSON");
     renderCmd->add_flag("-q,--quiet", render.quiet, "no progress output");
+    renderCmd->add_option("--checkpoints", render.checkpoints,
+                          "evaluate at these estimate counts, e.g. 1,2,4,8 (renders up to the "
+                          "last unless --spp/--time say otherwise)");
+    renderCmd->add_option("--checkpoint-every", render.checkpointEvery,
+                          "evaluate every this many seconds of render time");
+    renderCmd->add_option("--reference", render.reference,
+                          "reference EXR: log RMSE, relative MSE and MAE at each checkpoint");
+    renderCmd->add_option("--log", render.logPath,
+                          "checkpoint log, CSV or JSON by extension (a final row is always "
+                          "written)");
+    renderCmd->add_option("--checkpoint-images", render.checkpointImages,
+                          "folder for the EXR image at each checkpoint");
+
+    CompareOptions compare;
+    auto* compareCmd = app.add_subcommand(
+        "compare", "error metrics of an EXR against a reference EXR (the second file)");
+    compareCmd->add_option("image", compare.image, "EXR to evaluate")->required();
+    compareCmd->add_option("reference", compare.reference, "reference EXR")->required();
+    compareCmd->add_option("--diff-png", compare.diffPng,
+                           "write a signed relative luminance error map (blue: too dark, white: "
+                           "exact, red: too bright)");
+    compareCmd->add_option("--diff-scale", compare.diffScale,
+                           "relative error at which the map saturates (default 1)");
+    compareCmd->add_flag("--json", compare.json, "print the metrics as JSON");
 
     std::string infoScene, infoDevice;
     auto* infoCmd = app.add_subcommand("info", "list OpenCL devices; describe a scene");
@@ -275,6 +524,7 @@ int main(int argc, char** argv) {
     try {
         if (*renderCmd) return runRender(render);
         if (*infoCmd) return runInfo(infoScene, infoDevice);
+        if (*compareCmd) return runCompare(compare);
     } catch (const std::exception& e) {
         fmt::print(stderr, "cbdpt: error: {}\n", e.what());
         return 1;

@@ -1,23 +1,80 @@
 #include "integrators/render.h"
 
+#include <fmt/format.h>
+
 #include <chrono>
+#include <cmath>
+#include <sstream>
 #include <stdexcept>
 
 namespace cb {
 
+std::vector<long> parseCheckpointList(const std::string& text, const std::string& option) {
+    std::vector<long> out;
+    std::istringstream in(text);
+    std::string item;
+    while (std::getline(in, item, ',')) {
+        size_t used = 0;
+        long value = 0;
+        try {
+            value = std::stol(item, &used);
+        } catch (const std::exception&) {
+            used = 0;
+        }
+        if (used == 0 || used != item.size() || value <= 0)
+            throw std::invalid_argument(
+                fmt::format("{} '{}': '{}' is not a positive estimate count", option, text, item));
+        if (!out.empty() && value <= out.back())
+            throw std::invalid_argument(
+                fmt::format("{} '{}' must be strictly increasing", option, text));
+        out.push_back(value);
+    }
+    if (out.empty()) throw std::invalid_argument(fmt::format("{} is empty", option));
+    return out;
+}
+
 RenderOutcome renderEstimates(Integrator& integrator, EstimateAccumulator& accumulator,
                               const RenderLimits& limits, const std::atomic<bool>& stop,
                               const std::function<void(const RenderProgress&)>& onProgress) {
+    return renderEstimates(integrator, accumulator, limits, stop, onProgress, {}, {});
+}
+
+RenderOutcome renderEstimates(Integrator& integrator, EstimateAccumulator& accumulator,
+                              const RenderLimits& limits, const std::atomic<bool>& stop,
+                              const std::function<void(const RenderProgress&)>& onProgress,
+                              const CheckpointSchedule& checkpoints,
+                              const std::function<void(const Checkpoint&)>& onCheckpoint) {
     if (limits.estimates <= 0 && limits.seconds <= 0.0)
         throw std::invalid_argument("a render needs a number of estimates (--spp) or a time "
                                     "(--time), both were zero");
+    if (checkpoints.everySeconds < 0.0 || !std::isfinite(checkpoints.everySeconds))
+        throw std::invalid_argument("--checkpoint-every must be a positive number of seconds");
     using Clock = std::chrono::steady_clock;
     RenderOutcome outcome;
     std::vector<float> rgb;
     const auto start = Clock::now();
+    // Time spent in checkpoint callbacks, subtracted from render time.
+    Clock::duration paused{0};
     long done = 0;
     const long first = accumulator.estimates();
-    auto elapsed = [&] { return std::chrono::duration<double>(Clock::now() - start).count(); };
+    auto elapsed = [&] {
+        return std::chrono::duration<double>(Clock::now() - start - paused).count();
+    };
+    size_t nextListed = 0;
+    while (nextListed < checkpoints.estimates.size() && checkpoints.estimates[nextListed] <= first)
+        ++nextListed;
+    double nextTime = checkpoints.everySeconds;
+    long lastCheckpoint = -1;
+    auto fire = [&](double seconds, bool final) {
+        const auto before = Clock::now();
+        Checkpoint c;
+        c.estimates = first + done;
+        c.renderSeconds = seconds;
+        c.final = final;
+        onCheckpoint(c);
+        lastCheckpoint = first + done;
+        paused += Clock::now() - before;
+    };
     while (true) {
         if (limits.estimates > 0 && first + done >= limits.estimates) break;
         if (limits.seconds > 0.0 && elapsed() >= limits.seconds) break;
@@ -28,11 +85,27 @@ RenderOutcome renderEstimates(Integrator& integrator, EstimateAccumulator& accum
         integrator.renderEstimate(std::uint32_t(first + done), rgb);
         accumulator.add(rgb.data());
         ++done;
+        const double now = elapsed();
+        if (onCheckpoint) {
+            bool due = false;
+            while (nextListed < checkpoints.estimates.size() &&
+                   checkpoints.estimates[nextListed] <= first + done) {
+                due = true;
+                ++nextListed;
+            }
+            if (nextTime > 0.0 && now >= nextTime) {
+                due = true;
+                // A slow estimate may cross several multiples; the next is the one after now.
+                nextTime =
+                    (std::floor(now / checkpoints.everySeconds) + 1.0) * checkpoints.everySeconds;
+            }
+            if (due) fire(now, false);
+        }
         if (onProgress) {
             RenderProgress p;
             p.estimatesDone = first + done;
             p.estimatesTarget = limits.estimates;
-            p.elapsedSeconds = elapsed();
+            p.elapsedSeconds = now;
             double perEstimate = p.elapsedSeconds / double(done);
             double byCount = limits.estimates > 0
                                  ? perEstimate * double(limits.estimates - first - done)
@@ -44,6 +117,8 @@ RenderOutcome renderEstimates(Integrator& integrator, EstimateAccumulator& accum
     }
     outcome.renderSeconds = elapsed();
     outcome.nonFiniteSamples = integrator.nonFiniteSamples();
+    if (onCheckpoint && first + done > 0 && lastCheckpoint != first + done)
+        fire(outcome.renderSeconds, true);
     return outcome;
 }
 

@@ -7,12 +7,14 @@
 
 #include <atomic>
 #include <functional>
+#include <string>
+#include <vector>
 
 namespace cb {
 
 struct RenderLimits {
-    long estimates = 16;     // stop after this many (0: no limit; then seconds must be > 0)
-    double seconds = 0.0;    // stop once this much render time has passed (0: no limit)
+    long estimates = 16;  // stop after this many (0: no limit; then seconds must be > 0)
+    double seconds = 0.0; // stop once this much render time has passed (0: no limit)
 };
 
 struct RenderProgress {
@@ -33,5 +35,33 @@ struct RenderOutcome {
 RenderOutcome renderEstimates(Integrator& integrator, EstimateAccumulator& accumulator,
                               const RenderLimits& limits, const std::atomic<bool>& stop,
                               const std::function<void(const RenderProgress&)>& onProgress = {});
+
+// Checkpoints (issue 7): moments during a render at which the caller evaluates the image so far.
+// They fire after the estimate that reaches a listed estimate count, and after the first estimate
+// that ends at or past each multiple of everySeconds of render time; a last one fires when the
+// render ends (by count, time or Ctrl-C) unless one fired on that same estimate. The time the
+// callback takes is excluded from render time: the clock pauses while it runs, so error against
+// time curves and --time budgets measure rendering alone.
+struct CheckpointSchedule {
+    std::vector<long> estimates; // ascending, positive
+    double everySeconds = 0.0;   // 0: none by time
+    bool empty() const { return estimates.empty() && everySeconds <= 0.0; }
+};
+
+struct Checkpoint {
+    long estimates = 0;
+    double renderSeconds = 0.0; // estimates only, checkpoint evaluation excluded
+    bool final = false;         // the render's last checkpoint
+};
+
+// Parses "1,2,4,8": positive, strictly increasing; throws std::invalid_argument naming `option`.
+std::vector<long> parseCheckpointList(const std::string& text,
+                                      const std::string& option = "--checkpoints");
+
+RenderOutcome renderEstimates(Integrator& integrator, EstimateAccumulator& accumulator,
+                              const RenderLimits& limits, const std::atomic<bool>& stop,
+                              const std::function<void(const RenderProgress&)>& onProgress,
+                              const CheckpointSchedule& checkpoints,
+                              const std::function<void(const Checkpoint&)>& onCheckpoint);
 
 } // namespace cb

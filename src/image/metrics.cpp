@@ -1,0 +1,166 @@
+#include "image/metrics.h"
+
+#include <ImfChannelList.h>
+#include <ImfFrameBuffer.h>
+#include <ImfHeader.h>
+#include <ImfInputFile.h>
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace cb {
+
+void requireSameSize(const RgbImage& image, const RgbImage& reference, const std::string& imageName,
+                     const std::string& referenceName) {
+    if (image.width != reference.width || image.height != reference.height)
+        throw std::invalid_argument(fmt::format(
+            "image sizes differ: {} is {}x{} but the reference {} is {}x{}", imageName, image.width,
+            image.height, referenceName, reference.width, reference.height));
+    if (image.rgb.size() != reference.rgb.size() ||
+        image.rgb.size() != size_t(3) * size_t(image.width) * size_t(image.height))
+        throw std::invalid_argument(
+            fmt::format("{} or {} has a malformed pixel buffer", imageName, referenceName));
+}
+
+ImageMetrics compareImages(const RgbImage& image, const RgbImage& reference) {
+    requireSameSize(image, reference, "the image", "reference");
+    ImageMetrics m;
+    const size_t n = image.rgb.size();
+    if (n == 0) return m;
+    double squared = 0.0, relative = 0.0, absolute = 0.0, refSum = 0.0;
+    for (size_t i = 0; i < n; ++i) {
+        const double r = reference.rgb[i];
+        const double d = double(image.rgb[i]) - r;
+        squared += d * d;
+        relative += d * d / (r * r + kRelMseEpsilon);
+        absolute += std::abs(d);
+        refSum += r;
+    }
+    m.rmse = std::sqrt(squared / double(n));
+    m.relMse = relative / double(n);
+    m.mae = absolute / double(n);
+    m.referenceMean = refSum / double(n);
+    return m;
+}
+
+double rootMeanSquaredError(const RgbImage& image, const RgbImage& reference) {
+    return compareImages(image, reference).rmse;
+}
+
+double relativeMeanSquaredError(const RgbImage& image, const RgbImage& reference, double epsilon) {
+    requireSameSize(image, reference, "the image", "reference");
+    if (image.rgb.empty()) return ImageMetrics::nan;
+    double sum = 0.0;
+    for (size_t i = 0; i < image.rgb.size(); ++i) {
+        const double r = reference.rgb[i];
+        const double d = double(image.rgb[i]) - r;
+        sum += d * d / (r * r + epsilon);
+    }
+    return sum / double(image.rgb.size());
+}
+
+double meanAbsoluteError(const RgbImage& image, const RgbImage& reference) {
+    return compareImages(image, reference).mae;
+}
+
+double meanOf(const std::vector<float>& values) {
+    if (values.empty()) return ImageMetrics::nan;
+    double sum = 0.0;
+    for (float v : values)
+        sum += v;
+    return sum / double(values.size());
+}
+
+double rootMeanSquareOf(const std::vector<float>& values) {
+    if (values.empty()) return ImageMetrics::nan;
+    double sum = 0.0;
+    for (float v : values)
+        sum += double(v) * double(v);
+    return std::sqrt(sum / double(values.size()));
+}
+
+double meanValue(const RgbImage& image) {
+    return meanOf(image.rgb);
+}
+
+NoiseEstimate estimateNoise(const EstimateAccumulator& accumulator) {
+    NoiseEstimate out;
+    const auto& mean = accumulator.meanData();
+    const auto& m2 = accumulator.m2Data();
+    if (mean.empty()) return out;
+    double meanSum = 0.0;
+    for (double v : mean)
+        meanSum += v;
+    out.imageMean = meanSum / double(mean.size());
+    const long count = accumulator.estimates();
+    if (count < 2) return out;
+    // Variance of the mean = sample variance / n, sample variance = M2 / (n - 1).
+    const double scale = 1.0 / (double(count) * double(count - 1));
+    double seSum = 0.0, varSum = 0.0;
+    for (double v : m2) {
+        const double var = std::max(v, 0.0) * scale;
+        seSum += std::sqrt(var);
+        varSum += var;
+    }
+    out.meanStandardError = seSum / double(m2.size());
+    out.rmsStandardError = std::sqrt(varSum / double(m2.size()));
+    return out;
+}
+
+bool readExrStandardError(const std::string& path, RgbImage& out) {
+    try {
+        Imf::InputFile file(path.c_str());
+        const char* names[3] = {"stderr.R", "stderr.G", "stderr.B"};
+        for (const char* name : names)
+            if (!file.header().channels().findChannel(name)) return false;
+        Imath::Box2i dw = file.header().dataWindow();
+        const int w = dw.max.x - dw.min.x + 1, h = dw.max.y - dw.min.y + 1;
+        out = RgbImage(w, h);
+        Imf::FrameBuffer fb;
+        const size_t xStride = 3 * sizeof(float), yStride = xStride * size_t(w);
+        // OpenEXR addresses pixels by absolute data-window coordinates.
+        char* base = (char*)out.rgb.data() - (ptrdiff_t(dw.min.x) * ptrdiff_t(xStride) +
+                                              ptrdiff_t(dw.min.y) * ptrdiff_t(yStride));
+        for (int c = 0; c < 3; ++c)
+            fb.insert(names[c],
+                      Imf::Slice(Imf::FLOAT, base + size_t(c) * sizeof(float), xStride, yStride));
+        file.setFrameBuffer(fb);
+        file.readPixels(dw.min.y, dw.max.y);
+        return true;
+    } catch (const std::exception& e) {
+        throw std::runtime_error("cannot read " + path + ": " + e.what());
+    }
+}
+
+std::vector<std::uint8_t> relativeErrorColourMap(const RgbImage& image, const RgbImage& reference,
+                                                 double scale) {
+    requireSameSize(image, reference, "the image", "reference");
+    if (!(scale > 0.0)) throw std::invalid_argument("the colour-map scale must be positive");
+    const size_t n = size_t(image.width) * size_t(image.height);
+    std::vector<std::uint8_t> out(3 * n);
+    auto luminance = [](const float* p) {
+        return 0.2126 * double(p[0]) + 0.7152 * double(p[1]) + 0.0722 * double(p[2]);
+    };
+    for (size_t i = 0; i < n; ++i) {
+        const double l = luminance(&image.rgb[3 * i]);
+        const double lr = luminance(&reference.rgb[3 * i]);
+        double e = (l - lr) / (std::abs(lr) + kRelMseEpsilon);
+        if (!std::isfinite(e)) e = l > lr ? scale : -scale;
+        const double t = std::clamp(e / scale, -1.0, 1.0);
+        // White at zero, fading linearly to pure red (t = 1) or pure blue (t = -1).
+        const double fade = 1.0 - std::abs(t);
+        double r = 1.0, g = fade, b = fade;
+        if (t < 0.0) {
+            r = fade;
+            b = 1.0;
+        }
+        out[3 * i + 0] = std::uint8_t(std::lround(r * 255.0));
+        out[3 * i + 1] = std::uint8_t(std::lround(g * 255.0));
+        out[3 * i + 2] = std::uint8_t(std::lround(b * 255.0));
+    }
+    return out;
+}
+
+} // namespace cb

@@ -1,0 +1,243 @@
+// Error metrics and checkpoints (issue 7) on images whose answers are known in closed form.
+#include "image/metrics.h"
+#include "integrators/render.h"
+
+#include <doctest/doctest.h>
+
+#include <atomic>
+#include <cmath>
+#include <filesystem>
+#include <stdexcept>
+#include <string>
+#include <thread>
+
+namespace {
+
+cb::RgbImage constantImage(int w, int h, float value) {
+    cb::RgbImage image(w, h);
+    for (auto& v : image.rgb)
+        v = value;
+    return image;
+}
+
+// A gradient reference so the metrics cannot pass by treating every pixel alike.
+cb::RgbImage gradientImage(int w, int h) {
+    cb::RgbImage image(w, h);
+    for (size_t i = 0; i < image.rgb.size(); ++i)
+        image.rgb[i] = 0.0625f * float(i % 17);
+    return image;
+}
+
+} // namespace
+
+TEST_CASE("metrics: a constant offset gives RMSE and MAE equal to the offset") {
+    cb::RgbImage reference = gradientImage(13, 7);
+    for (float offset : {0.25f, -0.125f}) {
+        cb::RgbImage image = reference;
+        for (auto& v : image.rgb)
+            v += offset;
+        cb::ImageMetrics m = cb::compareImages(image, reference);
+        // Offsets and the reference are dyadic, so the float sums are exact.
+        CHECK(m.rmse == doctest::Approx(std::abs(offset)).epsilon(1e-12));
+        CHECK(m.mae == doctest::Approx(std::abs(offset)).epsilon(1e-12));
+        CHECK(cb::rootMeanSquaredError(image, reference) == doctest::Approx(std::abs(offset)));
+        // relMSE = mean over reference values r of offset^2 / (r^2 + eps).
+        double expected = 0.0;
+        for (size_t i = 0; i < reference.rgb.size(); ++i) {
+            double r = reference.rgb[i];
+            expected += double(offset) * offset / (r * r + cb::kRelMseEpsilon);
+        }
+        expected /= double(reference.rgb.size());
+        CHECK(m.relMse == doctest::Approx(expected).epsilon(1e-9));
+        CHECK(cb::relativeMeanSquaredError(image, reference) == doctest::Approx(expected));
+    }
+}
+
+TEST_CASE("metrics: identical images have zero error, and known values on a black reference") {
+    cb::RgbImage reference = gradientImage(8, 8);
+    cb::ImageMetrics same = cb::compareImages(reference, reference);
+    CHECK(same.rmse == 0.0);
+    CHECK(same.relMse == 0.0);
+    CHECK(same.mae == 0.0);
+
+    // Half the values off by 2 on a black reference: MSE 2, RMSE sqrt 2, MAE 1, relMSE 2/eps.
+    cb::RgbImage black = constantImage(4, 2, 0.f);
+    cb::RgbImage image = black;
+    for (size_t i = 0; i < image.rgb.size(); i += 2)
+        image.rgb[i] = 2.f;
+    cb::ImageMetrics m = cb::compareImages(image, black);
+    CHECK(m.rmse == doctest::Approx(std::sqrt(2.0)));
+    CHECK(m.mae == doctest::Approx(1.0));
+    CHECK(m.relMse == doctest::Approx(2.0 / cb::kRelMseEpsilon));
+    CHECK(cb::relativeMeanSquaredError(image, black, 1.0) == doctest::Approx(2.0));
+    CHECK(m.referenceMean == 0.0);
+}
+
+TEST_CASE("metrics: a size mismatch names both images and their sizes") {
+    cb::RgbImage a = constantImage(4, 3, 1.f), b = constantImage(3, 4, 1.f);
+    try {
+        cb::requireSameSize(a, b, "a.exr", "b.exr");
+        FAIL("no exception");
+    } catch (const std::invalid_argument& e) {
+        std::string what = e.what();
+        CHECK(what.find("a.exr") != std::string::npos);
+        CHECK(what.find("b.exr") != std::string::npos);
+        CHECK(what.find("4x3") != std::string::npos);
+        CHECK(what.find("3x4") != std::string::npos);
+    }
+    CHECK_THROWS_AS(cb::compareImages(a, b), std::invalid_argument);
+}
+
+TEST_CASE("metrics: standard error from the accumulator matches the sample formula") {
+    // Every value of estimate k is k (k = 0..n-1): sample variance of 0..n-1 is n (n + 1) / 12,
+    // so the standard error of the mean is sqrt((n + 1) / 12) at every pixel.
+    const int n = 9;
+    cb::EstimateAccumulator acc(5, 3);
+    CHECK(std::isnan(cb::estimateNoise(acc).meanStandardError));
+    std::vector<float> values(3 * 5 * 3);
+    for (int k = 0; k < n; ++k) {
+        for (auto& v : values)
+            v = float(k);
+        acc.add(values.data());
+        if (k == 0) CHECK(std::isnan(cb::estimateNoise(acc).meanStandardError));
+    }
+    cb::NoiseEstimate noise = cb::estimateNoise(acc);
+    const double expected = std::sqrt((n + 1) / 12.0);
+    CHECK(noise.meanStandardError == doctest::Approx(expected).epsilon(1e-12));
+    CHECK(noise.rmsStandardError == doctest::Approx(expected).epsilon(1e-12));
+    CHECK(noise.imageMean == doctest::Approx((n - 1) / 2.0));
+    CHECK(cb::meanOf(acc.standardError().rgb) == doctest::Approx(expected).epsilon(1e-6));
+
+    // Mean and RMS differ when the per-pixel errors differ: values 3 and 4 give mean 3.5, RMS
+    // 5/sqrt 2.
+    CHECK(cb::meanOf({3.f, 4.f}) == doctest::Approx(3.5));
+    CHECK(cb::rootMeanSquareOf({3.f, 4.f}) == doctest::Approx(std::sqrt(12.5)));
+}
+
+TEST_CASE("metrics: the stderr layer round-trips through EXR") {
+    auto dir = std::filesystem::temp_directory_path();
+    auto with = (dir / "cbdpt_test_metrics_with.exr").string();
+    auto without = (dir / "cbdpt_test_metrics_without.exr").string();
+    cb::RgbImage image = gradientImage(6, 5), error = constantImage(6, 5, 0.375f);
+    error.rgb[7] = 2.5f;
+    cb::writeExr(with, image, &error);
+    cb::writeExr(without, image);
+    cb::RgbImage read;
+    REQUIRE(cb::readExrStandardError(with, read));
+    CHECK(read.width == 6);
+    CHECK(read.height == 5);
+    CHECK(read.rgb == error.rgb);
+    CHECK_FALSE(cb::readExrStandardError(without, read));
+    std::filesystem::remove(with);
+    std::filesystem::remove(without);
+}
+
+TEST_CASE("metrics: the relative-error colour map is white when exact, red/blue when off") {
+    cb::RgbImage reference = constantImage(3, 1, 1.f);
+    cb::RgbImage image = reference;
+    // Luminance weights sum to 1, so a grey pixel's luminance is its value.
+    for (int c = 0; c < 3; ++c) {
+        image.rgb[size_t(3 + c)] = 1.f + float(0.5 * (1.0 + cb::kRelMseEpsilon)); // e = +0.5
+        image.rgb[size_t(6 + c)] = -0.5f; // e = -1.5 / 1.01, saturated
+    }
+    auto map = cb::relativeErrorColourMap(image, reference, 1.0);
+    REQUIRE(map.size() == 9);
+    CHECK(map[0] == 255);
+    CHECK(map[1] == 255);
+    CHECK(map[2] == 255);
+    CHECK(map[3] == 255);
+    CHECK(int(map[4]) == doctest::Approx(128).epsilon(0.01));
+    CHECK(int(map[5]) == doctest::Approx(128).epsilon(0.01));
+    CHECK(map[6] == 0);
+    CHECK(map[7] == 0);
+    CHECK(map[8] == 255);
+    CHECK_THROWS_AS(cb::relativeErrorColourMap(image, reference, 0.0), std::invalid_argument);
+}
+
+TEST_CASE("checkpoints: the list parser accepts increasing counts and names bad input") {
+    CHECK(cb::parseCheckpointList("1,2,4,8") == std::vector<long>{1, 2, 4, 8});
+    CHECK(cb::parseCheckpointList("5") == std::vector<long>{5});
+    CHECK_THROWS_WITH_AS(cb::parseCheckpointList("1,x"), doctest::Contains("'x'"),
+                         std::invalid_argument);
+    CHECK_THROWS_WITH_AS(cb::parseCheckpointList("4,2"), doctest::Contains("increasing"),
+                         std::invalid_argument);
+    CHECK_THROWS_AS(cb::parseCheckpointList("0,1"), std::invalid_argument);
+    CHECK_THROWS_AS(cb::parseCheckpointList("1,,2"), std::invalid_argument);
+    CHECK_THROWS_AS(cb::parseCheckpointList("2.5"), std::invalid_argument);
+    CHECK_THROWS_AS(cb::parseCheckpointList(""), std::invalid_argument);
+}
+
+namespace {
+
+// Each estimate takes a fixed time and returns the estimate number everywhere.
+class SleepyIntegrator : public cb::Integrator {
+  public:
+    explicit SleepyIntegrator(std::chrono::milliseconds perEstimate) : perEstimate_(perEstimate) {}
+    void renderEstimate(std::uint32_t estimate, std::vector<float>& rgb) override {
+        std::this_thread::sleep_for(perEstimate_);
+        rgb.assign(3 * 2 * 2, float(estimate));
+    }
+    long nonFiniteSamples() const override { return 0; }
+    double buildSeconds() const override { return 0.0; }
+
+  private:
+    std::chrono::milliseconds perEstimate_;
+};
+
+} // namespace
+
+TEST_CASE("checkpoints: fire at the listed counts and at the end, with the clock paused") {
+    SleepyIntegrator integrator(std::chrono::milliseconds(2));
+    cb::EstimateAccumulator acc(2, 2);
+    std::atomic<bool> stop{false};
+    cb::RenderLimits limits;
+    limits.estimates = 10;
+    cb::CheckpointSchedule schedule;
+    schedule.estimates = {1, 2, 4, 8, 16};
+    std::vector<cb::Checkpoint> seen;
+    auto outcome = cb::renderEstimates(
+        integrator, acc, limits, stop, {}, schedule, [&](const cb::Checkpoint& c) {
+            seen.push_back(c);
+            CHECK(acc.estimates() == c.estimates);
+            // Far longer than the render itself.
+            std::this_thread::sleep_for(std::chrono::milliseconds(60));
+        });
+    REQUIRE(seen.size() == 5); // 1, 2, 4, 8 and the final 10 (16 is never reached)
+    CHECK(seen[0].estimates == 1);
+    CHECK(seen[3].estimates == 8);
+    CHECK(seen[4].estimates == 10);
+    CHECK(seen[4].final);
+    CHECK_FALSE(seen[3].final);
+    for (size_t i = 1; i < seen.size(); ++i)
+        CHECK(seen[i].renderSeconds > seen[i - 1].renderSeconds);
+    // 10 estimates of 2 ms each; 5 x 60 ms of checkpoints must not be counted. Generous upper
+    // bound for a loaded machine, still far below the 0.3 s the checkpoints took.
+    CHECK(outcome.renderSeconds >= 0.018);
+    CHECK(outcome.renderSeconds < 0.2);
+    CHECK(seen[4].renderSeconds == doctest::Approx(outcome.renderSeconds));
+}
+
+TEST_CASE("checkpoints: by time, each after the estimate that crosses a multiple") {
+    SleepyIntegrator integrator(std::chrono::milliseconds(5));
+    cb::EstimateAccumulator acc(2, 2);
+    std::atomic<bool> stop{false};
+    cb::RenderLimits limits;
+    limits.estimates = 12;
+    cb::CheckpointSchedule schedule;
+    schedule.everySeconds = 0.02;
+    std::vector<cb::Checkpoint> seen;
+    cb::renderEstimates(integrator, acc, limits, stop, {}, schedule,
+                        [&](const cb::Checkpoint& c) { seen.push_back(c); });
+    // 12 x >= 5 ms = >= 60 ms of render: at least the 20 and 40 ms marks, then the final one.
+    REQUIRE(seen.size() >= 3);
+    CHECK(seen.back().estimates == 12);
+    for (size_t i = 0; i + 1 < seen.size(); ++i) {
+        CHECK(seen[i].renderSeconds >= 0.02 * double(i + 1) - 1e-9);
+        CHECK(seen[i + 1].estimates > seen[i].estimates);
+    }
+    // Without a checkpoint callback nothing fires and the old overload behaves as before.
+    cb::EstimateAccumulator plain(2, 2);
+    auto outcome = cb::renderEstimates(integrator, plain, limits, stop);
+    CHECK(plain.estimates() == 12);
+    CHECK_FALSE(outcome.interrupted);
+}
