@@ -5,7 +5,16 @@
  * index: the node that follows its whole subtree. Traversal is then a single loop over one
  * index (LuxCore's layout; Smits 1998, "Efficiency issues for ray tracing"): on entering an
  * interior node's box go to the next node; on missing a box or after a leaf jump to its skip
- * index. No per-ray stack, which keeps OpenCL work-items small. */
+ * index. No per-ray stack, which keeps OpenCL work-items small.
+ *
+ * Closest-hit queries use the same layout in near-child-first order, still without a stack:
+ * the parent-pointer state machine of Hapala, Davidovic, Wald, Havran and Slusallek 2011
+ * ("Efficient stack-less BVH traversal for ray tracing", SCCG). Interior nodes keep their
+ * parent and split axis in the otherwise unused `count`; the near child is chosen by the sign
+ * of the ray direction along the split axis, so it can be recomputed when the traversal comes
+ * back up and no per-ray state beyond (node, parent, state) is needed. Visiting the near child
+ * first finds close hits early and culls the far subtrees (docs/performance.md measures it).
+ * Any-hit queries keep the skip-index loop: order does not help them. */
 #ifndef CB_BVH_H
 #define CB_BVH_H
 
@@ -15,12 +24,17 @@ CB_BEGIN_NAMESPACE
 
 /* Set in BvhNode::count for leaves; the low bits are the number of primitives. */
 #define CB_BVH_LEAF 0x80000000u
+#define CB_BVH_PARENT_MASK 0x1fffffffu
+#define CB_BVH_NO_PARENT CB_BVH_PARENT_MASK
+#define CB_BVH_AXIS_SHIFT 29u
 
 /* 32 bytes. Interior: `index` is the skip index, the first child is the next node. Leaf:
  * `index` is the first primitive (primitives are stored in leaf order), the count is in the
  * low bits of `count`, and the skip index is implicitly the next node. The root is node 0;
  * traversal ends at the root's skip index (1 if the root is a leaf). An empty scene has one
- * empty leaf with an empty box. */
+ * empty leaf with an empty box. Interior `count`: leaf bit clear, split axis in bits 29-30
+ * (the first child holds the primitives on the low side of that axis), parent index in bits
+ * 0-28 (CB_BVH_NO_PARENT for the root). */
 typedef struct BvhNode {
     float boundsMin[3];
     uint index;
@@ -64,9 +78,8 @@ CB_FN Vec3 bvhInverseDirection(Vec3 d) {
     return vec3(1.0f / (d.x + 0.0f), 1.0f / (d.y + 0.0f), 1.0f / (d.z + 0.0f));
 }
 
-/* Closest hit with t in (0, tMax). On a miss *hit is left as {tMax, -1, 0, 0}, so it is
- * never read uninitialised. */
-CB_FN bool sceneIntersect(const SceneView* scene, Ray ray, float tMax, Hit* hit) {
+/* Closest hit in preorder (skip indices). Kept as the reference and for benchmarks. */
+CB_FN bool sceneIntersectSkip(const SceneView* scene, Ray ray, float tMax, Hit* hit) {
     CB_GLOBAL const BvhNode* nodes = scene->nodes;
     hit->t = tMax;
     hit->primitive = -1;
@@ -99,6 +112,119 @@ CB_FN bool sceneIntersect(const SceneView* scene, Ray ray, float tMax, Hit* hit)
         ++i;
     }
     return found;
+}
+
+CB_FN bool bvhLeafIntersect(const SceneView* scene, CB_GLOBAL const BvhNode* node, Ray ray,
+                            float* closest, Hit* hit) {
+    uint first = node->index;
+    uint last = first + (node->count & ~CB_BVH_LEAF);
+    bool found = false;
+    for (uint k = first; k < last; ++k) {
+        Hit h;
+        if (intersectPrimitive(scene->primitives + k, ray, *closest, &h)) {
+            h.primitive = (int)k;
+            *hit = h;
+            *closest = h.t;
+            found = true;
+        }
+    }
+    return found;
+}
+
+#define CB_BVH_FROM_PARENT 0
+#define CB_BVH_FROM_SIBLING 1
+#define CB_BVH_FROM_CHILD 2
+
+/* Closest hit in near-child-first order (Hapala et al. 2011, fig. 2), stackless. `cur` is
+ * the node at hand and `parent` its parent, carried in a register so that leaves need no
+ * parent field. The three states are the paper's: coming down from the parent (on a miss or
+ * after a leaf go to the far sibling), coming over from the near sibling (then go up), and
+ * coming up from a finished child (go to the far sibling if this was the near child, else
+ * further up). The children of p are p + 1 and the skip index of p + 1 (p + 2 after a leaf);
+ * the sibling of a node is therefore found from the node itself and its parent. */
+CB_FN bool sceneIntersectOrdered(const SceneView* scene, Ray ray, float tMax, Hit* hit) {
+    CB_GLOBAL const BvhNode* nodes = scene->nodes;
+    hit->t = tMax;
+    hit->primitive = -1;
+    hit->b1 = 0.0f;
+    hit->b2 = 0.0f;
+    Vec3 invD = bvhInverseDirection(ray.d);
+    /* Bit a set: the ray goes towards -a, so the second (high-side) child is the near one. */
+    uint negative = (invD.x < 0.0f ? 1u : 0u) | (invD.y < 0.0f ? 2u : 0u) |
+                    (invD.z < 0.0f ? 4u : 0u);
+    float closest = tMax;
+    bool found = false;
+    if (!bvhBoxHit(nodes, ray.o, invD, closest)) return false;
+    if ((nodes[0].count & CB_BVH_LEAF) != 0u) return bvhLeafIntersect(scene, nodes, ray, &closest, hit);
+
+    uint parent = 0u;
+    uint rootCount = nodes[0].count;
+    uint cur = ((negative >> (rootCount >> CB_BVH_AXIS_SHIFT)) & 1u) != 0u
+                   ? ((nodes[1].count & CB_BVH_LEAF) != 0u ? 2u : nodes[1].index)
+                   : 1u;
+    int state = CB_BVH_FROM_PARENT;
+    for (;;) {
+        if (state == CB_BVH_FROM_CHILD) {
+            if (cur == 0u) break;
+            uint parentCount = nodes[parent].count;
+            bool isFirst = cur == parent + 1u;
+            bool nearIsFirst = ((negative >> (parentCount >> CB_BVH_AXIS_SHIFT)) & 1u) == 0u;
+            if (isFirst == nearIsFirst) {
+                /* cur was the near child: its sibling is next. */
+                if (isFirst) {
+                    uint c = nodes[cur].count;
+                    cur = (c & CB_BVH_LEAF) != 0u ? cur + 1u : nodes[cur].index;
+                } else {
+                    cur = parent + 1u;
+                }
+                state = CB_BVH_FROM_SIBLING;
+            } else {
+                cur = parent;
+                parent = parentCount & CB_BVH_PARENT_MASK;
+            }
+            continue;
+        }
+        CB_GLOBAL const BvhNode* node = nodes + cur;
+        uint count = node->count;
+        if (bvhBoxHit(node, ray.o, invD, closest)) {
+            if ((count & CB_BVH_LEAF) == 0u) {
+                parent = cur;
+                bool secondNear = ((negative >> (count >> CB_BVH_AXIS_SHIFT)) & 1u) != 0u;
+                if (secondNear) {
+                    uint c1 = nodes[cur + 1u].count;
+                    cur = (c1 & CB_BVH_LEAF) != 0u ? cur + 2u : nodes[cur + 1u].index;
+                } else {
+                    cur = cur + 1u;
+                }
+                state = CB_BVH_FROM_PARENT;
+                continue;
+            }
+            if (bvhLeafIntersect(scene, node, ray, &closest, hit)) found = true;
+        }
+        if (state == CB_BVH_FROM_PARENT) {
+            if (cur == parent + 1u)
+                cur = (count & CB_BVH_LEAF) != 0u ? cur + 1u : node->index;
+            else
+                cur = parent + 1u;
+            state = CB_BVH_FROM_SIBLING;
+        } else {
+            cur = parent;
+            parent = nodes[parent].count & CB_BVH_PARENT_MASK;
+            state = CB_BVH_FROM_CHILD;
+        }
+    }
+    return found;
+}
+
+/* Closest hit with t in (0, tMax). On a miss *hit is left as {tMax, -1, 0, 0}, so it is
+ * never read uninitialised. CB_BVH_SKIP_ORDER selects the unordered preorder loop (for
+ * benchmarks). */
+CB_FN bool sceneIntersect(const SceneView* scene, Ray ray, float tMax, Hit* hit) {
+#ifdef CB_BVH_SKIP_ORDER
+    return sceneIntersectSkip(scene, ray, tMax, hit);
+#else
+    return sceneIntersectOrdered(scene, ray, tMax, hit);
+#endif
 }
 
 /* Any hit with t in (0, tMax): shadow rays stop at the first one. */

@@ -16,3 +16,10 @@ add_test(NAME cli COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_cli.py $<TARGET
 add_test(NAME meshes_reproducible COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_meshes.py)
 set_tests_properties(meshes_reproducible PROPERTIES
                      ENVIRONMENT "CBDPT_SOURCE_DIR=${CMAKE_SOURCE_DIR}")
+
+# cbdpt-bench --quick runs and writes well-formed JSON (issue 9); no timing assertions.
+if(TARGET cbdpt-bench)
+  add_test(NAME bench_quick COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_bench.py $<TARGET_FILE:cbdpt-bench>)
+  set_tests_properties(bench_quick PROPERTIES TIMEOUT 900
+                       ENVIRONMENT "CBDPT_MODEL_PATH=${CMAKE_SOURCE_DIR}/../shared/models")
+endif()

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 
 namespace cb {
 namespace {
@@ -42,6 +43,7 @@ struct PrimRef {
 
 struct Task {
     int begin, end, depth, parent; // parent >= 0: this task is the parent's second child
+    uint32_t up;                   // the parent node (CB_BVH_NO_PARENT for the root)
 };
 
 // Relative costs of one traversal step and one primitive test (pbrt-v3's choice).
@@ -154,7 +156,9 @@ Bvh buildBvh(std::vector<cbk::Primitive> primitives, const BvhBuildOptions& opti
     secondChild.reserve(2 * size_t(n));
     // An explicit stack keeps deep (unbalanced) trees from overflowing the call stack; popping
     // the first child before the second emits the nodes in depth-first preorder.
-    std::vector<Task> stack{{0, n, 1, -1}};
+    if (2 * size_t(n) > size_t(CB_BVH_PARENT_MASK))
+        throw std::length_error("BVH: too many primitives for 29-bit parent indices");
+    std::vector<Task> stack{{0, n, 1, -1, CB_BVH_NO_PARENT}};
     while (!stack.empty()) {
         Task task = stack.back();
         stack.pop_back();
@@ -175,6 +179,7 @@ Bvh buildBvh(std::vector<cbk::Primitive> primitives, const BvhBuildOptions& opti
 
         const int count = task.end - task.begin;
         int mid = -1;
+        int splitAxis = 0;
         if (count > 1) {
             Split split = findSplit(refs, task.begin, task.end, centroids, bins);
             const double leafCost = kIntersectionCost * count;
@@ -184,6 +189,7 @@ Bvh buildBvh(std::vector<cbk::Primitive> primitives, const BvhBuildOptions& opti
             if (count > maxLeaf || !preferLeaf) {
                 if (split.axis >= 0) {
                     const int axis = split.axis;
+                    splitAxis = axis;
                     const float lo = centroids.lo[axis];
                     const float scale = float(bins) / (centroids.hi[axis] - lo);
                     auto it = std::partition(
@@ -204,10 +210,13 @@ Bvh buildBvh(std::vector<cbk::Primitive> primitives, const BvhBuildOptions& opti
             bvh.nodes.push_back(node);
             secondChild.push_back(-1);
         } else {
+            // The first child is the low side of the split axis, which the ordered traversal
+            // relies on to pick the near child.
+            node.count = (uint32_t(splitAxis) << CB_BVH_AXIS_SHIFT) | task.up;
             bvh.nodes.push_back(node); // skip index filled in below
             secondChild.push_back(-1);
-            stack.push_back({mid, task.end, task.depth + 1, nodeIndex});
-            stack.push_back({task.begin, mid, task.depth + 1, -1});
+            stack.push_back({mid, task.end, task.depth + 1, nodeIndex, uint32_t(nodeIndex)});
+            stack.push_back({task.begin, mid, task.depth + 1, -1, uint32_t(nodeIndex)});
         }
     }
 

@@ -1,4 +1,5 @@
-// Binned-SAH BVH built on the host and flattened for the stackless traversal in cb_bvh.h.
+// Binned-SAH BVH built on the host and flattened for the stackless traversals in cb_bvh.h
+// (preorder with skip indices; interior nodes also record their parent and split axis).
 #pragma once
 
 #include <vector>

@@ -1,0 +1,15 @@
+# cbdpt-bench: traversal, build, render and scaling benchmarks (issue 9). Embree 3 is an
+# optional baseline: without it the traversal table has our numbers only.
+find_package(embree 3 QUIET)
+add_executable(cbdpt-bench
+  ${CMAKE_SOURCE_DIR}/src/bench/bench_main.cpp
+  ${CMAKE_SOURCE_DIR}/src/bench/bench_meshes.cpp
+  ${CMAKE_SOURCE_DIR}/src/bench/embree_baseline.cpp)
+target_link_libraries(cbdpt-bench PRIVATE cbdpt_core CLI11::CLI11)
+if(embree_FOUND)
+  target_compile_definitions(cbdpt-bench PRIVATE CBDPT_HAVE_EMBREE=1)
+  target_link_libraries(cbdpt-bench PRIVATE embree)
+  message(STATUS "cbdpt-bench: Embree ${embree_VERSION} baseline enabled")
+else()
+  message(STATUS "cbdpt-bench: Embree 3 not found, no baseline (apt-get install libembree-dev)")
+endif()

@@ -1,0 +1,77 @@
+#!/usr/bin/env python3
+"""cbdpt-bench --quick runs and writes well-formed JSON with every section (issue 9). No
+timing assertions: only structure, positive finite timings, and that our traversal and Embree
+(when built in) agree on the rays.
+
+Usage: test_bench.py PATH/TO/cbdpt-bench"""
+import json
+import math
+import os
+import subprocess
+import sys
+import tempfile
+
+bench = sys.argv[1]
+failures = []
+
+
+def check(condition, message):
+    if not condition:
+        failures.append(message)
+        print("FAIL:", message)
+
+
+def positive(x):
+    return isinstance(x, (int, float)) and math.isfinite(x) and x > 0
+
+
+with tempfile.TemporaryDirectory() as tmp:
+    out = os.path.join(tmp, "bench.json")
+    r = subprocess.run([bench, "--quick", "--json", out], capture_output=True, text=True,
+                       timeout=600)
+    check(r.returncode == 0, f"cbdpt-bench --quick exits 0 (got {r.returncode}: {r.stderr})")
+    check("== traverse" in r.stdout and "== render" in r.stdout, "tables printed")
+    data = json.load(open(out))
+    for section in ("machine", "traverse", "build", "render", "scaling"):
+        check(section in data, f"section '{section}' present")
+
+    rows = data.get("traverse", [])
+    check(len(rows) >= 8, f"traverse has rows for 2 meshes x 4 ray sets ({len(rows)})")
+    kinds = {(row["rays"], row["query"]) for row in rows}
+    for k in [("primary", "closest-hit"), ("incoherent", "closest-hit"), ("shadow", "any-hit")]:
+        check(k in kinds, f"traverse covers {k}")
+    for row in rows:
+        check(positive(row["ours_mrays_per_s"]), f"positive throughput {row}")
+        check(0.0 <= row["hit_fraction"] <= 1.0, f"hit fraction in [0,1] {row}")
+        if data["machine"].get("embree"):
+            check(positive(row["embree_mrays_per_s"]) and positive(row["ratio"]),
+                  f"Embree timed {row}")
+            check(row["agreement"] >= 0.9999, f"ours and Embree agree on >= 99.99% {row}")
+    prim = [row for row in rows if row["rays"] == "primary"]
+    check(all(0.05 < row["hit_fraction"] < 0.95 for row in prim),
+          "primary rays see both the mesh and the background")
+
+    build = data.get("build", {})
+    check(len(build.get("bvh", [])) >= 2 and all(positive(b["seconds"]) for b in build["bvh"]),
+          "BVH build times")
+    progs = build.get("program", [])
+    check(len(progs) >= 1, "program build timed")
+    for p in progs:
+        check(positive(p["cold_seconds"]) and positive(p["warm_seconds"]),
+              f"cold and warm program builds succeeded {p}")
+
+    render = data.get("render", [])
+    methods = {(row["scene"], row["method"]) for row in render}
+    check(("cornell-box", "pt") in methods and ("cornell-box", "cpt") in methods,
+          f"render times PT and CPT on the Cornell box ({methods})")
+    for row in render:
+        check(positive(row["seconds_per_estimate"]) and positive(row["paths_per_second"]),
+              f"render timing {row}")
+
+    sc = data.get("scaling", {})
+    for key in ("triangles", "resolution", "estimates"):
+        check(len(sc.get(key, [])) >= 2, f"scaling.{key} has points")
+    check(0.0 <= sc.get("estimates_fit", {}).get("r2", -1) <= 1.0, "estimates fit R^2")
+
+print(f"{'FAILED' if failures else 'passed'}: {len(failures)} failure(s)")
+sys.exit(1 if failures else 0)
