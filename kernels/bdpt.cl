@@ -25,12 +25,7 @@ static void atomicAddFloat(volatile __global float* address, float value) {
     }
 }
 
-__kernel void renderBdpt(__global const struct BvhNode* nodes,
-                         __global const Primitive* primitives,
-                         __global const Material* materials,
-                         __global const Light* lights,
-                         __global const float* spectra,
-                         int lightCount,
+__kernel void renderBdpt(CB_SCENE_KERNEL_PARAMS,
                          __global const float* toRgb,
                          Camera camera,
                          BdptSettings settings,
@@ -44,13 +39,7 @@ __kernel void renderBdpt(__global const struct BvhNode* nodes,
     int y = (int)get_global_id(1);
     if (x >= camera.width || y >= camera.height) return;
 
-    SceneView scene;
-    scene.nodes = nodes;
-    scene.primitives = primitives;
-    scene.materials = materials;
-    scene.lights = lights;
-    scene.spectra = spectra;
-    scene.lightCount = lightCount;
+    CB_SCENE_VIEW(scene);
 
     uint pixel = (uint)(y * camera.width + x);
     int rays = 0;

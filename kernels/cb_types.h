@@ -142,6 +142,23 @@ typedef struct SceneView {
     int lightCount;
 } SceneView;
 
+#ifdef CB_KERNEL_SIDE
+/* Every kernel takes the scene as these parameters (in this order; the host sets them with
+ * SceneBuffers::setKernelArgs) and builds its SceneView with CB_SCENE_VIEW. */
+#define CB_SCENE_KERNEL_PARAMS                                                                 \
+    __global const struct BvhNode *nodes, __global const Primitive *primitives,                 \
+        __global const Material *materials, __global const Light *lights,                      \
+        __global const float *spectra, int lightCount
+#define CB_SCENE_VIEW(view)                                                                    \
+    SceneView view;                                                                            \
+    view.nodes = nodes;                                                                        \
+    view.primitives = primitives;                                                              \
+    view.materials = materials;                                                                \
+    view.lights = lights;                                                                      \
+    view.spectra = spectra;                                                                    \
+    view.lightCount = lightCount
+#endif
+
 CB_END_NAMESPACE
 
 #endif /* CB_TYPES_H */

@@ -5,12 +5,7 @@
 /* streamTile == 0: every pixel has its own sample vector (PT).
  * streamTile == k > 0: the image is covered by a k x k grid of tiles and the pixel at position
  * (i, j) inside its tile uses vector (i, j) of the estimate (CPT, METHOD.md). */
-__kernel void renderPathTracing(__global const struct BvhNode* nodes,
-                                __global const Primitive* primitives,
-                                __global const Material* materials,
-                                __global const Light* lights,
-                                __global const float* spectra,
-                                int lightCount,
+__kernel void renderPathTracing(CB_SCENE_KERNEL_PARAMS,
                                 __global const float* toRgb,
                                 Camera camera,
                                 PathSettings settings,
@@ -23,13 +18,7 @@ __kernel void renderPathTracing(__global const struct BvhNode* nodes,
     int y = (int)get_global_id(1);
     if (x >= camera.width || y >= camera.height) return;
 
-    SceneView scene;
-    scene.nodes = nodes;
-    scene.primitives = primitives;
-    scene.materials = materials;
-    scene.lights = lights;
-    scene.spectra = spectra;
-    scene.lightCount = lightCount;
+    CB_SCENE_VIEW(scene);
 
     uint pixel = (uint)(y * camera.width + x);
     uint stream = streamTile > 0 ? (uint)((y % streamTile) * streamTile + (x % streamTile)) : pixel;

@@ -2,6 +2,7 @@
 // light and an eye subpath per pixel and combines them; light-tracing splats go to a second
 // image that is added to the pixel image here.
 #include "integrators/integrator.h"
+#include "integrators/scene_buffers.h"
 
 #include "cb_path.h"
 
@@ -15,18 +16,11 @@ namespace cb {
 
 namespace {
 
-template <typename T> cl::Buffer uploadArray(cl::Context& context, const std::vector<T>& data) {
-    static const T zero{};
-    const void* src = data.empty() ? &zero : data.data();
-    size_t bytes = data.empty() ? sizeof(T) : sizeof(T) * data.size();
-    return cl::Buffer(context, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, bytes,
-                      const_cast<void*>(src));
-}
-
 class BdptIntegrator final : public Integrator {
   public:
     BdptIntegrator(const IntegratorSettings& settings, const DeviceScene& scene, ClRuntime& runtime)
-        : settings_(settings), scene_(scene), runtime_(runtime) {
+        : settings_(settings), scene_(scene), runtime_(runtime),
+          buffers_(runtime.context(), scene) {
         auto defines = scene.kernelDefines();
         // The private vertex arrays are sized by the caps, so each cap pair is its own build.
         defines.push_back(fmt::format("CB_MAX_EYE_VERTICES={}", settings.eyeVertices));
@@ -35,12 +29,6 @@ class BdptIntegrator final : public Integrator {
         buildSeconds_ = runtime.lastBuildSeconds();
         kernel_ = cl::Kernel(program_, "renderBdpt");
         auto& ctx = runtime.context();
-        nodes_ = uploadArray(ctx, scene.bvh.nodes);
-        primitives_ = uploadArray(ctx, scene.bvh.primitives);
-        materials_ = uploadArray(ctx, scene.materials);
-        lights_ = uploadArray(ctx, scene.lights);
-        spectra_ = uploadArray(ctx, scene.spectra);
-        toRgb_ = uploadArray(ctx, scene.toRgb);
         pixels_ = size_t(scene.camera.width) * size_t(scene.camera.height);
         output_ = cl::Buffer(ctx, CL_MEM_WRITE_ONLY, 3 * sizeof(float) * pixels_);
         splat_ = cl::Buffer(ctx, CL_MEM_READ_WRITE, 3 * sizeof(float) * pixels_);
@@ -55,13 +43,8 @@ class BdptIntegrator final : public Integrator {
         bdpt.debugS = settings.debugS;
         bdpt.debugT = settings.debugT;
         int arg = 0;
-        kernel_.setArg(arg++, nodes_);
-        kernel_.setArg(arg++, primitives_);
-        kernel_.setArg(arg++, materials_);
-        kernel_.setArg(arg++, lights_);
-        kernel_.setArg(arg++, spectra_);
-        kernel_.setArg(arg++, int(scene.lights.size()));
-        kernel_.setArg(arg++, toRgb_);
+        arg = buffers_.setKernelArgs(kernel_, arg);
+        kernel_.setArg(arg++, buffers_.toRgb);
         kernel_.setArg(arg++, scene.camera);
         kernel_.setArg(arg++, bdpt);
         kernel_.setArg(arg++, settings.seed);
@@ -89,13 +72,8 @@ class BdptIntegrator final : public Integrator {
         queue.enqueueFillBuffer(splat_, 0.0f, 0, 3 * sizeof(float) * pixels_);
         std::uint32_t zero = 0;
         queue.enqueueWriteBuffer(rays_, CL_TRUE, 0, sizeof(zero), &zero);
-        const size_t tile = size_t(settings_.tileSize);
-        auto roundUp = [tile](int v) { return (size_t(v) + tile - 1) / tile * tile; };
         auto start = std::chrono::steady_clock::now();
-        queue.enqueueNDRangeKernel(
-            kernel_, cl::NullRange,
-            cl::NDRange(roundUp(scene_.camera.width), roundUp(scene_.camera.height)),
-            cl::NDRange(tile, tile));
+        launchOverPixels(queue, kernel_, scene_.camera, settings_.tileSize);
         queue.finish();
         kernelSeconds_ +=
             std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -122,7 +100,8 @@ class BdptIntegrator final : public Integrator {
     ClRuntime& runtime_;
     cl::Program program_;
     cl::Kernel kernel_;
-    cl::Buffer nodes_, primitives_, materials_, lights_, spectra_, toRgb_, output_, splat_,
+    SceneBuffers buffers_;
+    cl::Buffer output_, splat_,
         nonFinite_, rays_;
     std::vector<float> splatHost_;
     size_t pixels_ = 0;

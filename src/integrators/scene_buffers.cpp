@@ -1,0 +1,31 @@
+#include "integrators/scene_buffers.h"
+
+namespace cb {
+
+SceneBuffers::SceneBuffers(cl::Context& context, const DeviceScene& scene)
+    : nodes(uploadArray(context, scene.bvh.nodes)),
+      primitives(uploadArray(context, scene.bvh.primitives)),
+      materials(uploadArray(context, scene.materials)), lights(uploadArray(context, scene.lights)),
+      spectra(uploadArray(context, scene.spectra)), toRgb(uploadArray(context, scene.toRgb)),
+      lightCount(int(scene.lights.size())) {}
+
+int SceneBuffers::setKernelArgs(cl::Kernel& kernel, int first) const {
+    kernel.setArg(first++, nodes);
+    kernel.setArg(first++, primitives);
+    kernel.setArg(first++, materials);
+    kernel.setArg(first++, lights);
+    kernel.setArg(first++, spectra);
+    kernel.setArg(first++, lightCount);
+    return first;
+}
+
+void launchOverPixels(cl::CommandQueue& queue, cl::Kernel& kernel, const cbk::Camera& camera,
+                      int tile) {
+    const size_t t = size_t(tile);
+    auto roundUp = [t](int v) { return (size_t(v) + t - 1) / t * t; };
+    queue.enqueueNDRangeKernel(kernel, cl::NullRange,
+                               cl::NDRange(roundUp(camera.width), roundUp(camera.height)),
+                               cl::NDRange(t, t));
+}
+
+} // namespace cb

@@ -1,0 +1,37 @@
+// The scene's device buffers and the kernel launch over pixel tiles, shared by every
+// integrator's host side (the kernels take the scene as CB_SCENE_KERNEL_PARAMS, cb_types.h).
+#pragma once
+
+#include "cl/cl_runtime.h"
+#include "scene/device_scene.h"
+
+#include <vector>
+
+namespace cb {
+
+// A read-only device copy of `data`; OpenCL forbids zero-sized buffers, so an empty array
+// still gets one (unused) element.
+template <typename T> cl::Buffer uploadArray(cl::Context& context, const std::vector<T>& data) {
+    static const T zero{};
+    const void* src = data.empty() ? &zero : data.data();
+    size_t bytes = data.empty() ? sizeof(T) : sizeof(T) * data.size();
+    return cl::Buffer(context, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, bytes,
+                      const_cast<void*>(src));
+}
+
+struct SceneBuffers {
+    SceneBuffers(cl::Context& context, const DeviceScene& scene);
+
+    // Sets the six CB_SCENE_KERNEL_PARAMS arguments from index `first`; returns the next index.
+    int setKernelArgs(cl::Kernel& kernel, int first) const;
+
+    cl::Buffer nodes, primitives, materials, lights, spectra;
+    cl::Buffer toRgb; // 3 x channels matrix, passed separately by the kernels that need it
+    int lightCount = 0;
+};
+
+// One work-item per pixel over the whole image, in square work-groups of tile x tile pixels.
+void launchOverPixels(cl::CommandQueue& queue, cl::Kernel& kernel, const cbk::Camera& camera,
+                      int tile);
+
+} // namespace cb
