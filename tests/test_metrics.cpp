@@ -199,8 +199,10 @@ TEST_CASE("checkpoints: fire at the listed counts and at the end, with the clock
         integrator, acc, limits, stop, {}, schedule, [&](const cb::Checkpoint& c) {
             seen.push_back(c);
             CHECK(acc.estimates() == c.estimates);
-            // Far longer than the render itself.
-            std::this_thread::sleep_for(std::chrono::milliseconds(60));
+            // Busy for far longer than the render itself, in wall and in CPU time.
+            const auto until = std::chrono::steady_clock::now() + std::chrono::milliseconds(60);
+            while (std::chrono::steady_clock::now() < until) {
+            }
         });
     REQUIRE(seen.size() == 5); // 1, 2, 4, 8 and the final 10 (16 is never reached)
     CHECK(seen[0].estimates == 1);
@@ -215,6 +217,11 @@ TEST_CASE("checkpoints: fire at the listed counts and at the end, with the clock
     CHECK(outcome.renderSeconds >= 0.018);
     CHECK(outcome.renderSeconds < 0.2);
     CHECK(seen[4].renderSeconds == doctest::Approx(outcome.renderSeconds));
+    // The integrator sleeps, so nearly no CPU time is rendering; the 0.3 s of busy checkpoints
+    // must not be counted either.
+    CHECK(outcome.renderCpuSeconds >= 0.0);
+    CHECK(outcome.renderCpuSeconds < 0.1);
+    CHECK(seen[4].renderCpuSeconds <= outcome.renderCpuSeconds + 1e-9);
 }
 
 TEST_CASE("checkpoints: by time, each after the estimate that crosses a multiple") {

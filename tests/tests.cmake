@@ -23,3 +23,7 @@ if(TARGET cbdpt-bench)
   set_tests_properties(bench_quick PROPERTIES TIMEOUT 900
                        ENVIRONMENT "CBDPT_MODEL_PATH=${CMAKE_SOURCE_DIR}/../shared/models")
 endif()
+
+# Error against time (issue 7): checkpoints, logs, compare, experiment --quick -> report.
+add_test(NAME checkpoints COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_checkpoints.py $<TARGET_FILE:cbdpt> ${CMAKE_SOURCE_DIR})
+set_tests_properties(checkpoints PROPERTIES TIMEOUT 600)

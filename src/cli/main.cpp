@@ -133,6 +133,7 @@ struct RenderOptions {
     bool sppGiven = false;
     std::string strategy;
     bool quiet = false;
+    bool noWarmup = false;
     cb::IntegratorSettings integrator;
     // Error against time (issue 7).
     std::string checkpoints;
@@ -157,7 +158,8 @@ class CheckpointLog {
   public:
     static constexpr const char* columns[] = {"estimates",  "seconds",    "rmse",
                                               "rel_mse",    "mae",        "mean_stderr",
-                                              "rms_stderr", "image_mean", "checkpoint_seconds"};
+                                              "rms_stderr", "image_mean", "checkpoint_seconds",
+                                              "cpu_seconds"};
     CheckpointLog(std::string path, nlohmann::json header)
         : path_(std::move(path)), header_(std::move(header)) {
         const auto ext = std::filesystem::path(path_).extension();
@@ -249,6 +251,12 @@ int runRender(RenderOptions& o) {
         if (cb::readExrStandardError(o.reference, referenceError))
             referenceRmsError = cb::rootMeanSquareOf(referenceError.rgb);
     }
+    if (!o.logPath.empty()) {
+        const auto ext = std::filesystem::path(o.logPath).extension();
+        if (ext != ".csv" && ext != ".json")
+            throw std::invalid_argument(
+                fmt::format("--log '{}' must end in .csv or .json", o.logPath));
+    }
     const bool wantCheckpoints =
         !schedule.empty() || !o.logPath.empty() || !o.checkpointImages.empty();
     if (!o.checkpointImages.empty()) std::filesystem::create_directories(o.checkpointImages);
@@ -295,6 +303,18 @@ int runRender(RenderOptions& o) {
         fmt::print(stderr, "cbdpt: warning: checkpoints past --spp {} will not be reached\n",
                    limits.estimates);
 
+    // PoCL compiles a kernel for its work-group size at the first launch, not at clBuildProgram,
+    // so on a cold kernel cache the first estimate can take seconds. Error-against-time logs
+    // would charge that to the method; one discarded estimate before the clock starts keeps it
+    // out (for stateful methods such as MLT it is extra burn-in).
+    double warmupSeconds = 0.0;
+    if (wantCheckpoints && !o.noWarmup) {
+        const auto before = Clock::now();
+        std::vector<float> discarded;
+        integrator->renderEstimate(std::uint32_t(accumulator.estimates()), discarded);
+        warmupSeconds = std::chrono::duration<double>(Clock::now() - before).count();
+    }
+
     std::optional<CheckpointLog> log;
     if (!o.logPath.empty())
         log.emplace(o.logPath,
@@ -310,11 +330,13 @@ int runRender(RenderOptions& o) {
                         {"device", runtime.info().deviceName},
                         {"scene_load_seconds", loadSeconds},
                         {"kernel_build_seconds", integrator->buildSeconds()},
+                        {"warmup_seconds", warmupSeconds},
                         {"reference", o.reference},
                         {"reference_rms_stderr", jsonNumber(referenceRmsError)},
                         {"rel_mse_epsilon", cb::kRelMseEpsilon},
-                        {"seconds_note", "render wall seconds: estimates only, scene load, "
-                                         "kernel build and checkpoint evaluation excluded"},
+                        {"seconds_note",
+                         "render wall seconds: estimates only, scene load, "
+                         "kernel build, warm-up estimate and checkpoint evaluation excluded"},
                     });
     double checkpointSeconds = 0.0;
     auto onCheckpoint = [&](const cb::Checkpoint& c) {
@@ -336,7 +358,7 @@ int runRender(RenderOptions& o) {
         if (log)
             log->add({double(c.estimates), c.renderSeconds, metrics.rmse, metrics.relMse,
                       metrics.mae, noise.meanStandardError, noise.rmsStandardError, noise.imageMean,
-                      checkpointSeconds});
+                      checkpointSeconds, c.renderCpuSeconds});
     };
     auto outcome = cb::renderEstimates(
         *integrator, accumulator, limits, gStopRequested,
@@ -372,6 +394,7 @@ int runRender(RenderOptions& o) {
         {"channels", scene.channels},
         {"estimates", accumulator.estimates()},
         {"render_seconds", outcome.renderSeconds},
+        {"render_cpu_seconds", outcome.renderCpuSeconds},
         {"seconds_per_estimate", outcome.renderSeconds / double(accumulator.estimates())},
         {"kernel_build_seconds", integrator->buildSeconds()},
         {"scene_load_seconds", loadSeconds},
@@ -380,7 +403,10 @@ int runRender(RenderOptions& o) {
         {"interrupted", outcome.interrupted},
         {"device", runtime.info().deviceName},
     };
-    if (wantCheckpoints) stats["checkpoint_seconds"] = checkpointSeconds;
+    if (wantCheckpoints) {
+        stats["checkpoint_seconds"] = checkpointSeconds;
+        stats["warmup_seconds"] = warmupSeconds;
+    }
     if (reference) {
         cb::ImageMetrics m = cb::compareImages(mean, *reference);
         stats["reference"] = o.reference;
@@ -499,6 +525,8 @@ int main(int argc, char** argv) {
     renderCmd->add_option("--log", render.logPath,
                           "checkpoint log, CSV or JSON by extension (a final row is always "
                           "written)");
+    renderCmd->add_flag("--no-warmup", render.noWarmup,
+                        "with checkpoints or --log: skip the discarded warm-up estimate");
     renderCmd->add_option("--checkpoint-images", render.checkpointImages,
                           "folder for the EXR image at each checkpoint");
 

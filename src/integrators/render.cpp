@@ -6,8 +6,15 @@
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
+#include <time.h>
 
 namespace cb {
+
+double processCpuSeconds() {
+    timespec ts{};
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+    return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
+}
 
 std::vector<long> parseCheckpointList(const std::string& text, const std::string& option) {
     std::vector<long> out;
@@ -55,6 +62,9 @@ RenderOutcome renderEstimates(Integrator& integrator, EstimateAccumulator& accum
     const auto start = Clock::now();
     // Time spent in checkpoint callbacks, subtracted from render time.
     Clock::duration paused{0};
+    const double cpuStart = processCpuSeconds();
+    double cpuPaused = 0.0;
+    auto cpuElapsed = [&] { return processCpuSeconds() - cpuStart - cpuPaused; };
     long done = 0;
     const long first = accumulator.estimates();
     auto elapsed = [&] {
@@ -67,13 +77,16 @@ RenderOutcome renderEstimates(Integrator& integrator, EstimateAccumulator& accum
     long lastCheckpoint = -1;
     auto fire = [&](double seconds, bool final) {
         const auto before = Clock::now();
+        const double cpuBefore = processCpuSeconds();
         Checkpoint c;
         c.estimates = first + done;
         c.renderSeconds = seconds;
+        c.renderCpuSeconds = cpuBefore - cpuStart - cpuPaused;
         c.final = final;
         onCheckpoint(c);
         lastCheckpoint = first + done;
         paused += Clock::now() - before;
+        cpuPaused += processCpuSeconds() - cpuBefore;
     };
     while (true) {
         if (limits.estimates > 0 && first + done >= limits.estimates) break;
@@ -116,6 +129,7 @@ RenderOutcome renderEstimates(Integrator& integrator, EstimateAccumulator& accum
         }
     }
     outcome.renderSeconds = elapsed();
+    outcome.renderCpuSeconds = cpuElapsed();
     outcome.nonFiniteSamples = integrator.nonFiniteSamples();
     if (onCheckpoint && first + done > 0 && lastCheckpoint != first + done)
         fire(outcome.renderSeconds, true);

@@ -25,7 +25,8 @@ struct RenderProgress {
 };
 
 struct RenderOutcome {
-    double renderSeconds = 0.0; // estimates only: excludes scene load and kernel build
+    double renderSeconds = 0.0;    // estimates only: excludes scene load and kernel build
+    double renderCpuSeconds = 0.0; // process CPU seconds over the same span (checkpoints excluded)
     bool interrupted = false;
     long nonFiniteSamples = 0;
 };
@@ -42,6 +43,9 @@ RenderOutcome renderEstimates(Integrator& integrator, EstimateAccumulator& accum
 // render ends (by count, time or Ctrl-C) unless one fired on that same estimate. The time the
 // callback takes is excluded from render time: the clock pauses while it runs, so error against
 // time curves and --time budgets measure rendering alone.
+// Process CPU time of all threads, in seconds.
+double processCpuSeconds();
+
 struct CheckpointSchedule {
     std::vector<long> estimates; // ascending, positive
     double everySeconds = 0.0;   // 0: none by time
@@ -51,7 +55,10 @@ struct CheckpointSchedule {
 struct Checkpoint {
     long estimates = 0;
     double renderSeconds = 0.0; // estimates only, checkpoint evaluation excluded
-    bool final = false;         // the render's last checkpoint
+    // Process CPU seconds (all threads, PoCL's included) over the same span: robust to other
+    // processes sharing the machine, which wall time is not.
+    double renderCpuSeconds = 0.0;
+    bool final = false; // the render's last checkpoint
 };
 
 // Parses "1,2,4,8": positive, strictly increasing; throws std::invalid_argument naming `option`.

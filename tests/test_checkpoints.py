@@ -1,0 +1,171 @@
+#!/usr/bin/env python3
+"""End-to-end test of error against time (issue 7): checkpoints, logs (CSV and JSON), the
+reference metrics, `cbdpt compare`, and the scripts/experiment --quick -> scripts/report
+pipeline, on tiny Cornell box renders.
+
+Usage: test_checkpoints.py PATH/TO/cbdpt REPO_ROOT"""
+import json
+import math
+import os
+import subprocess
+import sys
+import tempfile
+
+cbdpt, root = os.path.abspath(sys.argv[1]), os.path.abspath(sys.argv[2])
+scene = os.path.join(root, "scenes", "cornell-box.pbrt")
+sys.path.insert(0, os.path.join(root, "scripts"))
+import cbdpt_results as cr  # noqa: E402
+
+failures = []
+passed = 0
+COLUMNS = ["estimates", "seconds", "rmse", "rel_mse", "mae", "mean_stderr", "rms_stderr",
+           "image_mean", "checkpoint_seconds", "cpu_seconds"]
+
+
+def check(condition, message):
+    global passed
+    if condition:
+        passed += 1
+    else:
+        failures.append(message)
+        print("FAIL:", message)
+
+
+def render(*args):
+    r = subprocess.run([cbdpt, "render", scene, "-q"] + [str(a) for a in args],
+                       capture_output=True, text=True)
+    return r
+
+
+with tempfile.TemporaryDirectory() as tmp:
+    P = lambda name: os.path.join(tmp, name)  # noqa: E731
+    size = ["--width", "32", "--height", "32"]
+
+    # A small reference: PT, 2048 estimates, its own seed.
+    r = render(*size, "--spp", 2048, "--seed", 99, "-o", P("ref.exr"), "--png", P("ref.png"))
+    check(r.returncode == 0, f"reference renders ({r.stderr})")
+    floor = cr.read_exr(P("ref.exr"), "stderr")
+    floor_rms = float(((floor.astype(float)) ** 2).mean() ** 0.5)
+
+    # Checkpoints against the reference, CSV log and checkpoint images.
+    r = render(*size, "--checkpoints", "1,2,4,8,16", "--reference", P("ref.exr"), "--log",
+               P("log.csv"), "--checkpoint-images", P("ck"), "-o", P("a.exr"), "--png",
+               P("a.png"), "--stats", P("a.json"), "--seed", 5)
+    check(r.returncode == 0, f"checkpoint render exits 0 ({r.stderr})")
+    header, rows = cr.read_log(P("log.csv"))
+    with open(P("log.csv")) as f:
+        column_line = [l for l in f if not l.startswith("#")][0].strip().split(",")
+    check(column_line == COLUMNS, f"log columns {column_line}")
+    check(list(rows["estimates"]) == [1, 2, 4, 8, 16], f"one row per checkpoint {rows['estimates']}")
+    for key in ("scene_load_seconds", "kernel_build_seconds", "warmup_seconds"):
+        check(key in header and float(header[key]) >= 0, f"header logs {key} ({header.get(key)})")
+    check(float(header["rel_mse_epsilon"]) == 0.01, "header states the relative-MSE epsilon")
+    check(abs(float(header["reference_rms_stderr"]) - floor_rms) < 1e-6 * max(1, floor_rms) + 1e-9,
+          f"header logs the reference's noise floor {header['reference_rms_stderr']} vs {floor_rms}")
+    t = rows["seconds"]
+    check(all(b > a for a, b in zip(t, t[1:])) and t[0] > 0, f"render time increases {t}")
+    for key in ("rmse", "rel_mse", "mae", "image_mean"):
+        check(all(math.isfinite(v) and v >= 0 for v in rows[key]), f"{key} finite {rows[key]}")
+    check(math.isnan(rows["mean_stderr"][0]), "no standard error from one estimate")
+    check(all(math.isfinite(v) and v > 0 for v in rows["mean_stderr"][1:]),
+          f"standard error finite from 2 estimates {rows['mean_stderr']}")
+    # RMSE of the mean of n i.i.d. estimates falls as 1/sqrt(n): from 1 to 16 estimates by 4x,
+    # plus the reference's small noise. Requiring only a 1.6x drop leaves room for heavy tails.
+    rmse = rows["rmse"]
+    check(rmse[-1] < rmse[0] / 1.6, f"RMSE falls with estimates: {rmse[0]:.4g} -> {rmse[-1]:.4g}")
+    check(rows["rel_mse"][-1] < rows["rel_mse"][0], "relative MSE falls with estimates")
+    check(rows["mean_stderr"][-1] < rows["mean_stderr"][1], "standard error falls with estimates")
+    # Unbiased PT: the noise-corrected RMSE should match the self-reported RMS standard error
+    # within a generous factor (both are noisy estimates of the same quantity at 16 estimates).
+    corrected = math.sqrt(max(rmse[-1] ** 2 - floor_rms ** 2, 0))
+    check(rows["rms_stderr"][-1] / 2.5 < corrected < rows["rms_stderr"][-1] * 2.5,
+          f"RMSE {corrected:.4g} agrees with the standard error {rows['rms_stderr'][-1]:.4g}")
+    images = sorted(os.listdir(P("ck")))
+    check(images == [f"a-{n:08d}.exr" for n in (1, 2, 4, 8, 16)], f"checkpoint images {images}")
+    stats = json.load(open(P("a.json")))
+    check(abs(stats["rmse"] - rmse[-1]) <= 1e-6 * rmse[-1], "stats carry the final RMSE")
+    check(stats["render_seconds"] >= t[-1] * 0.999, "stats render time covers the checkpoints")
+
+    # `compare` agrees with the log's last row, draws a difference PNG, refuses size mismatches.
+    r = subprocess.run([cbdpt, "compare", P("a.exr"), P("ref.exr"), "--json", "--diff-png",
+                        P("d.png")], capture_output=True, text=True)
+    check(r.returncode == 0, f"compare exits 0 ({r.stderr})")
+    c = json.loads(r.stdout)
+    for key in ("rmse", "rel_mse", "mae"):
+        check(abs(c[key] - rows[key][-1]) <= 1e-6 * rows[key][-1], f"compare {key} = log {key}")
+    check(abs(c["mean_stderr"] - rows["mean_stderr"][-1]) <= 1e-5 * rows["mean_stderr"][-1],
+          "compare reads the stderr layer")
+    with open(P("d.png"), "rb") as f:
+        check(f.read(8) == b"\x89PNG\r\n\x1a\n", "difference PNG written")
+    r = subprocess.run([cbdpt, "compare", P("a.exr"), P("a.exr")], capture_output=True, text=True)
+    check(r.returncode == 0 and "rmse            0\n" in r.stdout, f"self-compare is zero ({r.stdout})")
+    render("--width", 16, "--height", 8, "--spp", 1, "-o", P("small.exr"), "--png", P("s.png"))
+    r = subprocess.run([cbdpt, "compare", P("small.exr"), P("ref.exr")], capture_output=True, text=True)
+    check(r.returncode != 0 and "small.exr (16x8)" in r.stderr and "ref.exr (32x32)" in r.stderr,
+          f"size mismatch names both files and sizes ({r.stderr.strip()})")
+    r = render("--width", 16, "--height", 16, "--reference", P("ref.exr"), "--checkpoints", "1,2")
+    check(r.returncode != 0 and "32x32" in r.stderr and "16x16" in r.stderr,
+          f"render refuses a reference of another size ({r.stderr.strip()})")
+
+    # JSON log, no reference: the log is still written, reference metrics are null.
+    r = render(*size, "--checkpoints", "1,3", "--log", P("log.json"), "-o", P("b.exr"), "--png",
+               P("b.png"))
+    check(r.returncode == 0, f"render without reference exits 0 ({r.stderr})")
+    j = json.load(open(P("log.json")))
+    check(j["columns"] == COLUMNS and [row["estimates"] for row in j["checkpoints"]] == [1, 3],
+          f"JSON log rows {j.get('checkpoints')}")
+    check(all(row["rmse"] is None for row in j["checkpoints"]), "no reference: RMSE is null")
+    check(j["checkpoints"][1]["mean_stderr"] > 0, "no reference: standard error still logged")
+
+    # Checkpoints by time, with a time budget: rows at least every 0.3 s, the last at the budget.
+    r = render(*size, "--time", 1.0, "--checkpoint-every", 0.3, "--reference", P("ref.exr"),
+               "--log", P("time.csv"), "-o", P("c.exr"), "--png", P("c.png"))
+    check(r.returncode == 0, f"timed render exits 0 ({r.stderr})")
+    _, trows = cr.read_log(P("time.csv"))
+    ts = trows["seconds"]
+    check(len(ts) >= 4 and all(ts[i] >= 0.3 * (i + 1) for i in range(len(ts) - 1)) and ts[-1] >= 1.0,
+          f"time checkpoints at multiples of 0.3 s and the budget: {list(ts)}")
+
+    # Bad requests.
+    r = render(*size, "--checkpoints", "4,2")
+    check(r.returncode != 0 and "increasing" in r.stderr, f"decreasing list refused ({r.stderr.strip()})")
+    r = render(*size, "--log", P("x.txt"))
+    check(r.returncode != 0 and ".csv or .json" in r.stderr, f"bad log name refused ({r.stderr.strip()})")
+
+    # The pipeline: scripts/experiment --quick, then scripts/report.
+    out = P("experiment")
+    r = subprocess.run([sys.executable, os.path.join(root, "scripts", "experiment"), "--quick",
+                        "--cbdpt", cbdpt, "--out", out], capture_output=True, text=True)
+    check(r.returncode == 0, f"experiment --quick exits 0 ({r.stdout[-500:]} {r.stderr[-500:]})")
+    manifest = json.load(open(os.path.join(out, "manifest.json")))
+    methods = {run["method"] for run in manifest["runs"]}
+    check({"pt", "cpt"} <= methods, f"experiment ran PT and CPT at least ({methods})")
+    for run in manifest["runs"]:
+        _, lrows = cr.read_log(run["log"])
+        ok = len(lrows["estimates"]) >= 3 and all(math.isfinite(v) for v in lrows["rmse"])
+        check(ok, f"{run['method']} {run['kind']} log has finite RMSE rows")
+        if run["kind"] == "time":
+            check(abs(lrows["seconds"][-1] - manifest["budget"]) < 0.5,
+                  f"{run['method']} equal-time run ends at the budget ({lrows['seconds'][-1]})")
+    try:
+        import matplotlib  # noqa: F401
+        have_plots = True
+    except ImportError:
+        have_plots = False
+        print("note: matplotlib missing, scripts/report not exercised")
+    if have_plots:
+        doc = P("results.md")
+        r = subprocess.run([sys.executable, os.path.join(root, "scripts", "report"), "--results",
+                            out, "--doc", doc, "--figures", P("fig"), "--no-flip"],
+                           capture_output=True, text=True)
+        check(r.returncode == 0, f"report exits 0 ({r.stderr[-800:]})")
+        text = open(doc).read() if os.path.exists(doc) else ""
+        for needle in ("Error against render time", "power spectrum", "timing tables", "| PT |"):
+            check(needle in text, f"report has '{needle}'")
+        figs = sorted(os.listdir(P("fig"))) if os.path.isdir(P("fig")) else []
+        check(any(f.startswith("error-time-") for f in figs) and
+              any(f.startswith("spectrum-") for f in figs) and
+              any(f.startswith("crops-") for f in figs), f"report figures {figs}")
+
+print(f"{passed} passed, {len(failures)} failed")
+sys.exit(1 if failures else 0)
