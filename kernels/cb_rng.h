@@ -29,20 +29,35 @@ CB_FN uint cbHashCombine(uint seed, uint value) {
 /* Map 32 random bits to [0,1) with 24 bits of mantissa: never returns 1. */
 CB_FN float cbUintToUnitFloat(uint bits) { return (float)(bits >> 8) * (1.0f / 16777216.0f); }
 
+/* CB_PRIMARY_SAMPLES (defined only by kernels/mlt.cl before including this header): a stream may
+ * instead read an explicit table of primary samples, the state of a Metropolis chain in primary
+ * sample space (Kelemen et al. 2002), so that the path code samples paths from mutated vectors
+ * without knowing it. Without the macro the struct and every function are exactly as before. */
 typedef struct SampleStream {
     uint key;       /* hash of (seed, estimate, stream) */
     uint dimension; /* next dimension to read */
+#ifdef CB_PRIMARY_SAMPLES
+    const float* primary; /* non-null: u[d] = primary[d] for d < primaryCount */
+    uint primaryCount;
+#endif
 } SampleStream;
 
 CB_FN SampleStream sampleStreamStart(uint seed, uint estimate, uint stream) {
     SampleStream s;
     s.key = cbHashCombine(cbHashCombine(cbHash32(seed), estimate), stream);
     s.dimension = 0u;
+#ifdef CB_PRIMARY_SAMPLES
+    s.primary = 0;
+    s.primaryCount = 0u;
+#endif
     return s;
 }
 
 /* u[d] for an arbitrary dimension, without advancing. */
 CB_FN float sampleAt(SampleStream s, uint dimension) {
+#ifdef CB_PRIMARY_SAMPLES
+    if (s.primary && dimension < s.primaryCount) return s.primary[dimension];
+#endif
     return cbUintToUnitFloat(cbHashCombine(s.key, dimension));
 }
 

@@ -30,8 +30,10 @@ std::unique_ptr<Integrator> makeIntegrator(const IntegratorSettings& settings,
     if (settings.name == "pt" || settings.name == "cpt")
         return makePathTracingIntegrator(settings, scene, runtime);
     if (settings.name == "bdpt") return makeBdptIntegrator(settings, scene, runtime);
+    if (settings.name == "cbdpt") return makeCbdptIntegrator(settings, scene, runtime);
+    if (settings.name == "mlt") return makeMltIntegrator(settings, scene, runtime);
     throw std::invalid_argument(
-        fmt::format("unknown integrator '{}' (available: pt, cpt, bdpt)", settings.name));
+        fmt::format("unknown integrator '{}' (available: pt, cpt, bdpt, cbdpt, mlt)", settings.name));
 }
 
 } // namespace cb

@@ -21,8 +21,13 @@ struct IntegratorSettings {
     int debugT = -1;
     int rouletteVertex = 3;   // Russian roulette from this vertex on; 0 disables it
     std::uint32_t seed = 0;
-    int coherenceTile = 1;    // cpt: k x k distinct sample vectors per estimate
+    int coherenceTile = 1;    // cpt, cbdpt: k x k distinct sample vectors per estimate
     int tileSize = 8;         // pixel tile (work-group) edge
+    // mlt (docs/mlt.md): Kelemen et al. 2002 primary-sample-space MLT over BDPT.
+    double largeStepProbability = 0.3; // probability that a mutation draws all samples anew
+    double mutationSize = 1.0 / 64.0;  // largest perturbation s2 (Kelemen: s1 = s2 / 16)
+    int mltChains = 0;                 // chains (work-items); 0: pixels / 16
+    long mltBootstrap = 0;             // bootstrap samples; 0: max(pixels, 65536)
 };
 
 class Integrator {
@@ -46,5 +51,33 @@ std::unique_ptr<Integrator> makePathTracingIntegrator(const IntegratorSettings& 
 // BDPT (src/integrators/bdpt.cpp): also validates the debug strategy (--strategy S,T).
 std::unique_ptr<Integrator> makeBdptIntegrator(const IntegratorSettings& settings,
                                                const DeviceScene& scene, ClRuntime& runtime);
+// CBDPT (src/integrators/cbdpt.cpp): host light subpaths, coherent eye subpaths, BDPT weights.
+std::unique_ptr<Integrator> makeCbdptIntegrator(const IntegratorSettings& settings,
+                                                const DeviceScene& scene, ClRuntime& runtime);
+
+// MLT (src/integrators/mlt.cpp): validates its options (large-step probability, mutation size,
+// chains) and the BDPT caps.
+std::unique_ptr<Integrator> makeMltIntegrator(const IntegratorSettings& settings,
+                                              const DeviceScene& scene, ClRuntime& runtime);
+
+// Chain statistics of an MLT render, over all estimates so far.
+struct MltStatistics {
+    double normalization = 0;       // b: mean luminance of the image, bootstrap + large steps
+    double bootstrapNormalization = 0; // b from the bootstrap alone
+    double bootstrapStandardError = 0; // of bootstrapNormalization
+    long bootstrapSamples = 0;
+    long bootstrapNonZero = 0;      // bootstrap samples with I > 0
+    long chains = 0;
+    long mutationsPerChain = 0;     // per estimate
+    long mutations = 0;             // proposals so far
+    long accepted = 0;
+    long largeSteps = 0;
+    long largeStepsAccepted = 0;
+    long zeroProposals = 0;         // proposals with I = 0 (always rejected)
+    double acceptanceRate() const { return mutations ? double(accepted) / double(mutations) : 0; }
+};
+
+// The statistics if `integrator` is an MLT integrator, else nullptr.
+const MltStatistics* mltStatistics(const Integrator& integrator);
 
 } // namespace cb

@@ -1,0 +1,335 @@
+/* mlt.cl - primary-sample-space Metropolis light transport over BDPT (Kelemen et al. 2002;
+ * METHOD.md, MLT).
+ *
+ * A state is a vector u of primary samples in [0,1)^D: the eye stream's dimensions first
+ * (CB_MLT_EYE_DIMS, BDPT's eye layout except that dims 0-1 place the sample anywhere on the
+ * film instead of jittering inside one pixel), then the light stream's (CB_MLT_LIGHT_DIMS, BDPT's
+ * light layout). Connections draw no random numbers, so the two streams are all there is, and a
+ * mutation of one leaves the other's decisions where they were (STYLE.md: separate streams).
+ * The path code (cb_path.h) reads u through SampleStream's primary-sample table (cb_rng.h,
+ * CB_PRIMARY_SAMPLES).
+ *
+ * The contribution F(u) of a state is BDPT's full estimate for that sample: the weighted sum of
+ * every strategy with t >= 2 at the pixel under (u0 W, u1 H), plus every t = 1 strategy at the
+ * pixel its light vertex projects to: a short list of (pixel, RGB) splats. The target density
+ * is the scalar I(u) = luminance of the sum of the splats. Each chain is one work-item; its
+ * state lives in private arrays during a launch and in __global buffers between launches. */
+#define CB_PRIMARY_SAMPLES
+#include "cb_path.h"
+
+#ifndef CB_MAX_EYE_VERTICES
+#define CB_MAX_EYE_VERTICES 8
+#endif
+#ifndef CB_MAX_LIGHT_VERTICES
+#define CB_MAX_LIGHT_VERTICES 8
+#endif
+#ifndef CB_MLT_EYE_DIMS
+#define CB_MLT_EYE_DIMS (CB_DIM_FIRST_BOUNCE + CB_DIMS_PER_BOUNCE * CB_MAX_EYE_VERTICES)
+#endif
+#ifndef CB_MLT_LIGHT_DIMS
+#define CB_MLT_LIGHT_DIMS (CB_LIGHT_DIM_FIRST_BOUNCE + CB_DIMS_PER_BOUNCE * CB_MAX_LIGHT_VERTICES)
+#endif
+#define CB_MLT_DIMS (CB_MLT_EYE_DIMS + CB_MLT_LIGHT_DIMS)
+/* One splat at the sample's own pixel, one per t = 1 strategy (s = 2 .. Nl). */
+#define CB_MLT_MAX_SPLATS (CB_MAX_LIGHT_VERTICES + 1)
+
+#define CB_MLT_BOOTSTRAP_SALT 0x426f6f74u
+#define CB_MLT_MUTATION_SALT 0x4d757461u
+
+/* Slots of a chain's per-launch statistics (uint each). */
+#define CB_MLT_STAT_ACCEPTED 0
+#define CB_MLT_STAT_LARGE 1
+#define CB_MLT_STAT_LARGE_ACCEPTED 2
+#define CB_MLT_STAT_ZERO_PROPOSALS 3
+#define CB_MLT_STATS 4
+
+static void atomicAddFloat(volatile __global float* address, float value) {
+    volatile __global uint* bits = (volatile __global uint*)address;
+    uint expected = *bits;
+    for (;;) {
+        uint desired = as_uint(as_float(expected) + value);
+        uint seen = atomic_cmpxchg(bits, expected, desired);
+        if (seen == expected) break;
+        expected = seen;
+    }
+}
+
+typedef struct MltSample {
+    int count;
+    int pixel[CB_MLT_MAX_SPLATS];
+    float rgb[3 * CB_MLT_MAX_SPLATS];
+    float luminance; /* I(u); 0 when the sample contributes nothing */
+} MltSample;
+
+/* Rec. 709 luminance (the Y of CIE XYZ for linear sRGB). */
+static float mltLuminance(Vec3 rgb) {
+    return 0.2126f * rgb.x + 0.7152f * rgb.y + 0.0722f * rgb.z;
+}
+
+static void mltAddSplat(MltSample* out, int pixel, Vec3 rgb) {
+    int i = out->count++;
+    out->pixel[i] = pixel;
+    out->rgb[3 * i + 0] = rgb.x;
+    out->rgb[3 * i + 1] = rgb.y;
+    out->rgb[3 * i + 2] = rgb.z;
+}
+
+/* F(u) and I(u): BDPT for the primary sample vector u (bdpt.cl's combination, with the pixel
+ * taken from u). Non-finite strategy results are dropped and counted as in BDPT. A sample whose
+ * luminance is not positive gets I = 0 and no splats: it can never be a chain state. */
+static void mltEvaluate(const SceneView* scene, const Camera* camera, __global const float* toRgb,
+                        BdptSettings settings, const float* u, MltSample* out, int* rays,
+                        int* nonFinite) {
+    out->count = 0;
+    out->luminance = 0.0f;
+    SampleStream eyeStream = sampleStreamStart(0u, 0u, 0u);
+    eyeStream.primary = u;
+    eyeStream.primaryCount = CB_MLT_EYE_DIMS;
+    SampleStream lightStream = sampleStreamStart(0u, 0u, 1u);
+    lightStream.primary = u + CB_MLT_EYE_DIMS;
+    lightStream.primaryCount = CB_MLT_LIGHT_DIMS;
+
+    PathVertex light[CB_MAX_LIGHT_VERTICES];
+    PathVertex eye[CB_MAX_EYE_VERTICES];
+    int nLight = bdptLightSubpath(scene, lightStream, settings.lightVertices, light, rays);
+    float rasterX = u[CB_DIM_PIXEL] * (float)camera->width;
+    float rasterY = u[CB_DIM_PIXEL + 1u] * (float)camera->height;
+    int nEye = bdptEyeSubpath(scene, camera, rasterX, rasterY, eyeStream, settings.eyeVertices,
+                              eye, rays);
+    int px = min((int)rasterX, camera->width - 1);
+    int py = min((int)rasterY, camera->height - 1);
+
+    Spectrum radiance = specZero();
+    for (int t = 1; t <= nEye; ++t) {
+        for (int s = 0; s <= nLight; ++s) {
+            float rx = 0.0f, ry = 0.0f;
+            Spectrum c = bdptConnect(scene, camera, light, s, eye, t, settings, &rx, &ry, rays);
+            if (specIsBlack(c)) continue;
+            if (!specIsFinite(c)) {
+                *nonFinite += 1;
+                continue;
+            }
+            if (t == 1) {
+                int sx = min((int)rx, camera->width - 1);
+                int sy = min((int)ry, camera->height - 1);
+                mltAddSplat(out, sy * camera->width + sx, specToRgb(c, toRgb));
+            } else {
+                radiance = specAdd(radiance, c);
+            }
+        }
+    }
+    Vec3 rgb = specToRgb(radiance, toRgb);
+    if (!(isfinite(rgb.x) && isfinite(rgb.y) && isfinite(rgb.z))) {
+        *nonFinite += 1;
+        rgb = vec3(0.0f, 0.0f, 0.0f);
+    }
+    if (rgb.x != 0.0f || rgb.y != 0.0f || rgb.z != 0.0f)
+        mltAddSplat(out, py * camera->width + px, rgb);
+    float lum = 0.0f;
+    for (int i = 0; i < out->count; ++i)
+        lum += mltLuminance(vec3(out->rgb[3 * i], out->rgb[3 * i + 1], out->rgb[3 * i + 2]));
+    if (!(lum > 0.0f) || !isfinite(lum)) {
+        out->count = 0;
+        lum = 0.0f;
+    }
+    out->luminance = lum;
+}
+
+/* Uniform number k of the stream `key` (24 bits, in [0,1)). */
+static float mltUniform(uint key, uint k) {
+    return cbUintToUnitFloat(cbHashCombine(key, k));
+}
+
+static uint mltBootstrapKey(uint seed, uint index) {
+    return cbHashCombine(cbHash32(seed ^ CB_MLT_BOOTSTRAP_SALT), index);
+}
+
+static void mltBootstrapVector(uint seed, uint index, float* u) {
+    uint key = mltBootstrapKey(seed, index);
+    for (uint d = 0u; d < CB_MLT_DIMS; ++d)
+        u[d] = mltUniform(key, d);
+}
+
+/* Bootstrap: I(u) of independent uniform vectors u_i, i = first .. first + count - 1. Their mean
+ * estimates the normalisation b = integral of I over [0,1)^D. */
+__kernel void mltBootstrap(CB_SCENE_KERNEL_PARAMS,
+                           __global const float* toRgb,
+                           Camera camera,
+                           BdptSettings settings,
+                           uint seed,
+                           uint first,
+                           uint count,
+                           __global float* luminance,
+                           volatile __global int* nonFiniteCount) {
+    uint i = (uint)get_global_id(0);
+    if (i >= count) return;
+    CB_SCENE_VIEW(scene);
+    float u[CB_MLT_DIMS];
+    mltBootstrapVector(seed, first + i, u);
+    MltSample sample;
+    int rays = 0, nonFinite = 0;
+    mltEvaluate(&scene, &camera, toRgb, settings, u, &sample, &rays, &nonFinite);
+    luminance[i] = sample.luminance;
+    if (nonFinite > 0) atomic_add(nonFiniteCount, nonFinite);
+}
+
+static void mltStoreState(__global float* state, __global float* chainLum,
+                          __global int* splatCount, __global int* splatPixel,
+                          __global float* splatRgb, uint chain, const float* u,
+                          const MltSample* s) {
+    for (uint d = 0u; d < CB_MLT_DIMS; ++d)
+        state[chain * CB_MLT_DIMS + d] = u[d];
+    chainLum[chain] = s->luminance;
+    splatCount[chain] = s->count;
+    for (int i = 0; i < s->count; ++i) {
+        splatPixel[chain * CB_MLT_MAX_SPLATS + (uint)i] = s->pixel[i];
+        for (int c = 0; c < 3; ++c)
+            splatRgb[3u * (chain * CB_MLT_MAX_SPLATS + (uint)i) + (uint)c] = s->rgb[3 * i + c];
+    }
+}
+
+/* Chain c starts at bootstrap vector bootstrapIndex[c] (resampled on the host in proportion to
+ * I, so the chains start close to their stationary distribution). */
+__kernel void mltSeedChains(CB_SCENE_KERNEL_PARAMS,
+                            __global const float* toRgb,
+                            Camera camera,
+                            BdptSettings settings,
+                            uint seed,
+                            uint chains,
+                            __global const uint* bootstrapIndex,
+                            __global float* state,
+                            __global float* chainLum,
+                            __global int* splatCount,
+                            __global int* splatPixel,
+                            __global float* splatRgb) {
+    uint chain = (uint)get_global_id(0);
+    if (chain >= chains) return;
+    CB_SCENE_VIEW(scene);
+    float u[CB_MLT_DIMS];
+    mltBootstrapVector(seed, bootstrapIndex[chain], u);
+    MltSample sample;
+    int rays = 0, nonFinite = 0;
+    mltEvaluate(&scene, &camera, toRgb, settings, u, &sample, &rays, &nonFinite);
+    mltStoreState(state, chainLum, splatCount, splatPixel, splatRgb, chain, u, &sample);
+}
+
+/* Adds weight * F / I of a state to the image. */
+static void mltSplat(volatile __global float* image, const MltSample* s, float weight) {
+    if (!(weight > 0.0f) || !(s->luminance > 0.0f)) return;
+    float scale = weight / s->luminance;
+    for (int i = 0; i < s->count; ++i) {
+        uint p = (uint)s->pixel[i];
+        for (int c = 0; c < 3; ++c)
+            atomicAddFloat(&image[3u * p + (uint)c], scale * s->rgb[3 * i + c]);
+    }
+}
+
+/* Advance every chain by `mutations` steps (global step numbers firstStep ..). Each step
+ * proposes a large step (all dimensions fresh) with probability largeStepProbability, otherwise
+ * Kelemen's exponential perturbation of every dimension: |du| = s2 (s1/s2)^r, r uniform, random
+ * sign, wrapped to [0,1). Acceptance a = min(1, I(proposal)/I(current)); both states are
+ * splatted with expected-value weights (Veach 1997, sec. 11.5: current (1 - a), proposal a), the
+ * current one lazily (its weight is summed until it is left or the launch ends, which splats the
+ * same amounts with fewer atomics). The image receives sum weight * F / I; the host multiplies
+ * by b * pixels / mutations. largeSum/largeCount collect I of large-step proposals, which are
+ * uniform draws and so refine the estimate of b. */
+__kernel void mltAdvance(CB_SCENE_KERNEL_PARAMS,
+                         __global const float* toRgb,
+                         Camera camera,
+                         BdptSettings settings,
+                         uint seed,
+                         uint chains,
+                         uint firstStep,
+                         int mutations,
+                         float largeStepProbability,
+                         float s1,
+                         float s2,
+                         __global float* state,
+                         __global float* chainLum,
+                         __global int* splatCount,
+                         __global int* splatPixel,
+                         __global float* splatRgb,
+                         volatile __global float* image,
+                         __global float* largeSum,
+                         __global uint* stats,
+                         volatile __global int* nonFiniteCount,
+                         volatile __global uint* rayCount) {
+    uint chain = (uint)get_global_id(0);
+    if (chain >= chains) return;
+    CB_SCENE_VIEW(scene);
+
+    float bufferA[CB_MLT_DIMS], bufferB[CB_MLT_DIMS];
+    float* cur = bufferA;
+    float* prop = bufferB;
+    MltSample curSample, propSample;
+    for (uint d = 0u; d < CB_MLT_DIMS; ++d)
+        cur[d] = state[chain * CB_MLT_DIMS + d];
+    curSample.luminance = chainLum[chain];
+    curSample.count = splatCount[chain];
+    for (int i = 0; i < curSample.count; ++i) {
+        curSample.pixel[i] = splatPixel[chain * CB_MLT_MAX_SPLATS + (uint)i];
+        for (int c = 0; c < 3; ++c)
+            curSample.rgb[3 * i + c] =
+                splatRgb[3u * (chain * CB_MLT_MAX_SPLATS + (uint)i) + (uint)c];
+    }
+
+    const float logRatio = log(s2 / s1);
+    uint accepted = 0u, large = 0u, largeAccepted = 0u, zero = 0u;
+    float sumLarge = 0.0f;
+    float curWeight = 0.0f;
+    int rays = 0, nonFinite = 0;
+    uint chainKey = cbHashCombine(cbHash32(seed ^ CB_MLT_MUTATION_SALT), chain);
+    for (int m = 0; m < mutations; ++m) {
+        uint key = cbHashCombine(chainKey, firstStep + (uint)m);
+        bool isLarge = mltUniform(key, 0u) < largeStepProbability;
+        for (uint d = 0u; d < CB_MLT_DIMS; ++d) {
+            uint bits = cbHashCombine(key, 2u + d);
+            if (isLarge) {
+                prop[d] = cbUintToUnitFloat(bits);
+            } else {
+                float du = s2 * exp(-logRatio * cbUintToUnitFloat(bits));
+                float x = (bits & 1u) ? cur[d] + du : cur[d] - du;
+                if (x >= 1.0f) x -= 1.0f;
+                if (x < 0.0f) x += 1.0f;
+                prop[d] = x < 1.0f ? x : 0.0f; /* rounding of x - 1 + 1 */
+            }
+        }
+        mltEvaluate(&scene, &camera, toRgb, settings, prop, &propSample, &rays, &nonFinite);
+        if (isLarge) {
+            large += 1u;
+            sumLarge += propSample.luminance;
+        }
+        float a;
+        if (!(propSample.luminance > 0.0f)) {
+            a = 0.0f; /* also catches NaN */
+            zero += 1u;
+        } else if (!(curSample.luminance > 0.0f)) {
+            a = 1.0f;
+        } else {
+            a = min(1.0f, propSample.luminance / curSample.luminance);
+        }
+        curWeight += 1.0f - a;
+        mltSplat(image, &propSample, a);
+        if (mltUniform(key, 1u) < a) {
+            mltSplat(image, &curSample, curWeight);
+            curWeight = 0.0f;
+            float* tmp = cur;
+            cur = prop;
+            prop = tmp;
+            curSample = propSample;
+            accepted += 1u;
+            if (isLarge) largeAccepted += 1u;
+        }
+    }
+    mltSplat(image, &curSample, curWeight);
+    /* A zero current state (only if the bootstrap found nothing) splats nothing either way. */
+
+    mltStoreState(state, chainLum, splatCount, splatPixel, splatRgb, chain, cur, &curSample);
+    largeSum[chain] = sumLarge;
+    stats[CB_MLT_STATS * chain + CB_MLT_STAT_ACCEPTED] = accepted;
+    stats[CB_MLT_STATS * chain + CB_MLT_STAT_LARGE] = large;
+    stats[CB_MLT_STATS * chain + CB_MLT_STAT_LARGE_ACCEPTED] = largeAccepted;
+    stats[CB_MLT_STATS * chain + CB_MLT_STAT_ZERO_PROPOSALS] = zero;
+    if (nonFinite > 0) atomic_add(nonFiniteCount, nonFinite);
+    atomic_add(rayCount, (uint)rays);
+}
