@@ -75,13 +75,13 @@ RenderOutcome renderEstimates(Integrator& integrator, EstimateAccumulator& accum
         ++nextListed;
     double nextTime = checkpoints.everySeconds;
     long lastCheckpoint = -1;
-    auto fire = [&](double seconds, bool final) {
+    auto fire = [&](double seconds, double cpuSeconds, bool final) {
         const auto before = Clock::now();
         const double cpuBefore = processCpuSeconds();
         Checkpoint c;
         c.estimates = first + done;
         c.renderSeconds = seconds;
-        c.renderCpuSeconds = cpuBefore - cpuStart - cpuPaused;
+        c.renderCpuSeconds = cpuSeconds;
         c.final = final;
         onCheckpoint(c);
         lastCheckpoint = first + done;
@@ -99,6 +99,7 @@ RenderOutcome renderEstimates(Integrator& integrator, EstimateAccumulator& accum
         accumulator.add(rgb.data());
         ++done;
         const double now = elapsed();
+        const double cpuNow = cpuElapsed();
         if (onCheckpoint) {
             bool due = false;
             while (nextListed < checkpoints.estimates.size() &&
@@ -112,7 +113,7 @@ RenderOutcome renderEstimates(Integrator& integrator, EstimateAccumulator& accum
                 nextTime =
                     (std::floor(now / checkpoints.everySeconds) + 1.0) * checkpoints.everySeconds;
             }
-            if (due) fire(now, false);
+            if (due) fire(now, cpuNow, false);
         }
         if (onProgress) {
             RenderProgress p;
@@ -132,7 +133,7 @@ RenderOutcome renderEstimates(Integrator& integrator, EstimateAccumulator& accum
     outcome.renderCpuSeconds = cpuElapsed();
     outcome.nonFiniteSamples = integrator.nonFiniteSamples();
     if (onCheckpoint && first + done > 0 && lastCheckpoint != first + done)
-        fire(outcome.renderSeconds, true);
+        fire(outcome.renderSeconds, outcome.renderCpuSeconds, true);
     return outcome;
 }
 
