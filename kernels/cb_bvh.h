@@ -49,8 +49,9 @@ CB_STATIC_ASSERT(sizeof(BvhNode) == 32, "BvhNode must be 32 bytes");
  * A zero direction component has inverse +inf (bvhInverseDirection turns -0 into +0). If the
  * origin lies on that slab's plane, 0 * inf = NaN: the selects below are ordered so that the
  * NaN ends up in the slab's near or far distance, never replacing the other one by an
- * infinity of the wrong sign, and fmin/fmax (which return the non-NaN operand) then drop it,
- * so the axis does not restrict the interval - a ray in a box face still enters the box. */
+ * infinity of the wrong sign, and the max/min selects (which keep the non-NaN operand) then
+ * drop it, so the axis does not restrict the interval - a ray in a box face still enters the
+ * box. */
 CB_FN bool bvhBoxHit(CB_GLOBAL const BvhNode* node, Vec3 o, Vec3 invD, float tMax) {
     float tx0 = (node->boundsMin[0] - o.x) * invD.x;
     float tx1 = (node->boundsMax[0] - o.x) * invD.x;
@@ -64,8 +65,16 @@ CB_FN bool bvhBoxHit(CB_GLOBAL const BvhNode* node, Vec3 o, Vec3 invD, float tMa
     float fy = ty0 > ty1 ? ty0 : ty1;
     float nz = tz0 > tz1 ? tz1 : tz0;
     float fz = tz0 > tz1 ? tz0 : tz1;
-    float tNear = fmax(fmax(nx, ny), fmax(nz, 0.0f));
-    float tFar = fmin(fmin(fx, fy), fmin(fz, tMax));
+    /* fmax/fmin spelled as selects with the running value second: `a > acc ? a : acc` is
+     * false for a NaN `a` and keeps acc, which is fmax's NaN rule (acc is never NaN), and
+     * compiles to one maxss/minss instead of a libm call on the host (g++ without
+     * -ffast-math) and a NaN-checking sequence in PoCL (docs/performance.md). */
+    float tNear = nx > 0.0f ? nx : 0.0f;
+    tNear = ny > tNear ? ny : tNear;
+    tNear = nz > tNear ? nz : tNear;
+    float tFar = fx < tMax ? fx : tMax;
+    tFar = fy < tFar ? fy : tFar;
+    tFar = fz < tFar ? fz : tFar;
     return tNear <= tFar * (1.0f + 2.0f * cbGamma(3));
 }
 

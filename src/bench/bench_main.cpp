@@ -63,6 +63,7 @@ struct Options {
     int leafSize = 4;
     long rays = 0; // 0: 1M (64k in --quick)
     int threads = 2;
+    bool host = false; // also time the host (g++) build of the traversal
     std::vector<std::string> meshes; // default per mode
     std::string device;
     // Internal: measure one program build in this process (run by the build section).
@@ -297,6 +298,40 @@ std::vector<MeshEntry> loadMeshes(const Options& o) {
 
 // Agreement of closest hits: same hit/miss and primitive, or a tie (both primitives at the
 // same distance up to 1e-5 relative: shared edges and vertices).
+// The same cb_bvh.h code compiled by g++ for the host, on `threads` std::threads: separates
+// what the traversal algorithm costs from what PoCL's code generation adds.
+double hostSeconds(const Bvh& bvh, const std::vector<Ray>& rays, const std::vector<float>* tMax,
+                   int threads, int repeats) {
+    cbk::SceneView view{};
+    view.nodes = bvh.nodes.data();
+    view.primitives = bvh.primitives.data();
+    std::vector<double> times;
+    std::vector<int> sink(size_t(threads), 0);
+    for (int r = 0; r < repeats; ++r) {
+        auto start = Clock::now();
+        std::vector<std::thread> pool;
+        for (int t = 0; t < threads; ++t)
+            pool.emplace_back([&, t] {
+                size_t b = rays.size() * size_t(t) / size_t(threads);
+                size_t e = rays.size() * size_t(t + 1) / size_t(threads);
+                int count = 0;
+                for (size_t i = b; i < e; ++i) {
+                    if (tMax) {
+                        count += cbk::sceneOccluded(&view, rays[i], (*tMax)[i]);
+                    } else {
+                        cbk::Hit h;
+                        count += cbk::sceneIntersect(&view, rays[i], CB_INFINITY, &h);
+                    }
+                }
+                sink[size_t(t)] = count;
+            });
+        for (auto& th : pool)
+            th.join();
+        times.push_back(secondsSince(start));
+    }
+    return median(times);
+}
+
 double closestAgreement(const std::vector<cbk::Hit>& ours, const Bvh& bvh,
                         const std::vector<BaselineHit>& theirs) {
     size_t agree = 0;
@@ -401,6 +436,12 @@ json runTraverse(const Options& o, ClRuntime& rt) {
                         agree = double(same) / double(n);
                     }
                 }
+                double host = 0.0;
+                if (o.host && variant == "ordered")
+                    host = hostSeconds(bvh, *c.rays,
+                                       c.anyHit ? (std::string(c.name) == "shadow" ? &shadowT : &infT)
+                                                : nullptr,
+                                       o.threads, repeats);
                 double oursM = double(n) / ours * 1e-6;
                 double theirsM = theirs > 0 ? double(n) / theirs * 1e-6 : 0.0;
                 double ratio = theirsM > 0 ? oursM / theirsM : 0.0;
@@ -417,6 +458,11 @@ json runTraverse(const Options& o, ClRuntime& rt) {
                             {"hit_fraction", double(hitCount) / double(n)},
                             {"ours_mrays_per_s", oursM},
                             {"ours_seconds", ours}};
+                if (host > 0.0) {
+                    row["host_mrays_per_s"] = double(n) / host * 1e-6;
+                    fmt::print("{:<11} {:>9} {:<8} {:<10} {:>9.2f}  (same code, g++ on the host)\n",
+                               "", "", "host", c.name, double(n) / host * 1e-6);
+                }
                 if (embree) {
                     row["embree_mrays_per_s"] = theirsM;
                     row["embree_seconds"] = theirs;
@@ -759,7 +805,8 @@ int run(int argc, char** argv) {
     app.add_option("--local-size", o.localSize, "traversal work-group size (0: PoCL chooses)");
     app.add_option("--leaf-size", o.leafSize, "BVH maximum leaf size");
     app.add_option("--rays", o.rays, "rays per traversal case");
-    app.add_option("--threads", o.threads, "Embree threads");
+    app.add_option("--threads", o.threads, "Embree (and --host) threads");
+    app.add_flag("--host", o.host, "also time cb_bvh.h compiled for the host");
     app.add_option("--meshes", o.meshes, "bunny, dragon, buddha, sphere-<n>[k|M]")->delimiter(',');
     app.add_option("--device", o.device, "OpenCL device P:D");
     app.add_option("--child-build", o.childBuild, "(internal)")->group("");
