@@ -128,8 +128,8 @@ cb::IntegratorSettings mltSettings(int ne, int nl) {
     s.name = "mlt";
     s.eyeVertices = ne;
     s.lightVertices = nl;
-    s.mltChains = 64;
-    s.mltBootstrap = 4096;
+    s.mltChains = 256; // one mutation per chain per estimate: many short, independent chains
+    s.mltBootstrap = 2048;
     return s;
 }
 
@@ -256,6 +256,7 @@ TEST_CASE("MLT: acceptance rate in (0,1), statistics consistent, no NaN, options
     desc.film.width = desc.film.height = 16;
     cb::DeviceScene scene = cb::buildDeviceScene(desc, cb::ChannelMode::Rgb);
     cb::IntegratorSettings s = mltSettings(3, 2);
+    s.mltChains = 64;
     s.seed = 3;
     auto integrator = cb::makeIntegrator(s, scene, runtime());
     std::vector<float> rgb;
@@ -270,7 +271,7 @@ TEST_CASE("MLT: acceptance rate in (0,1), statistics consistent, no NaN, options
     CHECK(st->mutations == 8 * 64 * 4);
     CHECK(st->acceptanceRate() > 0.0);
     CHECK(st->acceptanceRate() < 1.0);
-    CHECK(st->bootstrapSamples == 4096);
+    CHECK(st->bootstrapSamples == 2048);
     CHECK(st->bootstrapNonZero > 0);
     CHECK(st->normalization > 0.0);
     // Large steps: binomial(2048, 0.3), 5 standard deviations.
@@ -297,18 +298,18 @@ TEST_CASE("MLT converges to PT on the Cornell box; b matches the PT image's mean
     cb::SceneDesc desc = cb::parseSceneFile(scenePath("cornell-box.pbrt"));
     desc.film.width = desc.film.height = 16;
     cb::DeviceScene scene = cb::buildDeviceScene(desc, cb::ChannelMode::Rgb);
-    checkConverges(scene, 3, 2, 2048, 32, 16);
+    checkConverges(scene, 3, 2, 1024, 32, 32);
 }
 
 TEST_CASE("MLT converges to PT on the grille (grade)" * doctest::test_suite("statistical")) {
     cb::SceneDesc desc = cb::parseSceneFile(scenePath("grade.pbrt"));
     desc.film.width = desc.film.height = 16;
     cb::DeviceScene scene = cb::buildDeviceScene(desc, cb::ChannelMode::Rgb);
-    checkConverges(scene, 3, 2, 2048, 32, 16);
+    checkConverges(scene, 3, 2, 1024, 32, 32);
 }
 
 TEST_CASE("MLT converges to PT with a small bright light behind a grille" *
           doctest::test_suite("statistical")) {
     cb::DeviceScene scene = cb::buildDeviceScene(grilleLightScene(16), cb::ChannelMode::Rgb);
-    checkConverges(scene, 3, 2, 4096, 32, 16);
+    checkConverges(scene, 3, 2, 2048, 32, 32);
 }
