@@ -319,10 +319,14 @@ CB_FN float cbRemap0(float f) {
  * recursion (Veach 1997, eq. 10.9): walking the connection edge toward the camera multiplies the
  * strategy's pdf by pdfRev/pdfFwd of each vertex crossed, and likewise toward the light. The four
  * pdfRev that the connection changes are passed in, and pt and qs count as non-delta (the
- * connection used their non-delta part), so that no vertex is modified. */
-CB_FN float bdptPowerWeight(const PathVertex* light, int s, const PathVertex* eye, int t,
-                            float ptPdfRev, float ptMinusPdfRev, float qsPdfRev,
-                            float qsMinusPdfRev, BdptSettings settings) {
+ * connection used their non-delta part), so that no vertex is modified.
+ * cameraCount scales the sampling rate of the t = 1 strategy (Veach's heuristics weigh
+ * n_i p_i, eq. 9.13): 1 in BDPT, whose W*H light subpaths per estimate all splat; CBDPT traces
+ * fewer light subpaths per estimate than there are pixels and passes their number / (W*H)
+ * (docs/cbdpt.md). bdptPowerWeight is the BDPT case. */
+CB_FN float bdptPowerWeightCounted(const PathVertex* light, int s, const PathVertex* eye, int t,
+                                   float ptPdfRev, float ptMinusPdfRev, float qsPdfRev,
+                                   float qsMinusPdfRev, BdptSettings settings, float cameraCount) {
     if (s + t == 2) return 1.0f; /* only (0,2) exists: (1,1) is excluded */
     float sumRi = 0.0f;
     float ri = 1.0f;
@@ -333,7 +337,8 @@ CB_FN float bdptPowerWeight(const PathVertex* light, int s, const PathVertex* ey
         ri *= cbRemap0(rev) / cbRemap0(eye[i].pdfFwd);
         int deltaHere = i == t - 1 ? 0 : eye[i].delta;
         int deltaPrev = eye[i - 1].delta; /* i - 1 < t - 1 */
-        if (!deltaHere && !deltaPrev && !(sNew == 1 && i == 1)) sumRi += ri * ri;
+        if (!deltaHere && !deltaPrev && !(sNew == 1 && i == 1))
+            sumRi += i == 1 ? ri * ri * (cameraCount * cameraCount) : ri * ri;
     }
     ri = 1.0f;
     for (int i = s - 1; i >= 0; --i) {
@@ -347,9 +352,17 @@ CB_FN float bdptPowerWeight(const PathVertex* light, int s, const PathVertex* ey
             deltaPrev = i - 1 == s - 1 ? 0 : light[i - 1].delta;
         else
             deltaPrev = light[0].type == CB_VERTEX_POINT_LIGHT; /* s = 0 cannot hit it */
-        if (!deltaHere && !deltaPrev && !(i == 1 && tNew == 1)) sumRi += ri * ri;
+        if (!deltaHere && !deltaPrev && !(i == 1 && tNew == 1))
+            sumRi += t == 1 ? ri * ri / (cameraCount * cameraCount) : ri * ri;
     }
     return 1.0f / (1.0f + sumRi);
+}
+
+CB_FN float bdptPowerWeight(const PathVertex* light, int s, const PathVertex* eye, int t,
+                            float ptPdfRev, float ptMinusPdfRev, float qsPdfRev,
+                            float qsMinusPdfRev, BdptSettings settings) {
+    return bdptPowerWeightCounted(light, s, eye, t, ptPdfRev, ptMinusPdfRev, qsPdfRev,
+                                  qsMinusPdfRev, settings, 1.0f);
 }
 
 /* Lafortune & Willems' weights as METHOD.md fixes the thesis's eqs. 2.8/3.4. Eye vertex j
@@ -401,15 +414,23 @@ CB_FN float bdptLafortuneWeight(const SceneView* scene, const PathVertex* light,
     return prefix * (1.0f - bdptLafortuneW(scene, light, s, eye, t, t - 1));
 }
 
-CB_FN float bdptMisWeight(const SceneView* scene, const PathVertex* light, int s,
-                          const PathVertex* eye, int t, float ptPdfRev, float ptMinusPdfRev,
-                          float qsPdfRev, float qsMinusPdfRev, BdptSettings settings) {
+CB_FN float bdptMisWeightCounted(const SceneView* scene, const PathVertex* light, int s,
+                                 const PathVertex* eye, int t, float ptPdfRev, float ptMinusPdfRev,
+                                 float qsPdfRev, float qsMinusPdfRev, BdptSettings settings,
+                                 float cameraCount) {
     if (!bdptStrategyAllowed(s, t, settings.eyeVertices, settings.lightVertices)) return 0.0f;
     if (settings.debugS >= 0) return 1.0f;
     if (settings.weights == CB_WEIGHTS_LAFORTUNE)
         return bdptLafortuneWeight(scene, light, s, eye, t, settings);
-    return bdptPowerWeight(light, s, eye, t, ptPdfRev, ptMinusPdfRev, qsPdfRev, qsMinusPdfRev,
-                           settings);
+    return bdptPowerWeightCounted(light, s, eye, t, ptPdfRev, ptMinusPdfRev, qsPdfRev,
+                                  qsMinusPdfRev, settings, cameraCount);
+}
+
+CB_FN float bdptMisWeight(const SceneView* scene, const PathVertex* light, int s,
+                          const PathVertex* eye, int t, float ptPdfRev, float ptMinusPdfRev,
+                          float qsPdfRev, float qsMinusPdfRev, BdptSettings settings) {
+    return bdptMisWeightCounted(scene, light, s, eye, t, ptPdfRev, ptMinusPdfRev, qsPdfRev,
+                                qsMinusPdfRev, settings, 1.0f);
 }
 
 /* ---- Connection ---------------------------------------------------------------------------- */
@@ -530,17 +551,18 @@ CB_FN bool bdptConnectionVisible(const SceneView* scene, const Camera* camera,
 
 /* Weighted (or, in debug mode, unweighted) contribution of strategy (s,t), visibility included;
  * *rays counts the shadow ray. Black when the strategy does not apply. */
-CB_FN Spectrum bdptConnect(const SceneView* scene, const Camera* camera, const PathVertex* light,
-                           int s, const PathVertex* eye, int t, BdptSettings settings,
-                           float* rasterX, float* rasterY, int* rays) {
+CB_FN Spectrum bdptConnectCounted(const SceneView* scene, const Camera* camera,
+                                  const PathVertex* light, int s, const PathVertex* eye, int t,
+                                  BdptSettings settings, float cameraCount, float* rasterX,
+                                  float* rasterY, int* rays) {
     BdptConnection c;
     if (!bdptStrategyAllowed(s, t, settings.eyeVertices, settings.lightVertices)) return specZero();
     if (settings.debugS >= 0 && (s != settings.debugS || t != settings.debugT)) return specZero();
     if (settings.debugS < 0 && settings.weights == CB_WEIGHTS_LAFORTUNE && t == 1)
         return specZero(); /* weight 0: skip the shadow ray */
     if (!bdptConnectUnoccluded(scene, camera, light, s, eye, t, &c)) return specZero();
-    float weight = bdptMisWeight(scene, light, s, eye, t, c.ptPdfRev, c.ptMinusPdfRev, c.qsPdfRev,
-                                 c.qsMinusPdfRev, settings);
+    float weight = bdptMisWeightCounted(scene, light, s, eye, t, c.ptPdfRev, c.ptMinusPdfRev,
+                                        c.qsPdfRev, c.qsMinusPdfRev, settings, cameraCount);
     if (!(weight > 0.0f)) return specZero();
     if (c.needsShadow) {
         *rays += 1;
@@ -549,6 +571,13 @@ CB_FN Spectrum bdptConnect(const SceneView* scene, const Camera* camera, const P
     *rasterX = c.rasterX;
     *rasterY = c.rasterY;
     return specScale(c.contribution, weight);
+}
+
+CB_FN Spectrum bdptConnect(const SceneView* scene, const Camera* camera, const PathVertex* light,
+                           int s, const PathVertex* eye, int t, BdptSettings settings,
+                           float* rasterX, float* rasterY, int* rays) {
+    return bdptConnectCounted(scene, camera, light, s, eye, t, settings, 1.0f, rasterX, rasterY,
+                              rays);
 }
 
 CB_END_NAMESPACE

@@ -1,0 +1,98 @@
+/* cbdpt.cl - the combination kernel of coherent bidirectional path tracing (METHOD.md, CBDPT;
+ * docs/cbdpt.md). The host has traced this estimate's light subpaths (one per coherence-tile
+ * position) with the same cb_path.h code and splats their camera connections (t = 1) itself.
+ * Here each pixel traces its eye subpath from the sample vector it shares with every pixel at
+ * the same tile position (jitter included, as CPT), copies its tile position's light subpath into
+ * private memory, and adds every strategy with t >= 2 with the BDPT weights. */
+#include "cb_path.h"
+
+#ifndef CB_MAX_EYE_VERTICES
+#define CB_MAX_EYE_VERTICES 8
+#endif
+#ifndef CB_MAX_LIGHT_VERTICES
+#define CB_MAX_LIGHT_VERTICES 8
+#endif
+
+/* streamTile = k: pixel (x, y) sits at tile position (y mod k, x mod k); its eye stream key is
+ * that position's index (y mod k) * k + (x mod k), as in pt.cl, and its light subpath is number
+ * (y mod k) * tileColumns + (x mod k) of lightVertices (tileColumns = min(k, width)), each
+ * subpath owning lightVertexStride slots. cameraCount = (light subpaths) / (W*H): the t = 1
+ * strategy's sampling rate relative to BDPT's, for the power heuristic (docs/cbdpt.md). */
+__kernel void renderCbdpt(__global const struct BvhNode* nodes,
+                          __global const Primitive* primitives,
+                          __global const Material* materials,
+                          __global const Light* lights,
+                          __global const float* spectra,
+                          int lightCount,
+                          __global const float* toRgb,
+                          Camera camera,
+                          BdptSettings settings,
+                          uint seed,
+                          uint estimate,
+                          int streamTile,
+                          int tileColumns,
+                          __global const PathVertex* lightVertices,
+                          __global const int* lightCounts,
+                          int lightVertexStride,
+                          float cameraCount,
+                          __global float* outRgb,
+                          volatile __global int* nonFiniteCount,
+                          volatile __global uint* rayCount) {
+    int x = (int)get_global_id(0);
+    int y = (int)get_global_id(1);
+    if (x >= camera.width || y >= camera.height) return;
+
+    SceneView scene;
+    scene.nodes = nodes;
+    scene.primitives = primitives;
+    scene.materials = materials;
+    scene.lights = lights;
+    scene.spectra = spectra;
+    scene.lightCount = lightCount;
+
+    int ti = y % streamTile;
+    int tj = x % streamTile;
+    uint stream = (uint)(ti * streamTile + tj);
+    int subpath = ti * tileColumns + tj;
+
+    /* cb_path.h reads light vertices through private pointers; Nl is a handful. */
+    PathVertex light[CB_MAX_LIGHT_VERTICES];
+    int nLight = lightCounts[subpath];
+    for (int i = 0; i < nLight; ++i)
+        light[i] = lightVertices[subpath * lightVertexStride + i];
+
+    int rays = 0;
+    PathVertex eye[CB_MAX_EYE_VERTICES];
+    SampleStream eyeStream = sampleStreamStart(seed, estimate, stream);
+    float jitterX = sampleAt(eyeStream, CB_DIM_PIXEL);
+    float jitterY = sampleAt(eyeStream, CB_DIM_PIXEL + 1u);
+    int nEye = bdptEyeSubpath(&scene, &camera, (float)x + jitterX, (float)y + jitterY, eyeStream,
+                              settings.eyeVertices, eye, &rays);
+
+    Spectrum radiance = specZero();
+    int nonFinite = 0;
+    for (int t = 2; t <= nEye; ++t) {
+        for (int s = 0; s <= nLight; ++s) {
+            float rx = 0.0f, ry = 0.0f;
+            Spectrum c = bdptConnectCounted(&scene, &camera, light, s, eye, t, settings, cameraCount,
+                                             &rx, &ry, &rays);
+            if (specIsBlack(c)) continue;
+            if (!specIsFinite(c)) {
+                ++nonFinite;
+                continue;
+            }
+            radiance = specAdd(radiance, c);
+        }
+    }
+    Vec3 rgb = specToRgb(radiance, toRgb);
+    if (!(isfinite(rgb.x) && isfinite(rgb.y) && isfinite(rgb.z))) {
+        ++nonFinite;
+        rgb = vec3(0.0f, 0.0f, 0.0f);
+    }
+    if (nonFinite > 0) atomic_add(nonFiniteCount, nonFinite);
+    atomic_add(rayCount, (uint)rays);
+    uint pixel = (uint)(y * camera.width + x);
+    outRgb[3 * pixel + 0] = rgb.x;
+    outRgb[3 * pixel + 1] = rgb.y;
+    outRgb[3 * pixel + 2] = rgb.z;
+}

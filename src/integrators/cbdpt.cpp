@@ -1,0 +1,213 @@
+// CBDPT (METHOD.md, CBDPT; docs/cbdpt.md): per estimate the host traces the light subpaths
+// (one per coherence-tile position, cbdpt_light.h) and splats their t = 1 connections; the
+// combination kernel (kernels/cbdpt.cl) gives every pixel a coherent eye subpath and connects
+// it to its tile position's light subpath with the BDPT weights.
+#include "integrators/cbdpt_light.h"
+#include "integrators/integrator.h"
+
+#include "cb_path.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <fmt/format.h>
+#include <stdexcept>
+
+namespace cb {
+
+std::unique_ptr<CbdptLightTracer> makeCbdptLightTracer(const DeviceScene& scene,
+                                                       const CbdptLightSettings& settings) {
+    CbdptHostScene raw{};
+    raw.nodes = scene.bvh.nodes.data();
+    raw.nodeCount = scene.bvh.nodes.size();
+    raw.nodeBytes = sizeof(cbk::BvhNode);
+    raw.primitives = scene.bvh.primitives.data();
+    raw.primitiveCount = scene.bvh.primitives.size();
+    raw.primitiveBytes = sizeof(cbk::Primitive);
+    raw.materials = scene.materials.data();
+    raw.materialCount = scene.materials.size();
+    raw.materialBytes = sizeof(cbk::Material);
+    raw.lights = scene.lights.data();
+    raw.lightCount = scene.lights.size();
+    raw.lightBytes = sizeof(cbk::Light);
+    raw.spectra = scene.spectra.data();
+    raw.spectraCount = scene.spectra.size();
+    raw.toRgb = scene.toRgb.data();
+    raw.camera = &scene.camera;
+    raw.cameraBytes = sizeof(cbk::Camera);
+    raw.channels = scene.channels;
+    if (scene.toRgb.size() != size_t(3 * scene.channels))
+        throw std::logic_error("cbdpt: toRgb is not 3 x channels");
+    if (scene.channels == 3) return makeCbdptLightTracerRgb(raw, settings);
+    if (scene.channels == 16) return makeCbdptLightTracerSpectral(raw, settings);
+    throw std::invalid_argument(fmt::format(
+        "cbdpt traces light subpaths on the host, which is built for 3 (RGB) or 16 (spectral) "
+        "channels, not {}",
+        scene.channels));
+}
+
+namespace {
+
+template <typename T> cl::Buffer uploadVector(cl::Context& context, const std::vector<T>& data) {
+    // OpenCL forbids zero-sized buffers; an unused array still gets one element.
+    static const T zero{};
+    const void* src = data.empty() ? &zero : data.data();
+    size_t bytes = data.empty() ? sizeof(T) : sizeof(T) * data.size();
+    return cl::Buffer(context, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, bytes,
+                      const_cast<void*>(src));
+}
+
+class CbdptIntegrator final : public Integrator {
+  public:
+    CbdptIntegrator(const IntegratorSettings& settings, const DeviceScene& scene,
+                    ClRuntime& runtime)
+        : settings_(settings), scene_(scene), runtime_(runtime) {
+        const int k = settings.coherenceTile;
+        light_.seed = settings.seed;
+        light_.eyeVertices = settings.eyeVertices;
+        light_.lightVertices = settings.lightVertices;
+        light_.weights = settings.weights == "lafortune" ? CB_WEIGHTS_LAFORTUNE : CB_WEIGHTS_POWER;
+        light_.coherenceTile = k;
+        light_.tileRows = std::min(k, scene.camera.height);
+        light_.tileColumns = std::min(k, scene.camera.width);
+        tracer_ = makeCbdptLightTracer(scene, light_);
+        subpaths_ = size_t(light_.tileRows) * size_t(light_.tileColumns);
+
+        auto defines = scene.kernelDefines();
+        defines.push_back(fmt::format("CB_MAX_EYE_VERTICES={}", settings.eyeVertices));
+        defines.push_back(fmt::format("CB_MAX_LIGHT_VERTICES={}", settings.lightVertices));
+        program_ = runtime.buildProgram("cbdpt.cl", defines);
+        buildSeconds_ = runtime.lastBuildSeconds();
+        kernel_ = cl::Kernel(program_, "renderCbdpt");
+        auto& ctx = runtime.context();
+        nodes_ = uploadVector(ctx, scene.bvh.nodes);
+        primitives_ = uploadVector(ctx, scene.bvh.primitives);
+        materials_ = uploadVector(ctx, scene.materials);
+        lights_ = uploadVector(ctx, scene.lights);
+        spectra_ = uploadVector(ctx, scene.spectra);
+        toRgb_ = uploadVector(ctx, scene.toRgb);
+        pixels_ = size_t(scene.camera.width) * size_t(scene.camera.height);
+        output_ = cl::Buffer(ctx, CL_MEM_WRITE_ONLY, 3 * sizeof(float) * pixels_);
+        vertexBufferBytes_ = subpaths_ * size_t(settings.lightVertices) * tracer_->vertexBytes();
+        lightVertices_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, vertexBufferBytes_);
+        lightCounts_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, sizeof(int) * subpaths_);
+        int zero = 0;
+        nonFinite_ = cl::Buffer(ctx, CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, sizeof(int), &zero);
+        rays_ = cl::Buffer(ctx, CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, sizeof(int), &zero);
+
+        cbk::BdptSettings bdpt{};
+        bdpt.eyeVertices = settings.eyeVertices;
+        bdpt.lightVertices = settings.lightVertices;
+        bdpt.weights = light_.weights;
+        bdpt.debugS = -1;
+        bdpt.debugT = -1;
+        int arg = 0;
+        kernel_.setArg(arg++, nodes_);
+        kernel_.setArg(arg++, primitives_);
+        kernel_.setArg(arg++, materials_);
+        kernel_.setArg(arg++, lights_);
+        kernel_.setArg(arg++, spectra_);
+        kernel_.setArg(arg++, int(scene.lights.size()));
+        kernel_.setArg(arg++, toRgb_);
+        kernel_.setArg(arg++, scene.camera);
+        kernel_.setArg(arg++, bdpt);
+        kernel_.setArg(arg++, settings.seed);
+        estimateArg_ = arg++;
+        kernel_.setArg(estimateArg_, 0u);
+        kernel_.setArg(arg++, k);
+        kernel_.setArg(arg++, light_.tileColumns);
+        kernel_.setArg(arg++, lightVertices_);
+        kernel_.setArg(arg++, lightCounts_);
+        kernel_.setArg(arg++, settings.lightVertices);
+        kernel_.setArg(arg++, cbdptCameraCount(scene.camera.width, scene.camera.height, light_));
+        kernel_.setArg(arg++, output_);
+        kernel_.setArg(arg++, nonFinite_);
+        kernel_.setArg(arg++, rays_);
+        reportRays_ = std::getenv("CBDPT_RAY_STATS") != nullptr;
+    }
+
+    ~CbdptIntegrator() override {
+        if (reportRays_ && kernelSeconds_ > 0.0)
+            std::fprintf(stderr,
+                         "cbdpt: %lld kernel rays in %.3f s (%.3g rays/s); host light pass "
+                         "%lld rays in %.3f s\n",
+                         kernelRays_, kernelSeconds_, double(kernelRays_) / kernelSeconds_,
+                         hostRays_, hostSeconds_);
+    }
+
+    void renderEstimate(std::uint32_t estimate, std::vector<float>& rgb) override {
+        auto& queue = runtime_.queue();
+        auto start = std::chrono::steady_clock::now();
+        tracer_->trace(estimate, pass_);
+        auto traced = std::chrono::steady_clock::now();
+        hostSeconds_ += std::chrono::duration<double>(traced - start).count();
+        hostRays_ += pass_.rays;
+        hostNonFinite_ += pass_.nonFinite;
+
+        queue.enqueueWriteBuffer(lightVertices_, CL_FALSE, 0, vertexBufferBytes_,
+                                 pass_.vertices.data());
+        queue.enqueueWriteBuffer(lightCounts_, CL_FALSE, 0, sizeof(int) * subpaths_,
+                                 pass_.counts.data());
+        std::uint32_t zero = 0;
+        queue.enqueueWriteBuffer(rays_, CL_TRUE, 0, sizeof(zero), &zero);
+        kernel_.setArg(estimateArg_, estimate);
+        const size_t tile = size_t(settings_.tileSize);
+        auto roundUp = [tile](int v) { return (size_t(v) + tile - 1) / tile * tile; };
+        auto launched = std::chrono::steady_clock::now();
+        queue.enqueueNDRangeKernel(
+            kernel_, cl::NullRange,
+            cl::NDRange(roundUp(scene_.camera.width), roundUp(scene_.camera.height)),
+            cl::NDRange(tile, tile));
+        queue.finish();
+        kernelSeconds_ +=
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - launched).count();
+        rgb.resize(3 * pixels_);
+        queue.enqueueReadBuffer(output_, CL_TRUE, 0, 3 * sizeof(float) * pixels_, rgb.data());
+        for (size_t i = 0; i < rgb.size(); ++i)
+            rgb[i] += pass_.splatRgb[i];
+        int count = 0;
+        queue.enqueueReadBuffer(nonFinite_, CL_TRUE, 0, sizeof(int), &count);
+        kernelNonFinite_ = count;
+        std::uint32_t rays = 0;
+        queue.enqueueReadBuffer(rays_, CL_TRUE, 0, sizeof(rays), &rays);
+        kernelRays_ += rays;
+    }
+
+    long nonFiniteSamples() const override { return kernelNonFinite_ + hostNonFinite_; }
+    double buildSeconds() const override { return buildSeconds_; }
+
+  private:
+    IntegratorSettings settings_;
+    const DeviceScene& scene_;
+    ClRuntime& runtime_;
+    CbdptLightSettings light_;
+    std::unique_ptr<CbdptLightTracer> tracer_;
+    CbdptLightPass pass_;
+    cl::Program program_;
+    cl::Kernel kernel_;
+    cl::Buffer nodes_, primitives_, materials_, lights_, spectra_, toRgb_, output_, lightVertices_,
+        lightCounts_, nonFinite_, rays_;
+    size_t pixels_ = 0, subpaths_ = 1, vertexBufferBytes_ = 0;
+    int estimateArg_ = 0;
+    long kernelNonFinite_ = 0, hostNonFinite_ = 0;
+    long long kernelRays_ = 0, hostRays_ = 0;
+    double kernelSeconds_ = 0.0, hostSeconds_ = 0.0, buildSeconds_ = 0.0;
+    bool reportRays_ = false;
+};
+
+} // namespace
+
+std::unique_ptr<Integrator> makeCbdptIntegrator(const IntegratorSettings& settings,
+                                                const DeviceScene& scene, ClRuntime& runtime) {
+    if (settings.eyeVertices > 64 || settings.lightVertices > 64)
+        throw std::invalid_argument(fmt::format(
+            "cbdpt keeps whole subpaths per pixel: --eye-vertices {} / --light-vertices {} must "
+            "be at most 64",
+            settings.eyeVertices, settings.lightVertices));
+    if (settings.debugS >= 0 || settings.debugT >= 0)
+        throw std::invalid_argument("--strategy is a bdpt debug mode; cbdpt does not take it");
+    return std::make_unique<CbdptIntegrator>(settings, scene, runtime);
+}
+
+} // namespace cb

@@ -1,0 +1,94 @@
+// CBDPT's host half (METHOD.md, CBDPT steps 1 and 3): per estimate, trace the few light subpaths
+// with the shared kernel code (kernels/cb_path.h compiled as C++) and splat their camera
+// connections (t = 1). The kernel (kernels/cbdpt.cl) does the rest.
+//
+// The shared code's Spectrum has CB_CHANNELS floats, fixed at compile time, so the host needs
+// one instantiation per channel count: cbdpt_light_rgb.cpp (3) and cbdpt_light_spectral.cpp
+// (16) each compile cbdpt_light.inc once, inside their own namespace (docs/cbdpt.md). This
+// header therefore uses no shared-header type: the scene comes in as raw arrays.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+namespace cb {
+
+struct DeviceScene;
+
+struct CbdptLightSettings {
+    std::uint32_t seed = 0;
+    int eyeVertices = 4;   // Ne: the caps decide which strategies exist (MIS)
+    int lightVertices = 4; // Nl
+    int weights = 0;       // CB_WEIGHTS_*
+    // Light subpaths per estimate: one per coherence-tile position present in the image,
+    // numbered row-major over tileRows x tileColumns; subpath (i, j) uses the sample stream of
+    // tile position (i, j), key i * coherenceTile + j (the same key as the eye stream there).
+    int coherenceTile = 1;
+    int tileRows = 1;
+    int tileColumns = 1;
+};
+
+// What one estimate's light pass produces.
+struct CbdptLightPass {
+    // tileRows * tileColumns * lightVertices PathVertex structs, byte for byte as the kernel
+    // reads them (unused slots zeroed), and the vertex count of each subpath.
+    std::vector<unsigned char> vertices;
+    std::vector<int> counts;
+    // The t = 1 strategy, weighted and scaled (see CbdptLightTracer::trace), linear sRGB, 3
+    // floats per pixel.
+    std::vector<float> splatRgb;
+    long nonFinite = 0; // t = 1 contributions dropped as NaN/Inf
+    long rays = 0;      // extension rays of the subpaths plus camera shadow rays
+};
+
+class CbdptLightTracer {
+  public:
+    virtual ~CbdptLightTracer() = default;
+    // sizeof(PathVertex) for this channel count.
+    virtual std::size_t vertexBytes() const = 0;
+    // Traces estimate `estimate`'s light subpaths and splats each light vertex seen by the
+    // camera. Each splat is the BDPT t = 1 contribution (with its MIS weight) times
+    // W*H / (number of light subpaths): BDPT averages W*H light subpaths per estimate, each
+    // carrying importance for a pixel of 1/(W*H) of the film; with fewer subpaths each must
+    // stand for W*H / count of them for the estimate to stay unbiased (docs/cbdpt.md).
+    virtual void trace(std::uint32_t estimate, CbdptLightPass& out) = 0;
+};
+
+// Light subpaths per estimate / pixels: the sampling rate of the t = 1 strategy relative to
+// BDPT's, which the power heuristic weighs in (Veach 1997, eq. 9.13; docs/cbdpt.md).
+inline float cbdptCameraCount(int width, int height, const CbdptLightSettings& settings) {
+    return float(double(settings.tileRows) * settings.tileColumns / (double(width) * height));
+}
+
+// Picks the instantiation matching scene.channels (3 or 16); throws std::invalid_argument for
+// any other channel count.
+std::unique_ptr<CbdptLightTracer> makeCbdptLightTracer(const DeviceScene& scene,
+                                                       const CbdptLightSettings& settings);
+
+// The scene as raw bytes, for the per-channel-count instantiations (they cannot see
+// DeviceScene's types: those are the 3-channel ones).
+struct CbdptHostScene {
+    const void* nodes;
+    std::size_t nodeCount, nodeBytes;
+    const void* primitives;
+    std::size_t primitiveCount, primitiveBytes;
+    const void* materials;
+    std::size_t materialCount, materialBytes;
+    const void* lights;
+    std::size_t lightCount, lightBytes;
+    const float* spectra;
+    std::size_t spectraCount;
+    const float* toRgb; // 3 x channels
+    const void* camera;
+    std::size_t cameraBytes;
+    int channels;
+};
+
+std::unique_ptr<CbdptLightTracer> makeCbdptLightTracerRgb(const CbdptHostScene& scene,
+                                                          const CbdptLightSettings& settings);
+std::unique_ptr<CbdptLightTracer> makeCbdptLightTracerSpectral(const CbdptHostScene& scene,
+                                                               const CbdptLightSettings& settings);
+
+} // namespace cb

@@ -1,0 +1,26 @@
+// CBDPT host light pass for RGB scenes: the shared kernel code with the host's default
+// CB_CHANNELS (3), i.e. the same `cbk` instantiation every other host file uses.
+#include "integrators/cbdpt_light.h"
+
+#include "cb_path.h"
+
+#include <algorithm>
+#include <cstring>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+static_assert(CB_CHANNELS == 3, "cbdpt_light_rgb.cpp must see the 3-channel shared headers");
+
+namespace cb {
+namespace cbdpt_rgb {
+#include "integrators/cbdpt_light.inc"
+} // namespace cbdpt_rgb
+
+std::unique_ptr<CbdptLightTracer> makeCbdptLightTracerRgb(const CbdptHostScene& scene,
+                                                          const CbdptLightSettings& settings) {
+    return std::make_unique<cbdpt_rgb::LightTracer>(scene, settings);
+}
+
+} // namespace cb
