@@ -61,10 +61,15 @@ with tempfile.TemporaryDirectory() as tmp:
               f"cold and warm program builds succeeded {p}")
 
     render = data.get("render", [])
-    methods = {(row["scene"], row["method"]) for row in render}
+    methods = {(row["scene"], row["method"]) for row in render if not row.get("failed")}
     check(("cornell-box", "pt") in methods and ("cornell-box", "cpt") in methods,
           f"render times PT and CPT on the Cornell box ({methods})")
+    # An integrator that is still being written may crash in its child process; that row is
+    # marked failed rather than failing the benchmark. PT and CPT must always be timed.
     for row in render:
+        if row.get("failed"):
+            print("note: render failed for", row)
+            continue
         check(positive(row["seconds_per_estimate"]) and positive(row["paths_per_second"]),
               f"render timing {row}")
 

@@ -68,6 +68,7 @@ struct Options {
     std::string device;
     // Internal: measure one program build in this process (run by the build section).
     std::vector<std::string> childBuild;
+    std::vector<std::string> childRender;
 };
 
 std::string findModel(const Options& o, const std::string& file) {
@@ -614,7 +615,41 @@ IntegratorSettings thesisSettings(const std::string& method, const std::string& 
     return s;
 }
 
+// Run in a child process per (scene, method), so that an integrator still being written that
+// crashes costs its own row only: prints one JSON object on stdout.
+int childRender(const Options& o) {
+    const std::string sceneName = o.childRender.at(0), method = o.childRender.at(1);
+    const int size = std::stoi(o.childRender.at(2)), estimates = std::stoi(o.childRender.at(3));
+    SceneDesc desc = parseSceneFile(scenePath(sceneName));
+    desc.film.width = size;
+    desc.film.height = size;
+    DeviceScene scene = buildDeviceScene(desc);
+    ClRuntime rt(o.device);
+    IntegratorSettings s = thesisSettings(method, sceneName);
+    json row;
+    try {
+        RenderTiming t = timeIntegrator(rt, scene, s, estimates);
+        bool bidir = method == "bdpt" || method == "cbdpt";
+        row = {{"scene", sceneName},
+               {"method", method},
+               {"width", size},
+               {"height", size},
+               {"eye_vertices", s.eyeVertices},
+               {"light_vertices", bidir ? s.lightVertices : 0},
+               {"seconds_per_estimate", t.perEstimate},
+               {"paths_per_second", t.pixels / t.perEstimate},
+               {"estimates_timed", estimates},
+               {"program_build_seconds", t.buildSeconds},
+               {"channels", scene.channels}};
+    } catch (const std::invalid_argument&) {
+        row = {{"unavailable", true}}; // not (yet) an integrator
+    }
+    fmt::print("{}\n", row.dump());
+    return 0;
+}
+
 json runRender(const Options& o, ClRuntime& rt) {
+    (void)rt;
     json out = json::array();
     const int size = o.quick ? 64 : 512;
     const int estimates = o.quick ? 2 : 8;
@@ -623,41 +658,45 @@ json runRender(const Options& o, ClRuntime& rt) {
     fmt::print("{:<12} {:<7} {:>4} {:>4} {:>12} {:>14} {:>9}\n", "scene", "method", "Ne", "Nl",
                "s/estimate", "Mpaths/s", "build s");
     for (const std::string sceneName : {"cornell-box", "dragon"}) {
-        DeviceScene scene;
         try {
-            SceneDesc desc = parseSceneFile(scenePath(sceneName));
-            desc.film.width = size;
-            desc.film.height = size;
-            scene = buildDeviceScene(desc);
+            parseSceneFile(scenePath(sceneName)); // missing models: skip the scene, say why
         } catch (const std::exception& e) {
             fmt::print(stderr, "warning: {} skipped: {}\n", sceneName, e.what());
             continue;
         }
         for (const std::string method : {"pt", "cpt", "bdpt", "cbdpt", "mlt"}) {
-            IntegratorSettings s = thesisSettings(method, sceneName);
-            RenderTiming t;
+            std::string cmd = fmt::format("'{}' --child-render {} {} {} {}",
+                                          fs::read_symlink("/proc/self/exe").string(), sceneName,
+                                          method, size, estimates);
+            if (!o.device.empty()) cmd += " --device " + o.device;
+            FILE* p = popen(cmd.c_str(), "r");
+            std::string text;
+            char buf[4096];
+            while (p && std::fgets(buf, sizeof buf, p))
+                text += buf;
+            int status = p ? pclose(p) : -1;
+            json row;
             try {
-                t = timeIntegrator(rt, scene, s, estimates);
-            } catch (const std::invalid_argument& e) {
-                continue; // not (yet) an integrator
+                row = json::parse(text);
+            } catch (const std::exception&) {
+                row = json();
             }
-            double mpaths = t.pixels / t.perEstimate * 1e-6;
+            if (status != 0 || !row.is_object()) {
+                fmt::print("{:<12} {:<7} failed (exit status {}): not timed\n", sceneName, method,
+                           status);
+                out.push_back({{"scene", sceneName}, {"method", method}, {"failed", true}});
+                continue;
+            }
+            if (row.value("unavailable", false)) continue;
             bool bidir = method == "bdpt" || method == "cbdpt";
             fmt::print("{:<12} {:<7} {:>4} {:>4} {:>12.4f} {:>14.3f} {:>9.2f}\n", sceneName, method,
-                       s.eyeVertices, bidir ? std::to_string(s.lightVertices) : "-",
-                       t.perEstimate, mpaths, t.buildSeconds);
+                       row["eye_vertices"].get<int>(),
+                       bidir ? std::to_string(row["light_vertices"].get<int>()) : "-",
+                       row["seconds_per_estimate"].get<double>(),
+                       row["paths_per_second"].get<double>() * 1e-6,
+                       row["program_build_seconds"].get<double>());
             std::fflush(stdout);
-            out.push_back({{"scene", sceneName},
-                           {"method", method},
-                           {"width", size},
-                           {"height", size},
-                           {"eye_vertices", s.eyeVertices},
-                           {"light_vertices", bidir ? s.lightVertices : 0},
-                           {"seconds_per_estimate", t.perEstimate},
-                           {"paths_per_second", t.pixels / t.perEstimate},
-                           {"estimates_timed", estimates},
-                           {"program_build_seconds", t.buildSeconds},
-                           {"channels", scene.channels}});
+            out.push_back(row);
         }
     }
     return out;
@@ -810,8 +849,10 @@ int run(int argc, char** argv) {
     app.add_option("--meshes", o.meshes, "bunny, dragon, buddha, sphere-<n>[k|M]")->delimiter(',');
     app.add_option("--device", o.device, "OpenCL device P:D");
     app.add_option("--child-build", o.childBuild, "(internal)")->group("");
+    app.add_option("--child-render", o.childRender, "(internal)")->group("");
     CLI11_PARSE(app, argc, argv);
     if (!o.childBuild.empty()) return childBuild(o);
+    if (!o.childRender.empty()) return childRender(o);
 
     // The scene files find dragon.ply through CBDPT_MODEL_PATH: point it at --models or the
     // shared folder when the caller did not.
