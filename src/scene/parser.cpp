@@ -221,6 +221,9 @@ class ParamList {
         const Param* p = numeric(name, "float", 1);
         if (!p) return std::nullopt;
         if (p->size() != 1) wrongCount(*p, "exactly 1 value");
+        // Found by the fuzz target's checks (docs/robustness.md): "float" parameters are stored as
+        // floats, and a finite double beyond FLT_MAX became Inf there (e.g. "float scale" 1e300).
+        checkFitsFloat(*p, 0);
         return p->numbers[0];
     }
 
@@ -300,7 +303,8 @@ class ParamList {
                 const double lambda = p->numbers[i];
                 if (!(lambda > 0.0))
                     throw SceneError(p->valueLoc(i), "wavelength must be positive (nm)");
-                if (!s.samples.empty() && !(lambda > s.samples.back().first))
+                checkFitsFloat(*p, i);
+                if (!s.samples.empty() && !(static_cast<float>(lambda) > s.samples.back().first))
                     throw SceneError(p->valueLoc(i),
                                      "wavelengths must be strictly increasing in " + p->decl());
                 checkValue(*p, i + 1, role);
@@ -358,7 +362,14 @@ class ParamList {
                                       expected + ", got " + std::to_string(p.size()));
     }
 
+    static void checkFitsFloat(const Param& p, size_t i) {
+        if (std::fabs(p.numbers[i]) > std::numeric_limits<float>::max())
+            throw SceneError(p.valueLoc(i), "parameter " + p.decl() +
+                                                " has a value beyond the float range (3.4e38)");
+    }
+
     void checkValue(const Param& p, size_t i, SpectrumRole role) const {
+        checkFitsFloat(p, i);
         const double v = p.numbers[i];
         if (v < 0.0)
             throw SceneError(p.valueLoc(i), "parameter " + p.decl() + " has a negative value");
@@ -1008,6 +1019,9 @@ class Parser {
         if (!(r <= std::numeric_limits<float>::max()))
             throw SceneError(where, "sphere radius is not finite after transformation");
         s.radius = static_cast<float>(r);
+        // Found the same way: a radius positive in double can round to 0 as a float.
+        if (!(s.radius > 0.f))
+            throw SceneError(where, "sphere radius rounds to 0 as a float after transformation");
         // pbrt flips sphere normals when ReverseOrientation XOR the transform swaps handedness.
         s.reverseOrientation = state_.reverseOrientation != (m.det3() < 0.0);
         s.material = currentMaterial();

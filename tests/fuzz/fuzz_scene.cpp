@@ -1,0 +1,115 @@
+// libFuzzer target for the scene parser (cb::parseSceneString). A SceneError is the parser's
+// documented answer to bad input; anything else escaping, a crash, a sanitizer report, a hang or
+// a huge allocation is a finding. So is a scene that loads but breaks the guarantees the rest of
+// cbdpt relies on (checked below): the parser promises to reject what the renderer cannot use,
+// e.g. a parameter that is finite as written but overflows to Inf once stored as a float.
+#include "scene/scene_desc.h"
+
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <limits>
+#include <string>
+
+namespace {
+
+// Written to stdout: scripts/fuzz closes stderr (-close_fd_mask=2) to silence parser warnings.
+[[noreturn]] void broken(const char* what) {
+    std::printf("fuzz_scene: loaded scene breaks an invariant: %s\n", what);
+    std::fflush(stdout);
+    std::abort();
+}
+
+bool finiteFloat(double v) {
+    return std::isfinite(v) && std::fabs(v) <= std::numeric_limits<float>::max();
+}
+
+void checkSpectrum(const cb::SpectrumValue& s, bool reflectance, const char* what) {
+    auto ok = [&](float v) { return std::isfinite(v) && v >= 0.f && (!reflectance || v <= 1.f); };
+    if (s.isRgb) {
+        for (float v : s.rgb)
+            if (!ok(v)) broken(what);
+        return;
+    }
+    if (s.samples.empty()) broken(what);
+    float last = 0.f;
+    for (const auto& [lambda, v] : s.samples) {
+        if (!std::isfinite(lambda) || !(lambda > last) || !ok(v)) broken(what);
+        last = lambda;
+    }
+}
+
+void checkIndex(int i, size_t n, bool optional, const char* what) {
+    if (optional && i == -1) return;
+    if (i < 0 || static_cast<size_t>(i) >= n) broken(what);
+}
+
+void checkScene(const cb::SceneDesc& s) {
+    const size_t nm = s.materials.size(), nl = s.areaLights.size();
+    for (double v : s.camera.worldToCamera)
+        if (!std::isfinite(v)) broken("camera matrix not finite");
+    if (!(s.camera.fovDegrees > 0.f && s.camera.fovDegrees < 180.f)) broken("fov out of range");
+    if (s.film.width < 1 || s.film.height < 1 || s.film.width > 65536 || s.film.height > 65536)
+        broken("film resolution out of range");
+    for (const cb::MaterialDesc& m : s.materials) {
+        checkSpectrum(m.reflectance, true, "material reflectance");
+        if (!std::isfinite(m.roughness) || m.roughness < 0.f) broken("roughness");
+        if (!std::isfinite(m.eta) || !(m.eta > 0.f)) broken("eta");
+        if (!(m.amount >= 0.f && m.amount <= 1.f)) broken("mix amount");
+        if (m.kind == cb::MaterialKind::Mix)
+            for (int i : m.mix) {
+                checkIndex(i, nm, false, "mix component index");
+                if (s.materials[static_cast<size_t>(i)].kind == cb::MaterialKind::Mix)
+                    broken("mix of mix");
+            }
+    }
+    for (const cb::AreaLightDesc& l : s.areaLights) {
+        checkSpectrum(l.radiance, false, "area light L");
+        if (!std::isfinite(l.scale) || l.scale < 0.f) broken("area light scale");
+    }
+    for (const cb::PointLightDesc& l : s.pointLights) {
+        checkSpectrum(l.intensity, false, "point light I");
+        if (!std::isfinite(l.scale) || l.scale < 0.f) broken("point light scale");
+        for (double c : l.position)
+            if (!finiteFloat(c)) broken("point light position");
+    }
+    for (const cb::SphereDesc& sp : s.spheres) {
+        for (double c : sp.center)
+            if (!finiteFloat(c)) broken("sphere centre");
+        if (!std::isfinite(sp.radius) || !(sp.radius > 0.f)) broken("sphere radius");
+        checkIndex(sp.material, nm, false, "sphere material");
+        checkIndex(sp.areaLight, nl, true, "sphere area light");
+    }
+    for (const cb::TriangleMeshDesc& m : s.meshes) {
+        for (const auto& p : m.positions)
+            for (double c : p)
+                if (!finiteFloat(c)) broken("mesh vertex");
+        for (const auto& t : m.triangles) {
+            for (unsigned i : t)
+                if (i >= m.positions.size()) broken("triangle index");
+            if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2]) broken("degenerate triangle kept");
+        }
+        checkIndex(m.material, nm, false, "mesh material");
+        checkIndex(m.areaLight, nl, true, "mesh area light");
+    }
+    if (s.droppedDegenerateTriangles < 0) broken("negative dropped-triangle count");
+}
+
+} // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+    const std::string text(reinterpret_cast<const char*>(data), size);
+    cb::SceneDesc scene;
+    try {
+        // The virtual path sits in a folder that does not exist, so relative Include/plymesh
+        // names resolve nowhere and the target does not depend on what lies in the working
+        // directory (the model search path is cleared by scripts/fuzz).
+        scene = cb::parseSceneString(text, "/nonexistent-cbdpt-fuzz/fuzz.pbrt");
+    } catch (const cb::SceneError&) {
+        return 0;
+    }
+    checkScene(scene);
+    return 0;
+}
