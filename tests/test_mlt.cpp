@@ -313,3 +313,27 @@ TEST_CASE("MLT converges to PT with a small bright light behind a grille" *
     cb::DeviceScene scene = cb::buildDeviceScene(grilleLightScene(16), cb::ChannelMode::Rgb);
     checkConverges(scene, 3, 2, 2048, 32, 32);
 }
+
+TEST_CASE("MLT renders a 16-channel spectral scene (work-group size must not overflow PoCL's stack)") {
+    // Regression: with the work-group size left to PoCL (4096), the private vertex arrays of a
+    // spectral scene overflowed the worker thread's stack and the process crashed.
+    cb::SceneDesc desc = cb::parseSceneFile(std::string(CBDPT_SOURCE_DIR) + "/scenes/cornell-box.pbrt");
+    desc.film.width = desc.film.height = 16;
+    cb::DeviceScene scene = cb::buildDeviceScene(desc, cb::ChannelMode::Spectral);
+    REQUIRE(scene.channels == 16);
+    cb::IntegratorSettings s;
+    s.name = "mlt";
+    s.eyeVertices = 4;
+    s.lightVertices = 4;
+    s.mltBootstrap = 4096;
+    auto integrator = cb::makeIntegrator(s, scene, runtime());
+    std::vector<float> rgb;
+    integrator->renderEstimate(0, rgb);
+    double sum = 0;
+    for (float v : rgb) {
+        REQUIRE(std::isfinite(v));
+        sum += v;
+    }
+    CHECK(sum > 0.0);
+    CHECK(integrator->nonFiniteSamples() == 0);
+}

@@ -23,6 +23,10 @@ namespace cb {
 
 namespace {
 
+// Explicit work-group size: left to PoCL it picks 4096 work-items, whose private vertex arrays
+// (16-channel spectra) overflow the worker thread's stack.
+constexpr size_t kChainGroupSize = 64;
+
 constexpr int kStatsPerChain = 4; // mlt.cl CB_MLT_STATS
 constexpr long kBootstrapBatch = 1 << 16;
 
@@ -133,7 +137,7 @@ class MltIntegrator final : public Integrator {
         advanceKernel_.setArg(arg++, rays_);
         auto start = std::chrono::steady_clock::now();
         queue.enqueueNDRangeKernel(advanceKernel_, cl::NullRange, cl::NDRange(roundUp(chains_, 64)),
-                                   cl::NullRange);
+                                   cl::NDRange(kChainGroupSize));
         queue.finish();
         kernelSeconds_ +=
             std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -214,7 +218,7 @@ class MltIntegrator final : public Integrator {
             bootstrapKernel_.setArg(arg++, lumBuffer);
             bootstrapKernel_.setArg(arg++, nonFinite_);
             queue.enqueueNDRangeKernel(bootstrapKernel_, cl::NullRange,
-                                       cl::NDRange(roundUp(count, 64)), cl::NullRange);
+                                       cl::NDRange(roundUp(count, 64)), cl::NDRange(kChainGroupSize));
             queue.enqueueReadBuffer(lumBuffer, CL_TRUE, 0, sizeof(float) * count,
                                     lum.data() + first);
         }
@@ -261,7 +265,7 @@ class MltIntegrator final : public Integrator {
         seedKernel_.setArg(arg++, indexBuffer);
         setStateArgs(seedKernel_, arg);
         queue.enqueueNDRangeKernel(seedKernel_, cl::NullRange, cl::NDRange(roundUp(chains_, 64)),
-                                   cl::NullRange);
+                                   cl::NDRange(kChainGroupSize));
         queue.finish();
         seeded_ = true;
     }
