@@ -18,12 +18,7 @@
  * (y mod k) * tileColumns + (x mod k) of lightVertices (tileColumns = min(k, width)), each
  * subpath owning lightVertexStride slots. cameraCount = (light subpaths) / (W*H): the t = 1
  * strategy's sampling rate relative to BDPT's, for the power heuristic (docs/cbdpt.md). */
-__kernel void renderCbdpt(__global const struct BvhNode* nodes,
-                          __global const Primitive* primitives,
-                          __global const Material* materials,
-                          __global const Light* lights,
-                          __global const float* spectra,
-                          int lightCount,
+__kernel void renderCbdpt(CB_SCENE_KERNEL_PARAMS,
                           __global const float* toRgb,
                           Camera camera,
                           BdptSettings settings,
@@ -42,13 +37,7 @@ __kernel void renderCbdpt(__global const struct BvhNode* nodes,
     int y = (int)get_global_id(1);
     if (x >= camera.width || y >= camera.height) return;
 
-    SceneView scene;
-    scene.nodes = nodes;
-    scene.primitives = primitives;
-    scene.materials = materials;
-    scene.lights = lights;
-    scene.spectra = spectra;
-    scene.lightCount = lightCount;
+    CB_SCENE_VIEW(scene);
 
     int ti = y % streamTile;
     int tj = x % streamTile;

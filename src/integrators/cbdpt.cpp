@@ -4,6 +4,7 @@
 // it to its tile position's light subpath with the BDPT weights.
 #include "integrators/cbdpt_light.h"
 #include "integrators/integrator.h"
+#include "integrators/scene_buffers.h"
 
 #include "cb_path.h"
 
@@ -49,20 +50,12 @@ std::unique_ptr<CbdptLightTracer> makeCbdptLightTracer(const DeviceScene& scene,
 
 namespace {
 
-template <typename T> cl::Buffer uploadVector(cl::Context& context, const std::vector<T>& data) {
-    // OpenCL forbids zero-sized buffers; an unused array still gets one element.
-    static const T zero{};
-    const void* src = data.empty() ? &zero : data.data();
-    size_t bytes = data.empty() ? sizeof(T) : sizeof(T) * data.size();
-    return cl::Buffer(context, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, bytes,
-                      const_cast<void*>(src));
-}
-
 class CbdptIntegrator final : public Integrator {
   public:
     CbdptIntegrator(const IntegratorSettings& settings, const DeviceScene& scene,
                     ClRuntime& runtime)
-        : settings_(settings), scene_(scene), runtime_(runtime) {
+        : settings_(settings), scene_(scene), runtime_(runtime),
+          buffers_(runtime.context(), scene) {
         const int k = settings.coherenceTile;
         light_.seed = settings.seed;
         light_.eyeVertices = settings.eyeVertices;
@@ -81,12 +74,6 @@ class CbdptIntegrator final : public Integrator {
         buildSeconds_ = runtime.lastBuildSeconds();
         kernel_ = cl::Kernel(program_, "renderCbdpt");
         auto& ctx = runtime.context();
-        nodes_ = uploadVector(ctx, scene.bvh.nodes);
-        primitives_ = uploadVector(ctx, scene.bvh.primitives);
-        materials_ = uploadVector(ctx, scene.materials);
-        lights_ = uploadVector(ctx, scene.lights);
-        spectra_ = uploadVector(ctx, scene.spectra);
-        toRgb_ = uploadVector(ctx, scene.toRgb);
         pixels_ = size_t(scene.camera.width) * size_t(scene.camera.height);
         output_ = cl::Buffer(ctx, CL_MEM_WRITE_ONLY, 3 * sizeof(float) * pixels_);
         vertexBufferBytes_ = subpaths_ * size_t(settings.lightVertices) * tracer_->vertexBytes();
@@ -103,13 +90,8 @@ class CbdptIntegrator final : public Integrator {
         bdpt.debugS = -1;
         bdpt.debugT = -1;
         int arg = 0;
-        kernel_.setArg(arg++, nodes_);
-        kernel_.setArg(arg++, primitives_);
-        kernel_.setArg(arg++, materials_);
-        kernel_.setArg(arg++, lights_);
-        kernel_.setArg(arg++, spectra_);
-        kernel_.setArg(arg++, int(scene.lights.size()));
-        kernel_.setArg(arg++, toRgb_);
+        arg = buffers_.setKernelArgs(kernel_, arg);
+        kernel_.setArg(arg++, buffers_.toRgb);
         kernel_.setArg(arg++, scene.camera);
         kernel_.setArg(arg++, bdpt);
         kernel_.setArg(arg++, settings.seed);
@@ -152,13 +134,8 @@ class CbdptIntegrator final : public Integrator {
         std::uint32_t zero = 0;
         queue.enqueueWriteBuffer(rays_, CL_TRUE, 0, sizeof(zero), &zero);
         kernel_.setArg(estimateArg_, estimate);
-        const size_t tile = size_t(settings_.tileSize);
-        auto roundUp = [tile](int v) { return (size_t(v) + tile - 1) / tile * tile; };
         auto launched = std::chrono::steady_clock::now();
-        queue.enqueueNDRangeKernel(
-            kernel_, cl::NullRange,
-            cl::NDRange(roundUp(scene_.camera.width), roundUp(scene_.camera.height)),
-            cl::NDRange(tile, tile));
+        launchOverPixels(queue, kernel_, scene_.camera, settings_.tileSize);
         queue.finish();
         kernelSeconds_ +=
             std::chrono::duration<double>(std::chrono::steady_clock::now() - launched).count();
@@ -186,7 +163,8 @@ class CbdptIntegrator final : public Integrator {
     CbdptLightPass pass_;
     cl::Program program_;
     cl::Kernel kernel_;
-    cl::Buffer nodes_, primitives_, materials_, lights_, spectra_, toRgb_, output_, lightVertices_,
+    SceneBuffers buffers_;
+    cl::Buffer output_, lightVertices_,
         lightCounts_, nonFinite_, rays_;
     size_t pixels_ = 0, subpaths_ = 1, vertexBufferBytes_ = 0;
     int estimateArg_ = 0;
