@@ -42,6 +42,20 @@ with tempfile.TemporaryDirectory() as tmp:
     check(0 < s["mean_standard_error"] < 1, "standard error is positive and sane")
     check(not any(n.startswith(".") for n in os.listdir(tmp)), "no temporary files left behind")
 
+    # Every integrator renders from the command line; MLT reports its chain statistics.
+    for integrator, extra in (("bdpt", ["--light-vertices", "3"]), ("cbdpt", ["--light-vertices", "3"]),
+                              ("cpt", ["--coherence-tile", "2"]),
+                              ("mlt", ["--light-vertices", "3", "--chains", "16", "--bootstrap", "1024"])):
+        r = subprocess.run([cbdpt, "render", scene, "--integrator", integrator, "--eye-vertices", "3",
+                            "--spp", "2", "--width", "16", "--height", "16", "-o", exr, "--png", png,
+                            "--stats", stats, "-q"] + extra, capture_output=True, text=True)
+        check(r.returncode == 0, f"{integrator} renders (got {r.returncode}: {r.stderr})")
+        s = json.load(open(stats))
+        check(s["integrator"] == integrator and s["estimates"] == 2, f"{integrator} stats ({s})")
+        if integrator == "mlt":
+            check(0 < s["mlt"]["acceptance_rate"] < 1 and s["mlt"]["mutations"] > 0,
+                  f"mlt statistics in the stats file ({s.get('mlt')})")
+
     # Ctrl-C mid-render: the estimates done are written, exit code 130.
     os.remove(exr)
     p = subprocess.Popen([cbdpt, "render", scene, "--spp", "100000", "--width", "32", "--height",

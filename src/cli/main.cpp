@@ -322,6 +322,9 @@ int runRender(RenderOptions& o) {
                         {"scene", o.scene},
                         {"integrator", o.integrator.name},
                         {"eye_vertices", o.integrator.eyeVertices},
+        {"light_vertices", o.integrator.lightVertices},
+        {"weights", o.integrator.weights},
+        {"coherence_tile", o.integrator.coherenceTile},
                         {"light_vertices", o.integrator.lightVertices},
                         {"seed", o.integrator.seed},
                         {"width", scene.camera.width},
@@ -388,6 +391,9 @@ int runRender(RenderOptions& o) {
         {"scene", o.scene},
         {"integrator", o.integrator.name},
         {"eye_vertices", o.integrator.eyeVertices},
+        {"light_vertices", o.integrator.lightVertices},
+        {"weights", o.integrator.weights},
+        {"coherence_tile", o.integrator.coherenceTile},
         {"seed", o.integrator.seed},
         {"width", scene.camera.width},
         {"height", scene.camera.height},
@@ -403,6 +409,20 @@ int runRender(RenderOptions& o) {
         {"interrupted", outcome.interrupted},
         {"device", runtime.info().deviceName},
     };
+    if (const cb::MltStatistics* mlt = cb::mltStatistics(*integrator)) {
+        stats["mlt"] = {{"normalization", mlt->normalization},
+                        {"bootstrap_normalization", mlt->bootstrapNormalization},
+                        {"bootstrap_standard_error", mlt->bootstrapStandardError},
+                        {"bootstrap_samples", mlt->bootstrapSamples},
+                        {"chains", mlt->chains},
+                        {"mutations_per_chain", mlt->mutationsPerChain},
+                        {"mutations", mlt->mutations},
+                        {"accepted", mlt->accepted},
+                        {"acceptance_rate", mlt->acceptanceRate()},
+                        {"large_steps", mlt->largeSteps},
+                        {"large_steps_accepted", mlt->largeStepsAccepted},
+                        {"zero_proposals", mlt->zeroProposals}};
+    }
     if (wantCheckpoints) {
         stats["checkpoint_seconds"] = checkpointSeconds;
         stats["warmup_seconds"] = warmupSeconds;
@@ -506,7 +526,15 @@ int main(int argc, char** argv) {
     renderCmd->add_flag("--no-rr", render.noRoulette, "disable Russian roulette");
     renderCmd->add_option("--seed", render.integrator.seed, "random seed");
     renderCmd->add_option("--coherence-tile", render.integrator.coherenceTile,
-                          "cpt: k x k sample vectors per estimate");
+                          "cpt, cbdpt: k x k sample vectors per estimate (1: full coherence)");
+    renderCmd->add_option("--large-step", render.integrator.largeStepProbability,
+                          "mlt: probability of a large step (all samples new)");
+    renderCmd->add_option("--mutation-size", render.integrator.mutationSize,
+                          "mlt: largest small-step perturbation s2 (s1 = s2/16)");
+    renderCmd->add_option("--chains", render.integrator.mltChains,
+                          "mlt: Markov chains (work-items); 0: pixels / 16");
+    renderCmd->add_option("--bootstrap", render.integrator.mltBootstrap,
+                          "mlt: bootstrap samples for the normalisation; 0: automatic");
     renderCmd->add_option("--tile", render.integrator.tileSize, "pixel tile (work-group) edge");
     renderCmd->add_option("--channels", render.channels, "auto | rgb | spectral");
     renderCmd->add_option("--width", render.width, "override the film width");
