@@ -16,7 +16,22 @@
 
 namespace {
 
-const char* const kStressIntegrators[] = {"pt", "cpt"};
+const char* const kStressIntegrators[] = {"pt", "cpt", "bdpt", "cbdpt"};
+
+bool bidirectional(const std::string& integrator) {
+    return integrator == "bdpt" || integrator == "cbdpt" || integrator == "mlt";
+}
+
+// Paths of at most `vertices` vertices: PT's eye cap, or split between the eye and light
+// subpaths of the bidirectional methods (Ne + Nl = vertices, Ne >= 2).
+void setVertexCaps(cb::IntegratorSettings& settings, const std::string& integrator, int vertices) {
+    if (bidirectional(integrator)) {
+        settings.lightVertices = std::max(1, vertices / 2);
+        settings.eyeVertices = std::max(2, vertices - settings.lightVertices);
+    } else {
+        settings.eyeVertices = vertices;
+    }
+}
 
 std::string cornellPath() { return std::string(CBDPT_SOURCE_DIR) + "/scenes/cornell-box.pbrt"; }
 
@@ -53,7 +68,7 @@ std::vector<double> renderMean(const cb::SceneDesc& desc, const std::string& int
     cb::DeviceScene scene = cb::buildDeviceScene(desc);
     cb::IntegratorSettings settings;
     settings.name = integrator;
-    settings.eyeVertices = eyeVertices;
+    setVertexCaps(settings, integrator, eyeVertices);
     settings.seed = seed;
     auto renderer = cb::makeIntegrator(settings, scene, runtime);
     std::vector<float> rgb;
@@ -131,7 +146,7 @@ EstimateSpread renderEstimateSpread(const cb::SceneDesc& desc, const std::string
     cb::DeviceScene scene = cb::buildDeviceScene(desc, mode);
     cb::IntegratorSettings settings;
     settings.name = integrator;
-    settings.eyeVertices = eyeVertices;
+    setVertexCaps(settings, integrator, eyeVertices);
     settings.seed = seed;
     auto renderer = cb::makeIntegrator(settings, scene, runtime);
     std::vector<float> rgb;
@@ -328,7 +343,10 @@ TEST_CASE("stress: grazing and edge-on cameras in the furnace: no leaks, no spec
         // Exactly in the plane of a wall's diagonal edge.
         "LookAt -0.5 -0.5 -0.5  1 1 -1  0 0 1",
     };
-    for (const char* integrator : kStressIntegrators) {
+    // PT and CPT only: for BDPT and CBDPT the camera connections (t = 1) of light vertices a
+    // few 1e-5 from a grazing camera carry rare, huge importance; 32 estimates give no reliable
+    // per-pixel error bar for them (left open in issue 8).
+    for (const char* integrator : {"pt", "cpt"}) {
         CAPTURE(integrator);
         for (const char* camera : cameras) {
             CAPTURE(camera);
@@ -345,7 +363,7 @@ TEST_CASE("stress: grazing and edge-on cameras in the furnace: no leaks, no spec
             cb::DeviceScene scene = cb::buildDeviceScene(desc);
             cb::IntegratorSettings settings;
             settings.name = integrator;
-            settings.eyeVertices = 4;
+            setVertexCaps(settings, integrator, 4);
             settings.seed = 17;
             auto renderer = cb::makeIntegrator(settings, scene, runtime);
             cb::EstimateAccumulator acc(scene.camera.width, scene.camera.height);
