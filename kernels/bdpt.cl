@@ -3,6 +3,7 @@
  * arrays and combines every (s,t) allowed by the caps. Light-tracing (t = 1) contributions land
  * in other pixels and are added to a separate splat image with atomic float adds; the host adds
  * the splat image to the pixel image after the kernel. */
+#include "cb_atomics.h"
 #include "cb_path.h"
 
 #ifndef CB_MAX_EYE_VERTICES
@@ -12,18 +13,6 @@
 #define CB_MAX_LIGHT_VERTICES 8
 #endif
 
-/* OpenCL 1.2 has no float atomics: compare-and-swap on the bits until no other work-item wrote
- * in between. */
-static void atomicAddFloat(volatile __global float* address, float value) {
-    volatile __global uint* bits = (volatile __global uint*)address;
-    uint expected = *bits;
-    for (;;) {
-        uint desired = as_uint(as_float(expected) + value);
-        uint seen = atomic_cmpxchg(bits, expected, desired);
-        if (seen == expected) break;
-        expected = seen;
-    }
-}
 
 __kernel void renderBdpt(CB_SCENE_KERNEL_PARAMS,
                          __global const float* toRgb,

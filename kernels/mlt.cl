@@ -15,6 +15,7 @@
  * is the scalar I(u) = luminance of the sum of the splats. Each chain is one work-item; its
  * state lives in private arrays during a launch and in __global buffers between launches. */
 #define CB_PRIMARY_SAMPLES
+#include "cb_atomics.h"
 #include "cb_path.h"
 
 #ifndef CB_MAX_EYE_VERTICES
@@ -43,16 +44,6 @@
 #define CB_MLT_STAT_ZERO_PROPOSALS 3
 #define CB_MLT_STATS 4
 
-static void atomicAddFloat(volatile __global float* address, float value) {
-    volatile __global uint* bits = (volatile __global uint*)address;
-    uint expected = *bits;
-    for (;;) {
-        uint desired = as_uint(as_float(expected) + value);
-        uint seen = atomic_cmpxchg(bits, expected, desired);
-        if (seen == expected) break;
-        expected = seen;
-    }
-}
 
 typedef struct MltSample {
     int count;
