@@ -1,6 +1,7 @@
 // cbdpt command line: `cbdpt render SCENE [options]` and `cbdpt info [SCENE]`.
 #include "cl/cl_runtime.h"
 #include "image/image.h"
+#include "image/render_state.h"
 #include "image/metrics.h"
 #include "integrators/render.h"
 #include "scene/device_scene.h"
@@ -131,6 +132,8 @@ struct RenderOptions {
     int height = 0;
     bool noRoulette = false;
     bool sppGiven = false;
+    bool resume = false;
+    bool keepState = false;
     std::string strategy;
     bool quiet = false;
     bool noWarmup = false;
@@ -291,6 +294,30 @@ int runRender(RenderOptions& o) {
     std::signal(SIGINT, onStopSignal);
     std::signal(SIGTERM, onStopSignal);
     cb::EstimateAccumulator accumulator(scene.camera.width, scene.camera.height);
+    // Everything that decides the estimates' values: a resumed render must match it exactly.
+    const std::string stateSettings = nlohmann::json{
+        {"scene", std::filesystem::absolute(o.scene).lexically_normal().string()},
+        {"integrator", o.integrator.name},
+        {"eye_vertices", o.integrator.eyeVertices},
+        {"light_vertices", o.integrator.lightVertices},
+        {"weights", o.integrator.weights},
+        {"strategy", o.strategy},
+        {"roulette_vertex", o.integrator.rouletteVertex},
+        {"coherence_tile", o.integrator.coherenceTile},
+        {"seed", o.integrator.seed},
+        {"channels", scene.channels},
+        {"width", scene.camera.width},
+        {"height", scene.camera.height}}.dump();
+    const std::string statePath = cb::renderStatePath(output);
+    if (o.resume) {
+        if (o.integrator.name == "mlt")
+            throw std::invalid_argument("--resume is not supported for mlt: its Markov chains "
+                                        "are not saved");
+        cb::loadRenderState(statePath, stateSettings, accumulator);
+        if (!o.quiet)
+            fmt::print(stderr, "cbdpt: resuming from {} estimates ({})\n", accumulator.estimates(),
+                       statePath);
+    }
     ProgressBar bar(!o.quiet);
     cb::RenderLimits limits;
     // --time alone renders until the time is up; with --spp too, whichever comes first.
@@ -382,6 +409,16 @@ int runRender(RenderOptions& o) {
     cb::RgbImage error = accumulator.standardError();
     cb::writeExr(output, mean, &error);
     cb::writePng(png, mean);
+    // An interrupted render leaves its exact sums beside the EXR for --resume; a finished one
+    // removes them (unless asked to keep them, to extend the render later).
+    if (outcome.interrupted || o.keepState) {
+        cb::saveRenderState(statePath, stateSettings, accumulator);
+        if (outcome.interrupted && !o.quiet)
+            fmt::print(stderr, "cbdpt: continue with the same command plus --resume\n");
+    } else {
+        std::error_code ignored;
+        std::filesystem::remove(statePath, ignored);
+    }
 
     double meanError = 0.0;
     for (float e : error.rgb)
@@ -553,6 +590,11 @@ int main(int argc, char** argv) {
     renderCmd->add_option("--log", render.logPath,
                           "checkpoint log, CSV or JSON by extension (a final row is always "
                           "written)");
+    renderCmd->add_flag("--resume", render.resume,
+                        "continue an interrupted render from OUTPUT.exr.state (same settings; "
+                        "--spp is the total)");
+    renderCmd->add_flag("--keep-state", render.keepState,
+                        "also save OUTPUT.exr.state when the render finishes");
     renderCmd->add_flag("--no-warmup", render.noWarmup,
                         "with checkpoints or --log: skip the discarded warm-up estimate");
     renderCmd->add_option("--checkpoint-images", render.checkpointImages,
