@@ -623,6 +623,18 @@ int main(int argc, char** argv) {
         if (*renderCmd) return runRender(render);
         if (*infoCmd) return runInfo(infoScene, infoDevice);
         if (*compareCmd) return runCompare(compare);
+    } catch (const cl::Error& e) {
+        // OpenCL reports failures by status; name it, and say what to do when memory ran out.
+        const bool outOfMemory = e.err() == CL_MEM_OBJECT_ALLOCATION_FAILURE ||
+                                 e.err() == CL_OUT_OF_RESOURCES ||
+                                 e.err() == CL_OUT_OF_HOST_MEMORY ||
+                                 e.err() == CL_INVALID_BUFFER_SIZE;
+        fmt::print(stderr, "cbdpt: error: OpenCL call {} failed with {}{}\n", e.what(),
+                   cb::clStatusName(e.err()),
+                   outOfMemory ? ": the device ran out of memory (try a smaller --width/--height "
+                                 "or lower vertex caps)"
+                               : "");
+        return 1;
     } catch (const std::exception& e) {
         fmt::print(stderr, "cbdpt: error: {}\n", e.what());
         return 1;
