@@ -117,12 +117,6 @@ class BdptIntegrator final : public Integrator {
 
 std::unique_ptr<Integrator> makeBdptIntegrator(const IntegratorSettings& settings,
                                                const DeviceScene& scene, ClRuntime& runtime) {
-    // Private vertex arrays live in each work-item: keep them to a sane size.
-    if (settings.eyeVertices > 64 || settings.lightVertices > 64)
-        throw std::invalid_argument(fmt::format(
-            "bdpt keeps whole subpaths per pixel: --eye-vertices {} / --light-vertices {} must "
-            "be at most 64",
-            settings.eyeVertices, settings.lightVertices));
     if (settings.debugS >= 0 || settings.debugT >= 0) {
         if (!cbk::bdptStrategyAllowed(settings.debugS, settings.debugT, settings.eyeVertices,
                                       settings.lightVertices))

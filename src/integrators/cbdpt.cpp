@@ -178,11 +178,6 @@ class CbdptIntegrator final : public Integrator {
 
 std::unique_ptr<Integrator> makeCbdptIntegrator(const IntegratorSettings& settings,
                                                 const DeviceScene& scene, ClRuntime& runtime) {
-    if (settings.eyeVertices > 64 || settings.lightVertices > 64)
-        throw std::invalid_argument(fmt::format(
-            "cbdpt keeps whole subpaths per pixel: --eye-vertices {} / --light-vertices {} must "
-            "be at most 64",
-            settings.eyeVertices, settings.lightVertices));
     if (settings.debugS >= 0 || settings.debugT >= 0)
         throw std::invalid_argument("--strategy is a bdpt debug mode; cbdpt does not take it");
     return std::make_unique<CbdptIntegrator>(settings, scene, runtime);

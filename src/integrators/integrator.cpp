@@ -29,6 +29,13 @@ std::unique_ptr<Integrator> makeIntegrator(const IntegratorSettings& settings,
             fmt::format("unknown --weights '{}' (power or lafortune)", settings.weights));
     if (settings.name == "pt" || settings.name == "cpt")
         return makePathTracingIntegrator(settings, scene, runtime);
+    // The bidirectional methods keep whole subpaths in each work-item's private memory.
+    if ((settings.name == "bdpt" || settings.name == "cbdpt" || settings.name == "mlt") &&
+        (settings.eyeVertices > 64 || settings.lightVertices > 64))
+        throw std::invalid_argument(fmt::format(
+            "{} keeps whole subpaths per work-item: --eye-vertices {} / --light-vertices {} must "
+            "be at most 64",
+            settings.name, settings.eyeVertices, settings.lightVertices));
     if (settings.name == "bdpt") return makeBdptIntegrator(settings, scene, runtime);
     if (settings.name == "cbdpt") return makeCbdptIntegrator(settings, scene, runtime);
     if (settings.name == "mlt") return makeMltIntegrator(settings, scene, runtime);

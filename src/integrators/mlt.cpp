@@ -295,11 +295,6 @@ class MltIntegrator final : public Integrator {
 
 std::unique_ptr<Integrator> makeMltIntegrator(const IntegratorSettings& settings,
                                               const DeviceScene& scene, ClRuntime& runtime) {
-    if (settings.eyeVertices > 64 || settings.lightVertices > 64)
-        throw std::invalid_argument(fmt::format(
-            "mlt keeps whole subpaths per chain: --eye-vertices {} / --light-vertices {} must be "
-            "at most 64",
-            settings.eyeVertices, settings.lightVertices));
     if (!(settings.largeStepProbability >= 0.0 && settings.largeStepProbability <= 1.0))
         throw std::invalid_argument(
             fmt::format("--large-step {} must be between 0 and 1", settings.largeStepProbability));
