@@ -1,6 +1,7 @@
 // BDPT (kernels/bdpt.cl, shared code in kernels/cb_path.h): one kernel per estimate traces a
 // light and an eye subpath per pixel and combines them; light-tracing splats go to a second
 // image that is added to the pixel image here.
+#include "integrators/bdpt_settings.h"
 #include "integrators/integrator.h"
 #include "integrators/scene_buffers.h"
 
@@ -36,12 +37,7 @@ class BdptIntegrator final : public Integrator {
         nonFinite_ = cl::Buffer(ctx, CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, sizeof(int), &zero);
         rays_ = cl::Buffer(ctx, CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, sizeof(int), &zero);
 
-        cbk::BdptSettings bdpt{};
-        bdpt.eyeVertices = settings.eyeVertices;
-        bdpt.lightVertices = settings.lightVertices;
-        bdpt.weights = settings.weights == "lafortune" ? CB_WEIGHTS_LAFORTUNE : CB_WEIGHTS_POWER;
-        bdpt.debugS = settings.debugS;
-        bdpt.debugT = settings.debugT;
+        const cbk::BdptSettings bdpt = bdptSettingsFor(settings);
         int arg = 0;
         arg = buffers_.setKernelArgs(kernel_, arg);
         kernel_.setArg(arg++, buffers_.toRgb);

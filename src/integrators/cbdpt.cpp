@@ -3,6 +3,7 @@
 // combination kernel (kernels/cbdpt.cl) gives every pixel a coherent eye subpath and connects
 // it to its tile position's light subpath with the BDPT weights.
 #include "integrators/cbdpt_light.h"
+#include "integrators/bdpt_settings.h"
 #include "integrators/integrator.h"
 #include "integrators/scene_buffers.h"
 
@@ -60,7 +61,7 @@ class CbdptIntegrator final : public Integrator {
         light_.seed = settings.seed;
         light_.eyeVertices = settings.eyeVertices;
         light_.lightVertices = settings.lightVertices;
-        light_.weights = settings.weights == "lafortune" ? CB_WEIGHTS_LAFORTUNE : CB_WEIGHTS_POWER;
+        light_.weights = bdptSettingsFor(settings).weights;
         light_.coherenceTile = k;
         light_.tileRows = std::min(k, scene.camera.height);
         light_.tileColumns = std::min(k, scene.camera.width);
@@ -83,12 +84,7 @@ class CbdptIntegrator final : public Integrator {
         nonFinite_ = cl::Buffer(ctx, CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, sizeof(int), &zero);
         rays_ = cl::Buffer(ctx, CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, sizeof(int), &zero);
 
-        cbk::BdptSettings bdpt{};
-        bdpt.eyeVertices = settings.eyeVertices;
-        bdpt.lightVertices = settings.lightVertices;
-        bdpt.weights = light_.weights;
-        bdpt.debugS = -1;
-        bdpt.debugT = -1;
+        const cbk::BdptSettings bdpt = bdptSettingsFor(settings);
         int arg = 0;
         arg = buffers_.setKernelArgs(kernel_, arg);
         kernel_.setArg(arg++, buffers_.toRgb);

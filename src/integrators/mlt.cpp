@@ -5,6 +5,7 @@
 // the chains are seeded by resampling them in proportion to I. Each estimate then advances every
 // chain by a fixed number of mutations (chains x mutations ~ pixels, so `--spp K` is K mutations
 // per pixel); the chains carry their state from one estimate to the next.
+#include "integrators/bdpt_settings.h"
 #include "integrators/integrator.h"
 #include "integrators/scene_buffers.h"
 
@@ -66,12 +67,7 @@ class MltIntegrator final : public Integrator {
         seedKernel_ = cl::Kernel(program_, "mltSeedChains");
         advanceKernel_ = cl::Kernel(program_, "mltAdvance");
 
-        bdpt_ = cbk::BdptSettings{};
-        bdpt_.eyeVertices = settings.eyeVertices;
-        bdpt_.lightVertices = settings.lightVertices;
-        bdpt_.weights = settings.weights == "lafortune" ? CB_WEIGHTS_LAFORTUNE : CB_WEIGHTS_POWER;
-        bdpt_.debugS = -1;
-        bdpt_.debugT = -1;
+        bdpt_ = bdptSettingsFor(settings);
 
         auto& ctx = runtime.context();
         state_ = cl::Buffer(ctx, CL_MEM_READ_WRITE, sizeof(float) * chains_ * dims_);
