@@ -37,9 +37,9 @@ __kernel void renderBdpt(CB_SCENE_KERNEL_PARAMS,
     int nLight = bdptLightSubpath(&scene, bdptLightStream(seed, estimate, pixel),
                                   settings.lightVertices, light, &rays);
     SampleStream eyeStream = sampleStreamStart(seed, estimate, pixel);
-    float jitterX = sampleAt(eyeStream, CB_DIM_PIXEL);
-    float jitterY = sampleAt(eyeStream, CB_DIM_PIXEL + 1u);
-    int nEye = bdptEyeSubpath(&scene, &camera, (float)x + jitterX, (float)y + jitterY, eyeStream,
+    float rasterX, rasterY;
+    cameraJitteredRaster(eyeStream, x, y, &rasterX, &rasterY);
+    int nEye = bdptEyeSubpath(&scene, &camera, rasterX, rasterY, eyeStream,
                               settings.eyeVertices, eye, &rays);
 
     Spectrum radiance = specZero();

@@ -2,6 +2,7 @@
 #ifndef CB_CAMERA_H
 #define CB_CAMERA_H
 
+#include "cb_rng.h"
 #include "cb_types.h"
 
 CB_BEGIN_NAMESPACE
@@ -15,6 +16,15 @@ CB_FN Ray cameraGenerateRay(const Camera* camera, float rasterX, float rasterY) 
     ray.o = affineTransformPoint(camera->cameraToWorld, vec3(0.0f, 0.0f, 0.0f));
     ray.d = vnormalize(affineTransformVector(camera->cameraToWorld, vec3(sx, sy, 1.0f)));
     return ray;
+}
+
+/* Where pixel (x, y)'s sample lands on the film: the pixel's corner plus the jitter read from
+ * dimensions CB_DIM_PIXEL and CB_DIM_PIXEL + 1 of its sample stream (one sample per pixel,
+ * box filter: METHOD.md). Shared vectors (CPT, CBDPT) share the jitter too. */
+CB_FN void cameraJitteredRaster(SampleStream stream, int x, int y, float* rasterX,
+                                float* rasterY) {
+    *rasterX = (float)x + sampleAt(stream, CB_DIM_PIXEL);
+    *rasterY = (float)y + sampleAt(stream, CB_DIM_PIXEL + 1u);
 }
 
 /* Raster position of a world point, if it lies in front of the camera and inside the image. */

@@ -53,9 +53,9 @@ __kernel void renderCbdpt(CB_SCENE_KERNEL_PARAMS,
     int rays = 0;
     PathVertex eye[CB_MAX_EYE_VERTICES];
     SampleStream eyeStream = sampleStreamStart(seed, estimate, stream);
-    float jitterX = sampleAt(eyeStream, CB_DIM_PIXEL);
-    float jitterY = sampleAt(eyeStream, CB_DIM_PIXEL + 1u);
-    int nEye = bdptEyeSubpath(&scene, &camera, (float)x + jitterX, (float)y + jitterY, eyeStream,
+    float rasterX, rasterY;
+    cameraJitteredRaster(eyeStream, x, y, &rasterX, &rasterY);
+    int nEye = bdptEyeSubpath(&scene, &camera, rasterX, rasterY, eyeStream,
                               settings.eyeVertices, eye, &rays);
 
     Spectrum radiance = specZero();

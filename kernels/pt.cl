@@ -23,9 +23,9 @@ __kernel void renderPathTracing(CB_SCENE_KERNEL_PARAMS,
     uint pixel = (uint)(y * camera.width + x);
     uint stream = streamTile > 0 ? (uint)((y % streamTile) * streamTile + (x % streamTile)) : pixel;
     SampleStream samples = sampleStreamStart(seed, estimate, stream);
-    float jitterX = sampleAt(samples, CB_DIM_PIXEL);
-    float jitterY = sampleAt(samples, CB_DIM_PIXEL + 1u);
-    Ray ray = cameraGenerateRay(&camera, (float)x + jitterX, (float)y + jitterY);
+    float rasterX, rasterY;
+    cameraJitteredRaster(samples, x, y, &rasterX, &rasterY);
+    Ray ray = cameraGenerateRay(&camera, rasterX, rasterY);
 
     Spectrum radiance = ptRadiance(&scene, ray, samples, settings);
     Vec3 rgb = specToRgb(radiance, toRgb);
