@@ -119,6 +119,29 @@ double wallRoughness(const cb::DeviceScene& scene, const cb::IntegratorSettings&
     return diff / mean;
 }
 
+// The sum of 3 estimates is the same bit for bit for one seed (run twice) and differs in more
+// than half of its values for another seed.
+void checkSeedsReproduceAndDiffer(const cb::DeviceScene& scene, cb::IntegratorSettings settings) {
+    auto render = [&](std::uint32_t seed) {
+        settings.seed = seed;
+        auto renderer = cb::makeIntegrator(settings, scene, runtime());
+        std::vector<float> rgb, sum;
+        for (int e = 0; e < 3; ++e) {
+            renderer->renderEstimate(std::uint32_t(e), rgb);
+            if (sum.empty()) sum.assign(rgb.size(), 0.f);
+            for (size_t i = 0; i < rgb.size(); ++i)
+                sum[i] += rgb[i];
+        }
+        return sum;
+    };
+    auto a = render(1), b = render(1), c = render(2);
+    CHECK(a == b);
+    size_t differing = 0;
+    for (size_t i = 0; i < a.size(); ++i)
+        differing += a[i] != c[i];
+    CHECK(differing > a.size() / 2);
+}
+
 } // namespace
 
 TEST_CASE("CPT converges to the PT image (k = 1 and k = 4), Cornell box and glossy box" *
@@ -170,27 +193,10 @@ TEST_CASE("coherent estimates: one seed reproduces bit for bit, another seed dif
     cb::SceneDesc desc = cb::parseSceneFile(scenePath("cornell-box.pbrt"));
     desc.film.width = desc.film.height = 16;
     cb::DeviceScene scene = cb::buildDeviceScene(desc);
-    auto render = [&](std::uint32_t seed) {
-        cb::IntegratorSettings s;
-        s.name = "cpt";
-        s.eyeVertices = 5;
-        s.seed = seed;
-        auto renderer = cb::makeIntegrator(s, scene, runtime());
-        std::vector<float> rgb, sum;
-        for (int e = 0; e < 3; ++e) {
-            renderer->renderEstimate(std::uint32_t(e), rgb);
-            if (sum.empty()) sum.assign(rgb.size(), 0.f);
-            for (size_t i = 0; i < rgb.size(); ++i)
-                sum[i] += rgb[i];
-        }
-        return sum;
-    };
-    auto a = render(1), b = render(1), c = render(2);
-    CHECK(a == b);
-    size_t differing = 0;
-    for (size_t i = 0; i < a.size(); ++i)
-        differing += a[i] != c[i];
-    CHECK(differing > a.size() / 2);
+    cb::IntegratorSettings s;
+    s.name = "cpt";
+    s.eyeVertices = 5;
+    checkSeedsReproduceAndDiffer(scene, s);
 }
 
 // ---- CBDPT ------------------------------------------------------------------------------------
@@ -321,29 +327,12 @@ TEST_CASE("CBDPT estimates: one seed reproduces bit for bit, another seed differ
     cb::DeviceScene scene = cb::buildDeviceScene(desc);
     for (int k : {1, 4}) {
         CAPTURE(k);
-        auto render = [&](std::uint32_t seed) {
-            cb::IntegratorSettings s;
-            s.name = "cbdpt";
-            s.eyeVertices = 4;
-            s.lightVertices = 4;
-            s.coherenceTile = k;
-            s.seed = seed;
-            auto renderer = cb::makeIntegrator(s, scene, runtime());
-            std::vector<float> rgb, sum;
-            for (int e = 0; e < 3; ++e) {
-                renderer->renderEstimate(std::uint32_t(e), rgb);
-                if (sum.empty()) sum.assign(rgb.size(), 0.f);
-                for (size_t i = 0; i < rgb.size(); ++i)
-                    sum[i] += rgb[i];
-            }
-            return sum;
-        };
-        auto a = render(1), b = render(1), c = render(2);
-        CHECK(a == b);
-        size_t differing = 0;
-        for (size_t i = 0; i < a.size(); ++i)
-            differing += a[i] != c[i];
-        CHECK(differing > a.size() / 2);
+        cb::IntegratorSettings s;
+        s.name = "cbdpt";
+        s.eyeVertices = 4;
+        s.lightVertices = 4;
+        s.coherenceTile = k;
+        checkSeedsReproduceAndDiffer(scene, s);
     }
 }
 
