@@ -26,11 +26,11 @@
 CB_BEGIN_NAMESPACE
 
 typedef struct BsdfSample {
-    Vec3 wi;      /* world-space unit direction, away from the surface */
-    Spectrum f;   /* BSDF value without |cos|; delta lobes: f |cos wi| / pdf = throughput factor */
-    float pdf;    /* solid-angle pdf; delta lobes: discrete probability of the lobe */
-    float pdfRev; /* pdf of sampling wo given wi, same conventions */
-    int isDelta;  /* the sampled lobe is a Dirac delta */
+    Vec3 wi;     /* world-space unit direction, away from the surface */
+    Spectrum f;  /* BSDF value without |cos|; delta lobes: f |cos wi| / pdf = throughput factor */
+    real pdf;    /* solid-angle pdf; delta lobes: discrete probability of the lobe */
+    real pdfRev; /* pdf of sampling wo given wi, same conventions */
+    int isDelta; /* the sampled lobe is a Dirac delta */
 } BsdfSample;
 
 /* ---- Dielectric Fresnel ---------------------------------------------------------------------- */
@@ -38,24 +38,24 @@ typedef struct BsdfSample {
 /* Unpolarised Fresnel reflectance of a smooth dielectric interface (Born & Wolf; pbrt-v4 eq. 9.6).
  * cosI > 0 on the incident side, eta = eta_transmitted / eta_incident. Returns 1 under total
  * internal reflection; *cosT receives the cosine of the refracted direction (0 under TIR). */
-CB_FN float fresnelDielectric(float cosI, float eta, float* cosT) {
+CB_FN real fresnelDielectric(real cosI, real eta, real* cosT) {
     cosI = cbClamp(cosI, 0.0f, 1.0f);
-    float sin2T = (1.0f - cosI * cosI) / (eta * eta);
+    real sin2T = (1.0f - cosI * cosI) / (eta * eta);
     if (sin2T >= 1.0f) {
         *cosT = 0.0f;
         return 1.0f;
     }
-    float ct = cbSafeSqrt(1.0f - sin2T);
+    real ct = cbSafeSqrt(1.0f - sin2T);
     *cosT = ct;
-    float rs = (cosI - eta * ct) / (cosI + eta * ct);
-    float rp = (eta * cosI - ct) / (eta * cosI + ct);
+    real rs = (cosI - eta * ct) / (cosI + eta * ct);
+    real rp = (eta * cosI - ct) / (eta * cosI + ct);
     return 0.5f * (rs * rs + rp * rp);
 }
 
 /* ---- Per-kind lobes, in the local frame flipped so that wo.z > 0 ----------------------------- */
 
 #if CB_HAS(CB_FEATURE_CONDUCTOR)
-CB_FN float cbConductorAlpha(Material m) {
+CB_FN real cbConductorAlpha(Material m) {
     return fmax(m.alpha, CB_GGX_MIN_ALPHA);
 }
 
@@ -63,17 +63,17 @@ CB_FN float cbConductorAlpha(Material m) {
  * Fresnel term replaced by the constant tint. Returns the scalar D G / (4 cos_o cos_i) and the
  * pdfs of the visible-normal reflection (pdf_vn(wm) / (4 wo.wm), Heitz 2018 eq. 17) both ways;
  * zero everywhere when not finite (both directions in the grazing limit). */
-CB_FN float cbGgxReflection(Vec3 wo, Vec3 wi, Vec3 wm, float alpha, float* pdfFwd, float* pdfRev) {
+CB_FN real cbGgxReflection(Vec3 wo, Vec3 wi, Vec3 wm, real alpha, real* pdfFwd, real* pdfRev) {
     *pdfFwd = 0.0f;
     *pdfRev = 0.0f;
-    float cosO = wo.z, cosI = wi.z;
+    real cosO = wo.z, cosI = wi.z;
     if (!(cosO > 0.0f) || !(cosI > 0.0f)) return 0.0f;
-    float d = ggxD(wm, alpha);
-    float dotOm = vdot(wo, wm), dotIm = vdot(wi, wm);
+    real d = ggxD(wm, alpha);
+    real dotOm = vdot(wo, wm), dotIm = vdot(wi, wm);
     if (!(d > 0.0f) || !(dotOm > 0.0f) || !(dotIm > 0.0f)) return 0.0f;
-    float value = d * ggxG(wo, wi, alpha) / (4.0f * cosO * cosI);
-    float fwd = ggxVisibleNormalPdf(wo, wm, alpha) / (4.0f * dotOm);
-    float rev = ggxVisibleNormalPdf(wi, wm, alpha) / (4.0f * dotIm);
+    real value = d * ggxG(wo, wi, alpha) / (4.0f * cosO * cosI);
+    real fwd = ggxVisibleNormalPdf(wo, wm, alpha) / (4.0f * dotOm);
+    real rev = ggxVisibleNormalPdf(wi, wm, alpha) / (4.0f * dotIm);
     if (!isfinite(value) || !isfinite(fwd) || !isfinite(rev) || !(fwd > 0.0f)) return 0.0f;
     *pdfFwd = fwd;
     *pdfRev = rev;
@@ -82,8 +82,8 @@ CB_FN float cbGgxReflection(Vec3 wo, Vec3 wi, Vec3 wm, float alpha, float* pdfFw
 #endif
 
 /* Non-delta part of a non-mix material. wo.z > 0 (flipped local frame). */
-CB_FN Spectrum cbLobeEval(const SceneView* scene, Material m, Vec3 wo, Vec3 wi, float* pdfFwd,
-                          float* pdfRev) {
+CB_FN Spectrum cbLobeEval(const SceneView* scene, Material m, Vec3 wo, Vec3 wi, real* pdfFwd,
+                          real* pdfRev) {
     *pdfFwd = 0.0f;
     *pdfRev = 0.0f;
 #if CB_HAS(CB_FEATURE_DIFFUSE)
@@ -98,9 +98,9 @@ CB_FN Spectrum cbLobeEval(const SceneView* scene, Material m, Vec3 wo, Vec3 wi, 
     if (m.kind == CB_MAT_CONDUCTOR) {
         if (m.alpha == 0.0f || !(wi.z > 0.0f)) return specZero();
         Vec3 h = vadd(wo, wi);
-        float len = vlength(h);
+        real len = vlength(h);
         if (!(len > 0.0f)) return specZero();
-        float value =
+        real value =
             cbGgxReflection(wo, wi, vscale(h, 1.0f / len), cbConductorAlpha(m), pdfFwd, pdfRev);
         return specScale(specLoad(scene->spectra, m.reflectance), value);
     }
@@ -123,7 +123,7 @@ CB_FN bool cbLobeIsDeltaOnly(Material m) {
     return false;
 }
 
-CB_FN float cbLobeSpecularity(Material m) {
+CB_FN real cbLobeSpecularity(Material m) {
 #if CB_HAS(CB_FEATURE_CONDUCTOR)
     if (m.kind == CB_MAT_CONDUCTOR) return 1.0f;
 #endif
@@ -137,8 +137,8 @@ CB_FN float cbLobeSpecularity(Material m) {
 /* Sample a non-mix material; wo.z > 0 in the flipped local frame, `entering` says whether wo is on
  * the side frame.n points to (the dielectric's outside). out->wi is local (flipped). Non-delta
  * results carry only this lobe's own f and pdfs. */
-CB_FN bool cbLobeSample(const SceneView* scene, Material m, Vec3 wo, bool entering, float u0,
-                        float u1, float uLobe, int adjoint, BsdfSample* out) {
+CB_FN bool cbLobeSample(const SceneView* scene, Material m, Vec3 wo, bool entering, real u0,
+                        real u1, real uLobe, int adjoint, BsdfSample* out) {
     out->isDelta = 0;
 #if CB_HAS(CB_FEATURE_DIFFUSE)
     if (m.kind == CB_MAT_DIFFUSE) {
@@ -162,17 +162,17 @@ CB_FN bool cbLobeSample(const SceneView* scene, Material m, Vec3 wo, bool enteri
             out->isDelta = 1;
             return isfinite(out->f.c[0]);
         }
-        float alpha = cbConductorAlpha(m);
+        real alpha = cbConductorAlpha(m);
         Vec3 wm = ggxSampleVisibleNormal(wo, alpha, u0, u1);
         /* Mirror wo about the sampled microfacet normal. */
         Vec3 wi = vsub(vscale(wm, 2.0f * vdot(wo, wm)), wo);
-        float len = vlength(wi);
+        real len = vlength(wi);
         if (!(len > 0.0f)) return false;
         wi = vscale(wi, 1.0f / len);
         if (!(wi.z > 0.0f)) return false;
         /* D cancels in f cos / pdf only if both use the sampled wm, not the recomputed half
          * vector (which loses precision at tiny alpha). */
-        float value = cbGgxReflection(wo, wi, wm, alpha, &out->pdf, &out->pdfRev);
+        real value = cbGgxReflection(wo, wi, wm, alpha, &out->pdf, &out->pdfRev);
         if (!(out->pdf > 0.0f)) return false;
         out->wi = wi;
         out->f = specScale(r, value);
@@ -181,9 +181,9 @@ CB_FN bool cbLobeSample(const SceneView* scene, Material m, Vec3 wo, bool enteri
 #endif
 #if CB_HAS(CB_FEATURE_DIELECTRIC)
     if (m.kind == CB_MAT_DIELECTRIC) {
-        float eta = entering ? m.eta : 1.0f / m.eta;
-        float cosT;
-        float fr = fresnelDielectric(wo.z, eta, &cosT);
+        real eta = entering ? m.eta : 1.0f / m.eta;
+        real cosT;
+        real fr = fresnelDielectric(wo.z, eta, &cosT);
         out->isDelta = 1;
         if (uLobe < fr) {
             out->wi = vec3(-wo.x, -wo.y, wo.z);
@@ -197,7 +197,7 @@ CB_FN bool cbLobeSample(const SceneView* scene, Material m, Vec3 wo, bool enteri
             out->wi = vnormalize(wi);
             /* Radiance is compressed by (eta_t/eta_i)^2 crossing into the denser side; importance
              * is not (Veach 1997, sec. 5.2), which is what makes the adjoint BSDF differ. */
-            float scale = adjoint ? 1.0f : 1.0f / (eta * eta);
+            real scale = adjoint ? 1.0f : 1.0f / (eta * eta);
             out->f = specConst((1.0f - fr) * scale / cosT);
             out->pdf = 1.0f - fr;
             /* Fresnel is symmetric in the two sides (Stokes), so the reverse choice has the same
@@ -222,26 +222,26 @@ CB_FN bool cbLobeSample(const SceneView* scene, Material m, Vec3 wo, bool enteri
 
 /* Local coordinates with z multiplied by flip (+-1): flipping both directions by wo's side lets
  * every lobe assume wo.z > 0, which is how two-sided reflection works. */
-CB_FN Vec3 cbToFlippedLocal(Frame frame, Vec3 w, float flip) {
+CB_FN Vec3 cbToFlippedLocal(Frame frame, Vec3 w, real flip) {
     Vec3 l = frameToLocal(frame, w);
     return vec3(l.x, l.y, l.z * flip);
 }
 
 CB_FN Spectrum bsdfEval(const SceneView* scene, int material, Frame frame, Vec3 wo, Vec3 wi,
-                        int adjoint, float* pdfFwd, float* pdfRev) {
+                        int adjoint, real* pdfFwd, real* pdfRev) {
     (void)adjoint; /* only the (delta) dielectric transmission depends on it */
     *pdfFwd = 0.0f;
     *pdfRev = 0.0f;
-    float cosO = vdot(wo, frame.n);
+    real cosO = vdot(wo, frame.n);
     if (cosO == 0.0f || !isfinite(cosO)) return specZero();
-    float flip = cosO > 0.0f ? 1.0f : -1.0f;
+    real flip = cosO > 0.0f ? 1.0f : -1.0f;
     Vec3 lo = cbToFlippedLocal(frame, wo, flip);
     Vec3 li = cbToFlippedLocal(frame, wi, flip);
     Material m = scene->materials[material];
 #if CB_HAS(CB_FEATURE_MIX)
     if (m.kind == CB_MAT_MIX) {
-        float a = m.mixAmount;
-        float p1f, p1r, p2f, p2r;
+        real a = m.mixAmount;
+        real p1f, p1r, p2f, p2r;
         Spectrum f1 = cbLobeEval(scene, scene->materials[m.mixFirst], lo, li, &p1f, &p1r);
         Spectrum f2 = cbLobeEval(scene, scene->materials[m.mixSecond], lo, li, &p2f, &p2r);
         *pdfFwd = (1.0f - a) * p1f + a * p2f;
@@ -252,23 +252,23 @@ CB_FN Spectrum bsdfEval(const SceneView* scene, int material, Frame frame, Vec3 
     return cbLobeEval(scene, m, lo, li, pdfFwd, pdfRev);
 }
 
-CB_FN bool bsdfSample(const SceneView* scene, int material, Frame frame, Vec3 wo, float u0,
-                      float u1, float uLobe, int adjoint, BsdfSample* out) {
-    float cosO = vdot(wo, frame.n);
+CB_FN bool bsdfSample(const SceneView* scene, int material, Frame frame, Vec3 wo, real u0, real u1,
+                      real uLobe, int adjoint, BsdfSample* out) {
+    real cosO = vdot(wo, frame.n);
     if (cosO == 0.0f || !isfinite(cosO)) return false;
-    float flip = cosO > 0.0f ? 1.0f : -1.0f;
+    real flip = cosO > 0.0f ? 1.0f : -1.0f;
     Vec3 lo = cbToFlippedLocal(frame, wo, flip);
     bool entering = cosO > 0.0f;
     Material m = scene->materials[material];
     BsdfSample s;
 #if CB_HAS(CB_FEATURE_MIX)
     if (m.kind == CB_MAT_MIX) {
-        float a = m.mixAmount;
+        real a = m.mixAmount;
         /* One uniform number picks the component and, rescaled to [0,1), the component's own
          * lobe: the choice stays monotone in uLobe, which keeps shared sample vectors coherent. */
         bool second = uLobe < a;
-        float pick = second ? a : 1.0f - a;
-        float uRest = second ? uLobe / a : (uLobe - a) / (1.0f - a);
+        real pick = second ? a : 1.0f - a;
+        real uRest = second ? uLobe / a : (uLobe - a) / (1.0f - a);
         uRest = cbClamp(uRest, 0.0f, 0.99999994f);
         Material c = scene->materials[second ? m.mixSecond : m.mixFirst];
         if (!cbLobeSample(scene, c, lo, entering, u0, u1, uRest, adjoint, &s)) return false;
@@ -277,7 +277,7 @@ CB_FN bool bsdfSample(const SceneView* scene, int material, Frame frame, Vec3 wo
             s.pdf *= pick;
             s.pdfRev *= pick;
         } else {
-            float p1f, p1r, p2f, p2r;
+            real p1f, p1r, p2f, p2r;
             Spectrum f1 = cbLobeEval(scene, scene->materials[m.mixFirst], lo, s.wi, &p1f, &p1r);
             Spectrum f2 = cbLobeEval(scene, scene->materials[m.mixSecond], lo, s.wi, &p2f, &p2r);
             s.f = specAdd(specScale(f1, 1.0f - a), specScale(f2, a));
@@ -305,7 +305,7 @@ CB_FN bool materialHasNonDelta(const SceneView* scene, int material) {
     return !cbLobeIsDeltaOnly(m);
 }
 
-CB_FN float materialSpecularity(const SceneView* scene, int material) {
+CB_FN real materialSpecularity(const SceneView* scene, int material) {
     Material m = scene->materials[material];
 #if CB_HAS(CB_FEATURE_MIX)
     if (m.kind == CB_MAT_MIX)

@@ -36,9 +36,9 @@ CB_BEGIN_NAMESPACE
  * (the first child holds the primitives on the low side of that axis), parent index in bits
  * 0-28 (CB_BVH_NO_PARENT for the root). */
 typedef struct BvhNode {
-    float boundsMin[3];
+    real boundsMin[3];
     uint index;
-    float boundsMax[3];
+    real boundsMax[3];
     uint count;
 } BvhNode;
 
@@ -52,27 +52,27 @@ CB_STATIC_ASSERT(sizeof(BvhNode) == 32, "BvhNode must be 32 bytes");
  * infinity of the wrong sign, and the max/min selects (which keep the non-NaN operand) then
  * drop it, so the axis does not restrict the interval - a ray in a box face still enters the
  * box. */
-CB_FN bool bvhBoxHit(CB_GLOBAL const BvhNode* node, Vec3 o, Vec3 invD, float tMax) {
-    float tx0 = (node->boundsMin[0] - o.x) * invD.x;
-    float tx1 = (node->boundsMax[0] - o.x) * invD.x;
-    float ty0 = (node->boundsMin[1] - o.y) * invD.y;
-    float ty1 = (node->boundsMax[1] - o.y) * invD.y;
-    float tz0 = (node->boundsMin[2] - o.z) * invD.z;
-    float tz1 = (node->boundsMax[2] - o.z) * invD.z;
-    float nx = tx0 > tx1 ? tx1 : tx0;
-    float fx = tx0 > tx1 ? tx0 : tx1;
-    float ny = ty0 > ty1 ? ty1 : ty0;
-    float fy = ty0 > ty1 ? ty0 : ty1;
-    float nz = tz0 > tz1 ? tz1 : tz0;
-    float fz = tz0 > tz1 ? tz0 : tz1;
+CB_FN bool bvhBoxHit(CB_GLOBAL const BvhNode* node, Vec3 o, Vec3 invD, real tMax) {
+    real tx0 = (node->boundsMin[0] - o.x) * invD.x;
+    real tx1 = (node->boundsMax[0] - o.x) * invD.x;
+    real ty0 = (node->boundsMin[1] - o.y) * invD.y;
+    real ty1 = (node->boundsMax[1] - o.y) * invD.y;
+    real tz0 = (node->boundsMin[2] - o.z) * invD.z;
+    real tz1 = (node->boundsMax[2] - o.z) * invD.z;
+    real nx = tx0 > tx1 ? tx1 : tx0;
+    real fx = tx0 > tx1 ? tx0 : tx1;
+    real ny = ty0 > ty1 ? ty1 : ty0;
+    real fy = ty0 > ty1 ? ty0 : ty1;
+    real nz = tz0 > tz1 ? tz1 : tz0;
+    real fz = tz0 > tz1 ? tz0 : tz1;
     /* fmax/fmin spelled as selects with the running value second: `a > acc ? a : acc` is
      * false for a NaN `a` and keeps acc, which is fmax's NaN rule (acc is never NaN), and
      * compiles to one maxss/minss instead of a libm call on the host (g++ without
      * -ffast-math) and a NaN-checking sequence in PoCL (docs/performance.md). */
-    float tNear = nx > 0.0f ? nx : 0.0f;
+    real tNear = nx > 0.0f ? nx : 0.0f;
     tNear = ny > tNear ? ny : tNear;
     tNear = nz > tNear ? nz : tNear;
-    float tFar = fx < tMax ? fx : tMax;
+    real tFar = fx < tMax ? fx : tMax;
     tFar = fy < tFar ? fy : tFar;
     tFar = fz < tFar ? fz : tFar;
     return tNear <= tFar * (1.0f + 2.0f * cbGamma(3));
@@ -88,7 +88,7 @@ CB_FN Vec3 bvhInverseDirection(Vec3 d) {
 }
 
 /* Closest hit in preorder (skip indices). Kept as the reference and for benchmarks. */
-CB_FN bool sceneIntersectSkip(const SceneView* scene, Ray ray, float tMax, Hit* hit) {
+CB_FN bool sceneIntersectSkip(const SceneView* scene, Ray ray, real tMax, Hit* hit) {
     CB_GLOBAL const BvhNode* nodes = scene->nodes;
     hit->t = tMax;
     hit->primitive = -1;
@@ -98,7 +98,7 @@ CB_FN bool sceneIntersectSkip(const SceneView* scene, Ray ray, float tMax, Hit* 
     uint end = bvhEnd(nodes);
     uint i = 0u;
     bool found = false;
-    float closest = tMax;
+    real closest = tMax;
     while (i < end) {
         CB_GLOBAL const BvhNode* node = nodes + i;
         if (!bvhBoxHit(node, ray.o, invD, closest)) {
@@ -124,7 +124,7 @@ CB_FN bool sceneIntersectSkip(const SceneView* scene, Ray ray, float tMax, Hit* 
 }
 
 CB_FN bool bvhLeafIntersect(const SceneView* scene, CB_GLOBAL const BvhNode* node, Ray ray,
-                            float* closest, Hit* hit) {
+                            real* closest, Hit* hit) {
     uint first = node->index;
     uint last = first + (node->count & ~CB_BVH_LEAF);
     bool found = false;
@@ -151,7 +151,7 @@ CB_FN bool bvhLeafIntersect(const SceneView* scene, CB_GLOBAL const BvhNode* nod
  * coming up from a finished child (go to the far sibling if this was the near child, else
  * further up). The children of p are p + 1 and the skip index of p + 1 (p + 2 after a leaf);
  * the sibling of a node is therefore found from the node itself and its parent. */
-CB_FN bool sceneIntersectOrdered(const SceneView* scene, Ray ray, float tMax, Hit* hit) {
+CB_FN bool sceneIntersectOrdered(const SceneView* scene, Ray ray, real tMax, Hit* hit) {
     CB_GLOBAL const BvhNode* nodes = scene->nodes;
     hit->t = tMax;
     hit->primitive = -1;
@@ -159,12 +159,13 @@ CB_FN bool sceneIntersectOrdered(const SceneView* scene, Ray ray, float tMax, Hi
     hit->b2 = 0.0f;
     Vec3 invD = bvhInverseDirection(ray.d);
     /* Bit a set: the ray goes towards -a, so the second (high-side) child is the near one. */
-    uint negative = (invD.x < 0.0f ? 1u : 0u) | (invD.y < 0.0f ? 2u : 0u) |
-                    (invD.z < 0.0f ? 4u : 0u);
-    float closest = tMax;
+    uint negative =
+        (invD.x < 0.0f ? 1u : 0u) | (invD.y < 0.0f ? 2u : 0u) | (invD.z < 0.0f ? 4u : 0u);
+    real closest = tMax;
     bool found = false;
     if (!bvhBoxHit(nodes, ray.o, invD, closest)) return false;
-    if ((nodes[0].count & CB_BVH_LEAF) != 0u) return bvhLeafIntersect(scene, nodes, ray, &closest, hit);
+    if ((nodes[0].count & CB_BVH_LEAF) != 0u)
+        return bvhLeafIntersect(scene, nodes, ray, &closest, hit);
 
     uint parent = 0u;
     uint rootCount = nodes[0].count;
@@ -228,7 +229,7 @@ CB_FN bool sceneIntersectOrdered(const SceneView* scene, Ray ray, float tMax, Hi
 /* Closest hit with t in (0, tMax). On a miss *hit is left as {tMax, -1, 0, 0}, so it is
  * never read uninitialised. CB_BVH_SKIP_ORDER selects the unordered preorder loop (for
  * benchmarks). */
-CB_FN bool sceneIntersect(const SceneView* scene, Ray ray, float tMax, Hit* hit) {
+CB_FN bool sceneIntersect(const SceneView* scene, Ray ray, real tMax, Hit* hit) {
 #ifdef CB_BVH_SKIP_ORDER
     return sceneIntersectSkip(scene, ray, tMax, hit);
 #else
@@ -237,7 +238,7 @@ CB_FN bool sceneIntersect(const SceneView* scene, Ray ray, float tMax, Hit* hit)
 }
 
 /* Any hit with t in (0, tMax): shadow rays stop at the first one. */
-CB_FN bool sceneOccluded(const SceneView* scene, Ray ray, float tMax) {
+CB_FN bool sceneOccluded(const SceneView* scene, Ray ray, real tMax) {
     CB_GLOBAL const BvhNode* nodes = scene->nodes;
     Vec3 invD = bvhInverseDirection(ray.d);
     uint end = bvhEnd(nodes);

@@ -9,9 +9,9 @@ CB_BEGIN_NAMESPACE
 
 /* Primary ray through raster position (rasterX, rasterY), (0,0) the top-left image corner.
  * Direction is unit length; origin is the camera position. */
-CB_FN Ray cameraGenerateRay(const Camera* camera, float rasterX, float rasterY) {
-    float sx = (2.0f * rasterX / (float)camera->width - 1.0f) * camera->tanHalfFovX;
-    float sy = (1.0f - 2.0f * rasterY / (float)camera->height) * camera->tanHalfFovY;
+CB_FN Ray cameraGenerateRay(const Camera* camera, real rasterX, real rasterY) {
+    real sx = (2.0f * rasterX / (real)camera->width - 1.0f) * camera->tanHalfFovX;
+    real sy = (1.0f - 2.0f * rasterY / (real)camera->height) * camera->tanHalfFovY;
     Ray ray;
     ray.o = affineTransformPoint(camera->cameraToWorld, vec3(0.0f, 0.0f, 0.0f));
     ray.d = vnormalize(affineTransformVector(camera->cameraToWorld, vec3(sx, sy, 1.0f)));
@@ -21,22 +21,21 @@ CB_FN Ray cameraGenerateRay(const Camera* camera, float rasterX, float rasterY) 
 /* Where pixel (x, y)'s sample lands on the film: the pixel's corner plus the jitter read from
  * dimensions CB_DIM_PIXEL and CB_DIM_PIXEL + 1 of its sample stream (one sample per pixel,
  * box filter: METHOD.md). Shared vectors (CPT, CBDPT) share the jitter too. */
-CB_FN void cameraJitteredRaster(SampleStream stream, int x, int y, float* rasterX,
-                                float* rasterY) {
-    *rasterX = (float)x + sampleAt(stream, CB_DIM_PIXEL);
-    *rasterY = (float)y + sampleAt(stream, CB_DIM_PIXEL + 1u);
+CB_FN void cameraJitteredRaster(SampleStream stream, int x, int y, real* rasterX, real* rasterY) {
+    *rasterX = (real)x + sampleAt(stream, CB_DIM_PIXEL);
+    *rasterY = (real)y + sampleAt(stream, CB_DIM_PIXEL + 1u);
 }
 
 /* Raster position of a world point, if it lies in front of the camera and inside the image. */
-CB_FN bool cameraProjectPoint(const Camera* camera, Vec3 p, float* rasterX, float* rasterY) {
+CB_FN bool cameraProjectPoint(const Camera* camera, Vec3 p, real* rasterX, real* rasterY) {
     Vec3 c = affineTransformPoint(camera->worldToCamera, p);
     if (c.z <= 0.0f) return false;
-    float sx = c.x / (c.z * camera->tanHalfFovX);
-    float sy = c.y / (c.z * camera->tanHalfFovY);
-    *rasterX = (sx + 1.0f) * 0.5f * (float)camera->width;
-    *rasterY = (1.0f - sy) * 0.5f * (float)camera->height;
-    return *rasterX >= 0.0f && *rasterX < (float)camera->width && *rasterY >= 0.0f &&
-           *rasterY < (float)camera->height;
+    real sx = c.x / (c.z * camera->tanHalfFovX);
+    real sy = c.y / (c.z * camera->tanHalfFovY);
+    *rasterX = (sx + 1.0f) * 0.5f * (real)camera->width;
+    *rasterY = (1.0f - sy) * 0.5f * (real)camera->height;
+    return *rasterX >= 0.0f && *rasterX < (real)camera->width && *rasterY >= 0.0f &&
+           *rasterY < (real)camera->height;
 }
 
 CB_END_NAMESPACE

@@ -2,8 +2,14 @@
  *
  * Every shared header in kernels/ is written once and compiled twice: by PoCL as OpenCL C for the
  * kernels, and by g++ as C++ for the host (light subpaths for CBDPT, test oracles). On the host
- * the code lives in namespace `cbk`. Shared structs use plain float arrays, never float3
- * (16 bytes in OpenCL, 12 in C++), and are padded to 16-byte multiples explicitly. */
+ * the code lives in namespace `cbk`. Shared structs use plain real arrays, never float3
+ * (16 bytes in OpenCL, 12 in C++), and are padded to 16-byte multiples explicitly.
+ *
+ * `real` is float everywhere except in one host build: a translation unit that defines
+ * CB_REAL as double before including the shared headers (inside its own namespace) gets the same
+ * geometry, sampling and path code in double precision, the oracle that the float kernels are
+ * checked against (src/reference/, tests/test_precision.cpp). Layout asserts hold only for
+ * float. */
 #ifndef CB_COMMON_H
 #define CB_COMMON_H
 
@@ -24,11 +30,18 @@
 #define CB_CONSTANT
 #define CB_BEGIN_NAMESPACE namespace cbk {
 #define CB_END_NAMESPACE }
-#define CB_STATIC_ASSERT(cond, msg) static_assert(cond, msg)
+/* Layout asserts: they describe the float layout the device sees. */
+#define CB_STATIC_ASSERT(cond, msg) static_assert(sizeof(CB_REAL) != sizeof(float) || (cond), msg)
 #define CB_FN inline
 #endif
 
+#ifndef CB_REAL
+#define CB_REAL float
+#endif
+
 CB_BEGIN_NAMESPACE
+
+typedef CB_REAL real;
 
 #ifndef CB_KERNEL_SIDE
 typedef std::uint32_t uint;
@@ -43,94 +56,141 @@ using std::isfinite;
 using std::log;
 using std::sin;
 using std::sqrt;
-CB_FN uint cbFloatAsUint(float f) {
-    uint u;
-    std::memcpy(&u, &f, sizeof u);
-    return u;
-}
-CB_FN float cbUintAsFloat(uint u) {
-    float f;
-    std::memcpy(&f, &u, sizeof f);
-    return f;
-}
-#else
-CB_FN uint cbFloatAsUint(float f) { return as_uint(f); }
-CB_FN float cbUintAsFloat(uint u) { return as_float(u); }
 #endif
 
-#define CB_PI 3.14159265358979323846f
-#define CB_INV_PI 0.31830988618379067154f
-#define CB_INV_2PI 0.15915494309189533577f
-#define CB_INV_4PI 0.07957747154594766788f
+#define CB_PI ((CB_REAL)3.14159265358979323846)
+#define CB_INV_PI ((CB_REAL)0.31830988618379067154)
+#define CB_INV_2PI ((CB_REAL)0.15915494309189533577)
+#define CB_INV_4PI ((CB_REAL)0.07957747154594766788)
 #define CB_INFINITY 3.402823466e+38f
-/* Unit roundoff of float arithmetic, as in pbrt (Higham's gamma_n = n*u/(1-n*u)). */
+/* Unit roundoff of float arithmetic (also in the double build: its rays are spawned with the
+ * float kernels' offsets, so that both trace the same paths), as in pbrt (Higham's gamma_n =
+ * n*u/(1-n*u)). */
 #define CB_MACHINE_EPSILON 5.960464477539063e-08f
 
-CB_FN float cbGamma(int n) {
-    return ((float)n * CB_MACHINE_EPSILON) / (1.0f - (float)n * CB_MACHINE_EPSILON);
+CB_FN real cbGamma(int n) {
+    return ((real)n * CB_MACHINE_EPSILON) / (1.0f - (real)n * CB_MACHINE_EPSILON);
 }
 
-CB_FN float cbClamp(float x, float lo, float hi) { return fmin(fmax(x, lo), hi); }
-CB_FN float cbSqr(float x) { return x * x; }
-CB_FN float cbSafeSqrt(float x) { return sqrt(fmax(x, 0.0f)); }
+CB_FN real cbClamp(real x, real lo, real hi) {
+    return fmin(fmax(x, lo), hi);
+}
+CB_FN real cbSqr(real x) {
+    return x * x;
+}
+CB_FN real cbSafeSqrt(real x) {
+    return sqrt(fmax(x, 0.0f));
+}
 
-/* Next representable float above / below v (pbrt-v4 NextFloatUp/Down). */
-CB_FN float cbNextFloatUp(float v) {
+/* Next representable value above / below v (pbrt-v4 NextFloatUp/Down). */
+#ifdef CB_KERNEL_SIDE
+CB_FN real cbNextFloatUp(real v) {
     if (v == CB_INFINITY) return v;
     if (v == -0.0f) v = 0.0f;
-    uint ui = cbFloatAsUint(v);
-    if (v >= 0.0f) ++ui;
-    else --ui;
-    return cbUintAsFloat(ui);
+    uint ui = as_uint(v);
+    if (v >= 0.0f)
+        ++ui;
+    else
+        --ui;
+    return as_float(ui);
 }
-CB_FN float cbNextFloatDown(float v) {
+CB_FN real cbNextFloatDown(real v) {
     if (v == -CB_INFINITY) return v;
     if (v == 0.0f) v = -0.0f;
-    uint ui = cbFloatAsUint(v);
-    if (v > 0.0f) --ui;
-    else ++ui;
-    return cbUintAsFloat(ui);
+    uint ui = as_uint(v);
+    if (v > 0.0f)
+        --ui;
+    else
+        ++ui;
+    return as_float(ui);
 }
+#else
+/* std::nextafter from +0 for -0, as the kernel side does; also correct for real = double. */
+CB_FN real cbNextFloatUp(real v) {
+    if (v == (real)CB_INFINITY) return v;
+    return std::nextafter(v == 0 ? (real)0 : v, (real)INFINITY);
+}
+CB_FN real cbNextFloatDown(real v) {
+    if (v == -(real)CB_INFINITY) return v;
+    return std::nextafter(v == 0 ? -(real)0 : v, -(real)INFINITY);
+}
+#endif
 
 /* ---- 3-vectors ---------------------------------------------------------------------------- */
 
 typedef struct Vec3 {
-    float x, y, z;
+    real x, y, z;
 } Vec3;
 
-CB_FN Vec3 vec3(float x, float y, float z) {
+CB_FN Vec3 vec3(real x, real y, real z) {
     Vec3 v;
     v.x = x;
     v.y = y;
     v.z = z;
     return v;
 }
-CB_FN Vec3 vec3FromArray(const float* a) { return vec3(a[0], a[1], a[2]); }
-CB_FN Vec3 vec3FromGlobalArray(CB_GLOBAL const float* a) { return vec3(a[0], a[1], a[2]); }
-CB_FN Vec3 vadd(Vec3 a, Vec3 b) { return vec3(a.x + b.x, a.y + b.y, a.z + b.z); }
-CB_FN Vec3 vsub(Vec3 a, Vec3 b) { return vec3(a.x - b.x, a.y - b.y, a.z - b.z); }
-CB_FN Vec3 vmul(Vec3 a, Vec3 b) { return vec3(a.x * b.x, a.y * b.y, a.z * b.z); }
-CB_FN Vec3 vscale(Vec3 a, float s) { return vec3(a.x * s, a.y * s, a.z * s); }
-CB_FN Vec3 vneg(Vec3 a) { return vec3(-a.x, -a.y, -a.z); }
-CB_FN Vec3 vabs(Vec3 a) { return vec3(fabs(a.x), fabs(a.y), fabs(a.z)); }
-CB_FN Vec3 vmin(Vec3 a, Vec3 b) { return vec3(fmin(a.x, b.x), fmin(a.y, b.y), fmin(a.z, b.z)); }
-CB_FN Vec3 vmax(Vec3 a, Vec3 b) { return vec3(fmax(a.x, b.x), fmax(a.y, b.y), fmax(a.z, b.z)); }
-CB_FN float vdot(Vec3 a, Vec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-CB_FN float vabsdot(Vec3 a, Vec3 b) { return fabs(vdot(a, b)); }
+CB_FN Vec3 vec3FromArray(const real* a) {
+    return vec3(a[0], a[1], a[2]);
+}
+CB_FN Vec3 vec3FromGlobalArray(CB_GLOBAL const real* a) {
+    return vec3(a[0], a[1], a[2]);
+}
+CB_FN Vec3 vadd(Vec3 a, Vec3 b) {
+    return vec3(a.x + b.x, a.y + b.y, a.z + b.z);
+}
+CB_FN Vec3 vsub(Vec3 a, Vec3 b) {
+    return vec3(a.x - b.x, a.y - b.y, a.z - b.z);
+}
+CB_FN Vec3 vmul(Vec3 a, Vec3 b) {
+    return vec3(a.x * b.x, a.y * b.y, a.z * b.z);
+}
+CB_FN Vec3 vscale(Vec3 a, real s) {
+    return vec3(a.x * s, a.y * s, a.z * s);
+}
+CB_FN Vec3 vneg(Vec3 a) {
+    return vec3(-a.x, -a.y, -a.z);
+}
+CB_FN Vec3 vabs(Vec3 a) {
+    return vec3(fabs(a.x), fabs(a.y), fabs(a.z));
+}
+CB_FN Vec3 vmin(Vec3 a, Vec3 b) {
+    return vec3(fmin(a.x, b.x), fmin(a.y, b.y), fmin(a.z, b.z));
+}
+CB_FN Vec3 vmax(Vec3 a, Vec3 b) {
+    return vec3(fmax(a.x, b.x), fmax(a.y, b.y), fmax(a.z, b.z));
+}
+CB_FN real vdot(Vec3 a, Vec3 b) {
+    return a.x * b.x + a.y * b.y + a.z * b.z;
+}
+CB_FN real vabsdot(Vec3 a, Vec3 b) {
+    return fabs(vdot(a, b));
+}
 CB_FN Vec3 vcross(Vec3 a, Vec3 b) {
     return vec3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
 }
-CB_FN float vlength2(Vec3 a) { return vdot(a, a); }
-CB_FN float vlength(Vec3 a) { return sqrt(vdot(a, a)); }
-CB_FN Vec3 vnormalize(Vec3 a) { return vscale(a, 1.0f / vlength(a)); }
-CB_FN float vmaxComponent(Vec3 a) { return fmax(a.x, fmax(a.y, a.z)); }
-CB_FN float vcomponent(Vec3 a, int axis) { return axis == 0 ? a.x : (axis == 1 ? a.y : a.z); }
+CB_FN real vlength2(Vec3 a) {
+    return vdot(a, a);
+}
+CB_FN real vlength(Vec3 a) {
+    return sqrt(vdot(a, a));
+}
+CB_FN Vec3 vnormalize(Vec3 a) {
+    return vscale(a, 1.0f / vlength(a));
+}
+CB_FN real vmaxComponent(Vec3 a) {
+    return fmax(a.x, fmax(a.y, a.z));
+}
+CB_FN real vcomponent(Vec3 a, int axis) {
+    return axis == 0 ? a.x : (axis == 1 ? a.y : a.z);
+}
 /* a + b*s */
-CB_FN Vec3 vmadd(Vec3 a, Vec3 b, float s) {
+CB_FN Vec3 vmadd(Vec3 a, Vec3 b, real s) {
     return vec3(a.x + b.x * s, a.y + b.y * s, a.z + b.z * s);
 }
 /* Flip v to the hemisphere of `toward`. */
-CB_FN Vec3 vfaceForward(Vec3 v, Vec3 toward) { return vdot(v, toward) < 0.0f ? vneg(v) : v; }
+CB_FN Vec3 vfaceForward(Vec3 v, Vec3 toward) {
+    return vdot(v, toward) < 0.0f ? vneg(v) : v;
+}
 
 /* Orthonormal frame around a unit normal, continuous in n (METHOD.md, coherence: neighbouring
  * pixels with similar normals must get similar directions).
@@ -158,16 +218,18 @@ typedef struct Frame {
 
 CB_FN Frame frameFromNormal(Vec3 n) {
     Vec3 r = frameRotateIn(n);
-    float sign = r.z >= 0.0f ? 1.0f : -1.0f;
-    float a = -1.0f / (sign + r.z);
-    float b = r.x * r.y * a;
+    real sign = r.z >= 0.0f ? 1.0f : -1.0f;
+    real a = -1.0f / (sign + r.z);
+    real b = r.x * r.y * a;
     Frame f;
     f.s = frameRotateOut(vec3(1.0f + sign * r.x * r.x * a, sign * b, -sign * r.x));
     f.t = frameRotateOut(vec3(b, sign + r.y * r.y * a, -r.y));
     f.n = n;
     return f;
 }
-CB_FN Vec3 frameToLocal(Frame f, Vec3 v) { return vec3(vdot(v, f.s), vdot(v, f.t), vdot(v, f.n)); }
+CB_FN Vec3 frameToLocal(Frame f, Vec3 v) {
+    return vec3(vdot(v, f.s), vdot(v, f.t), vdot(v, f.n));
+}
 CB_FN Vec3 frameToWorld(Frame f, Vec3 v) {
     return vadd(vadd(vscale(f.s, v.x), vscale(f.t, v.y)), vscale(f.n, v.z));
 }

@@ -34,9 +34,9 @@ CB_FN int cbMaxAxis(Vec3 v) {
 
 #ifdef CB_HAS_DOUBLE
 /* Double-precision ray parameter of the hit of `ray` with the triangle's plane (the edge tests
- * already passed in float), and whether it clears its own rounding-error bound (pbrt 3rd ed.
+ * already passed in real), and whether it clears its own rounding-error bound (pbrt 3rd ed.
  * sec. 3.9.6 with double's unit roundoff). */
-CB_FN bool cbTriangleHitBeyondErrorDouble(Ray ray, Vec3 p0, Vec3 p1, Vec3 p2, float* t) {
+CB_FN bool cbTriangleHitBeyondErrorDouble(Ray ray, Vec3 p0, Vec3 p1, Vec3 p2, real* t) {
     double o[3] = {ray.o.x, ray.o.y, ray.o.z};
     double dir[3] = {ray.d.x, ray.d.y, ray.d.z};
     double v[3][3] = {{(double)p0.x - o[0], (double)p0.y - o[1], (double)p0.z - o[2]},
@@ -73,7 +73,7 @@ CB_FN bool cbTriangleHitBeyondErrorDouble(Ray ray, Vec3 p0, Vec3 p1, Vec3 p2, fl
     double deltaE = 2.0 * (g2 * maxX * maxY + deltaY * maxX + deltaX * maxY);
     double deltaT = 3.0 * (g3 * maxE * maxZ + deltaE * maxZ + deltaZ * maxE) / fabs(det);
     if (!(tD > deltaT)) return false;
-    *t = (float)tD;
+    *t = (real)tD;
     return true;
 }
 #endif
@@ -84,8 +84,8 @@ CB_FN bool cbTriangleHitBeyondErrorDouble(Ray ray, Vec3 p0, Vec3 p1, Vec3 p2, fl
  * ray-aligned sheared frame where they are exact up to one rounding, and a zero edge function
  * is re-evaluated in double precision so that ties are broken consistently. Returns the hit
  * only for t in (0, tMax); b1, b2 are the barycentric weights of p1 and p2. */
-CB_FN bool intersectTriangle(Ray ray, float tMax, Vec3 p0, Vec3 p1, Vec3 p2, float* t, float* b1,
-                             float* b2) {
+CB_FN bool intersectTriangle(Ray ray, real tMax, Vec3 p0, Vec3 p1, Vec3 p2, real* t, real* b1,
+                             real* b2) {
     Vec3 p0t = vsub(p0, ray.o);
     Vec3 p1t = vsub(p1, ray.o);
     Vec3 p2t = vsub(p2, ray.o);
@@ -102,9 +102,9 @@ CB_FN bool intersectTriangle(Ray ray, float tMax, Vec3 p0, Vec3 p1, Vec3 p2, flo
     p2t = cbPermute(p2t, kx, ky, kz);
 
     /* Shear so that the ray runs along +z (paper, sec. 3); z is scaled later, only if needed. */
-    float sx = -d.x / d.z;
-    float sy = -d.y / d.z;
-    float sz = 1.0f / d.z;
+    real sx = -d.x / d.z;
+    real sy = -d.y / d.z;
+    real sz = 1.0f / d.z;
     p0t.x += sx * p0t.z;
     p0t.y += sy * p0t.z;
     p1t.x += sx * p1t.z;
@@ -112,50 +112,50 @@ CB_FN bool intersectTriangle(Ray ray, float tMax, Vec3 p0, Vec3 p1, Vec3 p2, flo
     p2t.x += sx * p2t.z;
     p2t.y += sy * p2t.z;
 
-    float e0 = p1t.x * p2t.y - p1t.y * p2t.x;
-    float e1 = p2t.x * p0t.y - p2t.y * p0t.x;
-    float e2 = p0t.x * p1t.y - p0t.y * p1t.x;
+    real e0 = p1t.x * p2t.y - p1t.y * p2t.x;
+    real e1 = p2t.x * p0t.y - p2t.y * p0t.x;
+    real e2 = p0t.x * p1t.y - p0t.y * p1t.x;
 #ifdef CB_HAS_DOUBLE
     if (e0 == 0.0f || e1 == 0.0f || e2 == 0.0f) {
-        e0 = (float)((double)p1t.x * (double)p2t.y - (double)p1t.y * (double)p2t.x);
-        e1 = (float)((double)p2t.x * (double)p0t.y - (double)p2t.y * (double)p0t.x);
-        e2 = (float)((double)p0t.x * (double)p1t.y - (double)p0t.y * (double)p1t.x);
+        e0 = (real)((double)p1t.x * (double)p2t.y - (double)p1t.y * (double)p2t.x);
+        e1 = (real)((double)p2t.x * (double)p0t.y - (double)p2t.y * (double)p0t.x);
+        e2 = (real)((double)p0t.x * (double)p1t.y - (double)p0t.y * (double)p1t.x);
     }
 #endif
     /* Edge functions of mixed sign: the ray passes outside. Zero counts as inside. */
     if ((e0 < 0.0f || e1 < 0.0f || e2 < 0.0f) && (e0 > 0.0f || e1 > 0.0f || e2 > 0.0f))
         return false;
-    float det = e0 + e1 + e2;
+    real det = e0 + e1 + e2;
     if (det == 0.0f) return false;
 
     p0t.z *= sz;
     p1t.z *= sz;
     p2t.z *= sz;
-    float tScaled = e0 * p0t.z + e1 * p1t.z + e2 * p2t.z;
+    real tScaled = e0 * p0t.z + e1 * p1t.z + e2 * p2t.z;
     /* Range test on the unnormalised t, avoiding the division for most misses. */
     if (det < 0.0f && (tScaled >= 0.0f || tScaled <= tMax * det)) return false;
     if (det > 0.0f && (tScaled <= 0.0f || tScaled >= tMax * det)) return false;
 
-    float invDet = 1.0f / det;
-    float tHit = tScaled * invDet;
+    real invDet = 1.0f / det;
+    real tHit = tScaled * invDet;
     if (!(tHit < tMax)) return false;
 
     /* Conservative t > 0 (pbrt 3rd ed. sec. 3.9.6): reject hits whose t is within its own
      * rounding-error bound of zero, which is what keeps spawned rays from re-hitting their
      * origin triangle. */
-    float maxZt = vmaxComponent(vabs(vec3(p0t.z, p1t.z, p2t.z)));
-    float deltaZ = cbGamma(3) * maxZt;
-    float maxXt = vmaxComponent(vabs(vec3(p0t.x, p1t.x, p2t.x)));
-    float maxYt = vmaxComponent(vabs(vec3(p0t.y, p1t.y, p2t.y)));
-    float deltaX = cbGamma(5) * (maxXt + maxZt);
-    float deltaY = cbGamma(5) * (maxYt + maxZt);
-    float deltaE = 2.0f * (cbGamma(2) * maxXt * maxYt + deltaY * maxXt + deltaX * maxYt);
-    float maxE = vmaxComponent(vabs(vec3(e0, e1, e2)));
-    float deltaT =
+    real maxZt = vmaxComponent(vabs(vec3(p0t.z, p1t.z, p2t.z)));
+    real deltaZ = cbGamma(3) * maxZt;
+    real maxXt = vmaxComponent(vabs(vec3(p0t.x, p1t.x, p2t.x)));
+    real maxYt = vmaxComponent(vabs(vec3(p0t.y, p1t.y, p2t.y)));
+    real deltaX = cbGamma(5) * (maxXt + maxZt);
+    real deltaY = cbGamma(5) * (maxYt + maxZt);
+    real deltaE = 2.0f * (cbGamma(2) * maxXt * maxYt + deltaY * maxXt + deltaX * maxYt);
+    real maxE = vmaxComponent(vabs(vec3(e0, e1, e2)));
+    real deltaT =
         3.0f * (cbGamma(3) * maxE * maxZt + deltaE * maxZt + deltaZ * maxE) * fabs(invDet);
     if (tHit <= deltaT) {
 #ifdef CB_HAS_DOUBLE
-        /* The float bound grows with the triangle's size relative to the ray origin, so a hit a
+        /* The real bound grows with the triangle's size relative to the ray origin, so a hit a
          * few 1e-5 away on a metres-wide triangle (a camera just above a floor) falls inside
          * it and would leak through. Decide such cases with the same computation in double,
          * whose bound is 2^29 times tighter; a spawned ray's own surface (origin offset past
@@ -179,22 +179,22 @@ CB_FN bool intersectTriangle(Ray ray, float tMax, Vec3 p0, Vec3 p1, Vec3 p2, flo
  * q = b' + sign(b') sqrt(disc) (Press et al.) so that neither root subtracts nearly equal
  * numbers. Returns the nearest root in (0, tMax): the near one from outside, the far one from
  * inside. ray.d need not be unit. */
-CB_FN bool intersectSphere(Ray ray, float tMax, Vec3 center, float radius, float* t) {
+CB_FN bool intersectSphere(Ray ray, real tMax, Vec3 center, real radius, real* t) {
     Vec3 f = vsub(ray.o, center);
-    float a = vdot(ray.d, ray.d);
-    float bp = -vdot(f, ray.d); /* -b/2 */
+    real a = vdot(ray.d, ray.d);
+    real bp = -vdot(f, ray.d); /* -b/2 */
     Vec3 l = vmadd(f, ray.d, bp / a);
-    float r2 = radius * radius;
-    float disc = a * (r2 - vlength2(l)); /* (b^2 - 4ac) / 4 */
+    real r2 = radius * radius;
+    real disc = a * (r2 - vlength2(l)); /* (b^2 - 4ac) / 4 */
     if (disc < 0.0f) return false;
-    float c = vlength2(f) - r2;
-    float sq = sqrt(disc);
-    float q = bp >= 0.0f ? bp + sq : bp - sq;
+    real c = vlength2(f) - r2;
+    real sq = sqrt(disc);
+    real q = bp >= 0.0f ? bp + sq : bp - sq;
     if (q == 0.0f) return false; /* both roots at t = 0 */
-    float t0 = c / q;
-    float t1 = q / a;
+    real t0 = c / q;
+    real t1 = q / a;
     if (t0 > t1) {
-        float tmp = t0;
+        real tmp = t0;
         t0 = t1;
         t1 = tmp;
     }
@@ -210,10 +210,10 @@ CB_FN bool intersectSphere(Ray ray, float tMax, Vec3 center, float radius, float
 }
 
 /* Fills hit->t, b1, b2 (b1 = b2 = 0 for spheres); the caller sets hit->primitive. */
-CB_FN bool intersectPrimitive(CB_GLOBAL const Primitive* prim, Ray ray, float tMax, Hit* hit) {
+CB_FN bool intersectPrimitive(CB_GLOBAL const Primitive* prim, Ray ray, real tMax, Hit* hit) {
 #if CB_HAS(CB_FEATURE_SPHERES)
     if (prim->kind == CB_PRIM_SPHERE) {
-        float t;
+        real t;
         if (!intersectSphere(ray, tMax, vec3FromGlobalArray(prim->p0), prim->p1[0], &t))
             return false;
         hit->t = t;
@@ -222,7 +222,7 @@ CB_FN bool intersectPrimitive(CB_GLOBAL const Primitive* prim, Ray ray, float tM
         return true;
     }
 #endif
-    float t, b1, b2;
+    real t, b1, b2;
     if (!intersectTriangle(ray, tMax, vec3FromGlobalArray(prim->p0), vec3FromGlobalArray(prim->p1),
                            vec3FromGlobalArray(prim->p2), &t, &b1, &b2))
         return false;
@@ -244,7 +244,7 @@ CB_FN SurfacePoint surfacePointFromHit(const SceneView* scene, Ray ray, Hit hit)
 #if CB_HAS(CB_FEATURE_SPHERES)
     if (prim->kind == CB_PRIM_SPHERE) {
         Vec3 c = vec3FromGlobalArray(prim->p0);
-        float r = prim->p1[0];
+        real r = prim->p1[0];
         /* Reproject onto the sphere: the local point then has error <= gamma(5)|p_local|
          * (pbrt 3rd ed. sec. 3.9.4, spheres), and adding the centre rounds once more. */
         Vec3 pLocal = vsub(vmadd(ray.o, ray.d, hit.t), c);
@@ -258,7 +258,7 @@ CB_FN SurfacePoint surfacePointFromHit(const SceneView* scene, Ray ray, Hit hit)
     Vec3 p0 = vec3FromGlobalArray(prim->p0);
     Vec3 p1 = vec3FromGlobalArray(prim->p1);
     Vec3 p2 = vec3FromGlobalArray(prim->p2);
-    float b0 = 1.0f - hit.b1 - hit.b2;
+    real b0 = 1.0f - hit.b1 - hit.b2;
     Vec3 w0 = vscale(p0, b0);
     Vec3 w1 = vscale(p1, hit.b1);
     Vec3 w2 = vscale(p2, hit.b2);
@@ -272,7 +272,7 @@ CB_FN SurfacePoint surfacePointFromHit(const SceneView* scene, Ray ray, Hit hit)
 /* pbrt-v4 OffsetRayOrigin: move p along n out of its error box, to the side w leaves
  * through, then round away from p so the rounding of the addition cannot undo the offset. */
 CB_FN Vec3 offsetRayOrigin(Vec3 p, Vec3 pError, Vec3 n, Vec3 w) {
-    float d = vdot(vabs(n), pError);
+    real d = vdot(vabs(n), pError);
     Vec3 offset = vscale(n, d);
     if (vdot(w, n) < 0.0f) offset = vneg(offset);
     Vec3 po = vadd(p, offset);
@@ -302,12 +302,12 @@ CB_FN Ray spawnRay(SurfacePoint sp, Vec3 dir) {
  * (the target towards the origin), the direction is normalised, and tMax stops just short of
  * the offset target. For a point light pass targetError = targetNormal = 0. */
 CB_FN Ray spawnRayTo(SurfacePoint from, Vec3 target, Vec3 targetError, Vec3 targetNormal,
-                     float* tMax) {
+                     real* tMax) {
     Ray r;
     r.o = offsetRayOrigin(from.p, from.pError, from.ng, vsub(target, from.p));
     Vec3 pt = offsetRayOrigin(target, targetError, targetNormal, vsub(r.o, target));
     Vec3 d = vsub(pt, r.o);
-    float len = vlength(d);
+    real len = vlength(d);
     if (len > 0.0f) {
         r.d = vscale(d, 1.0f / len);
         *tMax = len * (1.0f - CB_SHADOW_EPSILON);

@@ -11,29 +11,31 @@
 CB_BEGIN_NAMESPACE
 
 typedef struct LightSample {
-    Vec3 p;        /* the point on the light */
-    Vec3 pError;   /* error bound of p, for spawnRayTo */
-    Vec3 n;        /* unit surface normal (front side); zero for point lights */
-    int light;     /* index of the chosen light */
-    int isDelta;   /* point light: position is a delta, no MIS against BSDF sampling */
-    float pdfPick; /* probability of having chosen this light */
-    float pdfArea; /* density of p on the light in area measure (1 for point lights) */
+    Vec3 p;       /* the point on the light */
+    Vec3 pError;  /* error bound of p, for spawnRayTo */
+    Vec3 n;       /* unit surface normal (front side); zero for point lights */
+    int light;    /* index of the chosen light */
+    int isDelta;  /* point light: position is a delta, no MIS against BSDF sampling */
+    real pdfPick; /* probability of having chosen this light */
+    real pdfArea; /* density of p on the light in area measure (1 for point lights) */
 } LightSample;
 
 /* Index of the light whose CDF interval contains u (binary search over Light.cdf). */
-CB_FN int lightChoose(const SceneView* scene, float u) {
+CB_FN int lightChoose(const SceneView* scene, real u) {
     int lo = 0;
     int hi = scene->lightCount - 1;
     while (lo < hi) {
         int mid = (lo + hi) / 2;
-        if (u < scene->lights[mid].cdf) hi = mid;
-        else lo = mid + 1;
+        if (u < scene->lights[mid].cdf)
+            hi = mid;
+        else
+            lo = mid + 1;
     }
     return lo;
 }
 
 /* Area of the emitting primitive, its uniform point and the point's error bound. */
-CB_FN void lightSamplePoint(const SceneView* scene, int lightIndex, float u0, float u1,
+CB_FN void lightSamplePoint(const SceneView* scene, int lightIndex, real u0, real u1,
                             LightSample* out) {
     CB_GLOBAL const Light* light = &scene->lights[lightIndex];
     out->light = lightIndex;
@@ -54,7 +56,7 @@ CB_FN void lightSamplePoint(const SceneView* scene, int lightIndex, float u0, fl
 #if CB_HAS(CB_FEATURE_SPHERES)
     if (prim->kind == CB_PRIM_SPHERE) {
         Vec3 center = vec3FromGlobalArray(prim->p0);
-        float radius = prim->p1[0];
+        real radius = prim->p1[0];
         Vec3 dir = sampleUniformSphere(u0, u1);
         out->p = vmadd(center, dir, radius);
         /* pbrt-v4's bound for a point reprojected onto a sphere. */
@@ -66,19 +68,17 @@ CB_FN void lightSamplePoint(const SceneView* scene, int lightIndex, float u0, fl
     Vec3 p0 = vec3FromGlobalArray(prim->p0);
     Vec3 p1 = vec3FromGlobalArray(prim->p1);
     Vec3 p2 = vec3FromGlobalArray(prim->p2);
-    float b0, b1, b2;
+    real b0, b1, b2;
     sampleUniformTriangle(u0, u1, &b0, &b1, &b2);
     out->p = vadd(vadd(vscale(p0, b0), vscale(p1, b1)), vscale(p2, b2));
-    out->pError = vscale(vadd(vadd(vabs(vscale(p0, b0)), vabs(vscale(p1, b1))),
-                              vabs(vscale(p2, b2))),
-                         cbGamma(6));
+    out->pError = vscale(
+        vadd(vadd(vabs(vscale(p0, b0)), vabs(vscale(p1, b1))), vabs(vscale(p2, b2))), cbGamma(6));
     out->n = vnormalize(vcross(vsub(p1, p0), vsub(p2, p0)));
 }
 
 /* Choose a light by power (uChoice), then a point on it (u0, u1). False if the scene has no
  * lights. */
-CB_FN bool lightSample(const SceneView* scene, float uChoice, float u0, float u1,
-                       LightSample* out) {
+CB_FN bool lightSample(const SceneView* scene, real uChoice, real u0, real u1, LightSample* out) {
     if (scene->lightCount <= 0) return false;
     lightSamplePoint(scene, lightChoose(scene, uChoice), u0, u1, out);
     return out->pdfPick > 0.0f;
@@ -94,7 +94,7 @@ CB_FN Spectrum lightEmittedRadiance(const SceneView* scene, int lightIndex, Vec3
 
 /* Probability density, in area measure and including the choice of light, with which
  * lightSample produces a given point of area light `lightIndex`. */
-CB_FN float lightPdfArea(const SceneView* scene, int lightIndex) {
+CB_FN real lightPdfArea(const SceneView* scene, int lightIndex) {
     CB_GLOBAL const Light* light = &scene->lights[lightIndex];
     return light->pickProbability / light->area;
 }

@@ -42,20 +42,20 @@ CB_BEGIN_NAMESPACE
 #define CB_PATH_VERTEX_PAD (4 - CB_CHANNELS % 4)
 
 typedef struct PathVertex {
-    float p[3];
+    real p[3];
     int type;     /* CB_VERTEX_* */
-    float n[3];   /* unit geometric normal; the viewing direction for the camera; 0: point light */
+    real n[3];    /* unit geometric normal; the viewing direction for the camera; 0: point light */
     int material; /* surfaces; -1 otherwise */
-    float pError[3];
-    int light;    /* light index of light[0], or of the area light a surface vertex lies on; -1 */
-    float wo[3];  /* unit direction toward the previous vertex of the same subpath */
-    int delta;    /* scattered onward by a delta lobe: no connection can be made here */
-    float pdfFwd; /* area measure; light[0]: light pick x point density; eye[0]: 1 */
-    float pdfRev; /* area measure */
-    float pad0, pad1;
+    real pError[3];
+    int light;   /* light index of light[0], or of the area light a surface vertex lies on; -1 */
+    real wo[3];  /* unit direction toward the previous vertex of the same subpath */
+    int delta;   /* scattered onward by a delta lobe: no connection can be made here */
+    real pdfFwd; /* area measure; light[0]: light pick x point density; eye[0]: 1 */
+    real pdfRev; /* area measure */
+    real pad0, pad1;
     Spectrum
         beta; /* subpath throughput / pdf up to this vertex (light[0]: 1/pdfFwd, Le excluded) */
-    float pad[CB_PATH_VERTEX_PAD];
+    real pad[CB_PATH_VERTEX_PAD];
 } PathVertex;
 
 typedef struct BdptSettings {
@@ -91,7 +91,7 @@ CB_FN Vec3 pvP(const PathVertex* v) {
 CB_FN Vec3 pvN(const PathVertex* v) {
     return vec3FromArray(v->n);
 }
-CB_FN void cbStore3(float* dst, Vec3 v) {
+CB_FN void cbStore3(real* dst, Vec3 v) {
     dst[0] = v.x;
     dst[1] = v.y;
     dst[2] = v.z;
@@ -102,17 +102,17 @@ CB_FN bool pvOnSurface(const PathVertex* v) {
 }
 
 /* |cos| between the vertex normal and unit direction w; 1 where no surface (point light). */
-CB_FN float pvAbsCos(const PathVertex* v, Vec3 w) {
+CB_FN real pvAbsCos(const PathVertex* v, Vec3 w) {
     return pvOnSurface(v) ? vabsdot(pvN(v), w) : 1.0f;
 }
 
 /* Solid-angle density at `from` of the direction to `to`, as an area density at `to`
  * (Veach 1997, eq. 8.10): times |cos| at `to` / distance^2. */
-CB_FN float pvConvertPdf(float pdfW, Vec3 from, const PathVertex* to) {
+CB_FN real pvConvertPdf(real pdfW, Vec3 from, const PathVertex* to) {
     Vec3 d = vsub(pvP(to), from);
-    float dist2 = vlength2(d);
+    real dist2 = vlength2(d);
     if (!(dist2 > 0.0f)) return 0.0f;
-    float cosTo = pvOnSurface(to) ? vabsdot(pvN(to), d) / sqrt(dist2) : 1.0f;
+    real cosTo = pvOnSurface(to) ? vabsdot(pvN(to), d) / sqrt(dist2) : 1.0f;
     return pdfW * cosTo / dist2;
 }
 
@@ -135,13 +135,13 @@ CB_FN SurfacePoint pvSurfacePoint(const PathVertex* v) {
  * the pixel's own ray has W*H times that, and the W*H light subpaths of an estimate splat into
  * every pixel, so the factors W*H cancel in both the t = 1 estimate and the MIS ratios.
  * Returns 0 outside the image. */
-CB_FN float cameraImportance(const Camera* camera, Vec3 w, float* pdfDir) {
+CB_FN real cameraImportance(const Camera* camera, Vec3 w, real* pdfDir) {
     *pdfDir = 0.0f;
     Vec3 forward = vnormalize(affineTransformVector(camera->cameraToWorld, vec3(0.0f, 0.0f, 1.0f)));
-    float cosTheta = vdot(w, forward);
+    real cosTheta = vdot(w, forward);
     if (!(cosTheta > 0.0f)) return 0.0f;
-    float area = 4.0f * camera->tanHalfFovX * camera->tanHalfFovY;
-    float cos2 = cosTheta * cosTheta;
+    real area = 4.0f * camera->tanHalfFovX * camera->tanHalfFovY;
+    real cos2 = cosTheta * cosTheta;
     *pdfDir = 1.0f / (area * cos2 * cosTheta);
     return 1.0f / (area * cos2 * cos2);
 }
@@ -177,9 +177,9 @@ CB_FN Spectrum bdptLightEmission(const SceneView* scene, const PathVertex* v, Ve
 
 /* Solid-angle density with which bdptLightSubpath emits in unit direction w from light vertex v
  * (cosine-weighted per side; uniform sphere for point lights). */
-CB_FN float bdptLightDirectionPdf(const SceneView* scene, const PathVertex* v, Vec3 w) {
+CB_FN real bdptLightDirectionPdf(const SceneView* scene, const PathVertex* v, Vec3 w) {
     if (v->type == CB_VERTEX_POINT_LIGHT) return uniformSpherePdf();
-    float c = vdot(pvN(v), w);
+    real c = vdot(pvN(v), w);
     if (scene->lights[v->light].twoSided) return 0.5f * fabs(c) * CB_INV_PI;
     return cosineHemispherePdf(c);
 }
@@ -190,7 +190,7 @@ CB_FN float bdptLightDirectionPdf(const SceneView* scene, const PathVertex* v, V
  * pdfW, until maxVertices vertices exist or the path escapes / is absorbed (no Russian
  * roulette: the caps bound the length). Bounce b (the vertex path[b+1] scattering) reads
  * dimensions firstBounceDim + b * CB_DIMS_PER_BOUNCE + slot. Returns the vertex count. */
-CB_FN int bdptRandomWalk(const SceneView* scene, Ray ray, Spectrum beta, float pdfW, int adjoint,
+CB_FN int bdptRandomWalk(const SceneView* scene, Ray ray, Spectrum beta, real pdfW, int adjoint,
                          SampleStream stream, uint firstBounceDim, PathVertex* path, int count,
                          int maxVertices, int* rays) {
     while (count < maxVertices) {
@@ -219,16 +219,16 @@ CB_FN int bdptRandomWalk(const SceneView* scene, Ray ray, Spectrum beta, float p
 
         uint base = firstBounceDim + (uint)(count - 2) * CB_DIMS_PER_BOUNCE;
         BsdfSample bs;
-        float u0 = sampleAt(stream, base + CB_SLOT_BSDF_DIRECTION);
-        float u1 = sampleAt(stream, base + CB_SLOT_BSDF_DIRECTION + 1u);
-        float uLobe = sampleAt(stream, base + CB_SLOT_BSDF_LOBE);
+        real u0 = sampleAt(stream, base + CB_SLOT_BSDF_DIRECTION);
+        real u1 = sampleAt(stream, base + CB_SLOT_BSDF_DIRECTION + 1u);
+        real uLobe = sampleAt(stream, base + CB_SLOT_BSDF_LOBE);
         if (!bsdfSample(scene, sp.material, frameFromNormal(sp.ng), vneg(ray.d), u0, u1, uLobe,
                         adjoint, &bs))
             break;
         if (!(bs.pdf > 0.0f) || specIsBlack(bs.f)) break;
         beta = specMul(beta, specScale(bs.f, vabsdot(bs.wi, sp.ng) / bs.pdf));
-        float pdfFwdW = bs.pdf;
-        float pdfRevW = bs.pdfRev;
+        real pdfFwdW = bs.pdf;
+        real pdfRevW = bs.pdfRev;
         if (bs.isDelta) {
             v->delta = 1;
             pdfFwdW = 0.0f;
@@ -243,12 +243,12 @@ CB_FN int bdptRandomWalk(const SceneView* scene, Ray ray, Spectrum beta, float p
 
 /* Eye subpath through raster position (rasterX, rasterY). Eye bounces read the same dimensions
  * as PT's (cb_rng.h), so eye[v] scatters with bounceDimension(v - 1, slot). */
-CB_FN int bdptEyeSubpath(const SceneView* scene, const Camera* camera, float rasterX, float rasterY,
+CB_FN int bdptEyeSubpath(const SceneView* scene, const Camera* camera, real rasterX, real rasterY,
                          SampleStream stream, int maxVertices, PathVertex* eye, int* rays) {
     eye[0] = bdptCameraVertex(camera);
     if (maxVertices < 2) return 1;
     Ray ray = cameraGenerateRay(camera, rasterX, rasterY);
-    float pdfDir;
+    real pdfDir;
     cameraImportance(camera, ray.d, &pdfDir);
     return bdptRandomWalk(scene, ray, specConst(1.0f), pdfDir, 0, stream, CB_DIM_FIRST_BOUNCE, eye,
                           1, maxVertices, rays);
@@ -282,8 +282,8 @@ CB_FN int bdptLightSubpath(const SceneView* scene, SampleStream stream, int maxV
     v->beta = specConst(1.0f / v->pdfFwd);
     if (maxVertices < 2) return 1;
 
-    float u0 = sampleAt(stream, CB_LIGHT_DIM_DIRECTION);
-    float u1 = sampleAt(stream, CB_LIGHT_DIM_DIRECTION + 1u);
+    real u0 = sampleAt(stream, CB_LIGHT_DIM_DIRECTION);
+    real u1 = sampleAt(stream, CB_LIGHT_DIM_DIRECTION + 1u);
     Vec3 w;
     if (ls.isDelta) {
         w = sampleUniformSphere(u0, u1);
@@ -293,7 +293,7 @@ CB_FN int bdptLightSubpath(const SceneView* scene, SampleStream stream, int maxV
             n = vneg(n);
         w = frameToWorld(frameFromNormal(n), sampleCosineHemisphere(u0, u1));
     }
-    float pdfDir = bdptLightDirectionPdf(scene, v, w);
+    real pdfDir = bdptLightDirectionPdf(scene, v, w);
     if (!(pdfDir > 0.0f)) return 1;
     Spectrum le = bdptLightEmission(scene, v, w);
     if (specIsBlack(le)) return 1;
@@ -311,7 +311,7 @@ CB_FN bool bdptStrategyAllowed(int s, int t, int eyeVertices, int lightVertices)
            !(s == 1 && t == 1);
 }
 
-CB_FN float cbRemap0(float f) {
+CB_FN real cbRemap0(real f) {
     return f != 0.0f ? f : 1.0f;
 }
 
@@ -324,16 +324,16 @@ CB_FN float cbRemap0(float f) {
  * n_i p_i, eq. 9.13): 1 in BDPT, whose W*H light subpaths per estimate all splat; CBDPT traces
  * fewer light subpaths per estimate than there are pixels and passes their number / (W*H)
  * (docs/cbdpt.md). bdptPowerWeight is the BDPT case. */
-CB_FN float bdptPowerWeightCounted(const PathVertex* light, int s, const PathVertex* eye, int t,
-                                   float ptPdfRev, float ptMinusPdfRev, float qsPdfRev,
-                                   float qsMinusPdfRev, BdptSettings settings, float cameraCount) {
+CB_FN real bdptPowerWeightCounted(const PathVertex* light, int s, const PathVertex* eye, int t,
+                                  real ptPdfRev, real ptMinusPdfRev, real qsPdfRev,
+                                  real qsMinusPdfRev, BdptSettings settings, real cameraCount) {
     if (s + t == 2) return 1.0f; /* only (0,2) exists: (1,1) is excluded */
-    float sumRi = 0.0f;
-    float ri = 1.0f;
+    real sumRi = 0.0f;
+    real ri = 1.0f;
     for (int i = t - 1; i > 0; --i) {
         int sNew = s + t - i;
         if (sNew > settings.lightVertices) break;
-        float rev = i == t - 1 ? ptPdfRev : (i == t - 2 ? ptMinusPdfRev : eye[i].pdfRev);
+        real rev = i == t - 1 ? ptPdfRev : (i == t - 2 ? ptMinusPdfRev : eye[i].pdfRev);
         ri *= cbRemap0(rev) / cbRemap0(eye[i].pdfFwd);
         int deltaHere = i == t - 1 ? 0 : eye[i].delta;
         int deltaPrev = eye[i - 1].delta; /* i - 1 < t - 1 */
@@ -344,7 +344,7 @@ CB_FN float bdptPowerWeightCounted(const PathVertex* light, int s, const PathVer
     for (int i = s - 1; i >= 0; --i) {
         int tNew = t + s - i;
         if (tNew > settings.eyeVertices) break;
-        float rev = i == s - 1 ? qsPdfRev : (i == s - 2 ? qsMinusPdfRev : light[i].pdfRev);
+        real rev = i == s - 1 ? qsPdfRev : (i == s - 2 ? qsMinusPdfRev : light[i].pdfRev);
         ri *= cbRemap0(rev) / cbRemap0(light[i].pdfFwd);
         int deltaHere = i == s - 1 ? 0 : light[i].delta;
         int deltaPrev;
@@ -358,9 +358,9 @@ CB_FN float bdptPowerWeightCounted(const PathVertex* light, int s, const PathVer
     return 1.0f / (1.0f + sumRi);
 }
 
-CB_FN float bdptPowerWeight(const PathVertex* light, int s, const PathVertex* eye, int t,
-                            float ptPdfRev, float ptMinusPdfRev, float qsPdfRev,
-                            float qsMinusPdfRev, BdptSettings settings) {
+CB_FN real bdptPowerWeight(const PathVertex* light, int s, const PathVertex* eye, int t,
+                           real ptPdfRev, real ptMinusPdfRev, real qsPdfRev, real qsMinusPdfRev,
+                           BdptSettings settings) {
     return bdptPowerWeightCounted(light, s, eye, t, ptPdfRev, ptMinusPdfRev, qsPdfRev,
                                   qsMinusPdfRev, settings, 1.0f);
 }
@@ -375,10 +375,10 @@ CB_FN float bdptPowerWeight(const PathVertex* light, int s, const PathVertex* ey
  * light, which cannot be hit); the rule is applied to the allowed eye vertices only: the
  * products start at j = tMin-1 and the last allowed t takes the remaining product, so the
  * weights of a path sum to one. With tMin = 2 and tMax = k this is the rule above. */
-CB_FN float bdptLafortuneW(const SceneView* scene, const PathVertex* light, int s,
-                           const PathVertex* eye, int t, int j) {
+CB_FN real bdptLafortuneW(const SceneView* scene, const PathVertex* light, int s,
+                          const PathVertex* eye, int t, int j) {
     int k = s + t;
-    float w;
+    real w;
     int deltaHere, deltaNext;
     if (j < t) {
         w = materialSpecularity(scene, eye[j].material);
@@ -398,8 +398,8 @@ CB_FN float bdptLafortuneW(const SceneView* scene, const PathVertex* light, int 
     return cbClamp(w, 0.0f, 1.0f);
 }
 
-CB_FN float bdptLafortuneWeight(const SceneView* scene, const PathVertex* light, int s,
-                                const PathVertex* eye, int t, BdptSettings settings) {
+CB_FN real bdptLafortuneWeight(const SceneView* scene, const PathVertex* light, int s,
+                               const PathVertex* eye, int t, BdptSettings settings) {
     int k = s + t;
     if (t < 2) return 0.0f;
     int tMin = k - settings.lightVertices > 2 ? k - settings.lightVertices : 2;
@@ -407,17 +407,17 @@ CB_FN float bdptLafortuneWeight(const SceneView* scene, const PathVertex* light,
     const PathVertex* y0 = s > 0 ? &light[0] : &eye[t - 1];
     if (y0->type == CB_VERTEX_POINT_LIGHT && tMax > k - 1) tMax = k - 1;
     if (t < tMin || t > tMax) return 0.0f;
-    float prefix = 1.0f; /* W_{tMin-1} ... W_{t-2} */
+    real prefix = 1.0f; /* W_{tMin-1} ... W_{t-2} */
     for (int j = tMin - 1; j <= t - 2; ++j)
         prefix *= bdptLafortuneW(scene, light, s, eye, t, j);
     if (t == tMax) return prefix;
     return prefix * (1.0f - bdptLafortuneW(scene, light, s, eye, t, t - 1));
 }
 
-CB_FN float bdptMisWeightCounted(const SceneView* scene, const PathVertex* light, int s,
-                                 const PathVertex* eye, int t, float ptPdfRev, float ptMinusPdfRev,
-                                 float qsPdfRev, float qsMinusPdfRev, BdptSettings settings,
-                                 float cameraCount) {
+CB_FN real bdptMisWeightCounted(const SceneView* scene, const PathVertex* light, int s,
+                                const PathVertex* eye, int t, real ptPdfRev, real ptMinusPdfRev,
+                                real qsPdfRev, real qsMinusPdfRev, BdptSettings settings,
+                                real cameraCount) {
     if (!bdptStrategyAllowed(s, t, settings.eyeVertices, settings.lightVertices)) return 0.0f;
     if (settings.debugS >= 0) return 1.0f;
     if (settings.weights == CB_WEIGHTS_LAFORTUNE)
@@ -426,9 +426,9 @@ CB_FN float bdptMisWeightCounted(const SceneView* scene, const PathVertex* light
                                   qsMinusPdfRev, settings, cameraCount);
 }
 
-CB_FN float bdptMisWeight(const SceneView* scene, const PathVertex* light, int s,
-                          const PathVertex* eye, int t, float ptPdfRev, float ptMinusPdfRev,
-                          float qsPdfRev, float qsMinusPdfRev, BdptSettings settings) {
+CB_FN real bdptMisWeight(const SceneView* scene, const PathVertex* light, int s,
+                         const PathVertex* eye, int t, real ptPdfRev, real ptMinusPdfRev,
+                         real qsPdfRev, real qsMinusPdfRev, BdptSettings settings) {
     return bdptMisWeightCounted(scene, light, s, eye, t, ptPdfRev, ptMinusPdfRev, qsPdfRev,
                                 qsMinusPdfRev, settings, 1.0f);
 }
@@ -441,8 +441,8 @@ CB_FN float bdptMisWeight(const SceneView* scene, const PathVertex* light, int s
  * left to the caller, which also receives the shadow-ray request (needsShadow). */
 typedef struct BdptConnection {
     Spectrum contribution;
-    float ptPdfRev, ptMinusPdfRev, qsPdfRev, qsMinusPdfRev;
-    float rasterX, rasterY;
+    real ptPdfRev, ptMinusPdfRev, qsPdfRev, qsMinusPdfRev;
+    real rasterX, rasterY;
     int needsShadow;
     int pad;
 } BdptConnection;
@@ -476,23 +476,23 @@ CB_FN bool bdptConnectUnoccluded(const SceneView* scene, const Camera* camera,
     if (t == 1) {
         /* Light tracing: qs seen by the camera, splatted to the pixel it projects to. */
         if (s < 2) return false;
-        float rx, ry;
+        real rx, ry;
         if (!cameraProjectPoint(camera, pvP(qs), &rx, &ry)) return false;
         Vec3 cam = affineTransformPoint(camera->cameraToWorld, vec3(0.0f, 0.0f, 0.0f));
         Vec3 d = vsub(cam, pvP(qs));
-        float dist2 = vlength2(d);
+        real dist2 = vlength2(d);
         if (!(dist2 > 0.0f)) return false;
         Vec3 w = vscale(d, 1.0f / sqrt(dist2)); /* qs -> camera */
-        float pdfCamDir;
-        float we = cameraImportance(camera, vneg(w), &pdfCamDir);
+        real pdfCamDir;
+        real we = cameraImportance(camera, vneg(w), &pdfCamDir);
         if (!(we > 0.0f)) return false;
-        float pdfFwd, pdfRev;
+        real pdfFwd, pdfRev;
         Spectrum f = bsdfEval(scene, qs->material, frameFromNormal(pvN(qs)), vec3FromArray(qs->wo),
                               w, 1, &pdfFwd, &pdfRev);
         if (specIsBlack(f)) return false;
         Vec3 forward = pvN(&eye[0]);
-        float cosCam = vdot(vneg(w), forward);
-        float g = cosCam * pvAbsCos(qs, w) / dist2;
+        real cosCam = vdot(vneg(w), forward);
+        real g = cosCam * pvAbsCos(qs, w) / dist2;
         out->contribution = specScale(specMul(qs->beta, f), we * g);
         out->rasterX = rx;
         out->rasterY = ry;
@@ -504,15 +504,15 @@ CB_FN bool bdptConnectUnoccluded(const SceneView* scene, const Camera* camera,
     const PathVertex* pt = &eye[t - 1];
     if (!materialHasNonDelta(scene, pt->material)) return false;
     Vec3 d = vsub(pvP(qs), pvP(pt));
-    float dist2 = vlength2(d);
+    real dist2 = vlength2(d);
     if (!(dist2 > 0.0f)) return false;
     Vec3 w = vscale(d, 1.0f / sqrt(dist2)); /* pt -> qs */
-    float ptFwd, ptRev;
+    real ptFwd, ptRev;
     Spectrum fPt = bsdfEval(scene, pt->material, frameFromNormal(pvN(pt)), vec3FromArray(pt->wo), w,
                             0, &ptFwd, &ptRev);
     if (specIsBlack(fPt)) return false;
     Spectrum fQs;
-    float qsFwd, qsRev = 0.0f;
+    real qsFwd, qsRev = 0.0f;
     if (s == 1) {
         fQs = bdptLightEmission(scene, qs, vneg(w));
         qsFwd = bdptLightDirectionPdf(scene, qs, vneg(w));
@@ -521,7 +521,7 @@ CB_FN bool bdptConnectUnoccluded(const SceneView* scene, const Camera* camera,
                        vneg(w), 1, &qsFwd, &qsRev);
     }
     if (specIsBlack(fQs)) return false;
-    float g = pvAbsCos(pt, w) * pvAbsCos(qs, w) / dist2;
+    real g = pvAbsCos(pt, w) * pvAbsCos(qs, w) / dist2;
     out->contribution = specScale(specMul(specMul(qs->beta, fQs), specMul(fPt, pt->beta)), g);
     out->ptPdfRev = qsFwd * pvAbsCos(pt, w) / dist2;
     out->ptMinusPdfRev = pvConvertPdf(ptRev, pvP(pt), &eye[t - 2]);
@@ -535,7 +535,7 @@ CB_FN bool bdptConnectUnoccluded(const SceneView* scene, const Camera* camera,
 CB_FN bool bdptConnectionVisible(const SceneView* scene, const Camera* camera,
                                  const PathVertex* light, int s, const PathVertex* eye, int t) {
     const PathVertex* qs = &light[s - 1];
-    float tMax;
+    real tMax;
     Ray r;
     if (t == 1) {
         Vec3 cam = affineTransformPoint(camera->cameraToWorld, vec3(0.0f, 0.0f, 0.0f));
@@ -553,16 +553,16 @@ CB_FN bool bdptConnectionVisible(const SceneView* scene, const Camera* camera,
  * *rays counts the shadow ray. Black when the strategy does not apply. */
 CB_FN Spectrum bdptConnectCounted(const SceneView* scene, const Camera* camera,
                                   const PathVertex* light, int s, const PathVertex* eye, int t,
-                                  BdptSettings settings, float cameraCount, float* rasterX,
-                                  float* rasterY, int* rays) {
+                                  BdptSettings settings, real cameraCount, real* rasterX,
+                                  real* rasterY, int* rays) {
     BdptConnection c;
     if (!bdptStrategyAllowed(s, t, settings.eyeVertices, settings.lightVertices)) return specZero();
     if (settings.debugS >= 0 && (s != settings.debugS || t != settings.debugT)) return specZero();
     if (settings.debugS < 0 && settings.weights == CB_WEIGHTS_LAFORTUNE && t == 1)
         return specZero(); /* weight 0: skip the shadow ray */
     if (!bdptConnectUnoccluded(scene, camera, light, s, eye, t, &c)) return specZero();
-    float weight = bdptMisWeightCounted(scene, light, s, eye, t, c.ptPdfRev, c.ptMinusPdfRev,
-                                        c.qsPdfRev, c.qsMinusPdfRev, settings, cameraCount);
+    real weight = bdptMisWeightCounted(scene, light, s, eye, t, c.ptPdfRev, c.ptMinusPdfRev,
+                                       c.qsPdfRev, c.qsMinusPdfRev, settings, cameraCount);
     if (!(weight > 0.0f)) return specZero();
     if (c.needsShadow) {
         *rays += 1;
@@ -575,7 +575,7 @@ CB_FN Spectrum bdptConnectCounted(const SceneView* scene, const Camera* camera,
 
 CB_FN Spectrum bdptConnect(const SceneView* scene, const Camera* camera, const PathVertex* light,
                            int s, const PathVertex* eye, int t, BdptSettings settings,
-                           float* rasterX, float* rasterY, int* rays) {
+                           real* rasterX, real* rasterY, int* rays) {
     return bdptConnectCounted(scene, camera, light, s, eye, t, settings, 1.0f, rasterX, rasterY,
                               rays);
 }

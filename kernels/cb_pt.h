@@ -15,15 +15,15 @@
 CB_BEGIN_NAMESPACE
 
 typedef struct PathSettings {
-    int eyeVertices;       /* Ne: maximum vertices of a path, the camera included */
-    int rouletteVertex;    /* Russian roulette is applied when leaving this vertex and later; */
-                           /* <= 0 disables it (paths run to the cap) */
+    int eyeVertices;    /* Ne: maximum vertices of a path, the camera included */
+    int rouletteVertex; /* Russian roulette is applied when leaving this vertex and later; */
+                        /* <= 0 disables it (paths run to the cap) */
     int pad[2];
 } PathSettings;
 
 /* Survival probability of Russian roulette: the throughput's largest channel, never below 0.05
  * (METHOD.md), so that roulette cannot create unbounded weights. */
-CB_FN float rouletteSurvival(Spectrum throughput) {
+CB_FN real rouletteSurvival(Spectrum throughput) {
     return cbClamp(specMaxComponent(throughput), 0.05f, 1.0f);
 }
 
@@ -36,7 +36,7 @@ CB_FN Spectrum ptRadiance(const SceneView* scene, Ray ray, SampleStream stream,
                           PathSettings settings) {
     Spectrum radiance = specZero();
     Spectrum throughput = specConst(1.0f);
-    float previousPdfW = 0.0f;
+    real previousPdfW = 0.0f;
     int previousDelta = 1; /* the pinhole camera: emission seen directly takes full weight */
 
     for (int vertex = 1; vertex < settings.eyeVertices; ++vertex) {
@@ -50,10 +50,10 @@ CB_FN Spectrum ptRadiance(const SceneView* scene, Ray ray, SampleStream stream,
         if (sp.light >= 0) {
             Spectrum emitted = lightEmittedRadiance(scene, sp.light, sp.ng, wo);
             if (!specIsBlack(emitted)) {
-                float weight = 1.0f;
+                real weight = 1.0f;
                 if (!previousDelta) {
-                    float cosLight = vabsdot(sp.ng, wo);
-                    float pdfLightW = lightPdfArea(scene, sp.light) * hit.t * hit.t / cosLight;
+                    real cosLight = vabsdot(sp.ng, wo);
+                    real pdfLightW = lightPdfArea(scene, sp.light) * hit.t * hit.t / cosLight;
                     weight = powerHeuristic(previousPdfW, pdfLightW);
                 }
                 radiance = specAdd(radiance, specScale(specMul(throughput, emitted), weight));
@@ -67,35 +67,35 @@ CB_FN Spectrum ptRadiance(const SceneView* scene, Ray ray, SampleStream stream,
         /* Next-event estimation: one light point, one shadow ray. */
         if (materialHasNonDelta(scene, sp.material)) {
             LightSample ls;
-            float uChoice = sampleAt(stream, bounceDimension(bounce, CB_SLOT_LIGHT_CHOICE));
-            float uLight0 = sampleAt(stream, bounceDimension(bounce, CB_SLOT_LIGHT_POINT));
-            float uLight1 = sampleAt(stream, bounceDimension(bounce, CB_SLOT_LIGHT_POINT + 1u));
+            real uChoice = sampleAt(stream, bounceDimension(bounce, CB_SLOT_LIGHT_CHOICE));
+            real uLight0 = sampleAt(stream, bounceDimension(bounce, CB_SLOT_LIGHT_POINT));
+            real uLight1 = sampleAt(stream, bounceDimension(bounce, CB_SLOT_LIGHT_POINT + 1u));
             if (lightSample(scene, uChoice, uLight0, uLight1, &ls)) {
                 Vec3 toLight = vsub(ls.p, sp.p);
-                float dist2 = vlength2(toLight);
+                real dist2 = vlength2(toLight);
                 Vec3 wi = vscale(toLight, 1.0f / sqrt(dist2));
                 Spectrum emitted;
-                float pdfLightW;
+                real pdfLightW;
                 if (ls.isDelta) {
                     emitted = specLoad(scene->spectra, scene->lights[ls.light].emission);
                     pdfLightW = ls.pdfPick * dist2; /* intensity I arrives as I / r^2 */
                 } else {
                     emitted = lightEmittedRadiance(scene, ls.light, ls.n, vneg(wi));
-                    float cosLight = vabsdot(ls.n, wi);
+                    real cosLight = vabsdot(ls.n, wi);
                     pdfLightW = ls.pdfPick * ls.pdfArea * dist2 / cosLight;
                 }
                 if (!specIsBlack(emitted) && pdfLightW > 0.0f && isfinite(pdfLightW)) {
-                    float pdfBsdfW, pdfRev;
-                    Spectrum f = bsdfEval(scene, sp.material, frame, wo, wi, 0, &pdfBsdfW,
-                                          &pdfRev);
+                    real pdfBsdfW, pdfRev;
+                    Spectrum f = bsdfEval(scene, sp.material, frame, wo, wi, 0, &pdfBsdfW, &pdfRev);
                     if (!specIsBlack(f)) {
-                        float tMax;
+                        real tMax;
                         Ray shadow = spawnRayTo(sp, ls.p, ls.pError, ls.n, &tMax);
                         if (!sceneOccluded(scene, shadow, tMax)) {
-                            float weight = ls.isDelta ? 1.0f : powerHeuristic(pdfLightW, pdfBsdfW);
-                            float factor = vabsdot(wi, sp.ng) * weight / pdfLightW;
+                            real weight = ls.isDelta ? 1.0f : powerHeuristic(pdfLightW, pdfBsdfW);
+                            real factor = vabsdot(wi, sp.ng) * weight / pdfLightW;
                             radiance = specAdd(
-                                radiance, specScale(specMul(specMul(throughput, f), emitted), factor));
+                                radiance,
+                                specScale(specMul(specMul(throughput, f), emitted), factor));
                         }
                     }
                 }
@@ -104,9 +104,9 @@ CB_FN Spectrum ptRadiance(const SceneView* scene, Ray ray, SampleStream stream,
 
         /* Continue the path by sampling the BSDF. */
         BsdfSample bs;
-        float u0 = sampleAt(stream, bounceDimension(bounce, CB_SLOT_BSDF_DIRECTION));
-        float u1 = sampleAt(stream, bounceDimension(bounce, CB_SLOT_BSDF_DIRECTION + 1u));
-        float uLobe = sampleAt(stream, bounceDimension(bounce, CB_SLOT_BSDF_LOBE));
+        real u0 = sampleAt(stream, bounceDimension(bounce, CB_SLOT_BSDF_DIRECTION));
+        real u1 = sampleAt(stream, bounceDimension(bounce, CB_SLOT_BSDF_DIRECTION + 1u));
+        real uLobe = sampleAt(stream, bounceDimension(bounce, CB_SLOT_BSDF_LOBE));
         if (!bsdfSample(scene, sp.material, frame, wo, u0, u1, uLobe, 0, &bs)) break;
         if (bs.pdf <= 0.0f || specIsBlack(bs.f)) break;
         throughput = specMul(throughput, specScale(bs.f, vabsdot(bs.wi, sp.ng) / bs.pdf));
@@ -114,7 +114,7 @@ CB_FN Spectrum ptRadiance(const SceneView* scene, Ray ray, SampleStream stream,
         previousDelta = bs.isDelta;
 
         if (settings.rouletteVertex > 0 && vertex >= settings.rouletteVertex) {
-            float survival = rouletteSurvival(throughput);
+            real survival = rouletteSurvival(throughput);
             if (sampleAt(stream, bounceDimension(bounce, CB_SLOT_ROULETTE)) >= survival) break;
             throughput = specScale(throughput, 1.0f / survival);
         }

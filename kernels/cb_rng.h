@@ -27,7 +27,9 @@ CB_FN uint cbHashCombine(uint seed, uint value) {
 }
 
 /* Map 32 random bits to [0,1) with 24 bits of mantissa: never returns 1. */
-CB_FN float cbUintToUnitFloat(uint bits) { return (float)(bits >> 8) * (1.0f / 16777216.0f); }
+CB_FN real cbUintToUnitFloat(uint bits) {
+    return (real)(bits >> 8) * (1.0f / 16777216.0f);
+}
 
 /* CB_PRIMARY_SAMPLES (defined only by kernels/mlt.cl before including this header): a stream may
  * instead read an explicit table of primary samples, the state of a Metropolis chain in primary
@@ -37,7 +39,7 @@ typedef struct SampleStream {
     uint key;       /* hash of (seed, estimate, stream) */
     uint dimension; /* next dimension to read */
 #ifdef CB_PRIMARY_SAMPLES
-    const float* primary; /* non-null: u[d] = primary[d] for d < primaryCount */
+    const real* primary; /* non-null: u[d] = primary[d] for d < primaryCount */
     uint primaryCount;
 #endif
 } SampleStream;
@@ -54,15 +56,15 @@ CB_FN SampleStream sampleStreamStart(uint seed, uint estimate, uint stream) {
 }
 
 /* u[d] for an arbitrary dimension, without advancing. */
-CB_FN float sampleAt(SampleStream s, uint dimension) {
+CB_FN real sampleAt(SampleStream s, uint dimension) {
 #ifdef CB_PRIMARY_SAMPLES
     if (s.primary && dimension < s.primaryCount) return s.primary[dimension];
 #endif
     return cbUintToUnitFloat(cbHashCombine(s.key, dimension));
 }
 
-CB_FN float sampleNext(SampleStream* s) {
-    float u = sampleAt(*s, s->dimension);
+CB_FN real sampleNext(SampleStream* s) {
+    real u = sampleAt(*s, s->dimension);
     s->dimension += 1u;
     return u;
 }

@@ -16,15 +16,15 @@ CB_BEGIN_NAMESPACE
 /* Shirley & Chiu 1997, "A Low Distortion Map Between Disk and Square": concentric squares go to
  * concentric circles, so the map is continuous and area-preserving up to a constant, unlike the
  * polar map (r = sqrt(u0)) whose angle jumps between u1 = 0 and 1 at the same point. */
-CB_FN void sampleConcentricDisk(float u0, float u1, float* x, float* y) {
-    float a = 2.0f * u0 - 1.0f;
-    float b = 2.0f * u1 - 1.0f;
+CB_FN void sampleConcentricDisk(real u0, real u1, real* x, real* y) {
+    real a = 2.0f * u0 - 1.0f;
+    real b = 2.0f * u1 - 1.0f;
     if (a == 0.0f && b == 0.0f) {
         *x = 0.0f;
         *y = 0.0f;
         return;
     }
-    float r, phi;
+    real r, phi;
     if (fabs(a) > fabs(b)) {
         r = a;
         phi = (CB_PI * 0.25f) * (b / a);
@@ -38,41 +38,41 @@ CB_FN void sampleConcentricDisk(float u0, float u1, float* x, float* y) {
 
 /* Malley's method: project the uniform disk up onto the hemisphere, which gives density
  * cos(theta)/pi (pbrt-v4 13.6.3). */
-CB_FN Vec3 sampleCosineHemisphere(float u0, float u1) {
-    float x, y;
+CB_FN Vec3 sampleCosineHemisphere(real u0, real u1) {
+    real x, y;
     sampleConcentricDisk(u0, u1, &x, &y);
     return vec3(x, y, cbSafeSqrt(1.0f - x * x - y * y));
 }
-CB_FN float cosineHemispherePdf(float cosTheta) {
+CB_FN real cosineHemispherePdf(real cosTheta) {
     return fmax(cosTheta, 0.0f) * CB_INV_PI;
 }
 
 /* Archimedes: z uniform in [-1, 1] gives uniform area on the sphere. */
-CB_FN Vec3 sampleUniformSphere(float u0, float u1) {
-    float z = 1.0f - 2.0f * u0;
-    float r = cbSafeSqrt(1.0f - z * z);
-    float phi = 2.0f * CB_PI * u1;
+CB_FN Vec3 sampleUniformSphere(real u0, real u1) {
+    real z = 1.0f - 2.0f * u0;
+    real r = cbSafeSqrt(1.0f - z * z);
+    real phi = 2.0f * CB_PI * u1;
     return vec3(r * cos(phi), r * sin(phi), z);
 }
-CB_FN float uniformSpherePdf(void) {
+CB_FN real uniformSpherePdf(void) {
     return CB_INV_4PI;
 }
 
-CB_FN Vec3 sampleUniformHemisphere(float u0, float u1) {
-    float z = u0;
-    float r = cbSafeSqrt(1.0f - z * z);
-    float phi = 2.0f * CB_PI * u1;
+CB_FN Vec3 sampleUniformHemisphere(real u0, real u1) {
+    real z = u0;
+    real r = cbSafeSqrt(1.0f - z * z);
+    real phi = 2.0f * CB_PI * u1;
     return vec3(r * cos(phi), r * sin(phi), z);
 }
-CB_FN float uniformHemispherePdf(void) {
+CB_FN real uniformHemispherePdf(void) {
     return CB_INV_2PI;
 }
 
 /* Heitz 2019, "A Low-Distortion Map Between Triangle and Square": each half of the square maps
  * linearly (Jacobian 1/2) onto the triangle, and the two halves agree on the diagonal, so the map
  * is continuous and uniform by area. Returns barycentrics with b0 + b1 + b2 = 1. */
-CB_FN void sampleUniformTriangle(float u0, float u1, float* b0, float* b1, float* b2) {
-    float t0, t1;
+CB_FN void sampleUniformTriangle(real u0, real u1, real* b0, real* b1, real* b2) {
+    real t0, t1;
     if (u1 > u0) {
         t0 = 0.5f * u0;
         t1 = u1 - t0;
@@ -87,37 +87,37 @@ CB_FN void sampleUniformTriangle(float u0, float u1, float* b0, float* b1, float
 
 /* ---- GGX / Trowbridge-Reitz microfacets ------------------------------------------------------ */
 
-/* Alpha below this is treated as this: D peaks at 1/(pi alpha^2), which stays far from float
- * overflow, and the sampled normals are still resolvable in float. */
+/* Alpha below this is treated as this: D peaks at 1/(pi alpha^2), which stays far from real
+ * overflow, and the sampled normals are still resolvable in real. */
 #define CB_GGX_MIN_ALPHA 1e-4f
 
 /* Walter et al. 2007, eq. 33, written with the unit normal's components so that no tan() of a
  * grazing angle appears: D = 1 / (pi a^2 ((x^2 + y^2)/a^2 + z^2)^2). */
-CB_FN float ggxD(Vec3 wm, float alpha) {
+CB_FN real ggxD(Vec3 wm, real alpha) {
     if (wm.z <= 0.0f) return 0.0f;
-    float a2 = alpha * alpha;
-    float t = (wm.x * wm.x + wm.y * wm.y) / a2 + wm.z * wm.z;
+    real a2 = alpha * alpha;
+    real t = (wm.x * wm.x + wm.y * wm.y) / a2 + wm.z * wm.z;
     return 1.0f / (CB_PI * a2 * t * t);
 }
 
 /* Smith's Lambda for GGX (Heitz 2014, "Understanding the Masking-Shadowing Function", eq. 72):
  * (sqrt(1 + a^2 tan^2) - 1) / 2, rewritten as s / (2 (sqrt(1 + s) + 1)) with s = a^2 tan^2 to
  * avoid the cancellation near the normal. Infinite (no visibility) in the tangent plane. */
-CB_FN float ggxLambda(Vec3 w, float alpha) {
-    float z = fabs(w.z);
+CB_FN real ggxLambda(Vec3 w, real alpha) {
+    real z = fabs(w.z);
     if (z == 0.0f) return CB_INFINITY;
-    float tanTheta = alpha * sqrt(w.x * w.x + w.y * w.y) / z;
+    real tanTheta = alpha * sqrt(w.x * w.x + w.y * w.y) / z;
     if (!(tanTheta < 1e15f)) return tanTheta < CB_INFINITY ? 0.5f * tanTheta : CB_INFINITY;
-    float s = tanTheta * tanTheta;
+    real s = tanTheta * tanTheta;
     return s / (2.0f * (sqrt(1.0f + s) + 1.0f));
 }
 
-CB_FN float ggxG1(Vec3 w, float alpha) {
+CB_FN real ggxG1(Vec3 w, real alpha) {
     return 1.0f / (1.0f + ggxLambda(w, alpha));
 }
 
 /* Height-correlated masking-shadowing (Heitz 2014, eq. 99). */
-CB_FN float ggxG(Vec3 wo, Vec3 wi, float alpha) {
+CB_FN real ggxG(Vec3 wo, Vec3 wi, real alpha) {
     return 1.0f / (1.0f + ggxLambda(wo, alpha) + ggxLambda(wi, alpha));
 }
 
@@ -125,30 +125,30 @@ CB_FN float ggxG(Vec3 wo, Vec3 wi, float alpha) {
  * alpha = 1 configuration, sample the projected hemisphere as a disk whose far half is squashed
  * by (1 + Vh.z)/2, and unstretch. The disk is sampled with the concentric map (continuity).
  * wo must have wo.z >= 0; the result has wm.z >= 0. */
-CB_FN Vec3 ggxSampleVisibleNormal(Vec3 wo, float alpha, float u0, float u1) {
+CB_FN Vec3 ggxSampleVisibleNormal(Vec3 wo, real alpha, real u0, real u1) {
     Vec3 vh = vnormalize(vec3(alpha * wo.x, alpha * wo.y, fmax(wo.z, 0.0f)));
-    float lensq = vh.x * vh.x + vh.y * vh.y;
+    real lensq = vh.x * vh.x + vh.y * vh.y;
     Vec3 t1 =
         lensq > 0.0f ? vscale(vec3(-vh.y, vh.x, 0.0f), 1.0f / sqrt(lensq)) : vec3(1.0f, 0.0f, 0.0f);
     Vec3 t2 = vcross(vh, t1);
-    float p1, p2;
+    real p1, p2;
     sampleConcentricDisk(u0, u1, &p1, &p2);
-    float s = 0.5f * (1.0f + vh.z);
+    real s = 0.5f * (1.0f + vh.z);
     p2 = (1.0f - s) * cbSafeSqrt(1.0f - p1 * p1) + s * p2;
     Vec3 nh = vadd(vadd(vscale(t1, p1), vscale(t2, p2)),
                    vscale(vh, cbSafeSqrt(1.0f - p1 * p1 - p2 * p2)));
     Vec3 ne = vec3(alpha * nh.x, alpha * nh.y, fmax(nh.z, 0.0f));
-    float len = vlength(ne);
+    real len = vlength(ne);
     return len > 0.0f ? vscale(ne, 1.0f / len) : vec3(0.0f, 0.0f, 1.0f);
 }
 
 /* Density of ggxSampleVisibleNormal in solid angle of wm: D_wo(wm) = G1(wo) max(0, wo.wm) D(wm)
  * / wo.z (Heitz 2018, eq. 3). */
-CB_FN float ggxVisibleNormalPdf(Vec3 wo, Vec3 wm, float alpha) {
+CB_FN real ggxVisibleNormalPdf(Vec3 wo, Vec3 wm, real alpha) {
     if (wo.z <= 0.0f) return 0.0f;
-    float cosOm = vdot(wo, wm);
+    real cosOm = vdot(wo, wm);
     if (cosOm <= 0.0f) return 0.0f;
-    float pdf = (ggxG1(wo, alpha) / wo.z) * cosOm * ggxD(wm, alpha);
+    real pdf = (ggxG1(wo, alpha) / wo.z) * cosOm * ggxD(wm, alpha);
     return isfinite(pdf) ? pdf : 0.0f;
 }
 
@@ -156,11 +156,11 @@ CB_FN float ggxVisibleNormalPdf(Vec3 wo, Vec3 wm, float alpha) {
 
 /* Veach 1997, eq. 9.13 with beta = 2, as 1 / (1 + (b/a)^2) so that neither pdf^2 overflows; an
  * infinite (delta) pdfA against a finite pdfB gives 1, zero or NaN pdfA gives 0. */
-CB_FN float powerHeuristic(float pdfA, float pdfB) {
+CB_FN real powerHeuristic(real pdfA, real pdfB) {
     if (!(pdfA > 0.0f)) return 0.0f;
     if (!(pdfB > 0.0f)) return 1.0f;
     if (!isfinite(pdfA) && !isfinite(pdfB)) return 0.5f;
-    float r = pdfB / pdfA;
+    real r = pdfB / pdfA;
     return 1.0f / (1.0f + r * r);
 }
 

@@ -15,50 +15,61 @@
 CB_BEGIN_NAMESPACE
 
 typedef struct Spectrum {
-    float c[CB_CHANNELS];
+    real c[CB_CHANNELS];
 } Spectrum;
 
-CB_FN Spectrum specConst(float v) {
+CB_FN Spectrum specConst(real v) {
     Spectrum s;
-    for (int i = 0; i < CB_CHANNELS; ++i) s.c[i] = v;
+    for (int i = 0; i < CB_CHANNELS; ++i)
+        s.c[i] = v;
     return s;
 }
-CB_FN Spectrum specZero(void) { return specConst(0.0f); }
-CB_FN Spectrum specLoad(CB_GLOBAL const float* table, int index) {
+CB_FN Spectrum specZero(void) {
+    return specConst(0.0f);
+}
+CB_FN Spectrum specLoad(CB_GLOBAL const real* table, int index) {
     Spectrum s;
-    for (int i = 0; i < CB_CHANNELS; ++i) s.c[i] = table[index * CB_CHANNELS + i];
+    for (int i = 0; i < CB_CHANNELS; ++i)
+        s.c[i] = table[index * CB_CHANNELS + i];
     return s;
 }
 CB_FN Spectrum specAdd(Spectrum a, Spectrum b) {
-    for (int i = 0; i < CB_CHANNELS; ++i) a.c[i] += b.c[i];
+    for (int i = 0; i < CB_CHANNELS; ++i)
+        a.c[i] += b.c[i];
     return a;
 }
 CB_FN Spectrum specSub(Spectrum a, Spectrum b) {
-    for (int i = 0; i < CB_CHANNELS; ++i) a.c[i] -= b.c[i];
+    for (int i = 0; i < CB_CHANNELS; ++i)
+        a.c[i] -= b.c[i];
     return a;
 }
 CB_FN Spectrum specMul(Spectrum a, Spectrum b) {
-    for (int i = 0; i < CB_CHANNELS; ++i) a.c[i] *= b.c[i];
+    for (int i = 0; i < CB_CHANNELS; ++i)
+        a.c[i] *= b.c[i];
     return a;
 }
-CB_FN Spectrum specScale(Spectrum a, float s) {
-    for (int i = 0; i < CB_CHANNELS; ++i) a.c[i] *= s;
+CB_FN Spectrum specScale(Spectrum a, real s) {
+    for (int i = 0; i < CB_CHANNELS; ++i)
+        a.c[i] *= s;
     return a;
 }
 /* a + b*s */
-CB_FN Spectrum specMadd(Spectrum a, Spectrum b, float s) {
-    for (int i = 0; i < CB_CHANNELS; ++i) a.c[i] += b.c[i] * s;
+CB_FN Spectrum specMadd(Spectrum a, Spectrum b, real s) {
+    for (int i = 0; i < CB_CHANNELS; ++i)
+        a.c[i] += b.c[i] * s;
     return a;
 }
-CB_FN float specMaxComponent(Spectrum a) {
-    float m = a.c[0];
-    for (int i = 1; i < CB_CHANNELS; ++i) m = fmax(m, a.c[i]);
+CB_FN real specMaxComponent(Spectrum a) {
+    real m = a.c[0];
+    for (int i = 1; i < CB_CHANNELS; ++i)
+        m = fmax(m, a.c[i]);
     return m;
 }
-CB_FN float specAverage(Spectrum a) {
-    float sum = 0.0f;
-    for (int i = 0; i < CB_CHANNELS; ++i) sum += a.c[i];
-    return sum * (1.0f / (float)CB_CHANNELS);
+CB_FN real specAverage(Spectrum a) {
+    real sum = 0.0f;
+    for (int i = 0; i < CB_CHANNELS; ++i)
+        sum += a.c[i];
+    return sum * (1.0f / (real)CB_CHANNELS);
 }
 CB_FN bool specIsBlack(Spectrum a) {
     for (int i = 0; i < CB_CHANNELS; ++i)
@@ -74,11 +85,12 @@ CB_FN bool specIsFinite(Spectrum a) {
 /* Linear sRGB from the channels: rgb[k] = sum_i toRgb[k*CB_CHANNELS + i] * c[i]. The host
  * computes the 3 x CB_CHANNELS matrix (identity for RGB scenes, binned CIE 1931 matching
  * functions then XYZ->sRGB for spectral ones) in src/spectral. */
-CB_FN Vec3 specToRgb(Spectrum a, CB_GLOBAL const float* toRgb) {
-    float rgb[3];
+CB_FN Vec3 specToRgb(Spectrum a, CB_GLOBAL const real* toRgb) {
+    real rgb[3];
     for (int k = 0; k < 3; ++k) {
-        float sum = 0.0f;
-        for (int i = 0; i < CB_CHANNELS; ++i) sum += toRgb[k * CB_CHANNELS + i] * a.c[i];
+        real sum = 0.0f;
+        for (int i = 0; i < CB_CHANNELS; ++i)
+            sum += toRgb[k * CB_CHANNELS + i] * a.c[i];
         rgb[k] = sum;
     }
     return vec3(rgb[0], rgb[1], rgb[2]);

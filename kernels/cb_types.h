@@ -1,6 +1,6 @@
 /* cb_types.h - the scene as the kernels see it: plain structs copied to the device as bytes.
  *
- * Layout rules: only float/int/uint fields and arrays of them, every struct a multiple of
+ * Layout rules: only real/int/uint fields and arrays of them, every struct a multiple of
  * 16 bytes, asserted on the host (src/scene/device_scene.cpp). */
 #ifndef CB_TYPES_H
 #define CB_TYPES_H
@@ -18,11 +18,11 @@ CB_BEGIN_NAMESPACE
  * from the side the geometric normal cross(p1-p0, p2-p0) points to). Sphere: centre p0, radius
  * p1[0]; p1[1] is +1 for outward normals and -1 when the orientation is reversed. */
 typedef struct Primitive {
-    float p0[3];
+    real p0[3];
     int kind; /* CB_PRIM_* */
-    float p1[3];
+    real p1[3];
     int material; /* index into materials */
-    float p2[3];
+    real p2[3];
     int light; /* index into lights if this primitive is an area emitter, else -1 */
 } Primitive;
 
@@ -34,9 +34,9 @@ typedef struct Ray {
 /* A closest hit: ray parameter, primitive, and the barycentrics (b1, b2) of p1 and p2 for a
  * triangle (unused for spheres). */
 typedef struct Hit {
-    float t;
+    real t;
     int primitive;
-    float b1, b2;
+    real b1, b2;
 } Hit;
 
 /* Where a ray hit, with the error bound needed to spawn new rays without self-intersection
@@ -75,11 +75,11 @@ typedef struct SurfacePoint {
 typedef struct Material {
     int kind;        /* CB_MAT_* */
     int reflectance; /* index into the spectra table (CB_CHANNELS floats per entry) */
-    float alpha;     /* GGX roughness alpha for conductors (0: perfect mirror) */
-    float eta;       /* relative index of refraction for dielectrics */
+    real alpha;      /* GGX roughness alpha for conductors (0: perfect mirror) */
+    real eta;        /* relative index of refraction for dielectrics */
     int mixFirst;    /* CB_MAT_MIX: the two component materials */
     int mixSecond;
-    float mixAmount; /* probability of mixSecond */
+    real mixAmount; /* probability of mixSecond */
     int pad;
 } Material;
 
@@ -92,15 +92,15 @@ typedef struct Material {
  * can be chosen by power and points sampled uniformly by area (METHOD.md, BDPT). Point lights
  * emit intensity `emission` uniformly in all directions. */
 typedef struct Light {
-    int kind;      /* CB_LIGHT_* */
-    int primitive; /* CB_LIGHT_AREA: the emitting primitive */
-    int emission;  /* index into the spectra table: radiance L (area) or intensity I (point) */
-    int twoSided;  /* area lights: emit on both sides */
-    float position[3]; /* CB_LIGHT_POINT */
-    float area;        /* CB_LIGHT_AREA: surface area of the primitive */
-    float pickProbability; /* probability of choosing this light (proportional to power) */
-    float cdf;             /* sum of pickProbability over lights 0..this one (for binary search) */
-    float pad[2];
+    int kind;         /* CB_LIGHT_* */
+    int primitive;    /* CB_LIGHT_AREA: the emitting primitive */
+    int emission;     /* index into the spectra table: radiance L (area) or intensity I (point) */
+    int twoSided;     /* area lights: emit on both sides */
+    real position[3]; /* CB_LIGHT_POINT */
+    real area;        /* CB_LIGHT_AREA: surface area of the primitive */
+    real pickProbability; /* probability of choosing this light (proportional to power) */
+    real cdf;             /* sum of pickProbability over lights 0..this one (for binary search) */
+    real pad[2];
 } Light;
 
 /* ---- Camera ------------------------------------------------------------------------------- */
@@ -108,20 +108,20 @@ typedef struct Light {
 /* pbrt-v4's perspective camera: camera space is left-handed, +z forward, +y up, +x right in
  * the image; raster y grows downwards. cameraToWorld is a 3x4 row-major affine matrix. */
 typedef struct Camera {
-    float cameraToWorld[12];
-    float worldToCamera[12];
-    float tanHalfFovX; /* screen window half-extents at z = 1 */
-    float tanHalfFovY;
+    real cameraToWorld[12];
+    real worldToCamera[12];
+    real tanHalfFovX; /* screen window half-extents at z = 1 */
+    real tanHalfFovY;
     int width;
     int height;
 } Camera;
 
-CB_FN Vec3 affineTransformPoint(const float* m, Vec3 p) {
+CB_FN Vec3 affineTransformPoint(const real* m, Vec3 p) {
     return vec3(m[0] * p.x + m[1] * p.y + m[2] * p.z + m[3],
                 m[4] * p.x + m[5] * p.y + m[6] * p.z + m[7],
                 m[8] * p.x + m[9] * p.y + m[10] * p.z + m[11]);
 }
-CB_FN Vec3 affineTransformVector(const float* m, Vec3 v) {
+CB_FN Vec3 affineTransformVector(const real* m, Vec3 v) {
     return vec3(m[0] * v.x + m[1] * v.y + m[2] * v.z, m[4] * v.x + m[5] * v.y + m[6] * v.z,
                 m[8] * v.x + m[9] * v.y + m[10] * v.z);
 }
@@ -138,24 +138,24 @@ typedef struct SceneView {
     CB_GLOBAL const Primitive* primitives;
     CB_GLOBAL const Material* materials;
     CB_GLOBAL const Light* lights;
-    CB_GLOBAL const float* spectra; /* CB_CHANNELS floats per entry */
+    CB_GLOBAL const real* spectra; /* CB_CHANNELS floats per entry */
     int lightCount;
 } SceneView;
 
 #ifdef CB_KERNEL_SIDE
 /* Every kernel takes the scene as these parameters (in this order; the host sets them with
  * SceneBuffers::setKernelArgs) and builds its SceneView with CB_SCENE_VIEW. */
-#define CB_SCENE_KERNEL_PARAMS                                                                 \
-    __global const struct BvhNode *nodes, __global const Primitive *primitives,                 \
-        __global const Material *materials, __global const Light *lights,                      \
-        __global const float *spectra, int lightCount
-#define CB_SCENE_VIEW(view)                                                                    \
-    SceneView view;                                                                            \
-    view.nodes = nodes;                                                                        \
-    view.primitives = primitives;                                                              \
-    view.materials = materials;                                                                \
-    view.lights = lights;                                                                      \
-    view.spectra = spectra;                                                                    \
+#define CB_SCENE_KERNEL_PARAMS                                                                     \
+    __global const struct BvhNode *nodes, __global const Primitive *primitives,                    \
+        __global const Material *materials, __global const Light *lights,                          \
+        __global const real *spectra, int lightCount
+#define CB_SCENE_VIEW(view)                                                                        \
+    SceneView view;                                                                                \
+    view.nodes = nodes;                                                                            \
+    view.primitives = primitives;                                                                  \
+    view.materials = materials;                                                                    \
+    view.lights = lights;                                                                          \
+    view.spectra = spectra;                                                                        \
     view.lightCount = lightCount
 #endif
 

@@ -38,7 +38,8 @@ struct TestScene {
     std::vector<float> spectra;
     int spectrum(float r, float g, float b) {
         static_assert(CB_CHANNELS == 3, "host tests assume RGB");
-        spectra.insert(spectra.end(), {r, g, b});
+        for (float channel : {r, g, b})
+            spectra.push_back(channel);
         return static_cast<int>(spectra.size() / 3) - 1;
     }
     int add(int kind, int refl, float alpha, float eta, int first = -1, int second = -1,
