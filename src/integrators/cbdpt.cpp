@@ -2,8 +2,8 @@
 // (one per coherence-tile position, cbdpt_light.h) and splats their t = 1 connections; the
 // combination kernel (kernels/cbdpt.cl) gives every pixel a coherent eye subpath and connects
 // it to its tile position's light subpath with the BDPT weights.
-#include "integrators/cbdpt_light.h"
 #include "integrators/bdpt_settings.h"
+#include "integrators/cbdpt_light.h"
 #include "integrators/integrator.h"
 #include "integrators/scene_buffers.h"
 
@@ -20,25 +20,7 @@ namespace cb {
 
 std::unique_ptr<CbdptLightTracer> makeCbdptLightTracer(const DeviceScene& scene,
                                                        const CbdptLightSettings& settings) {
-    CbdptHostScene raw{};
-    raw.nodes = scene.bvh.nodes.data();
-    raw.nodeCount = scene.bvh.nodes.size();
-    raw.nodeBytes = sizeof(cbk::BvhNode);
-    raw.primitives = scene.bvh.primitives.data();
-    raw.primitiveCount = scene.bvh.primitives.size();
-    raw.primitiveBytes = sizeof(cbk::Primitive);
-    raw.materials = scene.materials.data();
-    raw.materialCount = scene.materials.size();
-    raw.materialBytes = sizeof(cbk::Material);
-    raw.lights = scene.lights.data();
-    raw.lightCount = scene.lights.size();
-    raw.lightBytes = sizeof(cbk::Light);
-    raw.spectra = scene.spectra.data();
-    raw.spectraCount = scene.spectra.size();
-    raw.toRgb = scene.toRgb.data();
-    raw.camera = &scene.camera;
-    raw.cameraBytes = sizeof(cbk::Camera);
-    raw.channels = scene.channels;
+    SceneBytes raw = sceneBytes(scene);
     if (scene.toRgb.size() != size_t(3 * scene.channels))
         throw std::logic_error("cbdpt: toRgb is not 3 x channels");
     if (scene.channels == 3) return makeCbdptLightTracerRgb(raw, settings);
@@ -160,8 +142,7 @@ class CbdptIntegrator final : public Integrator {
     cl::Program program_;
     cl::Kernel kernel_;
     SceneBuffers buffers_;
-    cl::Buffer output_, lightVertices_,
-        lightCounts_, nonFinite_, rays_;
+    cl::Buffer output_, lightVertices_, lightCounts_, nonFinite_, rays_;
     size_t pixels_ = 0, subpaths_ = 1, vertexBufferBytes_ = 0;
     int estimateArg_ = 0;
     long kernelNonFinite_ = 0, hostNonFinite_ = 0;

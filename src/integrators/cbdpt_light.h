@@ -13,6 +13,8 @@
 #include <memory>
 #include <vector>
 
+#include "scene/scene_bytes.h"
+
 namespace cb {
 
 struct DeviceScene;
@@ -67,28 +69,9 @@ inline float cbdptCameraCount(int width, int height, const CbdptLightSettings& s
 std::unique_ptr<CbdptLightTracer> makeCbdptLightTracer(const DeviceScene& scene,
                                                        const CbdptLightSettings& settings);
 
-// The scene as raw bytes, for the per-channel-count instantiations (they cannot see
-// DeviceScene's types: those are the 3-channel ones).
-struct CbdptHostScene {
-    const void* nodes;
-    std::size_t nodeCount, nodeBytes;
-    const void* primitives;
-    std::size_t primitiveCount, primitiveBytes;
-    const void* materials;
-    std::size_t materialCount, materialBytes;
-    const void* lights;
-    std::size_t lightCount, lightBytes;
-    const float* spectra;
-    std::size_t spectraCount;
-    const float* toRgb; // 3 x channels
-    const void* camera;
-    std::size_t cameraBytes;
-    int channels;
-};
-
-std::unique_ptr<CbdptLightTracer> makeCbdptLightTracerRgb(const CbdptHostScene& scene,
+std::unique_ptr<CbdptLightTracer> makeCbdptLightTracerRgb(const SceneBytes& scene,
                                                           const CbdptLightSettings& settings);
-std::unique_ptr<CbdptLightTracer> makeCbdptLightTracerSpectral(const CbdptHostScene& scene,
+std::unique_ptr<CbdptLightTracer> makeCbdptLightTracerSpectral(const SceneBytes& scene,
                                                                const CbdptLightSettings& settings);
 
 } // namespace cb

@@ -18,7 +18,7 @@ namespace cbdpt_rgb {
 #include "integrators/cbdpt_light.inc"
 } // namespace cbdpt_rgb
 
-std::unique_ptr<CbdptLightTracer> makeCbdptLightTracerRgb(const CbdptHostScene& scene,
+std::unique_ptr<CbdptLightTracer> makeCbdptLightTracerRgb(const SceneBytes& scene,
                                                           const CbdptLightSettings& settings) {
     return std::make_unique<cbdpt_rgb::LightTracer>(scene, settings);
 }

@@ -6,7 +6,7 @@
 // the shared headers inside its own namespace, so everything they declare becomes
 // cb::cbdpt_spectral::cbk::..., and it must not include any header that pulls in the shared
 // headers at global scope (device_scene.h does): the scene arrives as raw bytes
-// (CbdptHostScene). The standard headers the shared code uses are included first, at global
+// (SceneBytes). The standard headers the shared code uses are included first, at global
 // scope, so that their include guards keep them out of the namespace.
 #include <algorithm>
 #include <cmath>
@@ -30,7 +30,7 @@ namespace cbdpt_spectral {
 #include "integrators/cbdpt_light.inc"
 } // namespace cbdpt_spectral
 
-std::unique_ptr<CbdptLightTracer> makeCbdptLightTracerSpectral(const CbdptHostScene& scene,
+std::unique_ptr<CbdptLightTracer> makeCbdptLightTracerSpectral(const SceneBytes& scene,
                                                                const CbdptLightSettings& settings) {
     return std::make_unique<cbdpt_spectral::LightTracer>(scene, settings);
 }

@@ -1,4 +1,5 @@
 #include "scene/device_scene.h"
+#include "scene/scene_bytes.h"
 
 #include "scene/transform.h"
 #include "spectral/spectral.h"
@@ -26,16 +27,19 @@ class SpectraTable {
         if (channels_ == kSpectralBins) {
             std::array<float, kSpectralBins> bins =
                 value.isRgb ? rgbToSpectrum(value.rgb) : binSpectrum(value.samples);
-            for (float b : bins) data_.push_back(b * scale);
+            for (float b : bins)
+                data_.push_back(b * scale);
         } else {
             std::array<float, 3> rgb = value.isRgb ? value.rgb : spectrumToRgb(value.samples);
-            for (float c : rgb) data_.push_back(c * scale);
+            for (float c : rgb)
+                data_.push_back(c * scale);
         }
         return index;
     }
     float average(int index) const {
         float sum = 0.f;
-        for (int i = 0; i < channels_; ++i) sum += data_[size_t(index * channels_ + i)];
+        for (int i = 0; i < channels_; ++i)
+            sum += data_[size_t(index * channels_ + i)];
         return sum / float(channels_);
     }
 
@@ -59,8 +63,8 @@ cbk::Camera makeCamera(const SceneDesc& desc, const std::array<double, 3>& origi
     const FilmDesc& film = desc.film;
     SourceLocation where = desc.camera.where;
     if (film.width <= 0 || film.height <= 0)
-        throw SceneError(where, fmt::format("film resolution {}x{} must be positive", film.width,
-                                            film.height));
+        throw SceneError(
+            where, fmt::format("film resolution {}x{} must be positive", film.width, film.height));
     float fov = desc.camera.fovDegrees;
     if (!(fov > 0.f && fov < 180.f))
         throw SceneError(where, fmt::format("field of view {} must be in (0, 180) degrees", fov));
@@ -92,10 +96,14 @@ cbk::Camera makeCamera(const SceneDesc& desc, const std::array<double, 3>& origi
 
 unsigned materialFeature(MaterialKind kind) {
     switch (kind) {
-    case MaterialKind::Diffuse: return CB_FEATURE_DIFFUSE;
-    case MaterialKind::Conductor: return CB_FEATURE_CONDUCTOR;
-    case MaterialKind::Dielectric: return CB_FEATURE_DIELECTRIC;
-    case MaterialKind::Mix: return CB_FEATURE_MIX;
+    case MaterialKind::Diffuse:
+        return CB_FEATURE_DIFFUSE;
+    case MaterialKind::Conductor:
+        return CB_FEATURE_CONDUCTOR;
+    case MaterialKind::Dielectric:
+        return CB_FEATURE_DIELECTRIC;
+    case MaterialKind::Mix:
+        return CB_FEATURE_MIX;
     }
     return 0;
 }
@@ -104,7 +112,8 @@ unsigned materialFeature(MaterialKind kind) {
 
 DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
     DeviceScene scene;
-    bool spectral = mode == ChannelMode::Spectral || (mode == ChannelMode::Auto && desc.usesSpectra);
+    bool spectral =
+        mode == ChannelMode::Spectral || (mode == ChannelMode::Auto && desc.usesSpectra);
     scene.channels = spectral ? kSpectralBins : 3;
     scene.toRgb = channelsToRgbMatrix(scene.channels);
     // Camera-relative rendering: positions are made relative to the camera in double, then
@@ -113,7 +122,8 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
     scene.origin = cameraPosition(desc);
     scene.camera = makeCamera(desc, scene.origin);
     auto toDevice = [&](const std::array<double, 3>& p, float* out) {
-        for (int a = 0; a < 3; ++a) out[a] = float(p[size_t(a)] - scene.origin[size_t(a)]);
+        for (int a = 0; a < 3; ++a)
+            out[a] = float(p[size_t(a)] - scene.origin[size_t(a)]);
     };
     SpectraTable spectra(scene.channels, scene.spectra);
 
@@ -126,8 +136,10 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
                 if (c >= 0) materialUsed[size_t(c)] = true;
         }
     };
-    for (const auto& mesh : desc.meshes) markUsed(mesh.material);
-    for (const auto& sphere : desc.spheres) markUsed(sphere.material);
+    for (const auto& mesh : desc.meshes)
+        markUsed(mesh.material);
+    for (const auto& sphere : desc.spheres)
+        markUsed(sphere.material);
 
     int oneSpectrum = spectra.add(SpectrumValue::constant(1.f), 1.f);
     for (size_t i = 0; i < desc.materials.size(); ++i) {
@@ -191,7 +203,8 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
 
     for (const auto& mesh : desc.meshes) {
         scene.vertexCount += long(mesh.positions.size());
-        for (const auto& p : mesh.positions) grow(p, 0.f);
+        for (const auto& p : mesh.positions)
+            grow(p, 0.f);
         for (const auto& tri : mesh.triangles) {
             cbk::Primitive prim{};
             prim.kind = CB_PRIM_TRIANGLE;
@@ -254,8 +267,10 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         scene.boundsMax = hi;
     }
     if (scene.droppedDegenerateTriangles > 0) {
-        fmt::print(stderr, "warning: {}: dropped {} triangles that have zero area in float "
-                           "precision\n", desc.path, scene.droppedDegenerateTriangles);
+        fmt::print(stderr,
+                   "warning: {}: dropped {} triangles that have zero area in float "
+                   "precision\n",
+                   desc.path, scene.droppedDegenerateTriangles);
     }
 
     // Choose lights in proportion to power; fall back to uniform if every light is black.
@@ -301,6 +316,29 @@ std::string DeviceScene::featureNames() const {
     add(CB_FEATURE_SPHERES, "spheres");
     names += channels == 16 ? " spectral-16" : " rgb";
     return names;
+}
+
+SceneBytes sceneBytes(const DeviceScene& scene) {
+    SceneBytes raw{};
+    raw.nodes = scene.bvh.nodes.data();
+    raw.nodeCount = scene.bvh.nodes.size();
+    raw.nodeBytes = sizeof(cbk::BvhNode);
+    raw.primitives = scene.bvh.primitives.data();
+    raw.primitiveCount = scene.bvh.primitives.size();
+    raw.primitiveBytes = sizeof(cbk::Primitive);
+    raw.materials = scene.materials.data();
+    raw.materialCount = scene.materials.size();
+    raw.materialBytes = sizeof(cbk::Material);
+    raw.lights = scene.lights.data();
+    raw.lightCount = scene.lights.size();
+    raw.lightBytes = sizeof(cbk::Light);
+    raw.spectra = scene.spectra.data();
+    raw.spectraCount = scene.spectra.size();
+    raw.toRgb = scene.toRgb.data();
+    raw.camera = &scene.camera;
+    raw.cameraBytes = sizeof(cbk::Camera);
+    raw.channels = scene.channels;
+    return raw;
 }
 
 } // namespace cb
