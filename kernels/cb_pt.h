@@ -123,6 +123,23 @@ CB_FN Spectrum ptRadiance(const SceneView* scene, Ray ray, SampleStream stream,
     return radiance;
 }
 
+/* One PT/CPT sample of pixel (x, y) in linear sRGB: the whole work of one work-item of
+ * renderPathTracing (pt.cl), shared so that the host's double-precision build (src/reference/)
+ * computes exactly the same estimate. streamTile == 0: every pixel has its own sample vector
+ * (PT); streamTile == k > 0: the pixel at position (i, j) of its k x k tile uses vector (i, j)
+ * of the estimate (CPT, METHOD.md). */
+CB_FN Vec3 ptPixelRgb(const SceneView* scene, CB_GLOBAL const real* toRgb, const Camera* camera,
+                      PathSettings settings, uint seed, uint estimate, int streamTile, int x,
+                      int y) {
+    uint pixel = (uint)(y * camera->width + x);
+    uint stream = streamTile > 0 ? (uint)((y % streamTile) * streamTile + (x % streamTile)) : pixel;
+    SampleStream samples = sampleStreamStart(seed, estimate, stream);
+    real rasterX, rasterY;
+    cameraJitteredRaster(samples, x, y, &rasterX, &rasterY);
+    Ray ray = cameraGenerateRay(camera, rasterX, rasterY);
+    return specToRgb(ptRadiance(scene, ray, samples, settings), toRgb);
+}
+
 CB_END_NAMESPACE
 
 #endif /* CB_PT_H */
