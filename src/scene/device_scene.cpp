@@ -59,6 +59,33 @@ std::array<double, 3> cameraPosition(const SceneDesc& desc) {
     return {(*cameraToWorld)(0, 3), (*cameraToWorld)(1, 3), (*cameraToWorld)(2, 3)};
 }
 
+// The origin of device coordinates: the camera position clamped to the world bounds of the
+// geometry and point lights. With the camera among the geometry this is the camera itself
+// (float is finest where the image needs it); with a camera far outside (a telephoto view from
+// 1e4 away, say) it is the nearest point of the scene, so that the vertices, hit points and every
+// secondary ray keep coordinates of the scene's own size instead of the camera distance.
+std::array<double, 3> deviceOrigin(const SceneDesc& desc) {
+    std::array<double, 3> lo{HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi{-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+    auto grow = [&](const std::array<double, 3>& p, double r) {
+        for (size_t a = 0; a < 3; ++a) {
+            lo[a] = std::min(lo[a], p[a] - r);
+            hi[a] = std::max(hi[a], p[a] + r);
+        }
+    };
+    for (const auto& mesh : desc.meshes)
+        for (const auto& p : mesh.positions)
+            grow(p, 0.0);
+    for (const auto& sphere : desc.spheres)
+        grow(sphere.center, double(sphere.radius));
+    for (const auto& light : desc.pointLights)
+        grow(light.position, 0.0);
+    std::array<double, 3> origin = cameraPosition(desc);
+    if (lo[0] > hi[0]) return origin; // nothing placed: buildDeviceScene reports it
+    for (size_t a = 0; a < 3; ++a)
+        origin[a] = std::clamp(origin[a], lo[a], hi[a]);
+    return origin;
+}
+
 cbk::Camera makeCamera(const SceneDesc& desc, const std::array<double, 3>& origin) {
     const FilmDesc& film = desc.film;
     SourceLocation where = desc.camera.where;
@@ -116,10 +143,11 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         mode == ChannelMode::Spectral || (mode == ChannelMode::Auto && desc.usesSpectra);
     scene.channels = spectral ? kSpectralBins : 3;
     scene.toRgb = channelsToRgbMatrix(scene.channels);
-    // Camera-relative rendering: positions are made relative to the camera in double, then
-    // rounded to float, so precision is finest where the image needs it and a scene far from
-    // the world origin renders like the same scene at the origin.
-    scene.origin = cameraPosition(desc);
+    // Camera-relative rendering: positions are made relative to the camera (or, for a camera
+    // outside the scene, to the scene point nearest to it: deviceOrigin) in double, then rounded
+    // to float, so precision is finest where the image needs it and a scene far from the world
+    // origin renders like the same scene at the origin.
+    scene.origin = deviceOrigin(desc);
     scene.camera = makeCamera(desc, scene.origin);
     auto toDevice = [&](const std::array<double, 3>& p, float* out) {
         for (int a = 0; a < 3; ++a)

@@ -23,8 +23,8 @@ struct DeviceScene {
     std::vector<float> spectra; // `channels` floats per entry
     std::vector<float> toRgb;   // 3 x channels, row-major: linear sRGB from channels
     cbk::Camera camera{};
-    // Device coordinates are world coordinates minus this point (the camera position): see
-    // buildDeviceScene.
+    // Device coordinates are world coordinates minus this point (the camera position, clamped
+    // to the scene's bounds): see buildDeviceScene.
     std::array<double, 3> origin{0, 0, 0};
     unsigned features = 0; // CB_FEATURE_* bits
     // Statistics for `cbdpt info`.
