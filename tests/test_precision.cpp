@@ -353,3 +353,64 @@ TEST_CASE("float64 check: one PT estimate of the float kernel matches the double
         }
     }
 }
+
+TEST_CASE("float64 check: CBDPT's host light pass in float and in double") {
+    for (const Case& c : kCases) {
+        const std::string name = c.name;
+        CAPTURE(name);
+        const int size = 48;
+        cb::DeviceScene scene = cb::buildDeviceScene(c.make(size), cb::ChannelMode::Rgb);
+        cb::CbdptLightSettings settings;
+        settings.seed = 11;
+        settings.eyeVertices = 4;
+        settings.lightVertices = 4;
+        settings.weights = 0; // power heuristic
+        settings.coherenceTile = 16;
+        settings.tileRows = 16;
+        settings.tileColumns = 16;
+        auto single =
+            cb::reference::makeHostLightTracer(cb::sceneBytes(scene), settings, Precision::Float);
+        auto wide =
+            cb::reference::makeHostLightTracer(cb::sceneBytes(scene), settings, Precision::Double);
+        std::vector<double> sumSingle(size_t(3 * size * size), 0.0), sumWide(sumSingle);
+        long subpaths = 0, sameLength = 0, nonFinite = 0;
+        for (std::uint32_t e = 0; e < 8; ++e) {
+            cb::CbdptLightPass f, d;
+            single->trace(e, f);
+            wide->trace(e, d);
+            nonFinite += f.nonFinite + d.nonFinite;
+            for (size_t i = 0; i < f.counts.size(); ++i, ++subpaths)
+                if (f.counts[i] == d.counts[i]) ++sameLength;
+            for (size_t i = 0; i < sumSingle.size(); ++i) {
+                sumSingle[i] += f.splatRgb[i];
+                sumWide[i] += d.splatRgb[i];
+            }
+        }
+        double mean = 0;
+        for (double v : sumWide)
+            mean += v / double(sumWide.size());
+        long lit = 0, agree = 0;
+        double sumDiff = 0, sumDiff2 = 0;
+        for (size_t i = 0; i < sumWide.size(); ++i) {
+            if (sumWide[i] == 0 && sumSingle[i] == 0) continue;
+            ++lit;
+            double diff = sumSingle[i] - sumWide[i];
+            if (std::fabs(diff) <= 1e-3 * std::fabs(sumWide[i]) + 1e-6 * mean) ++agree;
+            sumDiff += diff;
+            sumDiff2 += diff * diff;
+        }
+        const double n = double(sumWide.size());
+        const double meanDiff = sumDiff / n;
+        const double standardError =
+            std::sqrt(std::max(0.0, sumDiff2 / n - meanDiff * meanDiff) / (n - 1));
+        MESSAGE(name << ": " << sameLength << " of " << subpaths
+                     << " light subpaths have the same length; " << agree << " of " << lit
+                     << " splatted channels agree within 1e-3; mean difference " << meanDiff
+                     << " (standard error " << standardError << ", splat mean " << mean << ")");
+        CHECK(nonFinite == 0);
+        CHECK(lit > 0);
+        CHECK(double(sameLength) >= 0.995 * double(subpaths));
+        CHECK(double(agree) >= 0.99 * double(lit));
+        CHECK(std::fabs(meanDiff) <= 4.0 * standardError + 1e-6 * mean);
+    }
+}

@@ -15,6 +15,9 @@ static_assert(CB_CHANNELS == 3, "cbdpt_light_rgb.cpp must see the 3-channel shar
 
 namespace cb {
 namespace cbdpt_rgb {
+namespace device = cbk; // the arrays are in this instantiation's own layout
+#include "scene/host_scene.inc"
+// needs HostScene, so after host_scene.inc
 #include "integrators/cbdpt_light.inc"
 } // namespace cbdpt_rgb
 

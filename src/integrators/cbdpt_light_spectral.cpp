@@ -27,6 +27,9 @@
 namespace cb {
 namespace cbdpt_spectral {
 #include "cb_path.h"
+namespace device = cbk; // the arrays are in this instantiation's own layout
+#include "scene/host_scene.inc"
+// needs HostScene, so after host_scene.inc
 #include "integrators/cbdpt_light.inc"
 } // namespace cbdpt_spectral
 

@@ -10,6 +10,7 @@
 // that both trace the same paths; only the arithmetic along them differs.
 #pragma once
 
+#include "integrators/cbdpt_light.h"
 #include "scene/scene_bytes.h"
 
 #include <array>
@@ -60,5 +61,12 @@ class HostKernels {
 // Copies the scene (3 channels only: the host builds have CB_CHANNELS == 3); throws
 // std::invalid_argument for spectral scenes.
 std::unique_ptr<HostKernels> makeHostKernels(const SceneBytes& scene, Precision precision);
+
+// CBDPT's host light pass (integrators/cbdpt_light.inc: light subpaths, their t = 1 camera
+// connections and MIS weights) in this precision; RGB scenes only. Float: the one `cbdpt`
+// renders RGB scenes with (makeCbdptLightTracerRgb).
+std::unique_ptr<CbdptLightTracer> makeHostLightTracer(const SceneBytes& scene,
+                                                      const CbdptLightSettings& settings,
+                                                      Precision precision);
 
 } // namespace cb::reference
