@@ -8,6 +8,7 @@
 #include "bench/embree_baseline.h"
 
 #include "bvh/bvh.h"
+#include "bvh/bvh_wide.h"
 #include "cl/cl_runtime.h"
 #include "integrators/integrator.h"
 #include "scene/device_scene.h"
@@ -30,6 +31,7 @@
 #include <random>
 #include <sstream>
 #include <thread>
+#include <time.h>
 #include <unistd.h>
 
 namespace fs = std::filesystem;
@@ -45,6 +47,14 @@ double secondsSince(Clock::time_point t) {
     return std::chrono::duration<double>(Clock::now() - t).count();
 }
 
+// CPU seconds of the whole process (all threads: PoCL's workers, Embree's std::threads). With
+// other jobs on the machine, wall time includes waiting for a core; CPU time is much steadier.
+double processCpuSeconds() {
+    timespec ts{};
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+    return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
+}
+
 double median(std::vector<double> v) {
     if (v.empty()) return 0.0;
     std::sort(v.begin(), v.end());
@@ -57,13 +67,13 @@ struct Options {
     std::string json;
     std::string models;
     std::vector<std::string> sections{"traverse", "build", "render", "scaling"};
-    std::string traversal = "ordered"; // ordered | skip | both
+    std::string traversal = "ordered"; // comma-separated ordered, skip, wide; or both
     int repeats = 0;                   // 0: 5 (2 in --quick)
     int localSize = 64;                // 0: let PoCL choose
     int leafSize = 4;
     long rays = 0; // 0: 1M (64k in --quick)
     int threads = 2;
-    bool host = false; // also time the host (g++) build of the traversal
+    bool host = false;               // also time the host (g++) build of the traversal
     std::vector<std::string> meshes; // default per mode
     std::string device;
     // Internal: measure one program build in this process (run by the build section).
@@ -166,8 +176,8 @@ void shadowRays(const Box3& b, const std::vector<Ray>& primary, const std::vecto
         else
             o = cbk::vec3(b.lo.x + u(rng) * (b.hi.x - b.lo.x), b.lo.y + u(rng) * (b.hi.y - b.lo.y),
                           b.lo.z + u(rng) * (b.hi.z - b.lo.z));
-        Vec3 light = cbk::vadd(centre, cbk::vec3((u(rng) - 0.5f) * size, 0.8f * size,
-                                                 (u(rng) - 0.5f) * size));
+        Vec3 light = cbk::vadd(
+            centre, cbk::vec3((u(rng) - 0.5f) * size, 0.8f * size, (u(rng) - 0.5f) * size));
         Vec3 d = cbk::vsub(light, o);
         float len = cbk::vlength(d);
         rays[i] = Ray{o, cbk::vscale(d, 1.0f / len)};
@@ -175,21 +185,37 @@ void shadowRays(const Box3& b, const std::vector<Ray>& primary, const std::vecto
     }
 }
 
+std::vector<std::string> splitCommas(const std::string& v) {
+    std::vector<std::string> out;
+    std::stringstream ss(v);
+    for (std::string item; std::getline(ss, item, ',');)
+        if (!item.empty()) out.push_back(item);
+    return out;
+}
+
 // ---- Our OpenCL traversal ---------------------------------------------------------------
 
 class ClTraversal {
   public:
-    ClTraversal(ClRuntime& rt, const Bvh& bvh, bool skipOrder, int localSize)
+    // variant: ordered | skip (binary BVH) | wide (the 4-wide prototype of cb_bvh_wide.h)
+    ClTraversal(ClRuntime& rt, const Bvh& bvh, const std::string& variant, int localSize)
         : rt_(rt), localSize_(localSize) {
         std::vector<std::string> defines = {"CB_CHANNELS=3", "CB_FEATURES=0x101u"};
-        if (skipOrder) defines.push_back("CB_BVH_SKIP_ORDER=1");
+        if (variant == "skip") defines.push_back("CB_BVH_SKIP_ORDER=1");
         program_ = rt.buildProgram("bench_traverse.cl", defines);
-        closest_ = cl::Kernel(program_, "benchClosest");
-        occluded_ = cl::Kernel(program_, "benchOccluded");
+        const bool wide = variant == "wide";
+        closest_ = cl::Kernel(program_, wide ? "benchClosest4" : "benchClosest");
+        occluded_ = cl::Kernel(program_, wide ? "benchOccluded4" : "benchOccluded");
         auto& ctx = rt.context();
-        nodes_ = cl::Buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
-                            bvh.nodes.size() * sizeof(cbk::BvhNode),
-                            const_cast<cbk::BvhNode*>(bvh.nodes.data()));
+        if (wide) {
+            wide_ = collapseBvh4(bvh);
+            nodes_ = cl::Buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
+                                wide_.size() * sizeof(cbk::BvhNode4), wide_.data());
+        } else {
+            nodes_ = cl::Buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
+                                bvh.nodes.size() * sizeof(cbk::BvhNode),
+                                const_cast<cbk::BvhNode*>(bvh.nodes.data()));
+        }
         prims_ = cl::Buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
                             std::max<size_t>(1, bvh.primitives.size()) * sizeof(cbk::Primitive),
                             const_cast<cbk::Primitive*>(bvh.primitives.data()));
@@ -245,13 +271,16 @@ class ClTraversal {
         // this local size, buffer migration) are not traversal.
         rt_.queue().enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(global), local);
         rt_.queue().finish();
-        std::vector<double> times;
+        std::vector<double> times, cpu;
         for (int r = 0; r < repeats; ++r) {
             auto start = Clock::now();
+            double cpuStart = processCpuSeconds();
             rt_.queue().enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(global), local);
             rt_.queue().finish();
             times.push_back(secondsSince(start));
+            cpu.push_back(processCpuSeconds() - cpuStart);
         }
+        lastCpu = median(cpu);
         return median(times);
     }
 
@@ -260,6 +289,10 @@ class ClTraversal {
     cl::Program program_;
     cl::Kernel closest_, occluded_;
     cl::Buffer nodes_, prims_;
+    std::vector<cbk::BvhNode4> wide_;
+
+  public:
+    double lastCpu = 0.0; // median CPU seconds of the last closest() or occluded()
 };
 
 struct MeshEntry {
@@ -288,8 +321,8 @@ std::vector<MeshEntry> loadMeshes(const Options& o) {
         }
         std::string path = findModel(o, n + ".ply");
         if (path.empty()) {
-            fmt::print(stderr, "warning: {}.ply not found (--models or CBDPT_MODEL_PATH); skipped\n",
-                       n);
+            fmt::print(stderr,
+                       "warning: {}.ply not found (--models or CBDPT_MODEL_PATH); skipped\n", n);
             continue;
         }
         out.push_back({n, readPly(path)});
@@ -359,12 +392,14 @@ json runTraverse(const Options& o, ClRuntime& rt) {
     if (o.traversal == "both")
         variants = {"ordered", "skip"};
     else
-        variants = {o.traversal};
+        variants = splitCommas(o.traversal);
     fmt::print("\n== traverse: Mrays/s (median of {}), {} rays, local size {}, leaf size {}, "
                "Embree on {} threads\n",
                repeats, rayCount, o.localSize, o.leafSize, o.threads);
-    fmt::print("{:<11} {:>9} {:<8} {:<10} {:>9} {:>9} {:>7} {:>9}\n", "mesh", "triangles",
-               "order", "rays", "ours", "embree", "ratio", "agree");
+    // cpu-ratio: the same ratio from process CPU seconds instead of wall seconds, steadier when
+    // other jobs share the cores.
+    fmt::print("{:<11} {:>9} {:<8} {:<10} {:>9} {:>9} {:>7} {:>9} {:>9}\n", "mesh", "triangles",
+               "order", "rays", "ours", "embree", "ratio", "cpu-ratio", "agree");
     for (auto& m : loadMeshes(o)) {
         auto prims = meshPrimitives(m.mesh);
         Bvh bvh = buildBvh(prims, {o.leafSize, 16});
@@ -375,7 +410,7 @@ json runTraverse(const Options& o, ClRuntime& rt) {
         auto primary = primaryRays(box, rayCount);
         auto incoherent = incoherentRays(box, rayCount, 7u);
         for (const auto& variant : variants) {
-            ClTraversal cl(rt, bvh, variant == "skip", o.localSize);
+            ClTraversal cl(rt, bvh, variant, o.localSize);
             std::vector<cbk::Hit> primaryHits;
             std::vector<Ray> shadow;
             std::vector<float> shadowT;
@@ -391,7 +426,7 @@ json runTraverse(const Options& o, ClRuntime& rt) {
                                        {"incoh-any", &incoherent, true}};
             std::vector<float> infT(incoherent.size(), CB_INFINITY);
             for (const auto& c : cases) {
-                double ours = 0.0, theirs = 0.0, agree = 1.0;
+                double ours = 0.0, theirs = 0.0, agree = 1.0, theirsCpu = 0.0;
                 size_t n = 0;
                 long hitCount = 0;
                 if (!c.anyHit) {
@@ -406,13 +441,16 @@ json runTraverse(const Options& o, ClRuntime& rt) {
                     }
                     if (embree) {
                         std::vector<BaselineHit> ref;
-                        std::vector<double> times;
+                        std::vector<double> times, cpu;
                         for (int r = 0; r < repeats + 1; ++r) {
                             auto start = Clock::now();
+                            double cpuStart = processCpuSeconds();
                             embree->intersect(*c.rays, ref);
                             if (r > 0) times.push_back(secondsSince(start));
+                            if (r > 0) cpu.push_back(processCpuSeconds() - cpuStart);
                         }
                         theirs = median(times);
+                        theirsCpu = median(cpu);
                         agree = closestAgreement(hits, bvh, ref);
                     }
                 } else {
@@ -424,13 +462,16 @@ json runTraverse(const Options& o, ClRuntime& rt) {
                         hitCount += v;
                     if (embree) {
                         std::vector<int> ref;
-                        std::vector<double> times;
+                        std::vector<double> times, cpu;
                         for (int r = 0; r < repeats + 1; ++r) {
                             auto start = Clock::now();
+                            double cpuStart = processCpuSeconds();
                             embree->occluded(*c.rays, tm, ref);
                             if (r > 0) times.push_back(secondsSince(start));
+                            if (r > 0) cpu.push_back(processCpuSeconds() - cpuStart);
                         }
                         theirs = median(times);
+                        theirsCpu = median(cpu);
                         size_t same = 0;
                         for (size_t i = 0; i < n; ++i)
                             same += occ[i] == ref[i];
@@ -439,15 +480,17 @@ json runTraverse(const Options& o, ClRuntime& rt) {
                 }
                 double host = 0.0;
                 if (o.host && variant == "ordered")
-                    host = hostSeconds(bvh, *c.rays,
-                                       c.anyHit ? (std::string(c.name) == "shadow" ? &shadowT : &infT)
-                                                : nullptr,
-                                       o.threads, repeats);
+                    host = hostSeconds(
+                        bvh, *c.rays,
+                        c.anyHit ? (std::string(c.name) == "shadow" ? &shadowT : &infT) : nullptr,
+                        o.threads, repeats);
                 double oursM = double(n) / ours * 1e-6;
                 double theirsM = theirs > 0 ? double(n) / theirs * 1e-6 : 0.0;
                 double ratio = theirsM > 0 ? oursM / theirsM : 0.0;
-                fmt::print("{:<11} {:>9} {:<8} {:<10} {:>9.2f} {:>9.2f} {:>7.3f} {:>8.4f}%\n",
-                           m.name, prims.size(), variant, c.name, oursM, theirsM, ratio,
+                double cpuRatio = theirsCpu > 0 && cl.lastCpu > 0 ? theirsCpu / cl.lastCpu : 0.0;
+                fmt::print("{:<11} {:>9} {:<8} {:<10} {:>9.2f} {:>9.2f} {:>7.3f} {:>9.3f} "
+                           "{:>8.4f}%\n",
+                           m.name, prims.size(), variant, c.name, oursM, theirsM, ratio, cpuRatio,
                            100.0 * agree);
                 std::fflush(stdout);
                 json row = {{"mesh", m.name},
@@ -468,6 +511,7 @@ json runTraverse(const Options& o, ClRuntime& rt) {
                     row["embree_mrays_per_s"] = theirsM;
                     row["embree_seconds"] = theirs;
                     row["ratio"] = ratio;
+                    row["cpu_ratio"] = cpuRatio;
                     row["agreement"] = agree;
                 }
                 out.push_back(row);
@@ -527,9 +571,8 @@ json runBuild(const Options& o) {
         }
         fmt::print("{:<11} {:>9} {:>9} {:>10.3f} {:>10.3f}\n", m.name, prims.size(),
                    bvh.nodes.size(), median(times), embreeS);
-        json row = {{"mesh", m.name},         {"triangles", prims.size()},
-                    {"nodes", bvh.nodes.size()}, {"depth", bvh.depth},
-                    {"seconds", median(times)}, {"threads", 1}};
+        json row = {{"mesh", m.name},     {"triangles", prims.size()}, {"nodes", bvh.nodes.size()},
+                    {"depth", bvh.depth}, {"seconds", median(times)},  {"threads", 1}};
         if (embreeAvailable()) row["embree_seconds"] = embreeS;
         bvhRows.push_back(row);
     }
@@ -548,8 +591,8 @@ json runBuild(const Options& o) {
         }
         progs.push_back({f, "diffuse-only rgb", {"CB_CHANNELS=3", "CB_FEATURES=0x101u"}});
         if (!o.quick)
-            progs.push_back({f, "all features spectral-16",
-                             {"CB_CHANNELS=16", "CB_FEATURES=0xffffffffu"}});
+            progs.push_back(
+                {f, "all features spectral-16", {"CB_CHANNELS=16", "CB_FEATURES=0xffffffffu"}});
         if (o.quick) break;
     }
     fmt::print("\n== build: PoCL program (cold: empty POCL_CACHE_DIR; warm: same cache again)\n");
@@ -582,8 +625,8 @@ struct RenderTiming {
 };
 
 // Median time of `estimates` estimates after one untimed warm-up estimate.
-RenderTiming timeIntegrator(ClRuntime& rt, const DeviceScene& scene,
-                            const IntegratorSettings& s, int estimates) {
+RenderTiming timeIntegrator(ClRuntime& rt, const DeviceScene& scene, const IntegratorSettings& s,
+                            int estimates) {
     auto integrator = makeIntegrator(s, scene, rt);
     std::vector<float> rgb;
     integrator->renderEstimate(0, rgb);
@@ -709,8 +752,8 @@ json runScaling(const Options& o, ClRuntime& rt) {
     fmt::print("\n== scaling (PT, 8 vertices, Cornell box; median of {} estimates)\n", estimates);
 
     // Triangle count: a displaced sphere of n triangles floats in the Cornell box.
-    std::vector<long> counts = o.quick ? std::vector<long>{1000, 10000}
-                                       : std::vector<long>{1000, 10000, 100000, 1000000};
+    std::vector<long> counts =
+        o.quick ? std::vector<long>{1000, 10000} : std::vector<long>{1000, 10000, 100000, 1000000};
     json tri = json::array();
     fmt::print("{:<12} {:>10} {:>12}\n", "triangles", "in scene", "s/estimate");
     std::string base;
@@ -761,13 +804,16 @@ json runScaling(const Options& o, ClRuntime& rt) {
         fmt::print("{:<12} {:>10} {:>12.4f} {:>14.1f}\n", fmt::format("{}x{}", s, s), s * s,
                    t.perEstimate, t.perEstimate / (s * s) * 1e9);
         std::fflush(stdout);
-        res.push_back({{"width", s}, {"height", s}, {"pixels", s * s},
+        res.push_back({{"width", s},
+                       {"height", s},
+                       {"pixels", s * s},
                        {"seconds_per_estimate", t.perEstimate}});
     }
     out["resolution"] = res;
 
     // Estimates (the thesis's appendix A.2 linearity check): total time of n estimates.
-    std::vector<int> ns = o.quick ? std::vector<int>{1, 2, 4} : std::vector<int>{1, 2, 4, 8, 16, 32};
+    std::vector<int> ns =
+        o.quick ? std::vector<int>{1, 2, 4} : std::vector<int>{1, 2, 4, 8, 16, 32};
     SceneDesc d = cornell;
     d.film.width = size;
     d.film.height = size;
@@ -806,8 +852,8 @@ json runScaling(const Options& o, ClRuntime& rt) {
     fmt::print("linear fit: {:.4f} s per estimate + {:.4f} s, R^2 = {:.5f}\n", slope,
                my - slope * mx, r2);
     out["estimates"] = est;
-    out["estimates_fit"] = {{"slope_seconds", slope}, {"intercept_seconds", my - slope * mx},
-                            {"r2", r2}};
+    out["estimates_fit"] = {
+        {"slope_seconds", slope}, {"intercept_seconds", my - slope * mx}, {"r2", r2}};
     return out;
 }
 
@@ -838,8 +884,16 @@ int run(int argc, char** argv) {
     app.add_option("--json", o.json, "write all results to this JSON file");
     app.add_option("--models", o.models, "folder with bunny.ply and dragon.ply");
     app.add_option("--sections", o.sections, "traverse build render scaling")->delimiter(',');
-    app.add_option("--traversal", o.traversal, "closest-hit order: ordered | skip | both")
-        ->check(CLI::IsMember({"ordered", "skip", "both"}));
+    app.add_option("--traversal", o.traversal,
+                   "comma-separated: ordered | skip (binary BVH) | wide (4-wide prototype); "
+                   "both = ordered,skip")
+        ->check([](const std::string& v) {
+            if (v == "both") return std::string();
+            for (const auto& s : splitCommas(v))
+                if (s != "ordered" && s != "skip" && s != "wide")
+                    return "unknown traversal '" + s + "' (ordered, skip, wide, both)";
+            return std::string();
+        });
     app.add_option("--repeats", o.repeats, "timed repeats per measurement");
     app.add_option("--local-size", o.localSize, "traversal work-group size (0: PoCL chooses)");
     app.add_option("--leaf-size", o.leafSize, "BVH maximum leaf size");

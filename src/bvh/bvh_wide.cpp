@@ -1,0 +1,103 @@
+#include "bvh/bvh_wide.h"
+
+#include <limits>
+#include <stdexcept>
+
+namespace cb {
+namespace {
+
+double halfArea(const cbk::BvhNode& n) {
+    double d[3];
+    for (int a = 0; a < 3; ++a)
+        d[a] = double(n.boundsMax[a]) - double(n.boundsMin[a]);
+    if (d[0] < 0.0) return 0.0;
+    return d[0] * d[1] + d[1] * d[2] + d[2] * d[0];
+}
+
+bool isLeaf(const cbk::BvhNode& n) {
+    return (n.count & CB_BVH_LEAF) != 0u;
+}
+
+// The two children of binary interior node i (preorder: the first is i + 1).
+void binaryChildren(const std::vector<cbk::BvhNode>& nodes, uint32_t i, uint32_t out[2]) {
+    out[0] = i + 1;
+    out[1] = isLeaf(nodes[i + 1]) ? i + 2 : nodes[i + 1].index;
+}
+
+} // namespace
+
+std::vector<cbk::BvhNode4> collapseBvh4(const Bvh& bvh) {
+    const auto& bin = bvh.nodes;
+    constexpr float kInf = std::numeric_limits<float>::infinity();
+    std::vector<cbk::BvhNode4> out;
+    struct Task {
+        uint32_t binary; // binary node whose children this wide node holds (or a root leaf)
+        uint32_t parent; // wide parent
+        uint32_t slot;   // wide node to write, already allocated
+        uint32_t lane;   // its lane in the parent
+    };
+    out.push_back({});
+    std::vector<Task> todo{{0u, CB_BVH4_NONE, 0u, 0u}};
+    while (!todo.empty()) {
+        Task t = todo.back();
+        todo.pop_back();
+        // Children: open the interior child with the largest area until there are four.
+        std::vector<uint32_t> kids;
+        if (isLeaf(bin[t.binary])) {
+            kids.push_back(t.binary); // a tree that is one leaf: the root holds it
+        } else {
+            uint32_t c[2];
+            binaryChildren(bin, t.binary, c);
+            kids = {c[0], c[1]};
+            while (kids.size() < 4) {
+                int best = -1;
+                double bestArea = -1.0;
+                for (size_t k = 0; k < kids.size(); ++k)
+                    if (!isLeaf(bin[kids[k]]) && halfArea(bin[kids[k]]) > bestArea) {
+                        best = int(k);
+                        bestArea = halfArea(bin[kids[k]]);
+                    }
+                if (best < 0) break;
+                binaryChildren(bin, kids[size_t(best)], c);
+                kids[size_t(best)] = c[0];
+                kids.insert(kids.begin() + best + 1, c[1]);
+            }
+        }
+        cbk::BvhNode4 node{};
+        node.parent = t.parent;
+        node.lane = t.lane;
+        node.counts = 0;
+        for (uint32_t k = 0; k < 4; ++k) {
+            const bool emptyLeaf =
+                k < kids.size() && isLeaf(bin[kids[k]]) && (bin[kids[k]].count & ~CB_BVH_LEAF) == 0;
+            if (k >= kids.size() || emptyLeaf) {
+                for (int a = 0; a < 3; ++a) {
+                    node.lo[a][k] = kInf;
+                    node.hi[a][k] = -kInf;
+                }
+                node.child[k] = CB_BVH4_NONE;
+                continue;
+            }
+            const auto& b = bin[kids[k]];
+            for (int a = 0; a < 3; ++a) {
+                node.lo[a][k] = b.boundsMin[a];
+                node.hi[a][k] = b.boundsMax[a];
+            }
+            if (isLeaf(b)) {
+                uint32_t count = b.count & ~CB_BVH_LEAF;
+                if (count > 255)
+                    throw std::length_error("BVH4: leaves hold at most 255 primitives");
+                node.child[k] = b.index;
+                node.counts |= count << (8 * k);
+            } else {
+                node.child[k] = uint32_t(out.size());
+                out.push_back({});
+                todo.push_back({kids[k], t.slot, node.child[k], k});
+            }
+        }
+        out[t.slot] = node;
+    }
+    return out;
+}
+
+} // namespace cb
