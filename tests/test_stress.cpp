@@ -33,15 +33,19 @@ void setVertexCaps(cb::IntegratorSettings& settings, const std::string& integrat
     }
 }
 
-std::string cornellPath() { return std::string(CBDPT_SOURCE_DIR) + "/scenes/cornell-box.pbrt"; }
+std::string cornellPath() {
+    return std::string(CBDPT_SOURCE_DIR) + "/scenes/cornell-box.pbrt";
+}
 
 // Maps the world by p -> s p + t: geometry, lights and camera (so the image must not change).
 void transformWorld(cb::SceneDesc& desc, double s, const std::array<double, 3>& t) {
     auto map = [&](std::array<double, 3>& p) {
-        for (int a = 0; a < 3; ++a) p[size_t(a)] = s * p[size_t(a)] + t[size_t(a)];
+        for (int a = 0; a < 3; ++a)
+            p[size_t(a)] = s * p[size_t(a)] + t[size_t(a)];
     };
     for (auto& mesh : desc.meshes)
-        for (auto& p : mesh.positions) map(p);
+        for (auto& p : mesh.positions)
+            map(p);
     for (auto& sphere : desc.spheres) {
         map(sphere.center);
         sphere.radius = float(s * double(sphere.radius));
@@ -54,9 +58,11 @@ void transformWorld(cb::SceneDesc& desc, double s, const std::array<double, 3>& 
     auto& m = desc.camera.worldToCamera;
     std::array<double, 16> out = m;
     for (int r = 0; r < 4; ++r) {
-        for (int c = 0; c < 3; ++c) out[size_t(r * 4 + c)] = m[size_t(r * 4 + c)] / s;
+        for (int c = 0; c < 3; ++c)
+            out[size_t(r * 4 + c)] = m[size_t(r * 4 + c)] / s;
         double shift = 0.0;
-        for (int c = 0; c < 3; ++c) shift += m[size_t(r * 4 + c)] * t[size_t(c)] / s;
+        for (int c = 0; c < 3; ++c)
+            shift += m[size_t(r * 4 + c)] * t[size_t(c)] / s;
         out[size_t(r * 4 + 3)] = m[size_t(r * 4 + 3)] - shift;
     }
     m = out;
@@ -76,16 +82,19 @@ std::vector<double> renderMean(const cb::SceneDesc& desc, const std::string& int
     for (int e = 0; e < estimates; ++e) {
         renderer->renderEstimate(std::uint32_t(e), rgb);
         if (sum.empty()) sum.assign(rgb.size(), 0.0);
-        for (size_t i = 0; i < rgb.size(); ++i) sum[i] += rgb[i];
+        for (size_t i = 0; i < rgb.size(); ++i)
+            sum[i] += rgb[i];
     }
     REQUIRE(renderer->nonFiniteSamples() == 0);
-    for (double& v : sum) v /= estimates;
+    for (double& v : sum)
+        v /= estimates;
     return sum;
 }
 
 double meanOf(const std::vector<double>& v) {
     double s = 0;
-    for (double x : v) s += x;
+    for (double x : v)
+        s += x;
     return s / double(v.size());
 }
 
@@ -107,9 +116,9 @@ TEST_CASE("stress: the Cornell box scaled by 1e-4 and 1e4 and moved 1e5 away ren
             double scale;
             std::array<double, 3> shift;
         };
-        for (Variant v : {Variant{1e-4, {0, 0, 0}}, Variant{1e4, {0, 0, 0}},
-                          Variant{1.0, {1e5, 0, 0}}, Variant{1.0, {-7e4, 3e4, 1e5}},
-                          Variant{1e3, {1e5, 1e5, 1e5}}}) {
+        for (Variant v :
+             {Variant{1e-4, {0, 0, 0}}, Variant{1e4, {0, 0, 0}}, Variant{1.0, {1e5, 0, 0}},
+              Variant{1.0, {-7e4, 3e4, 1e5}}, Variant{1e3, {1e5, 1e5, 1e5}}}) {
             CAPTURE(v.scale);
             CAPTURE(v.shift[0]);
             cb::SceneDesc moved = base;
@@ -162,10 +171,12 @@ EstimateSpread renderEstimateSpread(const cb::SceneDesc& desc, const std::string
     }
     REQUIRE(renderer->nonFiniteSamples() == 0);
     EstimateSpread s;
-    for (double m : means) s.mean += m;
+    for (double m : means)
+        s.mean += m;
     s.mean /= double(means.size());
     double var = 0;
-    for (double m : means) var += (m - s.mean) * (m - s.mean);
+    for (double m : means)
+        var += (m - s.mean) * (m - s.mean);
     var /= double(means.size() - 1);
     s.standardError = std::sqrt(var / double(means.size()));
     return s;
@@ -177,7 +188,8 @@ std::string pointProbeScene(double x, const std::string& film, const std::string
     return "LookAt " + std::to_string(x) + " 1 0  " + std::to_string(x) +
            " 0 0  0 0 1\n"
            "Camera \"perspective\" \"float fov\" 0.0001\n"
-           "Film \"rgb\" " + film +
+           "Film \"rgb\" " +
+           film +
            "\nWorldBegin\n"
            "Material \"diffuse\" \"rgb reflectance\" [0.5 0.5 0.5]\n"
            "Shape \"trianglemesh\" \"point3 P\" [-1 0 -1  1 0 -1  1 0 1  -1 0 1]\n"
@@ -230,7 +242,8 @@ TEST_CASE("stress: a sphere light of radius 1e-6 matches a point light of equal 
         for (double d : {0.005, 0.02}) {
             CAPTURE(d);
             auto p = renderEstimateSpread(
-                cb::parseSceneString(pointProbeScene(d, film, point), "<point>"), integrator, 3, 4, 1);
+                cb::parseSceneString(pointProbeScene(d, film, point), "<point>"), integrator, 3, 4,
+                1);
             auto s = renderEstimateSpread(
                 cb::parseSceneString(pointProbeScene(d, film, sphere), "<sphere>"), integrator, 3,
                 256, 2);
@@ -256,7 +269,8 @@ TEST_CASE("stress: emission scaled by 1e8 and 1e-8 scales the image exactly") {
         for (double scale : {1e8, 1e-8}) {
             CAPTURE(scale);
             cb::SceneDesc scaled = base;
-            for (auto& light : scaled.areaLights) light.scale = float(double(light.scale) * scale);
+            for (auto& light : scaled.areaLights)
+                light.scale = float(double(light.scale) * scale);
             auto image = renderMean(scaled, integrator, 6, 4);
             // Same seed, same paths (light choice and roulette depend only on ratios and
             // throughput), so every pixel scales by exactly `scale` up to float rounding.
@@ -277,8 +291,8 @@ TEST_CASE("stress: albedo 0.999 with 64 eye vertices matches the furnace value")
         CAPTURE(integrator);
         auto s = renderEstimateSpread(cbtest::furnaceScene(albedo, emission, 8), integrator,
                                       eyeVertices, 32, 5);
-        double expected = emission * (1.0 - std::pow(double(albedo), eyeVertices - 1)) /
-                          (1.0 - double(albedo));
+        double expected =
+            emission * (1.0 - std::pow(double(albedo), eyeVertices - 1)) / (1.0 - double(albedo));
         CAPTURE(expected);
         CAPTURE(s.mean);
         CAPTURE(s.standardError);
@@ -300,8 +314,8 @@ TEST_CASE("stress: a rough conductor of roughness 1e-4 matches the perfect mirro
                     m.roughness = rough ? 1e-4f : 0.f;
                     m.remapRoughness = false;
                 }
-            results[rough] = renderEstimateSpread(desc, integrator, 6, 48, 11 + rough,
-                                                  cb::ChannelMode::Rgb);
+            results[rough] =
+                renderEstimateSpread(desc, integrator, 6, 48, 11 + rough, cb::ChannelMode::Rgb);
         }
         CAPTURE(results[0].mean);
         CAPTURE(results[1].mean);
@@ -331,30 +345,33 @@ cb::SceneDesc furnaceWithCamera(const std::string& lookAt, float albedo, float e
 
 } // namespace
 
+const char* const kFurnaceCameras[3] = {
+    // 1e-5 above the floor, looking along it: the lower half of the image sees the floor at
+    // grazing angles down to ~1e-5 rad. The camera is 1 cm from the back wall.
+    "LookAt 0 -0.99999 -0.99  0 -0.99999 1  0 1 0",
+    // From the centre straight at a corner: rays run along and through the three edges and the
+    // corner vertex shared by six triangles.
+    "LookAt 0 0 0  1 1 1  0 1 0",
+    // Exactly in the plane of a wall's diagonal edge.
+    "LookAt -0.5 -0.5 -0.5  1 1 -1  0 0 1",
+};
+
 TEST_CASE("stress: grazing and edge-on cameras in the furnace: no leaks, no speckles") {
     const float albedo = 0.5f, emission = 1.0f;
-    const char* cameras[] = {
-        // 1e-5 above the floor, looking along it: the lower half of the image sees the floor
-        // at grazing angles down to ~1e-5 rad.
-        "LookAt 0 -0.99999 -0.99  0 -0.99999 1  0 1 0",
-        // From the centre straight at a corner: rays run along and through the three edges
-        // and the corner vertex shared by six triangles.
-        "LookAt 0 0 0  1 1 1  0 1 0",
-        // Exactly in the plane of a wall's diagonal edge.
-        "LookAt -0.5 -0.5 -0.5  1 1 -1  0 0 1",
-    };
-    // PT and CPT only: for BDPT and CBDPT the camera connections (t = 1) of light vertices a
-    // few 1e-5 from a grazing camera carry rare, huge importance; 32 estimates give no reliable
-    // per-pixel error bar for them (left open in issue 8).
+    const char* const* cameras = kFurnaceCameras;
+    // PT and CPT only: BDPT's and CBDPT's estimates here are heavy-tailed, so 32 estimates give
+    // no per-pixel error bar for them; they have their own test on row bands below.
     for (const char* integrator : {"pt", "cpt"}) {
         CAPTURE(integrator);
-        for (const char* camera : cameras) {
+        for (int c = 0; c < 3; ++c) {
+            const char* camera = cameras[c];
             CAPTURE(camera);
             cb::SceneDesc desc = furnaceWithCamera(camera, albedo, emission);
             // Two vertices: every pixel sees the emitting wall directly, exactly Le.
             auto direct = renderMean(desc, integrator, 2, 2);
             int wrong = 0;
-            for (double v : direct) wrong += std::fabs(v - emission) > 1e-6;
+            for (double v : direct)
+                wrong += std::fabs(v - emission) > 1e-6;
             CHECK(wrong == 0);
             // Four vertices: Le (1 + a + a^2) in expectation; each pixel's mean over 32
             // estimates within 5 of its own standard errors (a leak or a self-shadowed
@@ -386,11 +403,124 @@ TEST_CASE("stress: grazing and edge-on cameras in the furnace: no leaks, no spec
                 CHECK(outliers == 0);
             } else {
                 double m = 0;
-                for (float v : mean.rgb) m += v;
+                for (float v : mean.rgb)
+                    m += v;
                 m /= double(mean.rgb.size());
                 CHECK(std::fabs(m - expected) < 0.05 * expected);
             }
             CHECK(renderer->nonFiniteSamples() == 0);
+        }
+    }
+}
+
+namespace {
+
+struct BandCheck {
+    double worstZ = 0, worstRelative = 0, largestPixelMean = 0, largestSample = 0;
+    int failures = 0; // bands off by more than `sigmas` standard errors + `relative` * expected
+    long nonFinite = 0;
+};
+
+// Renders `estimates` independent estimates of paths of at most 4 vertices and compares the
+// mean of each band of `bandRows` full rows with `expected`. The error bar of a band is the
+// spread of its per-estimate means: estimates are independent even where the pixels of one
+// estimate are not (CBDPT).
+BandCheck grazingBands(const cb::SceneDesc& desc, const std::string& integrator, int coherenceTile,
+                       int estimates, std::uint32_t seed, double expected, int bandRows,
+                       double sigmas, double relative) {
+    static cb::ClRuntime runtime;
+    cb::DeviceScene scene = cb::buildDeviceScene(desc);
+    cb::IntegratorSettings settings;
+    settings.name = integrator;
+    setVertexCaps(settings, integrator, 4);
+    settings.seed = seed;
+    settings.coherenceTile = coherenceTile;
+    auto renderer = cb::makeIntegrator(settings, scene, runtime);
+    const int w = scene.camera.width, h = scene.camera.height, bands = h / bandRows;
+    std::vector<double> pixelSum(size_t(3 * w * h), 0.0), bandSum(size_t(bands), 0.0),
+        bandSq(size_t(bands), 0.0);
+    BandCheck c;
+    std::vector<float> rgb;
+    for (int e = 0; e < estimates; ++e) {
+        renderer->renderEstimate(std::uint32_t(e), rgb);
+        std::vector<double> band(size_t(bands), 0.0);
+        for (int y = 0; y < bands * bandRows; ++y)
+            for (int x = 0; x < 3 * w; ++x) {
+                const double v = rgb[size_t(3 * w * y + x)];
+                pixelSum[size_t(3 * w * y + x)] += v;
+                band[size_t(y / bandRows)] += v / double(3 * w * bandRows);
+                c.largestSample = std::max(c.largestSample, v);
+            }
+        for (int b = 0; b < bands; ++b) {
+            bandSum[size_t(b)] += band[size_t(b)];
+            bandSq[size_t(b)] += band[size_t(b)] * band[size_t(b)];
+        }
+    }
+    const double n = double(estimates);
+    for (int b = 0; b < bands; ++b) {
+        const double mean = bandSum[size_t(b)] / n;
+        const double variance = std::max(0.0, bandSq[size_t(b)] / n - mean * mean) * n / (n - 1);
+        const double se = std::sqrt(variance / n);
+        const double off = std::fabs(mean - expected);
+        c.worstZ = std::max(c.worstZ, off / se);
+        c.worstRelative = std::max(c.worstRelative, off / expected);
+        if (!(off <= sigmas * se + relative * expected)) ++c.failures;
+    }
+    for (double v : pixelSum)
+        c.largestPixelMean = std::max(c.largestPixelMean, v / n);
+    c.nonFinite = renderer->nonFiniteSamples();
+    return c;
+}
+
+} // namespace
+
+// The bidirectional methods in the same three furnaces. Their estimates are heavy-tailed here:
+// with the caps split 2 + 2, a 3-vertex path (camera, x, light) has only the strategies
+// (s,t) = (1,2) (a light point connected to x) and (2,1) (a light vertex splatted to the
+// camera), and neither samples well a floor point x seen near the grazing camera, 1 cm from
+// the back wall: (2,1) almost never lands in those pixels (their footprints are tiny), and (1,2)
+// carries G = cos cos / r^2 up to 1/(1 cm)^2 for light points on the back wall near x, reached
+// with probability ~r^2. Single samples reach ~7e3 x the pixel value (measured), and with 256
+// estimates the floor rows averaged 15% low with a 1% error bar that knew nothing of the tail.
+// With 4096 estimates they converged (within 3.5 sigma); the per-pixel bars stay unreliable.
+// So the test compares full-width bands of 6 rows (288 pixels) over 1024 estimates, where
+// the tail is sampled often enough for the spread to see it (worst band 2.8 sigma over seeds
+// 17-19 for BDPT), at 4 sigma + 1%.
+//
+// CBDPT with its default coherence tile (k = 1) shares one light subpath among all pixels of an
+// estimate, so the floor pixels see one light point per estimate instead of 2304: the same tail
+// needs ~2000x more estimates (measured: 82% of the value at 1024 estimates, 86% at 16384, the
+// bottom bands moving together). At k = 48 CBDPT draws per pixel and reproduces BDPT's numbers
+// sample for sample; the grazing camera is tested at k = 16 (256 light subpaths per estimate),
+// the other two cameras, whose tails are mild, at k = 1.
+TEST_CASE("stress: grazing and edge-on cameras, BDPT and CBDPT: bands of rows match the "
+          "analytic value, no speckles" *
+          doctest::test_suite("statistical")) {
+    const float albedo = 0.5f, emission = 1.0f;
+    const double expected = emission * (1.0 + albedo + albedo * albedo);
+    const int estimates = 1024;
+    for (const char* integrator : {"bdpt", "cbdpt"}) {
+        CAPTURE(integrator);
+        for (int c = 0; c < 3; ++c) {
+            const char* camera = kFurnaceCameras[c];
+            CAPTURE(camera);
+            const bool cbdpt = std::string(integrator) == "cbdpt";
+            const int tile = cbdpt && c == 0 ? 16 : 1;
+            CAPTURE(tile);
+            BandCheck r = grazingBands(furnaceWithCamera(camera, albedo, emission), integrator,
+                                       tile, estimates, 17, expected, 6, 4.0, 0.01);
+            CAPTURE(r.worstZ);
+            CAPTURE(r.worstRelative);
+            CAPTURE(r.largestSample);
+            CAPTURE(r.largestPixelMean);
+            CHECK(r.failures == 0);
+            CHECK(r.nonFinite == 0);
+            // Speckles: one sample lifts its pixel's mean by sample / estimates. Samples reach
+            // ~9e3 x the value (connections to points ~1 cm apart across an edge), ~9x after 1024
+            // estimates (the largest pixel mean seen was 10.7x); 32x allows three such in one
+            // pixel. A self-intersecting connection (G ~ 1/eps^2) or a leak would be orders
+            // beyond that.
+            CHECK(r.largestPixelMean <= 32.0 * expected);
         }
     }
 }
