@@ -37,22 +37,22 @@ __kernel void benchOccluded(__global const struct BvhNode* nodes,
     occluded[i] = sceneOccluded(&scene, rays[i], tMax[i]) ? 1 : 0;
 }
 
-/* The 4-wide prototype (cb_bvh_wide.h) on the same rays. */
-__kernel void benchClosest4(__global const struct BvhNode4* nodes,
-                            __global const Primitive* primitives, __global const Ray* rays,
-                            uint count, __global Hit* hits) {
+/* The wide-BVH prototype (cb_bvh_wide.h) on the same rays. */
+__kernel void benchClosestWide(__global const struct BvhNodeWide* nodes,
+                               __global const Primitive* primitives, __global const Ray* rays,
+                               uint count, __global Hit* hits) {
     uint i = (uint)get_global_id(0);
     if (i >= count) return;
     Hit h;
-    bvh4Traverse(nodes, primitives, rays[i], CB_INFINITY, true, &h);
+    bvhWideTraverse(nodes, primitives, rays[i], CB_INFINITY, true, &h);
     hits[i] = h;
 }
 
-__kernel void benchOccluded4(__global const struct BvhNode4* nodes,
-                             __global const Primitive* primitives, __global const Ray* rays,
-                             __global const float* tMax, uint count, __global int* occluded) {
+__kernel void benchOccludedWide(__global const struct BvhNodeWide* nodes,
+                                __global const Primitive* primitives, __global const Ray* rays,
+                                __global const float* tMax, uint count, __global int* occluded) {
     uint i = (uint)get_global_id(0);
     if (i >= count) return;
     Hit h;
-    occluded[i] = bvh4Traverse(nodes, primitives, rays[i], tMax[i], false, &h) ? 1 : 0;
+    occluded[i] = bvhWideTraverse(nodes, primitives, rays[i], tMax[i], false, &h) ? 1 : 0;
 }

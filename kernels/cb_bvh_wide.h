@@ -1,9 +1,10 @@
-/* cb_bvh_wide.h - a 4-wide BVH and its stackless traversal (prototype, used by cbdpt-bench).
+/* cb_bvh_wide.h - a 4- or 8-wide BVH and its stackless traversal (prototype, used by
+ * cbdpt-bench; the renderers use cb_bvh.h).
  *
- * One node holds the boxes of up to four children in structure-of-arrays form, so one node
- * visit tests four boxes with the same instructions on four lanes (what Embree's BVH4 does
- * with SSE). src/bvh/bvh_wide.cpp builds it by collapsing the binary BVH (Wald, Benthin,
- * Boulos 2008, "Getting rid of packets": repeatedly open the largest child).
+ * One node holds the boxes of up to CB_BVH_WIDE_LANES children in structure-of-arrays form,
+ * so one node visit tests all of them with the same instructions on all lanes (what Embree's
+ * BVH4/BVH8 do with SSE/AVX). src/bvh/bvh_wide.cpp builds it by collapsing the binary BVH
+ * (Wald, Benthin, Boulos 2008, "Getting rid of packets": repeatedly open the largest child).
  *
  * The traversal stays stackless and near-child-first: each node stores its parent, and the
  * order in which a node's children are visited is recomputed from the node whenever the
@@ -20,81 +21,135 @@
 
 CB_BEGIN_NAMESPACE
 
-#define CB_BVH4_NONE 0xffffffffu
+#define CB_BVHW_NONE 0xffffffffu
 
-/* 128 bytes. lo/hi[axis][lane] are the children's boxes. child[lane]: the child node for an
- * interior child, the first primitive for a leaf, CB_BVH4_NONE for an empty lane (its box is
- * empty as well). counts: byte `lane` is the leaf's primitive count, 0 for an interior child
- * or an empty lane. parent: the parent node, CB_BVH4_NONE for the root (node 0); lane: this
- * node's lane in its parent, so that coming back up needs no search. */
-typedef struct BvhNode4 {
-    real lo[3][4];
-    real hi[3][4];
-    uint child[4];
-    uint counts;
+/* Children per node: 4 (SSE) or 8 (AVX). */
+#ifndef CB_BVH_WIDE_LANES
+#define CB_BVH_WIDE_LANES 8
+#endif
+#define CBW CB_BVH_WIDE_LANES
+
+/* 128 bytes (4 lanes) or 256 (8 lanes). lo/hi[axis][lane] are the children's boxes.
+ * child[lane]: the child node for an interior child, the first primitive for a leaf,
+ * CB_BVHW_NONE for an empty lane (its box is empty as well). counts: byte `lane` is the
+ * leaf's primitive count, 0 for an interior child or an empty lane. parent: the parent node,
+ * CB_BVHW_NONE for the root (node 0); lane: this node's lane in its parent, so that coming
+ * back up needs no search. */
+typedef struct BvhNodeWide {
+    real lo[3][CBW];
+    real hi[3][CBW];
+    uint child[CBW];
+    uint counts[CBW / 4];
     uint parent;
     uint lane;
-    uint pad;
-} BvhNode4;
+    uint pad[CBW == 4 ? 1 : 4];
+} BvhNodeWide;
 
-CB_STATIC_ASSERT(sizeof(BvhNode4) == 128, "BvhNode4 must be 128 bytes");
+CB_STATIC_ASSERT(sizeof(BvhNodeWide) == 32 * CBW, "BvhNodeWide must be 32 bytes per lane");
+
+CB_FN uint bvhWideCount(CB_GLOBAL const BvhNodeWide* node, int k) {
+    return (node->counts[k >> 2] >> (8 * (k & 3))) & 0xffu;
+}
 
 #ifdef CB_KERNEL_SIDE
-/* The kernels test the four lanes with OpenCL vectors (one SSE/AVX instruction per step
- * under PoCL). The selects are bvhBoxHit's, lane by lane (see there for NaNs); the exit
- * distance starts from +inf so a NaN slab is dropped as there. */
-typedef float4 Bvh4Real;
+/* The kernels test the lanes with OpenCL vectors (one SSE/AVX instruction per step under
+ * PoCL). The selects are bvhBoxHit's, lane by lane (see there for NaNs); the exit distance
+ * starts from +inf so a NaN slab is dropped as there. */
+#if CBW == 4
+typedef float4 BvhWideReal;
+typedef int4 BvhWideInt;
+#define BVHW_LOAD(p) vload4(0, p)
+#define BVHW_LANES ((int4)(0, 1, 2, 3))
+#define BVHW_BITS ((int4)(1, 2, 4, 8))
+CB_FN int bvhWideOrAll(int4 v) {
+    return v.x | v.y | v.z | v.w;
+}
+CB_FN float bvhWideMinAll(float4 v) {
+    return fmin(fmin(v.x, v.y), fmin(v.z, v.w));
+}
+CB_FN float bvhWideMaxAll(float4 v) {
+    return fmax(fmax(v.x, v.y), fmax(v.z, v.w));
+}
+#else
+typedef float8 BvhWideReal;
+typedef int8 BvhWideInt;
+#define BVHW_LOAD(p) vload8(0, p)
+#define BVHW_LANES ((int8)(0, 1, 2, 3, 4, 5, 6, 7))
+#define BVHW_BITS ((int8)(1, 2, 4, 8, 16, 32, 64, 128))
+CB_FN int bvhWideOrAll(int8 v) {
+    int4 a = v.lo | v.hi;
+    return a.x | a.y | a.z | a.w;
+}
+CB_FN float bvhWideMinAll(float8 v) {
+    float4 a = fmin(v.lo, v.hi);
+    return fmin(fmin(a.x, a.y), fmin(a.z, a.w));
+}
+CB_FN float bvhWideMaxAll(float8 v) {
+    float4 a = fmax(v.lo, v.hi);
+    return fmax(fmax(a.x, a.y), fmax(a.z, a.w));
+}
+#endif
 
-CB_FN void bvh4Boxes(CB_GLOBAL const BvhNode4* node, Vec3 o, Vec3 invD, float4* tn, float4* tf) {
-    float4 tx0 = (vload4(0, node->lo[0]) - o.x) * invD.x;
-    float4 tx1 = (vload4(0, node->hi[0]) - o.x) * invD.x;
-    float4 ty0 = (vload4(0, node->lo[1]) - o.y) * invD.y;
-    float4 ty1 = (vload4(0, node->hi[1]) - o.y) * invD.y;
-    float4 tz0 = (vload4(0, node->lo[2]) - o.z) * invD.z;
-    float4 tz1 = (vload4(0, node->hi[2]) - o.z) * invD.z;
-    float4 nx = select(tx0, tx1, tx0 > tx1);
-    float4 fx = select(tx1, tx0, tx0 > tx1);
-    float4 ny = select(ty0, ty1, ty0 > ty1);
-    float4 fy = select(ty1, ty0, ty0 > ty1);
-    float4 nz = select(tz0, tz1, tz0 > tz1);
-    float4 fz = select(tz1, tz0, tz0 > tz1);
-    float4 n = select((float4)(0.0f), nx, nx > 0.0f);
+CB_FN void bvhWideBoxes(CB_GLOBAL const BvhNodeWide* node, Vec3 o, Vec3 invD, BvhWideReal* tn,
+                        BvhWideReal* tf) {
+    BvhWideReal tx0 = (BVHW_LOAD(node->lo[0]) - o.x) * invD.x;
+    BvhWideReal tx1 = (BVHW_LOAD(node->hi[0]) - o.x) * invD.x;
+    BvhWideReal ty0 = (BVHW_LOAD(node->lo[1]) - o.y) * invD.y;
+    BvhWideReal ty1 = (BVHW_LOAD(node->hi[1]) - o.y) * invD.y;
+    BvhWideReal tz0 = (BVHW_LOAD(node->lo[2]) - o.z) * invD.z;
+    BvhWideReal tz1 = (BVHW_LOAD(node->hi[2]) - o.z) * invD.z;
+    BvhWideReal nx = select(tx0, tx1, tx0 > tx1);
+    BvhWideReal fx = select(tx1, tx0, tx0 > tx1);
+    BvhWideReal ny = select(ty0, ty1, ty0 > ty1);
+    BvhWideReal fy = select(ty1, ty0, ty0 > ty1);
+    BvhWideReal nz = select(tz0, tz1, tz0 > tz1);
+    BvhWideReal fz = select(tz1, tz0, tz0 > tz1);
+    BvhWideReal n = select((BvhWideReal)(0.0f), nx, nx > 0.0f);
     n = select(n, ny, ny > n);
     n = select(n, nz, nz > n);
-    float4 f = select((float4)(INFINITY), fx, fx < INFINITY);
+    BvhWideReal f = select((BvhWideReal)(INFINITY), fx, fx < INFINITY);
     f = select(f, fy, fy < f);
     f = select(f, fz, fz < f);
     *tn = n;
     *tf = f;
 }
 
-/* The hit lane with the smallest key (tn, lane) above (keyT, keyLane); -1 if none. `ordered`
- * false: the lowest hit lane above keyLane (any-hit queries). */
-CB_FN int bvh4Next(CB_GLOBAL const BvhNode4* node, float4 tn, float4 tf, real closest, real keyT,
-                   int keyLane, bool ordered) {
-    float4 far = select((float4)(closest), tf, tf < closest);
-    int4 lane = (int4)(0, 1, 2, 3);
-    int4 hit = (vload4(0, node->child) != CB_BVH4_NONE) & (tn <= far * (1.0f + 2.0f * cbGamma(3)));
-    int4 after = ordered ? ((tn > keyT) | ((tn == keyT) & (lane > keyLane))) : (lane > keyLane);
-    int4 cand = hit & after;
-    if (!any(cand)) return -1;
+/* The hit lane with the smallest key (tn, lane) above (keyT, keyLane), its tn in *t; -1 if
+ * none. `ordered` false: the lowest hit lane above keyLane (any-hit queries). */
+CB_FN int bvhWideNext(CB_GLOBAL const BvhNodeWide* node, BvhWideReal tn, BvhWideReal tf,
+                      real closest, real keyT, int keyLane, bool ordered, real* t) {
+    BvhWideReal far = select((BvhWideReal)(closest), tf, tf < closest);
+    BvhWideInt lane = BVHW_LANES;
+    BvhWideInt hit =
+        (BVHW_LOAD(node->child) != CB_BVHW_NONE) & (tn <= far * (1.0f + 2.0f * cbGamma(3)));
+    BvhWideInt after =
+        ordered ? ((tn > keyT) | ((tn == keyT) & (lane > keyLane))) : (lane > keyLane);
+    BvhWideInt cand = hit & after;
+    *t = 0.0f;
     if (ordered) {
-        float4 t = select((float4)(INFINITY), tn, cand);
-        float m = fmin(fmin(t.x, t.y), fmin(t.z, t.w));
-        cand = cand & (t == m);
+        BvhWideReal tc = select((BvhWideReal)(INFINITY), tn, cand);
+        real m = bvhWideMinAll(tc);
+        cand = cand & (tc == m);
+        *t = m;
     }
-    return cand.x ? 0 : (cand.y ? 1 : (cand.z ? 2 : 3));
+    int bits = bvhWideOrAll(cand & BVHW_BITS);
+    if (bits == 0) return -1;
+    return 31 - (int)clz(bits & -bits);
 }
-#define BVH4_LANE(v, k) ((k) == 0 ? (v).x : ((k) == 1 ? (v).y : ((k) == 2 ? (v).z : (v).w)))
+
+/* tn of lane k. */
+CB_FN real bvhWideLane(BvhWideReal tn, int k) {
+    return bvhWideMaxAll(select((BvhWideReal)(-INFINITY), tn, BVHW_LANES == k));
+}
 #else
 /* The host: the same per-lane arithmetic as plain loops. */
-typedef struct Bvh4Real {
-    real v[4];
-} Bvh4Real;
+typedef struct BvhWideReal {
+    real v[CBW];
+} BvhWideReal;
 
-CB_FN void bvh4Boxes(CB_GLOBAL const BvhNode4* node, Vec3 o, Vec3 invD, Bvh4Real* tn,
-                     Bvh4Real* tf) {
-    for (int k = 0; k < 4; ++k) {
+CB_FN void bvhWideBoxes(CB_GLOBAL const BvhNodeWide* node, Vec3 o, Vec3 invD, BvhWideReal* tn,
+                        BvhWideReal* tf) {
+    for (int k = 0; k < CBW; ++k) {
         real tx0 = (node->lo[0][k] - o.x) * invD.x;
         real tx1 = (node->hi[0][k] - o.x) * invD.x;
         real ty0 = (node->lo[1][k] - o.y) * invD.y;
@@ -118,28 +173,32 @@ CB_FN void bvh4Boxes(CB_GLOBAL const BvhNode4* node, Vec3 o, Vec3 invD, Bvh4Real
     }
 }
 
-CB_FN int bvh4Next(CB_GLOBAL const BvhNode4* node, Bvh4Real tn, Bvh4Real tf, real closest,
-                   real keyT, int keyLane, bool ordered) {
+CB_FN int bvhWideNext(CB_GLOBAL const BvhNodeWide* node, BvhWideReal tn, BvhWideReal tf,
+                      real closest, real keyT, int keyLane, bool ordered, real* t) {
     int best = -1;
     real bestT = 0.0f;
-    for (int k = 0; k < 4; ++k) {
-        real t = tn.v[k];
+    for (int k = 0; k < CBW; ++k) {
+        real tk = tn.v[k];
         real far = tf.v[k] < closest ? tf.v[k] : closest;
-        bool hit = node->child[k] != CB_BVH4_NONE && t <= far * (1.0f + 2.0f * cbGamma(3));
-        bool after = ordered ? (t > keyT || (t == keyT && k > keyLane)) : k > keyLane;
-        if (hit && after && (best < 0 || (ordered && t < bestT))) {
+        bool hit = node->child[k] != CB_BVHW_NONE && tk <= far * (1.0f + 2.0f * cbGamma(3));
+        bool after = ordered ? (tk > keyT || (tk == keyT && k > keyLane)) : k > keyLane;
+        if (hit && after && (best < 0 || (ordered && tk < bestT))) {
             best = k;
-            bestT = t;
+            bestT = tk;
         }
     }
+    *t = bestT;
     return best;
 }
-#define BVH4_LANE(x, k) ((x).v[k])
+
+CB_FN real bvhWideLane(BvhWideReal tn, int k) {
+    return tn.v[k];
+}
 #endif
 
 /* Closest hit (ordered) or any hit (!ordered, returns at the first) with t in (0, tMax). */
-CB_FN bool bvh4Traverse(CB_GLOBAL const BvhNode4* nodes, CB_GLOBAL const Primitive* prims, Ray ray,
-                        real tMax, bool ordered, Hit* hit) {
+CB_FN bool bvhWideTraverse(CB_GLOBAL const BvhNodeWide* nodes, CB_GLOBAL const Primitive* prims,
+                           Ray ray, real tMax, bool ordered, Hit* hit) {
     hit->t = tMax;
     hit->primitive = -1;
     hit->b1 = 0.0f;
@@ -151,16 +210,17 @@ CB_FN bool bvh4Traverse(CB_GLOBAL const BvhNode4* nodes, CB_GLOBAL const Primiti
     uint cur = 0u;
     int fromLane = -1; /* the lane just finished when coming back up, -1 coming down */
     for (;;) {
-        CB_GLOBAL const BvhNode4* node = nodes + cur;
-        Bvh4Real tn, tf;
-        bvh4Boxes(node, ray.o, invD, &tn, &tf);
+        CB_GLOBAL const BvhNodeWide* node = nodes + cur;
+        BvhWideReal tn, tf;
+        bvhWideBoxes(node, ray.o, invD, &tn, &tf);
         int keyLane = fromLane;
-        real keyT = fromLane >= 0 ? BVH4_LANE(tn, fromLane) : -1.0f;
-        uint down = CB_BVH4_NONE;
+        real keyT = fromLane >= 0 ? bvhWideLane(tn, fromLane) : -1.0f;
+        uint down = CB_BVHW_NONE;
         for (;;) {
-            int k = bvh4Next(node, tn, tf, closest, keyT, keyLane, ordered);
+            real tk;
+            int k = bvhWideNext(node, tn, tf, closest, keyT, keyLane, ordered, &tk);
             if (k < 0) break;
-            uint count = (node->counts >> (8 * k)) & 0xffu;
+            uint count = bvhWideCount(node, k);
             if (count == 0u) {
                 down = node->child[k];
                 break;
@@ -176,10 +236,10 @@ CB_FN bool bvh4Traverse(CB_GLOBAL const BvhNode4* nodes, CB_GLOBAL const Primiti
                     if (!ordered) return true;
                 }
             }
-            keyT = BVH4_LANE(tn, k);
+            keyT = tk;
             keyLane = k;
         }
-        if (down != CB_BVH4_NONE) {
+        if (down != CB_BVHW_NONE) {
             fromLane = -1;
             cur = down;
             continue;

@@ -190,17 +190,17 @@ struct Mismatches {
 
 // Runs BVH and brute force for rays [begin, end); for occlusion, tMax is a random fraction
 // (0..2) of the closest hit distance so both answers occur.
-// With `wide`, the 4-wide prototype (cb_bvh_wide.h) over the same primitives is compared.
+// With `wide`, the wide-BVH prototype (cb_bvh_wide.h) over the same primitives is compared.
 void compareRange(const cb::Bvh& bvh, const Brute& brute, const std::vector<Ray>& rays,
                   size_t begin, size_t end, Mismatches* out,
-                  const std::vector<cbk::BvhNode4>* wide = nullptr) {
+                  const std::vector<cbk::BvhNodeWide>* wide = nullptr) {
     SceneView scene = viewOf(bvh);
     std::mt19937 rng(unsigned(begin) * 7919u + 1u);
     std::uniform_real_distribution<float> u(0.0f, 2.0f);
     for (size_t i = begin; i < end; ++i) {
         Hit a{}, b{};
-        bool ha = wide ? cbk::bvh4Traverse(wide->data(), bvh.primitives.data(), rays[i],
-                                           CB_INFINITY, true, &a)
+        bool ha = wide ? cbk::bvhWideTraverse(wide->data(), bvh.primitives.data(), rays[i],
+                                              CB_INFINITY, true, &a)
                        : cbk::sceneIntersect(&scene, rays[i], CB_INFINITY, &a);
         bool hb = brute.intersect(rays[i], CB_INFINITY, &b);
         if (ha != hb) {
@@ -223,15 +223,15 @@ void compareRange(const cb::Bvh& bvh, const Brute& brute, const std::vector<Ray>
         }
         float tMax = hb ? b.t * u(rng) : 1e3f * u(rng);
         Hit any{};
-        bool occ = wide ? cbk::bvh4Traverse(wide->data(), bvh.primitives.data(), rays[i], tMax,
-                                            false, &any)
+        bool occ = wide ? cbk::bvhWideTraverse(wide->data(), bvh.primitives.data(), rays[i], tMax,
+                                               false, &any)
                         : cbk::sceneOccluded(&scene, rays[i], tMax);
         if (occ != brute.occluded(rays[i], tMax)) ++out->occluded;
     }
 }
 
 Mismatches compareAll(const cb::Bvh& bvh, const std::vector<Ray>& rays,
-                      const std::vector<cbk::BvhNode4>* wide = nullptr) {
+                      const std::vector<cbk::BvhNodeWide>* wide = nullptr) {
     unsigned threads = std::max(1u, std::min(8u, std::thread::hardware_concurrency()));
     std::vector<Mismatches> parts(threads);
     std::vector<std::thread> pool;
@@ -340,23 +340,23 @@ TEST_CASE("bvh: closest hit and occlusion equal brute force on the bunny (100k r
     CHECK(m.hits > 40000);
 }
 
-// The 4-wide prototype: every primitive in exactly one leaf lane, parents consistent, each
+// The wide-BVH prototype: every primitive in exactly one leaf lane, parents consistent, each
 // child box inside the binary box it came from (the lanes are the binary boxes themselves).
-void checkWide(const std::vector<cbk::BvhNode4>& wide, size_t primitiveCount) {
+void checkWide(const std::vector<cbk::BvhNodeWide>& wide, size_t primitiveCount) {
     std::vector<int> seen(primitiveCount, 0);
     for (size_t i = 0; i < wide.size(); ++i) {
         const auto& n = wide[i];
-        if (i == 0) CHECK(n.parent == CB_BVH4_NONE);
-        for (int k = 0; k < 4; ++k) {
-            if (n.child[k] == CB_BVH4_NONE) continue;
-            uint32_t count = (n.counts >> (8 * k)) & 0xffu;
+        if (i == 0) CHECK(n.parent == CB_BVHW_NONE);
+        for (int k = 0; k < CBW; ++k) {
+            if (n.child[k] == CB_BVHW_NONE) continue;
+            uint32_t count = cbk::bvhWideCount(&n, k);
             if (count == 0) {
                 REQUIRE(n.child[k] < wide.size());
                 CHECK(wide[n.child[k]].parent == i);
                 CHECK(wide[n.child[k]].lane == uint32_t(k));
                 for (int a = 0; a < 3; ++a)
-                    for (int j = 0; j < 4; ++j)
-                        if (wide[n.child[k]].child[j] != CB_BVH4_NONE) {
+                    for (int j = 0; j < CBW; ++j)
+                        if (wide[n.child[k]].child[j] != CB_BVHW_NONE) {
                             CHECK(wide[n.child[k]].lo[a][j] >= n.lo[a][k]);
                             CHECK(wide[n.child[k]].hi[a][j] <= n.hi[a][k]);
                         }
@@ -372,10 +372,10 @@ void checkWide(const std::vector<cbk::BvhNode4>& wide, size_t primitiveCount) {
         REQUIRE(seen[p] == 1);
 }
 
-TEST_CASE("bvh: the 4-wide prototype equals brute force on the bunny (3k rays)") {
+TEST_CASE("bvh: the wide-BVH prototype equals brute force on the bunny (3k rays)") {
     Mesh mesh = loadModel("bunny.ply");
     cb::Bvh bvh = cb::buildBvh(meshPrimitives(mesh));
-    auto wide = cb::collapseBvh4(bvh);
+    auto wide = cb::collapseBvhWide(bvh);
     checkWide(wide, bvh.primitives.size());
     // Four lanes per node: far fewer nodes than the binary tree's interior nodes.
     CHECK(wide.size() < bvh.nodes.size() / 4);
@@ -386,21 +386,21 @@ TEST_CASE("bvh: the 4-wide prototype equals brute force on the bunny (3k rays)")
     CHECK(m.hits > 1000);
 }
 
-TEST_CASE("bvh: the 4-wide prototype on an empty scene, one triangle and spheres") {
-    auto wideOf = [](const cb::Bvh& bvh) { return cb::collapseBvh4(bvh); };
+TEST_CASE("bvh: the wide-BVH prototype on an empty scene, one triangle and spheres") {
+    auto wideOf = [](const cb::Bvh& bvh) { return cb::collapseBvhWide(bvh); };
     Ray r{cbk::vec3(0, 0, 0), cbk::vec3(0, 0, 1)};
     Hit h;
     cb::Bvh empty = cb::buildBvh({});
     auto w0 = wideOf(empty);
-    CHECK_FALSE(cbk::bvh4Traverse(w0.data(), empty.primitives.data(), r, CB_INFINITY, true, &h));
+    CHECK_FALSE(cbk::bvhWideTraverse(w0.data(), empty.primitives.data(), r, CB_INFINITY, true, &h));
     cb::Bvh one =
         cb::buildBvh({triangle(cbk::vec3(-1, -1, 2), cbk::vec3(1, -1, 2), cbk::vec3(0, 1, 2))});
     auto w1 = wideOf(one);
     checkWide(w1, 1);
-    REQUIRE(cbk::bvh4Traverse(w1.data(), one.primitives.data(), r, CB_INFINITY, true, &h));
+    REQUIRE(cbk::bvhWideTraverse(w1.data(), one.primitives.data(), r, CB_INFINITY, true, &h));
     CHECK(h.t == 2.0f);
-    CHECK(cbk::bvh4Traverse(w1.data(), one.primitives.data(), r, 2.5f, false, &h));
-    CHECK_FALSE(cbk::bvh4Traverse(w1.data(), one.primitives.data(), r, 2.0f, false, &h));
+    CHECK(cbk::bvhWideTraverse(w1.data(), one.primitives.data(), r, 2.5f, false, &h));
+    CHECK_FALSE(cbk::bvhWideTraverse(w1.data(), one.primitives.data(), r, 2.0f, false, &h));
     std::vector<Primitive> prims;
     for (int i = 0; i < 1000; ++i)
         prims.push_back(sphere(cbk::vec3(0, 0, 10), 1.0f + float(i) * 1e-3f));
@@ -408,7 +408,7 @@ TEST_CASE("bvh: the 4-wide prototype on an empty scene, one triangle and spheres
     auto w2 = wideOf(nested);
     checkWide(w2, prims.size());
     r.o = cbk::vec3(0, 0, 10); // inside every sphere: the innermost is nearest
-    REQUIRE(cbk::bvh4Traverse(w2.data(), nested.primitives.data(), r, CB_INFINITY, true, &h));
+    REQUIRE(cbk::bvhWideTraverse(w2.data(), nested.primitives.data(), r, CB_INFINITY, true, &h));
     CHECK(h.t == doctest::Approx(1.0f).epsilon(1e-6));
 }
 

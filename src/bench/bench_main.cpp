@@ -197,20 +197,20 @@ std::vector<std::string> splitCommas(const std::string& v) {
 
 class ClTraversal {
   public:
-    // variant: ordered | skip (binary BVH) | wide (the 4-wide prototype of cb_bvh_wide.h)
+    // variant: ordered | skip (binary BVH) | wide (the wide-BVH prototype of cb_bvh_wide.h)
     ClTraversal(ClRuntime& rt, const Bvh& bvh, const std::string& variant, int localSize)
         : rt_(rt), localSize_(localSize) {
         std::vector<std::string> defines = {"CB_CHANNELS=3", "CB_FEATURES=0x101u"};
         if (variant == "skip") defines.push_back("CB_BVH_SKIP_ORDER=1");
         program_ = rt.buildProgram("bench_traverse.cl", defines);
         const bool wide = variant == "wide";
-        closest_ = cl::Kernel(program_, wide ? "benchClosest4" : "benchClosest");
-        occluded_ = cl::Kernel(program_, wide ? "benchOccluded4" : "benchOccluded");
+        closest_ = cl::Kernel(program_, wide ? "benchClosestWide" : "benchClosest");
+        occluded_ = cl::Kernel(program_, wide ? "benchOccludedWide" : "benchOccluded");
         auto& ctx = rt.context();
         if (wide) {
-            wide_ = collapseBvh4(bvh);
+            wide_ = collapseBvhWide(bvh);
             nodes_ = cl::Buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
-                                wide_.size() * sizeof(cbk::BvhNode4), wide_.data());
+                                wide_.size() * sizeof(cbk::BvhNodeWide), wide_.data());
         } else {
             nodes_ = cl::Buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
                                 bvh.nodes.size() * sizeof(cbk::BvhNode),
@@ -289,7 +289,7 @@ class ClTraversal {
     cl::Program program_;
     cl::Kernel closest_, occluded_;
     cl::Buffer nodes_, prims_;
-    std::vector<cbk::BvhNode4> wide_;
+    std::vector<cbk::BvhNodeWide> wide_;
 
   public:
     double lastCpu = 0.0; // median CPU seconds of the last closest() or occluded()
@@ -394,8 +394,8 @@ json runTraverse(const Options& o, ClRuntime& rt) {
     else
         variants = splitCommas(o.traversal);
     fmt::print("\n== traverse: Mrays/s (median of {}), {} rays, local size {}, leaf size {}, "
-               "Embree on {} threads\n",
-               repeats, rayCount, o.localSize, o.leafSize, o.threads);
+               "Embree on {} threads, wide BVH {} lanes\n",
+               repeats, rayCount, o.localSize, o.leafSize, o.threads, CB_BVH_WIDE_LANES);
     // cpu-ratio: the same ratio from process CPU seconds instead of wall seconds, steadier when
     // other jobs share the cores.
     fmt::print("{:<11} {:>9} {:<8} {:<10} {:>9} {:>9} {:>7} {:>9} {:>9}\n", "mesh", "triangles",
@@ -885,7 +885,7 @@ int run(int argc, char** argv) {
     app.add_option("--models", o.models, "folder with bunny.ply and dragon.ply");
     app.add_option("--sections", o.sections, "traverse build render scaling")->delimiter(',');
     app.add_option("--traversal", o.traversal,
-                   "comma-separated: ordered | skip (binary BVH) | wide (4-wide prototype); "
+                   "comma-separated: ordered | skip (binary BVH) | wide (4- or 8-wide prototype); "
                    "both = ordered,skip")
         ->check([](const std::string& v) {
             if (v == "both") return std::string();

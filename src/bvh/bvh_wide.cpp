@@ -26,10 +26,10 @@ void binaryChildren(const std::vector<cbk::BvhNode>& nodes, uint32_t i, uint32_t
 
 } // namespace
 
-std::vector<cbk::BvhNode4> collapseBvh4(const Bvh& bvh) {
+std::vector<cbk::BvhNodeWide> collapseBvhWide(const Bvh& bvh) {
     const auto& bin = bvh.nodes;
     constexpr float kInf = std::numeric_limits<float>::infinity();
-    std::vector<cbk::BvhNode4> out;
+    std::vector<cbk::BvhNodeWide> out;
     struct Task {
         uint32_t binary; // binary node whose children this wide node holds (or a root leaf)
         uint32_t parent; // wide parent
@@ -37,7 +37,7 @@ std::vector<cbk::BvhNode4> collapseBvh4(const Bvh& bvh) {
         uint32_t lane;   // its lane in the parent
     };
     out.push_back({});
-    std::vector<Task> todo{{0u, CB_BVH4_NONE, 0u, 0u}};
+    std::vector<Task> todo{{0u, CB_BVHW_NONE, 0u, 0u}};
     while (!todo.empty()) {
         Task t = todo.back();
         todo.pop_back();
@@ -49,7 +49,7 @@ std::vector<cbk::BvhNode4> collapseBvh4(const Bvh& bvh) {
             uint32_t c[2];
             binaryChildren(bin, t.binary, c);
             kids = {c[0], c[1]};
-            while (kids.size() < 4) {
+            while (kids.size() < CBW) {
                 int best = -1;
                 double bestArea = -1.0;
                 for (size_t k = 0; k < kids.size(); ++k)
@@ -63,11 +63,10 @@ std::vector<cbk::BvhNode4> collapseBvh4(const Bvh& bvh) {
                 kids.insert(kids.begin() + best + 1, c[1]);
             }
         }
-        cbk::BvhNode4 node{};
+        cbk::BvhNodeWide node{};
         node.parent = t.parent;
         node.lane = t.lane;
-        node.counts = 0;
-        for (uint32_t k = 0; k < 4; ++k) {
+        for (uint32_t k = 0; k < uint32_t(CBW); ++k) {
             const bool emptyLeaf =
                 k < kids.size() && isLeaf(bin[kids[k]]) && (bin[kids[k]].count & ~CB_BVH_LEAF) == 0;
             if (k >= kids.size() || emptyLeaf) {
@@ -75,7 +74,7 @@ std::vector<cbk::BvhNode4> collapseBvh4(const Bvh& bvh) {
                     node.lo[a][k] = kInf;
                     node.hi[a][k] = -kInf;
                 }
-                node.child[k] = CB_BVH4_NONE;
+                node.child[k] = CB_BVHW_NONE;
                 continue;
             }
             const auto& b = bin[kids[k]];
@@ -86,9 +85,9 @@ std::vector<cbk::BvhNode4> collapseBvh4(const Bvh& bvh) {
             if (isLeaf(b)) {
                 uint32_t count = b.count & ~CB_BVH_LEAF;
                 if (count > 255)
-                    throw std::length_error("BVH4: leaves hold at most 255 primitives");
+                    throw std::length_error("wide BVH: leaves hold at most 255 primitives");
                 node.child[k] = b.index;
-                node.counts |= count << (8 * k);
+                node.counts[k / 4] |= count << (8 * (k % 4));
             } else {
                 node.child[k] = uint32_t(out.size());
                 out.push_back({});

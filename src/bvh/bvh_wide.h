@@ -1,4 +1,5 @@
-// 4-wide BVH collapsed from the binary one (prototype for cbdpt-bench, kernels/cb_bvh_wide.h).
+// 4- or 8-wide BVH (CB_BVH_WIDE_LANES) collapsed from the binary one (prototype for cbdpt-bench,
+// kernels/cb_bvh_wide.h).
 #pragma once
 
 #include <vector>
@@ -8,8 +9,8 @@
 
 namespace cb {
 
-// Nodes of the 4-wide BVH over bvh.primitives (same order, the leaves are the binary
+// Nodes of the wide BVH over bvh.primitives (same order, the leaves are the binary
 // leaves). Root at 0; the children of a node are allocated together, after it.
-std::vector<cbk::BvhNode4> collapseBvh4(const Bvh& bvh);
+std::vector<cbk::BvhNodeWide> collapseBvhWide(const Bvh& bvh);
 
 } // namespace cb
