@@ -124,6 +124,26 @@ with tempfile.TemporaryDirectory() as tmp:
     check(r.returncode != 0 and "eye-vertices" in r.stderr, f"eye cap 1 refused ({r.stderr.strip()})")
     r = subprocess.run([cbdpt, "render", os.path.join(tmp, "missing.pbrt")], capture_output=True, text=True)
     check(r.returncode != 0 and "missing.pbrt" in r.stderr, f"missing file named ({r.stderr.strip()})")
+    # A real device out-of-memory: PoCL's CPU device shrunk to 1 GiB of global memory
+    # (POCL_MEMORY_LIMIT, in GiB; its largest allocation becomes 256 MiB). A 4800 x 4800 image
+    # needs 264 MiB per RGB float buffer; 10^6 MLT chains of 236 primary samples need 900 MiB.
+    # Both are refused before rendering, naming the buffer and its size.
+    limited = dict(os.environ, POCL_MEMORY_LIMIT="1")
+    for name, args, buffer in (
+            ("image", ["--width", "4800", "--height", "4800", "--spp", "1"],
+             "path-tracing image (width x height RGB) needs 263.7 MiB"),
+            ("mlt chains", ["--integrator", "mlt", "--chains", "1000000", "--eye-vertices", "16",
+                            "--light-vertices", "16", "--width", "16", "--height", "16", "--spp", "1"],
+             "MLT chain states (chains x primary samples) needs 900.3 MiB")):
+        r = subprocess.run([cbdpt, "render", scene, "-o", os.path.join(tmp, "oom.exr"), "-q"] + args,
+                           capture_output=True, text=True, env=limited)
+        err = r.stderr.strip()
+        check(r.returncode != 0 and buffer in err and "256.0 MiB" in err
+              and "--width/--height" in err and "--eye-vertices" in err,
+              f"out of device memory ({name}) names the buffer, its size, the limit and what to "
+              f"reduce ({r.returncode}: {err})")
+        check(not os.path.exists(os.path.join(tmp, "oom.exr")), f"out of memory ({name}) writes no image")
+
     r = subprocess.run([cbdpt, "info"], capture_output=True, text=True)
     check(r.returncode == 0 and "0:0" in r.stdout, f"info lists devices ({r.stdout.strip()})")
     r = subprocess.run([cbdpt, "info", scene], capture_output=True, text=True)

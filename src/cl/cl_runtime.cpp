@@ -12,36 +12,66 @@ namespace cb {
 
 const char* clStatusName(int status) {
     switch (status) {
-    case CL_SUCCESS: return "CL_SUCCESS";
-    case CL_DEVICE_NOT_FOUND: return "CL_DEVICE_NOT_FOUND";
-    case CL_DEVICE_NOT_AVAILABLE: return "CL_DEVICE_NOT_AVAILABLE";
-    case CL_COMPILER_NOT_AVAILABLE: return "CL_COMPILER_NOT_AVAILABLE";
-    case CL_MEM_OBJECT_ALLOCATION_FAILURE: return "CL_MEM_OBJECT_ALLOCATION_FAILURE";
-    case CL_OUT_OF_RESOURCES: return "CL_OUT_OF_RESOURCES";
-    case CL_OUT_OF_HOST_MEMORY: return "CL_OUT_OF_HOST_MEMORY";
-    case CL_BUILD_PROGRAM_FAILURE: return "CL_BUILD_PROGRAM_FAILURE";
-    case CL_INVALID_VALUE: return "CL_INVALID_VALUE";
-    case CL_INVALID_PLATFORM: return "CL_INVALID_PLATFORM";
-    case CL_INVALID_DEVICE: return "CL_INVALID_DEVICE";
-    case CL_INVALID_CONTEXT: return "CL_INVALID_CONTEXT";
-    case CL_INVALID_COMMAND_QUEUE: return "CL_INVALID_COMMAND_QUEUE";
-    case CL_INVALID_MEM_OBJECT: return "CL_INVALID_MEM_OBJECT";
-    case CL_INVALID_BUILD_OPTIONS: return "CL_INVALID_BUILD_OPTIONS";
-    case CL_INVALID_PROGRAM: return "CL_INVALID_PROGRAM";
-    case CL_INVALID_PROGRAM_EXECUTABLE: return "CL_INVALID_PROGRAM_EXECUTABLE";
-    case CL_INVALID_KERNEL_NAME: return "CL_INVALID_KERNEL_NAME";
-    case CL_INVALID_KERNEL: return "CL_INVALID_KERNEL";
-    case CL_INVALID_ARG_INDEX: return "CL_INVALID_ARG_INDEX";
-    case CL_INVALID_ARG_VALUE: return "CL_INVALID_ARG_VALUE";
-    case CL_INVALID_ARG_SIZE: return "CL_INVALID_ARG_SIZE";
-    case CL_INVALID_KERNEL_ARGS: return "CL_INVALID_KERNEL_ARGS";
-    case CL_INVALID_WORK_DIMENSION: return "CL_INVALID_WORK_DIMENSION";
-    case CL_INVALID_WORK_GROUP_SIZE: return "CL_INVALID_WORK_GROUP_SIZE";
-    case CL_INVALID_GLOBAL_OFFSET: return "CL_INVALID_GLOBAL_OFFSET";
-    case CL_INVALID_BUFFER_SIZE: return "CL_INVALID_BUFFER_SIZE";
-    case CL_INVALID_GLOBAL_WORK_SIZE: return "CL_INVALID_GLOBAL_WORK_SIZE";
-    case -1001: return "CL_PLATFORM_NOT_FOUND_KHR (no OpenCL platform installed)";
-    default: return "unknown OpenCL status";
+    case CL_SUCCESS:
+        return "CL_SUCCESS";
+    case CL_DEVICE_NOT_FOUND:
+        return "CL_DEVICE_NOT_FOUND";
+    case CL_DEVICE_NOT_AVAILABLE:
+        return "CL_DEVICE_NOT_AVAILABLE";
+    case CL_COMPILER_NOT_AVAILABLE:
+        return "CL_COMPILER_NOT_AVAILABLE";
+    case CL_MEM_OBJECT_ALLOCATION_FAILURE:
+        return "CL_MEM_OBJECT_ALLOCATION_FAILURE";
+    case CL_OUT_OF_RESOURCES:
+        return "CL_OUT_OF_RESOURCES";
+    case CL_OUT_OF_HOST_MEMORY:
+        return "CL_OUT_OF_HOST_MEMORY";
+    case CL_BUILD_PROGRAM_FAILURE:
+        return "CL_BUILD_PROGRAM_FAILURE";
+    case CL_INVALID_VALUE:
+        return "CL_INVALID_VALUE";
+    case CL_INVALID_PLATFORM:
+        return "CL_INVALID_PLATFORM";
+    case CL_INVALID_DEVICE:
+        return "CL_INVALID_DEVICE";
+    case CL_INVALID_CONTEXT:
+        return "CL_INVALID_CONTEXT";
+    case CL_INVALID_COMMAND_QUEUE:
+        return "CL_INVALID_COMMAND_QUEUE";
+    case CL_INVALID_MEM_OBJECT:
+        return "CL_INVALID_MEM_OBJECT";
+    case CL_INVALID_BUILD_OPTIONS:
+        return "CL_INVALID_BUILD_OPTIONS";
+    case CL_INVALID_PROGRAM:
+        return "CL_INVALID_PROGRAM";
+    case CL_INVALID_PROGRAM_EXECUTABLE:
+        return "CL_INVALID_PROGRAM_EXECUTABLE";
+    case CL_INVALID_KERNEL_NAME:
+        return "CL_INVALID_KERNEL_NAME";
+    case CL_INVALID_KERNEL:
+        return "CL_INVALID_KERNEL";
+    case CL_INVALID_ARG_INDEX:
+        return "CL_INVALID_ARG_INDEX";
+    case CL_INVALID_ARG_VALUE:
+        return "CL_INVALID_ARG_VALUE";
+    case CL_INVALID_ARG_SIZE:
+        return "CL_INVALID_ARG_SIZE";
+    case CL_INVALID_KERNEL_ARGS:
+        return "CL_INVALID_KERNEL_ARGS";
+    case CL_INVALID_WORK_DIMENSION:
+        return "CL_INVALID_WORK_DIMENSION";
+    case CL_INVALID_WORK_GROUP_SIZE:
+        return "CL_INVALID_WORK_GROUP_SIZE";
+    case CL_INVALID_GLOBAL_OFFSET:
+        return "CL_INVALID_GLOBAL_OFFSET";
+    case CL_INVALID_BUFFER_SIZE:
+        return "CL_INVALID_BUFFER_SIZE";
+    case CL_INVALID_GLOBAL_WORK_SIZE:
+        return "CL_INVALID_GLOBAL_WORK_SIZE";
+    case -1001:
+        return "CL_PLATFORM_NOT_FOUND_KHR (no OpenCL platform installed)";
+    default:
+        return "unknown OpenCL status";
     }
 }
 
@@ -100,12 +130,59 @@ void parseSelector(const std::string& selector, int& platform, int& device) {
                                   selector));
     if (in >> colon) {
         if (colon != ':' || !(in >> device) || device < 0)
-            throw ClError(fmt::format("invalid device selector '{}': expected P or P:D",
-                                      selector));
+            throw ClError(fmt::format("invalid device selector '{}': expected P or P:D", selector));
     }
 }
 
 } // namespace
+
+void checkDeviceAllocation(const ClDeviceInfo& device, const std::string& what,
+                           unsigned long long bytes, unsigned long long liveBytes) {
+    constexpr double MiB = 1024.0 * 1024.0;
+    const char* advice = "try a smaller --width/--height, lower --eye-vertices/--light-vertices, "
+                         "or (mlt) fewer --chains, (cbdpt) a smaller --coherence-tile";
+    if (bytes > device.maxAllocationBytes)
+        throw ClError(fmt::format(
+            "out of device memory: the {} needs {:.1f} MiB, more than the largest single "
+            "allocation of {} ({:.1f} MiB, CL_DEVICE_MAX_MEM_ALLOC_SIZE); {}",
+            what, double(bytes) / MiB, device.deviceName, double(device.maxAllocationBytes) / MiB,
+            advice));
+    if (bytes + liveBytes > device.globalMemoryBytes)
+        throw ClError(fmt::format(
+            "out of device memory: the {} needs {:.1f} MiB, and with the {:.1f} MiB already "
+            "allocated that exceeds the {:.1f} MiB of global memory of {} "
+            "(CL_DEVICE_GLOBAL_MEM_SIZE); {}",
+            what, double(bytes) / MiB, double(liveBytes) / MiB,
+            double(device.globalMemoryBytes) / MiB, device.deviceName, advice));
+}
+
+namespace {
+
+struct LiveBuffer {
+    std::shared_ptr<std::atomic<unsigned long long>> live;
+    unsigned long long bytes;
+};
+
+void CL_CALLBACK releaseLiveBuffer(cl_mem, void* data) {
+    auto* buffer = static_cast<LiveBuffer*>(data);
+    *buffer->live -= buffer->bytes;
+    delete buffer;
+}
+
+} // namespace
+
+cl::Buffer ClRuntime::createBuffer(const std::string& what, cl_mem_flags flags, size_t bytes,
+                                   void* host) {
+    checkDeviceAllocation(info_, what, bytes, *liveBytes_);
+    cl::Buffer buffer(context_, flags, bytes, host);
+    auto* tracked = new LiveBuffer{liveBytes_, bytes};
+    if (clSetMemObjectDestructorCallback(buffer(), releaseLiveBuffer, tracked) != CL_SUCCESS) {
+        delete tracked; // not counted; the check still bounds each buffer on its own
+        return buffer;
+    }
+    *liveBytes_ += bytes;
+    return buffer;
+}
 
 std::vector<ClDeviceInfo> listClDevices() {
     std::vector<ClDeviceInfo> result;
@@ -186,7 +263,8 @@ cl::Program ClRuntime::buildProgram(const std::string& mainFile,
                                     const std::vector<std::string>& defines) {
     std::string source = assembleKernelSource(mainFile);
     std::string options = "-cl-std=CL1.2";
-    for (const auto& d : defines) options += " -D" + d;
+    for (const auto& d : defines)
+        options += " -D" + d;
     auto start = std::chrono::steady_clock::now();
     cl::Program program(context_, source);
     try {
@@ -198,8 +276,8 @@ cl::Program ClRuntime::buildProgram(const std::string& mainFile,
         } catch (const cl::Error&) {
             log = "(no build log available)";
         }
-        throw ClError(fmt::format("OpenCL build of {} failed ({}) with options '{}':\n{}",
-                                  mainFile, clStatusName(e.err()), options, log));
+        throw ClError(fmt::format("OpenCL build of {} failed ({}) with options '{}':\n{}", mainFile,
+                                  clStatusName(e.err()), options, log));
     }
     lastBuildSeconds_ =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

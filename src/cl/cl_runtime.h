@@ -15,6 +15,8 @@
 #pragma GCC diagnostic pop
 #endif
 
+#include <atomic>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -41,6 +43,15 @@ struct ClDeviceInfo {
     unsigned long long maxAllocationBytes = 0;
 };
 
+// Refuses, before anything is allocated, a device buffer of `bytes` that is larger than the
+// device's largest allocation (CL_DEVICE_MAX_MEM_ALLOC_SIZE) or that, with `liveBytes` already
+// allocated, exceeds its global memory (CL_DEVICE_GLOBAL_MEM_SIZE): throws ClError naming
+// `what`, its size and the limit, and what to reduce. Some OpenCL implementations (PoCL)
+// allocate lazily, so without this the failure would come at the first kernel launch, naming
+// no buffer.
+void checkDeviceAllocation(const ClDeviceInfo& device, const std::string& what,
+                           unsigned long long bytes, unsigned long long liveBytes);
+
 // Every device of every platform. Throws ClError with install instructions when no platform
 // exists.
 std::vector<ClDeviceInfo> listClDevices();
@@ -62,12 +73,21 @@ class ClRuntime {
     cl::Program buildProgram(const std::string& mainFile, const std::vector<std::string>& defines);
     double lastBuildSeconds() const { return lastBuildSeconds_; }
 
+    // A device buffer checked by checkDeviceAllocation against the bytes of the buffers made
+    // here that are still alive. `what` names it in the error, e.g. "BDPT image (W x H RGB)".
+    cl::Buffer createBuffer(const std::string& what, cl_mem_flags flags, size_t bytes,
+                            void* host = nullptr);
+    unsigned long long liveBufferBytes() const { return *liveBytes_; }
+
   private:
     ClDeviceInfo info_;
     cl::Context context_;
     cl::Device device_;
     cl::CommandQueue queue_;
     double lastBuildSeconds_ = 0.0;
+    // Shared with the buffers' destructor callbacks, which may run after the runtime is gone.
+    std::shared_ptr<std::atomic<unsigned long long>> liveBytes_ =
+        std::make_shared<std::atomic<unsigned long long>>(0);
 };
 
 // The full source of `mainFile` with every `#include "name"` of an embedded file replaced by

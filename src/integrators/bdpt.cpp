@@ -20,8 +20,7 @@ namespace {
 class BdptIntegrator final : public Integrator {
   public:
     BdptIntegrator(const IntegratorSettings& settings, const DeviceScene& scene, ClRuntime& runtime)
-        : settings_(settings), scene_(scene), runtime_(runtime),
-          buffers_(runtime.context(), scene) {
+        : settings_(settings), scene_(scene), runtime_(runtime), buffers_(runtime, scene) {
         auto defines = scene.kernelDefines();
         // The private vertex arrays are sized by the caps, so each cap pair is its own build.
         defines.push_back(fmt::format("CB_MAX_EYE_VERTICES={}", settings.eyeVertices));
@@ -31,8 +30,10 @@ class BdptIntegrator final : public Integrator {
         kernel_ = cl::Kernel(program_, "renderBdpt");
         auto& ctx = runtime.context();
         pixels_ = size_t(scene.camera.width) * size_t(scene.camera.height);
-        output_ = cl::Buffer(ctx, CL_MEM_WRITE_ONLY, 3 * sizeof(float) * pixels_);
-        splat_ = cl::Buffer(ctx, CL_MEM_READ_WRITE, 3 * sizeof(float) * pixels_);
+        output_ = runtime.createBuffer("BDPT image (width x height RGB)", CL_MEM_WRITE_ONLY,
+                                       3 * sizeof(float) * pixels_);
+        splat_ = runtime.createBuffer("BDPT light-tracing image (width x height RGB)",
+                                      CL_MEM_READ_WRITE, 3 * sizeof(float) * pixels_);
         int zero = 0;
         nonFinite_ = cl::Buffer(ctx, CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, sizeof(int), &zero);
         rays_ = cl::Buffer(ctx, CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, sizeof(int), &zero);
@@ -97,8 +98,7 @@ class BdptIntegrator final : public Integrator {
     cl::Program program_;
     cl::Kernel kernel_;
     SceneBuffers buffers_;
-    cl::Buffer output_, splat_,
-        nonFinite_, rays_;
+    cl::Buffer output_, splat_, nonFinite_, rays_;
     std::vector<float> splatHost_;
     size_t pixels_ = 0;
     int estimateArg_ = 0;

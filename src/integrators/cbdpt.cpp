@@ -37,8 +37,7 @@ class CbdptIntegrator final : public Integrator {
   public:
     CbdptIntegrator(const IntegratorSettings& settings, const DeviceScene& scene,
                     ClRuntime& runtime)
-        : settings_(settings), scene_(scene), runtime_(runtime),
-          buffers_(runtime.context(), scene) {
+        : settings_(settings), scene_(scene), runtime_(runtime), buffers_(runtime, scene) {
         const int k = settings.coherenceTile;
         light_.seed = settings.seed;
         light_.eyeVertices = settings.eyeVertices;
@@ -58,9 +57,12 @@ class CbdptIntegrator final : public Integrator {
         kernel_ = cl::Kernel(program_, "renderCbdpt");
         auto& ctx = runtime.context();
         pixels_ = size_t(scene.camera.width) * size_t(scene.camera.height);
-        output_ = cl::Buffer(ctx, CL_MEM_WRITE_ONLY, 3 * sizeof(float) * pixels_);
+        output_ = runtime.createBuffer("CBDPT image (width x height RGB)", CL_MEM_WRITE_ONLY,
+                                       3 * sizeof(float) * pixels_);
         vertexBufferBytes_ = subpaths_ * size_t(settings.lightVertices) * tracer_->vertexBytes();
-        lightVertices_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, vertexBufferBytes_);
+        lightVertices_ = runtime.createBuffer(
+            "CBDPT light subpaths (coherence tile^2 x --light-vertices vertices)", CL_MEM_READ_ONLY,
+            vertexBufferBytes_);
         lightCounts_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, sizeof(int) * subpaths_);
         int zero = 0;
         nonFinite_ = cl::Buffer(ctx, CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, sizeof(int), &zero);

@@ -38,8 +38,7 @@ size_t roundUp(size_t n, size_t multiple) {
 class MltIntegrator final : public Integrator {
   public:
     MltIntegrator(const IntegratorSettings& settings, const DeviceScene& scene, ClRuntime& runtime)
-        : settings_(settings), scene_(scene), runtime_(runtime),
-          buffers_(runtime.context(), scene) {
+        : settings_(settings), scene_(scene), runtime_(runtime), buffers_(runtime, scene) {
         pixels_ = size_t(scene.camera.width) * size_t(scene.camera.height);
         // Dimensions the BDPT subpaths can read (cb_path.h): eye bounce b uses
         // 4 + 8b + {0,1,2} for b <= Ne-3; light bounce b uses 8 + 8b + {0,1,2} for b <= Nl-3.
@@ -70,12 +69,17 @@ class MltIntegrator final : public Integrator {
         bdpt_ = bdptSettingsFor(settings);
 
         auto& ctx = runtime.context();
-        state_ = cl::Buffer(ctx, CL_MEM_READ_WRITE, sizeof(float) * chains_ * dims_);
+        state_ = runtime.createBuffer("MLT chain states (chains x primary samples)",
+                                      CL_MEM_READ_WRITE, sizeof(float) * chains_ * dims_);
         chainLum_ = cl::Buffer(ctx, CL_MEM_READ_WRITE, sizeof(float) * chains_);
         splatCount_ = cl::Buffer(ctx, CL_MEM_READ_WRITE, sizeof(int) * chains_);
-        splatPixel_ = cl::Buffer(ctx, CL_MEM_READ_WRITE, sizeof(int) * chains_ * maxSplats_);
-        splatRgb_ = cl::Buffer(ctx, CL_MEM_READ_WRITE, 3 * sizeof(float) * chains_ * maxSplats_);
-        image_ = cl::Buffer(ctx, CL_MEM_READ_WRITE, 3 * sizeof(float) * pixels_);
+        splatPixel_ = runtime.createBuffer("MLT splat pixels (chains x (--light-vertices + 1))",
+                                           CL_MEM_READ_WRITE, sizeof(int) * chains_ * maxSplats_);
+        splatRgb_ =
+            runtime.createBuffer("MLT splat values (chains x (--light-vertices + 1) RGB)",
+                                 CL_MEM_READ_WRITE, 3 * sizeof(float) * chains_ * maxSplats_);
+        image_ = runtime.createBuffer("MLT image (width x height RGB)", CL_MEM_READ_WRITE,
+                                      3 * sizeof(float) * pixels_);
         largeSum_ = cl::Buffer(ctx, CL_MEM_READ_WRITE, sizeof(float) * chains_);
         stats_ =
             cl::Buffer(ctx, CL_MEM_READ_WRITE, sizeof(std::uint32_t) * kStatsPerChain * chains_);
@@ -214,7 +218,8 @@ class MltIntegrator final : public Integrator {
             bootstrapKernel_.setArg(arg++, lumBuffer);
             bootstrapKernel_.setArg(arg++, nonFinite_);
             queue.enqueueNDRangeKernel(bootstrapKernel_, cl::NullRange,
-                                       cl::NDRange(roundUp(count, 64)), cl::NDRange(kChainGroupSize));
+                                       cl::NDRange(roundUp(count, 64)),
+                                       cl::NDRange(kChainGroupSize));
             queue.enqueueReadBuffer(lumBuffer, CL_TRUE, 0, sizeof(float) * count,
                                     lum.data() + first);
         }

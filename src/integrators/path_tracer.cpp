@@ -4,7 +4,6 @@
 
 #include "cb_pt.h"
 
-
 namespace cb {
 
 namespace {
@@ -13,15 +12,15 @@ class PathTracingIntegrator final : public Integrator {
   public:
     PathTracingIntegrator(const IntegratorSettings& settings, const DeviceScene& scene,
                           ClRuntime& runtime)
-        : settings_(settings), scene_(scene), runtime_(runtime),
-          buffers_(runtime.context(), scene) {
+        : settings_(settings), scene_(scene), runtime_(runtime), buffers_(runtime, scene) {
         auto defines = scene.kernelDefines();
         program_ = runtime.buildProgram("pt.cl", defines);
         buildSeconds_ = runtime.lastBuildSeconds();
         kernel_ = cl::Kernel(program_, "renderPathTracing");
         auto& ctx = runtime.context();
         pixels_ = size_t(scene.camera.width) * size_t(scene.camera.height);
-        output_ = cl::Buffer(ctx, CL_MEM_WRITE_ONLY, 3 * sizeof(float) * pixels_);
+        output_ = runtime.createBuffer("path-tracing image (width x height RGB)", CL_MEM_WRITE_ONLY,
+                                       3 * sizeof(float) * pixels_);
         int zero = 0;
         nonFinite_ = cl::Buffer(ctx, CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, sizeof(int), &zero);
 
@@ -73,7 +72,8 @@ class PathTracingIntegrator final : public Integrator {
 } // namespace
 
 std::unique_ptr<Integrator> makePathTracingIntegrator(const IntegratorSettings& settings,
-                                                      const DeviceScene& scene, ClRuntime& runtime) {
+                                                      const DeviceScene& scene,
+                                                      ClRuntime& runtime) {
     return std::make_unique<PathTracingIntegrator>(settings, scene, runtime);
 }
 

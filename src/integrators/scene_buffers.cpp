@@ -2,11 +2,14 @@
 
 namespace cb {
 
-SceneBuffers::SceneBuffers(cl::Context& context, const DeviceScene& scene)
-    : nodes(uploadArray(context, scene.bvh.nodes)),
-      primitives(uploadArray(context, scene.bvh.primitives)),
-      materials(uploadArray(context, scene.materials)), lights(uploadArray(context, scene.lights)),
-      spectra(uploadArray(context, scene.spectra)), toRgb(uploadArray(context, scene.toRgb)),
+SceneBuffers::SceneBuffers(ClRuntime& runtime, const DeviceScene& scene)
+    : nodes(uploadArray(runtime, "scene BVH nodes", scene.bvh.nodes)),
+      primitives(
+          uploadArray(runtime, "scene primitives (triangles and spheres)", scene.bvh.primitives)),
+      materials(uploadArray(runtime, "scene materials", scene.materials)),
+      lights(uploadArray(runtime, "scene lights", scene.lights)),
+      spectra(uploadArray(runtime, "scene spectra", scene.spectra)),
+      toRgb(uploadArray(runtime, "spectrum-to-RGB matrix", scene.toRgb)),
       lightCount(int(scene.lights.size())) {}
 
 int SceneBuffers::setKernelArgs(cl::Kernel& kernel, int first) const {

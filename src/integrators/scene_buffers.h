@@ -5,22 +5,24 @@
 #include "cl/cl_runtime.h"
 #include "scene/device_scene.h"
 
+#include <string>
 #include <vector>
 
 namespace cb {
 
-// A read-only device copy of `data`; OpenCL forbids zero-sized buffers, so an empty array
-// still gets one (unused) element.
-template <typename T> cl::Buffer uploadArray(cl::Context& context, const std::vector<T>& data) {
+// A read-only device copy of `data`, checked against the device's memory (named `what` in the
+// error); OpenCL forbids zero-sized buffers, so an empty array still gets one (unused) element.
+template <typename T>
+cl::Buffer uploadArray(ClRuntime& runtime, const std::string& what, const std::vector<T>& data) {
     static const T zero{};
     const void* src = data.empty() ? &zero : data.data();
     size_t bytes = data.empty() ? sizeof(T) : sizeof(T) * data.size();
-    return cl::Buffer(context, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, bytes,
-                      const_cast<void*>(src));
+    return runtime.createBuffer(what, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, bytes,
+                                const_cast<void*>(src));
 }
 
 struct SceneBuffers {
-    SceneBuffers(cl::Context& context, const DeviceScene& scene);
+    SceneBuffers(ClRuntime& runtime, const DeviceScene& scene);
 
     // Sets the six CB_SCENE_KERNEL_PARAMS arguments from index `first`; returns the next index.
     int setKernelArgs(cl::Kernel& kernel, int first) const;

@@ -1,0 +1,62 @@
+// Device memory limits (issue 8): a buffer too large for the device, or one that would take the
+// device past its global memory, is refused before it is allocated, with an error that names
+// the buffer, its size and the limit, and says what to reduce. The end-to-end check (a real
+// PoCL device shrunk with POCL_MEMORY_LIMIT, through the CLI) is in tests/test_cli.py.
+#include "cl/cl_runtime.h"
+
+#include <doctest/doctest.h>
+#include <string>
+
+namespace {
+
+std::string messageOf(const cb::ClDeviceInfo& device, const std::string& what,
+                      unsigned long long bytes, unsigned long long live) {
+    try {
+        cb::checkDeviceAllocation(device, what, bytes, live);
+    } catch (const cb::ClError& e) {
+        return e.what();
+    }
+    return "";
+}
+
+} // namespace
+
+TEST_CASE("device memory: allocations beyond the largest allocation or the global memory are "
+          "refused with the buffer, its size and the limit") {
+    cb::ClDeviceInfo device;
+    device.deviceName = "test-device";
+    device.maxAllocationBytes = 256ull << 20;
+    device.globalMemoryBytes = 1ull << 30;
+    CHECK(messageOf(device, "image", 256ull << 20, 0).empty());
+    CHECK(messageOf(device, "image", 200ull << 20, (1ull << 30) - (200ull << 20)).empty());
+
+    std::string tooLarge = messageOf(device, "BDPT image", (256ull << 20) + 1, 0);
+    CAPTURE(tooLarge);
+    CHECK(tooLarge.find("out of device memory") != std::string::npos);
+    CHECK(tooLarge.find("BDPT image") != std::string::npos);
+    CHECK(tooLarge.find("256.0 MiB") != std::string::npos);
+    CHECK(tooLarge.find("CL_DEVICE_MAX_MEM_ALLOC_SIZE") != std::string::npos);
+    CHECK(tooLarge.find("--width/--height") != std::string::npos);
+    CHECK(tooLarge.find("--light-vertices") != std::string::npos);
+
+    std::string sum = messageOf(device, "MLT chain states", 200ull << 20, 900ull << 20);
+    CAPTURE(sum);
+    CHECK(sum.find("MLT chain states needs 200.0 MiB") != std::string::npos);
+    CHECK(sum.find("900.0 MiB already allocated") != std::string::npos);
+    CHECK(sum.find("1024.0 MiB of global memory of test-device") != std::string::npos);
+}
+
+TEST_CASE("device memory: the OpenCL runtime checks its buffers and counts the live ones") {
+    cb::ClRuntime runtime;
+    const unsigned long long before = runtime.liveBufferBytes();
+    {
+        cl::Buffer b = runtime.createBuffer("test buffer", CL_MEM_READ_WRITE, 1 << 20);
+        CHECK(runtime.liveBufferBytes() == before + (1 << 20));
+    }
+    CHECK(runtime.liveBufferBytes() == before);
+    // One byte past the device's largest allocation: refused before OpenCL is asked.
+    const size_t tooLarge = size_t(runtime.info().maxAllocationBytes) + 1;
+    CHECK_THROWS_WITH_AS(runtime.createBuffer("test buffer", CL_MEM_READ_WRITE, tooLarge),
+                         doctest::Contains("test buffer needs"), cb::ClError);
+    CHECK(runtime.liveBufferBytes() == before);
+}
