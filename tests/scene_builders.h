@@ -45,4 +45,35 @@ inline cb::SceneDesc furnaceScene(float albedo, float emission, int size = 16) {
     return desc;
 }
 
+// Maps the world by p -> s p + t: geometry, lights and camera (so the image must not change).
+inline void transformWorld(cb::SceneDesc& desc, double s, const std::array<double, 3>& t) {
+    auto map = [&](std::array<double, 3>& p) {
+        for (int a = 0; a < 3; ++a)
+            p[size_t(a)] = s * p[size_t(a)] + t[size_t(a)];
+    };
+    for (auto& mesh : desc.meshes)
+        for (auto& p : mesh.positions)
+            map(p);
+    for (auto& sphere : desc.spheres) {
+        map(sphere.center);
+        sphere.radius = float(s * double(sphere.radius));
+    }
+    for (auto& light : desc.pointLights) {
+        map(light.position);
+        light.scale = float(double(light.scale) * s * s); // intensity scales with r^2
+    }
+    // worldToCamera' = worldToCamera * T^-1, with T^-1 p = (p - t) / s.
+    auto& m = desc.camera.worldToCamera;
+    std::array<double, 16> out = m;
+    for (int r = 0; r < 4; ++r) {
+        for (int c = 0; c < 3; ++c)
+            out[size_t(r * 4 + c)] = m[size_t(r * 4 + c)] / s;
+        double shift = 0.0;
+        for (int c = 0; c < 3; ++c)
+            shift += m[size_t(r * 4 + c)] * t[size_t(c)] / s;
+        out[size_t(r * 4 + 3)] = m[size_t(r * 4 + 3)] - shift;
+    }
+    m = out;
+}
+
 } // namespace cbtest

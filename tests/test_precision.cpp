@@ -111,6 +111,24 @@ cb::SceneDesc cornellFarCamera(int size) {
                         film(size));
 }
 
+// The Cornell box mapped by p -> s p + t (geometry, lights and camera): the scale and
+// position cases.
+cb::SceneDesc cornellScaledDown(int size) {
+    cb::SceneDesc desc = cornell(size);
+    cbtest::transformWorld(desc, 1e-4, {0, 0, 0});
+    return desc;
+}
+cb::SceneDesc cornellScaledUp(int size) {
+    cb::SceneDesc desc = cornell(size);
+    cbtest::transformWorld(desc, 1e4, {0, 0, 0});
+    return desc;
+}
+cb::SceneDesc cornellMovedAway(int size) {
+    cb::SceneDesc desc = cornell(size);
+    cbtest::transformWorld(desc, 1.0, {1e5, -7e4, 3e4});
+    return desc;
+}
+
 // The bunny scene: a 34,831-triangle mesh, a mix of diffuse and GGX conductor, a point light.
 cb::SceneDesc bunny(int size) {
     ensureModelPath();
@@ -130,6 +148,9 @@ const Case kCases[] = {
     {"cornell-box with glass and roughness-1e-4 spheres", cornellWithSpheres},
     {"cornell-box, camera 1e-4 above the floor plane", cornellGrazing},
     {"cornell-box, camera 1e4 away", cornellFarCamera},
+    {"cornell-box scaled by 1e-4", cornellScaledDown},
+    {"cornell-box scaled by 1e4", cornellScaledUp},
+    {"cornell-box moved (1e5, -7e4, 3e4) away", cornellMovedAway},
     {"bunny", bunny},
 };
 

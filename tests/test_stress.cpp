@@ -53,36 +53,6 @@ std::string cornellPath() {
     return std::string(CBDPT_SOURCE_DIR) + "/scenes/cornell-box.pbrt";
 }
 
-// Maps the world by p -> s p + t: geometry, lights and camera (so the image must not change).
-void transformWorld(cb::SceneDesc& desc, double s, const std::array<double, 3>& t) {
-    auto map = [&](std::array<double, 3>& p) {
-        for (int a = 0; a < 3; ++a)
-            p[size_t(a)] = s * p[size_t(a)] + t[size_t(a)];
-    };
-    for (auto& mesh : desc.meshes)
-        for (auto& p : mesh.positions)
-            map(p);
-    for (auto& sphere : desc.spheres) {
-        map(sphere.center);
-        sphere.radius = float(s * double(sphere.radius));
-    }
-    for (auto& light : desc.pointLights) {
-        map(light.position);
-        light.scale = float(double(light.scale) * s * s); // intensity scales with r^2
-    }
-    // worldToCamera' = worldToCamera * T^-1, with T^-1 p = (p - t) / s.
-    auto& m = desc.camera.worldToCamera;
-    std::array<double, 16> out = m;
-    for (int r = 0; r < 4; ++r) {
-        for (int c = 0; c < 3; ++c)
-            out[size_t(r * 4 + c)] = m[size_t(r * 4 + c)] / s;
-        double shift = 0.0;
-        for (int c = 0; c < 3; ++c)
-            shift += m[size_t(r * 4 + c)] * t[size_t(c)] / s;
-        out[size_t(r * 4 + 3)] = m[size_t(r * 4 + 3)] - shift;
-    }
-    m = out;
-}
 
 std::vector<double> renderMean(const cb::SceneDesc& desc, const std::string& integrator,
                                int eyeVertices, int estimates, std::uint32_t seed = 1) {
@@ -135,7 +105,7 @@ TEST_CASE("stress: the Cornell box scaled by 1e-4 and 1e4 and moved 1e5 away ren
             CAPTURE(v.scale);
             CAPTURE(v.shift[0]);
             cb::SceneDesc moved = base;
-            transformWorld(moved, v.scale, v.shift);
+            cbtest::transformWorld(moved, v.scale, v.shift);
             auto image = renderMean(moved, integrator, 5, 8);
             double worst = 0.0;
             int differing = 0;
@@ -613,7 +583,7 @@ TEST_CASE("stress: MLT: the Cornell box scaled and moved renders the same, cell 
         CAPTURE(v.scale);
         CAPTURE(v.shift[0]);
         cb::SceneDesc moved = base;
-        transformWorld(moved, v.scale, v.shift);
+        cbtest::transformWorld(moved, v.scale, v.shift);
         const auto image = summarizeRuns(mltRuns(moved, 5, 8, 4, 1, 2));
         for (size_t c = 0; c < image.mean.size(); ++c) {
             CAPTURE(c);
