@@ -95,7 +95,6 @@ CB_FN bool sceneIntersectSkip(const SceneView* scene, Ray ray, real tMax, Hit* h
     hit->b1 = 0.0f;
     hit->b2 = 0.0f;
     Vec3 invD = bvhInverseDirection(ray.d);
-    TriangleRay tr = triangleRaySetup(ray);
     uint end = bvhEnd(nodes);
     uint i = 0u;
     bool found = false;
@@ -111,7 +110,7 @@ CB_FN bool sceneIntersectSkip(const SceneView* scene, Ray ray, real tMax, Hit* h
             uint last = first + (node->count & ~CB_BVH_LEAF);
             for (uint k = first; k < last; ++k) {
                 Hit h;
-                if (intersectPrimitivePrepared(scene->primitives + k, ray, &tr, closest, &h)) {
+                if (intersectPrimitive(scene->primitives + k, ray, closest, &h)) {
                     h.primitive = (int)k;
                     *hit = h;
                     closest = h.t;
@@ -125,13 +124,13 @@ CB_FN bool sceneIntersectSkip(const SceneView* scene, Ray ray, real tMax, Hit* h
 }
 
 CB_FN bool bvhLeafIntersect(const SceneView* scene, CB_GLOBAL const BvhNode* node, Ray ray,
-                            const TriangleRay* tr, real* closest, Hit* hit) {
+                            real* closest, Hit* hit) {
     uint first = node->index;
     uint last = first + (node->count & ~CB_BVH_LEAF);
     bool found = false;
     for (uint k = first; k < last; ++k) {
         Hit h;
-        if (intersectPrimitivePrepared(scene->primitives + k, ray, tr, *closest, &h)) {
+        if (intersectPrimitive(scene->primitives + k, ray, *closest, &h)) {
             h.primitive = (int)k;
             *hit = h;
             *closest = h.t;
@@ -159,7 +158,6 @@ CB_FN bool sceneIntersectOrdered(const SceneView* scene, Ray ray, real tMax, Hit
     hit->b1 = 0.0f;
     hit->b2 = 0.0f;
     Vec3 invD = bvhInverseDirection(ray.d);
-    TriangleRay tr = triangleRaySetup(ray);
     /* Bit a set: the ray goes towards -a, so the second (high-side) child is the near one. */
     uint negative =
         (invD.x < 0.0f ? 1u : 0u) | (invD.y < 0.0f ? 2u : 0u) | (invD.z < 0.0f ? 4u : 0u);
@@ -167,7 +165,7 @@ CB_FN bool sceneIntersectOrdered(const SceneView* scene, Ray ray, real tMax, Hit
     bool found = false;
     if (!bvhBoxHit(nodes, ray.o, invD, closest)) return false;
     if ((nodes[0].count & CB_BVH_LEAF) != 0u)
-        return bvhLeafIntersect(scene, nodes, ray, &tr, &closest, hit);
+        return bvhLeafIntersect(scene, nodes, ray, &closest, hit);
 
     uint parent = 0u;
     uint rootCount = nodes[0].count;
@@ -211,7 +209,7 @@ CB_FN bool sceneIntersectOrdered(const SceneView* scene, Ray ray, real tMax, Hit
                 state = CB_BVH_FROM_PARENT;
                 continue;
             }
-            if (bvhLeafIntersect(scene, node, ray, &tr, &closest, hit)) found = true;
+            if (bvhLeafIntersect(scene, node, ray, &closest, hit)) found = true;
         }
         if (state == CB_BVH_FROM_PARENT) {
             if (cur == parent + 1u)
@@ -243,7 +241,6 @@ CB_FN bool sceneIntersect(const SceneView* scene, Ray ray, real tMax, Hit* hit) 
 CB_FN bool sceneOccluded(const SceneView* scene, Ray ray, real tMax) {
     CB_GLOBAL const BvhNode* nodes = scene->nodes;
     Vec3 invD = bvhInverseDirection(ray.d);
-    TriangleRay tr = triangleRaySetup(ray);
     uint end = bvhEnd(nodes);
     uint i = 0u;
     while (i < end) {
@@ -257,8 +254,7 @@ CB_FN bool sceneOccluded(const SceneView* scene, Ray ray, real tMax) {
             uint last = first + (node->count & ~CB_BVH_LEAF);
             for (uint k = first; k < last; ++k) {
                 Hit h;
-                if (intersectPrimitivePrepared(scene->primitives + k, ray, &tr, tMax, &h))
-                    return true;
+                if (intersectPrimitive(scene->primitives + k, ray, tMax, &h)) return true;
             }
         }
         ++i;

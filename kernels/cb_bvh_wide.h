@@ -64,11 +64,18 @@ typedef int4 BvhWideInt;
 CB_FN int bvhWideOrAll(int4 v) {
     return v.x | v.y | v.z | v.w;
 }
+/* The entry distances are never NaN: plain compares, not fmin/fmax's NaN handling. */
+CB_FN float bvhWideMin2(float a, float b) {
+    return a < b ? a : b;
+}
+CB_FN float bvhWideMax2(float a, float b) {
+    return a > b ? a : b;
+}
 CB_FN float bvhWideMinAll(float4 v) {
-    return fmin(fmin(v.x, v.y), fmin(v.z, v.w));
+    return bvhWideMin2(bvhWideMin2(v.x, v.y), bvhWideMin2(v.z, v.w));
 }
 CB_FN float bvhWideMaxAll(float4 v) {
-    return fmax(fmax(v.x, v.y), fmax(v.z, v.w));
+    return bvhWideMax2(bvhWideMax2(v.x, v.y), bvhWideMax2(v.z, v.w));
 }
 #else
 typedef float8 BvhWideReal;
@@ -80,13 +87,19 @@ CB_FN int bvhWideOrAll(int8 v) {
     int4 a = v.lo | v.hi;
     return a.x | a.y | a.z | a.w;
 }
+CB_FN float bvhWideMin2(float a, float b) {
+    return a < b ? a : b;
+}
+CB_FN float bvhWideMax2(float a, float b) {
+    return a > b ? a : b;
+}
 CB_FN float bvhWideMinAll(float8 v) {
-    float4 a = fmin(v.lo, v.hi);
-    return fmin(fmin(a.x, a.y), fmin(a.z, a.w));
+    float4 a = select(v.hi, v.lo, v.lo < v.hi);
+    return bvhWideMin2(bvhWideMin2(a.x, a.y), bvhWideMin2(a.z, a.w));
 }
 CB_FN float bvhWideMaxAll(float8 v) {
-    float4 a = fmax(v.lo, v.hi);
-    return fmax(fmax(a.x, a.y), fmax(a.z, a.w));
+    float4 a = select(v.hi, v.lo, v.lo > v.hi);
+    return bvhWideMax2(bvhWideMax2(a.x, a.y), bvhWideMax2(a.z, a.w));
 }
 #endif
 
@@ -204,7 +217,6 @@ CB_FN bool bvhWideTraverse(CB_GLOBAL const BvhNodeWide* nodes, CB_GLOBAL const P
     hit->b1 = 0.0f;
     hit->b2 = 0.0f;
     Vec3 invD = bvhInverseDirection(ray.d);
-    TriangleRay tr = triangleRaySetup(ray);
     real closest = tMax;
     bool found = false;
     uint cur = 0u;
@@ -228,7 +240,7 @@ CB_FN bool bvhWideTraverse(CB_GLOBAL const BvhNodeWide* nodes, CB_GLOBAL const P
             uint first = node->child[k];
             for (uint p = first; p < first + count; ++p) {
                 Hit h;
-                if (intersectPrimitivePrepared(prims + p, ray, &tr, closest, &h)) {
+                if (intersectPrimitive(prims + p, ray, closest, &h)) {
                     h.primitive = (int)p;
                     *hit = h;
                     closest = h.t;

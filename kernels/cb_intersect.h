@@ -32,51 +32,29 @@ CB_FN int cbMaxAxis(Vec3 v) {
     return (v.x > v.y) ? (v.x > v.z ? 0 : 2) : (v.y > v.z ? 1 : 2);
 }
 
-/* The ray-dependent half of the watertight test (Woop et al. 2013, sec. 3.1 and its
- * pseudo-code): the axis permutation that makes the largest direction component z and the
- * shear that maps the ray onto +z depend only on the ray, so traversal computes them once per
- * ray instead of once per triangle. o and d are the ray's origin and direction in the
- * permuted frame; the triangle test below is the same arithmetic on the same values as when
- * everything was done per triangle, so its answers are bit-identical. */
-typedef struct TriangleRay {
-    Vec3 o, d;
-    real sx, sy, sz;
-    int kx, ky, kz;
-} TriangleRay;
-
-CB_FN TriangleRay triangleRaySetup(Ray ray) {
-    TriangleRay r;
-    r.kz = cbMaxAxis(vabs(ray.d));
-    r.kx = r.kz + 1;
-    if (r.kx == 3) r.kx = 0;
-    r.ky = r.kx + 1;
-    if (r.ky == 3) r.ky = 0;
-    r.o = cbPermute(ray.o, r.kx, r.ky, r.kz);
-    r.d = cbPermute(ray.d, r.kx, r.ky, r.kz);
-    r.sx = -r.d.x / r.d.z;
-    r.sy = -r.d.y / r.d.z;
-    r.sz = 1.0f / r.d.z;
-    return r;
-}
-
 #ifdef CB_HAS_DOUBLE
-/* Double-precision ray parameter of the hit of the ray with the triangle's plane (the edge
- * tests already passed in real), and whether it clears its own rounding-error bound (pbrt 3rd
- * ed. sec. 3.9.6 with double's unit roundoff). Ray and vertices are in the permuted frame. */
-CB_FN bool cbTriangleHitBeyondErrorDouble(const TriangleRay* r, Vec3 p0, Vec3 p1, Vec3 p2,
-                                          real* t) {
-    double o[3] = {r->o.x, r->o.y, r->o.z};
+/* Double-precision ray parameter of the hit of `ray` with the triangle's plane (the edge tests
+ * already passed in real), and whether it clears its own rounding-error bound (pbrt 3rd ed.
+ * sec. 3.9.6 with double's unit roundoff). */
+CB_FN bool cbTriangleHitBeyondErrorDouble(Ray ray, Vec3 p0, Vec3 p1, Vec3 p2, real* t) {
+    double o[3] = {ray.o.x, ray.o.y, ray.o.z};
+    double dir[3] = {ray.d.x, ray.d.y, ray.d.z};
     double v[3][3] = {{(double)p0.x - o[0], (double)p0.y - o[1], (double)p0.z - o[2]},
                       {(double)p1.x - o[0], (double)p1.y - o[1], (double)p1.z - o[2]},
                       {(double)p2.x - o[0], (double)p2.y - o[1], (double)p2.z - o[2]}};
-    double sx = -(double)r->d.x / (double)r->d.z;
-    double sy = -(double)r->d.y / (double)r->d.z;
-    double sz = 1.0 / (double)r->d.z;
+    int kz = cbMaxAxis(vabs(ray.d));
+    int kx = kz + 1;
+    if (kx == 3) kx = 0;
+    int ky = kx + 1;
+    if (ky == 3) ky = 0;
+    double sx = -dir[kx] / dir[kz];
+    double sy = -dir[ky] / dir[kz];
+    double sz = 1.0 / dir[kz];
     double x[3], y[3], z[3];
     for (int i = 0; i < 3; ++i) {
-        x[i] = v[i][0] + sx * v[i][2];
-        y[i] = v[i][1] + sy * v[i][2];
-        z[i] = v[i][2] * sz;
+        x[i] = v[i][kx] + sx * v[i][kz];
+        y[i] = v[i][ky] + sy * v[i][kz];
+        z[i] = v[i][kz] * sz;
     }
     double e0 = x[1] * y[2] - y[1] * x[2];
     double e1 = x[2] * y[0] - y[2] * x[0];
@@ -105,21 +83,34 @@ CB_FN bool cbTriangleHitBeyondErrorDouble(const TriangleRay* r, Vec3 p0, Vec3 p1
  * vertex hit at least one of the triangles sharing it: the edge functions are evaluated in a
  * ray-aligned sheared frame where they are exact up to one rounding, and a zero edge function
  * is re-evaluated in double precision so that ties are broken consistently. Returns the hit
- * only for t in (0, tMax); b1, b2 are the barycentric weights of p1 and p2. The vertices are
- * given in the ray's permuted frame (x = component kx, and so on). */
-CB_FN bool intersectTrianglePermuted(const TriangleRay* r, real tMax, Vec3 p0, Vec3 p1, Vec3 p2,
-                                     real* t, real* b1, real* b2) {
-    Vec3 p0t = vsub(p0, r->o);
-    Vec3 p1t = vsub(p1, r->o);
-    Vec3 p2t = vsub(p2, r->o);
+ * only for t in (0, tMax); b1, b2 are the barycentric weights of p1 and p2. */
+CB_FN bool intersectTriangle(Ray ray, real tMax, Vec3 p0, Vec3 p1, Vec3 p2, real* t, real* b1,
+                             real* b2) {
+    Vec3 p0t = vsub(p0, ray.o);
+    Vec3 p1t = vsub(p1, ray.o);
+    Vec3 p2t = vsub(p2, ray.o);
+
+    /* Make the largest direction component z so the shear below is well defined. */
+    int kz = cbMaxAxis(vabs(ray.d));
+    int kx = kz + 1;
+    if (kx == 3) kx = 0;
+    int ky = kx + 1;
+    if (ky == 3) ky = 0;
+    Vec3 d = cbPermute(ray.d, kx, ky, kz);
+    p0t = cbPermute(p0t, kx, ky, kz);
+    p1t = cbPermute(p1t, kx, ky, kz);
+    p2t = cbPermute(p2t, kx, ky, kz);
 
     /* Shear so that the ray runs along +z (paper, sec. 3); z is scaled later, only if needed. */
-    p0t.x += r->sx * p0t.z;
-    p0t.y += r->sy * p0t.z;
-    p1t.x += r->sx * p1t.z;
-    p1t.y += r->sy * p1t.z;
-    p2t.x += r->sx * p2t.z;
-    p2t.y += r->sy * p2t.z;
+    real sx = -d.x / d.z;
+    real sy = -d.y / d.z;
+    real sz = 1.0f / d.z;
+    p0t.x += sx * p0t.z;
+    p0t.y += sy * p0t.z;
+    p1t.x += sx * p1t.z;
+    p1t.y += sy * p1t.z;
+    p2t.x += sx * p2t.z;
+    p2t.y += sy * p2t.z;
 
     real e0 = p1t.x * p2t.y - p1t.y * p2t.x;
     real e1 = p2t.x * p0t.y - p2t.y * p0t.x;
@@ -137,9 +128,9 @@ CB_FN bool intersectTrianglePermuted(const TriangleRay* r, real tMax, Vec3 p0, V
     real det = e0 + e1 + e2;
     if (det == 0.0f) return false;
 
-    p0t.z *= r->sz;
-    p1t.z *= r->sz;
-    p2t.z *= r->sz;
+    p0t.z *= sz;
+    p1t.z *= sz;
+    p2t.z *= sz;
     real tScaled = e0 * p0t.z + e1 * p1t.z + e2 * p2t.z;
     /* Range test on the unnormalised t, avoiding the division for most misses. */
     if (det < 0.0f && (tScaled >= 0.0f || tScaled <= tMax * det)) return false;
@@ -169,7 +160,7 @@ CB_FN bool intersectTrianglePermuted(const TriangleRay* r, real tMax, Vec3 p0, V
          * it and would leak through. Decide such cases with the same computation in double,
          * whose bound is 2^29 times tighter; a spawned ray's own surface (origin offset past
          * its error box) still comes out at t <= 0 there. */
-        if (!cbTriangleHitBeyondErrorDouble(r, p0, p1, p2, &tHit)) return false;
+        if (!cbTriangleHitBeyondErrorDouble(ray, p0, p1, p2, &tHit)) return false;
 #else
         return false;
 #endif
@@ -179,15 +170,6 @@ CB_FN bool intersectTrianglePermuted(const TriangleRay* r, real tMax, Vec3 p0, V
     *b1 = e1 * invDet;
     *b2 = e2 * invDet;
     return true;
-}
-
-/* The watertight test for one ray and one triangle (see intersectTrianglePermuted). */
-CB_FN bool intersectTriangle(Ray ray, real tMax, Vec3 p0, Vec3 p1, Vec3 p2, real* t, real* b1,
-                             real* b2) {
-    TriangleRay r = triangleRaySetup(ray);
-    return intersectTrianglePermuted(&r, tMax, cbPermute(p0, r.kx, r.ky, r.kz),
-                                     cbPermute(p1, r.kx, r.ky, r.kz),
-                                     cbPermute(p2, r.kx, r.ky, r.kz), t, b1, b2);
 }
 
 /* Ray/sphere intersection in the form of Haines et al., "Precision Improvements for Ray/Sphere
@@ -227,11 +209,8 @@ CB_FN bool intersectSphere(Ray ray, real tMax, Vec3 center, real radius, real* t
     return false;
 }
 
-/* Fills hit->t, b1, b2 (b1 = b2 = 0 for spheres); the caller sets hit->primitive. `tr` is
- * triangleRaySetup(ray), computed once per ray by the traversal. The vertices are loaded in
- * the ray's permuted order straight from the primitive. */
-CB_FN bool intersectPrimitivePrepared(CB_GLOBAL const Primitive* prim, Ray ray,
-                                      const TriangleRay* tr, real tMax, Hit* hit) {
+/* Fills hit->t, b1, b2 (b1 = b2 = 0 for spheres); the caller sets hit->primitive. */
+CB_FN bool intersectPrimitive(CB_GLOBAL const Primitive* prim, Ray ray, real tMax, Hit* hit) {
 #if CB_HAS(CB_FEATURE_SPHERES)
     if (prim->kind == CB_PRIM_SPHERE) {
         real t;
@@ -242,23 +221,15 @@ CB_FN bool intersectPrimitivePrepared(CB_GLOBAL const Primitive* prim, Ray ray,
         hit->b2 = 0.0f;
         return true;
     }
-#else
-    (void)ray;
 #endif
     real t, b1, b2;
-    Vec3 p0 = vec3(prim->p0[tr->kx], prim->p0[tr->ky], prim->p0[tr->kz]);
-    Vec3 p1 = vec3(prim->p1[tr->kx], prim->p1[tr->ky], prim->p1[tr->kz]);
-    Vec3 p2 = vec3(prim->p2[tr->kx], prim->p2[tr->ky], prim->p2[tr->kz]);
-    if (!intersectTrianglePermuted(tr, tMax, p0, p1, p2, &t, &b1, &b2)) return false;
+    if (!intersectTriangle(ray, tMax, vec3FromGlobalArray(prim->p0), vec3FromGlobalArray(prim->p1),
+                           vec3FromGlobalArray(prim->p2), &t, &b1, &b2))
+        return false;
     hit->t = t;
     hit->b1 = b1;
     hit->b2 = b2;
     return true;
-}
-
-CB_FN bool intersectPrimitive(CB_GLOBAL const Primitive* prim, Ray ray, real tMax, Hit* hit) {
-    TriangleRay tr = triangleRaySetup(ray);
-    return intersectPrimitivePrepared(prim, ray, &tr, tMax, hit);
 }
 
 /* The hit point with a conservative per-axis error bound (pbrt 3rd ed. sec. 3.9.4-3.9.5).
