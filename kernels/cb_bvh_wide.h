@@ -130,7 +130,7 @@ CB_FN void bvhWideBoxes(CB_GLOBAL const BvhNodeWide* node, Vec3 o, Vec3 invD, Bv
 /* The hit lane with the smallest key (tn, lane) above (keyT, keyLane), its tn in *t; -1 if
  * none. `ordered` false: the lowest hit lane above keyLane (any-hit queries). */
 CB_FN int bvhWideNext(CB_GLOBAL const BvhNodeWide* node, BvhWideReal tn, BvhWideReal tf,
-                      real closest, real keyT, int keyLane, bool ordered, real* t) {
+                      real closest, real keyT, int keyLane, bool ordered, real* t, bool* more) {
     BvhWideReal far = select((BvhWideReal)(closest), tf, tf < closest);
     BvhWideInt lane = BVHW_LANES;
     BvhWideInt hit =
@@ -138,6 +138,7 @@ CB_FN int bvhWideNext(CB_GLOBAL const BvhNodeWide* node, BvhWideReal tn, BvhWide
     BvhWideInt after =
         ordered ? ((tn > keyT) | ((tn == keyT) & (lane > keyLane))) : (lane > keyLane);
     BvhWideInt cand = hit & after;
+    int all = bvhWideOrAll(cand & BVHW_BITS);
     *t = 0.0f;
     if (ordered) {
         BvhWideReal tc = select((BvhWideReal)(INFINITY), tn, cand);
@@ -147,7 +148,9 @@ CB_FN int bvhWideNext(CB_GLOBAL const BvhNodeWide* node, BvhWideReal tn, BvhWide
     }
     int bits = bvhWideOrAll(cand & BVHW_BITS);
     if (bits == 0) return -1;
-    return 31 - (int)clz(bits & -bits);
+    int k = 31 - (int)clz(bits & -bits);
+    *more = (all & ~(1 << k)) != 0;
+    return k;
 }
 
 /* tn of lane k. */
@@ -187,20 +190,23 @@ CB_FN void bvhWideBoxes(CB_GLOBAL const BvhNodeWide* node, Vec3 o, Vec3 invD, Bv
 }
 
 CB_FN int bvhWideNext(CB_GLOBAL const BvhNodeWide* node, BvhWideReal tn, BvhWideReal tf,
-                      real closest, real keyT, int keyLane, bool ordered, real* t) {
+                      real closest, real keyT, int keyLane, bool ordered, real* t, bool* more) {
     int best = -1;
     real bestT = 0.0f;
+    int candidates = 0;
     for (int k = 0; k < CBW; ++k) {
         real tk = tn.v[k];
         real far = tf.v[k] < closest ? tf.v[k] : closest;
         bool hit = node->child[k] != CB_BVHW_NONE && tk <= far * (1.0f + 2.0f * cbGamma(3));
         bool after = ordered ? (tk > keyT || (tk == keyT && k > keyLane)) : k > keyLane;
+        if (hit && after) ++candidates;
         if (hit && after && (best < 0 || (ordered && tk < bestT))) {
             best = k;
             bestT = tk;
         }
     }
     *t = bestT;
+    *more = candidates > 1;
     return best;
 }
 
@@ -221,6 +227,13 @@ CB_FN bool bvhWideTraverse(CB_GLOBAL const BvhNodeWide* nodes, CB_GLOBAL const P
     bool found = false;
     uint cur = 0u;
     int fromLane = -1; /* the lane just finished when coming back up, -1 coming down */
+    /* Trail: bit d says the node at depth d (root 0) may still have children to visit after
+     * the one being traversed. Coming back up to a node whose bit is clear skips its box tests
+     * and goes on up. A clear bit is exact when it is written (no hit child after the chosen
+     * one) and stays exact, because the closest hit only shrinks; depths >= 64 are not
+     * recorded and always tested. One register, not a stack. */
+    ulong trail = 0;
+    int depth = 0;
     for (;;) {
         CB_GLOBAL const BvhNodeWide* node = nodes + cur;
         BvhWideReal tn, tf;
@@ -230,11 +243,16 @@ CB_FN bool bvhWideTraverse(CB_GLOBAL const BvhNodeWide* nodes, CB_GLOBAL const P
         uint down = CB_BVHW_NONE;
         for (;;) {
             real tk;
-            int k = bvhWideNext(node, tn, tf, closest, keyT, keyLane, ordered, &tk);
+            bool more;
+            int k = bvhWideNext(node, tn, tf, closest, keyT, keyLane, ordered, &tk, &more);
             if (k < 0) break;
             uint count = bvhWideCount(node, k);
             if (count == 0u) {
                 down = node->child[k];
+                if (depth < 64) {
+                    ulong bit = (ulong)1 << depth;
+                    trail = more ? (trail | bit) : (trail & ~bit);
+                }
                 break;
             }
             uint first = node->child[k];
@@ -254,11 +272,17 @@ CB_FN bool bvhWideTraverse(CB_GLOBAL const BvhNodeWide* nodes, CB_GLOBAL const P
         if (down != CB_BVHW_NONE) {
             fromLane = -1;
             cur = down;
+            ++depth;
             continue;
         }
-        if (cur == 0u) break;
-        fromLane = (int)node->lane;
-        cur = node->parent;
+        /* Up to the nearest ancestor that may have children left. */
+        for (;;) {
+            if (cur == 0u) return found;
+            fromLane = (int)nodes[cur].lane;
+            cur = nodes[cur].parent;
+            --depth;
+            if (depth >= 64 || ((trail >> depth) & 1u) != 0u) break;
+        }
     }
     return found;
 }
