@@ -280,20 +280,30 @@ TEST_CASE("stress: albedo 0.999 with 64 eye vertices matches the furnace value")
     }
 }
 
+namespace {
+
+// The Cornell box at 24x24 with its white material (walls and blocks) turned into a conductor of
+// the given roughness (0: the perfect mirror).
+cb::SceneDesc cornellWithGreyMirror(float roughness) {
+    cb::SceneDesc desc = cb::parseSceneFile(cornellPath());
+    desc.film.width = desc.film.height = 24;
+    for (auto& m : desc.materials)
+        if (m.name == "white") {
+            m.kind = cb::MaterialKind::Conductor;
+            m.roughness = roughness;
+            m.remapRoughness = false;
+        }
+    return desc;
+}
+
+} // namespace
+
 TEST_CASE("stress: a rough conductor of roughness 1e-4 matches the perfect mirror") {
-    // The Cornell box with its white material (walls and blocks) turned into a grey mirror.
     for (const char* integrator : kStressIntegrators) {
         CAPTURE(integrator);
         EstimateSpread results[2];
         for (int rough = 0; rough < 2; ++rough) {
-            cb::SceneDesc desc = cb::parseSceneFile(cornellPath());
-            desc.film.width = desc.film.height = 24;
-            for (auto& m : desc.materials)
-                if (m.name == "white") {
-                    m.kind = cb::MaterialKind::Conductor;
-                    m.roughness = rough ? 1e-4f : 0.f;
-                    m.remapRoughness = false;
-                }
+            cb::SceneDesc desc = cornellWithGreyMirror(rough ? 1e-4f : 0.f);
             results[rough] =
                 renderEstimateSpread(desc, integrator, 6, 48, 11 + rough, cb::ChannelMode::Rgb);
         }
@@ -645,14 +655,7 @@ TEST_CASE("stress: MLT: albedo 0.999 with 64 vertices (32 + 32) matches the furn
 TEST_CASE("stress: MLT: a rough conductor of roughness 1e-4 matches the perfect mirror") {
     RunStats results[2];
     for (int rough = 0; rough < 2; ++rough) {
-        cb::SceneDesc desc = cb::parseSceneFile(cornellPath());
-        desc.film.width = desc.film.height = 24;
-        for (auto& m : desc.materials)
-            if (m.name == "white") {
-                m.kind = cb::MaterialKind::Conductor;
-                m.roughness = rough ? 1e-4f : 0.f;
-                m.remapRoughness = false;
-            }
+        cb::SceneDesc desc = cornellWithGreyMirror(rough ? 1e-4f : 0.f);
         // Independent seeds for the two sets of 8 runs.
         results[rough] = summarizeRuns(
             mltRuns(desc, 6, 8, 4, 100 + 50 * std::uint32_t(rough), 1, 4096, cb::ChannelMode::Rgb));
