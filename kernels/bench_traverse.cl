@@ -1,8 +1,9 @@
 /* bench_traverse.cl - traversal micro-benchmark kernels for cbdpt-bench (src/bench/).
  *
  * One work-item per ray, rays and results in flat buffers, nothing else: the measured time is
- * the BVH traversal and the primitive tests of cb_bvh.h as the renderers compile them.
- * -DCB_BVH_SKIP_ORDER selects the unordered preorder closest-hit loop for comparison. */
+ * the BVH traversal and the primitive tests. benchClosest/benchOccluded run the binary BVH of
+ * cb_bvh.h (-DCB_BVH_SKIP_ORDER: its unordered preorder closest-hit loop), kept for
+ * comparison; the *Wide kernels run cb_bvh_wide.h, the traversal the renderers use. */
 #include "cb_bvh_wide.h"
 
 __kernel void benchClosest(__global const struct BvhNode* nodes,
@@ -10,15 +11,8 @@ __kernel void benchClosest(__global const struct BvhNode* nodes,
                            uint count, __global Hit* hits) {
     uint i = (uint)get_global_id(0);
     if (i >= count) return;
-    SceneView scene;
-    scene.nodes = nodes;
-    scene.primitives = primitives;
-    scene.materials = 0;
-    scene.lights = 0;
-    scene.spectra = 0;
-    scene.lightCount = 0;
     Hit h;
-    sceneIntersect(&scene, rays[i], CB_INFINITY, &h);
+    bvhIntersect(nodes, primitives, rays[i], CB_INFINITY, &h);
     hits[i] = h;
 }
 
@@ -27,17 +21,10 @@ __kernel void benchOccluded(__global const struct BvhNode* nodes,
                             __global const float* tMax, uint count, __global int* occluded) {
     uint i = (uint)get_global_id(0);
     if (i >= count) return;
-    SceneView scene;
-    scene.nodes = nodes;
-    scene.primitives = primitives;
-    scene.materials = 0;
-    scene.lights = 0;
-    scene.spectra = 0;
-    scene.lightCount = 0;
-    occluded[i] = sceneOccluded(&scene, rays[i], tMax[i]) ? 1 : 0;
+    occluded[i] = bvhOccluded(nodes, primitives, rays[i], tMax[i]) ? 1 : 0;
 }
 
-/* The wide-BVH prototype (cb_bvh_wide.h) on the same rays. */
+/* The wide BVH (cb_bvh_wide.h, the renderers' traversal) on the same rays. */
 __kernel void benchClosestWide(__global const struct BvhNodeWide* nodes,
                                __global const Primitive* primitives, __global const Ray* rays,
                                uint count, __global Hit* hits) {

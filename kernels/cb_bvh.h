@@ -1,4 +1,9 @@
-/* cb_bvh.h - stackless BVH traversal shared by the kernels and the host.
+/* cb_bvh.h - the binary BVH: node layout, slab test and its stackless traversals.
+ *
+ * The renderers trace the wide BVH of cb_bvh_wide.h (sceneIntersect and sceneOccluded live
+ * there), which src/bvh/bvh_wide.cpp collapses from this binary tree. The binary traversals
+ * below stay as the comparison for cbdpt-bench and tests/test_bvh.cpp; they take the node
+ * and primitive arrays directly rather than a SceneView.
  *
  * The host builder (src/bvh/bvh.cpp) stores the tree in depth-first preorder, so the first
  * child of an interior node is always the next node, and gives each node an escape ("skip")
@@ -88,8 +93,8 @@ CB_FN Vec3 bvhInverseDirection(Vec3 d) {
 }
 
 /* Closest hit in preorder (skip indices). Kept as the reference and for benchmarks. */
-CB_FN bool sceneIntersectSkip(const SceneView* scene, Ray ray, real tMax, Hit* hit) {
-    CB_GLOBAL const BvhNode* nodes = scene->nodes;
+CB_FN bool bvhIntersectSkip(CB_GLOBAL const BvhNode* nodes, CB_GLOBAL const Primitive* prims,
+                            Ray ray, real tMax, Hit* hit) {
     hit->t = tMax;
     hit->primitive = -1;
     hit->b1 = 0.0f;
@@ -110,7 +115,7 @@ CB_FN bool sceneIntersectSkip(const SceneView* scene, Ray ray, real tMax, Hit* h
             uint last = first + (node->count & ~CB_BVH_LEAF);
             for (uint k = first; k < last; ++k) {
                 Hit h;
-                if (intersectPrimitive(scene->primitives + k, ray, closest, &h)) {
+                if (intersectPrimitive(prims + k, ray, closest, &h)) {
                     h.primitive = (int)k;
                     *hit = h;
                     closest = h.t;
@@ -123,14 +128,14 @@ CB_FN bool sceneIntersectSkip(const SceneView* scene, Ray ray, real tMax, Hit* h
     return found;
 }
 
-CB_FN bool bvhLeafIntersect(const SceneView* scene, CB_GLOBAL const BvhNode* node, Ray ray,
-                            real* closest, Hit* hit) {
+CB_FN bool bvhLeafIntersect(CB_GLOBAL const Primitive* prims, CB_GLOBAL const BvhNode* node,
+                            Ray ray, real* closest, Hit* hit) {
     uint first = node->index;
     uint last = first + (node->count & ~CB_BVH_LEAF);
     bool found = false;
     for (uint k = first; k < last; ++k) {
         Hit h;
-        if (intersectPrimitive(scene->primitives + k, ray, *closest, &h)) {
+        if (intersectPrimitive(prims + k, ray, *closest, &h)) {
             h.primitive = (int)k;
             *hit = h;
             *closest = h.t;
@@ -151,8 +156,8 @@ CB_FN bool bvhLeafIntersect(const SceneView* scene, CB_GLOBAL const BvhNode* nod
  * coming up from a finished child (go to the far sibling if this was the near child, else
  * further up). The children of p are p + 1 and the skip index of p + 1 (p + 2 after a leaf);
  * the sibling of a node is therefore found from the node itself and its parent. */
-CB_FN bool sceneIntersectOrdered(const SceneView* scene, Ray ray, real tMax, Hit* hit) {
-    CB_GLOBAL const BvhNode* nodes = scene->nodes;
+CB_FN bool bvhIntersectOrdered(CB_GLOBAL const BvhNode* nodes, CB_GLOBAL const Primitive* prims,
+                               Ray ray, real tMax, Hit* hit) {
     hit->t = tMax;
     hit->primitive = -1;
     hit->b1 = 0.0f;
@@ -165,7 +170,7 @@ CB_FN bool sceneIntersectOrdered(const SceneView* scene, Ray ray, real tMax, Hit
     bool found = false;
     if (!bvhBoxHit(nodes, ray.o, invD, closest)) return false;
     if ((nodes[0].count & CB_BVH_LEAF) != 0u)
-        return bvhLeafIntersect(scene, nodes, ray, &closest, hit);
+        return bvhLeafIntersect(prims, nodes, ray, &closest, hit);
 
     uint parent = 0u;
     uint rootCount = nodes[0].count;
@@ -209,7 +214,7 @@ CB_FN bool sceneIntersectOrdered(const SceneView* scene, Ray ray, real tMax, Hit
                 state = CB_BVH_FROM_PARENT;
                 continue;
             }
-            if (bvhLeafIntersect(scene, node, ray, &closest, hit)) found = true;
+            if (bvhLeafIntersect(prims, node, ray, &closest, hit)) found = true;
         }
         if (state == CB_BVH_FROM_PARENT) {
             if (cur == parent + 1u)
@@ -229,17 +234,18 @@ CB_FN bool sceneIntersectOrdered(const SceneView* scene, Ray ray, real tMax, Hit
 /* Closest hit with t in (0, tMax). On a miss *hit is left as {tMax, -1, 0, 0}, so it is
  * never read uninitialised. CB_BVH_SKIP_ORDER selects the unordered preorder loop (for
  * benchmarks). */
-CB_FN bool sceneIntersect(const SceneView* scene, Ray ray, real tMax, Hit* hit) {
+CB_FN bool bvhIntersect(CB_GLOBAL const BvhNode* nodes, CB_GLOBAL const Primitive* prims, Ray ray,
+                        real tMax, Hit* hit) {
 #ifdef CB_BVH_SKIP_ORDER
-    return sceneIntersectSkip(scene, ray, tMax, hit);
+    return bvhIntersectSkip(nodes, prims, ray, tMax, hit);
 #else
-    return sceneIntersectOrdered(scene, ray, tMax, hit);
+    return bvhIntersectOrdered(nodes, prims, ray, tMax, hit);
 #endif
 }
 
 /* Any hit with t in (0, tMax): shadow rays stop at the first one. */
-CB_FN bool sceneOccluded(const SceneView* scene, Ray ray, real tMax) {
-    CB_GLOBAL const BvhNode* nodes = scene->nodes;
+CB_FN bool bvhOccluded(CB_GLOBAL const BvhNode* nodes, CB_GLOBAL const Primitive* prims, Ray ray,
+                       real tMax) {
     Vec3 invD = bvhInverseDirection(ray.d);
     uint end = bvhEnd(nodes);
     uint i = 0u;
@@ -254,7 +260,7 @@ CB_FN bool sceneOccluded(const SceneView* scene, Ray ray, real tMax) {
             uint last = first + (node->count & ~CB_BVH_LEAF);
             for (uint k = first; k < last; ++k) {
                 Hit h;
-                if (intersectPrimitive(scene->primitives + k, ray, tMax, &h)) return true;
+                if (intersectPrimitive(prims + k, ray, tMax, &h)) return true;
             }
         }
         ++i;

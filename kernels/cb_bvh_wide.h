@@ -1,5 +1,7 @@
-/* cb_bvh_wide.h - a 4- or 8-wide BVH and its stackless traversal (prototype, used by
- * cbdpt-bench; the renderers use cb_bvh.h).
+/* cb_bvh_wide.h - a 4- or 8-wide BVH and its stackless traversal: sceneIntersect and
+ * sceneOccluded, what every renderer (PT, BDPT, CBDPT, MLT, their host builds) traces with.
+ * The binary BVH of cb_bvh.h is what it is collapsed from, and stays as the comparison for
+ * cbdpt-bench and the tests (docs/performance.md, traverse section).
  *
  * One node holds the boxes of up to CB_BVH_WIDE_LANES children in structure-of-arrays form,
  * so one node visit tests all of them with the same instructions on all lanes (what Embree's
@@ -285,6 +287,18 @@ CB_FN bool bvhWideTraverse(CB_GLOBAL const BvhNodeWide* nodes, CB_GLOBAL const P
         }
     }
     return found;
+}
+
+/* Closest hit with t in (0, tMax). On a miss *hit is left as {tMax, -1, 0, 0}, so it is
+ * never read uninitialised. */
+CB_FN bool sceneIntersect(const SceneView* scene, Ray ray, real tMax, Hit* hit) {
+    return bvhWideTraverse(scene->nodes, scene->primitives, ray, tMax, true, hit);
+}
+
+/* Any hit with t in (0, tMax): shadow rays stop at the first one. */
+CB_FN bool sceneOccluded(const SceneView* scene, Ray ray, real tMax) {
+    Hit h;
+    return bvhWideTraverse(scene->nodes, scene->primitives, ray, tMax, false, &h);
 }
 
 CB_END_NAMESPACE

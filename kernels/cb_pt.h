@@ -7,7 +7,7 @@
 #define CB_PT_H
 
 #include "cb_bsdf.h"
-#include "cb_bvh.h"
+#include "cb_bvh_wide.h"
 #include "cb_camera.h"
 #include "cb_lights.h"
 #include "cb_rng.h"

@@ -128,13 +128,13 @@ CB_FN Vec3 affineTransformVector(const real* m, Vec3 v) {
 
 /* ---- The scene as one bundle of buffers ------------------------------------------------- */
 
-struct BvhNode; /* defined in cb_bvh.h */
+struct BvhNodeWide; /* defined in cb_bvh_wide.h */
 
 /* Built inside each kernel from its arguments (OpenCL 1.2 allows structs of pointers in
  * private memory, not as kernel arguments) and passed by pointer to the shared code; on the
  * host it points at the host-side copies of the same arrays. */
 typedef struct SceneView {
-    CB_GLOBAL const struct BvhNode* nodes;
+    CB_GLOBAL const struct BvhNodeWide* nodes;
     CB_GLOBAL const Primitive* primitives;
     CB_GLOBAL const Material* materials;
     CB_GLOBAL const Light* lights;
@@ -146,7 +146,7 @@ typedef struct SceneView {
 /* Every kernel takes the scene as these parameters (in this order; the host sets them with
  * SceneBuffers::setKernelArgs) and builds its SceneView with CB_SCENE_VIEW. */
 #define CB_SCENE_KERNEL_PARAMS                                                                     \
-    __global const struct BvhNode *nodes, __global const Primitive *primitives,                    \
+    __global const struct BvhNodeWide *nodes, __global const Primitive *primitives,                \
         __global const Material *materials, __global const Light *lights,                          \
         __global const real *spectra, int lightCount
 #define CB_SCENE_VIEW(view)                                                                        \

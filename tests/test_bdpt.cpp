@@ -210,7 +210,7 @@ struct FullPath {
 
 cbk::SceneView hostView(const cb::DeviceScene& s) {
     cbk::SceneView v{};
-    v.nodes = s.bvh.nodes.data();
+    v.nodes = s.wideNodes.data();
     v.primitives = s.bvh.primitives.data();
     v.materials = s.materials.data();
     v.lights = s.lights.data();

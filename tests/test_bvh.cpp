@@ -72,9 +72,10 @@ std::vector<Primitive> meshPrimitives(const Mesh& mesh) {
     return prims;
 }
 
-SceneView viewOf(const cb::Bvh& bvh) {
+// The renderers' view: the wide nodes collapsed from `bvh` (both must outlive it).
+SceneView viewOf(const cb::Bvh& bvh, const std::vector<cbk::BvhNodeWide>& wide) {
     SceneView s{};
-    s.nodes = bvh.nodes.data();
+    s.nodes = wide.data();
     s.primitives = bvh.primitives.data();
     return s;
 }
@@ -190,18 +191,19 @@ struct Mismatches {
 
 // Runs BVH and brute force for rays [begin, end); for occlusion, tMax is a random fraction
 // (0..2) of the closest hit distance so both answers occur.
-// With `wide`, the wide-BVH prototype (cb_bvh_wide.h) over the same primitives is compared.
+// With `wide`, the wide BVH the renderers trace (cb_bvh_wide.h) over the same primitives is
+// compared.
 void compareRange(const cb::Bvh& bvh, const Brute& brute, const std::vector<Ray>& rays,
                   size_t begin, size_t end, Mismatches* out,
                   const std::vector<cbk::BvhNodeWide>* wide = nullptr) {
-    SceneView scene = viewOf(bvh);
     std::mt19937 rng(unsigned(begin) * 7919u + 1u);
     std::uniform_real_distribution<float> u(0.0f, 2.0f);
     for (size_t i = begin; i < end; ++i) {
         Hit a{}, b{};
         bool ha = wide ? cbk::bvhWideTraverse(wide->data(), bvh.primitives.data(), rays[i],
                                               CB_INFINITY, true, &a)
-                       : cbk::sceneIntersect(&scene, rays[i], CB_INFINITY, &a);
+                       : cbk::bvhIntersect(bvh.nodes.data(), bvh.primitives.data(), rays[i],
+                                           CB_INFINITY, &a);
         bool hb = brute.intersect(rays[i], CB_INFINITY, &b);
         if (ha != hb) {
             ++out->closest;
@@ -225,7 +227,7 @@ void compareRange(const cb::Bvh& bvh, const Brute& brute, const std::vector<Ray>
         Hit any{};
         bool occ = wide ? cbk::bvhWideTraverse(wide->data(), bvh.primitives.data(), rays[i], tMax,
                                                false, &any)
-                        : cbk::sceneOccluded(&scene, rays[i], tMax);
+                        : cbk::bvhOccluded(bvh.nodes.data(), bvh.primitives.data(), rays[i], tMax);
         if (occ != brute.occluded(rays[i], tMax)) ++out->occluded;
     }
 }
@@ -340,7 +342,7 @@ TEST_CASE("bvh: closest hit and occlusion equal brute force on the bunny (100k r
     CHECK(m.hits > 40000);
 }
 
-// The wide-BVH prototype: every primitive in exactly one leaf lane, parents consistent, each
+// The wide BVH: every primitive in exactly one leaf lane, parents consistent, each
 // child box inside the binary box it came from (the lanes are the binary boxes themselves).
 void checkWide(const std::vector<cbk::BvhNodeWide>& wide, size_t primitiveCount) {
     std::vector<int> seen(primitiveCount, 0);
@@ -372,7 +374,7 @@ void checkWide(const std::vector<cbk::BvhNodeWide>& wide, size_t primitiveCount)
         REQUIRE(seen[p] == 1);
 }
 
-TEST_CASE("bvh: the wide-BVH prototype equals brute force on the bunny (3k rays)") {
+TEST_CASE("bvh: the wide BVH equals brute force on the bunny (3k rays)") {
     Mesh mesh = loadModel("bunny.ply");
     cb::Bvh bvh = cb::buildBvh(meshPrimitives(mesh));
     auto wide = cb::collapseBvhWide(bvh);
@@ -386,7 +388,7 @@ TEST_CASE("bvh: the wide-BVH prototype equals brute force on the bunny (3k rays)
     CHECK(m.hits > 1000);
 }
 
-TEST_CASE("bvh: the wide-BVH prototype on an empty scene, one triangle and spheres") {
+TEST_CASE("bvh: the wide BVH on an empty scene, one triangle and spheres") {
     auto wideOf = [](const cb::Bvh& bvh) { return cb::collapseBvhWide(bvh); };
     Ray r{cbk::vec3(0, 0, 0), cbk::vec3(0, 0, 1)};
     Hit h;
@@ -431,7 +433,8 @@ TEST_CASE("bvh: mixed triangles and spheres equal brute force") {
     CHECK(m.occluded == 0);
     CHECK(m.hits > 1000);
     int sphereHits = 0;
-    SceneView scene = viewOf(bvh);
+    auto wideNodes = cb::collapseBvhWide(bvh);
+    SceneView scene = viewOf(bvh, wideNodes);
     for (const auto& r : rays) {
         Hit h;
         if (cbk::sceneIntersect(&scene, r, CB_INFINITY, &h) &&
@@ -446,7 +449,8 @@ TEST_CASE("bvh: empty scene, single primitive and coincident centroids") {
         cb::Bvh bvh = cb::buildBvh({});
         REQUIRE(bvh.nodes.size() == 1);
         CHECK(bvh.primitives.empty());
-        SceneView scene = viewOf(bvh);
+        auto wideNodes = cb::collapseBvhWide(bvh);
+        SceneView scene = viewOf(bvh, wideNodes);
         std::mt19937 rng(3u);
         for (int i = 0; i < 100; ++i) {
             Ray r{cbk::vec3(0.0f, 0.0f, 0.0f), uniformDirection(rng)};
@@ -459,7 +463,8 @@ TEST_CASE("bvh: empty scene, single primitive and coincident centroids") {
         cb::Bvh bvh =
             cb::buildBvh({triangle(cbk::vec3(-1, -1, 2), cbk::vec3(1, -1, 2), cbk::vec3(0, 1, 2))});
         REQUIRE(bvh.nodes.size() == 1);
-        SceneView scene = viewOf(bvh);
+        auto wideNodes = cb::collapseBvhWide(bvh);
+        SceneView scene = viewOf(bvh, wideNodes);
         Hit h;
         REQUIRE(cbk::sceneIntersect(&scene, Ray{cbk::vec3(0, 0, 0), cbk::vec3(0, 0, 1)},
                                     CB_INFINITY, &h));
@@ -477,7 +482,8 @@ TEST_CASE("bvh: empty scene, single primitive and coincident centroids") {
             prims.push_back(sphere(cbk::vec3(0, 0, 10), 1.0f + float(i) * 1e-3f));
         cb::Bvh bvh = cb::buildBvh(prims, {3, 8});
         checkStructure(bvh, prims.size(), 3);
-        SceneView scene = viewOf(bvh);
+        auto wideNodes = cb::collapseBvhWide(bvh);
+        SceneView scene = viewOf(bvh, wideNodes);
         Hit h;
         Ray r{cbk::vec3(0, 0, 0), cbk::vec3(0, 0, 1)};
         REQUIRE(cbk::sceneIntersect(&scene, r, CB_INFINITY, &h));
@@ -508,7 +514,8 @@ TEST_CASE("bvh: axis-parallel rays along box faces and through shared box planes
                                      cbk::vec3(fx + 1, 0, fy + 1)));
         }
     cb::Bvh bvh = cb::buildBvh(prims, {1, 16});
-    SceneView scene = viewOf(bvh);
+    auto wideNodes = cb::collapseBvhWide(bvh);
+    SceneView scene = viewOf(bvh, wideNodes);
     int hits = 0, mismatches = 0;
     for (int i = 0; i <= 16; ++i)
         for (int j = 0; j <= 16; ++j)
@@ -533,7 +540,8 @@ TEST_CASE("bvh: axis-parallel rays along box faces and through shared box planes
 TEST_CASE("bvh: rays from inside the closed Buddha through vertices and edges never escape") {
     Mesh mesh = loadModel("buddha.ply");
     cb::Bvh bvh = cb::buildBvh(meshPrimitives(mesh));
-    SceneView scene = viewOf(bvh);
+    auto wideNodes = cb::collapseBvhWide(bvh);
+    SceneView scene = viewOf(bvh, wideNodes);
     // Interior points: a little behind random triangles, accepted when the closest hit along
     // six axis directions is a back face (from inside a closed, outward-oriented mesh every
     // ray first meets the surface from behind).
@@ -587,8 +595,8 @@ TEST_CASE("bvh: rays from inside the closed Buddha through vertices and edges ne
 namespace {
 
 const char* kTraceKernel = R"CLC(
-#include "cb_bvh.h"
-__kernel void trace(__global const BvhNode* nodes, __global const Primitive* prims,
+#include "cb_bvh_wide.h"
+__kernel void trace(__global const BvhNodeWide* nodes, __global const Primitive* prims,
                     __global const float* rays, __global float* out, __global int* outPrim) {
     int i = get_global_id(0);
     SceneView scene;
@@ -621,7 +629,7 @@ __kernel void trace(__global const BvhNode* nodes, __global const Primitive* pri
 
 } // namespace
 
-TEST_CASE("bvh: OpenCL traversal of the bunny BVH matches the host") {
+TEST_CASE("bvh: OpenCL traversal of the bunny wide BVH matches the host") {
     cl_uint platformCount = 0;
     REQUIRE(clGetPlatformIDs(0, nullptr, &platformCount) == CL_SUCCESS);
     REQUIRE(platformCount > 0);
@@ -667,7 +675,8 @@ TEST_CASE("bvh: OpenCL traversal of the bunny BVH matches the host") {
         CL_CHECK(err);
         return m;
     };
-    cl_mem nodes = buffer(bvh.nodes.size() * sizeof(cbk::BvhNode), bvh.nodes.data());
+    auto wideNodes = cb::collapseBvhWide(bvh);
+    cl_mem nodes = buffer(wideNodes.size() * sizeof(cbk::BvhNodeWide), wideNodes.data());
     cl_mem prims = buffer(bvh.primitives.size() * sizeof(Primitive), bvh.primitives.data());
     cl_mem rayBuf = buffer(rayData.size() * sizeof(float), rayData.data());
     cl_mem out = buffer(2 * count * sizeof(float), nullptr);
@@ -685,7 +694,7 @@ TEST_CASE("bvh: OpenCL traversal of the bunny BVH matches the host") {
     CL_CHECK(clEnqueueReadBuffer(queue, outPrim, CL_TRUE, 0, resultPrim.size() * sizeof(int),
                                  resultPrim.data(), 0, nullptr, nullptr));
 
-    SceneView scene = viewOf(bvh);
+    SceneView scene = viewOf(bvh, wideNodes);
     int hits = 0, primMismatch = 0, tMismatch = 0, occMismatch = 0;
     for (int i = 0; i < count; ++i) {
         Hit h{};

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "bvh/bvh.h"
+#include "bvh/bvh_wide.h"
 
 using cbk::Hit;
 using cbk::Primitive;
@@ -60,10 +61,12 @@ Vec3 hemisphereDirection(std::mt19937& rng, Vec3 n) {
     }
 }
 
-SceneView viewOf(const std::vector<Primitive>& prims, const cb::Bvh* bvh = nullptr) {
+// `wide`: the renderers' wide nodes collapsed from `bvh`, which must outlive the view.
+SceneView viewOf(const std::vector<Primitive>& prims, const cb::Bvh* bvh = nullptr,
+                 const std::vector<cbk::BvhNodeWide>* wide = nullptr) {
     SceneView s{};
     s.primitives = bvh ? bvh->primitives.data() : prims.data();
-    s.nodes = bvh ? bvh->nodes.data() : nullptr;
+    s.nodes = wide ? wide->data() : nullptr;
     return s;
 }
 
@@ -481,12 +484,14 @@ TEST_CASE("intersect: shadow rays between facing surfaces, at any scale") {
                     makeTriangle(at(-1, -1, gap), at(-1, 1, gap + 0.1f), at(1, 1, gap)));
             }
             cb::Bvh bvh = cb::buildBvh(prims);
-            SceneView scene = viewOf(prims, &bvh);
+            auto wide = cb::collapseBvhWide(bvh);
+            SceneView scene = viewOf(prims, &bvh, &wide);
             std::vector<Primitive> withOccluder = prims;
             withOccluder.push_back(
                 makeTriangle(at(-3, -3, 0.5f * gap), at(3, -3, 0.5f * gap), at(0, 3, 0.5f * gap)));
             cb::Bvh bvhOcc = cb::buildBvh(withOccluder);
-            SceneView sceneOcc = viewOf(withOccluder, &bvhOcc);
+            auto wideOcc = cb::collapseBvhWide(bvhOcc);
+            SceneView sceneOcc = viewOf(withOccluder, &bvhOcc, &wideOcc);
             // Points on the floor (hit from above) and on the upper surface (hit from below).
             for (int i = 0; i < 10; ++i) {
                 Vec3 o1 = at(0.6f * (2 * u(rng) - 1), 0.6f * (2 * u(rng) - 1), 0.5f * gap);

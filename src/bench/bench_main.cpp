@@ -197,7 +197,7 @@ std::vector<std::string> splitCommas(const std::string& v) {
 
 class ClTraversal {
   public:
-    // variant: ordered | skip (binary BVH) | wide (the wide-BVH prototype of cb_bvh_wide.h)
+    // variant: ordered | skip (binary BVH) | wide (cb_bvh_wide.h, what the renderers use)
     ClTraversal(ClRuntime& rt, const Bvh& bvh, const std::string& variant, int localSize)
         : rt_(rt), localSize_(localSize) {
         std::vector<std::string> defines = {"CB_CHANNELS=3", "CB_FEATURES=0x101u"};
@@ -332,13 +332,10 @@ std::vector<MeshEntry> loadMeshes(const Options& o) {
 
 // Agreement of closest hits: same hit/miss and primitive, or a tie (both primitives at the
 // same distance up to 1e-5 relative: shared edges and vertices).
-// The same cb_bvh.h code compiled by g++ for the host, on `threads` std::threads: separates
+// The binary cb_bvh.h traversal compiled by g++ for the host, on `threads` std::threads: separates
 // what the traversal algorithm costs from what PoCL's code generation adds.
 double hostSeconds(const Bvh& bvh, const std::vector<Ray>& rays, const std::vector<float>* tMax,
                    int threads, int repeats) {
-    cbk::SceneView view{};
-    view.nodes = bvh.nodes.data();
-    view.primitives = bvh.primitives.data();
     std::vector<double> times;
     std::vector<int> sink(size_t(threads), 0);
     for (int r = 0; r < repeats; ++r) {
@@ -351,10 +348,12 @@ double hostSeconds(const Bvh& bvh, const std::vector<Ray>& rays, const std::vect
                 int count = 0;
                 for (size_t i = b; i < e; ++i) {
                     if (tMax) {
-                        count += cbk::sceneOccluded(&view, rays[i], (*tMax)[i]);
+                        count += cbk::bvhOccluded(bvh.nodes.data(), bvh.primitives.data(), rays[i],
+                                                  (*tMax)[i]);
                     } else {
                         cbk::Hit h;
-                        count += cbk::sceneIntersect(&view, rays[i], CB_INFINITY, &h);
+                        count += cbk::bvhIntersect(bvh.nodes.data(), bvh.primitives.data(), rays[i],
+                                                   CB_INFINITY, &h);
                     }
                 }
                 sink[size_t(t)] = count;
@@ -885,7 +884,8 @@ int run(int argc, char** argv) {
     app.add_option("--models", o.models, "folder with bunny.ply and dragon.ply");
     app.add_option("--sections", o.sections, "traverse build render scaling")->delimiter(',');
     app.add_option("--traversal", o.traversal,
-                   "comma-separated: ordered | skip (binary BVH) | wide (4- or 8-wide prototype); "
+                   "comma-separated: ordered | skip (binary BVH) | wide (4- or 8-wide, the "
+                   "renderers' BVH); "
                    "both = ordered,skip")
         ->check([](const std::string& v) {
             if (v == "both") return std::string();

@@ -1,5 +1,5 @@
-// 4- or 8-wide BVH (CB_BVH_WIDE_LANES) collapsed from the binary one (prototype for cbdpt-bench,
-// kernels/cb_bvh_wide.h).
+// 4- or 8-wide BVH (CB_BVH_WIDE_LANES) collapsed from the binary one: what the renderers
+// traverse (kernels/cb_bvh_wide.h; DeviceScene::wideNodes).
 #pragma once
 
 #include <vector>

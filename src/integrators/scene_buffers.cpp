@@ -3,7 +3,7 @@
 namespace cb {
 
 SceneBuffers::SceneBuffers(ClRuntime& runtime, const DeviceScene& scene)
-    : nodes(uploadArray(runtime, "scene BVH nodes", scene.bvh.nodes)),
+    : nodes(uploadArray(runtime, "scene BVH nodes", scene.wideNodes)),
       primitives(
           uploadArray(runtime, "scene primitives (triangles and spheres)", scene.bvh.primitives)),
       materials(uploadArray(runtime, "scene materials", scene.materials)),

@@ -40,6 +40,7 @@ namespace device = cbk;
 #undef CB_BSDF_H
 #undef CB_INTERSECT_H
 #undef CB_BVH_H
+#undef CB_BVH_WIDE_H
 #undef CB_CAMERA_H
 #undef CB_LIGHTS_H
 #undef CB_PT_H

@@ -313,6 +313,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
     scene.lights.back().cdf = 1.0f; // rounding must not leave a gap at the top
 
     scene.bvh = buildBvh(std::move(primitives));
+    scene.wideNodes = collapseBvhWide(scene.bvh);
     // After the BVH reorders primitives, point each area light at its primitive's new slot.
     for (size_t i = 0; i < scene.bvh.primitives.size(); ++i) {
         int light = scene.bvh.primitives[i].light;
@@ -348,9 +349,9 @@ std::string DeviceScene::featureNames() const {
 
 SceneBytes sceneBytes(const DeviceScene& scene) {
     SceneBytes raw{};
-    raw.nodes = scene.bvh.nodes.data();
-    raw.nodeCount = scene.bvh.nodes.size();
-    raw.nodeBytes = sizeof(cbk::BvhNode);
+    raw.nodes = scene.wideNodes.data();
+    raw.nodeCount = scene.wideNodes.size();
+    raw.nodeBytes = sizeof(cbk::BvhNodeWide);
     raw.primitives = scene.bvh.primitives.data();
     raw.primitiveCount = scene.bvh.primitives.size();
     raw.primitiveBytes = sizeof(cbk::Primitive);

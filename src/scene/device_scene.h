@@ -3,6 +3,7 @@
 #pragma once
 
 #include "bvh/bvh.h"
+#include "bvh/bvh_wide.h"
 #include "scene/scene_desc.h"
 
 #include "cb_types.h"
@@ -18,6 +19,8 @@ enum class ChannelMode { Auto, Rgb, Spectral };
 struct DeviceScene {
     int channels = 3; // 3 (RGB) or 16 (spectral bins)
     Bvh bvh;          // nodes and primitives in leaf order
+    // What the kernels traverse (cb_bvh_wide.h): bvh.nodes collapsed, over bvh.primitives.
+    std::vector<cbk::BvhNodeWide> wideNodes;
     std::vector<cbk::Material> materials;
     std::vector<cbk::Light> lights;
     std::vector<float> spectra; // `channels` floats per entry
@@ -31,7 +34,7 @@ struct DeviceScene {
     long triangleCount = 0;
     long vertexCount = 0;
     long sphereCount = 0;
-    long droppedDegenerateTriangles = 0; // zero area once made camera-relative and rounded
+    long droppedDegenerateTriangles = 0;      // zero area once made camera-relative and rounded
     std::array<double, 3> boundsMin{0, 0, 0}; // world space
     std::array<double, 3> boundsMax{0, 0, 0};
 

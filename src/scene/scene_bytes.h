@@ -14,7 +14,7 @@ namespace cb {
 struct DeviceScene;
 
 struct SceneBytes {
-    const void* nodes;
+    const void* nodes;                // BvhNodeWide
     std::size_t nodeCount, nodeBytes; // nodeBytes: sizeof one struct, checked by the reader
     const void* primitives;
     std::size_t primitiveCount, primitiveBytes;
