@@ -67,7 +67,7 @@ struct Options {
     std::string json;
     std::string models;
     std::vector<std::string> sections{"traverse", "build", "render", "scaling"};
-    std::string traversal = "ordered"; // comma-separated ordered, skip, wide; or both
+    std::string traversal = "wide,ordered"; // comma-separated ordered, skip, wide; or both
     int repeats = 0;                   // 0: 5 (2 in --quick)
     int localSize = 64;                // 0: let PoCL choose
     int leafSize = 4;
