@@ -57,13 +57,14 @@ CB_STATIC_ASSERT(sizeof(BvhNode) == 32, "BvhNode must be 32 bytes");
  * infinity of the wrong sign, and the max/min selects (which keep the non-NaN operand) then
  * drop it, so the axis does not restrict the interval - a ray in a box face still enters the
  * box. */
-CB_FN bool bvhBoxHit(CB_GLOBAL const BvhNode* node, Vec3 o, Vec3 invD, real tMax) {
-    real tx0 = (node->boundsMin[0] - o.x) * invD.x;
-    real tx1 = (node->boundsMax[0] - o.x) * invD.x;
-    real ty0 = (node->boundsMin[1] - o.y) * invD.y;
-    real ty1 = (node->boundsMax[1] - o.y) * invD.y;
-    real tz0 = (node->boundsMin[2] - o.z) * invD.z;
-    real tz1 = (node->boundsMax[2] - o.z) * invD.z;
+CB_FN void bvhSlabInterval(Vec3 lo, Vec3 hi, Vec3 o, Vec3 invD, real tMax, real* tNearOut,
+                           real* tFarOut) {
+    real tx0 = (lo.x - o.x) * invD.x;
+    real tx1 = (hi.x - o.x) * invD.x;
+    real ty0 = (lo.y - o.y) * invD.y;
+    real ty1 = (hi.y - o.y) * invD.y;
+    real tz0 = (lo.z - o.z) * invD.z;
+    real tz1 = (hi.z - o.z) * invD.z;
     real nx = tx0 > tx1 ? tx1 : tx0;
     real fx = tx0 > tx1 ? tx0 : tx1;
     real ny = ty0 > ty1 ? ty1 : ty0;
@@ -80,6 +81,14 @@ CB_FN bool bvhBoxHit(CB_GLOBAL const BvhNode* node, Vec3 o, Vec3 invD, real tMax
     real tFar = fx < tMax ? fx : tMax;
     tFar = fy < tFar ? fy : tFar;
     tFar = fz < tFar ? fz : tFar;
+    *tNearOut = tNear;
+    *tFarOut = tFar;
+}
+
+CB_FN bool bvhBoxHit(CB_GLOBAL const BvhNode* node, Vec3 o, Vec3 invD, real tMax) {
+    real tNear, tFar;
+    bvhSlabInterval(vec3FromGlobalArray(node->boundsMin), vec3FromGlobalArray(node->boundsMax), o,
+                    invD, tMax, &tNear, &tFar);
     return tNear <= tFar * (1.0f + 2.0f * cbGamma(3));
 }
 

@@ -167,28 +167,10 @@ typedef struct BvhWideReal {
 
 CB_FN void bvhWideBoxes(CB_GLOBAL const BvhNodeWide* node, Vec3 o, Vec3 invD, BvhWideReal* tn,
                         BvhWideReal* tf) {
-    for (int k = 0; k < CBW; ++k) {
-        real tx0 = (node->lo[0][k] - o.x) * invD.x;
-        real tx1 = (node->hi[0][k] - o.x) * invD.x;
-        real ty0 = (node->lo[1][k] - o.y) * invD.y;
-        real ty1 = (node->hi[1][k] - o.y) * invD.y;
-        real tz0 = (node->lo[2][k] - o.z) * invD.z;
-        real tz1 = (node->hi[2][k] - o.z) * invD.z;
-        real nx = tx0 > tx1 ? tx1 : tx0;
-        real fx = tx0 > tx1 ? tx0 : tx1;
-        real ny = ty0 > ty1 ? ty1 : ty0;
-        real fy = ty0 > ty1 ? ty0 : ty1;
-        real nz = tz0 > tz1 ? tz1 : tz0;
-        real fz = tz0 > tz1 ? tz0 : tz1;
-        real n = nx > 0.0f ? nx : 0.0f;
-        n = ny > n ? ny : n;
-        n = nz > n ? nz : n;
-        real f = fx < CB_INFINITY ? fx : CB_INFINITY;
-        f = fy < f ? fy : f;
-        f = fz < f ? fz : f;
-        tn->v[k] = n;
-        tf->v[k] = f;
-    }
+    for (int k = 0; k < CBW; ++k)
+        bvhSlabInterval(vec3(node->lo[0][k], node->lo[1][k], node->lo[2][k]),
+                        vec3(node->hi[0][k], node->hi[1][k], node->hi[2][k]), o, invD,
+                        CB_INFINITY, &tn->v[k], &tf->v[k]);
 }
 
 CB_FN int bvhWideNext(CB_GLOBAL const BvhNodeWide* node, BvhWideReal tn, BvhWideReal tf,
