@@ -177,6 +177,14 @@ std::string pointProbeScene(double x, const std::string& film, const std::string
            lights;
 }
 
+// A sphere light of the given radius and radiance centred at (0, h, 0).
+std::string sphereLightSource(double h, double radius, double radiance) {
+    const std::string l = std::to_string(radiance);
+    return "AttributeBegin\nAreaLightSource \"diffuse\" \"rgb L\" [" + l + " " + l + " " + l +
+           "]\nTranslate 0 " + std::to_string(h) + " 0\nShape \"sphere\" \"float radius\" " +
+           std::to_string(radius) + "\nAttributeEnd\n";
+}
+
 } // namespace
 
 TEST_CASE("stress: a point light 1e-4 above a diffuse plane gives the analytic I cos / r^2") {
@@ -213,11 +221,7 @@ TEST_CASE("stress: a sphere light of radius 1e-6 matches a point light of equal 
         CAPTURE(integrator);
         std::string point = "LightSource \"point\" \"rgb I\" [1 1 1] \"point3 from\" [0 " +
                             std::to_string(h) + " 0]\n";
-        std::string sphere = "AttributeBegin\nAreaLightSource \"diffuse\" \"rgb L\" [" +
-                             std::to_string(radiance) + " " + std::to_string(radiance) + " " +
-                             std::to_string(radiance) + "]\nTranslate 0 " + std::to_string(h) +
-                             " 0\nShape \"sphere\" \"float radius\" " + std::to_string(radius) +
-                             "\nAttributeEnd\n";
+        std::string sphere = sphereLightSource(h, radius, radiance);
         // Not d = 0: the camera would see the sphere itself between it and the floor.
         for (double d : {0.005, 0.02}) {
             CAPTURE(d);
@@ -611,11 +615,7 @@ TEST_CASE("stress: MLT: a sphere light of radius 1e-6 matches a point light of e
     const double h = 0.01, radius = 1e-6, albedo = 0.5;
     const double radiance = 1.0 / (M_PI * radius * radius);
     std::string film = "\"integer xresolution\" 8 \"integer yresolution\" 8";
-    std::string sphere = "AttributeBegin\nAreaLightSource \"diffuse\" \"rgb L\" [" +
-                         std::to_string(radiance) + " " + std::to_string(radiance) + " " +
-                         std::to_string(radiance) + "]\nTranslate 0 " + std::to_string(h) +
-                         " 0\nShape \"sphere\" \"float radius\" " + std::to_string(radius) +
-                         "\nAttributeEnd\n";
+    std::string sphere = sphereLightSource(h, radius, radiance);
     for (double d : {0.005, 0.02}) {
         CAPTURE(d);
         // The point light's value is analytic (the probe's 1.7e-6 footprint changes it by far
