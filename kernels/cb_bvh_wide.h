@@ -57,6 +57,13 @@ CB_FN uint bvhWideCount(CB_GLOBAL const BvhNodeWide* node, int k) {
 /* The kernels test the lanes with OpenCL vectors (one SSE/AVX instruction per step under
  * PoCL). The selects are bvhBoxHit's, lane by lane (see there for NaNs); the exit distance
  * starts from +inf so a NaN slab is dropped as there. */
+/* The entry distances are never NaN: plain compares, not fmin/fmax's NaN handling. */
+CB_FN float bvhWideMin2(float a, float b) {
+    return a < b ? a : b;
+}
+CB_FN float bvhWideMax2(float a, float b) {
+    return a > b ? a : b;
+}
 #if CBW == 4
 typedef float4 BvhWideReal;
 typedef int4 BvhWideInt;
@@ -65,13 +72,6 @@ typedef int4 BvhWideInt;
 #define BVHW_BITS ((int4)(1, 2, 4, 8))
 CB_FN int bvhWideOrAll(int4 v) {
     return v.x | v.y | v.z | v.w;
-}
-/* The entry distances are never NaN: plain compares, not fmin/fmax's NaN handling. */
-CB_FN float bvhWideMin2(float a, float b) {
-    return a < b ? a : b;
-}
-CB_FN float bvhWideMax2(float a, float b) {
-    return a > b ? a : b;
 }
 CB_FN float bvhWideMinAll(float4 v) {
     return bvhWideMin2(bvhWideMin2(v.x, v.y), bvhWideMin2(v.z, v.w));
@@ -88,12 +88,6 @@ typedef int8 BvhWideInt;
 CB_FN int bvhWideOrAll(int8 v) {
     int4 a = v.lo | v.hi;
     return a.x | a.y | a.z | a.w;
-}
-CB_FN float bvhWideMin2(float a, float b) {
-    return a < b ? a : b;
-}
-CB_FN float bvhWideMax2(float a, float b) {
-    return a > b ? a : b;
 }
 CB_FN float bvhWideMinAll(float8 v) {
     float4 a = select(v.hi, v.lo, v.lo < v.hi);
