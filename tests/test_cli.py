@@ -40,6 +40,13 @@ with tempfile.TemporaryDirectory() as tmp:
     check(s["estimates"] == 4 and s["channels"] == 16, f"stats: 4 estimates, spectral ({s})")
     check(s["non_finite_samples"] == 0, "no non-finite samples")
     check(0 < s["mean_standard_error"] < 1, "standard error is positive and sane")
+    # Timing fields: the first estimate (which includes PoCL's lazy compilation at the first
+    # launch) is reported apart; seconds_per_estimate is the rate of the others. Identities only.
+    check(s["estimates_rendered"] == 4 and 0 < s["first_estimate_seconds"] <= s["render_seconds"],
+          f"first estimate within the render time ({s})")
+    check(abs(s["seconds_per_estimate"] * 3 + s["first_estimate_seconds"] - s["render_seconds"])
+          <= 1e-9 * s["render_seconds"] + 1e-12,
+          f"seconds_per_estimate * (n - 1) + first_estimate_seconds = render_seconds ({s})")
     check(not any(n.startswith(".") for n in os.listdir(tmp)), "no temporary files left behind")
 
     # Every integrator renders from the command line; MLT reports its chain statistics.
@@ -52,6 +59,8 @@ with tempfile.TemporaryDirectory() as tmp:
         check(r.returncode == 0, f"{integrator} renders (got {r.returncode}: {r.stderr})")
         s = json.load(open(stats))
         check(s["integrator"] == integrator and s["estimates"] == 2, f"{integrator} stats ({s})")
+        check(abs(s["seconds_per_estimate"] + s["first_estimate_seconds"] - s["render_seconds"])
+              <= 1e-9 * s["render_seconds"] + 1e-12, f"{integrator} timing fields add up ({s})")
         if integrator == "mlt":
             check(0 < s["mlt"]["acceptance_rate"] < 1 and s["mlt"]["mutations"] > 0,
                   f"mlt statistics in the stats file ({s.get('mlt')})")
@@ -85,6 +94,11 @@ with tempfile.TemporaryDirectory() as tmp:
     r = render(part, 6, "--resume")
     check(r.returncode == 0 and open(full, "rb").read() == open(part, "rb").read(),
           f"3 + 3 resumed estimates equal 6 uninterrupted ones bit for bit ({r.stderr})")
+    s = json.load(open(stats))
+    check(s["estimates"] == 6 and s["estimates_rendered"] == 3 and
+          abs(s["seconds_per_estimate"] * 2 + s["first_estimate_seconds"] - s["render_seconds"])
+          <= 1e-9 * s["render_seconds"] + 1e-12,
+          f"a resumed render times only the estimates it rendered ({s})")
     check(not os.path.exists(part + ".state"), "a finished render removes its state")
     # SIGTERM mid-render, then --resume to a total beyond the estimates done.
     p = subprocess.Popen([cbdpt, "render", scene, "--spp", "1000000", "--width", "24", "--height",

@@ -248,3 +248,51 @@ TEST_CASE("checkpoints: by time, each after the estimate that crosses a multiple
     CHECK(plain.estimates() == 12);
     CHECK_FALSE(outcome.interrupted);
 }
+
+TEST_CASE("render timing: the first estimate is reported apart from the steady-state rate") {
+    // The first estimate of a render includes PoCL's lazy kernel compilation; seconds per
+    // estimate leaves it out. Identities only: no thresholds on how long anything took.
+    SleepyIntegrator integrator(std::chrono::milliseconds(1));
+    std::atomic<bool> stop{false};
+    cb::RenderLimits limits;
+    limits.estimates = 5;
+    cb::EstimateAccumulator acc(2, 2);
+    double firstAtCheckpoint = -1.0;
+    cb::CheckpointSchedule schedule;
+    schedule.estimates = {1};
+    auto outcome = cb::renderEstimates(integrator, acc, limits, stop, {}, schedule,
+                                       [&](const cb::Checkpoint& c) {
+                                           if (c.estimates == 1)
+                                               firstAtCheckpoint = c.renderSeconds;
+                                       });
+    CHECK(outcome.estimatesRendered == 5);
+    CHECK(outcome.firstEstimateSeconds > 0.0);
+    CHECK(outcome.firstEstimateSeconds == firstAtCheckpoint);
+    CHECK(outcome.firstEstimateSeconds <= outcome.renderSeconds);
+    CHECK(outcome.secondsPerEstimate() ==
+          doctest::Approx((outcome.renderSeconds - outcome.firstEstimateSeconds) / 4.0));
+    CHECK(outcome.secondsPerEstimate() * 4.0 + outcome.firstEstimateSeconds ==
+          doctest::Approx(outcome.renderSeconds));
+
+    // Resuming: the accumulator already holds 5 estimates; this call renders 2 more.
+    limits.estimates = 7;
+    auto resumed = cb::renderEstimates(integrator, acc, limits, stop);
+    CHECK(acc.estimates() == 7);
+    CHECK(resumed.estimatesRendered == 2);
+    CHECK(resumed.secondsPerEstimate() ==
+          doctest::Approx(resumed.renderSeconds - resumed.firstEstimateSeconds));
+
+    // One estimate: it is both the first and the per-estimate time.
+    cb::EstimateAccumulator single(2, 2);
+    limits.estimates = 1;
+    auto one = cb::renderEstimates(integrator, single, limits, stop);
+    CHECK(one.estimatesRendered == 1);
+    CHECK(one.firstEstimateSeconds > 0.0);
+    CHECK(one.firstEstimateSeconds <= one.renderSeconds);
+    CHECK(one.secondsPerEstimate() == one.renderSeconds);
+
+    // Nothing rendered (the limit was already reached): zero, not a division by zero.
+    auto none = cb::renderEstimates(integrator, single, limits, stop);
+    CHECK(none.estimatesRendered == 0);
+    CHECK(none.secondsPerEstimate() == 0.0);
+}

@@ -40,6 +40,12 @@ std::vector<long> parseCheckpointList(const std::string& text, const std::string
     return out;
 }
 
+double RenderOutcome::secondsPerEstimate() const {
+    if (estimatesRendered <= 0) return 0.0;
+    if (estimatesRendered == 1) return renderSeconds;
+    return (renderSeconds - firstEstimateSeconds) / double(estimatesRendered - 1);
+}
+
 RenderOutcome renderEstimates(Integrator& integrator, EstimateAccumulator& accumulator,
                               const RenderLimits& limits, const std::atomic<bool>& stop,
                               const std::function<void(const RenderProgress&)>& onProgress) {
@@ -100,6 +106,7 @@ RenderOutcome renderEstimates(Integrator& integrator, EstimateAccumulator& accum
         ++done;
         const double now = elapsed();
         const double cpuNow = cpuElapsed();
+        if (done == 1) outcome.firstEstimateSeconds = now;
         if (onCheckpoint) {
             bool due = false;
             while (nextListed < checkpoints.estimates.size() &&
@@ -120,7 +127,10 @@ RenderOutcome renderEstimates(Integrator& integrator, EstimateAccumulator& accum
             p.estimatesDone = first + done;
             p.estimatesTarget = limits.estimates;
             p.elapsedSeconds = now;
-            double perEstimate = p.elapsedSeconds / double(done);
+            // The first estimate may include PoCL's lazy kernel compilation: the later ones
+            // predict the rest better.
+            double perEstimate =
+                done > 1 ? (now - outcome.firstEstimateSeconds) / double(done - 1) : now;
             double byCount = limits.estimates > 0
                                  ? perEstimate * double(limits.estimates - first - done)
                                  : 1e300;
@@ -131,6 +141,7 @@ RenderOutcome renderEstimates(Integrator& integrator, EstimateAccumulator& accum
     }
     outcome.renderSeconds = elapsed();
     outcome.renderCpuSeconds = cpuElapsed();
+    outcome.estimatesRendered = done;
     outcome.nonFiniteSamples = integrator.nonFiniteSamples();
     if (onCheckpoint && first + done > 0 && lastCheckpoint != first + done)
         fire(outcome.renderSeconds, outcome.renderCpuSeconds, true);

@@ -27,6 +27,14 @@ struct RenderProgress {
 struct RenderOutcome {
     double renderSeconds = 0.0;    // estimates only: excludes scene load and kernel build
     double renderCpuSeconds = 0.0; // process CPU seconds over the same span (checkpoints excluded)
+    // Estimates this call rendered (fewer than the accumulator holds when resuming), and the
+    // render seconds of the first of them: it includes PoCL's compilation of the kernel for its
+    // work-group size, which happens at the first launch, so it can take seconds longer.
+    long estimatesRendered = 0;
+    double firstEstimateSeconds = 0.0;
+    // Render seconds per estimate of this call, the first estimate excluded when there are
+    // others (the steady-state cost); renderSeconds when only one estimate was rendered.
+    double secondsPerEstimate() const;
     bool interrupted = false;
     long nonFiniteSamples = 0;
 };
