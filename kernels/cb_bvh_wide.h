@@ -53,51 +53,58 @@ CB_FN uint bvhWideCount(CB_GLOBAL const BvhNodeWide* node, int k) {
     return (node->counts[k >> 2] >> (8 * (k & 3))) & 0xffu;
 }
 
+/* The visiting order. A child's key is its entry distance with the 3 lowest mantissa bits
+ * replaced by its lane: entry distances are never negative or NaN (bvhWideBoxes starts them at
+ * +0), so the keys of one node are distinct, and compared as integers they order the children
+ * by distance, ties (within 8 ulps) broken by lane. That is still a strict total order that
+ * depends only on the ray and the boxes, which is all the traversal needs, and it lets the
+ * kernels pick the next child with one integer minimum across the lanes. Any-hit queries
+ * (`ordered` false) use the lane alone. */
 #ifdef CB_KERNEL_SIDE
 /* The kernels test the lanes with OpenCL vectors (one SSE/AVX instruction per step under
  * PoCL). The selects are bvhBoxHit's, lane by lane (see there for NaNs); the exit distance
  * starts from +inf so a NaN slab is dropped as there. */
-/* The entry distances are never NaN: plain compares, not fmin/fmax's NaN handling. */
-CB_FN float bvhWideMin2(float a, float b) {
-    return a < b ? a : b;
-}
-CB_FN float bvhWideMax2(float a, float b) {
-    return a > b ? a : b;
-}
 #if CBW == 4
 typedef float4 BvhWideReal;
 typedef int4 BvhWideInt;
 #define BVHW_LOAD(p) vload4(0, p)
+#define BVHW_AS_INT(v) as_int4(v)
+#define BVHW_STORE(v, p) vstore4(v, 0, p)
 #define BVHW_LANES ((int4)(0, 1, 2, 3))
 #define BVHW_BITS ((int4)(1, 2, 4, 8))
 CB_FN int bvhWideOrAll(int4 v) {
-    return v.x | v.y | v.z | v.w;
+    int2 a = v.lo | v.hi;
+    return a.x | a.y;
 }
-CB_FN float bvhWideMinAll(float4 v) {
-    return bvhWideMin2(bvhWideMin2(v.x, v.y), bvhWideMin2(v.z, v.w));
-}
-CB_FN float bvhWideMaxAll(float4 v) {
-    return bvhWideMax2(bvhWideMax2(v.x, v.y), bvhWideMax2(v.z, v.w));
+CB_FN int bvhWideMinAll(int4 v) {
+    int2 a = min(v.lo, v.hi);
+    return min(a.x, a.y);
 }
 #else
 typedef float8 BvhWideReal;
 typedef int8 BvhWideInt;
 #define BVHW_LOAD(p) vload8(0, p)
+#define BVHW_AS_INT(v) as_int8(v)
+#define BVHW_STORE(v, p) vstore8(v, 0, p)
 #define BVHW_LANES ((int8)(0, 1, 2, 3, 4, 5, 6, 7))
 #define BVHW_BITS ((int8)(1, 2, 4, 8, 16, 32, 64, 128))
 CB_FN int bvhWideOrAll(int8 v) {
     int4 a = v.lo | v.hi;
-    return a.x | a.y | a.z | a.w;
+    int2 b = a.lo | a.hi;
+    return b.x | b.y;
 }
-CB_FN float bvhWideMinAll(float8 v) {
-    float4 a = select(v.hi, v.lo, v.lo < v.hi);
-    return bvhWideMin2(bvhWideMin2(a.x, a.y), bvhWideMin2(a.z, a.w));
-}
-CB_FN float bvhWideMaxAll(float8 v) {
-    float4 a = select(v.hi, v.lo, v.lo > v.hi);
-    return bvhWideMax2(bvhWideMax2(a.x, a.y), bvhWideMax2(a.z, a.w));
+CB_FN int bvhWideMinAll(int8 v) {
+    int4 a = min(v.lo, v.hi);
+    int2 b = min(a.lo, a.hi);
+    return min(b.x, b.y);
 }
 #endif
+typedef int BvhWideKey;
+/* What bvhWideMore needs: the candidate lanes, and for any-hit queries the bits of the others. */
+typedef struct BvhWideCand {
+    BvhWideInt mask;
+    int others;
+} BvhWideCand;
 
 CB_FN void bvhWideBoxes(CB_GLOBAL const BvhNodeWide* node, Vec3 o, Vec3 invD, BvhWideReal* tn,
                         BvhWideReal* tf) {
@@ -123,73 +130,139 @@ CB_FN void bvhWideBoxes(CB_GLOBAL const BvhNodeWide* node, Vec3 o, Vec3 invD, Bv
     *tf = f;
 }
 
-/* The hit lane with the smallest key (tn, lane) above (keyT, keyLane), its tn in *t; -1 if
- * none. `ordered` false: the lowest hit lane above keyLane (any-hit queries). */
-CB_FN int bvhWideNext(CB_GLOBAL const BvhNodeWide* node, BvhWideReal tn, BvhWideReal tf,
-                      real closest, real keyT, int keyLane, bool ordered, real* t, bool* more) {
-    BvhWideReal far = select((BvhWideReal)(closest), tf, tf < closest);
-    BvhWideInt lane = BVHW_LANES;
-    BvhWideInt hit =
-        (BVHW_LOAD(node->child) != CB_BVHW_NONE) & (tn <= far * (1.0f + 2.0f * cbGamma(3)));
-    BvhWideInt after =
-        ordered ? ((tn > keyT) | ((tn == keyT) & (lane > keyLane))) : (lane > keyLane);
-    BvhWideInt cand = hit & after;
-    int all = bvhWideOrAll(cand & BVHW_BITS);
-    *t = 0.0f;
-    if (ordered) {
-        BvhWideReal tc = select((BvhWideReal)(INFINITY), tn, cand);
-        real m = bvhWideMinAll(tc);
-        cand = cand & (tc == m);
-        *t = m;
-    }
-    int bits = bvhWideOrAll(cand & BVHW_BITS);
-    if (bits == 0) return -1;
-    int k = 31 - (int)clz(bits & -bits);
-    *more = (all & ~(1 << k)) != 0;
-    return k;
+/* The keys of a node's lanes (see above). */
+CB_FN BvhWideInt bvhWideKeys(BvhWideReal tn, bool ordered) {
+    return ordered ? ((BVHW_AS_INT(tn) & (BvhWideInt)(~7)) | BVHW_LANES) : BVHW_LANES;
 }
 
-/* tn of lane k. */
-CB_FN real bvhWideLane(BvhWideReal tn, int k) {
-    return bvhWideMaxAll(select((BvhWideReal)(-INFINITY), tn, BVHW_LANES == k));
+/* Below every key: where a node is entered from its parent. */
+CB_FN BvhWideKey bvhWideKeyNone(void) {
+    return -1;
+}
+
+/* The key of lane k, coming back up from it. */
+CB_FN BvhWideKey bvhWideKeyOf(BvhWideInt keys, int k, bool ordered) {
+    if (!ordered) return k;
+    int lanes[CBW];
+    BVHW_STORE(keys, lanes);
+    return lanes[k];
+}
+
+/* The hit lane with the smallest key above `after`, its key in *key; -1 if none. *cand: the
+ * hit lanes above `after`, for bvhWideMore. Any-hit queries take the lowest lane from a bit
+ * mask, which is cheaper than a minimum across the lanes. */
+CB_FN int bvhWideNext(CB_GLOBAL const BvhNodeWide* node, BvhWideReal tn, BvhWideReal tf,
+                      BvhWideInt keys, real closest, BvhWideKey after, bool ordered,
+                      BvhWideKey* key, BvhWideCand* cand) {
+    BvhWideReal far = select((BvhWideReal)(closest), tf, tf < closest);
+    BvhWideInt c = (BVHW_LOAD(node->child) != CB_BVHW_NONE) &
+                   (tn <= far * (1.0f + 2.0f * cbGamma(3))) & (keys > after);
+    if (!ordered) {
+        int bits = bvhWideOrAll(c & BVHW_BITS);
+        if (bits == 0) return -1;
+        int k = 31 - (int)clz(bits & -bits);
+        cand->others = bits & ~(1 << k);
+        *key = k;
+        return k;
+    }
+    cand->mask = c;
+    int m = bvhWideMinAll(select((BvhWideInt)(INT_MAX), keys, c));
+    if (m == INT_MAX) return -1;
+    *key = m;
+    return m & (CBW - 1);
+}
+
+/* Whether a lane other than `key`'s is among the candidates of bvhWideNext. */
+CB_FN bool bvhWideMore(BvhWideCand cand, BvhWideInt keys, BvhWideKey key, bool ordered) {
+    if (!ordered) return cand.others != 0;
+    return bvhWideOrAll(cand.mask & (keys != key)) != 0;
 }
 #else
-/* The host: the same per-lane arithmetic as plain loops. */
+/* The host: the same per-lane arithmetic as plain loops, and the same order: (entry distance
+ * with its 3 lowest mantissa bits cleared, lane), lexicographically. */
 typedef struct BvhWideReal {
     real v[CBW];
 } BvhWideReal;
+typedef struct BvhWideInt {
+    real t[CBW];
+} BvhWideInt;
+typedef struct BvhWideKey {
+    real t;
+    int lane;
+} BvhWideKey;
+typedef int BvhWideCand;
 
 CB_FN void bvhWideBoxes(CB_GLOBAL const BvhNodeWide* node, Vec3 o, Vec3 invD, BvhWideReal* tn,
                         BvhWideReal* tf) {
     for (int k = 0; k < CBW; ++k)
         bvhSlabInterval(vec3(node->lo[0][k], node->lo[1][k], node->lo[2][k]),
-                        vec3(node->hi[0][k], node->hi[1][k], node->hi[2][k]), o, invD,
-                        CB_INFINITY, &tn->v[k], &tf->v[k]);
+                        vec3(node->hi[0][k], node->hi[1][k], node->hi[2][k]), o, invD, CB_INFINITY,
+                        &tn->v[k], &tf->v[k]);
 }
 
+CB_FN real bvhWideTruncate(real t) {
+    if constexpr (sizeof(real) == sizeof(uint)) {
+        uint bits;
+        std::memcpy(&bits, &t, sizeof bits);
+        bits &= ~7u;
+        std::memcpy(&t, &bits, sizeof bits);
+    } else {
+        ulong bits;
+        std::memcpy(&bits, &t, sizeof bits);
+        bits &= ~(ulong)7u;
+        std::memcpy(&t, &bits, sizeof bits);
+    }
+    return t;
+}
+
+CB_FN BvhWideInt bvhWideKeys(BvhWideReal tn, bool ordered) {
+    BvhWideInt keys;
+    for (int k = 0; k < CBW; ++k)
+        keys.t[k] = ordered ? bvhWideTruncate(tn.v[k]) : (real)0;
+    return keys;
+}
+
+CB_FN BvhWideKey bvhWideKeyNone(void) {
+    BvhWideKey key = {-CB_INFINITY, -1};
+    return key;
+}
+
+CB_FN BvhWideKey bvhWideKeyOf(BvhWideInt keys, int k, bool ordered) {
+    (void)ordered; /* the keys of any-hit queries are all 0 */
+    BvhWideKey key = {keys.t[k], k};
+    return key;
+}
+
+CB_FN bool bvhWideKeyLess(BvhWideKey a, BvhWideKey b) {
+    return a.t < b.t || (a.t == b.t && a.lane < b.lane);
+}
+
+/* *cand: how many hit lanes are above `after`. */
 CB_FN int bvhWideNext(CB_GLOBAL const BvhNodeWide* node, BvhWideReal tn, BvhWideReal tf,
-                      real closest, real keyT, int keyLane, bool ordered, real* t, bool* more) {
+                      BvhWideInt keys, real closest, BvhWideKey after, bool ordered,
+                      BvhWideKey* key, int* cand) {
+    (void)ordered; /* the keys say it */
     int best = -1;
-    real bestT = 0.0f;
-    int candidates = 0;
+    *cand = 0;
     for (int k = 0; k < CBW; ++k) {
-        real tk = tn.v[k];
         real far = tf.v[k] < closest ? tf.v[k] : closest;
-        bool hit = node->child[k] != CB_BVHW_NONE && tk <= far * (1.0f + 2.0f * cbGamma(3));
-        bool after = ordered ? (tk > keyT || (tk == keyT && k > keyLane)) : k > keyLane;
-        if (hit && after) ++candidates;
-        if (hit && after && (best < 0 || (ordered && tk < bestT))) {
+        bool hit = node->child[k] != CB_BVHW_NONE && tn.v[k] <= far * (1.0f + 2.0f * cbGamma(3));
+        BvhWideKey kk = bvhWideKeyOf(keys, k, true);
+        if (!hit || !bvhWideKeyLess(after, kk)) continue;
+        ++*cand;
+        if (best < 0 || bvhWideKeyLess(kk, *key)) {
             best = k;
-            bestT = tk;
+            *key = kk;
         }
     }
-    *t = bestT;
-    *more = candidates > 1;
     return best;
 }
 
-CB_FN real bvhWideLane(BvhWideReal tn, int k) {
-    return tn.v[k];
+CB_FN bool bvhWideMore(int cand, BvhWideInt keys, BvhWideKey key, bool ordered) {
+    (void)ordered;
+    (void)keys;
+    (void)key;
+    return cand > 1;
 }
 #endif
 
@@ -216,19 +289,20 @@ CB_FN bool bvhWideTraverse(CB_GLOBAL const BvhNodeWide* nodes, CB_GLOBAL const P
         CB_GLOBAL const BvhNodeWide* node = nodes + cur;
         BvhWideReal tn, tf;
         bvhWideBoxes(node, ray.o, invD, &tn, &tf);
-        int keyLane = fromLane;
-        real keyT = fromLane >= 0 ? bvhWideLane(tn, fromLane) : -1.0f;
+        BvhWideInt keys = bvhWideKeys(tn, ordered);
+        BvhWideKey after = fromLane >= 0 ? bvhWideKeyOf(keys, fromLane, ordered) : bvhWideKeyNone();
         uint down = CB_BVHW_NONE;
         for (;;) {
-            real tk;
-            bool more;
-            int k = bvhWideNext(node, tn, tf, closest, keyT, keyLane, ordered, &tk, &more);
+            BvhWideKey key;
+            BvhWideCand cand;
+            int k = bvhWideNext(node, tn, tf, keys, closest, after, ordered, &key, &cand);
             if (k < 0) break;
             uint count = bvhWideCount(node, k);
             if (count == 0u) {
                 down = node->child[k];
                 if (depth < 64) {
                     ulong bit = (ulong)1 << depth;
+                    bool more = bvhWideMore(cand, keys, key, ordered);
                     trail = more ? (trail | bit) : (trail & ~bit);
                 }
                 break;
@@ -244,8 +318,7 @@ CB_FN bool bvhWideTraverse(CB_GLOBAL const BvhNodeWide* nodes, CB_GLOBAL const P
                     if (!ordered) return true;
                 }
             }
-            keyT = tk;
-            keyLane = k;
+            after = key;
         }
         if (down != CB_BVHW_NONE) {
             fromLane = -1;
