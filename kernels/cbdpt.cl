@@ -32,7 +32,8 @@ __kernel void renderCbdpt(CB_SCENE_KERNEL_PARAMS,
                           float cameraCount,
                           __global float* outRgb,
                           volatile __global int* nonFiniteCount,
-                          volatile __global uint* rayCount) {
+                          volatile __global uint* rayCount,
+                          int countRays) {
     int x = (int)get_global_id(0);
     int y = (int)get_global_id(1);
     if (x >= camera.width || y >= camera.height) return;
@@ -79,7 +80,8 @@ __kernel void renderCbdpt(CB_SCENE_KERNEL_PARAMS,
         rgb = vec3(0.0f, 0.0f, 0.0f);
     }
     if (nonFinite > 0) atomic_add(nonFiniteCount, nonFinite);
-    atomic_add(rayCount, (uint)rays);
+    /* A per-pixel atomic on one counter contends between threads: only when asked for. */
+    if (countRays) atomic_add(rayCount, (uint)rays);
     uint pixel = (uint)(y * camera.width + x);
     outRgb[3 * pixel + 0] = rgb.x;
     outRgb[3 * pixel + 1] = rgb.y;

@@ -38,6 +38,7 @@ class BdptIntegrator final : public Integrator {
         nonFinite_ = cl::Buffer(ctx, CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, sizeof(int), &zero);
         rays_ = cl::Buffer(ctx, CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, sizeof(int), &zero);
 
+        reportRays_ = std::getenv("CBDPT_RAY_STATS") != nullptr;
         const cbk::BdptSettings bdpt = bdptSettingsFor(settings);
         int arg = 0;
         arg = buffers_.setKernelArgs(kernel_, arg);
@@ -51,7 +52,8 @@ class BdptIntegrator final : public Integrator {
         kernel_.setArg(arg++, splat_);
         kernel_.setArg(arg++, nonFinite_);
         kernel_.setArg(arg++, rays_);
-        reportRays_ = std::getenv("CBDPT_RAY_STATS") != nullptr;
+        // Counting costs an atomic per pixel, so the kernel counts only when asked to.
+        kernel_.setArg(arg++, int(reportRays_));
     }
 
     ~BdptIntegrator() override {
@@ -67,8 +69,10 @@ class BdptIntegrator final : public Integrator {
         auto& queue = runtime_.queue();
         kernel_.setArg(estimateArg_, estimate);
         queue.enqueueFillBuffer(splat_, 0.0f, 0, 3 * sizeof(float) * pixels_);
-        std::uint32_t zero = 0;
-        queue.enqueueWriteBuffer(rays_, CL_TRUE, 0, sizeof(zero), &zero);
+        if (reportRays_) {
+            std::uint32_t zero = 0;
+            queue.enqueueWriteBuffer(rays_, CL_TRUE, 0, sizeof(zero), &zero);
+        }
         auto start = std::chrono::steady_clock::now();
         launchOverPixels(queue, kernel_, scene_.camera, settings_.tileSize);
         queue.finish();
@@ -83,9 +87,11 @@ class BdptIntegrator final : public Integrator {
         int count = 0;
         queue.enqueueReadBuffer(nonFinite_, CL_TRUE, 0, sizeof(int), &count);
         nonFiniteTotal_ = count;
-        std::uint32_t rays = 0;
-        queue.enqueueReadBuffer(rays_, CL_TRUE, 0, sizeof(rays), &rays);
-        totalRays_ += rays;
+        if (reportRays_) {
+            std::uint32_t rays = 0;
+            queue.enqueueReadBuffer(rays_, CL_TRUE, 0, sizeof(rays), &rays);
+            totalRays_ += rays;
+        }
     }
 
     long nonFiniteSamples() const override { return nonFiniteTotal_; }

@@ -68,6 +68,7 @@ class CbdptIntegrator final : public Integrator {
         nonFinite_ = cl::Buffer(ctx, CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, sizeof(int), &zero);
         rays_ = cl::Buffer(ctx, CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, sizeof(int), &zero);
 
+        reportRays_ = std::getenv("CBDPT_RAY_STATS") != nullptr;
         const cbk::BdptSettings bdpt = bdptSettingsFor(settings);
         int arg = 0;
         arg = buffers_.setKernelArgs(kernel_, arg);
@@ -86,7 +87,8 @@ class CbdptIntegrator final : public Integrator {
         kernel_.setArg(arg++, output_);
         kernel_.setArg(arg++, nonFinite_);
         kernel_.setArg(arg++, rays_);
-        reportRays_ = std::getenv("CBDPT_RAY_STATS") != nullptr;
+        // Counting costs an atomic per pixel, so the kernel counts only when asked to.
+        kernel_.setArg(arg++, int(reportRays_));
     }
 
     ~CbdptIntegrator() override {
@@ -111,8 +113,10 @@ class CbdptIntegrator final : public Integrator {
                                  pass_.vertices.data());
         queue.enqueueWriteBuffer(lightCounts_, CL_FALSE, 0, sizeof(int) * subpaths_,
                                  pass_.counts.data());
-        std::uint32_t zero = 0;
-        queue.enqueueWriteBuffer(rays_, CL_TRUE, 0, sizeof(zero), &zero);
+        if (reportRays_) {
+            std::uint32_t zero = 0;
+            queue.enqueueWriteBuffer(rays_, CL_TRUE, 0, sizeof(zero), &zero);
+        }
         kernel_.setArg(estimateArg_, estimate);
         auto launched = std::chrono::steady_clock::now();
         launchOverPixels(queue, kernel_, scene_.camera, settings_.tileSize);
@@ -126,9 +130,11 @@ class CbdptIntegrator final : public Integrator {
         int count = 0;
         queue.enqueueReadBuffer(nonFinite_, CL_TRUE, 0, sizeof(int), &count);
         kernelNonFinite_ = count;
-        std::uint32_t rays = 0;
-        queue.enqueueReadBuffer(rays_, CL_TRUE, 0, sizeof(rays), &rays);
-        kernelRays_ += rays;
+        if (reportRays_) {
+            std::uint32_t rays = 0;
+            queue.enqueueReadBuffer(rays_, CL_TRUE, 0, sizeof(rays), &rays);
+            kernelRays_ += rays;
+        }
     }
 
     long nonFiniteSamples() const override { return kernelNonFinite_ + hostNonFinite_; }
