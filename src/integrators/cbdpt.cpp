@@ -125,8 +125,9 @@ class CbdptIntegrator final : public Integrator {
             std::chrono::duration<double>(std::chrono::steady_clock::now() - launched).count();
         rgb.resize(3 * pixels_);
         queue.enqueueReadBuffer(output_, CL_TRUE, 0, 3 * sizeof(float) * pixels_, rgb.data());
-        for (size_t i = 0; i < rgb.size(); ++i)
-            rgb[i] += pass_.splatRgb[i];
+        for (std::uint32_t p : pass_.splatPixels)
+            for (size_t c = 3 * size_t(p); c < 3 * size_t(p) + 3; ++c)
+                rgb[c] += pass_.splatRgb[c];
         int count = 0;
         queue.enqueueReadBuffer(nonFinite_, CL_TRUE, 0, sizeof(int), &count);
         kernelNonFinite_ = count;

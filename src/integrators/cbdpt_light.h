@@ -39,8 +39,11 @@ struct CbdptLightPass {
     std::vector<unsigned char> vertices;
     std::vector<int> counts;
     // The t = 1 strategy, weighted and scaled (see CbdptLightTracer::trace), linear sRGB, 3
-    // floats per pixel.
+    // floats per pixel, zero except at splatPixels.
     std::vector<float> splatRgb;
+    // The pixels (y * width + x) that received splats, ascending and distinct: a few per light
+    // subpath, so trace clears and callers add only these instead of the whole image.
+    std::vector<std::uint32_t> splatPixels;
     long nonFinite = 0; // t = 1 contributions dropped as NaN/Inf
     long rays = 0;      // extension rays of the subpaths plus camera shadow rays
 };
