@@ -266,9 +266,21 @@ CB_FN bool bvhWideMore(int cand, BvhWideInt keys, BvhWideKey key, bool ordered) 
 }
 #endif
 
+/* The kernels get one copy of the traversal for closest hits and one for any hits, each with
+ * `ordered` a constant: left to itself, LLVM kept a single out-of-line copy that tested the
+ * flag at run time, for the many call sites of the path code. */
+#ifdef CB_KERNEL_SIDE
+#define CB_BVHW_SPECIALISE __attribute__((always_inline))
+#define CB_BVHW_ONE_COPY __attribute__((noinline))
+#else
+#define CB_BVHW_SPECIALISE
+#define CB_BVHW_ONE_COPY
+#endif
+
 /* Closest hit (ordered) or any hit (!ordered, returns at the first) with t in (0, tMax). */
-CB_FN bool bvhWideTraverse(CB_GLOBAL const BvhNodeWide* nodes, CB_GLOBAL const Primitive* prims,
-                           Ray ray, real tMax, bool ordered, Hit* hit) {
+CB_FN CB_BVHW_SPECIALISE bool bvhWideTraverse(CB_GLOBAL const BvhNodeWide* nodes,
+                                              CB_GLOBAL const Primitive* prims, Ray ray, real tMax,
+                                              bool ordered, Hit* hit) {
     hit->t = tMax;
     hit->primitive = -1;
     hit->b1 = 0.0f;
@@ -340,12 +352,12 @@ CB_FN bool bvhWideTraverse(CB_GLOBAL const BvhNodeWide* nodes, CB_GLOBAL const P
 
 /* Closest hit with t in (0, tMax). On a miss *hit is left as {tMax, -1, 0, 0}, so it is
  * never read uninitialised. */
-CB_FN bool sceneIntersect(const SceneView* scene, Ray ray, real tMax, Hit* hit) {
+CB_FN CB_BVHW_ONE_COPY bool sceneIntersect(const SceneView* scene, Ray ray, real tMax, Hit* hit) {
     return bvhWideTraverse(scene->nodes, scene->primitives, ray, tMax, true, hit);
 }
 
 /* Any hit with t in (0, tMax): shadow rays stop at the first one. */
-CB_FN bool sceneOccluded(const SceneView* scene, Ray ray, real tMax) {
+CB_FN CB_BVHW_ONE_COPY bool sceneOccluded(const SceneView* scene, Ray ray, real tMax) {
     Hit h;
     return bvhWideTraverse(scene->nodes, scene->primitives, ray, tMax, false, &h);
 }
