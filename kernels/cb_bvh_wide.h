@@ -58,8 +58,9 @@ CB_FN uint bvhWideCount(CB_GLOBAL const BvhNodeWide* node, int k) {
  * +0), so the keys of one node are distinct, and compared as integers they order the children
  * by distance, ties (within 8 ulps) broken by lane. That is still a strict total order that
  * depends only on the ray and the boxes, which is all the traversal needs, and it lets the
- * kernels pick the next child with one integer minimum across the lanes. Any-hit queries
- * (`ordered` false) use the lane alone. */
+ * kernels pick the next child with one integer minimum across the lanes. Any-hit queries use
+ * the same near-first order: they stop at the first hit, and the near children hold it more
+ * often (docs/performance.md: fewer instructions than lane order, shadow rays 0-10% faster). */
 #ifdef CB_KERNEL_SIDE
 /* The kernels test the lanes with OpenCL vectors (one SSE/AVX instruction per step under
  * PoCL). The selects are bvhBoxHit's, lane by lane (see there for NaNs); the exit distance
@@ -71,7 +72,6 @@ typedef int4 BvhWideInt;
 #define BVHW_AS_INT(v) as_int4(v)
 #define BVHW_STORE(v, p) vstore4(v, 0, p)
 #define BVHW_LANES ((int4)(0, 1, 2, 3))
-#define BVHW_BITS ((int4)(1, 2, 4, 8))
 CB_FN int bvhWideOrAll(int4 v) {
     int2 a = v.lo | v.hi;
     return a.x | a.y;
@@ -87,7 +87,6 @@ typedef int8 BvhWideInt;
 #define BVHW_AS_INT(v) as_int8(v)
 #define BVHW_STORE(v, p) vstore8(v, 0, p)
 #define BVHW_LANES ((int8)(0, 1, 2, 3, 4, 5, 6, 7))
-#define BVHW_BITS ((int8)(1, 2, 4, 8, 16, 32, 64, 128))
 CB_FN int bvhWideOrAll(int8 v) {
     int4 a = v.lo | v.hi;
     int2 b = a.lo | a.hi;
@@ -100,11 +99,7 @@ CB_FN int bvhWideMinAll(int8 v) {
 }
 #endif
 typedef int BvhWideKey;
-/* What bvhWideMore needs: the candidate lanes, and for any-hit queries the bits of the others. */
-typedef struct BvhWideCand {
-    BvhWideInt mask;
-    int others;
-} BvhWideCand;
+typedef BvhWideInt BvhWideCand;
 
 CB_FN void bvhWideBoxes(CB_GLOBAL const BvhNodeWide* node, Vec3 o, Vec3 invD, BvhWideReal* tn,
                         BvhWideReal* tf) {
@@ -131,8 +126,8 @@ CB_FN void bvhWideBoxes(CB_GLOBAL const BvhNodeWide* node, Vec3 o, Vec3 invD, Bv
 }
 
 /* The keys of a node's lanes (see above). */
-CB_FN BvhWideInt bvhWideKeys(BvhWideReal tn, bool ordered) {
-    return ordered ? ((BVHW_AS_INT(tn) & (BvhWideInt)(~7)) | BVHW_LANES) : BVHW_LANES;
+CB_FN BvhWideInt bvhWideKeys(BvhWideReal tn) {
+    return (BVHW_AS_INT(tn) & (BvhWideInt)(~7)) | BVHW_LANES;
 }
 
 /* Below every key: where a node is entered from its parent. */
@@ -141,31 +136,21 @@ CB_FN BvhWideKey bvhWideKeyNone(void) {
 }
 
 /* The key of lane k, coming back up from it. */
-CB_FN BvhWideKey bvhWideKeyOf(BvhWideInt keys, int k, bool ordered) {
-    if (!ordered) return k;
+CB_FN BvhWideKey bvhWideKeyOf(BvhWideInt keys, int k) {
     int lanes[CBW];
     BVHW_STORE(keys, lanes);
     return lanes[k];
 }
 
 /* The hit lane with the smallest key above `after`, its key in *key; -1 if none. *cand: the
- * hit lanes above `after`, for bvhWideMore. Any-hit queries take the lowest lane from a bit
- * mask, which is cheaper than a minimum across the lanes. */
+ * hit lanes above `after`, for bvhWideMore. */
 CB_FN int bvhWideNext(CB_GLOBAL const BvhNodeWide* node, BvhWideReal tn, BvhWideReal tf,
-                      BvhWideInt keys, real closest, BvhWideKey after, bool ordered,
-                      BvhWideKey* key, BvhWideCand* cand) {
+                      BvhWideInt keys, real closest, BvhWideKey after, BvhWideKey* key,
+                      BvhWideCand* cand) {
     BvhWideReal far = select((BvhWideReal)(closest), tf, tf < closest);
     BvhWideInt c = (BVHW_LOAD(node->child) != CB_BVHW_NONE) &
                    (tn <= far * (1.0f + 2.0f * cbGamma(3))) & (keys > after);
-    if (!ordered) {
-        int bits = bvhWideOrAll(c & BVHW_BITS);
-        if (bits == 0) return -1;
-        int k = 31 - (int)clz(bits & -bits);
-        cand->others = bits & ~(1 << k);
-        *key = k;
-        return k;
-    }
-    cand->mask = c;
+    *cand = c;
     int m = bvhWideMinAll(select((BvhWideInt)(INT_MAX), keys, c));
     if (m == INT_MAX) return -1;
     *key = m;
@@ -173,9 +158,8 @@ CB_FN int bvhWideNext(CB_GLOBAL const BvhNodeWide* node, BvhWideReal tn, BvhWide
 }
 
 /* Whether a lane other than `key`'s is among the candidates of bvhWideNext. */
-CB_FN bool bvhWideMore(BvhWideCand cand, BvhWideInt keys, BvhWideKey key, bool ordered) {
-    if (!ordered) return cand.others != 0;
-    return bvhWideOrAll(cand.mask & (keys != key)) != 0;
+CB_FN bool bvhWideMore(BvhWideCand cand, BvhWideInt keys, BvhWideKey key) {
+    return bvhWideOrAll(cand & (keys != key)) != 0;
 }
 #else
 /* The host: the same per-lane arithmetic as plain loops, and the same order: (entry distance
@@ -215,10 +199,10 @@ CB_FN real bvhWideTruncate(real t) {
     return t;
 }
 
-CB_FN BvhWideInt bvhWideKeys(BvhWideReal tn, bool ordered) {
+CB_FN BvhWideInt bvhWideKeys(BvhWideReal tn) {
     BvhWideInt keys;
     for (int k = 0; k < CBW; ++k)
-        keys.t[k] = ordered ? bvhWideTruncate(tn.v[k]) : (real)0;
+        keys.t[k] = bvhWideTruncate(tn.v[k]);
     return keys;
 }
 
@@ -227,8 +211,7 @@ CB_FN BvhWideKey bvhWideKeyNone(void) {
     return key;
 }
 
-CB_FN BvhWideKey bvhWideKeyOf(BvhWideInt keys, int k, bool ordered) {
-    (void)ordered; /* the keys of any-hit queries are all 0 */
+CB_FN BvhWideKey bvhWideKeyOf(BvhWideInt keys, int k) {
     BvhWideKey key = {keys.t[k], k};
     return key;
 }
@@ -239,15 +222,13 @@ CB_FN bool bvhWideKeyLess(BvhWideKey a, BvhWideKey b) {
 
 /* *cand: how many hit lanes are above `after`. */
 CB_FN int bvhWideNext(CB_GLOBAL const BvhNodeWide* node, BvhWideReal tn, BvhWideReal tf,
-                      BvhWideInt keys, real closest, BvhWideKey after, bool ordered,
-                      BvhWideKey* key, int* cand) {
-    (void)ordered; /* the keys say it */
+                      BvhWideInt keys, real closest, BvhWideKey after, BvhWideKey* key, int* cand) {
     int best = -1;
     *cand = 0;
     for (int k = 0; k < CBW; ++k) {
         real far = tf.v[k] < closest ? tf.v[k] : closest;
         bool hit = node->child[k] != CB_BVHW_NONE && tn.v[k] <= far * (1.0f + 2.0f * cbGamma(3));
-        BvhWideKey kk = bvhWideKeyOf(keys, k, true);
+        BvhWideKey kk = bvhWideKeyOf(keys, k);
         if (!hit || !bvhWideKeyLess(after, kk)) continue;
         ++*cand;
         if (best < 0 || bvhWideKeyLess(kk, *key)) {
@@ -258,8 +239,7 @@ CB_FN int bvhWideNext(CB_GLOBAL const BvhNodeWide* node, BvhWideReal tn, BvhWide
     return best;
 }
 
-CB_FN bool bvhWideMore(int cand, BvhWideInt keys, BvhWideKey key, bool ordered) {
-    (void)ordered;
+CB_FN bool bvhWideMore(int cand, BvhWideInt keys, BvhWideKey key) {
     (void)keys;
     (void)key;
     return cand > 1;
@@ -267,7 +247,7 @@ CB_FN bool bvhWideMore(int cand, BvhWideInt keys, BvhWideKey key, bool ordered) 
 #endif
 
 /* The kernels get one copy of the traversal for closest hits and one for any hits, each with
- * `ordered` a constant: left to itself, LLVM kept a single out-of-line copy that tested the
+ * `anyHit` a constant: left to itself, LLVM kept a single out-of-line copy that tested the
  * flag at run time, for the many call sites of the path code. */
 #ifdef CB_KERNEL_SIDE
 #define CB_BVHW_SPECIALISE __attribute__((always_inline))
@@ -277,10 +257,11 @@ CB_FN bool bvhWideMore(int cand, BvhWideInt keys, BvhWideKey key, bool ordered) 
 #define CB_BVHW_ONE_COPY
 #endif
 
-/* Closest hit (ordered) or any hit (!ordered, returns at the first) with t in (0, tMax). */
+/* Closest hit (closestHit) or any hit (!closestHit: returns at the first one found, in the
+ * same near-first order) with t in (0, tMax). */
 CB_FN CB_BVHW_SPECIALISE bool bvhWideTraverse(CB_GLOBAL const BvhNodeWide* nodes,
                                               CB_GLOBAL const Primitive* prims, Ray ray, real tMax,
-                                              bool ordered, Hit* hit) {
+                                              bool closestHit, Hit* hit) {
     hit->t = tMax;
     hit->primitive = -1;
     hit->b1 = 0.0f;
@@ -301,20 +282,20 @@ CB_FN CB_BVHW_SPECIALISE bool bvhWideTraverse(CB_GLOBAL const BvhNodeWide* nodes
         CB_GLOBAL const BvhNodeWide* node = nodes + cur;
         BvhWideReal tn, tf;
         bvhWideBoxes(node, ray.o, invD, &tn, &tf);
-        BvhWideInt keys = bvhWideKeys(tn, ordered);
-        BvhWideKey after = fromLane >= 0 ? bvhWideKeyOf(keys, fromLane, ordered) : bvhWideKeyNone();
+        BvhWideInt keys = bvhWideKeys(tn);
+        BvhWideKey after = fromLane >= 0 ? bvhWideKeyOf(keys, fromLane) : bvhWideKeyNone();
         uint down = CB_BVHW_NONE;
         for (;;) {
             BvhWideKey key;
             BvhWideCand cand;
-            int k = bvhWideNext(node, tn, tf, keys, closest, after, ordered, &key, &cand);
+            int k = bvhWideNext(node, tn, tf, keys, closest, after, &key, &cand);
             if (k < 0) break;
             uint count = bvhWideCount(node, k);
             if (count == 0u) {
                 down = node->child[k];
                 if (depth < 64) {
                     ulong bit = (ulong)1 << depth;
-                    bool more = bvhWideMore(cand, keys, key, ordered);
+                    bool more = bvhWideMore(cand, keys, key);
                     trail = more ? (trail | bit) : (trail & ~bit);
                 }
                 break;
@@ -327,7 +308,7 @@ CB_FN CB_BVHW_SPECIALISE bool bvhWideTraverse(CB_GLOBAL const BvhNodeWide* nodes
                     *hit = h;
                     closest = h.t;
                     found = true;
-                    if (!ordered) return true;
+                    if (!closestHit) return true;
                 }
             }
             after = key;
