@@ -6,6 +6,7 @@
 // table per section and writes everything to --json. All timings are medians of repeats.
 #include "bench/bench_meshes.h"
 #include "bench/embree_baseline.h"
+#include "bench/parallel_rays.h"
 
 #include "bvh/bvh.h"
 #include "bvh/bvh_wide.h"
@@ -22,6 +23,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -337,29 +339,23 @@ std::vector<MeshEntry> loadMeshes(const Options& o) {
 double hostSeconds(const Bvh& bvh, const std::vector<Ray>& rays, const std::vector<float>* tMax,
                    int threads, int repeats) {
     std::vector<double> times;
-    std::vector<int> sink(size_t(threads), 0);
+    std::atomic<int> sink{0}; // keeps the traversal from being optimised away
     for (int r = 0; r < repeats; ++r) {
         auto start = Clock::now();
-        std::vector<std::thread> pool;
-        for (int t = 0; t < threads; ++t)
-            pool.emplace_back([&, t] {
-                size_t b = rays.size() * size_t(t) / size_t(threads);
-                size_t e = rays.size() * size_t(t + 1) / size_t(threads);
-                int count = 0;
-                for (size_t i = b; i < e; ++i) {
-                    if (tMax) {
-                        count += cbk::bvhOccluded(bvh.nodes.data(), bvh.primitives.data(), rays[i],
-                                                  (*tMax)[i]);
-                    } else {
-                        cbk::Hit h;
-                        count += cbk::bvhIntersect(bvh.nodes.data(), bvh.primitives.data(), rays[i],
-                                                   CB_INFINITY, &h);
-                    }
+        parallelRayChunks(rays.size(), threads, [&](size_t b, size_t e) {
+            int count = 0;
+            for (size_t i = b; i < e; ++i) {
+                if (tMax) {
+                    count += cbk::bvhOccluded(bvh.nodes.data(), bvh.primitives.data(), rays[i],
+                                              (*tMax)[i]);
+                } else {
+                    cbk::Hit h;
+                    count += cbk::bvhIntersect(bvh.nodes.data(), bvh.primitives.data(), rays[i],
+                                               CB_INFINITY, &h);
                 }
-                sink[size_t(t)] = count;
-            });
-        for (auto& th : pool)
-            th.join();
+            }
+            sink += count;
+        });
         times.push_back(secondsSince(start));
     }
     return median(times);

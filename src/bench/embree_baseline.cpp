@@ -1,13 +1,12 @@
 #include "bench/embree_baseline.h"
 
-#include <algorithm>
-#include <atomic>
+#include "bench/parallel_rays.h"
+
 #include <chrono>
 #include <cmath>
 #include <cstring>
 #include <limits>
 #include <stdexcept>
-#include <thread>
 
 #ifdef CBDPT_HAVE_EMBREE
 #include <embree3/rtcore.h>
@@ -25,26 +24,6 @@ struct EmbreeBaseline::Impl {
     RTCDevice device = nullptr;
     RTCScene scene = nullptr;
 };
-
-namespace {
-// Rays are handed out in chunks from a shared counter, as PoCL hands out work-groups: with one
-// fixed range per thread, the thread whose half of the image holds more of the mesh finished
-// last and Embree's wall time included the other thread's idle wait (the wall ratio of primary
-// rays read 0.1-0.15 higher than the CPU-time ratio).
-template <typename F> void parallelRanges(size_t n, int threads, F f) {
-    constexpr size_t kChunk = 1024;
-    std::atomic<size_t> next{0};
-    auto worker = [&] {
-        for (size_t begin = next.fetch_add(kChunk); begin < n; begin = next.fetch_add(kChunk))
-            f(begin, std::min(n, begin + kChunk));
-    };
-    std::vector<std::thread> pool;
-    for (int t = 0; t < threads; ++t)
-        pool.emplace_back(worker);
-    for (auto& th : pool)
-        th.join();
-}
-} // namespace
 
 EmbreeBaseline::EmbreeBaseline(const PlyMesh& mesh, int threads)
     : impl_(std::make_unique<Impl>()), threads_(threads) {
@@ -83,7 +62,7 @@ void EmbreeBaseline::intersect(const std::vector<cbk::Ray>& rays,
                                std::vector<BaselineHit>& out) const {
     out.resize(rays.size());
     RTCScene scene = impl_->scene;
-    parallelRanges(rays.size(), threads_, [&](size_t begin, size_t end) {
+    parallelRayChunks(rays.size(), threads_, [&](size_t begin, size_t end) {
         RTCIntersectContext ctx;
         rtcInitIntersectContext(&ctx);
         for (size_t i = begin; i < end; ++i) {
@@ -115,7 +94,7 @@ void EmbreeBaseline::occluded(const std::vector<cbk::Ray>& rays, const std::vect
                               std::vector<int>& out) const {
     out.resize(rays.size());
     RTCScene scene = impl_->scene;
-    parallelRanges(rays.size(), threads_, [&](size_t begin, size_t end) {
+    parallelRayChunks(rays.size(), threads_, [&](size_t begin, size_t end) {
         RTCIntersectContext ctx;
         rtcInitIntersectContext(&ctx);
         for (size_t i = begin; i < end; ++i) {
