@@ -53,30 +53,14 @@ std::vector<double> cellMeans(const std::vector<float>& rgb, int w, int h) {
     return cells;
 }
 
-struct CellStats {
-    std::vector<double> mean, se;
-};
-
-CellStats summarize(const std::vector<std::vector<double>>& samples) {
-    const size_t n = samples.size(), k = samples[0].size();
-    CellStats s{std::vector<double>(k, 0.0), std::vector<double>(k, 0.0)};
-    for (const auto& v : samples)
-        for (size_t c = 0; c < k; ++c)
-            s.mean[c] += v[c] / double(n);
-    for (const auto& v : samples)
-        for (size_t c = 0; c < k; ++c)
-            s.se[c] += (v[c] - s.mean[c]) * (v[c] - s.mean[c]) / double(n - 1);
-    for (size_t c = 0; c < k; ++c)
-        s.se[c] = std::sqrt(s.se[c] / double(n));
-    return s;
-}
+using CellStats = cbtest::RunStats;
 
 // The cells relative to the mean luminance (the last entry): ratios of means, with standard
 // errors by linearisation (the delta method), so the shape of the image is compared apart from
 // its scale. For MLT the scale is b, whose error dominates a run's error (it comes from the
 // bootstrap and large steps) and is checked on its own.
 CellStats shape(const std::vector<std::vector<double>>& samples) {
-    CellStats m = summarize(samples);
+    CellStats m = cbtest::summarizeRuns(samples);
     const size_t n = samples.size(), k = m.mean.size() - 1;
     const double lum = m.mean[k];
     CellStats s{std::vector<double>(k, 0.0), std::vector<double>(k, 0.0)};
@@ -158,9 +142,9 @@ MltRuns mltRuns(const cb::DeviceScene& scene, cb::IntegratorSettings settings, i
         out.maxAcceptance = std::max(out.maxAcceptance, st->acceptanceRate());
         out.nonFinite += integrator->nonFiniteSamples();
     }
-    out.cells = summarize(images);
+    out.cells = cbtest::summarizeRuns(images);
     out.shape = shape(images);
-    out.bootstrapB = summarize(bs);
+    out.bootstrapB = cbtest::summarizeRuns(bs);
     return out;
 }
 
@@ -182,7 +166,7 @@ int disagreeing(const CellStats& a, const CellStats& b) {
 void checkConverges(const cb::DeviceScene& scene, int ne, int nl, int ptEstimates, int runs,
                     int estimates) {
     auto ptSamples = ptReference(scene, ne + nl, ptEstimates, 7);
-    CellStats pt = summarize(ptSamples);
+    CellStats pt = cbtest::summarizeRuns(ptSamples);
     MltRuns mlt = mltRuns(scene, mltSettings(ne, nl), runs, estimates, 1000);
     double worst = 0;
     for (size_t c = 0; c < pt.mean.size(); ++c)

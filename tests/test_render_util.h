@@ -39,4 +39,24 @@ inline PooledStats renderPooled(const cb::DeviceScene& scene, cb::ClRuntime& run
     return s;
 }
 
+// Per-entry mean over independent runs (one vector of values per run, e.g. image cells) and the
+// standard error of each mean from the spread across the runs.
+struct RunStats {
+    std::vector<double> mean, se;
+};
+
+inline RunStats summarizeRuns(const std::vector<std::vector<double>>& runs) {
+    const size_t n = runs.size(), k = runs[0].size();
+    RunStats s{std::vector<double>(k, 0.0), std::vector<double>(k, 0.0)};
+    for (const auto& r : runs)
+        for (size_t c = 0; c < k; ++c)
+            s.mean[c] += r[c] / double(n);
+    for (const auto& r : runs)
+        for (size_t c = 0; c < k; ++c)
+            s.se[c] += (r[c] - s.mean[c]) * (r[c] - s.mean[c]) / double(n - 1);
+    for (size_t c = 0; c < k; ++c)
+        s.se[c] = std::sqrt(s.se[c] / double(n));
+    return s;
+}
+
 } // namespace cbtest

@@ -557,24 +557,6 @@ std::vector<std::vector<double>> mltRuns(const cb::SceneDesc& desc, int vertices
     return result;
 }
 
-struct RunStats {
-    std::vector<double> mean, standardError;
-};
-
-RunStats summarizeRuns(const std::vector<std::vector<double>>& runs) {
-    const size_t n = runs.size(), k = runs[0].size();
-    RunStats s{std::vector<double>(k, 0.0), std::vector<double>(k, 0.0)};
-    for (const auto& r : runs)
-        for (size_t c = 0; c < k; ++c)
-            s.mean[c] += r[c] / double(n);
-    for (const auto& r : runs)
-        for (size_t c = 0; c < k; ++c)
-            s.standardError[c] += (r[c] - s.mean[c]) * (r[c] - s.mean[c]) / double(n - 1);
-    for (size_t c = 0; c < k; ++c)
-        s.standardError[c] = std::sqrt(s.standardError[c] / double(n));
-    return s;
-}
-
 } // namespace
 
 TEST_CASE("stress: MLT: the Cornell box scaled and moved renders the same, cell by cell") {
@@ -587,7 +569,7 @@ TEST_CASE("stress: MLT: the Cornell box scaled and moved renders the same, cell 
     // The 2x2 cell means and the image mean are, against the reference runs' spread: 4.5
     // combined standard errors (as if the two sets of runs were independent, which only widens
     // the bar) + 0.5%.
-    const auto reference = summarizeRuns(mltRuns(base, 5, 8, 4, 1, 2));
+    const auto reference = cbtest::summarizeRuns(mltRuns(base, 5, 8, 4, 1, 2));
     struct Variant {
         double scale;
         std::array<double, 3> shift;
@@ -598,12 +580,12 @@ TEST_CASE("stress: MLT: the Cornell box scaled and moved renders the same, cell 
         CAPTURE(v.shift[0]);
         cb::SceneDesc moved = base;
         cbtest::transformWorld(moved, v.scale, v.shift);
-        const auto image = summarizeRuns(mltRuns(moved, 5, 8, 4, 1, 2));
+        const auto image = cbtest::summarizeRuns(mltRuns(moved, 5, 8, 4, 1, 2));
         for (size_t c = 0; c < image.mean.size(); ++c) {
             CAPTURE(c);
             CAPTURE(image.mean[c]);
             CAPTURE(reference.mean[c]);
-            const double se = std::hypot(image.standardError[c], reference.standardError[c]);
+            const double se = std::hypot(image.se[c], reference.se[c]);
             CAPTURE(se);
             CHECK(std::fabs(image.mean[c] - reference.mean[c]) <=
                   4.5 * se + 5e-3 * reference.mean[c]);
@@ -625,14 +607,14 @@ TEST_CASE("stress: MLT: a sphere light of radius 1e-6 matches a point light of e
         const double expected = albedo / M_PI * (h / std::sqrt(r2)) / r2;
         // 16 runs of 4 estimates: b's spread (the sphere is area-sampled, half the samples
         // face away) dominates each run's error.
-        const auto s = summarizeRuns(mltRuns(
+        const auto s = cbtest::summarizeRuns(mltRuns(
             cb::parseSceneString(pointProbeScene(d, film, sphere), "<sphere>"), 3, 16, 4, 1, 1));
         CAPTURE(expected);
         CAPTURE(s.mean.back());
-        CAPTURE(s.standardError.back());
+        CAPTURE(s.se.back());
         CHECK(std::fabs(s.mean.back() - expected) <=
-              4.5 * s.standardError.back() + 1e-3 * expected);
-        CHECK(s.standardError.back() < 0.1 * expected);
+              4.5 * s.se.back() + 1e-3 * expected);
+        CHECK(s.se.back() < 0.1 * expected);
     }
 }
 
@@ -642,27 +624,27 @@ TEST_CASE("stress: MLT: albedo 0.999 with 64 vertices (32 + 32) matches the furn
     // Every splat carries F / I, of luminance 1, so the image mean is exactly the b that scaled
     // it: an average of independent BDPT estimates of the mean luminance (the bootstrap and the
     // large steps). 12 runs with a 1024-sample bootstrap, 2 estimates each.
-    const auto s = summarizeRuns(
+    const auto s = cbtest::summarizeRuns(
         mltRuns(cbtest::furnaceScene(albedo, emission, 8), vertices, 12, 2, 5, 1, 1024));
     const double expected =
         emission * (1.0 - std::pow(double(albedo), vertices - 1)) / (1.0 - double(albedo));
     CAPTURE(expected);
     CAPTURE(s.mean.back());
-    CAPTURE(s.standardError.back());
-    CHECK(std::fabs(s.mean.back() - expected) <= 4.5 * s.standardError.back() + 1e-5 * expected);
+    CAPTURE(s.se.back());
+    CHECK(std::fabs(s.mean.back() - expected) <= 4.5 * s.se.back() + 1e-5 * expected);
 }
 
 TEST_CASE("stress: MLT: a rough conductor of roughness 1e-4 matches the perfect mirror") {
-    RunStats results[2];
+    cbtest::RunStats results[2];
     for (int rough = 0; rough < 2; ++rough) {
         cb::SceneDesc desc = cornellWithGreyMirror(rough ? 1e-4f : 0.f);
         // Independent seeds for the two sets of 8 runs.
-        results[rough] = summarizeRuns(
+        results[rough] = cbtest::summarizeRuns(
             mltRuns(desc, 6, 8, 4, 100 + 50 * std::uint32_t(rough), 1, 4096, cb::ChannelMode::Rgb));
     }
     CAPTURE(results[0].mean.back());
     CAPTURE(results[1].mean.back());
-    const double se = std::hypot(results[0].standardError.back(), results[1].standardError.back());
+    const double se = std::hypot(results[0].se.back(), results[1].se.back());
     CAPTURE(se);
     CHECK(std::fabs(results[0].mean.back() - results[1].mean.back()) <= 4.5 * se);
 }
