@@ -40,10 +40,18 @@ std::vector<long> parseCheckpointList(const std::string& text, const std::string
     return out;
 }
 
+namespace {
+// Seconds per estimate after `done` estimates took `seconds`, the first of them `first`: the
+// later ones' mean, since the first may include PoCL's lazy kernel compilation.
+double perEstimateSeconds(double seconds, double first, long done) {
+    if (done <= 0) return 0.0;
+    if (done == 1) return seconds;
+    return (seconds - first) / double(done - 1);
+}
+} // namespace
+
 double RenderOutcome::secondsPerEstimate() const {
-    if (estimatesRendered <= 0) return 0.0;
-    if (estimatesRendered == 1) return renderSeconds;
-    return (renderSeconds - firstEstimateSeconds) / double(estimatesRendered - 1);
+    return perEstimateSeconds(renderSeconds, firstEstimateSeconds, estimatesRendered);
 }
 
 RenderOutcome renderEstimates(Integrator& integrator, EstimateAccumulator& accumulator,
@@ -127,10 +135,7 @@ RenderOutcome renderEstimates(Integrator& integrator, EstimateAccumulator& accum
             p.estimatesDone = first + done;
             p.estimatesTarget = limits.estimates;
             p.elapsedSeconds = now;
-            // The first estimate may include PoCL's lazy kernel compilation: the later ones
-            // predict the rest better.
-            double perEstimate =
-                done > 1 ? (now - outcome.firstEstimateSeconds) / double(done - 1) : now;
+            double perEstimate = perEstimateSeconds(now, outcome.firstEstimateSeconds, done);
             double byCount = limits.estimates > 0
                                  ? perEstimate * double(limits.estimates - first - done)
                                  : 1e300;
