@@ -26,20 +26,22 @@ __kernel void benchOccluded(__global const struct BvhNode* nodes,
 
 /* The wide BVH (cb_bvh_wide.h, the renderers' traversal) on the same rays. */
 __kernel void benchClosestWide(__global const struct BvhNodeWide* nodes,
+                               __global const TrianglePack* packs,
                                __global const Primitive* primitives, __global const Ray* rays,
                                uint count, __global Hit* hits) {
     uint i = (uint)get_global_id(0);
     if (i >= count) return;
     Hit h;
-    bvhWideTraverse(nodes, primitives, rays[i], CB_INFINITY, true, &h);
+    bvhWideTraverse(nodes, packs, primitives, rays[i], CB_INFINITY, true, &h);
     hits[i] = h;
 }
 
 __kernel void benchOccludedWide(__global const struct BvhNodeWide* nodes,
+                                __global const TrianglePack* packs,
                                 __global const Primitive* primitives, __global const Ray* rays,
                                 __global const float* tMax, uint count, __global int* occluded) {
     uint i = (uint)get_global_id(0);
     if (i >= count) return;
     Hit h;
-    occluded[i] = bvhWideTraverse(nodes, primitives, rays[i], tMax[i], false, &h) ? 1 : 0;
+    occluded[i] = bvhWideTraverse(nodes, packs, primitives, rays[i], tMax[i], false, &h) ? 1 : 0;
 }

@@ -32,9 +32,10 @@ CB_BEGIN_NAMESPACE
 #define CBW CB_BVH_WIDE_LANES
 
 /* 128 bytes (4 lanes) or 256 (8 lanes). lo/hi[axis][lane] are the children's boxes.
- * child[lane]: the child node for an interior child, the first primitive for a leaf,
+ * child[lane]: the child node for an interior child, the first TrianglePack for a leaf,
  * CB_BVHW_NONE for an empty lane (its box is empty as well). counts: byte `lane` is the
- * leaf's primitive count, 0 for an interior child or an empty lane. parent: the parent node,
+ * leaf's number of packs (up to four primitives each), 0 for an interior child or an empty
+ * lane. parent: the parent node,
  * CB_BVHW_NONE for the root (node 0); lane: this node's lane in its parent, so that coming
  * back up needs no search. */
 typedef struct BvhNodeWide {
@@ -260,6 +261,7 @@ CB_FN bool bvhWideMore(int cand, BvhWideInt keys, BvhWideKey key) {
 /* Closest hit (closestHit) or any hit (!closestHit: returns at the first one found, in the
  * same near-first order) with t in (0, tMax). */
 CB_FN CB_BVHW_SPECIALISE bool bvhWideTraverse(CB_GLOBAL const BvhNodeWide* nodes,
+                                              CB_GLOBAL const TrianglePack* packs,
                                               CB_GLOBAL const Primitive* prims, Ray ray, real tMax,
                                               bool closestHit, Hit* hit) {
     hit->t = tMax;
@@ -267,6 +269,7 @@ CB_FN CB_BVHW_SPECIALISE bool bvhWideTraverse(CB_GLOBAL const BvhNodeWide* nodes
     hit->b1 = 0.0f;
     hit->b2 = 0.0f;
     Vec3 invD = bvhInverseDirection(ray.d);
+    TriangleRay sheared = triangleRayOf(ray);
     real closest = tMax;
     bool found = false;
     uint cur = 0u;
@@ -303,12 +306,11 @@ CB_FN CB_BVHW_SPECIALISE bool bvhWideTraverse(CB_GLOBAL const BvhNodeWide* nodes
             uint first = node->child[k];
             for (uint p = first; p < first + count; ++p) {
                 Hit h;
-                if (intersectPrimitive(prims + p, ray, closest, &h)) {
-                    h.primitive = (int)p;
+                if (intersectPack(packs + p, prims, ray, sheared, closest, closestHit, &h)) {
+                    if (!closestHit) return true;
                     *hit = h;
                     closest = h.t;
                     found = true;
-                    if (!closestHit) return true;
                 }
             }
             after = key;
@@ -334,13 +336,13 @@ CB_FN CB_BVHW_SPECIALISE bool bvhWideTraverse(CB_GLOBAL const BvhNodeWide* nodes
 /* Closest hit with t in (0, tMax). On a miss *hit is left as {tMax, -1, 0, 0}, so it is
  * never read uninitialised. */
 CB_FN CB_BVHW_ONE_COPY bool sceneIntersect(const SceneView* scene, Ray ray, real tMax, Hit* hit) {
-    return bvhWideTraverse(scene->nodes, scene->primitives, ray, tMax, true, hit);
+    return bvhWideTraverse(scene->nodes, scene->packs, scene->primitives, ray, tMax, true, hit);
 }
 
 /* Any hit with t in (0, tMax): shadow rays stop at the first one. */
 CB_FN CB_BVHW_ONE_COPY bool sceneOccluded(const SceneView* scene, Ray ray, real tMax) {
     Hit h;
-    return bvhWideTraverse(scene->nodes, scene->primitives, ray, tMax, false, &h);
+    return bvhWideTraverse(scene->nodes, scene->packs, scene->primitives, ray, tMax, false, &h);
 }
 
 CB_END_NAMESPACE

@@ -9,6 +9,15 @@
 
 #include "cb_types.h"
 
+/* No fused multiply-adds in this file: OpenCL C lets the compiler contract a * b - c * d into
+ * fma(a, b, -c * d), which rounds the two products differently, so the edge function of an
+ * edge would no longer be the exact negation of the same edge seen from the neighbouring
+ * triangle, and rays through shared edges leak (2 of 37k rays through the Buddha's vertices and
+ * edges did, in PoCL's AVX-512 code: test_bvh.cpp). The host build has no FMA contraction on
+ * x86-64 without -mfma. Restored at the end of the file. */
+#ifdef CB_KERNEL_SIDE
+#pragma OPENCL FP_CONTRACT OFF
+#endif
 #if defined(CB_KERNEL_SIDE) && defined(cl_khr_fp64)
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
 #define CB_HAS_DOUBLE 1
@@ -78,33 +87,51 @@ CB_FN bool cbTriangleHitBeyondErrorDouble(Ray ray, Vec3 p0, Vec3 p1, Vec3 p2, re
 }
 #endif
 
+/* What the watertight test needs of the ray alone (Woop, Benthin, Wald 2013, sec. 3): the axis
+ * permutation that makes the largest direction component z, the shear that makes the ray run
+ * along +z, and the origin in the permuted axes. The traversal computes it once per ray. */
+typedef struct TriangleRay {
+    int kx, ky, kz;
+    real sx, sy, sz;
+    real ox, oy, oz;
+} TriangleRay;
+
+CB_FN TriangleRay triangleRayOf(Ray ray) {
+    TriangleRay r;
+    r.kz = cbMaxAxis(vabs(ray.d));
+    r.kx = r.kz + 1;
+    if (r.kx == 3) r.kx = 0;
+    r.ky = r.kx + 1;
+    if (r.ky == 3) r.ky = 0;
+    Vec3 d = cbPermute(ray.d, r.kx, r.ky, r.kz);
+    /* One division per ray: the shear need not be -d.x / d.z rounded once, only the same for
+     * every triangle the ray is tested against. */
+    r.sz = 1.0f / d.z;
+    r.sx = -d.x * r.sz;
+    r.sy = -d.y * r.sz;
+    r.ox = vcomponent(ray.o, r.kx);
+    r.oy = vcomponent(ray.o, r.ky);
+    r.oz = vcomponent(ray.o, r.kz);
+    return r;
+}
+
 /* Watertight ray/triangle intersection (Woop, Benthin, Wald 2013, JCGT 2(1)), with the
  * conservative t > 0 test of pbrt-v4 (3rd ed. sec. 3.9.6). Rays through a shared edge or
  * vertex hit at least one of the triangles sharing it: the edge functions are evaluated in a
  * ray-aligned sheared frame where they are exact up to one rounding, and a zero edge function
  * is re-evaluated in double precision so that ties are broken consistently. Returns the hit
- * only for t in (0, tMax); b1, b2 are the barycentric weights of p1 and p2. */
-CB_FN bool intersectTriangle(Ray ray, real tMax, Vec3 p0, Vec3 p1, Vec3 p2, real* t, real* b1,
-                             real* b2) {
-    Vec3 p0t = vsub(p0, ray.o);
-    Vec3 p1t = vsub(p1, ray.o);
-    Vec3 p2t = vsub(p2, ray.o);
+ * only for t in (0, tMax); b1, b2 are the barycentric weights of p1 and p2. `sheared` is
+ * triangleRayOf(ray). intersectPack (below) is the same test on four triangles at once, and
+ * must stay the same arithmetic. */
+CB_FN bool intersectTriangleSheared(Ray ray, TriangleRay sheared, real tMax, Vec3 p0, Vec3 p1,
+                                    Vec3 p2, real* t, real* b1, real* b2) {
+    int kx = sheared.kx, ky = sheared.ky, kz = sheared.kz;
+    Vec3 p0t = cbPermute(vsub(p0, ray.o), kx, ky, kz);
+    Vec3 p1t = cbPermute(vsub(p1, ray.o), kx, ky, kz);
+    Vec3 p2t = cbPermute(vsub(p2, ray.o), kx, ky, kz);
+    real sx = sheared.sx, sy = sheared.sy, sz = sheared.sz;
 
-    /* Make the largest direction component z so the shear below is well defined. */
-    int kz = cbMaxAxis(vabs(ray.d));
-    int kx = kz + 1;
-    if (kx == 3) kx = 0;
-    int ky = kx + 1;
-    if (ky == 3) ky = 0;
-    Vec3 d = cbPermute(ray.d, kx, ky, kz);
-    p0t = cbPermute(p0t, kx, ky, kz);
-    p1t = cbPermute(p1t, kx, ky, kz);
-    p2t = cbPermute(p2t, kx, ky, kz);
-
-    /* Shear so that the ray runs along +z (paper, sec. 3); z is scaled later, only if needed. */
-    real sx = -d.x / d.z;
-    real sy = -d.y / d.z;
-    real sz = 1.0f / d.z;
+    /* Shear so that the ray runs along +z; z is scaled later, only if needed. */
     p0t.x += sx * p0t.z;
     p0t.y += sy * p0t.z;
     p1t.x += sx * p1t.z;
@@ -172,6 +199,12 @@ CB_FN bool intersectTriangle(Ray ray, real tMax, Vec3 p0, Vec3 p1, Vec3 p2, real
     return true;
 }
 
+/* intersectTriangleSheared for a single triangle. */
+CB_FN bool intersectTriangle(Ray ray, real tMax, Vec3 p0, Vec3 p1, Vec3 p2, real* t, real* b1,
+                             real* b2) {
+    return intersectTriangleSheared(ray, triangleRayOf(ray), tMax, p0, p1, p2, t, b1, b2);
+}
+
 /* Ray/sphere intersection in the form of Haines et al., "Precision Improvements for Ray/Sphere
  * Intersection" (Ray Tracing Gems, ch. 7): the discriminant is computed from the distance of
  * the centre to the ray line (b^2 - 4ac = 4a (r^2 - |f - (f.d/a) d|^2)), which avoids
@@ -209,8 +242,10 @@ CB_FN bool intersectSphere(Ray ray, real tMax, Vec3 center, real radius, real* t
     return false;
 }
 
-/* Fills hit->t, b1, b2 (b1 = b2 = 0 for spheres); the caller sets hit->primitive. */
-CB_FN bool intersectPrimitive(CB_GLOBAL const Primitive* prim, Ray ray, real tMax, Hit* hit) {
+/* Fills hit->t, b1, b2 (b1 = b2 = 0 for spheres); the caller sets hit->primitive. `sheared` is
+ * triangleRayOf(ray). */
+CB_FN bool intersectPrimitiveSheared(CB_GLOBAL const Primitive* prim, Ray ray, TriangleRay sheared,
+                                     real tMax, Hit* hit) {
 #if CB_HAS(CB_FEATURE_SPHERES)
     if (prim->kind == CB_PRIM_SPHERE) {
         real t;
@@ -223,14 +258,147 @@ CB_FN bool intersectPrimitive(CB_GLOBAL const Primitive* prim, Ray ray, real tMa
     }
 #endif
     real t, b1, b2;
-    if (!intersectTriangle(ray, tMax, vec3FromGlobalArray(prim->p0), vec3FromGlobalArray(prim->p1),
-                           vec3FromGlobalArray(prim->p2), &t, &b1, &b2))
+    if (!intersectTriangleSheared(ray, sheared, tMax, vec3FromGlobalArray(prim->p0),
+                                  vec3FromGlobalArray(prim->p1), vec3FromGlobalArray(prim->p2), &t,
+                                  &b1, &b2))
         return false;
     hit->t = t;
     hit->b1 = b1;
     hit->b2 = b2;
     return true;
 }
+
+CB_FN bool intersectPrimitive(CB_GLOBAL const Primitive* prim, Ray ray, real tMax, Hit* hit) {
+    return intersectPrimitiveSheared(prim, ray, triangleRayOf(ray), tMax, hit);
+}
+
+/* The lanes of a TrianglePack against `ray` for t in (0, tMax), each lane decided as
+ * intersectPrimitive decides its primitive alone, all against the same tMax. Returns whether
+ * any lane is hit; *hit: the nearest, the lowest lane among equal t, primitive set. With
+ * !closestHit it may return at the first hit found, *hit then unset. `sheared` is
+ * triangleRayOf(ray). */
+#ifdef CB_KERNEL_SIDE
+/* The kernels run intersectTriangleSheared's float arithmetic on all four lanes at once (one
+ * SSE instruction per step under PoCL). The two cases where that test turns to double
+ * precision, a zero edge function and a hit within its own error bound of t = 0, are rare:
+ * such lanes are decided one by one by intersectPrimitiveSheared. So are lanes holding spheres,
+ * whose three equal vertices give edge functions of exactly zero. */
+/* Whether any lane of a mask (lanes 0 or -1) is set. PoCL's any() tests the sign bits one
+ * by one; an OR across the lanes is a few instructions fewer. */
+CB_FN bool cbAnyLane(int4 mask) {
+    int2 a = mask.lo | mask.hi;
+    return (a.x | a.y) != 0;
+}
+
+CB_FN bool intersectPack(CB_GLOBAL const TrianglePack* pack, CB_GLOBAL const Primitive* prims,
+                         Ray ray, TriangleRay sheared, real tMax, bool closestHit, Hit* hit) {
+    int kx = sheared.kx, ky = sheared.ky, kz = sheared.kz;
+    float4 p0x = vload4(0, pack->v[0][kx]) - sheared.ox;
+    float4 p0y = vload4(0, pack->v[0][ky]) - sheared.oy;
+    float4 p0z = vload4(0, pack->v[0][kz]) - sheared.oz;
+    float4 p1x = vload4(0, pack->v[1][kx]) - sheared.ox;
+    float4 p1y = vload4(0, pack->v[1][ky]) - sheared.oy;
+    float4 p1z = vload4(0, pack->v[1][kz]) - sheared.oz;
+    float4 p2x = vload4(0, pack->v[2][kx]) - sheared.ox;
+    float4 p2y = vload4(0, pack->v[2][ky]) - sheared.oy;
+    float4 p2z = vload4(0, pack->v[2][kz]) - sheared.oz;
+    p0x += sheared.sx * p0z;
+    p0y += sheared.sy * p0z;
+    p1x += sheared.sx * p1z;
+    p1y += sheared.sy * p1z;
+    p2x += sheared.sx * p2z;
+    p2y += sheared.sy * p2z;
+    float4 e0 = p1x * p2y - p1y * p2x;
+    float4 e1 = p2x * p0y - p2y * p0x;
+    float4 e2 = p0x * p1y - p0y * p1x;
+
+    /* The sign of a nonzero float edge function is exact (the two products round
+     * monotonically), so intersectTriangleSheared's double-precision re-evaluation of a zero
+     * one can decide that lane, never flip the others: a lane with edge functions of both strict
+     * signs is outside either way. The cheap test goes first, as most lanes are misses. */
+    float4 eMin = min(e0, min(e1, e2)), eMax = max(e0, max(e1, e2));
+    int4 candidate = (eMin >= 0.0f) | (eMax <= 0.0f);
+    if (!cbAnyLane(candidate)) return false;
+    int4 slow = candidate & ((e0 == 0.0f) | (e1 == 0.0f) | (e2 == 0.0f));
+    candidate &= ~slow;
+
+    float4 det = e0 + e1 + e2;
+    p0z *= sheared.sz;
+    p1z *= sheared.sz;
+    p2z *= sheared.sz;
+    float4 tScaled = e0 * p0z + e1 * p1z + e2 * p2z;
+    float4 tMaxDet = tMax * det;
+    candidate &= ((det < 0.0f) & (tScaled < 0.0f) & (tScaled > tMaxDet)) |
+                 ((det > 0.0f) & (tScaled > 0.0f) & (tScaled < tMaxDet));
+    float4 invDet = 1.0f / det;
+    float4 tHit = tScaled * invDet;
+    candidate &= tHit < tMax;
+    if (!cbAnyLane(candidate | slow)) return false;
+    float4 maxZt = fmax(fabs(p0z), fmax(fabs(p1z), fabs(p2z)));
+    float4 deltaZ = cbGamma(3) * maxZt;
+    float4 maxXt = fmax(fabs(p0x), fmax(fabs(p1x), fabs(p2x)));
+    float4 maxYt = fmax(fabs(p0y), fmax(fabs(p1y), fabs(p2y)));
+    float4 deltaX = cbGamma(5) * (maxXt + maxZt);
+    float4 deltaY = cbGamma(5) * (maxYt + maxZt);
+    float4 deltaE = 2.0f * (cbGamma(2) * maxXt * maxYt + deltaY * maxXt + deltaX * maxYt);
+    float4 maxE = fmax(fabs(e0), fmax(fabs(e1), fabs(e2)));
+    float4 deltaT =
+        3.0f * (cbGamma(3) * maxE * maxZt + deltaE * maxZt + deltaZ * maxE) * fabs(invDet);
+    int4 nearZero = tHit <= deltaT;
+    slow |= candidate & nearZero;
+    int4 exact = candidate & ~nearZero;
+    if (!closestHit && cbAnyLane(exact)) return true;
+
+    real t[CB_PACK_LANES], b1[CB_PACK_LANES], b2[CB_PACK_LANES];
+    int slowLane[CB_PACK_LANES];
+    vstore4(select((float4)(INFINITY), tHit, exact), 0, t);
+    vstore4(e1 * invDet, 0, b1);
+    vstore4(e2 * invDet, 0, b2);
+    vstore4(slow, 0, slowLane);
+    for (int k = 0; k < CB_PACK_LANES; ++k) {
+        if (slowLane[k] == 0) continue;
+        Hit h;
+        if (!intersectPrimitiveSheared(prims + pack->prim[k], ray, sheared, tMax, &h)) continue;
+        if (!closestHit) return true;
+        t[k] = h.t;
+        b1[k] = h.b1;
+        b2[k] = h.b2;
+    }
+    int best = -1;
+    real bestT = tMax;
+    for (int k = 0; k < CB_PACK_LANES; ++k)
+        if (t[k] < bestT) {
+            bestT = t[k];
+            best = k;
+        }
+    if (best < 0) return false;
+    hit->t = bestT;
+    hit->b1 = b1[best];
+    hit->b2 = b2[best];
+    hit->primitive = pack->prim[best];
+    return true;
+}
+#else
+/* The host: the same decisions lane by lane, from the primitives. */
+CB_FN bool intersectPack(CB_GLOBAL const TrianglePack* pack, CB_GLOBAL const Primitive* prims,
+                         Ray ray, TriangleRay sheared, real tMax, bool closestHit, Hit* hit) {
+    bool found = false;
+    real bestT = tMax;
+    for (int k = 0; k < pack->count; ++k) {
+        Hit h;
+        h.t = tMax;
+        if (!intersectPrimitiveSheared(prims + pack->prim[k], ray, sheared, tMax, &h)) continue;
+        if (!closestHit) return true;
+        if (h.t < bestT) {
+            bestT = h.t;
+            h.primitive = pack->prim[k];
+            *hit = h;
+            found = true;
+        }
+    }
+    return found;
+}
+#endif
 
 /* The hit point with a conservative per-axis error bound (pbrt 3rd ed. sec. 3.9.4-3.9.5).
  * The point is not o + t d, whose error grows with t, but recomputed from the primitive. */
@@ -319,5 +487,9 @@ CB_FN Ray spawnRayTo(SurfacePoint from, Vec3 target, Vec3 targetError, Vec3 targ
 }
 
 CB_END_NAMESPACE
+
+#ifdef CB_KERNEL_SIDE
+#pragma OPENCL FP_CONTRACT ON
+#endif
 
 #endif /* CB_INTERSECT_H */

@@ -26,6 +26,22 @@ typedef struct Primitive {
     int light; /* index into lights if this primitive is an area emitter, else -1 */
 } Primitive;
 
+/* Up to four primitives of one BVH leaf, the triangles in structure-of-arrays form so that one
+ * test covers all of them with the same instructions on every lane (Embree's triangle4).
+ * Lanes [0, count) hold primitives prim[lane]; a triangle's vertices are copies of its p0, p1,
+ * p2 (v[0], v[1], v[2]); another kind of primitive (a sphere) has three zero vertices and is
+ * tested from the primitive (intersectPack). Lanes from `count` on repeat lane 0, so that every
+ * lane can be tested without a mask. */
+#define CB_PACK_LANES 4
+typedef struct TrianglePack {
+    real v[3][3][CB_PACK_LANES]; /* [vertex][axis][lane] */
+    int prim[CB_PACK_LANES];
+    int count;
+    int pad[3];
+} TrianglePack;
+
+CB_STATIC_ASSERT(sizeof(TrianglePack) == 176, "TrianglePack must be 176 bytes");
+
 typedef struct Ray {
     Vec3 o;
     Vec3 d;
@@ -135,6 +151,7 @@ struct BvhNodeWide; /* defined in cb_bvh_wide.h */
  * host it points at the host-side copies of the same arrays. */
 typedef struct SceneView {
     CB_GLOBAL const struct BvhNodeWide* nodes;
+    CB_GLOBAL const TrianglePack* packs; /* the BVH leaves' triangles */
     CB_GLOBAL const Primitive* primitives;
     CB_GLOBAL const Material* materials;
     CB_GLOBAL const Light* lights;
@@ -146,12 +163,13 @@ typedef struct SceneView {
 /* Every kernel takes the scene as these parameters (in this order; the host sets them with
  * SceneBuffers::setKernelArgs) and builds its SceneView with CB_SCENE_VIEW. */
 #define CB_SCENE_KERNEL_PARAMS                                                                     \
-    __global const struct BvhNodeWide *nodes, __global const Primitive *primitives,                \
-        __global const Material *materials, __global const Light *lights,                          \
-        __global const real *spectra, int lightCount
+    __global const struct BvhNodeWide *nodes, __global const TrianglePack *packs,                  \
+        __global const Primitive *primitives, __global const Material *materials,                  \
+        __global const Light *lights, __global const real *spectra, int lightCount
 #define CB_SCENE_VIEW(view)                                                                        \
     SceneView view;                                                                                \
     view.nodes = nodes;                                                                            \
+    view.packs = packs;                                                                            \
     view.primitives = primitives;                                                                  \
     view.materials = materials;                                                                    \
     view.lights = lights;                                                                          \

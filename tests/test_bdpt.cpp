@@ -210,7 +210,8 @@ struct FullPath {
 
 cbk::SceneView hostView(const cb::DeviceScene& s) {
     cbk::SceneView v{};
-    v.nodes = s.wideNodes.data();
+    v.nodes = s.wide.nodes.data();
+    v.packs = s.wide.packs.data();
     v.primitives = s.bvh.primitives.data();
     v.materials = s.materials.data();
     v.lights = s.lights.data();

@@ -63,10 +63,11 @@ Vec3 hemisphereDirection(std::mt19937& rng, Vec3 n) {
 
 // `wide`: the renderers' wide nodes collapsed from `bvh`, which must outlive the view.
 SceneView viewOf(const std::vector<Primitive>& prims, const cb::Bvh* bvh = nullptr,
-                 const std::vector<cbk::BvhNodeWide>* wide = nullptr) {
+                 const cb::BvhWide* wide = nullptr) {
     SceneView s{};
     s.primitives = bvh ? bvh->primitives.data() : prims.data();
-    s.nodes = wide ? wide->data() : nullptr;
+    s.nodes = wide ? wide->nodes.data() : nullptr;
+    s.packs = wide ? wide->packs.data() : nullptr;
     return s;
 }
 

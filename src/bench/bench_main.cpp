@@ -70,10 +70,11 @@ struct Options {
     std::string models;
     std::vector<std::string> sections{"traverse", "build", "render", "scaling"};
     std::string traversal = "wide,ordered"; // comma-separated ordered, skip, wide; or both
-    int repeats = 0;                   // 0: 5 (2 in --quick)
-    int localSize = 64;                // 0: let PoCL choose
+    int repeats = 0;                        // 0: 5 (2 in --quick)
+    int localSize = 64;                     // 0: let PoCL choose
     int leafSize = 4;
-    long rays = 0; // 0: 1M (64k in --quick)
+    int sahBlock = 0; // SAH cost per block of this many primitives; 0: 4 for wide, 1 for binary
+    long rays = 0;    // 0: 1M (64k in --quick)
     int threads = 2;
     bool host = false;               // also time the host (g++) build of the traversal
     std::vector<std::string> meshes; // default per mode
@@ -212,7 +213,10 @@ class ClTraversal {
         if (wide) {
             wide_ = collapseBvhWide(bvh);
             nodes_ = cl::Buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
-                                wide_.size() * sizeof(cbk::BvhNodeWide), wide_.data());
+                                wide_.nodes.size() * sizeof(cbk::BvhNodeWide), wide_.nodes.data());
+            packs_ = cl::Buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
+                                std::max<size_t>(1, wide_.packs.size()) * sizeof(cbk::TrianglePack),
+                                wide_.packs.empty() ? &emptyPack_ : wide_.packs.data());
         } else {
             nodes_ = cl::Buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
                                 bvh.nodes.size() * sizeof(cbk::BvhNode),
@@ -229,11 +233,10 @@ class ClTraversal {
         cl::Buffer rayBuf(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, rays.size() * sizeof(Ray),
                           const_cast<Ray*>(rays.data()));
         cl::Buffer hitBuf(ctx, CL_MEM_WRITE_ONLY, rays.size() * sizeof(cbk::Hit));
-        closest_.setArg(0, nodes_);
-        closest_.setArg(1, prims_);
-        closest_.setArg(2, rayBuf);
-        closest_.setArg(3, cl_uint(rays.size()));
-        closest_.setArg(4, hitBuf);
+        int arg = setBvhArgs(closest_);
+        closest_.setArg(arg++, rayBuf);
+        closest_.setArg(arg++, cl_uint(rays.size()));
+        closest_.setArg(arg, hitBuf);
         double t = launch(closest_, rays.size(), repeats);
         hits.resize(rays.size());
         rt_.queue().enqueueReadBuffer(hitBuf, CL_TRUE, 0, hits.size() * sizeof(cbk::Hit),
@@ -249,12 +252,11 @@ class ClTraversal {
         cl::Buffer tBuf(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, tMax.size() * sizeof(float),
                         const_cast<float*>(tMax.data()));
         cl::Buffer outBuf(ctx, CL_MEM_WRITE_ONLY, rays.size() * sizeof(int));
-        occluded_.setArg(0, nodes_);
-        occluded_.setArg(1, prims_);
-        occluded_.setArg(2, rayBuf);
-        occluded_.setArg(3, tBuf);
-        occluded_.setArg(4, cl_uint(rays.size()));
-        occluded_.setArg(5, outBuf);
+        int arg = setBvhArgs(occluded_);
+        occluded_.setArg(arg++, rayBuf);
+        occluded_.setArg(arg++, tBuf);
+        occluded_.setArg(arg++, cl_uint(rays.size()));
+        occluded_.setArg(arg, outBuf);
         double t = launch(occluded_, rays.size(), repeats);
         out.resize(rays.size());
         rt_.queue().enqueueReadBuffer(outBuf, CL_TRUE, 0, out.size() * sizeof(int), out.data());
@@ -262,6 +264,15 @@ class ClTraversal {
     }
 
   private:
+    // The BVH arguments: nodes, [packs,] primitives. Returns the next argument index.
+    int setBvhArgs(cl::Kernel& k) {
+        int arg = 0;
+        k.setArg(arg++, nodes_);
+        if (!wide_.nodes.empty()) k.setArg(arg++, packs_);
+        k.setArg(arg++, prims_);
+        return arg;
+    }
+
     double launch(cl::Kernel& k, size_t n, int repeats) {
         size_t global = n;
         cl::NDRange local = cl::NullRange;
@@ -290,8 +301,9 @@ class ClTraversal {
     int localSize_;
     cl::Program program_;
     cl::Kernel closest_, occluded_;
-    cl::Buffer nodes_, prims_;
-    std::vector<cbk::BvhNodeWide> wide_;
+    cl::Buffer nodes_, packs_, prims_;
+    BvhWide wide_; // empty for the binary BVH
+    cbk::TrianglePack emptyPack_{};
 
   public:
     double lastCpu = 0.0; // median CPU seconds of the last closest() or occluded()
@@ -397,7 +409,6 @@ json runTraverse(const Options& o, ClRuntime& rt) {
                "order", "rays", "ours", "embree", "ratio", "cpu-ratio", "agree");
     for (auto& m : loadMeshes(o)) {
         auto prims = meshPrimitives(m.mesh);
-        Bvh bvh = buildBvh(prims, {o.leafSize, 16});
         Box3 box = meshBounds(m.mesh);
         std::unique_ptr<EmbreeBaseline> embree;
         if (embreeAvailable()) embree = std::make_unique<EmbreeBaseline>(m.mesh, o.threads);
@@ -405,6 +416,9 @@ json runTraverse(const Options& o, ClRuntime& rt) {
         auto primary = primaryRays(box, rayCount);
         auto incoherent = incoherentRays(box, rayCount, 7u);
         for (const auto& variant : variants) {
+            // As the renderers build it for the wide BVH (DeviceScene).
+            const int block = o.sahBlock > 0 ? o.sahBlock : variant == "wide" ? CB_PACK_LANES : 1;
+            Bvh bvh = buildBvh(prims, {o.leafSize, 16, block});
             ClTraversal cl(rt, bvh, variant, o.localSize);
             std::vector<cbk::Hit> primaryHits;
             std::vector<Ray> shadow;
@@ -893,6 +907,9 @@ int run(int argc, char** argv) {
     app.add_option("--repeats", o.repeats, "timed repeats per measurement");
     app.add_option("--local-size", o.localSize, "traversal work-group size (0: PoCL chooses)");
     app.add_option("--leaf-size", o.leafSize, "BVH maximum leaf size");
+    app.add_option("--sah-block", o.sahBlock,
+                   "traverse: the SAH prices primitive tests in blocks of this many (0: 4 for "
+                   "the wide BVH, which tests 4 triangles at once, 1 for the binary)");
     app.add_option("--rays", o.rays, "rays per traversal case");
     app.add_option("--threads", o.threads, "Embree (and --host) threads");
     app.add_flag("--host", o.host, "also time cb_bvh.h compiled for the host");
@@ -919,6 +936,7 @@ int run(int argc, char** argv) {
     result["quick"] = o.quick;
     result["settings"] = {{"local_size", o.localSize},
                           {"leaf_size", o.leafSize},
+                          {"sah_block", o.sahBlock},
                           {"traversal", o.traversal},
                           {"embree_threads", o.threads}};
     fmt::print("cbdpt-bench on {} ({}), load average {}\n", rt.info().deviceName,

@@ -64,7 +64,10 @@ int binOf(float c, float lo, float scale, int bins) {
 // Binned SAH over the centroid bounds (Wald 2007, sec. 3): one pass bins the primitives, two
 // sweeps evaluate the bins-1 candidate planes per axis.
 Split findSplit(const std::vector<PrimRef>& refs, int begin, int end, const Box& centroids,
-                int bins) {
+                int bins, int primitivesPerTest) {
+    auto tests = [primitivesPerTest](int count) {
+        return double((count + primitivesPerTest - 1) / primitivesPerTest);
+    };
     Split best;
     std::vector<Box> binBox(bins);
     std::vector<int> binCount(bins);
@@ -95,7 +98,7 @@ Split findSplit(const std::vector<PrimRef>& refs, int begin, int end, const Box&
             acc.grow(binBox[b - 1]);
             count += binCount[b - 1];
             if (count == 0 || rightCount[b] == 0) continue;
-            double cost = count * acc.halfArea() + rightCount[b] * rightArea[b];
+            double cost = tests(count) * acc.halfArea() + tests(rightCount[b]) * rightArea[b];
             if (cost < best.cost) {
                 best.cost = cost;
                 best.axis = axis;
@@ -127,6 +130,7 @@ void primitiveBounds(const cbk::Primitive& prim, float lo[3], float hi[3]) {
 Bvh buildBvh(std::vector<cbk::Primitive> primitives, const BvhBuildOptions& options) {
     const int maxLeaf = std::max(1, options.maxLeafSize);
     const int bins = std::max(2, options.bins);
+    const int perTest = std::max(1, options.primitivesPerTest);
     const int n = int(primitives.size());
 
     Bvh bvh;
@@ -181,8 +185,8 @@ Bvh buildBvh(std::vector<cbk::Primitive> primitives, const BvhBuildOptions& opti
         int mid = -1;
         int splitAxis = 0;
         if (count > 1) {
-            Split split = findSplit(refs, task.begin, task.end, centroids, bins);
-            const double leafCost = kIntersectionCost * count;
+            Split split = findSplit(refs, task.begin, task.end, centroids, bins, perTest);
+            const double leafCost = kIntersectionCost * ((count + perTest - 1) / perTest);
             const double splitCost =
                 kTraversalCost + kIntersectionCost * split.cost / bounds.halfArea();
             const bool preferLeaf = split.axis < 0 || leafCost <= splitCost;

@@ -1,7 +1,9 @@
 #include "bvh/bvh_wide.h"
 
+#include <algorithm>
 #include <limits>
 #include <stdexcept>
+#include <string>
 
 namespace cb {
 namespace {
@@ -24,12 +26,36 @@ void binaryChildren(const std::vector<cbk::BvhNode>& nodes, uint32_t i, uint32_t
     out[1] = isLeaf(nodes[i + 1]) ? i + 2 : nodes[i + 1].index;
 }
 
+// Appends the packs of primitives [first, first + count) and returns the first one.
+uint32_t packLeaf(const std::vector<cbk::Primitive>& prims, uint32_t first, uint32_t count,
+                  std::vector<cbk::TrianglePack>* packs) {
+    const auto start = uint32_t(packs->size());
+    for (uint32_t p = first; p < first + count; p += CB_PACK_LANES) {
+        cbk::TrianglePack pack{};
+        pack.count = int(std::min<uint32_t>(CB_PACK_LANES, first + count - p));
+        for (int k = 0; k < CB_PACK_LANES; ++k) {
+            const uint32_t index = k < pack.count ? p + uint32_t(k) : p; // the rest repeat lane 0
+            const cbk::Primitive& prim = prims[index];
+            pack.prim[k] = int(index);
+            if (prim.kind != CB_PRIM_TRIANGLE) continue; // zero vertices: tested from prim
+            for (int a = 0; a < 3; ++a) {
+                pack.v[0][a][k] = prim.p0[a];
+                pack.v[1][a][k] = prim.p1[a];
+                pack.v[2][a][k] = prim.p2[a];
+            }
+        }
+        packs->push_back(pack);
+    }
+    return start;
+}
+
 } // namespace
 
-std::vector<cbk::BvhNodeWide> collapseBvhWide(const Bvh& bvh) {
+BvhWide collapseBvhWide(const Bvh& bvh) {
     const auto& bin = bvh.nodes;
     constexpr float kInf = std::numeric_limits<float>::infinity();
-    std::vector<cbk::BvhNodeWide> out;
+    BvhWide wide;
+    std::vector<cbk::BvhNodeWide>& out = wide.nodes;
     struct Task {
         uint32_t binary; // binary node whose children this wide node holds (or a root leaf)
         uint32_t parent; // wide parent
@@ -83,11 +109,13 @@ std::vector<cbk::BvhNodeWide> collapseBvhWide(const Bvh& bvh) {
                 node.hi[a][k] = b.boundsMax[a];
             }
             if (isLeaf(b)) {
-                uint32_t count = b.count & ~CB_BVH_LEAF;
-                if (count > 255)
-                    throw std::length_error("wide BVH: leaves hold at most 255 primitives");
-                node.child[k] = b.index;
-                node.counts[k / 4] |= count << (8 * (k % 4));
+                const uint32_t count = b.count & ~CB_BVH_LEAF;
+                const uint32_t packCount = (count + CB_PACK_LANES - 1) / CB_PACK_LANES;
+                if (packCount > 255)
+                    throw std::length_error("wide BVH: leaves hold at most 255 packs of " +
+                                            std::to_string(CB_PACK_LANES) + " primitives");
+                node.child[k] = packLeaf(bvh.primitives, b.index, count, &wide.packs);
+                node.counts[k / 4] |= packCount << (8 * (k % 4));
             } else {
                 node.child[k] = uint32_t(out.size());
                 out.push_back({});
@@ -96,7 +124,7 @@ std::vector<cbk::BvhNodeWide> collapseBvhWide(const Bvh& bvh) {
         }
         out[t.slot] = node;
     }
-    return out;
+    return wide;
 }
 
 } // namespace cb

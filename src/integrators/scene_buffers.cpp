@@ -3,7 +3,8 @@
 namespace cb {
 
 SceneBuffers::SceneBuffers(ClRuntime& runtime, const DeviceScene& scene)
-    : nodes(uploadArray(runtime, "scene BVH nodes", scene.wideNodes)),
+    : nodes(uploadArray(runtime, "scene BVH nodes", scene.wide.nodes)),
+      packs(uploadArray(runtime, "scene BVH leaf triangles", scene.wide.packs)),
       primitives(
           uploadArray(runtime, "scene primitives (triangles and spheres)", scene.bvh.primitives)),
       materials(uploadArray(runtime, "scene materials", scene.materials)),
@@ -14,6 +15,7 @@ SceneBuffers::SceneBuffers(ClRuntime& runtime, const DeviceScene& scene)
 
 int SceneBuffers::setKernelArgs(cl::Kernel& kernel, int first) const {
     kernel.setArg(first++, nodes);
+    kernel.setArg(first++, packs);
     kernel.setArg(first++, primitives);
     kernel.setArg(first++, materials);
     kernel.setArg(first++, lights);

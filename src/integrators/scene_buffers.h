@@ -24,10 +24,10 @@ cl::Buffer uploadArray(ClRuntime& runtime, const std::string& what, const std::v
 struct SceneBuffers {
     SceneBuffers(ClRuntime& runtime, const DeviceScene& scene);
 
-    // Sets the six CB_SCENE_KERNEL_PARAMS arguments from index `first`; returns the next index.
+    // Sets the seven CB_SCENE_KERNEL_PARAMS arguments from index `first`; returns the next index.
     int setKernelArgs(cl::Kernel& kernel, int first) const;
 
-    cl::Buffer nodes, primitives, materials, lights, spectra;
+    cl::Buffer nodes, packs, primitives, materials, lights, spectra;
     cl::Buffer toRgb; // 3 x channels matrix, passed separately by the kernels that need it
     int lightCount = 0;
 };

@@ -312,8 +312,10 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
     }
     scene.lights.back().cdf = 1.0f; // rounding must not leave a gap at the top
 
-    scene.bvh = buildBvh(std::move(primitives));
-    scene.wideNodes = collapseBvhWide(scene.bvh);
+    BvhBuildOptions bvhOptions;
+    bvhOptions.primitivesPerTest = CB_PACK_LANES; // the wide BVH tests its leaves in packs
+    scene.bvh = buildBvh(std::move(primitives), bvhOptions);
+    scene.wide = collapseBvhWide(scene.bvh);
     // After the BVH reorders primitives, point each area light at its primitive's new slot.
     for (size_t i = 0; i < scene.bvh.primitives.size(); ++i) {
         int light = scene.bvh.primitives[i].light;
@@ -349,9 +351,12 @@ std::string DeviceScene::featureNames() const {
 
 SceneBytes sceneBytes(const DeviceScene& scene) {
     SceneBytes raw{};
-    raw.nodes = scene.wideNodes.data();
-    raw.nodeCount = scene.wideNodes.size();
+    raw.nodes = scene.wide.nodes.data();
+    raw.nodeCount = scene.wide.nodes.size();
     raw.nodeBytes = sizeof(cbk::BvhNodeWide);
+    raw.packs = scene.wide.packs.data();
+    raw.packCount = scene.wide.packs.size();
+    raw.packBytes = sizeof(cbk::TrianglePack);
     raw.primitives = scene.bvh.primitives.data();
     raw.primitiveCount = scene.bvh.primitives.size();
     raw.primitiveBytes = sizeof(cbk::Primitive);

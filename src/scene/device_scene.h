@@ -20,7 +20,7 @@ struct DeviceScene {
     int channels = 3; // 3 (RGB) or 16 (spectral bins)
     Bvh bvh;          // nodes and primitives in leaf order
     // What the kernels traverse (cb_bvh_wide.h): bvh.nodes collapsed, over bvh.primitives.
-    std::vector<cbk::BvhNodeWide> wideNodes;
+    BvhWide wide;
     std::vector<cbk::Material> materials;
     std::vector<cbk::Light> lights;
     std::vector<float> spectra; // `channels` floats per entry

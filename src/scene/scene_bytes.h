@@ -16,6 +16,8 @@ struct DeviceScene;
 struct SceneBytes {
     const void* nodes;                // BvhNodeWide
     std::size_t nodeCount, nodeBytes; // nodeBytes: sizeof one struct, checked by the reader
+    const void* packs;                // TrianglePack
+    std::size_t packCount, packBytes;
     const void* primitives;
     std::size_t primitiveCount, primitiveBytes;
     const void* materials;
