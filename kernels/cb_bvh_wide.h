@@ -94,9 +94,11 @@ CB_FN int bvhWideOrAll(int8 v) {
     return b.x | b.y;
 }
 CB_FN int bvhWideMinAll(int8 v) {
+    /* Shuffles within one vector to the end: LLVM otherwise finishes the last step with a lane
+     * extract and a scalar compare, a longer chain on the path that picks every next child. */
     int4 a = min(v.lo, v.hi);
-    int2 b = min(a.lo, a.hi);
-    return min(b.x, b.y);
+    int4 b = min(a, a.zwxy);
+    return min(b, b.yxwz).x;
 }
 #endif
 typedef int BvhWideKey;
