@@ -272,17 +272,33 @@ CB_FN bool intersectPrimitive(CB_GLOBAL const Primitive* prim, Ray ray, real tMa
     return intersectPrimitiveSheared(prim, ray, triangleRayOf(ray), tMax, hit);
 }
 
+/* The lanes one by one, from the primitives: the host's intersectPack, and the kernels' for
+ * packs of primitives other than triangles. */
+CB_FN bool intersectPackLanes(CB_GLOBAL const TrianglePack* pack, CB_GLOBAL const Primitive* prims,
+                              Ray ray, TriangleRay sheared, real tMax, bool closestHit, Hit* hit) {
+    bool found = false;
+    real bestT = tMax;
+    for (int k = 0; k < pack->count; ++k) {
+        Hit h;
+        h.t = tMax;
+        if (!intersectPrimitiveSheared(prims + pack->prim[k], ray, sheared, tMax, &h)) continue;
+        if (!closestHit) return true;
+        if (h.t < bestT) {
+            bestT = h.t;
+            h.primitive = pack->prim[k];
+            *hit = h;
+            found = true;
+        }
+    }
+    return found;
+}
+
 /* The lanes of a TrianglePack against `ray` for t in (0, tMax), each lane decided as
  * intersectPrimitive decides its primitive alone, all against the same tMax. Returns whether
  * any lane is hit; *hit: the nearest, the lowest lane among equal t, primitive set. With
  * !closestHit it may return at the first hit found, *hit then unset. `sheared` is
  * triangleRayOf(ray). */
 #ifdef CB_KERNEL_SIDE
-/* The kernels run intersectTriangleSheared's float arithmetic on all four lanes at once (one
- * SSE instruction per step under PoCL). The two cases where that test turns to double
- * precision, a zero edge function and a hit within its own error bound of t = 0, are rare:
- * such lanes are decided one by one by intersectPrimitiveSheared. So are lanes holding spheres,
- * whose three equal vertices give edge functions of exactly zero. */
 /* Whether any lane of a mask (lanes 0 or -1) is set. PoCL's any() tests the sign bits one
  * by one; an OR across the lanes is a few instructions fewer. */
 CB_FN bool cbAnyLane(int4 mask) {
@@ -290,8 +306,13 @@ CB_FN bool cbAnyLane(int4 mask) {
     return (a.x | a.y) != 0;
 }
 
+/* The kernels run intersectTriangleSheared's float arithmetic on all four lanes at once (one
+ * SSE instruction per step under PoCL). The two cases where that test turns to double
+ * precision, a zero edge function and a hit within its own error bound of t = 0, are rare:
+ * such lanes are decided one by one by intersectPrimitiveSheared. */
 CB_FN bool intersectPack(CB_GLOBAL const TrianglePack* pack, CB_GLOBAL const Primitive* prims,
                          Ray ray, TriangleRay sheared, real tMax, bool closestHit, Hit* hit) {
+    if (pack->scalar) return intersectPackLanes(pack, prims, ray, sheared, tMax, closestHit, hit);
     int kx = sheared.kx, ky = sheared.ky, kz = sheared.kz;
     float4 p0x = vload4(0, pack->v[0][kx]) - sheared.ox;
     float4 p0y = vload4(0, pack->v[0][ky]) - sheared.oy;
@@ -349,54 +370,46 @@ CB_FN bool intersectPack(CB_GLOBAL const TrianglePack* pack, CB_GLOBAL const Pri
     int4 exact = candidate & ~nearZero;
     if (!closestHit && cbAnyLane(exact)) return true;
 
-    real t[CB_PACK_LANES], b1[CB_PACK_LANES], b2[CB_PACK_LANES];
-    int slowLane[CB_PACK_LANES];
-    vstore4(select((float4)(INFINITY), tHit, exact), 0, t);
-    vstore4(e1 * invDet, 0, b1);
-    vstore4(e2 * invDet, 0, b2);
-    vstore4(slow, 0, slowLane);
-    for (int k = 0; k < CB_PACK_LANES; ++k) {
-        if (slowLane[k] == 0) continue;
-        Hit h;
-        if (!intersectPrimitiveSheared(prims + pack->prim[k], ray, sheared, tMax, &h)) continue;
-        if (!closestHit) return true;
-        t[k] = h.t;
-        b1[k] = h.b1;
-        b2[k] = h.b2;
-    }
-    int best = -1;
-    real bestT = tMax;
-    for (int k = 0; k < CB_PACK_LANES; ++k)
-        if (t[k] < bestT) {
-            bestT = t[k];
-            best = k;
+    float4 tLane = select((float4)(INFINITY), tHit, exact);
+    float4 b1Lane = e1 * invDet, b2Lane = e2 * invDet;
+    if (cbAnyLane(slow)) {
+        real t[CB_PACK_LANES], b1[CB_PACK_LANES], b2[CB_PACK_LANES];
+        int slowLane[CB_PACK_LANES];
+        vstore4(tLane, 0, t);
+        vstore4(b1Lane, 0, b1);
+        vstore4(b2Lane, 0, b2);
+        vstore4(slow, 0, slowLane);
+        for (int k = 0; k < CB_PACK_LANES; ++k) {
+            Hit h;
+            if (slowLane[k] == 0 ||
+                !intersectPrimitiveSheared(prims + pack->prim[k], ray, sheared, tMax, &h))
+                continue;
+            if (!closestHit) return true;
+            t[k] = h.t;
+            b1[k] = h.b1;
+            b2[k] = h.b2;
         }
-    if (best < 0) return false;
+        tLane = vload4(0, t);
+        b1Lane = vload4(0, b1);
+        b2Lane = vload4(0, b2);
+    }
+    /* The nearest lane, the lowest among equal t. */
+    float4 m = min(tLane, tLane.zwxy);
+    real bestT = min(m, m.yxwz).x;
+    if (!(bestT < tMax)) return false;
+    int4 lanes = select((int4)(CB_PACK_LANES), (int4)(0, 1, 2, 3), tLane == bestT);
+    lanes = min(lanes, lanes.zwxy);
+    int best = min(lanes, lanes.yxwz).x;
     hit->t = bestT;
-    hit->b1 = b1[best];
-    hit->b2 = b2[best];
+    hit->b1 = best == 0 ? b1Lane.x : best == 1 ? b1Lane.y : best == 2 ? b1Lane.z : b1Lane.w;
+    hit->b2 = best == 0 ? b2Lane.x : best == 1 ? b2Lane.y : best == 2 ? b2Lane.z : b2Lane.w;
     hit->primitive = pack->prim[best];
     return true;
 }
 #else
-/* The host: the same decisions lane by lane, from the primitives. */
 CB_FN bool intersectPack(CB_GLOBAL const TrianglePack* pack, CB_GLOBAL const Primitive* prims,
                          Ray ray, TriangleRay sheared, real tMax, bool closestHit, Hit* hit) {
-    bool found = false;
-    real bestT = tMax;
-    for (int k = 0; k < pack->count; ++k) {
-        Hit h;
-        h.t = tMax;
-        if (!intersectPrimitiveSheared(prims + pack->prim[k], ray, sheared, tMax, &h)) continue;
-        if (!closestHit) return true;
-        if (h.t < bestT) {
-            bestT = h.t;
-            h.primitive = pack->prim[k];
-            *hit = h;
-            found = true;
-        }
-    }
-    return found;
+    return intersectPackLanes(pack, prims, ray, sheared, tMax, closestHit, hit);
 }
 #endif
 

@@ -26,18 +26,18 @@ typedef struct Primitive {
     int light; /* index into lights if this primitive is an area emitter, else -1 */
 } Primitive;
 
-/* Up to four primitives of one BVH leaf, the triangles in structure-of-arrays form so that one
- * test covers all of them with the same instructions on every lane (Embree's triangle4).
- * Lanes [0, count) hold primitives prim[lane]; a triangle's vertices are copies of its p0, p1,
- * p2 (v[0], v[1], v[2]); another kind of primitive (a sphere) has three zero vertices and is
- * tested from the primitive (intersectPack). Lanes from `count` on repeat lane 0, so that every
- * lane can be tested without a mask. */
+/* Up to four primitives of one BVH leaf, in lanes [0, count): prim[lane]. A pack holds either
+ * triangles only, their vertices copied in structure-of-arrays form (v[0], v[1], v[2] = p0,
+ * p1, p2) so that one test covers all of them with the same instructions on every lane
+ * (Embree's triangle4), or, with `scalar` set, other primitives (spheres), tested one by one.
+ * Lanes from `count` on repeat lane 0, so that every lane can be tested without a mask. */
 #define CB_PACK_LANES 4
 typedef struct TrianglePack {
     real v[3][3][CB_PACK_LANES]; /* [vertex][axis][lane] */
     int prim[CB_PACK_LANES];
     int count;
-    int pad[3];
+    int scalar;
+    int pad[2];
 } TrianglePack;
 
 CB_STATIC_ASSERT(sizeof(TrianglePack) == 176, "TrianglePack must be 176 bytes");

@@ -73,7 +73,7 @@ struct Options {
     int repeats = 0;                        // 0: 5 (2 in --quick)
     int localSize = 64;                     // 0: let PoCL choose
     int leafSize = 4;
-    int sahBlock = 0; // SAH cost per block of this many primitives; 0: 4 for wide, 1 for binary
+    int sahBlock = 0; // SAH cost per block of this many primitives; 0: kWideSahBlock / 1
     long rays = 0;    // 0: 1M (64k in --quick)
     int threads = 2;
     bool host = false;               // also time the host (g++) build of the traversal
@@ -417,7 +417,7 @@ json runTraverse(const Options& o, ClRuntime& rt) {
         auto incoherent = incoherentRays(box, rayCount, 7u);
         for (const auto& variant : variants) {
             // As the renderers build it for the wide BVH (DeviceScene).
-            const int block = o.sahBlock > 0 ? o.sahBlock : variant == "wide" ? CB_PACK_LANES : 1;
+            const int block = o.sahBlock > 0 ? o.sahBlock : variant == "wide" ? kWideSahBlock : 1;
             Bvh bvh = buildBvh(prims, {o.leafSize, 16, block});
             ClTraversal cl(rt, bvh, variant, o.localSize);
             std::vector<cbk::Hit> primaryHits;
@@ -908,8 +908,8 @@ int run(int argc, char** argv) {
     app.add_option("--local-size", o.localSize, "traversal work-group size (0: PoCL chooses)");
     app.add_option("--leaf-size", o.leafSize, "BVH maximum leaf size");
     app.add_option("--sah-block", o.sahBlock,
-                   "traverse: the SAH prices primitive tests in blocks of this many (0: 4 for "
-                   "the wide BVH, which tests 4 triangles at once, 1 for the binary)");
+                   "traverse: the SAH prices primitive tests in blocks of this many (0: as the "
+                   "renderers build the wide BVH, 1 for the binary)");
     app.add_option("--rays", o.rays, "rays per traversal case");
     app.add_option("--threads", o.threads, "Embree (and --host) threads");
     app.add_flag("--host", o.host, "also time cb_bvh.h compiled for the host");

@@ -11,8 +11,8 @@ namespace cb {
 struct BvhBuildOptions {
     int maxLeafSize = 4; // leaves never hold more; smaller leaves only where SAH prefers them
     int bins = 16;       // SAH bins per axis (Wald 2007)
-    // The SAH prices primitive tests in blocks of this many primitives: CB_PACK_LANES for the
-    // wide BVH, whose leaves test four triangles at once, so that its leaves fill their packs.
+    // The SAH prices primitive tests in blocks of this many primitives (kWideSahBlock for the
+    // wide BVH, whose leaves test up to four triangles at once).
     int primitivesPerTest = 1;
 };
 

@@ -26,27 +26,33 @@ void binaryChildren(const std::vector<cbk::BvhNode>& nodes, uint32_t i, uint32_t
     out[1] = isLeaf(nodes[i + 1]) ? i + 2 : nodes[i + 1].index;
 }
 
-// Appends the packs of primitives [first, first + count) and returns the first one.
+// Appends the packs of primitives [first, first + count): the triangles four to a pack, then
+// any other primitives (spheres) in packs of their own. Returns the number of packs.
 uint32_t packLeaf(const std::vector<cbk::Primitive>& prims, uint32_t first, uint32_t count,
                   std::vector<cbk::TrianglePack>* packs) {
-    const auto start = uint32_t(packs->size());
-    for (uint32_t p = first; p < first + count; p += CB_PACK_LANES) {
-        cbk::TrianglePack pack{};
-        pack.count = int(std::min<uint32_t>(CB_PACK_LANES, first + count - p));
-        for (int k = 0; k < CB_PACK_LANES; ++k) {
-            const uint32_t index = k < pack.count ? p + uint32_t(k) : p; // the rest repeat lane 0
-            const cbk::Primitive& prim = prims[index];
-            pack.prim[k] = int(index);
-            if (prim.kind != CB_PRIM_TRIANGLE) continue; // zero vertices: tested from prim
-            for (int a = 0; a < 3; ++a) {
-                pack.v[0][a][k] = prim.p0[a];
-                pack.v[1][a][k] = prim.p1[a];
-                pack.v[2][a][k] = prim.p2[a];
+    std::vector<uint32_t> triangles, others;
+    for (uint32_t p = first; p < first + count; ++p)
+        (prims[p].kind == CB_PRIM_TRIANGLE ? triangles : others).push_back(p);
+    const auto start = packs->size();
+    for (const auto* group : {&triangles, &others})
+        for (size_t i = 0; i < group->size(); i += CB_PACK_LANES) {
+            cbk::TrianglePack pack{};
+            pack.count = int(std::min<size_t>(CB_PACK_LANES, group->size() - i));
+            pack.scalar = group == &others;
+            for (int k = 0; k < CB_PACK_LANES; ++k) {
+                // Lanes past the count repeat lane 0.
+                const uint32_t index = (*group)[i + size_t(k < pack.count ? k : 0)];
+                pack.prim[k] = int(index);
+                if (pack.scalar) continue;
+                for (int a = 0; a < 3; ++a) {
+                    pack.v[0][a][k] = prims[index].p0[a];
+                    pack.v[1][a][k] = prims[index].p1[a];
+                    pack.v[2][a][k] = prims[index].p2[a];
+                }
             }
+            packs->push_back(pack);
         }
-        packs->push_back(pack);
-    }
-    return start;
+    return uint32_t(packs->size() - start);
 }
 
 } // namespace
@@ -109,12 +115,12 @@ BvhWide collapseBvhWide(const Bvh& bvh) {
                 node.hi[a][k] = b.boundsMax[a];
             }
             if (isLeaf(b)) {
-                const uint32_t count = b.count & ~CB_BVH_LEAF;
-                const uint32_t packCount = (count + CB_PACK_LANES - 1) / CB_PACK_LANES;
+                node.child[k] = uint32_t(wide.packs.size());
+                const uint32_t packCount =
+                    packLeaf(bvh.primitives, b.index, b.count & ~CB_BVH_LEAF, &wide.packs);
                 if (packCount > 255)
                     throw std::length_error("wide BVH: leaves hold at most 255 packs of " +
                                             std::to_string(CB_PACK_LANES) + " primitives");
-                node.child[k] = packLeaf(bvh.primitives, b.index, count, &wide.packs);
                 node.counts[k / 4] |= packCount << (8 * (k % 4));
             } else {
                 node.child[k] = uint32_t(out.size());

@@ -313,7 +313,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
     scene.lights.back().cdf = 1.0f; // rounding must not leave a gap at the top
 
     BvhBuildOptions bvhOptions;
-    bvhOptions.primitivesPerTest = CB_PACK_LANES; // the wide BVH tests its leaves in packs
+    bvhOptions.primitivesPerTest = kWideSahBlock;
     scene.bvh = buildBvh(std::move(primitives), bvhOptions);
     scene.wide = collapseBvhWide(scene.bvh);
     // After the BVH reorders primitives, point each area light at its primitive's new slot.
