@@ -272,8 +272,7 @@ CB_FN bool intersectPrimitive(CB_GLOBAL const Primitive* prim, Ray ray, real tMa
     return intersectPrimitiveSheared(prim, ray, triangleRayOf(ray), tMax, hit);
 }
 
-/* The lanes one by one, from the primitives: the host's intersectPack, and the kernels' for
- * packs of primitives other than triangles. */
+/* The lanes one by one, from the primitives: the host's intersectPack. */
 CB_FN bool intersectPackLanes(CB_GLOBAL const TrianglePack* pack, CB_GLOBAL const Primitive* prims,
                               Ray ray, TriangleRay sheared, real tMax, bool closestHit, Hit* hit) {
     bool found = false;
@@ -306,13 +305,18 @@ CB_FN bool cbAnyLane(int4 mask) {
     return (a.x | a.y) != 0;
 }
 
-/* The kernels run intersectTriangleSheared's float arithmetic on all four lanes at once (one
- * SSE instruction per step under PoCL). The two cases where that test turns to double
- * precision, a zero edge function and a hit within its own error bound of t = 0, are rare:
- * such lanes are decided one by one by intersectPrimitiveSheared. */
-CB_FN bool intersectPack(CB_GLOBAL const TrianglePack* pack, CB_GLOBAL const Primitive* prims,
-                         Ray ray, TriangleRay sheared, real tMax, bool closestHit, Hit* hit) {
-    if (pack->scalar) return intersectPackLanes(pack, prims, ray, sheared, tMax, closestHit, hit);
+#define CB_PACK_MISS 0
+#define CB_PACK_HIT 1
+#define CB_PACK_PICK 2
+
+/* The SIMD part of intersectPack on a triangle pack: intersectTriangleSheared's float
+ * arithmetic on all four lanes at once (one SSE instruction per step under PoCL). The two
+ * cases where that test turns to double precision, a zero edge function and a hit within its
+ * own error bound of t = 0, are rare: such lanes come back in *slow, to be decided one by one.
+ * CB_PACK_MISS: no lane can be hit; CB_PACK_HIT: an any-hit query is answered; CB_PACK_PICK:
+ * *t (+inf where no hit), *b1, *b2 per lane, and *slow, for intersectPack to choose from. */
+CB_FN int intersectPackSimd(CB_GLOBAL const TrianglePack* pack, TriangleRay sheared, real tMax,
+                            bool closestHit, float4* t, float4* b1, float4* b2, int4* slow) {
     int kx = sheared.kx, ky = sheared.ky, kz = sheared.kz;
     float4 p0x = vload4(0, pack->v[0][kx]) - sheared.ox;
     float4 p0y = vload4(0, pack->v[0][ky]) - sheared.oy;
@@ -339,9 +343,9 @@ CB_FN bool intersectPack(CB_GLOBAL const TrianglePack* pack, CB_GLOBAL const Pri
      * signs is outside either way. The cheap test goes first, as most lanes are misses. */
     float4 eMin = min(e0, min(e1, e2)), eMax = max(e0, max(e1, e2));
     int4 candidate = (eMin >= 0.0f) | (eMax <= 0.0f);
-    if (!cbAnyLane(candidate)) return false;
-    int4 slow = candidate & ((e0 == 0.0f) | (e1 == 0.0f) | (e2 == 0.0f));
-    candidate &= ~slow;
+    if (!cbAnyLane(candidate)) return CB_PACK_MISS;
+    *slow = candidate & ((e0 == 0.0f) | (e1 == 0.0f) | (e2 == 0.0f));
+    candidate &= ~*slow;
 
     float4 det = e0 + e1 + e2;
     p0z *= sheared.sz;
@@ -354,7 +358,7 @@ CB_FN bool intersectPack(CB_GLOBAL const TrianglePack* pack, CB_GLOBAL const Pri
     float4 invDet = 1.0f / det;
     float4 tHit = tScaled * invDet;
     candidate &= tHit < tMax;
-    if (!cbAnyLane(candidate | slow)) return false;
+    if (!cbAnyLane(candidate | *slow)) return CB_PACK_MISS;
     float4 maxZt = fmax(fabs(p0z), fmax(fabs(p1z), fabs(p2z)));
     float4 deltaZ = cbGamma(3) * maxZt;
     float4 maxXt = fmax(fabs(p0x), fmax(fabs(p1x), fabs(p2x)));
@@ -366,43 +370,54 @@ CB_FN bool intersectPack(CB_GLOBAL const TrianglePack* pack, CB_GLOBAL const Pri
     float4 deltaT =
         3.0f * (cbGamma(3) * maxE * maxZt + deltaE * maxZt + deltaZ * maxE) * fabs(invDet);
     int4 nearZero = tHit <= deltaT;
-    slow |= candidate & nearZero;
+    *slow |= candidate & nearZero;
     int4 exact = candidate & ~nearZero;
-    if (!closestHit && cbAnyLane(exact)) return true;
+    if (!closestHit && cbAnyLane(exact)) return CB_PACK_HIT;
+    *t = select((float4)(INFINITY), tHit, exact);
+    *b1 = e1 * invDet;
+    *b2 = e2 * invDet;
+    return CB_PACK_PICK;
+}
 
-    float4 tLane = select((float4)(INFINITY), tHit, exact);
-    float4 b1Lane = e1 * invDet, b2Lane = e2 * invDet;
-    if (cbAnyLane(slow)) {
-        real t[CB_PACK_LANES], b1[CB_PACK_LANES], b2[CB_PACK_LANES];
-        int slowLane[CB_PACK_LANES];
-        vstore4(tLane, 0, t);
-        vstore4(b1Lane, 0, b1);
-        vstore4(b2Lane, 0, b2);
-        vstore4(slow, 0, slowLane);
-        for (int k = 0; k < CB_PACK_LANES; ++k) {
-            Hit h;
-            if (slowLane[k] == 0 ||
-                !intersectPrimitiveSheared(prims + pack->prim[k], ray, sheared, tMax, &h))
-                continue;
-            if (!closestHit) return true;
-            t[k] = h.t;
-            b1[k] = h.b1;
-            b2[k] = h.b2;
-        }
-        tLane = vload4(0, t);
-        b1Lane = vload4(0, b1);
-        b2Lane = vload4(0, b2);
+/* Triangle packs through intersectPackSimd, scalar packs (and slow lanes) lane by lane with
+ * intersectPrimitiveSheared: one inlined copy of the scalar test, not two. */
+CB_FN bool intersectPack(CB_GLOBAL const TrianglePack* pack, CB_GLOBAL const Primitive* prims,
+                         Ray ray, TriangleRay sheared, real tMax, bool closestHit, Hit* hit) {
+    float4 tLane = (float4)(INFINITY), b1Lane = (float4)(0.0f), b2Lane = (float4)(0.0f);
+    int4 slow;
+    if (pack->scalar) {
+        slow = (int4)(0, 1, 2, 3) < (int4)(pack->count);
+    } else {
+        int outcome =
+            intersectPackSimd(pack, sheared, tMax, closestHit, &tLane, &b1Lane, &b2Lane, &slow);
+        if (outcome != CB_PACK_PICK) return outcome == CB_PACK_HIT;
     }
-    /* The nearest lane, the lowest among equal t. */
-    float4 m = min(tLane, tLane.zwxy);
-    real bestT = min(m, m.yxwz).x;
-    if (!(bestT < tMax)) return false;
-    int4 lanes = select((int4)(CB_PACK_LANES), (int4)(0, 1, 2, 3), tLane == bestT);
-    lanes = min(lanes, lanes.zwxy);
-    int best = min(lanes, lanes.yxwz).x;
+    real t[CB_PACK_LANES], b1[CB_PACK_LANES], b2[CB_PACK_LANES];
+    int slowLane[CB_PACK_LANES];
+    vstore4(tLane, 0, t);
+    vstore4(b1Lane, 0, b1);
+    vstore4(b2Lane, 0, b2);
+    vstore4(slow, 0, slowLane);
+    for (int k = 0; k < CB_PACK_LANES; ++k) {
+        if (slowLane[k] == 0) continue;
+        Hit h;
+        if (!intersectPrimitiveSheared(prims + pack->prim[k], ray, sheared, tMax, &h)) continue;
+        if (!closestHit) return true;
+        t[k] = h.t;
+        b1[k] = h.b1;
+        b2[k] = h.b2;
+    }
+    int best = -1;
+    real bestT = tMax;
+    for (int k = 0; k < CB_PACK_LANES; ++k)
+        if (t[k] < bestT) {
+            bestT = t[k];
+            best = k;
+        }
+    if (best < 0) return false;
     hit->t = bestT;
-    hit->b1 = best == 0 ? b1Lane.x : best == 1 ? b1Lane.y : best == 2 ? b1Lane.z : b1Lane.w;
-    hit->b2 = best == 0 ? b2Lane.x : best == 1 ? b2Lane.y : best == 2 ? b2Lane.z : b2Lane.w;
+    hit->b1 = b1[best];
+    hit->b2 = b2[best];
     hit->primitive = pack->prim[best];
     return true;
 }
