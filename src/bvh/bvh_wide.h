@@ -10,11 +10,10 @@
 namespace cb {
 
 // The SAH block (BvhBuildOptions::primitivesPerTest) of the BVH the renderers collapse to the
-// wide BVH. 4, one pack per leaf test, lets leaves fill their packs and is 5-10% faster on the
-// isolated Stanford meshes; but it also groups large triangles whose union box is the whole
-// room (walls, floors), so that most rays test all of them. 2 executes fewer traversal
-// instructions in the scenes (docs/performance.md): Cornell box PT 29.3 M -> 21.2 M, dragon
-// scene BDPT 88.4 M -> 80.5 M, against 4.
+// wide BVH. 4, one pack per leaf test, lets leaves fill their packs and is a few per cent
+// faster on the isolated Stanford meshes; but it also groups large triangles whose union box
+// is the whole room (walls, floors), so that most rays test all of them. 2 executes fewer
+// traversal instructions in the scenes (docs/performance.md, "Issue 9 status").
 constexpr int kWideSahBlock = 2;
 
 struct BvhWide {
