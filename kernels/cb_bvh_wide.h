@@ -228,6 +228,7 @@ CB_FN int bvhWideNext(CB_GLOBAL const BvhNodeWide* node, BvhWideReal tn, BvhWide
                       BvhWideInt keys, real closest, BvhWideKey after, BvhWideKey* key, int* cand) {
     int best = -1;
     *cand = 0;
+    *key = after; /* read only when a lane is returned; set so g++ can see that */
     for (int k = 0; k < CBW; ++k) {
         real far = tf.v[k] < closest ? tf.v[k] : closest;
         bool hit = node->child[k] != CB_BVHW_NONE && tn.v[k] <= far * (1.0f + 2.0f * cbGamma(3));
