@@ -35,9 +35,8 @@ CB_BEGIN_NAMESPACE
  * child[lane]: the child node for an interior child, the first TrianglePack for a leaf,
  * CB_BVHW_NONE for an empty lane (its box is empty as well). counts: byte `lane` is the
  * leaf's number of packs (up to four primitives each), 0 for an interior child or an empty
- * lane. parent: the parent node,
- * CB_BVHW_NONE for the root (node 0); lane: this node's lane in its parent, so that coming
- * back up needs no search. */
+ * lane. parent: the parent node, CB_BVHW_NONE for the root (node 0); lane: this node's lane
+ * in its parent, so that coming back up needs no search. */
 typedef struct BvhNodeWide {
     real lo[3][CBW];
     real hi[3][CBW];
@@ -251,7 +250,7 @@ CB_FN bool bvhWideMore(int cand, BvhWideInt keys, BvhWideKey key) {
 #endif
 
 /* The kernels get one copy of the traversal for closest hits and one for any hits, each with
- * `anyHit` a constant: left to itself, LLVM kept a single out-of-line copy that tested the
+ * `closestHit` a constant: left to itself, LLVM kept a single out-of-line copy that tested the
  * flag at run time, for the many call sites of the path code. */
 #ifdef CB_KERNEL_SIDE
 #define CB_BVHW_SPECIALISE __attribute__((always_inline))

@@ -13,8 +13,8 @@
  * fma(a, b, -c * d), which rounds the two products differently, so the edge function of an
  * edge would no longer be the exact negation of the same edge seen from the neighbouring
  * triangle, and rays through shared edges leak (2 of 37k rays through the Buddha's vertices and
- * edges did, in PoCL's AVX-512 code: test_bvh.cpp). The host build has no FMA contraction on
- * x86-64 without -mfma. Restored at the end of the file. */
+ * edges did, in PoCL's AVX-512 code: test_bvh.cpp). The host compiles with -ffp-contract=off
+ * (CMakeLists.txt) for the same reason. Restored at the end of the file. */
 #ifdef CB_KERNEL_SIDE
 #pragma OPENCL FP_CONTRACT OFF
 #endif
@@ -87,6 +87,34 @@ CB_FN bool cbTriangleHitBeyondErrorDouble(Ray ray, Vec3 p0, Vec3 p1, Vec3 p2, re
 }
 #endif
 
+/* The parts of the watertight test that one triangle (real) and four at once (float4, the
+ * kernels' intersectPackSimd) must compute with the same arithmetic, written once.
+ * cbEdgeFunction: the edge function of the sheared, translated edge a -> b; with nothing fused
+ * (FP_CONTRACT OFF above) it is exactly antisymmetric, so neighbouring triangles see a shared
+ * edge with opposite signs. cbTriangleTError: pbrt's bound on the rounding error of the hit's
+ * t (3rd ed. sec. 3.9.6), from the sheared vertices (z already scaled), the edge functions and
+ * 1 / det. */
+#define CB_DEFINE_TRIANGLE_ARITHMETIC(T, SUFFIX)                                                   \
+    CB_FN T cbEdgeFunction##SUFFIX(T ax, T ay, T bx, T by) {                                       \
+        return ax * by - ay * bx;                                                                  \
+    }                                                                                              \
+    CB_FN T cbTriangleTError##SUFFIX(T x0, T x1, T x2, T y0, T y1, T y2, T z0, T z1, T z2, T e0,   \
+                                     T e1, T e2, T invDet) {                                       \
+        T maxZt = fmax(fabs(z0), fmax(fabs(z1), fabs(z2)));                                        \
+        T deltaZ = cbGamma(3) * maxZt;                                                             \
+        T maxXt = fmax(fabs(x0), fmax(fabs(x1), fabs(x2)));                                        \
+        T maxYt = fmax(fabs(y0), fmax(fabs(y1), fabs(y2)));                                        \
+        T deltaX = cbGamma(5) * (maxXt + maxZt);                                                   \
+        T deltaY = cbGamma(5) * (maxYt + maxZt);                                                   \
+        T deltaE = 2.0f * (cbGamma(2) * maxXt * maxYt + deltaY * maxXt + deltaX * maxYt);          \
+        T maxE = fmax(fabs(e0), fmax(fabs(e1), fabs(e2)));                                         \
+        return 3.0f * (cbGamma(3) * maxE * maxZt + deltaE * maxZt + deltaZ * maxE) * fabs(invDet); \
+    }
+CB_DEFINE_TRIANGLE_ARITHMETIC(real, )
+#ifdef CB_KERNEL_SIDE
+CB_DEFINE_TRIANGLE_ARITHMETIC(float4, 4)
+#endif
+
 /* What the watertight test needs of the ray alone (Woop, Benthin, Wald 2013, sec. 3): the axis
  * permutation that makes the largest direction component z, the shear that makes the ray run
  * along +z, and the origin in the permuted axes. The traversal computes it once per ray. */
@@ -121,8 +149,8 @@ CB_FN TriangleRay triangleRayOf(Ray ray) {
  * ray-aligned sheared frame where they are exact up to one rounding, and a zero edge function
  * is re-evaluated in double precision so that ties are broken consistently. Returns the hit
  * only for t in (0, tMax); b1, b2 are the barycentric weights of p1 and p2. `sheared` is
- * triangleRayOf(ray). intersectPack (below) is the same test on four triangles at once, and
- * must stay the same arithmetic. */
+ * triangleRayOf(ray). intersectPackSimd (below) is the same test on four triangles at once:
+ * the edge functions and the error bound are the shared CB_DEFINE_TRIANGLE_ARITHMETIC. */
 CB_FN bool intersectTriangleSheared(Ray ray, TriangleRay sheared, real tMax, Vec3 p0, Vec3 p1,
                                     Vec3 p2, real* t, real* b1, real* b2) {
     int kx = sheared.kx, ky = sheared.ky, kz = sheared.kz;
@@ -139,9 +167,9 @@ CB_FN bool intersectTriangleSheared(Ray ray, TriangleRay sheared, real tMax, Vec
     p2t.x += sx * p2t.z;
     p2t.y += sy * p2t.z;
 
-    real e0 = p1t.x * p2t.y - p1t.y * p2t.x;
-    real e1 = p2t.x * p0t.y - p2t.y * p0t.x;
-    real e2 = p0t.x * p1t.y - p0t.y * p1t.x;
+    real e0 = cbEdgeFunction(p1t.x, p1t.y, p2t.x, p2t.y);
+    real e1 = cbEdgeFunction(p2t.x, p2t.y, p0t.x, p0t.y);
+    real e2 = cbEdgeFunction(p0t.x, p0t.y, p1t.x, p1t.y);
 #ifdef CB_HAS_DOUBLE
     if (e0 == 0.0f || e1 == 0.0f || e2 == 0.0f) {
         e0 = (real)((double)p1t.x * (double)p2t.y - (double)p1t.y * (double)p2t.x);
@@ -170,16 +198,8 @@ CB_FN bool intersectTriangleSheared(Ray ray, TriangleRay sheared, real tMax, Vec
     /* Conservative t > 0 (pbrt 3rd ed. sec. 3.9.6): reject hits whose t is within its own
      * rounding-error bound of zero, which is what keeps spawned rays from re-hitting their
      * origin triangle. */
-    real maxZt = vmaxComponent(vabs(vec3(p0t.z, p1t.z, p2t.z)));
-    real deltaZ = cbGamma(3) * maxZt;
-    real maxXt = vmaxComponent(vabs(vec3(p0t.x, p1t.x, p2t.x)));
-    real maxYt = vmaxComponent(vabs(vec3(p0t.y, p1t.y, p2t.y)));
-    real deltaX = cbGamma(5) * (maxXt + maxZt);
-    real deltaY = cbGamma(5) * (maxYt + maxZt);
-    real deltaE = 2.0f * (cbGamma(2) * maxXt * maxYt + deltaY * maxXt + deltaX * maxYt);
-    real maxE = vmaxComponent(vabs(vec3(e0, e1, e2)));
-    real deltaT =
-        3.0f * (cbGamma(3) * maxE * maxZt + deltaE * maxZt + deltaZ * maxE) * fabs(invDet);
+    real deltaT = cbTriangleTError(p0t.x, p1t.x, p2t.x, p0t.y, p1t.y, p2t.y, p0t.z, p1t.z, p2t.z,
+                                   e0, e1, e2, invDet);
     if (tHit <= deltaT) {
 #ifdef CB_HAS_DOUBLE
         /* The real bound grows with the triangle's size relative to the ray origin, so a hit a
@@ -272,26 +292,6 @@ CB_FN bool intersectPrimitive(CB_GLOBAL const Primitive* prim, Ray ray, real tMa
     return intersectPrimitiveSheared(prim, ray, triangleRayOf(ray), tMax, hit);
 }
 
-/* The lanes one by one, from the primitives: the host's intersectPack. */
-CB_FN bool intersectPackLanes(CB_GLOBAL const TrianglePack* pack, CB_GLOBAL const Primitive* prims,
-                              Ray ray, TriangleRay sheared, real tMax, bool closestHit, Hit* hit) {
-    bool found = false;
-    real bestT = tMax;
-    for (int k = 0; k < pack->count; ++k) {
-        Hit h;
-        h.t = tMax;
-        if (!intersectPrimitiveSheared(prims + pack->prim[k], ray, sheared, tMax, &h)) continue;
-        if (!closestHit) return true;
-        if (h.t < bestT) {
-            bestT = h.t;
-            h.primitive = pack->prim[k];
-            *hit = h;
-            found = true;
-        }
-    }
-    return found;
-}
-
 /* The lanes of a TrianglePack against `ray` for t in (0, tMax), each lane decided as
  * intersectPrimitive decides its primitive alone, all against the same tMax. Returns whether
  * any lane is hit; *hit: the nearest, the lowest lane among equal t, primitive set. With
@@ -333,9 +333,9 @@ CB_FN int intersectPackSimd(CB_GLOBAL const TrianglePack* pack, TriangleRay shea
     p1y += sheared.sy * p1z;
     p2x += sheared.sx * p2z;
     p2y += sheared.sy * p2z;
-    float4 e0 = p1x * p2y - p1y * p2x;
-    float4 e1 = p2x * p0y - p2y * p0x;
-    float4 e2 = p0x * p1y - p0y * p1x;
+    float4 e0 = cbEdgeFunction4(p1x, p1y, p2x, p2y);
+    float4 e1 = cbEdgeFunction4(p2x, p2y, p0x, p0y);
+    float4 e2 = cbEdgeFunction4(p0x, p0y, p1x, p1y);
 
     /* The sign of a nonzero float edge function is exact (the two products round
      * monotonically), so intersectTriangleSheared's double-precision re-evaluation of a zero
@@ -359,16 +359,8 @@ CB_FN int intersectPackSimd(CB_GLOBAL const TrianglePack* pack, TriangleRay shea
     float4 tHit = tScaled * invDet;
     candidate &= tHit < tMax;
     if (!cbAnyLane(candidate | *slow)) return CB_PACK_MISS;
-    float4 maxZt = fmax(fabs(p0z), fmax(fabs(p1z), fabs(p2z)));
-    float4 deltaZ = cbGamma(3) * maxZt;
-    float4 maxXt = fmax(fabs(p0x), fmax(fabs(p1x), fabs(p2x)));
-    float4 maxYt = fmax(fabs(p0y), fmax(fabs(p1y), fabs(p2y)));
-    float4 deltaX = cbGamma(5) * (maxXt + maxZt);
-    float4 deltaY = cbGamma(5) * (maxYt + maxZt);
-    float4 deltaE = 2.0f * (cbGamma(2) * maxXt * maxYt + deltaY * maxXt + deltaX * maxYt);
-    float4 maxE = fmax(fabs(e0), fmax(fabs(e1), fabs(e2)));
     float4 deltaT =
-        3.0f * (cbGamma(3) * maxE * maxZt + deltaE * maxZt + deltaZ * maxE) * fabs(invDet);
+        cbTriangleTError4(p0x, p1x, p2x, p0y, p1y, p2y, p0z, p1z, p2z, e0, e1, e2, invDet);
     int4 nearZero = tHit <= deltaT;
     *slow |= candidate & nearZero;
     int4 exact = candidate & ~nearZero;
@@ -422,9 +414,24 @@ CB_FN bool intersectPack(CB_GLOBAL const TrianglePack* pack, CB_GLOBAL const Pri
     return true;
 }
 #else
+/* The host: the lanes one by one, from the primitives. */
 CB_FN bool intersectPack(CB_GLOBAL const TrianglePack* pack, CB_GLOBAL const Primitive* prims,
                          Ray ray, TriangleRay sheared, real tMax, bool closestHit, Hit* hit) {
-    return intersectPackLanes(pack, prims, ray, sheared, tMax, closestHit, hit);
+    bool found = false;
+    real bestT = tMax;
+    for (int k = 0; k < pack->count; ++k) {
+        Hit h;
+        h.t = tMax;
+        if (!intersectPrimitiveSheared(prims + pack->prim[k], ray, sheared, tMax, &h)) continue;
+        if (!closestHit) return true;
+        if (h.t < bestT) {
+            bestT = h.t;
+            h.primitive = pack->prim[k];
+            *hit = h;
+            found = true;
+        }
+    }
+    return found;
 }
 #endif
 

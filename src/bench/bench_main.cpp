@@ -12,6 +12,7 @@
 #include "bvh/bvh_wide.h"
 #include "cl/cl_runtime.h"
 #include "integrators/integrator.h"
+#include "integrators/scene_buffers.h"
 #include "scene/device_scene.h"
 #include "scene/scene_desc.h"
 
@@ -209,22 +210,14 @@ class ClTraversal {
         const bool wide = variant == "wide";
         closest_ = cl::Kernel(program_, wide ? "benchClosestWide" : "benchClosest");
         occluded_ = cl::Kernel(program_, wide ? "benchOccludedWide" : "benchOccluded");
-        auto& ctx = rt.context();
         if (wide) {
             wide_ = collapseBvhWide(bvh);
-            nodes_ = cl::Buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
-                                wide_.nodes.size() * sizeof(cbk::BvhNodeWide), wide_.nodes.data());
-            packs_ = cl::Buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
-                                std::max<size_t>(1, wide_.packs.size()) * sizeof(cbk::TrianglePack),
-                                wide_.packs.empty() ? &emptyPack_ : wide_.packs.data());
+            nodes_ = uploadArray(rt, "bench wide BVH nodes", wide_.nodes);
+            packs_ = uploadArray(rt, "bench BVH leaf triangles", wide_.packs);
         } else {
-            nodes_ = cl::Buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
-                                bvh.nodes.size() * sizeof(cbk::BvhNode),
-                                const_cast<cbk::BvhNode*>(bvh.nodes.data()));
+            nodes_ = uploadArray(rt, "bench binary BVH nodes", bvh.nodes);
         }
-        prims_ = cl::Buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
-                            std::max<size_t>(1, bvh.primitives.size()) * sizeof(cbk::Primitive),
-                            const_cast<cbk::Primitive*>(bvh.primitives.data()));
+        prims_ = uploadArray(rt, "bench primitives", bvh.primitives);
     }
 
     // Returns the median seconds of `repeats` launches; hits from the last one.
@@ -303,7 +296,6 @@ class ClTraversal {
     cl::Kernel closest_, occluded_;
     cl::Buffer nodes_, packs_, prims_;
     BvhWide wide_; // empty for the binary BVH
-    cbk::TrianglePack emptyPack_{};
 
   public:
     double lastCpu = 0.0; // median CPU seconds of the last closest() or occluded()

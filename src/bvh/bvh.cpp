@@ -56,6 +56,11 @@ struct Split {
     double cost = std::numeric_limits<double>::infinity();
 };
 
+// Primitive tests of a leaf of `count` primitives, tested `perTest` at a time.
+double testBlocks(int count, int perTest) {
+    return double((count + perTest - 1) / perTest);
+}
+
 int binOf(float c, float lo, float scale, int bins) {
     int b = int((c - lo) * scale);
     return std::clamp(b, 0, bins - 1);
@@ -65,9 +70,7 @@ int binOf(float c, float lo, float scale, int bins) {
 // sweeps evaluate the bins-1 candidate planes per axis.
 Split findSplit(const std::vector<PrimRef>& refs, int begin, int end, const Box& centroids,
                 int bins, int primitivesPerTest) {
-    auto tests = [primitivesPerTest](int count) {
-        return double((count + primitivesPerTest - 1) / primitivesPerTest);
-    };
+    auto tests = [primitivesPerTest](int count) { return testBlocks(count, primitivesPerTest); };
     Split best;
     std::vector<Box> binBox(bins);
     std::vector<int> binCount(bins);
@@ -186,7 +189,7 @@ Bvh buildBvh(std::vector<cbk::Primitive> primitives, const BvhBuildOptions& opti
         int splitAxis = 0;
         if (count > 1) {
             Split split = findSplit(refs, task.begin, task.end, centroids, bins, perTest);
-            const double leafCost = kIntersectionCost * ((count + perTest - 1) / perTest);
+            const double leafCost = kIntersectionCost * testBlocks(count, perTest);
             const double splitCost =
                 kTraversalCost + kIntersectionCost * split.cost / bounds.halfArea();
             const bool preferLeaf = split.axis < 0 || leafCost <= splitCost;

@@ -19,8 +19,9 @@ constexpr int kWideSahBlock = 2;
 struct BvhWide {
     // Root at 0; the children of a node are allocated together, after it.
     std::vector<cbk::BvhNodeWide> nodes;
-    // The leaves' primitives, four to a pack, leaf by leaf: a leaf of n primitives has
-    // ceil(n / 4) consecutive packs. The packs name primitives by their index in bvh.primitives.
+    // The leaves' primitives, leaf by leaf in consecutive packs: its triangles four to a pack,
+    // then its other primitives (spheres) four to a pack. Packs name primitives by their index
+    // in bvh.primitives.
     std::vector<cbk::TrianglePack> packs;
 };
 
