@@ -371,45 +371,55 @@ CB_FN int intersectPackSimd(CB_GLOBAL const TrianglePack* pack, TriangleRay shea
     return CB_PACK_PICK;
 }
 
+/* The value of the one lane of v that `lane` (lanes 0 or -1) selects, exactly (bits ORed with
+ * zeros). */
+CB_FN float cbPackLaneValue(float4 v, int4 lane) {
+    int4 bits = as_int4(v) & lane;
+    int2 a = bits.lo | bits.hi;
+    return as_float(a.x | a.y);
+}
+
 /* Triangle packs through intersectPackSimd, scalar packs (and slow lanes) lane by lane with
- * intersectPrimitiveSheared: one inlined copy of the scalar test, not two. */
+ * intersectPrimitiveSheared: one inlined copy of the scalar test, not two. The nearest lane
+ * is picked with vector minimums and selects rather than through private arrays: PoCL gives
+ * each private array one copy per work-item of the work-group, and LLVM set up their
+ * addresses once per ray, though most primary rays never reach a pack (primary rays 2-6%
+ * faster on the bench, docs/performance.md). */
 CB_FN bool intersectPack(CB_GLOBAL const TrianglePack* pack, CB_GLOBAL const Primitive* prims,
                          Ray ray, TriangleRay sheared, real tMax, bool closestHit, Hit* hit) {
+    const int4 lanes = (int4)(0, 1, 2, 3);
     float4 tLane = (float4)(INFINITY), b1Lane = (float4)(0.0f), b2Lane = (float4)(0.0f);
     int4 slow;
     if (pack->scalar) {
-        slow = (int4)(0, 1, 2, 3) < (int4)(pack->count);
+        slow = lanes < (int4)(pack->count);
     } else {
         int outcome =
             intersectPackSimd(pack, sheared, tMax, closestHit, &tLane, &b1Lane, &b2Lane, &slow);
         if (outcome != CB_PACK_PICK) return outcome == CB_PACK_HIT;
     }
-    real t[CB_PACK_LANES], b1[CB_PACK_LANES], b2[CB_PACK_LANES];
-    int slowLane[CB_PACK_LANES];
-    vstore4(tLane, 0, t);
-    vstore4(b1Lane, 0, b1);
-    vstore4(b2Lane, 0, b2);
-    vstore4(slow, 0, slowLane);
-    for (int k = 0; k < CB_PACK_LANES; ++k) {
-        if (slowLane[k] == 0) continue;
-        Hit h;
-        if (!intersectPrimitiveSheared(prims + pack->prim[k], ray, sheared, tMax, &h)) continue;
-        if (!closestHit) return true;
-        t[k] = h.t;
-        b1[k] = h.b1;
-        b2[k] = h.b2;
-    }
-    int best = -1;
-    real bestT = tMax;
-    for (int k = 0; k < CB_PACK_LANES; ++k)
-        if (t[k] < bestT) {
-            bestT = t[k];
-            best = k;
+    if (cbAnyLane(slow)) {
+        for (int k = 0; k < CB_PACK_LANES; ++k) {
+            int4 at = lanes == (int4)(k);
+            if (!cbAnyLane(slow & at)) continue;
+            Hit h;
+            if (!intersectPrimitiveSheared(prims + pack->prim[k], ray, sheared, tMax, &h)) continue;
+            if (!closestHit) return true;
+            tLane = select(tLane, (float4)(h.t), at);
+            b1Lane = select(b1Lane, (float4)(h.b1), at);
+            b2Lane = select(b2Lane, (float4)(h.b2), at);
         }
-    if (best < 0) return false;
+    }
+    /* The nearest lane, the lowest among equal t (no lane is NaN: misses are +inf). */
+    float2 m2 = min(tLane.lo, tLane.hi);
+    real bestT = min(m2.x, m2.y);
+    if (!(bestT < tMax)) return false;
+    int4 first = select((int4)(CB_PACK_LANES), lanes, tLane == (float4)(bestT));
+    int2 f2 = min(first.lo, first.hi);
+    int best = min(f2.x, f2.y);
+    int4 at = lanes == (int4)(best);
     hit->t = bestT;
-    hit->b1 = b1[best];
-    hit->b2 = b2[best];
+    hit->b1 = cbPackLaneValue(b1Lane, at);
+    hit->b2 = cbPackLaneValue(b2Lane, at);
     hit->primitive = pack->prim[best];
     return true;
 }
