@@ -40,7 +40,7 @@ __kernel void renderBdpt(CB_SCENE_KERNEL_PARAMS,
     SampleStream eyeStream = sampleStreamStart(seed, estimate, pixel);
     float rasterX, rasterY;
     cameraJitteredRaster(eyeStream, x, y, &rasterX, &rasterY);
-    int nEye = bdptEyeSubpath(&scene, &camera, rasterX, rasterY, eyeStream,
+    int nEye = bdptEyeSubpath(&scene, &camera, rasterX, rasterY, true, eyeStream,
                               settings.eyeVertices, eye, &rays);
 
     Spectrum radiance = specZero();

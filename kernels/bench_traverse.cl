@@ -24,15 +24,20 @@ __kernel void benchOccluded(__global const struct BvhNode* nodes,
     occluded[i] = bvhOccluded(nodes, primitives, rays[i], tMax[i]) ? 1 : 0;
 }
 
-/* The wide BVH (cb_bvh_wide.h, the renderers' traversal) on the same rays. */
+/* The wide BVH (cb_bvh_wide.h, the renderers' traversal) on the same rays. `coherent`: the
+ * rays are primary rays in pixel order, traced as the renderers trace camera rays. */
 __kernel void benchClosestWide(__global const struct BvhNodeWide* nodes,
                                __global const TrianglePack* packs,
                                __global const Primitive* primitives, __global const Ray* rays,
-                               uint count, __global Hit* hits) {
+                               uint count, uint coherent, __global Hit* hits) {
     uint i = (uint)get_global_id(0);
     if (i >= count) return;
     Hit h;
-    bvhWideTraverse(nodes, packs, primitives, rays[i], CB_INFINITY, true, &h);
+    /* Two copies, as the renderers have (sceneIntersect, sceneIntersectCoherent). */
+    if (coherent != 0u)
+        bvhWideTraverse(nodes, packs, primitives, rays[i], CB_INFINITY, true, true, &h);
+    else
+        bvhWideTraverse(nodes, packs, primitives, rays[i], CB_INFINITY, true, false, &h);
     hits[i] = h;
 }
 
@@ -43,5 +48,6 @@ __kernel void benchOccludedWide(__global const struct BvhNodeWide* nodes,
     uint i = (uint)get_global_id(0);
     if (i >= count) return;
     Hit h;
-    occluded[i] = bvhWideTraverse(nodes, packs, primitives, rays[i], tMax[i], false, &h) ? 1 : 0;
+    occluded[i] =
+        bvhWideTraverse(nodes, packs, primitives, rays[i], tMax[i], false, false, &h) ? 1 : 0;
 }

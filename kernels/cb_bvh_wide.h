@@ -70,8 +70,10 @@ typedef float4 BvhWideReal;
 typedef int4 BvhWideInt;
 #define BVHW_LOAD(p) vload4(0, p)
 #define BVHW_AS_INT(v) as_int4(v)
-#define BVHW_STORE(v, p) vstore4(v, 0, p)
 #define BVHW_LANES ((int4)(0, 1, 2, 3))
+#define BVHW_STORE(v, p) vstore4(v, 0, p)
+typedef uint BvhWideBytes;
+#define BVHW_LANE_BYTES(mask) as_uint(convert_char4(mask))
 CB_FN int bvhWideOrAll(int4 v) {
     int2 a = v.lo | v.hi;
     return a.x | a.y;
@@ -85,8 +87,10 @@ typedef float8 BvhWideReal;
 typedef int8 BvhWideInt;
 #define BVHW_LOAD(p) vload8(0, p)
 #define BVHW_AS_INT(v) as_int8(v)
-#define BVHW_STORE(v, p) vstore8(v, 0, p)
 #define BVHW_LANES ((int8)(0, 1, 2, 3, 4, 5, 6, 7))
+#define BVHW_STORE(v, p) vstore8(v, 0, p)
+typedef ulong BvhWideBytes;
+#define BVHW_LANE_BYTES(mask) as_ulong(convert_char8(mask))
 CB_FN int bvhWideOrAll(int8 v) {
     int4 a = v.lo | v.hi;
     int2 b = a.lo | a.hi;
@@ -101,7 +105,6 @@ CB_FN int bvhWideMinAll(int8 v) {
 }
 #endif
 typedef int BvhWideKey;
-typedef BvhWideInt BvhWideCand;
 
 CB_FN void bvhWideBoxes(CB_GLOBAL const BvhNodeWide* node, Vec3 o, Vec3 invD, BvhWideReal* tn,
                         BvhWideReal* tf) {
@@ -144,24 +147,45 @@ CB_FN BvhWideKey bvhWideKeyOf(BvhWideInt keys, int k) {
     return lanes[k];
 }
 
+/* The candidates of bvhWideNext: the hit lanes above `after` as a mask, and for coherent
+ * queries also as one byte per lane (0xff or 0). */
+typedef struct BvhWideCand {
+    BvhWideInt mask;
+    BvhWideBytes bytes;
+} BvhWideCand;
+
 /* The hit lane with the smallest key above `after`, its key in *key; -1 if none. *cand: the
- * hit lanes above `after`, for bvhWideMore. */
+ * candidates, for bvhWideMore.
+ *
+ * `coherent` (a constant: a separate copy of the traversal) is for rays whose neighbours in
+ * the work-group take the same path, camera rays above all. A lone candidate, their most
+ * common case, is then found from the lane bytes with a population count and a leading-zero
+ * count, behind a branch that predicts well for such rays, and *key is left unset: there is
+ * nothing to order after it. Incoherent rays mispredict that branch, and are 5-10% slower
+ * with it (docs/performance.md), so they always take the minimum across the lanes. */
 CB_FN int bvhWideNext(CB_GLOBAL const BvhNodeWide* node, BvhWideReal tn, BvhWideReal tf,
-                      BvhWideInt keys, real closest, BvhWideKey after, BvhWideKey* key,
-                      BvhWideCand* cand) {
+                      BvhWideInt keys, real closest, BvhWideKey after, bool coherent,
+                      BvhWideKey* key, BvhWideCand* cand) {
     BvhWideReal far = select((BvhWideReal)(closest), tf, tf < closest);
     BvhWideInt c = (BVHW_LOAD(node->child) != CB_BVHW_NONE) &
                    (tn <= far * (1.0f + 2.0f * cbGamma(3))) & (keys > after);
-    *cand = c;
+    cand->mask = c;
+    if (coherent) {
+        BvhWideBytes bytes = BVHW_LANE_BYTES(c);
+        cand->bytes = bytes;
+        if (bytes == 0) return -1;
+        if (popcount(bytes) == 8) return CBW - 1 - (int)(clz(bytes) >> 3);
+    }
     int m = bvhWideMinAll(select((BvhWideInt)(INT_MAX), keys, c));
     if (m == INT_MAX) return -1;
     *key = m;
     return m & (CBW - 1);
 }
 
-/* Whether a lane other than `key`'s is among the candidates of bvhWideNext. */
-CB_FN bool bvhWideMore(BvhWideCand cand, BvhWideInt keys, BvhWideKey key) {
-    return bvhWideOrAll(cand & (keys != key)) != 0;
+/* Whether a candidate other than the lane bvhWideNext returned (with `key`) remains. */
+CB_FN bool bvhWideMore(BvhWideCand cand, BvhWideInt keys, BvhWideKey key, bool coherent) {
+    if (coherent) return popcount(cand.bytes) > 8;
+    return bvhWideOrAll(cand.mask & (keys != key)) != 0;
 }
 #else
 /* The host: the same per-lane arithmetic as plain loops, and the same order: (entry distance
@@ -224,7 +248,9 @@ CB_FN bool bvhWideKeyLess(BvhWideKey a, BvhWideKey b) {
 
 /* *cand: how many hit lanes are above `after`. */
 CB_FN int bvhWideNext(CB_GLOBAL const BvhNodeWide* node, BvhWideReal tn, BvhWideReal tf,
-                      BvhWideInt keys, real closest, BvhWideKey after, BvhWideKey* key, int* cand) {
+                      BvhWideInt keys, real closest, BvhWideKey after, bool coherent,
+                      BvhWideKey* key, int* cand) {
+    (void)coherent;
     int best = -1;
     *cand = 0;
     *key = after; /* read only when a lane is returned; set so g++ can see that */
@@ -242,9 +268,10 @@ CB_FN int bvhWideNext(CB_GLOBAL const BvhNodeWide* node, BvhWideReal tn, BvhWide
     return best;
 }
 
-CB_FN bool bvhWideMore(int cand, BvhWideInt keys, BvhWideKey key) {
+CB_FN bool bvhWideMore(int cand, BvhWideInt keys, BvhWideKey key, bool coherent) {
     (void)keys;
     (void)key;
+    (void)coherent;
     return cand > 1;
 }
 #endif
@@ -261,11 +288,12 @@ CB_FN bool bvhWideMore(int cand, BvhWideInt keys, BvhWideKey key) {
 #endif
 
 /* Closest hit (closestHit) or any hit (!closestHit: returns at the first one found, in the
- * same near-first order) with t in (0, tMax). */
+ * same near-first order) with t in (0, tMax). `coherent`: see bvhWideNext; it changes how
+ * the next child is found, never which, so the answer is the same either way. */
 CB_FN CB_BVHW_SPECIALISE bool bvhWideTraverse(CB_GLOBAL const BvhNodeWide* nodes,
                                               CB_GLOBAL const TrianglePack* packs,
                                               CB_GLOBAL const Primitive* prims, Ray ray, real tMax,
-                                              bool closestHit, Hit* hit) {
+                                              bool closestHit, bool coherent, Hit* hit) {
     hit->t = tMax;
     hit->primitive = -1;
     hit->b1 = 0.0f;
@@ -293,14 +321,14 @@ CB_FN CB_BVHW_SPECIALISE bool bvhWideTraverse(CB_GLOBAL const BvhNodeWide* nodes
         for (;;) {
             BvhWideKey key;
             BvhWideCand cand;
-            int k = bvhWideNext(node, tn, tf, keys, closest, after, &key, &cand);
+            int k = bvhWideNext(node, tn, tf, keys, closest, after, coherent, &key, &cand);
             if (k < 0) break;
             uint count = bvhWideCount(node, k);
             if (count == 0u) {
                 down = node->child[k];
                 if (depth < 64) {
                     ulong bit = (ulong)1 << depth;
-                    bool more = bvhWideMore(cand, keys, key);
+                    bool more = bvhWideMore(cand, keys, key, coherent);
                     trail = more ? (trail | bit) : (trail & ~bit);
                 }
                 break;
@@ -315,6 +343,8 @@ CB_FN CB_BVHW_SPECIALISE bool bvhWideTraverse(CB_GLOBAL const BvhNodeWide* nodes
                     found = true;
                 }
             }
+            /* A coherent query knows that nothing is left without another pick. */
+            if (coherent && !bvhWideMore(cand, keys, key, coherent)) break;
             after = key;
         }
         if (down != CB_BVHW_NONE) {
@@ -338,13 +368,23 @@ CB_FN CB_BVHW_SPECIALISE bool bvhWideTraverse(CB_GLOBAL const BvhNodeWide* nodes
 /* Closest hit with t in (0, tMax). On a miss *hit is left as {tMax, -1, 0, 0}, so it is
  * never read uninitialised. */
 CB_FN CB_BVHW_ONE_COPY bool sceneIntersect(const SceneView* scene, Ray ray, real tMax, Hit* hit) {
-    return bvhWideTraverse(scene->nodes, scene->packs, scene->primitives, ray, tMax, true, hit);
+    return bvhWideTraverse(scene->nodes, scene->packs, scene->primitives, ray, tMax, true, false,
+                           hit);
+}
+
+/* sceneIntersect for camera rays, whose neighbours in a work-group are neighbouring pixels:
+ * the same hit, found with the coherent traversal (bvhWideNext). */
+CB_FN CB_BVHW_ONE_COPY bool sceneIntersectCoherent(const SceneView* scene, Ray ray, real tMax,
+                                                   Hit* hit) {
+    return bvhWideTraverse(scene->nodes, scene->packs, scene->primitives, ray, tMax, true, true,
+                           hit);
 }
 
 /* Any hit with t in (0, tMax): shadow rays stop at the first one. */
 CB_FN CB_BVHW_ONE_COPY bool sceneOccluded(const SceneView* scene, Ray ray, real tMax) {
     Hit h;
-    return bvhWideTraverse(scene->nodes, scene->packs, scene->primitives, ray, tMax, false, &h);
+    return bvhWideTraverse(scene->nodes, scene->packs, scene->primitives, ray, tMax, false, false,
+                           &h);
 }
 
 CB_END_NAMESPACE

@@ -191,12 +191,16 @@ CB_FN real bdptLightDirectionPdf(const SceneView* scene, const PathVertex* v, Ve
  * roulette: the caps bound the length). Bounce b (the vertex path[b+1] scattering) reads
  * dimensions firstBounceDim + b * CB_DIMS_PER_BOUNCE + slot. Returns the vertex count. */
 CB_FN int bdptRandomWalk(const SceneView* scene, Ray ray, Spectrum beta, real pdfW, int adjoint,
-                         SampleStream stream, uint firstBounceDim, PathVertex* path, int count,
-                         int maxVertices, int* rays) {
+                         bool coherentFirstRay, SampleStream stream, uint firstBounceDim,
+                         PathVertex* path, int count, int maxVertices, int* rays) {
+    bool coherent = coherentFirstRay;
     while (count < maxVertices) {
         Hit hit = {0.0f, -1, 0.0f, 0.0f};
         *rays += 1;
-        if (!sceneIntersect(scene, ray, CB_INFINITY, &hit)) break;
+        bool found = coherent ? sceneIntersectCoherent(scene, ray, CB_INFINITY, &hit)
+                              : sceneIntersect(scene, ray, CB_INFINITY, &hit);
+        coherent = false;
+        if (!found) break;
         SurfacePoint sp = surfacePointFromHit(scene, ray, hit);
         PathVertex* v = &path[count];
         PathVertex* prev = &path[count - 1];
@@ -242,16 +246,19 @@ CB_FN int bdptRandomWalk(const SceneView* scene, Ray ray, Spectrum beta, real pd
 }
 
 /* Eye subpath through raster position (rasterX, rasterY). Eye bounces read the same dimensions
- * as PT's (cb_rng.h), so eye[v] scatters with bounceDimension(v - 1, slot). */
+ * as PT's (cb_rng.h), so eye[v] scatters with bounceDimension(v - 1, slot). `pixelOrder`: the
+ * work-group's work-items are neighbouring pixels, so the camera rays are traced with
+ * sceneIntersectCoherent (MLT's chains jump anywhere on the image and pass false). */
 CB_FN int bdptEyeSubpath(const SceneView* scene, const Camera* camera, real rasterX, real rasterY,
-                         SampleStream stream, int maxVertices, PathVertex* eye, int* rays) {
+                         bool pixelOrder, SampleStream stream, int maxVertices, PathVertex* eye,
+                         int* rays) {
     eye[0] = bdptCameraVertex(camera);
     if (maxVertices < 2) return 1;
     Ray ray = cameraGenerateRay(camera, rasterX, rasterY);
     real pdfDir;
     cameraImportance(camera, ray.d, &pdfDir);
-    return bdptRandomWalk(scene, ray, specConst(1.0f), pdfDir, 0, stream, CB_DIM_FIRST_BOUNCE, eye,
-                          1, maxVertices, rays);
+    return bdptRandomWalk(scene, ray, specConst(1.0f), pdfDir, 0, pixelOrder, stream,
+                          CB_DIM_FIRST_BOUNCE, eye, 1, maxVertices, rays);
 }
 
 /* Light subpath: a light by power, a point uniformly by area, a cosine-weighted direction in
@@ -299,8 +306,8 @@ CB_FN int bdptLightSubpath(const SceneView* scene, SampleStream stream, int maxV
     if (specIsBlack(le)) return 1;
     Spectrum beta = specScale(le, pvAbsCos(v, w) / (v->pdfFwd * pdfDir));
     Ray ray = spawnRay(pvSurfacePoint(v), w);
-    return bdptRandomWalk(scene, ray, beta, pdfDir, 1, stream, CB_LIGHT_DIM_FIRST_BOUNCE, light, 1,
-                          maxVertices, rays);
+    return bdptRandomWalk(scene, ray, beta, pdfDir, 1, false, stream, CB_LIGHT_DIM_FIRST_BOUNCE,
+                          light, 1, maxVertices, rays);
 }
 
 /* ---- Strategies and MIS weights ------------------------------------------------------------ */

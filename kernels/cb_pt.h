@@ -41,7 +41,10 @@ CB_FN Spectrum ptRadiance(const SceneView* scene, Ray ray, SampleStream stream,
 
     for (int vertex = 1; vertex < settings.eyeVertices; ++vertex) {
         Hit hit;
-        if (!sceneIntersect(scene, ray, CB_INFINITY, &hit)) break;
+        /* The camera ray: neighbouring pixels are neighbouring work-items. */
+        bool found = vertex == 1 ? sceneIntersectCoherent(scene, ray, CB_INFINITY, &hit)
+                                 : sceneIntersect(scene, ray, CB_INFINITY, &hit);
+        if (!found) break;
         SurfacePoint sp = surfacePointFromHit(scene, ray, hit);
         Vec3 wo = vneg(ray.d);
         int bounce = vertex - 1;

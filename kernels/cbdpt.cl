@@ -56,7 +56,7 @@ __kernel void renderCbdpt(CB_SCENE_KERNEL_PARAMS,
     SampleStream eyeStream = sampleStreamStart(seed, estimate, stream);
     float rasterX, rasterY;
     cameraJitteredRaster(eyeStream, x, y, &rasterX, &rasterY);
-    int nEye = bdptEyeSubpath(&scene, &camera, rasterX, rasterY, eyeStream,
+    int nEye = bdptEyeSubpath(&scene, &camera, rasterX, rasterY, true, eyeStream,
                               settings.eyeVertices, eye, &rays);
 
     Spectrum radiance = specZero();

@@ -85,8 +85,8 @@ static void mltEvaluate(const SceneView* scene, const Camera* camera, __global c
     int nLight = bdptLightSubpath(scene, lightStream, settings.lightVertices, light, rays);
     float rasterX = u[CB_DIM_PIXEL] * (float)camera->width;
     float rasterY = u[CB_DIM_PIXEL + 1u] * (float)camera->height;
-    int nEye = bdptEyeSubpath(scene, camera, rasterX, rasterY, eyeStream, settings.eyeVertices,
-                              eye, rays);
+    int nEye = bdptEyeSubpath(scene, camera, rasterX, rasterY, false, eyeStream,
+                              settings.eyeVertices, eye, rays);
     int px = min((int)rasterX, camera->width - 1);
     int py = min((int)rasterY, camera->height - 1);
 

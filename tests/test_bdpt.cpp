@@ -407,7 +407,8 @@ TEST_CASE("BDPT MIS weights equal the explicit-ratio oracle and sum to one") {
                 cbk::SampleStream es = cbk::sampleStreamStart(3, 0, pixel);
                 float rx = float(pixel % 16) + cbk::sampleAt(es, 0);
                 float ry = float(pixel / 16) + cbk::sampleAt(es, 1);
-                int nEye = cbk::bdptEyeSubpath(&view, &camera, rx, ry, es, ne, eye.data(), &rays);
+                int nEye =
+                    cbk::bdptEyeSubpath(&view, &camera, rx, ry, true, es, ne, eye.data(), &rays);
                 for (int t = 1; t <= nEye; ++t)
                     for (int s = 0; s <= nLight; ++s) {
                         if (!cbk::bdptStrategyAllowed(s, t, ne, nl)) continue;

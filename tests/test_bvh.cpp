@@ -129,6 +129,26 @@ std::vector<Ray> makeRays(const Bounds& b, int count, unsigned seed) {
     return rays;
 }
 
+// Camera rays in pixel order: a pinhole in front of the box, looking at its centre, `side`
+// pixels square (what sceneIntersectCoherent is for).
+std::vector<Ray> cameraRays(const Bounds& b, int side) {
+    Vec3 centre = cbk::vscale(cbk::vadd(b.lo, b.hi), 0.5f);
+    float radius = 0.5f * cbk::vlength(cbk::vsub(b.hi, b.lo));
+    Vec3 eye = cbk::vadd(centre, cbk::vec3(0.2f * radius, 0.3f * radius, 2.5f * radius));
+    Vec3 forward = cbk::vnormalize(cbk::vsub(centre, eye));
+    Vec3 right = cbk::vnormalize(cbk::vcross(forward, cbk::vec3(0.0f, 1.0f, 0.0f)));
+    Vec3 up = cbk::vcross(right, forward);
+    std::vector<Ray> rays;
+    for (int y = 0; y < side; ++y)
+        for (int x = 0; x < side; ++x) {
+            float sx = 0.36f * (2.0f * (float(x) + 0.5f) / float(side) - 1.0f);
+            float sy = 0.36f * (1.0f - 2.0f * (float(y) + 0.5f) / float(side));
+            Vec3 d = cbk::vadd(forward, cbk::vadd(cbk::vscale(right, sx), cbk::vscale(up, sy)));
+            rays.push_back(Ray{eye, cbk::vnormalize(d)});
+        }
+    return rays;
+}
+
 // Brute force over every primitive. Candidates are pre-culled with a bounding sphere per
 // primitive (evaluated in double with a 1% margin, so it never rejects a primitive the exact
 // test could hit); every remaining primitive goes through intersectPrimitive in index order.
@@ -201,7 +221,8 @@ void compareRange(const cb::Bvh& bvh, const Brute& brute, const std::vector<Ray>
     for (size_t i = begin; i < end; ++i) {
         Hit a{}, b{};
         bool ha = wide ? cbk::bvhWideTraverse(wide->nodes.data(), wide->packs.data(),
-                                              bvh.primitives.data(), rays[i], CB_INFINITY, true, &a)
+                                              bvh.primitives.data(), rays[i], CB_INFINITY, true,
+                                              false, &a)
                        : cbk::bvhIntersect(bvh.nodes.data(), bvh.primitives.data(), rays[i],
                                            CB_INFINITY, &a);
         bool hb = brute.intersect(rays[i], CB_INFINITY, &b);
@@ -225,9 +246,10 @@ void compareRange(const cb::Bvh& bvh, const Brute& brute, const std::vector<Ray>
         }
         float tMax = hb ? b.t * u(rng) : 1e3f * u(rng);
         Hit any{};
-        bool occ = wide ? cbk::bvhWideTraverse(wide->nodes.data(), wide->packs.data(),
-                                               bvh.primitives.data(), rays[i], tMax, false, &any)
-                        : cbk::bvhOccluded(bvh.nodes.data(), bvh.primitives.data(), rays[i], tMax);
+        bool occ =
+            wide ? cbk::bvhWideTraverse(wide->nodes.data(), wide->packs.data(),
+                                        bvh.primitives.data(), rays[i], tMax, false, false, &any)
+                 : cbk::bvhOccluded(bvh.nodes.data(), bvh.primitives.data(), rays[i], tMax);
         if (occ != brute.occluded(rays[i], tMax)) ++out->occluded;
     }
 }
@@ -420,18 +442,18 @@ TEST_CASE("bvh: the wide BVH on an empty scene, one triangle and spheres") {
     cb::Bvh empty = cb::buildBvh({});
     auto w0 = wideOf(empty);
     CHECK_FALSE(cbk::bvhWideTraverse(w0.nodes.data(), w0.packs.data(), empty.primitives.data(), r,
-                                     CB_INFINITY, true, &h));
+                                     CB_INFINITY, true, false, &h));
     cb::Bvh one =
         cb::buildBvh({triangle(cbk::vec3(-1, -1, 2), cbk::vec3(1, -1, 2), cbk::vec3(0, 1, 2))});
     auto w1 = wideOf(one);
     checkWide(w1, one.primitives);
     REQUIRE(cbk::bvhWideTraverse(w1.nodes.data(), w1.packs.data(), one.primitives.data(), r,
-                                 CB_INFINITY, true, &h));
+                                 CB_INFINITY, true, false, &h));
     CHECK(h.t == 2.0f);
     CHECK(cbk::bvhWideTraverse(w1.nodes.data(), w1.packs.data(), one.primitives.data(), r, 2.5f,
-                               false, &h));
+                               false, false, &h));
     CHECK_FALSE(cbk::bvhWideTraverse(w1.nodes.data(), w1.packs.data(), one.primitives.data(), r,
-                                     2.0f, false, &h));
+                                     2.0f, false, false, &h));
     std::vector<Primitive> prims;
     for (int i = 0; i < 1000; ++i)
         prims.push_back(sphere(cbk::vec3(0, 0, 10), 1.0f + float(i) * 1e-3f));
@@ -440,7 +462,7 @@ TEST_CASE("bvh: the wide BVH on an empty scene, one triangle and spheres") {
     checkWide(w2, nested.primitives);
     r.o = cbk::vec3(0, 0, 10); // inside every sphere: the innermost is nearest
     REQUIRE(cbk::bvhWideTraverse(w2.nodes.data(), w2.packs.data(), nested.primitives.data(), r,
-                                 CB_INFINITY, true, &h));
+                                 CB_INFINITY, true, false, &h));
     CHECK(h.t == doctest::Approx(1.0f).epsilon(1e-6));
 }
 
@@ -651,13 +673,21 @@ __kernel void trace(__global const BvhNodeWide* nodes, __global const TrianglePa
     r.d = vec3(rays[6 * i + 3], rays[6 * i + 4], rays[6 * i + 5]);
     Hit h;
     if (sceneIntersect(&scene, r, CB_INFINITY, &h)) {
-        out[2 * i] = h.t;
-        outPrim[i] = h.primitive;
+        out[3 * i] = h.t;
+        outPrim[2 * i] = h.primitive;
     } else {
-        out[2 * i] = -1.0f;
-        outPrim[i] = -1;
+        out[3 * i] = -1.0f;
+        outPrim[2 * i] = -1;
     }
-    out[2 * i + 1] = sceneOccluded(&scene, r, 0.5f * fabs(out[2 * i])) ? 1.0f : 0.0f;
+    out[3 * i + 1] = sceneOccluded(&scene, r, 0.5f * fabs(out[3 * i])) ? 1.0f : 0.0f;
+    Hit c;
+    if (sceneIntersectCoherent(&scene, r, CB_INFINITY, &c)) {
+        out[3 * i + 2] = c.t;
+        outPrim[2 * i + 1] = c.primitive;
+    } else {
+        out[3 * i + 2] = -1.0f;
+        outPrim[2 * i + 1] = -1;
+    }
 }
 )CLC";
 
@@ -667,8 +697,8 @@ __kernel void trace(__global const BvhNodeWide* nodes, __global const TrianglePa
         REQUIRE_MESSAGE(err_ == CL_SUCCESS, #expr << " failed: " << err_);                         \
     } while (0)
 
-// The trace kernel on PoCL: closest hits (t, -1 for a miss; primitive) and whether anything
-// occludes half the closest distance.
+// The trace kernel on PoCL: closest hits (t, -1 for a miss; primitive), whether anything
+// occludes half the closest distance, and the closest hits of the coherent traversal.
 class ClTracer {
   public:
     ClTracer() {
@@ -712,9 +742,11 @@ class ClTracer {
     ClTracer& operator=(const ClTracer&) = delete;
 
     struct Result {
-        std::vector<float> t;       // closest hit, -1 for a miss
-        std::vector<int> primitive; // -1 for a miss
-        std::vector<int> occluded;  // anything within half the closest distance
+        std::vector<float> t;               // closest hit, -1 for a miss
+        std::vector<int> primitive;         // -1 for a miss
+        std::vector<int> occluded;          // anything within half the closest distance
+        std::vector<float> coherentT;       // sceneIntersectCoherent's closest hit
+        std::vector<int> coherentPrimitive; // and its primitive
     };
 
     Result trace(const cb::Bvh& bvh, const cb::BvhWide& wide, const std::vector<Ray>& rays) {
@@ -727,25 +759,28 @@ class ClTracer {
                           buffer(wide.packs.size() * sizeof(cbk::TrianglePack), wide.packs.data()),
                           buffer(bvh.primitives.size() * sizeof(Primitive), bvh.primitives.data()),
                           buffer(rayData.size() * sizeof(float), rayData.data()),
-                          buffer(2 * count * sizeof(float), nullptr),
-                          buffer(count * sizeof(int), nullptr)};
+                          buffer(3 * count * sizeof(float), nullptr),
+                          buffer(2 * count * sizeof(int), nullptr)};
         for (cl_uint a = 0; a < 6; ++a)
             CL_CHECK(clSetKernelArg(kernel_, a, sizeof(cl_mem), &args[a]));
         size_t global = count;
         CL_CHECK(clEnqueueNDRangeKernel(queue_, kernel_, 1, nullptr, &global, nullptr, 0, nullptr,
                                         nullptr));
-        std::vector<float> out(2 * count);
-        Result result;
-        result.primitive.resize(count);
+        std::vector<float> out(3 * count);
+        std::vector<int> prims(2 * count);
         CL_CHECK(clEnqueueReadBuffer(queue_, args[4], CL_TRUE, 0, out.size() * sizeof(float),
                                      out.data(), 0, nullptr, nullptr));
-        CL_CHECK(clEnqueueReadBuffer(queue_, args[5], CL_TRUE, 0, count * sizeof(int),
-                                     result.primitive.data(), 0, nullptr, nullptr));
+        CL_CHECK(clEnqueueReadBuffer(queue_, args[5], CL_TRUE, 0, prims.size() * sizeof(int),
+                                     prims.data(), 0, nullptr, nullptr));
         for (cl_mem m : args)
             clReleaseMemObject(m);
+        Result result;
         for (size_t i = 0; i < count; ++i) {
-            result.t.push_back(out[2 * i]);
-            result.occluded.push_back(out[2 * i + 1] != 0.0f);
+            result.t.push_back(out[3 * i]);
+            result.occluded.push_back(out[3 * i + 1] != 0.0f);
+            result.coherentT.push_back(out[3 * i + 2]);
+            result.primitive.push_back(prims[2 * i]);
+            result.coherentPrimitive.push_back(prims[2 * i + 1]);
         }
         return result;
     }
@@ -788,29 +823,41 @@ TEST_CASE("bvh: OpenCL traversal of the bunny wide BVH matches the host") {
         const int block = variant == 0 ? 1 : variant == 1 ? CB_PACK_LANES : cb::kWideSahBlock;
         cb::Bvh bvh = cb::buildBvh(prims, {4, 16, block});
         auto wide = cb::collapseBvhWide(bvh);
+        // Random rays, then camera rays in pixel order (the coherent traversal's use).
         auto rays = makeRays(box, 4096, 2024u);
+        const size_t randomCount = rays.size();
+        for (const Ray& r : cameraRays(box, 48))
+            rays.push_back(r);
         ClTracer::Result device = tracer.trace(bvh, wide, rays);
 
         SceneView scene = viewOf(bvh, wide);
-        int hits = 0, sphereHits = 0, primMismatch = 0, tMismatch = 0, occMismatch = 0;
+        int hits = 0, cameraHits = 0, sphereHits = 0, primMismatch = 0, tMismatch = 0,
+            occMismatch = 0, coherentMismatch = 0;
         for (size_t i = 0; i < rays.size(); ++i) {
             Hit h{};
             bool hit = cbk::sceneIntersect(&scene, rays[i], CB_INFINITY, &h);
             float t = hit ? h.t : -1.0f;
             hits += hit;
+            cameraHits += hit && i >= randomCount;
             sphereHits += hit && bvh.primitives[size_t(h.primitive)].kind == CB_PRIM_SPHERE;
             if ((hit ? h.primitive : -1) != device.primitive[i]) ++primMismatch;
             if (std::fabs(device.t[i] - t) > 1e-5f * std::fabs(t)) ++tMismatch;
             bool occ = cbk::sceneOccluded(&scene, rays[i], 0.5f * std::fabs(t));
             if ((device.occluded[i] != 0) != occ) ++occMismatch;
+            // Only the way the next child is found differs: the same hit, bit for bit.
+            if (device.coherentPrimitive[i] != device.primitive[i] ||
+                device.coherentT[i] != device.t[i])
+                ++coherentMismatch;
         }
         // PoCL may contract a*b+c into fma, so a ray grazing an edge could in principle pick
         // the neighbouring triangle; with these random rays that has not happened, allow none.
         CHECK(hits > int(rays.size()) / 3);
+        CHECK(cameraHits > int(rays.size() - randomCount) / 5);
         if (variant == 2) CHECK(sphereHits > 100);
         CHECK(primMismatch == 0);
         CHECK(tMismatch == 0);
         CHECK(occMismatch == 0);
+        CHECK(coherentMismatch == 0);
     }
 }
 
@@ -822,10 +869,13 @@ TEST_CASE("bvh: OpenCL traversal: rays through the closed Buddha's vertices and 
     auto wide = cb::collapseBvhWide(bvh);
     auto rays = raysThroughVerticesAndEdges(mesh, bvh, viewOf(bvh, wide));
     ClTracer::Result device = tracer.trace(bvh, wide, rays);
-    long escapes = 0;
-    for (float t : device.t)
-        escapes += t < 0.0f;
+    long escapes = 0, coherentEscapes = 0;
+    for (size_t i = 0; i < rays.size(); ++i) {
+        escapes += device.t[i] < 0.0f;
+        coherentEscapes += device.coherentT[i] < 0.0f;
+    }
     MESSAGE(rays.size() << " rays through the kernel");
     CHECK(rays.size() > 30000);
     CHECK(escapes == 0);
+    CHECK(coherentEscapes == 0);
 }

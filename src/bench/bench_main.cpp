@@ -79,6 +79,9 @@ struct Options {
     int threads = 2;
     bool host = false;               // also time the host (g++) build of the traversal
     std::vector<std::string> meshes; // default per mode
+    // traverse: which ray sets to time (shadow rays start at the primary hits, so primary rays
+    // are traced for them either way).
+    std::vector<std::string> cases{"primary", "incoherent", "shadow", "incoh-any"};
     std::string device;
     // Internal: measure one program build in this process (run by the build section).
     std::vector<std::string> childBuild;
@@ -221,7 +224,8 @@ class ClTraversal {
     }
 
     // Returns the median seconds of `repeats` launches; hits from the last one.
-    double closest(const std::vector<Ray>& rays, int repeats, std::vector<cbk::Hit>& hits) {
+    double closest(const std::vector<Ray>& rays, bool coherent, int repeats,
+                   std::vector<cbk::Hit>& hits) {
         auto& ctx = rt_.context();
         cl::Buffer rayBuf(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, rays.size() * sizeof(Ray),
                           const_cast<Ray*>(rays.data()));
@@ -229,6 +233,7 @@ class ClTraversal {
         int arg = setBvhArgs(closest_);
         closest_.setArg(arg++, rayBuf);
         closest_.setArg(arg++, cl_uint(rays.size()));
+        if (!wide_.nodes.empty()) closest_.setArg(arg++, cl_uint(coherent ? 1 : 0));
         closest_.setArg(arg, hitBuf);
         double t = launch(closest_, rays.size(), repeats);
         hits.resize(rays.size());
@@ -427,12 +432,18 @@ json runTraverse(const Options& o, ClRuntime& rt) {
                                        {"incoh-any", &incoherent, true}};
             std::vector<float> infT(incoherent.size(), CB_INFINITY);
             for (const auto& c : cases) {
+                const bool wanted =
+                    std::find(o.cases.begin(), o.cases.end(), c.name) != o.cases.end();
+                const bool neededForShadow =
+                    std::string(c.name) == "primary" &&
+                    std::find(o.cases.begin(), o.cases.end(), "shadow") != o.cases.end();
+                if (!wanted && !neededForShadow) continue;
                 double ours = 0.0, theirs = 0.0, agree = 1.0, theirsCpu = 0.0;
                 size_t n = 0;
                 long hitCount = 0;
                 if (!c.anyHit) {
                     std::vector<cbk::Hit> hits;
-                    ours = cl.closest(*c.rays, repeats, hits);
+                    ours = cl.closest(*c.rays, std::string(c.name) == "primary", repeats, hits);
                     n = c.rays->size();
                     for (const auto& h : hits)
                         hitCount += h.primitive >= 0;
@@ -440,6 +451,7 @@ json runTraverse(const Options& o, ClRuntime& rt) {
                         primaryHits = hits;
                         shadowRays(box, primary, primaryHits, 11u, shadow, shadowT);
                     }
+                    if (!wanted) continue;
                     if (embree) {
                         std::vector<BaselineHit> ref;
                         std::vector<double> times, cpu;
@@ -907,6 +919,13 @@ int run(int argc, char** argv) {
     app.add_flag("--host", o.host, "also time cb_bvh.h compiled for the host");
     app.add_option("--meshes", o.meshes, "bunny, dragon, buddha, sphere-<n>[k|M]")->delimiter(',');
     app.add_option("--device", o.device, "OpenCL device P:D");
+    app.add_option("--cases", o.cases, "traverse: primary, incoherent, shadow, incoh-any")
+        ->delimiter(',')
+        ->check([](const std::string& s) {
+            for (const char* known : {"primary", "incoherent", "shadow", "incoh-any"})
+                if (s == known) return std::string();
+            return "unknown ray case '" + s + "' (primary, incoherent, shadow, incoh-any)";
+        });
     app.add_option("--child-build", o.childBuild, "(internal)")->group("");
     app.add_option("--child-render", o.childRender, "(internal)")->group("");
     CLI11_PARSE(app, argc, argv);
