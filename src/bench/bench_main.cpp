@@ -213,6 +213,7 @@ class ClTraversal {
         const bool wide = variant == "wide";
         closest_ = cl::Kernel(program_, wide ? "benchClosestWide" : "benchClosest");
         occluded_ = cl::Kernel(program_, wide ? "benchOccludedWide" : "benchOccluded");
+        if (wide) closestCoherent_ = cl::Kernel(program_, "benchClosestWideCoherent");
         if (wide) {
             wide_ = collapseBvhWide(bvh);
             nodes_ = uploadArray(rt, "bench wide BVH nodes", wide_.nodes);
@@ -230,12 +231,13 @@ class ClTraversal {
         cl::Buffer rayBuf(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, rays.size() * sizeof(Ray),
                           const_cast<Ray*>(rays.data()));
         cl::Buffer hitBuf(ctx, CL_MEM_WRITE_ONLY, rays.size() * sizeof(cbk::Hit));
-        int arg = setBvhArgs(closest_);
-        closest_.setArg(arg++, rayBuf);
-        closest_.setArg(arg++, cl_uint(rays.size()));
-        if (!wide_.nodes.empty()) closest_.setArg(arg++, cl_uint(coherent ? 1 : 0));
-        closest_.setArg(arg, hitBuf);
-        double t = launch(closest_, rays.size(), repeats);
+        // Coherent rays go through the renderers' camera-ray traversal (wide BVH only).
+        cl::Kernel& kernel = coherent && !wide_.nodes.empty() ? closestCoherent_ : closest_;
+        int arg = setBvhArgs(kernel);
+        kernel.setArg(arg++, rayBuf);
+        kernel.setArg(arg++, cl_uint(rays.size()));
+        kernel.setArg(arg, hitBuf);
+        double t = launch(kernel, rays.size(), repeats);
         hits.resize(rays.size());
         rt_.queue().enqueueReadBuffer(hitBuf, CL_TRUE, 0, hits.size() * sizeof(cbk::Hit),
                                       hits.data());
@@ -298,7 +300,7 @@ class ClTraversal {
     ClRuntime& rt_;
     int localSize_;
     cl::Program program_;
-    cl::Kernel closest_, occluded_;
+    cl::Kernel closest_, closestCoherent_, occluded_;
     cl::Buffer nodes_, packs_, prims_;
     BvhWide wide_; // empty for the binary BVH
 
