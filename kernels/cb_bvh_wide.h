@@ -1,5 +1,6 @@
-/* cb_bvh_wide.h - a 4- or 8-wide BVH and its stackless traversal: sceneIntersect and
- * sceneOccluded, what every renderer (PT, BDPT, CBDPT, MLT, their host builds) traces with.
+/* cb_bvh_wide.h - a 4- or 8-wide BVH and its stackless traversal: sceneIntersect,
+ * sceneIntersectCoherent (camera rays) and sceneOccluded, what every renderer (PT, BDPT,
+ * CBDPT, MLT, their host builds) traces with.
  * The binary BVH of cb_bvh.h is what it is collapsed from, and stays as the comparison for
  * cbdpt-bench and the tests (docs/performance.md, traverse section).
  *
