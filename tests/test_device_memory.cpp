@@ -6,6 +6,7 @@
 
 #include <doctest/doctest.h>
 #include <string>
+#include <vector>
 
 namespace {
 
@@ -59,4 +60,31 @@ TEST_CASE("device memory: the OpenCL runtime checks its buffers and counts the l
     CHECK_THROWS_WITH_AS(runtime.createBuffer("test buffer", CL_MEM_READ_WRITE, tooLarge),
                          doctest::Contains("test buffer needs"), cb::ClError);
     CHECK(runtime.liveBufferBytes() == before);
+}
+
+TEST_CASE("device memory: read-only copies hold the data, small and huge-page ones alike, and "
+          "are counted and released") {
+    cb::ClRuntime runtime;
+    CHECK(runtime.info().cpu); // PoCL's CPU device: large copies take the huge-page path
+    const unsigned long long before = runtime.liveBufferBytes();
+    // Below and above kHugePageBytes, and a size that is not a multiple of it.
+    for (size_t count : {size_t(1000), cb::ClRuntime::kHugePageBytes / 4 * 3 + 12345}) {
+        CAPTURE(count);
+        std::vector<unsigned> data(count);
+        for (size_t i = 0; i < count; ++i)
+            data[i] = unsigned(i * 2654435761u);
+        const size_t bytes = count * sizeof(unsigned);
+        {
+            cl::Buffer b = runtime.createReadOnlyCopy("test copy", data.data(), bytes);
+            CHECK(runtime.liveBufferBytes() == before + bytes);
+            std::vector<unsigned> back(count);
+            runtime.queue().enqueueReadBuffer(b, CL_TRUE, 0, bytes, back.data());
+            CHECK(back == data);
+            // The device copy does not alias the caller's array.
+            data[0] ^= 1u;
+            runtime.queue().enqueueReadBuffer(b, CL_TRUE, 0, bytes, back.data());
+            CHECK(back[0] != data[0]);
+        }
+        CHECK(runtime.liveBufferBytes() == before);
+    }
 }

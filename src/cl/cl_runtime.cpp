@@ -4,9 +4,11 @@
 
 #include <chrono>
 #include <cstdlib>
+#include <cstring>
 #include <fmt/format.h>
 #include <set>
 #include <sstream>
+#include <sys/mman.h>
 
 namespace cb {
 
@@ -105,6 +107,7 @@ ClDeviceInfo describe(int platformIndex, int deviceIndex, const cl::Platform& pl
     info.computeUnits = device.getInfo<CL_DEVICE_MAX_COMPUTE_UNITS>();
     info.globalMemoryBytes = device.getInfo<CL_DEVICE_GLOBAL_MEM_SIZE>();
     info.maxAllocationBytes = device.getInfo<CL_DEVICE_MAX_MEM_ALLOC_SIZE>();
+    info.cpu = (device.getInfo<CL_DEVICE_TYPE>() & CL_DEVICE_TYPE_CPU) != 0;
     return info;
 }
 
@@ -169,7 +172,41 @@ void CL_CALLBACK releaseLiveBuffer(cl_mem, void* data) {
     delete buffer;
 }
 
+void CL_CALLBACK freeHostCopy(cl_mem, void* host) {
+    std::free(host);
+}
+
 } // namespace
+
+cl::Buffer ClRuntime::createReadOnlyCopy(const std::string& what, const void* data, size_t bytes) {
+    auto plainCopy = [&] {
+        return createBuffer(what, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, bytes,
+                            const_cast<void*>(data));
+    };
+    if (!info_.cpu || bytes < kHugePageBytes) return plainCopy();
+    const size_t rounded = (bytes + kHugePageBytes - 1) / kHugePageBytes * kHugePageBytes;
+    void* host = std::aligned_alloc(kHugePageBytes, rounded);
+    if (!host) return plainCopy();
+#ifdef MADV_HUGEPAGE
+    // Advice only: where transparent huge pages are off it changes nothing.
+    madvise(host, rounded, MADV_HUGEPAGE);
+#endif
+    std::memcpy(host, data, bytes);
+    cl::Buffer buffer;
+    try {
+        buffer = createBuffer(what, CL_MEM_READ_ONLY | CL_MEM_USE_HOST_PTR, bytes, host);
+    } catch (...) {
+        std::free(host);
+        throw;
+    }
+    if (clSetMemObjectDestructorCallback(buffer(), freeHostCopy, host) != CL_SUCCESS) {
+        // Without the callback nothing would free the host copy when the buffer goes.
+        buffer = cl::Buffer();
+        std::free(host);
+        return plainCopy();
+    }
+    return buffer;
+}
 
 cl::Buffer ClRuntime::createBuffer(const std::string& what, cl_mem_flags flags, size_t bytes,
                                    void* host) {

@@ -10,15 +10,15 @@
 
 namespace cb {
 
-// A read-only device copy of `data`, checked against the device's memory (named `what` in the
-// error); OpenCL forbids zero-sized buffers, so an empty array still gets one (unused) element.
+// A read-only device copy of `data` (ClRuntime::createReadOnlyCopy), checked against the
+// device's memory (named `what` in the error); OpenCL forbids zero-sized buffers, so an empty
+// array still gets one (unused) element.
 template <typename T>
 cl::Buffer uploadArray(ClRuntime& runtime, const std::string& what, const std::vector<T>& data) {
     static const T zero{};
     const void* src = data.empty() ? &zero : data.data();
     size_t bytes = data.empty() ? sizeof(T) : sizeof(T) * data.size();
-    return runtime.createBuffer(what, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, bytes,
-                                const_cast<void*>(src));
+    return runtime.createReadOnlyCopy(what, src, bytes);
 }
 
 struct SceneBuffers {
