@@ -129,22 +129,18 @@ std::vector<Ray> makeRays(const Bounds& b, int count, unsigned seed) {
     return rays;
 }
 
-// Camera rays in pixel order: a pinhole in front of the box, looking at its centre, `side`
-// pixels square (what sceneIntersectCoherent is for).
+// Camera rays in pixel order (what sceneIntersectCoherent is for): from a point in front of
+// the box through a side x side grid spanning its middle cross-section.
 std::vector<Ray> cameraRays(const Bounds& b, int side) {
     Vec3 centre = cbk::vscale(cbk::vadd(b.lo, b.hi), 0.5f);
-    float radius = 0.5f * cbk::vlength(cbk::vsub(b.hi, b.lo));
-    Vec3 eye = cbk::vadd(centre, cbk::vec3(0.2f * radius, 0.3f * radius, 2.5f * radius));
-    Vec3 forward = cbk::vnormalize(cbk::vsub(centre, eye));
-    Vec3 right = cbk::vnormalize(cbk::vcross(forward, cbk::vec3(0.0f, 1.0f, 0.0f)));
-    Vec3 up = cbk::vcross(right, forward);
+    Vec3 eye = cbk::vadd(centre, cbk::vec3(0.0f, 0.0f, 2.0f * (b.hi.z - b.lo.z)));
     std::vector<Ray> rays;
     for (int y = 0; y < side; ++y)
         for (int x = 0; x < side; ++x) {
-            float sx = 0.36f * (2.0f * (float(x) + 0.5f) / float(side) - 1.0f);
-            float sy = 0.36f * (1.0f - 2.0f * (float(y) + 0.5f) / float(side));
-            Vec3 d = cbk::vadd(forward, cbk::vadd(cbk::vscale(right, sx), cbk::vscale(up, sy)));
-            rays.push_back(Ray{eye, cbk::vnormalize(d)});
+            float fx = (float(x) + 0.5f) / float(side), fy = (float(y) + 0.5f) / float(side);
+            Vec3 target = cbk::vec3(b.lo.x + fx * (b.hi.x - b.lo.x),
+                                    b.hi.y - fy * (b.hi.y - b.lo.y), centre.z);
+            rays.push_back(Ray{eye, cbk::vnormalize(cbk::vsub(target, eye))});
         }
     return rays;
 }
