@@ -383,8 +383,7 @@ CB_FN float cbPackLaneValue(float4 v, int4 lane) {
  * intersectPrimitiveSheared: one inlined copy of the scalar test, not two. The nearest lane
  * is picked with vector minimums and selects rather than through private arrays: PoCL gives
  * each private array one copy per work-item of the work-group, and LLVM set up their
- * addresses once per ray, though most primary rays never reach a pack (primary rays 2-6%
- * faster on the bench, docs/performance.md). */
+ * addresses once per ray, though most primary rays never reach a pack (docs/performance.md). */
 CB_FN bool intersectPack(CB_GLOBAL const TrianglePack* pack, CB_GLOBAL const Primitive* prims,
                          Ray ray, TriangleRay sheared, real tMax, bool closestHit, Hit* hit) {
     const int4 lanes = (int4)(0, 1, 2, 3);
