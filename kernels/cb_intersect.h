@@ -41,52 +41,6 @@ CB_FN int cbMaxAxis(Vec3 v) {
     return (v.x > v.y) ? (v.x > v.z ? 0 : 2) : (v.y > v.z ? 1 : 2);
 }
 
-#ifdef CB_HAS_DOUBLE
-/* Double-precision ray parameter of the hit of `ray` with the triangle's plane (the edge tests
- * already passed in real), and whether it clears its own rounding-error bound (pbrt 3rd ed.
- * sec. 3.9.6 with double's unit roundoff). */
-CB_FN bool cbTriangleHitBeyondErrorDouble(Ray ray, Vec3 p0, Vec3 p1, Vec3 p2, real* t) {
-    double o[3] = {ray.o.x, ray.o.y, ray.o.z};
-    double dir[3] = {ray.d.x, ray.d.y, ray.d.z};
-    double v[3][3] = {{(double)p0.x - o[0], (double)p0.y - o[1], (double)p0.z - o[2]},
-                      {(double)p1.x - o[0], (double)p1.y - o[1], (double)p1.z - o[2]},
-                      {(double)p2.x - o[0], (double)p2.y - o[1], (double)p2.z - o[2]}};
-    int kz = cbMaxAxis(vabs(ray.d));
-    int kx = kz + 1;
-    if (kx == 3) kx = 0;
-    int ky = kx + 1;
-    if (ky == 3) ky = 0;
-    double sx = -dir[kx] / dir[kz];
-    double sy = -dir[ky] / dir[kz];
-    double sz = 1.0 / dir[kz];
-    double x[3], y[3], z[3];
-    for (int i = 0; i < 3; ++i) {
-        x[i] = v[i][kx] + sx * v[i][kz];
-        y[i] = v[i][ky] + sy * v[i][kz];
-        z[i] = v[i][kz] * sz;
-    }
-    double e0 = x[1] * y[2] - y[1] * x[2];
-    double e1 = x[2] * y[0] - y[2] * x[0];
-    double e2 = x[0] * y[1] - y[0] * x[1];
-    double det = e0 + e1 + e2;
-    if (det == 0.0) return false;
-    double tD = (e0 * z[0] + e1 * z[1] + e2 * z[2]) / det;
-    const double u = 1.1102230246251565e-16; /* double unit roundoff */
-    double maxX = fmax(fabs(x[0]), fmax(fabs(x[1]), fabs(x[2])));
-    double maxY = fmax(fabs(y[0]), fmax(fabs(y[1]), fabs(y[2])));
-    double maxZ = fmax(fabs(z[0]), fmax(fabs(z[1]), fabs(z[2])));
-    double maxE = fmax(fabs(e0), fmax(fabs(e1), fabs(e2)));
-    double g2 = 2.0 * u / (1.0 - 2.0 * u), g3 = 3.0 * u / (1.0 - 3.0 * u),
-           g5 = 5.0 * u / (1.0 - 5.0 * u);
-    double deltaX = g5 * (maxX + maxZ), deltaY = g5 * (maxY + maxZ), deltaZ = g3 * maxZ;
-    double deltaE = 2.0 * (g2 * maxX * maxY + deltaY * maxX + deltaX * maxY);
-    double deltaT = 3.0 * (g3 * maxE * maxZ + deltaE * maxZ + deltaZ * maxE) / fabs(det);
-    if (!(tD > deltaT)) return false;
-    *t = (real)tD;
-    return true;
-}
-#endif
-
 /* The parts of the watertight test that one triangle (real) and four at once (float4, the
  * kernels' intersectPackSimd) must compute with the same arithmetic, written once.
  * cbEdgeFunction: the edge function of the sheared, translated edge a -> b; with nothing fused
@@ -142,6 +96,50 @@ CB_FN TriangleRay triangleRayOf(Ray ray) {
     r.oz = vcomponent(ray.o, r.kz);
     return r;
 }
+
+#ifdef CB_HAS_DOUBLE
+/* Double-precision ray parameter of the hit of `ray` with the triangle's plane (the edge tests
+ * already passed in real), and whether it clears its own rounding-error bound (pbrt 3rd ed.
+ * sec. 3.9.6 with double's unit roundoff). The axes are the sheared ray's; the shear is
+ * recomputed in double. */
+CB_FN bool cbTriangleHitBeyondErrorDouble(Ray ray, TriangleRay sheared, Vec3 p0, Vec3 p1, Vec3 p2,
+                                          real* t) {
+    double o[3] = {ray.o.x, ray.o.y, ray.o.z};
+    double dir[3] = {ray.d.x, ray.d.y, ray.d.z};
+    double v[3][3] = {{(double)p0.x - o[0], (double)p0.y - o[1], (double)p0.z - o[2]},
+                      {(double)p1.x - o[0], (double)p1.y - o[1], (double)p1.z - o[2]},
+                      {(double)p2.x - o[0], (double)p2.y - o[1], (double)p2.z - o[2]}};
+    int kx = sheared.kx, ky = sheared.ky, kz = sheared.kz;
+    double sx = -dir[kx] / dir[kz];
+    double sy = -dir[ky] / dir[kz];
+    double sz = 1.0 / dir[kz];
+    double x[3], y[3], z[3];
+    for (int i = 0; i < 3; ++i) {
+        x[i] = v[i][kx] + sx * v[i][kz];
+        y[i] = v[i][ky] + sy * v[i][kz];
+        z[i] = v[i][kz] * sz;
+    }
+    double e0 = x[1] * y[2] - y[1] * x[2];
+    double e1 = x[2] * y[0] - y[2] * x[0];
+    double e2 = x[0] * y[1] - y[0] * x[1];
+    double det = e0 + e1 + e2;
+    if (det == 0.0) return false;
+    double tD = (e0 * z[0] + e1 * z[1] + e2 * z[2]) / det;
+    const double u = 1.1102230246251565e-16; /* double unit roundoff */
+    double maxX = fmax(fabs(x[0]), fmax(fabs(x[1]), fabs(x[2])));
+    double maxY = fmax(fabs(y[0]), fmax(fabs(y[1]), fabs(y[2])));
+    double maxZ = fmax(fabs(z[0]), fmax(fabs(z[1]), fabs(z[2])));
+    double maxE = fmax(fabs(e0), fmax(fabs(e1), fabs(e2)));
+    double g2 = 2.0 * u / (1.0 - 2.0 * u), g3 = 3.0 * u / (1.0 - 3.0 * u),
+           g5 = 5.0 * u / (1.0 - 5.0 * u);
+    double deltaX = g5 * (maxX + maxZ), deltaY = g5 * (maxY + maxZ), deltaZ = g3 * maxZ;
+    double deltaE = 2.0 * (g2 * maxX * maxY + deltaY * maxX + deltaX * maxY);
+    double deltaT = 3.0 * (g3 * maxE * maxZ + deltaE * maxZ + deltaZ * maxE) / fabs(det);
+    if (!(tD > deltaT)) return false;
+    *t = (real)tD;
+    return true;
+}
+#endif
 
 /* Watertight ray/triangle intersection (Woop, Benthin, Wald 2013, JCGT 2(1)), with the
  * conservative t > 0 test of pbrt-v4 (3rd ed. sec. 3.9.6). Rays through a shared edge or
@@ -207,7 +205,7 @@ CB_FN bool intersectTriangleSheared(Ray ray, TriangleRay sheared, real tMax, Vec
          * it and would leak through. Decide such cases with the same computation in double,
          * whose bound is 2^29 times tighter; a spawned ray's own surface (origin offset past
          * its error box) still comes out at t <= 0 there. */
-        if (!cbTriangleHitBeyondErrorDouble(ray, p0, p1, p2, &tHit)) return false;
+        if (!cbTriangleHitBeyondErrorDouble(ray, sheared, p0, p1, p2, &tHit)) return false;
 #else
         return false;
 #endif

@@ -70,7 +70,6 @@ int binOf(float c, float lo, float scale, int bins) {
 // sweeps evaluate the bins-1 candidate planes per axis.
 Split findSplit(const std::vector<PrimRef>& refs, int begin, int end, const Box& centroids,
                 int bins, int primitivesPerTest) {
-    auto tests = [primitivesPerTest](int count) { return testBlocks(count, primitivesPerTest); };
     Split best;
     std::vector<Box> binBox(bins);
     std::vector<int> binCount(bins);
@@ -101,7 +100,8 @@ Split findSplit(const std::vector<PrimRef>& refs, int begin, int end, const Box&
             acc.grow(binBox[b - 1]);
             count += binCount[b - 1];
             if (count == 0 || rightCount[b] == 0) continue;
-            double cost = tests(count) * acc.halfArea() + tests(rightCount[b]) * rightArea[b];
+            double cost = testBlocks(count, primitivesPerTest) * acc.halfArea() +
+                          testBlocks(rightCount[b], primitivesPerTest) * rightArea[b];
             if (cost < best.cost) {
                 best.cost = cost;
                 best.axis = axis;

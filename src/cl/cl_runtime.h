@@ -84,7 +84,7 @@ class ClRuntime {
     // copy of kHugePageBytes or more goes to host memory advised onto transparent huge pages,
     // which the device reads in place (CL_MEM_USE_HOST_PTR) and which is freed with the
     // buffer: a BVH of many megabytes then takes far fewer TLB misses, as Embree's does
-    // (docs/performance.md: 1M-triangle sphere, incoherent and shadow rays 5-8% faster).
+    // (docs/performance.md: 1M-triangle sphere, incoherent and shadow rays 3-8% faster).
     cl::Buffer createReadOnlyCopy(const std::string& what, const void* data, size_t bytes);
     static constexpr size_t kHugePageBytes = size_t(2) << 20;
 
