@@ -54,6 +54,22 @@ CB_FN uint bvhWideCount(CB_GLOBAL const BvhNodeWide* node, int k) {
     return (node->counts[k >> 2] >> (8 * (k & 3))) & 0xffu;
 }
 
+/* The box tests take the ray's origin, its inverse direction for the exit distances, and the
+ * inverse direction scaled by 1 - 4 gamma(3) for the entry distances (loose vectors, not a
+ * struct: a struct passed by value stayed a copy in memory, which PoCL then kept per work-item).
+ * The scaling is the conservative slab test of pbrt (3rd ed. sec. 3.9.2: a box is kept when its
+ * entry distance is at most its exit distance times 1 + 2 gamma(3)) moved to the other side, where
+ * it costs nothing per node: an entry distance computed with the scaled inverse is at most
+ * (1 - 4 gamma(3) + 4 u) times the one computed without (u = 2^-24: the rounding of the scale,
+ * of the scaled inverse, and of the two products), which is below 1 / ((1 + 2 gamma(3))
+ * (1 + u)), pbrt's factor with its own rounding, because gamma(3) > 3 u. So every box pbrt's
+ * test keeps is kept, and the exit distances need no multiplication: the test is
+ * tn <= min(closest, tf), whose minimum is then a tree, not a chain. */
+CB_FN Vec3 bvhWideNearInverse(Vec3 invD) {
+    real s = 1.0f - 4.0f * cbGamma(3);
+    return vec3(invD.x * s, invD.y * s, invD.z * s);
+}
+
 /* The visiting order. A child's key is its entry distance with the 3 lowest mantissa bits
  * replaced by its lane: entry distances are never negative or NaN (bvhWideBoxes starts them at
  * +0), so the keys of one node are distinct, and compared as integers they order the children
@@ -64,17 +80,14 @@ CB_FN uint bvhWideCount(CB_GLOBAL const BvhNodeWide* node, int k) {
  * often (docs/performance.md: fewer instructions than lane order, shadow rays 0-10% faster). */
 #ifdef CB_KERNEL_SIDE
 /* The kernels test the lanes with OpenCL vectors (one SSE/AVX instruction per step under
- * PoCL). The selects are bvhBoxHit's, lane by lane (see there for NaNs); the exit distance
- * starts from +inf so a NaN slab is dropped as there. */
+ * PoCL). The selects are bvhBoxHit's, lane by lane (see there for NaNs). */
 #if CBW == 4
 typedef float4 BvhWideReal;
 typedef int4 BvhWideInt;
 #define BVHW_LOAD(p) vload4(0, p)
 #define BVHW_AS_INT(v) as_int4(v)
 #define BVHW_LANES ((int4)(0, 1, 2, 3))
-#define BVHW_STORE(v, p) vstore4(v, 0, p)
-typedef uint BvhWideBytes;
-#define BVHW_LANE_BYTES(mask) as_uint(convert_char4(mask))
+#define BVHW_AS_REAL(v) as_float4(v)
 CB_FN int bvhWideOrAll(int4 v) {
     int2 a = v.lo | v.hi;
     return a.x | a.y;
@@ -89,9 +102,7 @@ typedef int8 BvhWideInt;
 #define BVHW_LOAD(p) vload8(0, p)
 #define BVHW_AS_INT(v) as_int8(v)
 #define BVHW_LANES ((int8)(0, 1, 2, 3, 4, 5, 6, 7))
-#define BVHW_STORE(v, p) vstore8(v, 0, p)
-typedef ulong BvhWideBytes;
-#define BVHW_LANE_BYTES(mask) as_ulong(convert_char8(mask))
+#define BVHW_AS_REAL(v) as_float8(v)
 CB_FN int bvhWideOrAll(int8 v) {
     int4 a = v.lo | v.hi;
     int2 b = a.lo | a.hi;
@@ -107,28 +118,56 @@ CB_FN int bvhWideMinAll(int8 v) {
 #endif
 typedef int BvhWideKey;
 
-CB_FN void bvhWideBoxes(CB_GLOBAL const BvhNodeWide* node, Vec3 o, Vec3 invD, BvhWideReal* tn,
-                        BvhWideReal* tf) {
-    BvhWideReal tx0 = (BVHW_LOAD(node->lo[0]) - o.x) * invD.x;
-    BvhWideReal tx1 = (BVHW_LOAD(node->hi[0]) - o.x) * invD.x;
-    BvhWideReal ty0 = (BVHW_LOAD(node->lo[1]) - o.y) * invD.y;
-    BvhWideReal ty1 = (BVHW_LOAD(node->hi[1]) - o.y) * invD.y;
-    BvhWideReal tz0 = (BVHW_LOAD(node->lo[2]) - o.z) * invD.z;
-    BvhWideReal tz1 = (BVHW_LOAD(node->hi[2]) - o.z) * invD.z;
-    BvhWideReal nx = select(tx0, tx1, tx0 > tx1);
-    BvhWideReal fx = select(tx1, tx0, tx0 > tx1);
-    BvhWideReal ny = select(ty0, ty1, ty0 > ty1);
-    BvhWideReal fy = select(ty1, ty0, ty0 > ty1);
-    BvhWideReal nz = select(tz0, tz1, tz0 > tz1);
-    BvhWideReal fz = select(tz1, tz0, tz0 > tz1);
+/* A lane mask (lanes 0 or -1) as bits, lane k in bit k: one movmskps where the target has it
+ * (clang defines __SSE__/__AVX__ for PoCL's CPU targets), otherwise the sign bit of each lane's
+ * byte gathered with a multiply (also forced by -DCB_PORTABLE_LANE_BITS, which the tests use to
+ * check it). The bits replace the mask's bytes on the path from a node's boxes to its child:
+ * two dependent instructions instead of four. */
+CB_FN uint bvhWideBits(BvhWideInt mask) {
+#if defined(__AVX__) && CBW == 8 && !defined(CB_PORTABLE_LANE_BITS)
+    return (uint)__builtin_ia32_movmskps256(BVHW_AS_REAL(mask));
+#elif defined(__SSE__) && CBW == 4 && !defined(CB_PORTABLE_LANE_BITS)
+    return (uint)__builtin_ia32_movmskps(BVHW_AS_REAL(mask));
+#elif CBW == 8
+    ulong signs = as_ulong(convert_char8(mask)) & 0x8080808080808080UL;
+    return (uint)((signs * 0x0002040810204081UL) >> 56);
+#else
+    uint signs = as_uint(convert_char4(mask)) & 0x80808080u;
+    return (signs * 0x00204081u) >> 28;
+#endif
+}
+
+/* Each lane's entry distance *tn and exit distance *far, the latter already clamped to
+ * closest: the box is hit when tn <= far. */
+CB_FN void bvhWideBoxes(CB_GLOBAL const BvhNodeWide* node, Vec3 o, Vec3 invD, Vec3 invDNear,
+                        real closest, BvhWideReal* tn, BvhWideReal* far) {
+    /* The near plane of each axis is lo where the direction is positive, hi where it is
+     * negative (Williams et al. 2005), picked once per ray: the same distances as taking the
+     * minimum and maximum of both, for every non-empty box, NaNs included (a zero direction
+     * component has inverse +inf, so its near plane is lo, where the minimum keeps lo's NaN). */
+    CB_GLOBAL const real* planes = &node->lo[0][0];
+    bool px = invD.x >= 0.0f, py = invD.y >= 0.0f, pz = invD.z >= 0.0f;
+    BvhWideReal nx = (BVHW_LOAD(planes + (px ? 0 : 3 * CBW)) - o.x) * invDNear.x;
+    BvhWideReal fx = (BVHW_LOAD(planes + (px ? 3 * CBW : 0)) - o.x) * invD.x;
+    BvhWideReal ny = (BVHW_LOAD(planes + (py ? CBW : 4 * CBW)) - o.y) * invDNear.y;
+    BvhWideReal fy = (BVHW_LOAD(planes + (py ? 4 * CBW : CBW)) - o.y) * invD.y;
+    BvhWideReal nz = (BVHW_LOAD(planes + (pz ? 2 * CBW : 5 * CBW)) - o.z) * invDNear.z;
+    BvhWideReal fz = (BVHW_LOAD(planes + (pz ? 5 * CBW : 2 * CBW)) - o.z) * invD.z;
     BvhWideReal n = select((BvhWideReal)(0.0f), nx, nx > 0.0f);
     n = select(n, ny, ny > n);
     n = select(n, nz, nz > n);
-    BvhWideReal f = select((BvhWideReal)(INFINITY), fx, fx < INFINITY);
-    f = select(f, fy, fy < f);
-    f = select(f, fz, fz < f);
+    /* min(closest, fx, fy, fz) dropping NaNs, three selects deep instead of four: each keeps
+     * its running value (closest, +inf or a minimum of them, never NaN) against a NaN. */
+    BvhWideReal a = select((BvhWideReal)(closest), fx, fx < closest);
+    BvhWideReal b = select((BvhWideReal)(INFINITY), fy, fy < INFINITY);
+    b = select(b, fz, fz < b);
     *tn = n;
-    *tf = f;
+    *far = select(a, b, b < a);
+}
+
+/* far after a leaf moved closest nearer. */
+CB_FN BvhWideReal bvhWideClamp(BvhWideReal far, real closest) {
+    return select(far, (BvhWideReal)(closest), closest < far);
 }
 
 /* The keys of a node's lanes (see above). */
@@ -141,18 +180,17 @@ CB_FN BvhWideKey bvhWideKeyNone(void) {
     return -1;
 }
 
-/* The key of lane k, coming back up from it. */
+/* The key of lane k, coming back up from it. A select and a minimum, not a private array:
+ * PoCL gives every private array a copy per work-item, stored to on every node visit. */
 CB_FN BvhWideKey bvhWideKeyOf(BvhWideInt keys, int k) {
-    int lanes[CBW];
-    BVHW_STORE(keys, lanes);
-    return lanes[k];
+    return bvhWideMinAll(select((BvhWideInt)(INT_MAX), keys, BVHW_LANES == (BvhWideInt)(k)));
 }
 
 /* The candidates of bvhWideNext: the hit lanes above `after` as a mask, and for coherent
- * queries also as one byte per lane (0xff or 0). */
+ * queries also as bits (bvhWideBits). */
 typedef struct BvhWideCand {
     BvhWideInt mask;
-    BvhWideBytes bytes;
+    uint bits;
 } BvhWideCand;
 
 /* The hit lane with the smallest key above `after`, its key in *key; -1 if none. *cand: the
@@ -160,22 +198,24 @@ typedef struct BvhWideCand {
  *
  * `coherent` (a constant: a separate copy of the traversal) is for rays whose neighbours in
  * the work-group take the same path, camera rays above all. A lone candidate, their most
- * common case, is then found from the lane bytes with a population count and a leading-zero
- * count, behind a branch that predicts well for such rays, and *key is left unset: there is
- * nothing to order after it. Incoherent rays mispredict that branch, and are 5-10% slower
- * with it (docs/performance.md), so they always take the minimum across the lanes. */
-CB_FN int bvhWideNext(CB_GLOBAL const BvhNodeWide* node, BvhWideReal tn, BvhWideReal tf,
-                      BvhWideInt keys, real closest, BvhWideKey after, bool coherent,
-                      BvhWideKey* key, BvhWideCand* cand) {
-    BvhWideReal far = select((BvhWideReal)(closest), tf, tf < closest);
-    BvhWideInt c = (BVHW_LOAD(node->child) != CB_BVHW_NONE) &
-                   (tn <= far * (1.0f + 2.0f * cbGamma(3))) & (keys > after);
+ * common case, is then found from the candidate bits with a leading-zero count, behind a
+ * branch that predicts well for such rays; *key is then just the lane: nothing is left to
+ * order after it. Incoherent rays mispredict that branch, and are 5-10% slower with it
+ * (docs/performance.md), so they always take the minimum across the lanes. */
+CB_FN int bvhWideNext(CB_GLOBAL const BvhNodeWide* node, BvhWideReal tn, BvhWideReal far,
+                      BvhWideInt keys, BvhWideKey after, bool coherent, BvhWideKey* key,
+                      BvhWideCand* cand) {
+    BvhWideInt c = (BVHW_LOAD(node->child) != CB_BVHW_NONE) & (tn <= far) & (keys > after);
     cand->mask = c;
     if (coherent) {
-        BvhWideBytes bytes = BVHW_LANE_BYTES(c);
-        cand->bytes = bytes;
-        if (bytes == 0) return -1;
-        if (popcount(bytes) == 8) return CBW - 1 - (int)(clz(bytes) >> 3);
+        uint bits = bvhWideBits(c);
+        cand->bits = bits;
+        if (bits == 0u) return -1;
+        if ((bits & (bits - 1u)) == 0u) {
+            int lane = 31 - (int)clz(bits);
+            *key = lane;
+            return lane;
+        }
     }
     int m = bvhWideMinAll(select((BvhWideInt)(INT_MAX), keys, c));
     if (m == INT_MAX) return -1;
@@ -185,7 +225,7 @@ CB_FN int bvhWideNext(CB_GLOBAL const BvhNodeWide* node, BvhWideReal tn, BvhWide
 
 /* Whether a candidate other than the lane bvhWideNext returned (with `key`) remains. */
 CB_FN bool bvhWideMore(BvhWideCand cand, BvhWideInt keys, BvhWideKey key, bool coherent) {
-    if (coherent) return popcount(cand.bytes) > 8;
+    if (coherent) return (cand.bits & (cand.bits - 1u)) != 0u;
     return bvhWideOrAll(cand.mask & (keys != key)) != 0;
 }
 #else
@@ -203,12 +243,31 @@ typedef struct BvhWideKey {
 } BvhWideKey;
 typedef int BvhWideCand;
 
-CB_FN void bvhWideBoxes(CB_GLOBAL const BvhNodeWide* node, Vec3 o, Vec3 invD, BvhWideReal* tn,
-                        BvhWideReal* tf) {
+CB_FN void bvhWideBoxes(CB_GLOBAL const BvhNodeWide* node, Vec3 o, Vec3 invD, Vec3 invDNear,
+                        real closest, BvhWideReal* tn, BvhWideReal* far) {
+    bool px = invD.x >= 0.0f, py = invD.y >= 0.0f, pz = invD.z >= 0.0f;
+    for (int k = 0; k < CBW; ++k) {
+        real nx = ((px ? node->lo[0][k] : node->hi[0][k]) - o.x) * invDNear.x;
+        real fx = ((px ? node->hi[0][k] : node->lo[0][k]) - o.x) * invD.x;
+        real ny = ((py ? node->lo[1][k] : node->hi[1][k]) - o.y) * invDNear.y;
+        real fy = ((py ? node->hi[1][k] : node->lo[1][k]) - o.y) * invD.y;
+        real nz = ((pz ? node->lo[2][k] : node->hi[2][k]) - o.z) * invDNear.z;
+        real fz = ((pz ? node->hi[2][k] : node->lo[2][k]) - o.z) * invD.z;
+        real n = nx > 0.0f ? nx : 0.0f;
+        n = ny > n ? ny : n;
+        n = nz > n ? nz : n;
+        real a = fx < closest ? fx : closest;
+        real b = fy < CB_INFINITY ? fy : CB_INFINITY;
+        b = fz < b ? fz : b;
+        tn->v[k] = n;
+        far->v[k] = b < a ? b : a;
+    }
+}
+
+CB_FN BvhWideReal bvhWideClamp(BvhWideReal far, real closest) {
     for (int k = 0; k < CBW; ++k)
-        bvhSlabInterval(vec3(node->lo[0][k], node->lo[1][k], node->lo[2][k]),
-                        vec3(node->hi[0][k], node->hi[1][k], node->hi[2][k]), o, invD, CB_INFINITY,
-                        &tn->v[k], &tf->v[k]);
+        far.v[k] = closest < far.v[k] ? closest : far.v[k];
+    return far;
 }
 
 CB_FN real bvhWideTruncate(real t) {
@@ -248,16 +307,15 @@ CB_FN bool bvhWideKeyLess(BvhWideKey a, BvhWideKey b) {
 }
 
 /* *cand: how many hit lanes are above `after`. */
-CB_FN int bvhWideNext(CB_GLOBAL const BvhNodeWide* node, BvhWideReal tn, BvhWideReal tf,
-                      BvhWideInt keys, real closest, BvhWideKey after, bool coherent,
-                      BvhWideKey* key, int* cand) {
+CB_FN int bvhWideNext(CB_GLOBAL const BvhNodeWide* node, BvhWideReal tn, BvhWideReal far,
+                      BvhWideInt keys, BvhWideKey after, bool coherent, BvhWideKey* key,
+                      int* cand) {
     (void)coherent;
     int best = -1;
     *cand = 0;
     *key = after; /* read only when a lane is returned; set so g++ can see that */
     for (int k = 0; k < CBW; ++k) {
-        real far = tf.v[k] < closest ? tf.v[k] : closest;
-        bool hit = node->child[k] != CB_BVHW_NONE && tn.v[k] <= far * (1.0f + 2.0f * cbGamma(3));
+        bool hit = node->child[k] != CB_BVHW_NONE && tn.v[k] <= far.v[k];
         BvhWideKey kk = bvhWideKeyOf(keys, k);
         if (!hit || !bvhWideKeyLess(after, kk)) continue;
         ++*cand;
@@ -300,6 +358,7 @@ CB_FN CB_BVHW_SPECIALISE bool bvhWideTraverse(CB_GLOBAL const BvhNodeWide* nodes
     hit->b1 = 0.0f;
     hit->b2 = 0.0f;
     Vec3 invD = bvhInverseDirection(ray.d);
+    Vec3 invDNear = bvhWideNearInverse(invD);
     TriangleRay sheared = triangleRayOf(ray);
     real closest = tMax;
     bool found = false;
@@ -314,15 +373,15 @@ CB_FN CB_BVHW_SPECIALISE bool bvhWideTraverse(CB_GLOBAL const BvhNodeWide* nodes
     int depth = 0;
     for (;;) {
         CB_GLOBAL const BvhNodeWide* node = nodes + cur;
-        BvhWideReal tn, tf;
-        bvhWideBoxes(node, ray.o, invD, &tn, &tf);
+        BvhWideReal tn, far;
+        bvhWideBoxes(node, ray.o, invD, invDNear, closest, &tn, &far);
         BvhWideInt keys = bvhWideKeys(tn);
         BvhWideKey after = fromLane >= 0 ? bvhWideKeyOf(keys, fromLane) : bvhWideKeyNone();
         uint down = CB_BVHW_NONE;
         for (;;) {
-            BvhWideKey key;
+            BvhWideKey key = after;
             BvhWideCand cand;
-            int k = bvhWideNext(node, tn, tf, keys, closest, after, coherent, &key, &cand);
+            int k = bvhWideNext(node, tn, far, keys, after, coherent, &key, &cand);
             if (k < 0) break;
             uint count = bvhWideCount(node, k);
             if (count == 0u) {
@@ -346,6 +405,7 @@ CB_FN CB_BVHW_SPECIALISE bool bvhWideTraverse(CB_GLOBAL const BvhNodeWide* nodes
             }
             /* A coherent query knows that nothing is left without another pick. */
             if (coherent && !bvhWideMore(cand, keys, key, coherent)) break;
+            far = bvhWideClamp(far, closest);
             after = key;
         }
         if (down != CB_BVHW_NONE) {

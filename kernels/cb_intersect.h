@@ -104,31 +104,35 @@ CB_FN TriangleRay triangleRayOf(Ray ray) {
  * recomputed in double. */
 CB_FN bool cbTriangleHitBeyondErrorDouble(Ray ray, TriangleRay sheared, Vec3 p0, Vec3 p1, Vec3 p2,
                                           real* t) {
-    double o[3] = {ray.o.x, ray.o.y, ray.o.z};
-    double dir[3] = {ray.d.x, ray.d.y, ray.d.z};
-    double v[3][3] = {{(double)p0.x - o[0], (double)p0.y - o[1], (double)p0.z - o[2]},
-                      {(double)p1.x - o[0], (double)p1.y - o[1], (double)p1.z - o[2]},
-                      {(double)p2.x - o[0], (double)p2.y - o[1], (double)p2.z - o[2]}};
+    /* Scalars, not arrays: PoCL gives every private array that survives to its work-group
+     * pass a copy per work-item, set up in every ray's prologue though this path is rare. */
     int kx = sheared.kx, ky = sheared.ky, kz = sheared.kz;
-    double sx = -dir[kx] / dir[kz];
-    double sy = -dir[ky] / dir[kz];
-    double sz = 1.0 / dir[kz];
-    double x[3], y[3], z[3];
-    for (int i = 0; i < 3; ++i) {
-        x[i] = v[i][kx] + sx * v[i][kz];
-        y[i] = v[i][ky] + sy * v[i][kz];
-        z[i] = v[i][kz] * sz;
-    }
-    double e0 = x[1] * y[2] - y[1] * x[2];
-    double e1 = x[2] * y[0] - y[2] * x[0];
-    double e2 = x[0] * y[1] - y[0] * x[1];
+    double ox = vcomponent(ray.o, kx), oy = vcomponent(ray.o, ky), oz = vcomponent(ray.o, kz);
+    double dx = vcomponent(ray.d, kx), dy = vcomponent(ray.d, ky), dz = vcomponent(ray.d, kz);
+    double sx = -dx / dz;
+    double sy = -dy / dz;
+    double sz = 1.0 / dz;
+    double z0 = (double)vcomponent(p0, kz) - oz, z1 = (double)vcomponent(p1, kz) - oz,
+           z2 = (double)vcomponent(p2, kz) - oz;
+    double x0 = ((double)vcomponent(p0, kx) - ox) + sx * z0;
+    double x1 = ((double)vcomponent(p1, kx) - ox) + sx * z1;
+    double x2 = ((double)vcomponent(p2, kx) - ox) + sx * z2;
+    double y0 = ((double)vcomponent(p0, ky) - oy) + sy * z0;
+    double y1 = ((double)vcomponent(p1, ky) - oy) + sy * z1;
+    double y2 = ((double)vcomponent(p2, ky) - oy) + sy * z2;
+    z0 *= sz;
+    z1 *= sz;
+    z2 *= sz;
+    double e0 = x1 * y2 - y1 * x2;
+    double e1 = x2 * y0 - y2 * x0;
+    double e2 = x0 * y1 - y0 * x1;
     double det = e0 + e1 + e2;
     if (det == 0.0) return false;
-    double tD = (e0 * z[0] + e1 * z[1] + e2 * z[2]) / det;
+    double tD = (e0 * z0 + e1 * z1 + e2 * z2) / det;
     const double u = 1.1102230246251565e-16; /* double unit roundoff */
-    double maxX = fmax(fabs(x[0]), fmax(fabs(x[1]), fabs(x[2])));
-    double maxY = fmax(fabs(y[0]), fmax(fabs(y[1]), fabs(y[2])));
-    double maxZ = fmax(fabs(z[0]), fmax(fabs(z[1]), fabs(z[2])));
+    double maxX = fmax(fabs(x0), fmax(fabs(x1), fabs(x2)));
+    double maxY = fmax(fabs(y0), fmax(fabs(y1), fabs(y2)));
+    double maxZ = fmax(fabs(z0), fmax(fabs(z1), fabs(z2)));
     double maxE = fmax(fabs(e0), fmax(fabs(e1), fabs(e2)));
     double g2 = 2.0 * u / (1.0 - 2.0 * u), g3 = 3.0 * u / (1.0 - 3.0 * u),
            g5 = 5.0 * u / (1.0 - 5.0 * u);
@@ -398,7 +402,7 @@ CB_FN bool intersectPack(CB_GLOBAL const TrianglePack* pack, CB_GLOBAL const Pri
         for (int k = 0; k < CB_PACK_LANES; ++k) {
             int4 at = lanes == (int4)(k);
             if (!cbAnyLane(slow & at)) continue;
-            Hit h;
+            Hit h = {tMax, -1, 0.0f, 0.0f};
             if (!intersectPrimitiveSheared(prims + pack->prim[k], ray, sheared, tMax, &h)) continue;
             if (!closestHit) return true;
             tLane = select(tLane, (float4)(h.t), at);

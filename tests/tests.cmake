@@ -5,7 +5,9 @@ file(GLOB CBDPT_TEST_SOURCES CONFIGURE_DEPENDS ${CMAKE_SOURCE_DIR}/tests/*.cpp)
 add_executable(cbdpt_tests ${CBDPT_TEST_SOURCES})
 target_link_libraries(cbdpt_tests PRIVATE cbdpt_core doctest::doctest)
 target_compile_definitions(cbdpt_tests PRIVATE CBDPT_MODELS_DIR="${CMAKE_SOURCE_DIR}/../shared/models")
-doctest_discover_tests(cbdpt_tests ADD_LABELS 1 PROPERTIES ENVIRONMENT "CBDPT_SOURCE_DIR=${CMAKE_SOURCE_DIR}")
+# A kernel that loops forever (a broken traversal does) fails after 10 minutes, not CTest's 25.
+doctest_discover_tests(cbdpt_tests ADD_LABELS 1 PROPERTIES ENVIRONMENT "CBDPT_SOURCE_DIR=${CMAKE_SOURCE_DIR}"
+                       TIMEOUT 600)
 
 # End-to-end tests of the command line (render, interrupt, errors, info).
 add_test(NAME cli COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_cli.py $<TARGET_FILE:cbdpt> ${CMAKE_SOURCE_DIR})
