@@ -34,10 +34,11 @@ CB_BEGIN_NAMESPACE
 
 /* 128 bytes (4 lanes) or 256 (8 lanes). lo/hi[axis][lane] are the children's boxes.
  * child[lane]: the child node for an interior child, the first TrianglePack for a leaf,
- * CB_BVHW_NONE for an empty lane (its box is empty as well). counts: byte `lane` is the
- * leaf's number of packs (up to four primitives each), 0 for an interior child or an empty
- * lane. parent: the parent node, CB_BVHW_NONE for the root (node 0); lane: this node's lane
- * in its parent, so that coming back up needs no search. */
+ * CB_BVHW_NONE for an empty lane (its box is empty as well). Interior children take the first
+ * lanes and consecutive nodes, so the one at lane k is child[0] + k (bvhWideInteriorChild). counts:
+ * byte `lane` is the leaf's number of packs (up to four primitives each), 0 for an interior child
+ * or an empty lane. parent: the parent node, CB_BVHW_NONE for the root (node 0); lane: this node's
+ * lane in its parent, so that coming back up needs no search. */
 typedef struct BvhNodeWide {
     real lo[3][CBW];
     real hi[3][CBW];
@@ -52,6 +53,23 @@ CB_STATIC_ASSERT(sizeof(BvhNodeWide) == 32 * CBW, "BvhNodeWide must be 32 bytes 
 
 CB_FN uint bvhWideCount(CB_GLOBAL const BvhNodeWide* node, int k) {
     return (node->counts[k >> 2] >> (8 * (k & 3))) & 0xffu;
+}
+
+/* Leading zero bits of a non-zero 64-bit value. */
+#ifdef CB_KERNEL_SIDE
+CB_FN int cbClz64(ulong v) {
+    return (int)clz(v);
+}
+#else
+CB_FN int cbClz64(ulong v) {
+    return __builtin_clzll(v);
+}
+#endif
+
+/* The interior child at lane k: child[0] is read with the rest of the node, so the next node's
+ * address does not wait for a load that depends on the lane. */
+CB_FN uint bvhWideInteriorChild(CB_GLOBAL const BvhNodeWide* node, int k) {
+    return node->child[0] + (uint)k;
 }
 
 /* The box tests take the ray's origin, its inverse direction for the exit distances, and the
@@ -180,6 +198,14 @@ CB_FN BvhWideKey bvhWideKeyNone(void) {
     return -1;
 }
 
+/* Defined starting values (PoCL keeps a copy per work-item of a value that may be undefined). */
+CB_FN BvhWideReal bvhWideZeroReal(void) {
+    return (BvhWideReal)(0.0f);
+}
+CB_FN BvhWideInt bvhWideZeroInt(void) {
+    return (BvhWideInt)(0);
+}
+
 /* The key of lane k, coming back up from it. A select and a minimum, not a private array:
  * PoCL gives every private array a copy per work-item, stored to on every node visit. */
 CB_FN BvhWideKey bvhWideKeyOf(BvhWideInt keys, int k) {
@@ -205,7 +231,10 @@ typedef struct BvhWideCand {
 CB_FN int bvhWideNext(CB_GLOBAL const BvhNodeWide* node, BvhWideReal tn, BvhWideReal far,
                       BvhWideInt keys, BvhWideKey after, bool coherent, BvhWideKey* key,
                       BvhWideCand* cand) {
-    BvhWideInt c = (BVHW_LOAD(node->child) != CB_BVHW_NONE) & (tn <= far) & (keys > after);
+    BvhWideInt c = (BVHW_LOAD(node->child) != CB_BVHW_NONE) & (tn <= far);
+    /* Coming down every key is above `after`, so camera rays, for which the branch predicts
+     * well, keep the compare off the descent's path; incoherent rays were 1-3% slower with it. */
+    if (!coherent || after != bvhWideKeyNone()) c &= keys > after;
     cand->mask = c;
     if (coherent) {
         uint bits = bvhWideBits(c);
@@ -297,6 +326,13 @@ CB_FN BvhWideKey bvhWideKeyNone(void) {
     return key;
 }
 
+CB_FN BvhWideReal bvhWideZeroReal(void) {
+    return BvhWideReal{};
+}
+CB_FN BvhWideInt bvhWideZeroInt(void) {
+    return BvhWideInt{};
+}
+
 CB_FN BvhWideKey bvhWideKeyOf(BvhWideInt keys, int k) {
     BvhWideKey key = {keys.t[k], k};
     return key;
@@ -371,12 +407,32 @@ CB_FN CB_BVHW_SPECIALISE bool bvhWideTraverse(CB_GLOBAL const BvhNodeWide* nodes
      * recorded and always tested. One register, not a stack. */
     ulong trail = 0;
     int depth = 0;
+    /* The last node left with children still to visit, with its lanes' distances and keys:
+     * coming back up to it reuses them instead of testing its boxes again (far clamped to the
+     * closest hit found since). They depend only on the node and the ray, so the order and the
+     * hits are the same; this saves the box tests of most returns (a stack would hold a child
+     * per level, this holds one node's lanes, in registers). Camera rays only: incoherent and
+     * shadow rays were 3-5% slower with it (docs/performance.md). */
+    uint cachedNode = CB_BVHW_NONE;
+    int cachedDepth = -1, cachedLane = -1;     /* its depth and the lane it was left through */
+    BvhWideKey cachedAfter = bvhWideKeyNone(); /* that lane's key */
+    BvhWideReal cachedTn = bvhWideZeroReal(), cachedFar = bvhWideZeroReal();
+    BvhWideInt cachedKeys = bvhWideZeroInt();
     for (;;) {
         CB_GLOBAL const BvhNodeWide* node = nodes + cur;
         BvhWideReal tn, far;
-        bvhWideBoxes(node, ray.o, invD, invDNear, closest, &tn, &far);
-        BvhWideInt keys = bvhWideKeys(tn);
-        BvhWideKey after = fromLane >= 0 ? bvhWideKeyOf(keys, fromLane) : bvhWideKeyNone();
+        BvhWideInt keys;
+        BvhWideKey after;
+        if (coherent && cur == cachedNode && fromLane == cachedLane) {
+            tn = cachedTn;
+            far = bvhWideClamp(cachedFar, closest);
+            keys = cachedKeys;
+            after = cachedAfter;
+        } else {
+            bvhWideBoxes(node, ray.o, invD, invDNear, closest, &tn, &far);
+            keys = bvhWideKeys(tn);
+            after = fromLane >= 0 ? bvhWideKeyOf(keys, fromLane) : bvhWideKeyNone();
+        }
         uint down = CB_BVHW_NONE;
         for (;;) {
             BvhWideKey key = after;
@@ -385,11 +441,23 @@ CB_FN CB_BVHW_SPECIALISE bool bvhWideTraverse(CB_GLOBAL const BvhNodeWide* nodes
             if (k < 0) break;
             uint count = bvhWideCount(node, k);
             if (count == 0u) {
-                down = node->child[k];
+                down = bvhWideInteriorChild(node, k);
+                bool more = bvhWideMore(cand, keys, key, coherent);
                 if (depth < 64) {
                     ulong bit = (ulong)1 << depth;
-                    bool more = bvhWideMore(cand, keys, key, coherent);
                     trail = more ? (trail | bit) : (trail & ~bit);
+                }
+                if (coherent && more) {
+                    cachedNode = cur;
+                    cachedDepth = depth;
+                    cachedLane = k;
+                    cachedAfter = key;
+                    cachedTn = tn;
+                    cachedFar = far;
+                    cachedKeys = keys;
+                } else if (coherent && cur == cachedNode) {
+                    cachedNode = CB_BVHW_NONE; /* left for the last time */
+                    cachedDepth = -1;
                 }
                 break;
             }
@@ -414,7 +482,22 @@ CB_FN CB_BVHW_SPECIALISE bool bvhWideTraverse(CB_GLOBAL const BvhNodeWide* nodes
             ++depth;
             continue;
         }
-        /* Up to the nearest ancestor that may have children left. */
+        /* Up to the nearest ancestor that may have children left. While every ancestor's trail
+         * bit is recorded (depth <= 64), the highest set bit below the current depth is its
+         * depth: none means the traversal is over, without climbing to the root through a
+         * chain of dependent parent loads; and when it is the cached node's depth, the
+         * cached node is that ancestor (its bit was last written when the cache was), and
+         * the traversal goes there at once. Otherwise it climbs. */
+        if (depth <= 64) {
+            ulong below = depth == 64 ? trail : (trail & (((ulong)1 << depth) - (ulong)1));
+            if (below == 0) return found;
+            if (coherent && 63 - (int)cbClz64(below) == cachedDepth) {
+                cur = cachedNode;
+                fromLane = cachedLane;
+                depth = cachedDepth;
+                continue;
+            }
+        }
         for (;;) {
             if (cur == 0u) return found;
             fromLane = (int)nodes[cur].lane;

@@ -362,8 +362,8 @@ TEST_CASE("bvh: closest hit and occlusion equal brute force on the bunny (100k r
 
 // The wide BVH: every primitive in exactly one lane of one leaf's packs, packs full but for
 // the last of each leaf, each pack lane a copy of its triangle (or marked for the scalar test),
-// parents consistent, each child box inside the binary box it came from (the lanes are the
-// binary boxes themselves).
+// parents consistent, interior children first in lane order (bvhWideInteriorChild), each child
+// box inside the binary box it came from (the lanes are the binary boxes themselves).
 void checkWide(const cb::BvhWide& wide, const std::vector<Primitive>& prims) {
     const auto& nodes = wide.nodes;
     std::vector<int> seen(prims.size(), 0), packSeen(wide.packs.size(), 0);
@@ -375,6 +375,8 @@ void checkWide(const cb::BvhWide& wide, const std::vector<Primitive>& prims) {
             uint32_t count = cbk::bvhWideCount(&n, k);
             if (count == 0) {
                 REQUIRE(n.child[k] < nodes.size());
+                // Interior children come first and consecutive: the traversal's address rule.
+                CHECK(n.child[k] == cbk::bvhWideInteriorChild(&n, k));
                 CHECK(nodes[n.child[k]].parent == i);
                 CHECK(nodes[n.child[k]].lane == uint32_t(k));
                 for (int a = 0; a < 3; ++a)

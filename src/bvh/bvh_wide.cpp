@@ -95,6 +95,15 @@ BvhWide collapseBvhWide(const Bvh& bvh) {
                 kids.insert(kids.begin() + best + 1, c[1]);
             }
         }
+        // Interior children first, then leaves, then empty leaves: an interior child at lane k
+        // is then node child[0] + k (its block of siblings is allocated in lane order below),
+        // so the traversal computes the next node's address without waiting for a load.
+        auto rank = [&](uint32_t b) {
+            if (!isLeaf(bin[b])) return 0;
+            return (bin[b].count & ~CB_BVH_LEAF) != 0 ? 1 : 2;
+        };
+        std::stable_sort(kids.begin(), kids.end(),
+                         [&](uint32_t a, uint32_t b) { return rank(a) < rank(b); });
         cbk::BvhNodeWide node{};
         node.parent = t.parent;
         node.lane = t.lane;

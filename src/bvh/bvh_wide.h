@@ -17,7 +17,8 @@ namespace cb {
 constexpr int kWideSahBlock = 2;
 
 struct BvhWide {
-    // Root at 0; the children of a node are allocated together, after it.
+    // Root at 0. A node's interior children take its first lanes and are allocated together,
+    // after it, in lane order: the interior child at lane k is node child[0] + k.
     std::vector<cbk::BvhNodeWide> nodes;
     // The leaves' primitives, leaf by leaf in consecutive packs: its triangles four to a pack,
     // then its other primitives (spheres) four to a pack. Packs name primitives by their index
