@@ -72,21 +72,86 @@ CB_FN uint bvhWideInteriorChild(CB_GLOBAL const BvhNodeWide* node, int k) {
     return node->child[0] + (uint)k;
 }
 
-/* The box tests take the ray's origin, its inverse direction for the exit distances, and the
- * inverse direction scaled by 1 - 4 gamma(3) for the entry distances (loose vectors, not a
- * struct: a struct passed by value stayed a copy in memory, which PoCL then kept per work-item).
- * The scaling is the conservative slab test of pbrt (3rd ed. sec. 3.9.2: a box is kept when its
- * entry distance is at most its exit distance times 1 + 2 gamma(3)) moved to the other side, where
- * it costs nothing per node: an entry distance computed with the scaled inverse is at most
- * (1 - 4 gamma(3) + 4 u) times the one computed without (u = 2^-24: the rounding of the scale,
- * of the scaled inverse, and of the two products), which is below 1 / ((1 + 2 gamma(3))
- * (1 + u)), pbrt's factor with its own rounding, because gamma(3) > 3 u. So every box pbrt's
- * test keeps is kept, and the exit distances need no multiplication: the test is
- * tn <= min(closest, tf), whose minimum is then a tree, not a chain. */
-CB_FN Vec3 bvhWideNearInverse(Vec3 invD) {
-    real s = 1.0f - 4.0f * cbGamma(3);
-    return vec3(invD.x * s, invD.y * s, invD.z * s);
+/* The slab test as one fused multiply-add per plane, t = fma(plane, inv, add), with inv and
+ * add set up once per ray per axis so that the test stays conservative: it keeps every box
+ * that pbrt's test keeps (3rd ed. sec. 3.9.2: entry <= exit * (1 + 2 gamma(3)), with the
+ * distances computed as (plane - o) * inv). Per axis, with u = 2^-24:
+ * - Entry planes: inv = (1/d)(1 - 4 gamma(3)) and add = -o * inv rounded down by two ulps. The
+ *   FMA forms plane * inv + add exactly and rounds once, so the entry distance is at most
+ *   (1 - 4 gamma(3) + 4 u) times the true one (the roundings of 1/d, the scale, inv and the
+ *   result), below 1 / ((1 + 2 gamma(3))(1 + u)) because gamma(3) > 3 u.
+ * - Exit planes: inv = 1/d and add = -o * inv rounded up by two ulps: at least (1 - 2 u)
+ *   times the true distance. The test is then entry <= min(exit, closest), no multiplication.
+ * - Flat axes, |1/d| >= 2^32 (a zero or subnormal direction component): inv = +-2^32, whose
+ *   products are exact, so the entry distance has the exact sign of (plane - o) and the slab
+ *   keeps or drops the box exactly as its side of the plane says; the exit addend also gets
+ *   2^100, an exit never reached. Such an axis keeps at least the boxes of the exact test
+ *   (scene coordinates below 2^60).
+ * Nothing is ever NaN (no 0 * inf: empty lanes' infinite planes meet finite factors), so the
+ * minimum and maximum are plain trees, two deep. Against the subtract-and-multiply form this
+ * takes a dependent operation and a level of selects off every node visit. */
+typedef struct BvhWideSlabs {
+    Vec3 invNear, addNear; /* entry planes */
+    Vec3 invFar, addFar;   /* exit planes */
+} BvhWideSlabs;
+
+#define CB_BVHW_FLAT 4294967296.0f        /* 2^32 */
+#define CB_BVHW_NEVER 1.2676506e30f       /* 2^100 */
+#define CB_BVHW_TWO_ULPS 2.384185791e-07f /* 2^-22 */
+#define CB_BVHW_TINY 1.401298464e-45f     /* the smallest subnormal */
+
+#ifdef CB_KERNEL_SIDE
+/* The three axes at once, one lane each: a quarter of the scalar set-up's instructions, which
+ * rays with few node visits notice. Lane by lane the same operations as the host's. */
+CB_FN BvhWideSlabs bvhWideSlabsOf(Vec3 o, Vec3 d) {
+    float4 o4 = (float4)(o.x, o.y, o.z, 0.0f);
+    float4 inv = 1.0f / ((float4)(d.x, d.y, d.z, 1.0f) + 0.0f);
+    int4 flat = !(fabs(inv) < CB_BVHW_FLAT);
+    float4 h = select((float4)(-CB_BVHW_FLAT), (float4)(CB_BVHW_FLAT), inv > 0.0f);
+    float4 n = inv * (1.0f - 4.0f * cbGamma(3));
+    float4 a = -o4 * n;
+    float4 b = -o4 * inv;
+    float4 oh = -o4 * h;
+    float4 invNear = select(n, h, flat);
+    float4 addNear = select(a - fabs(a) * CB_BVHW_TWO_ULPS - CB_BVHW_TINY, oh, flat);
+    float4 invFar = select(inv, h, flat);
+    float4 addFar = select(b + fabs(b) * CB_BVHW_TWO_ULPS + CB_BVHW_TINY, oh + CB_BVHW_NEVER, flat);
+    BvhWideSlabs s;
+    s.invNear = vec3(invNear.x, invNear.y, invNear.z);
+    s.addNear = vec3(addNear.x, addNear.y, addNear.z);
+    s.invFar = vec3(invFar.x, invFar.y, invFar.z);
+    s.addFar = vec3(addFar.x, addFar.y, addFar.z);
+    return s;
 }
+#else
+CB_FN void bvhWideSlabAxis(real d, real o, real* invNear, real* addNear, real* invFar,
+                           real* addFar) {
+    real inv = 1.0f / (d + 0.0f);
+    if (!(fabs(inv) < CB_BVHW_FLAT)) {
+        real h = inv > 0.0f ? CB_BVHW_FLAT : -CB_BVHW_FLAT;
+        *invNear = h;
+        *invFar = h;
+        *addNear = -o * h;
+        *addFar = -o * h + CB_BVHW_NEVER;
+        return;
+    }
+    real n = inv * (1.0f - 4.0f * cbGamma(3));
+    real a = -o * n;
+    real b = -o * inv;
+    *invNear = n;
+    *addNear = a - fabs(a) * CB_BVHW_TWO_ULPS - CB_BVHW_TINY;
+    *invFar = inv;
+    *addFar = b + fabs(b) * CB_BVHW_TWO_ULPS + CB_BVHW_TINY;
+}
+
+CB_FN BvhWideSlabs bvhWideSlabsOf(Vec3 o, Vec3 d) {
+    BvhWideSlabs s;
+    bvhWideSlabAxis(d.x, o.x, &s.invNear.x, &s.addNear.x, &s.invFar.x, &s.addFar.x);
+    bvhWideSlabAxis(d.y, o.y, &s.invNear.y, &s.addNear.y, &s.invFar.y, &s.addFar.y);
+    bvhWideSlabAxis(d.z, o.z, &s.invNear.z, &s.addNear.z, &s.invFar.z, &s.addFar.z);
+    return s;
+}
+#endif
 
 /* The visiting order. A child's key is its entry distance with the 3 lowest mantissa bits
  * replaced by its lane: entry distances are never negative or NaN (bvhWideBoxes starts them at
@@ -156,31 +221,34 @@ CB_FN uint bvhWideBits(BvhWideInt mask) {
 }
 
 /* Each lane's entry distance *tn and exit distance *far, the latter already clamped to
- * closest: the box is hit when tn <= far. */
-CB_FN void bvhWideBoxes(CB_GLOBAL const BvhNodeWide* node, Vec3 o, Vec3 invD, Vec3 invDNear,
-                        real closest, BvhWideReal* tn, BvhWideReal* far) {
+ * closest: the box is hit when tn <= far (see BvhWideSlabs). */
+CB_FN BvhWideReal bvhWideMax(BvhWideReal a, BvhWideReal b) {
+    return select(a, b, b > a);
+}
+CB_FN BvhWideReal bvhWideMin(BvhWideReal a, BvhWideReal b) {
+    return select(a, b, b < a);
+}
+
+CB_FN void bvhWideBoxes(CB_GLOBAL const BvhNodeWide* node, Vec3 invNear, Vec3 addNear, Vec3 invFar,
+                        Vec3 addFar, real closest, BvhWideReal* tn, BvhWideReal* far) {
     /* The near plane of each axis is lo where the direction is positive, hi where it is
-     * negative (Williams et al. 2005), picked once per ray: the same distances as taking the
-     * minimum and maximum of both, for every non-empty box, NaNs included (a zero direction
-     * component has inverse +inf, so its near plane is lo, where the minimum keeps lo's NaN). */
+     * negative (Williams et al. 2005), picked once per ray. */
     CB_GLOBAL const real* planes = &node->lo[0][0];
-    bool px = invD.x >= 0.0f, py = invD.y >= 0.0f, pz = invD.z >= 0.0f;
-    BvhWideReal nx = (BVHW_LOAD(planes + (px ? 0 : 3 * CBW)) - o.x) * invDNear.x;
-    BvhWideReal fx = (BVHW_LOAD(planes + (px ? 3 * CBW : 0)) - o.x) * invD.x;
-    BvhWideReal ny = (BVHW_LOAD(planes + (py ? CBW : 4 * CBW)) - o.y) * invDNear.y;
-    BvhWideReal fy = (BVHW_LOAD(planes + (py ? 4 * CBW : CBW)) - o.y) * invD.y;
-    BvhWideReal nz = (BVHW_LOAD(planes + (pz ? 2 * CBW : 5 * CBW)) - o.z) * invDNear.z;
-    BvhWideReal fz = (BVHW_LOAD(planes + (pz ? 5 * CBW : 2 * CBW)) - o.z) * invD.z;
-    BvhWideReal n = select((BvhWideReal)(0.0f), nx, nx > 0.0f);
-    n = select(n, ny, ny > n);
-    n = select(n, nz, nz > n);
-    /* min(closest, fx, fy, fz) dropping NaNs, three selects deep instead of four: each keeps
-     * its running value (closest, +inf or a minimum of them, never NaN) against a NaN. */
-    BvhWideReal a = select((BvhWideReal)(closest), fx, fx < closest);
-    BvhWideReal b = select((BvhWideReal)(INFINITY), fy, fy < INFINITY);
-    b = select(b, fz, fz < b);
-    *tn = n;
-    *far = select(a, b, b < a);
+    bool px = invFar.x >= 0.0f, py = invFar.y >= 0.0f, pz = invFar.z >= 0.0f;
+    BvhWideReal nx = fma(BVHW_LOAD(planes + (px ? 0 : 3 * CBW)), (BvhWideReal)(invNear.x),
+                         (BvhWideReal)(addNear.x));
+    BvhWideReal fx = fma(BVHW_LOAD(planes + (px ? 3 * CBW : 0)), (BvhWideReal)(invFar.x),
+                         (BvhWideReal)(addFar.x));
+    BvhWideReal ny = fma(BVHW_LOAD(planes + (py ? CBW : 4 * CBW)), (BvhWideReal)(invNear.y),
+                         (BvhWideReal)(addNear.y));
+    BvhWideReal fy = fma(BVHW_LOAD(planes + (py ? 4 * CBW : CBW)), (BvhWideReal)(invFar.y),
+                         (BvhWideReal)(addFar.y));
+    BvhWideReal nz = fma(BVHW_LOAD(planes + (pz ? 2 * CBW : 5 * CBW)), (BvhWideReal)(invNear.z),
+                         (BvhWideReal)(addNear.z));
+    BvhWideReal fz = fma(BVHW_LOAD(planes + (pz ? 5 * CBW : 2 * CBW)), (BvhWideReal)(invFar.z),
+                         (BvhWideReal)(addFar.z));
+    *tn = bvhWideMax(bvhWideMax(nx, (BvhWideReal)(0.0f)), bvhWideMax(ny, nz));
+    *far = bvhWideMin(bvhWideMin(fx, (BvhWideReal)(closest)), bvhWideMin(fy, fz));
 }
 
 /* far after a leaf moved closest nearer. */
@@ -272,24 +340,24 @@ typedef struct BvhWideKey {
 } BvhWideKey;
 typedef int BvhWideCand;
 
-CB_FN void bvhWideBoxes(CB_GLOBAL const BvhNodeWide* node, Vec3 o, Vec3 invD, Vec3 invDNear,
-                        real closest, BvhWideReal* tn, BvhWideReal* far) {
-    bool px = invD.x >= 0.0f, py = invD.y >= 0.0f, pz = invD.z >= 0.0f;
+CB_FN void bvhWideBoxes(CB_GLOBAL const BvhNodeWide* node, Vec3 invNear, Vec3 addNear, Vec3 invFar,
+                        Vec3 addFar, real closest, BvhWideReal* tn, BvhWideReal* far) {
+    bool px = invFar.x >= 0.0f, py = invFar.y >= 0.0f, pz = invFar.z >= 0.0f;
     for (int k = 0; k < CBW; ++k) {
-        real nx = ((px ? node->lo[0][k] : node->hi[0][k]) - o.x) * invDNear.x;
-        real fx = ((px ? node->hi[0][k] : node->lo[0][k]) - o.x) * invD.x;
-        real ny = ((py ? node->lo[1][k] : node->hi[1][k]) - o.y) * invDNear.y;
-        real fy = ((py ? node->hi[1][k] : node->lo[1][k]) - o.y) * invD.y;
-        real nz = ((pz ? node->lo[2][k] : node->hi[2][k]) - o.z) * invDNear.z;
-        real fz = ((pz ? node->hi[2][k] : node->lo[2][k]) - o.z) * invD.z;
+        real nx = fma(px ? node->lo[0][k] : node->hi[0][k], invNear.x, addNear.x);
+        real fx = fma(px ? node->hi[0][k] : node->lo[0][k], invFar.x, addFar.x);
+        real ny = fma(py ? node->lo[1][k] : node->hi[1][k], invNear.y, addNear.y);
+        real fy = fma(py ? node->hi[1][k] : node->lo[1][k], invFar.y, addFar.y);
+        real nz = fma(pz ? node->lo[2][k] : node->hi[2][k], invNear.z, addNear.z);
+        real fz = fma(pz ? node->hi[2][k] : node->lo[2][k], invFar.z, addFar.z);
         real n = nx > 0.0f ? nx : 0.0f;
         n = ny > n ? ny : n;
         n = nz > n ? nz : n;
-        real a = fx < closest ? fx : closest;
-        real b = fy < CB_INFINITY ? fy : CB_INFINITY;
-        b = fz < b ? fz : b;
+        real f = fx < closest ? fx : closest;
+        f = fy < f ? fy : f;
+        f = fz < f ? fz : f;
         tn->v[k] = n;
-        far->v[k] = b < a ? b : a;
+        far->v[k] = f;
     }
 }
 
@@ -393,8 +461,7 @@ CB_FN CB_BVHW_SPECIALISE bool bvhWideTraverse(CB_GLOBAL const BvhNodeWide* nodes
     hit->primitive = -1;
     hit->b1 = 0.0f;
     hit->b2 = 0.0f;
-    Vec3 invD = bvhInverseDirection(ray.d);
-    Vec3 invDNear = bvhWideNearInverse(invD);
+    BvhWideSlabs slabs = bvhWideSlabsOf(ray.o, ray.d);
     TriangleRay sheared = triangleRayOf(ray);
     real closest = tMax;
     bool found = false;
@@ -429,7 +496,8 @@ CB_FN CB_BVHW_SPECIALISE bool bvhWideTraverse(CB_GLOBAL const BvhNodeWide* nodes
             keys = cachedKeys;
             after = cachedAfter;
         } else {
-            bvhWideBoxes(node, ray.o, invD, invDNear, closest, &tn, &far);
+            bvhWideBoxes(node, slabs.invNear, slabs.addNear, slabs.invFar, slabs.addFar, closest,
+                         &tn, &far);
             keys = bvhWideKeys(tn);
             after = fromLane >= 0 ? bvhWideKeyOf(keys, fromLane) : bvhWideKeyNone();
         }

@@ -50,6 +50,7 @@ using std::cos;
 using std::exp;
 using std::fabs;
 using std::floor;
+using std::fma;
 using std::fmax;
 using std::fmin;
 using std::isfinite;
