@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "bvh/bvh.h"
+#include "bvh/bvh_choice.h"
 #include "bvh/bvh_wide.h"
 #include "scene/ply.h"
 
@@ -464,6 +465,152 @@ TEST_CASE("bvh: the wide BVH on an empty scene, one triangle and spheres") {
     CHECK(h.t == doctest::Approx(1.0f).epsilon(1e-6));
 }
 
+TEST_CASE("bvh choice: traversal work is the nodes and packs entered before the hit") {
+    // Two small triangles on the z axis, at z = 2 and z = 10, leaves of one: the root holds
+    // both leaves, one pack each.
+    auto square = [](float z) {
+        return triangle(cbk::vec3(-1, -1, z), cbk::vec3(1, -1, z), cbk::vec3(0, 1, z));
+    };
+    cb::Bvh bvh = cb::buildBvh({square(2.0f), square(10.0f)}, {1, 16, 1});
+    cb::BvhWide wide = cb::collapseBvhWide(bvh);
+    REQUIRE(wide.nodes.size() == 1);
+    auto workOf = [&](Ray r) { return cb::measureTraversalWork(bvh, wide, {r}); };
+    // Along +z from the origin: the hit at z = 2 comes before the far box is entered.
+    cb::TraversalWork w = workOf({cbk::vec3(0, 0, 0), cbk::vec3(0, 0, 1)});
+    CHECK(w.nodeVisits == 1.0);
+    CHECK(w.packTests == 1.0);
+    // From beyond the far one, back along -z: the far one is now hit first.
+    w = workOf({cbk::vec3(0, 0, 20), cbk::vec3(0, 0, -1)});
+    CHECK(w.packTests == 1.0);
+    // Between the boxes, through neither triangle: both boxes' slabs are missed.
+    w = workOf({cbk::vec3(0, 0, 5), cbk::vec3(1, 0, 0)});
+    CHECK(w.nodeVisits == 1.0);
+    CHECK(w.packTests == 0.0);
+    // Through both boxes and both planes outside the triangles (x = 0.9, y = 0.9 is inside
+    // the box, outside the triangle): nothing is hit, so both packs are tested.
+    w = workOf({cbk::vec3(0.9f, 0.9f, 0), cbk::vec3(0, 0, 1)});
+    CHECK(w.nodeVisits == 1.0);
+    CHECK(w.packTests == 2.0);
+    // Averages over the rays given.
+    w = cb::measureTraversalWork(
+        bvh, wide,
+        {{cbk::vec3(0, 0, 0), cbk::vec3(0, 0, 1)}, {cbk::vec3(0.9f, 0.9f, 0), cbk::vec3(0, 0, 1)}});
+    CHECK(w.packTests == 1.5);
+    CHECK(w.cost() == doctest::Approx(1.0 + cb::TraversalWork::kPackWeight * 1.5));
+}
+
+// The twelve triangles of the cube [-1, 1]^3, seen from inside.
+std::vector<Primitive> closedCube() {
+    std::vector<Primitive> prims;
+    for (int axis = 0; axis < 3; ++axis)
+        for (float side : {-1.0f, 1.0f}) {
+            auto corner = [&](float u, float v) {
+                float c[3];
+                c[axis] = side;
+                c[(axis + 1) % 3] = u;
+                c[(axis + 2) % 3] = v;
+                return cbk::vec3(c[0], c[1], c[2]);
+            };
+            prims.push_back(triangle(corner(-1, -1), corner(1, -1), corner(1, 1)));
+            prims.push_back(triangle(corner(-1, -1), corner(1, 1), corner(-1, 1)));
+        }
+    return prims;
+}
+
+TEST_CASE("bvh choice: bounce rays inside a closed cube") {
+    cb::Bvh bvh = cb::buildBvh(closedCube());
+    cb::BvhWide wide = cb::collapseBvhWide(bvh);
+    std::mt19937 rng(99u);
+    std::vector<Ray> camera;
+    for (int i = 0; i < 200; ++i)
+        camera.push_back({cbk::vec3(0.1f, -0.2f, 0.3f), uniformDirection(rng)});
+    const auto rays = cb::sampleBounceRays(bvh, wide, camera, 3);
+    // Every ray inside a closed cube hits it, so every camera ray gets all three bounces.
+    REQUIRE(rays.size() == camera.size() * 4);
+    for (size_t i = 0; i < rays.size(); ++i) {
+        if (i % 4 == 0) continue;
+        const float o[3] = {rays[i].o.x, rays[i].o.y, rays[i].o.z};
+        const float d[3] = {rays[i].d.x, rays[i].d.y, rays[i].d.z};
+        CHECK(cbk::vlength(rays[i].d) == doctest::Approx(1.0f).epsilon(1e-5));
+        // Leaves a face from just inside it, heading inwards.
+        int face = 0;
+        for (int a = 1; a < 3; ++a)
+            if (std::fabs(o[a]) > std::fabs(o[face])) face = a;
+        CHECK(std::fabs(o[face]) < 1.0f);
+        CHECK(std::fabs(o[face]) > 0.999f);
+        CHECK(d[face] * o[face] < 0.0f);
+    }
+    // Deterministic: the same rays again.
+    const auto again = cb::sampleBounceRays(bvh, wide, camera, 3);
+    REQUIRE(again.size() == rays.size());
+    CHECK(std::memcmp(again.data(), rays.data(), rays.size() * sizeof(Ray)) == 0);
+    // Cosine-distributed about the face normal: E[cos] = 2/3 (the mean of 600 is within 0.03
+    // of it with probability > 0.999: the standard deviation of cos is sqrt(1/18) = 0.24).
+    double cosines = 0.0;
+    int bounces = 0;
+    for (size_t i = 0; i < rays.size(); ++i) {
+        if (i % 4 == 0) continue;
+        const float o[3] = {rays[i].o.x, rays[i].o.y, rays[i].o.z};
+        const float d[3] = {rays[i].d.x, rays[i].d.y, rays[i].d.z};
+        int face = 0;
+        for (int a = 1; a < 3; ++a)
+            if (std::fabs(o[a]) > std::fabs(o[face])) face = a;
+        cosines += std::fabs(d[face]);
+        ++bounces;
+    }
+    CHECK(cosines / bounces == doctest::Approx(2.0 / 3.0).epsilon(0.045));
+}
+
+TEST_CASE("bvh choice: the isolated bunny takes SAH block 4; the chosen trees, in a room too, "
+          "find the brute-force hits") {
+    // Which candidate is faster was measured (docs/performance.md): block 4 on the isolated
+    // meshes; test_scenes.cpp checks the seven scenes' choices against the same table.
+    Mesh mesh = loadModel("bunny.ply");
+    const auto prims = meshPrimitives(mesh);
+    const Bounds b = boundsOf(prims);
+    const auto camera = cameraRays(b, 32);
+    const auto candidates = cb::wideBvhCandidates();
+    REQUIRE(candidates.size() == 2);
+    cb::WideBvhChoice isolated = cb::buildWideBvhForRays(prims, camera);
+    REQUIRE(isolated.work.size() == 2);
+    CHECK(isolated.settings.sahBlock == 4);
+    CHECK(isolated.chosen == 1);
+    CHECK(isolated.work[1].cost() < isolated.work[0].cost());
+    // Fuller leaves: fewer node visits, more pack tests.
+    CHECK(isolated.work[1].nodeVisits < isolated.work[0].nodeVisits);
+    CHECK(isolated.work[1].packTests > isolated.work[0].packTests);
+    checkWide(isolated.wide, isolated.bvh.primitives);
+    Mismatches m = compareAll(isolated.bvh, makeRays(b, 2000, 77u), &isolated.wide);
+    CHECK(m.closest == 0);
+    CHECK(m.occluded == 0);
+    CHECK(m.hits > 500);
+
+    // The bunny in a closed room ten times its size, the camera inside.
+    std::vector<Primitive> room = prims;
+    const Vec3 centre = cbk::vscale(cbk::vadd(b.lo, b.hi), 0.5f);
+    const float half = 5.0f * cbk::vlength(cbk::vsub(b.hi, b.lo));
+    for (Primitive wall : closedCube()) {
+        for (float* p : {wall.p0, wall.p1, wall.p2})
+            for (int a = 0; a < 3; ++a)
+                p[a] = p[a] * half + (&centre.x)[a];
+        room.push_back(wall);
+    }
+    std::vector<Ray> inside;
+    const Vec3 eye = cbk::vadd(centre, cbk::vec3(0.0f, 0.0f, 0.5f * half));
+    for (const Ray& r : camera)
+        inside.push_back({eye, r.d});
+    cb::WideBvhChoice roomChoice = cb::buildWideBvhForRays(room, inside);
+    REQUIRE(roomChoice.work.size() == 2);
+    checkWide(roomChoice.wide, roomChoice.bvh.primitives);
+    m = compareAll(roomChoice.bvh, makeRays(boundsOf(room), 2000, 78u), &roomChoice.wide);
+    CHECK(m.closest == 0);
+    CHECK(m.occluded == 0);
+    // No camera rays: the first candidate, nothing measured.
+    cb::WideBvhChoice none = cb::buildWideBvhForRays(prims, {});
+    CHECK(none.settings.sahBlock == candidates[0].sahBlock);
+    CHECK(none.work.empty());
+}
+
 TEST_CASE("bvh: mixed triangles and spheres equal brute force") {
     Mesh mesh = loadModel("dragon.ply");
     auto prims = meshPrimitives(mesh);
@@ -811,9 +958,10 @@ TEST_CASE("bvh: OpenCL traversal of the bunny wide BVH matches the host") {
         ClTracer tracer(options);
         for (int variant = 0; variant < 3; ++variant) {
             CAPTURE(variant);
-            // 0, 1: leaves of 1-4 triangles priced per triangle or per pack, so packs with every
-            // number of repeated lanes; 2: as the renderers build it, with spheres among the
-            // triangles (in packs of their own).
+            // 0: leaves of 1-4 triangles priced per triangle, so packs with every number of
+            // repeated lanes; 1, 2: the renderers' two candidate settings (bvh_choice.h), the
+            // second with leaves of several packs and spheres among the triangles (in packs of
+            // their own).
             auto prims = meshPrimitives(mesh);
             if (variant == 2) {
                 std::mt19937 rng(9u);
@@ -822,8 +970,9 @@ TEST_CASE("bvh: OpenCL traversal of the bunny wide BVH matches the host") {
                 for (int i = 0; i < 200; ++i)
                     prims.push_back(sphere(pointIn(box, rng), size * 0.02f * u(rng)));
             }
-            const int block = variant == 0 ? 1 : variant == 1 ? CB_PACK_LANES : cb::kWideSahBlock;
-            cb::Bvh bvh = cb::buildBvh(prims, {4, 16, block});
+            cb::WideBvhSettings settings{1, 4};
+            if (variant > 0) settings = cb::wideBvhCandidates()[size_t(variant - 1)];
+            cb::Bvh bvh = cb::buildBvh(prims, {settings.maxLeafSize, 16, settings.sahBlock});
             auto wide = cb::collapseBvhWide(bvh);
             // Random rays, then camera rays in pixel order (the coherent traversal's use).
             auto rays = makeRays(box, 4096, 2024u);

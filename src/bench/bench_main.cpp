@@ -9,6 +9,7 @@
 #include "bench/parallel_rays.h"
 
 #include "bvh/bvh.h"
+#include "bvh/bvh_choice.h"
 #include "bvh/bvh_wide.h"
 #include "cl/cl_runtime.h"
 #include "integrators/integrator.h"
@@ -74,7 +75,7 @@ struct Options {
     int repeats = 0;                        // 0: 5 (2 in --quick)
     int localSize = 64;                     // 0: let PoCL choose
     int leafSize = 4;
-    int sahBlock = 0; // SAH cost per block of this many primitives; 0: kWideSahBlock / 1
+    int sahBlock = 0; // SAH cost per block of this many primitives; 0: as the renderers / 1
     long rays = 0;    // 0: 1M (64k in --quick)
     int threads = 2;
     bool host = false;               // also time the host (g++) build of the traversal
@@ -198,6 +199,16 @@ std::vector<std::string> splitCommas(const std::string& v) {
     for (std::string item; std::getline(ss, item, ',');)
         if (!item.empty()) out.push_back(item);
     return out;
+}
+
+// About a thousand of the camera rays, spread over the image: what the wide BVH's build
+// samples to choose its settings, as DeviceScene does with the scene's camera.
+std::vector<Ray> cameraSample(const std::vector<Ray>& primary) {
+    const size_t step = std::max<size_t>(1, primary.size() / 1024);
+    std::vector<Ray> sample;
+    for (size_t i = step / 2; i < primary.size(); i += step)
+        sample.push_back(primary[i]);
+    return sample;
 }
 
 // ---- Our OpenCL traversal ---------------------------------------------------------------
@@ -399,9 +410,9 @@ json runTraverse(const Options& o, ClRuntime& rt) {
         variants = {"ordered", "skip"};
     else
         variants = splitCommas(o.traversal);
-    fmt::print("\n== traverse: Mrays/s (median of {}), {} rays, local size {}, leaf size {}, "
-               "Embree on {} threads, wide BVH {} lanes\n",
-               repeats, rayCount, o.localSize, o.leafSize, o.threads, CB_BVH_WIDE_LANES);
+    fmt::print("\n== traverse: Mrays/s (median of {}), {} rays, local size {}, Embree on {} "
+               "threads, wide BVH {} lanes; each BVH's settings on its own line\n",
+               repeats, rayCount, o.localSize, o.threads, CB_BVH_WIDE_LANES);
     // cpu-ratio: the same ratio from process CPU seconds instead of wall seconds, steadier when
     // other jobs share the cores.
     fmt::print("{:<11} {:>9} {:<8} {:<10} {:>9} {:>9} {:>7} {:>9} {:>9}\n", "mesh", "triangles",
@@ -415,9 +426,20 @@ json runTraverse(const Options& o, ClRuntime& rt) {
         auto primary = primaryRays(box, rayCount);
         auto incoherent = incoherentRays(box, rayCount, 7u);
         for (const auto& variant : variants) {
-            // As the renderers build it for the wide BVH (DeviceScene).
-            const int block = o.sahBlock > 0 ? o.sahBlock : variant == "wide" ? kWideSahBlock : 1;
-            Bvh bvh = buildBvh(prims, {o.leafSize, 16, block});
+            Bvh bvh;
+            std::string settings;
+            if (variant == "wide" && o.sahBlock <= 0) {
+                // As the renderers build it (DeviceScene): the candidate cheapest for a sample
+                // of the camera rays and their bounces.
+                WideBvhChoice choice = buildWideBvhForRays(prims, cameraSample(primary));
+                bvh = std::move(choice.bvh);
+                settings = describeChoice(choice);
+            } else {
+                const int block = o.sahBlock > 0 ? o.sahBlock : 1;
+                bvh = buildBvh(prims, {o.leafSize, 16, block});
+                settings = fmt::format("SAH block {}, leaves <= {}", block, o.leafSize);
+            }
+            fmt::print("{:<11} {:>9} {:<8} BVH: {}\n", m.name, prims.size(), variant, settings);
             ClTraversal cl(rt, bvh, variant, o.localSize);
             std::vector<cbk::Hit> primaryHits;
             std::vector<Ray> shadow;
@@ -511,6 +533,7 @@ json runTraverse(const Options& o, ClRuntime& rt) {
                 json row = {{"mesh", m.name},
                             {"triangles", prims.size()},
                             {"order", variant},
+                            {"bvh_settings", settings},
                             {"rays", c.name},
                             {"query", c.anyHit ? "any-hit" : "closest-hit"},
                             {"count", n},
@@ -567,8 +590,10 @@ double runChildBuild(const std::string& cacheDir, const std::string& file,
 json runBuild(const Options& o) {
     json out;
     fmt::print("\n== build: BVH (binned SAH, {} bins, leaf <= {})\n", 16, o.leafSize);
-    fmt::print("{:<11} {:>9} {:>9} {:>10} {:>10}\n", "mesh", "triangles", "nodes", "ours s",
-               "embree s");
+    // wide s: what a scene load spends, the renderers' wide BVH built under both SAH settings
+    // (the second on another thread), the sample rays traced through both, and the collapse.
+    fmt::print("{:<11} {:>9} {:>9} {:>10} {:>10} {:>10}\n", "mesh", "triangles", "nodes", "ours s",
+               "wide s", "embree s");
     json bvhRows = json::array();
     for (auto& m : loadMeshes(o)) {
         auto prims = meshPrimitives(m.mesh);
@@ -579,15 +604,27 @@ json runBuild(const Options& o) {
             bvh = buildBvh(prims, {o.leafSize, 16});
             times.push_back(secondsSince(start));
         }
+        std::vector<double> wideTimes;
+        const auto sample = cameraSample(primaryRays(meshBounds(m.mesh), 65536));
+        for (int r = 0; r < (o.quick ? 1 : 3); ++r) {
+            auto start = Clock::now();
+            WideBvhChoice choice = buildWideBvhForRays(prims, sample);
+            wideTimes.push_back(secondsSince(start));
+        }
         double embreeS = 0.0;
         if (embreeAvailable()) {
             EmbreeBaseline e(m.mesh, o.threads);
             embreeS = e.buildSeconds();
         }
-        fmt::print("{:<11} {:>9} {:>9} {:>10.3f} {:>10.3f}\n", m.name, prims.size(),
-                   bvh.nodes.size(), median(times), embreeS);
-        json row = {{"mesh", m.name},     {"triangles", prims.size()}, {"nodes", bvh.nodes.size()},
-                    {"depth", bvh.depth}, {"seconds", median(times)},  {"threads", 1}};
+        fmt::print("{:<11} {:>9} {:>9} {:>10.3f} {:>10.3f} {:>10.3f}\n", m.name, prims.size(),
+                   bvh.nodes.size(), median(times), median(wideTimes), embreeS);
+        json row = {{"mesh", m.name},
+                    {"triangles", prims.size()},
+                    {"nodes", bvh.nodes.size()},
+                    {"depth", bvh.depth},
+                    {"seconds", median(times)},
+                    {"threads", 1},
+                    {"wide_seconds", median(wideTimes)}};
         if (embreeAvailable()) row["embree_seconds"] = embreeS;
         bvhRows.push_back(row);
     }
@@ -914,8 +951,9 @@ int run(int argc, char** argv) {
     app.add_option("--local-size", o.localSize, "traversal work-group size (0: PoCL chooses)");
     app.add_option("--leaf-size", o.leafSize, "BVH maximum leaf size");
     app.add_option("--sah-block", o.sahBlock,
-                   "traverse: the SAH prices primitive tests in blocks of this many (0: as the "
-                   "renderers build the wide BVH, 1 for the binary)");
+                   "traverse: the SAH prices primitive tests in blocks of this many, with leaves of "
+                   "--leaf-size (0: the wide BVH chosen as the renderers choose it, "
+                   "bvh_choice.h; 1 for the binary)");
     app.add_option("--rays", o.rays, "rays per traversal case");
     app.add_option("--threads", o.threads, "Embree (and --host) threads");
     app.add_flag("--host", o.host, "also time cb_bvh.h compiled for the host");

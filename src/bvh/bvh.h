@@ -11,8 +11,8 @@ namespace cb {
 struct BvhBuildOptions {
     int maxLeafSize = 4; // leaves never hold more; smaller leaves only where SAH prefers them
     int bins = 16;       // SAH bins per axis (Wald 2007)
-    // The SAH prices primitive tests in blocks of this many primitives (kWideSahBlock for the
-    // wide BVH, whose leaves test up to four triangles at once).
+    // The SAH prices primitive tests in blocks of this many primitives (2 or 4 for the wide
+    // BVH, whose leaves test up to four triangles at once: bvh_choice.h).
     int primitivesPerTest = 1;
 };
 

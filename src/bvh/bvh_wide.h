@@ -9,13 +9,6 @@
 
 namespace cb {
 
-// The SAH block (BvhBuildOptions::primitivesPerTest) of the BVH the renderers collapse to the
-// wide BVH. 4, one pack per leaf test, lets leaves fill their packs and is a few per cent
-// faster on the isolated Stanford meshes; but it also groups large triangles whose union box
-// is the whole room (walls, floors), so that most rays test all of them. 2 executes fewer
-// traversal instructions in the scenes (docs/performance.md, "Issue 9 status").
-constexpr int kWideSahBlock = 2;
-
 struct BvhWide {
     // Root at 0. A node's interior children take its first lanes and are allocated together,
     // after it, in lane order: the interior child at lane k is node child[0] + k.

@@ -1,8 +1,8 @@
 // cbdpt command line: `cbdpt render SCENE [options]` and `cbdpt info [SCENE]`.
 #include "cl/cl_runtime.h"
 #include "image/image.h"
-#include "image/render_state.h"
 #include "image/metrics.h"
+#include "image/render_state.h"
 #include "integrators/render.h"
 #include "scene/device_scene.h"
 #include "scene/scene_desc.h"
@@ -107,7 +107,10 @@ int runInfo(const std::string& scenePath, const std::string& device) {
     fmt::print("  bounding box     ({:.4g}, {:.4g}, {:.4g}) - ({:.4g}, {:.4g}, {:.4g})\n",
                scene.boundsMin[0], scene.boundsMin[1], scene.boundsMin[2], scene.boundsMax[0],
                scene.boundsMax[1], scene.boundsMax[2]);
-    fmt::print("  BVH              {} nodes, depth {}\n", scene.bvh.nodes.size(), scene.bvh.depth);
+    fmt::print("  BVH              {} nodes, depth {}; wide: {} nodes, {} leaf packs\n",
+               scene.bvh.nodes.size(), scene.bvh.depth, scene.wide.nodes.size(),
+               scene.wide.packs.size());
+    fmt::print("  BVH settings     {}\n", scene.wideSettingsWhy);
     fmt::print("  film             {}x{}\n", scene.camera.width, scene.camera.height);
     fmt::print("  kernel features  {}\n", scene.featureNames());
     std::string defines;
@@ -626,10 +629,9 @@ int main(int argc, char** argv) {
         if (*compareCmd) return runCompare(compare);
     } catch (const cl::Error& e) {
         // OpenCL reports failures by status; name it, and say what to do when memory ran out.
-        const bool outOfMemory = e.err() == CL_MEM_OBJECT_ALLOCATION_FAILURE ||
-                                 e.err() == CL_OUT_OF_RESOURCES ||
-                                 e.err() == CL_OUT_OF_HOST_MEMORY ||
-                                 e.err() == CL_INVALID_BUFFER_SIZE;
+        const bool outOfMemory =
+            e.err() == CL_MEM_OBJECT_ALLOCATION_FAILURE || e.err() == CL_OUT_OF_RESOURCES ||
+            e.err() == CL_OUT_OF_HOST_MEMORY || e.err() == CL_INVALID_BUFFER_SIZE;
         fmt::print(stderr, "cbdpt: error: OpenCL call {} failed with {}{}\n", e.what(),
                    cb::clStatusName(e.err()),
                    outOfMemory ? ": the device ran out of memory (try a smaller --width/--height "

@@ -4,6 +4,8 @@
 #include "scene/transform.h"
 #include "spectral/spectral.h"
 
+#include "cb_camera.h"
+
 #include <algorithm>
 #include <cmath>
 #include <fmt/format.h>
@@ -312,10 +314,20 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
     }
     scene.lights.back().cdf = 1.0f; // rounding must not leave a gap at the top
 
-    BvhBuildOptions bvhOptions;
-    bvhOptions.primitivesPerTest = kWideSahBlock;
-    scene.bvh = buildBvh(std::move(primitives), bvhOptions);
-    scene.wide = collapseBvhWide(scene.bvh);
+    // The BVH settings are chosen by the traversal work of rays from this camera (bvh_choice.h):
+    // a grid of 32 x 32 pixel centres.
+    std::vector<cbk::Ray> cameraRays;
+    constexpr int kSampleGrid = 32;
+    for (int y = 0; y < kSampleGrid; ++y)
+        for (int x = 0; x < kSampleGrid; ++x)
+            cameraRays.push_back(cbk::cameraGenerateRay(
+                &scene.camera, (float(x) + 0.5f) * float(scene.camera.width) / kSampleGrid,
+                (float(y) + 0.5f) * float(scene.camera.height) / kSampleGrid));
+    WideBvhChoice choice = buildWideBvhForRays(primitives, cameraRays);
+    scene.wideSettings = choice.settings;
+    scene.wideSettingsWhy = describeChoice(choice);
+    scene.bvh = std::move(choice.bvh);
+    scene.wide = std::move(choice.wide);
     // After the BVH reorders primitives, point each area light at its primitive's new slot.
     for (size_t i = 0; i < scene.bvh.primitives.size(); ++i) {
         int light = scene.bvh.primitives[i].light;

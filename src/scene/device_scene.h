@@ -3,6 +3,7 @@
 #pragma once
 
 #include "bvh/bvh.h"
+#include "bvh/bvh_choice.h"
 #include "bvh/bvh_wide.h"
 #include "scene/scene_desc.h"
 
@@ -21,6 +22,8 @@ struct DeviceScene {
     Bvh bvh;          // nodes and primitives in leaf order
     // What the kernels traverse (cb_bvh_wide.h): bvh.nodes collapsed, over bvh.primitives.
     BvhWide wide;
+    WideBvhSettings wideSettings; // the SAH settings chosen for it (bvh/bvh_choice.h)
+    std::string wideSettingsWhy;  // and the estimates that chose them (describeChoice)
     std::vector<cbk::Material> materials;
     std::vector<cbk::Light> lights;
     std::vector<float> spectra; // `channels` floats per entry
