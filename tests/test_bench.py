@@ -47,6 +47,8 @@ with tempfile.TemporaryDirectory() as tmp:
             check(positive(row["embree_mrays_per_s"]) and positive(row["ratio"]),
                   f"Embree timed {row}")
             check(row["agreement"] >= 0.9999, f"ours and Embree agree on >= 99.99% {row}")
+        check(row.get("bvh_settings", "").startswith("SAH block "),
+              f"the BVH's settings are recorded {row}")
     prim = [row for row in rows if row["rays"] == "primary"]
     check(all(0.05 < row["hit_fraction"] < 0.95 for row in prim),
           "primary rays see both the mesh and the background")
@@ -54,6 +56,8 @@ with tempfile.TemporaryDirectory() as tmp:
     build = data.get("build", {})
     check(len(build.get("bvh", [])) >= 2 and all(positive(b["seconds"]) for b in build["bvh"]),
           "BVH build times")
+    check(all(positive(b.get("wide_seconds")) for b in build.get("bvh", [])),
+          "the renderers' wide BVH build (both candidate settings) timed")
     progs = build.get("program", [])
     check(len(progs) >= 1, "program build timed")
     for p in progs:
