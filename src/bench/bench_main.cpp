@@ -950,10 +950,11 @@ int run(int argc, char** argv) {
     app.add_option("--repeats", o.repeats, "timed repeats per measurement");
     app.add_option("--local-size", o.localSize, "traversal work-group size (0: PoCL chooses)");
     app.add_option("--leaf-size", o.leafSize, "BVH maximum leaf size");
-    app.add_option("--sah-block", o.sahBlock,
-                   "traverse: the SAH prices primitive tests in blocks of this many, with leaves of "
-                   "--leaf-size (0: the wide BVH chosen as the renderers choose it, "
-                   "bvh_choice.h; 1 for the binary)");
+    app.add_option(
+        "--sah-block", o.sahBlock,
+        "traverse: the SAH prices primitive tests in blocks of this many, with leaves of "
+        "--leaf-size (0: the wide BVH chosen as the renderers choose it, "
+        "bvh_choice.h; 1 for the binary)");
     app.add_option("--rays", o.rays, "rays per traversal case");
     app.add_option("--threads", o.threads, "Embree (and --host) threads");
     app.add_flag("--host", o.host, "also time cb_bvh.h compiled for the host");

@@ -5,8 +5,8 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
-#include <stdexcept>
 #include <future>
+#include <stdexcept>
 
 #include <fmt/format.h>
 
