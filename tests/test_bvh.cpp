@@ -633,6 +633,14 @@ TEST_CASE("bvh choice: the isolated bunny takes SAH block 4; the chosen trees, i
     cb::WideBvhChoice none = cb::buildWideBvhForRays(prims, {});
     CHECK(none.settings.sahBlock == candidates[0].sahBlock);
     CHECK(none.work.empty());
+    // No primitives (a scene of point lights): every ray visits the empty root and stops.
+    cb::WideBvhChoice empty = cb::buildWideBvhForRays({}, camera);
+    REQUIRE(empty.work.size() == 2);
+    for (const cb::TraversalWork& w : empty.work) {
+        CHECK(w.nodeVisits == 1.0);
+        CHECK(w.packTests == 0.0);
+    }
+    CHECK(empty.chosen == 0);
 }
 
 TEST_CASE("bvh: mixed triangles and spheres equal brute force") {
