@@ -1,7 +1,5 @@
 #include "bvh/bvh_choice.h"
 
-#include <algorithm>
-#include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
@@ -35,20 +33,6 @@ cbk::SceneView viewOf(const Bvh& bvh, const BvhWide& wide) {
     return view;
 }
 
-// Whether the ray enters the box before tEnd (a plain slab test: an estimate, not a query).
-bool entersBefore(const cbk::BvhNodeWide& node, int k, const float o[3], const float inv[3],
-                  float tEnd) {
-    float t0 = 0.0f, t1 = tEnd;
-    for (int a = 0; a < 3; ++a) {
-        float n = (node.lo[a][k] - o[a]) * inv[a];
-        float f = (node.hi[a][k] - o[a]) * inv[a];
-        if (n > f) std::swap(n, f);
-        t0 = std::fmax(t0, n); // fmax and fmin drop the NaN of a flat axis through a plane
-        t1 = std::fmin(t1, f);
-    }
-    return t0 <= t1;
-}
-
 } // namespace
 
 std::vector<WideBvhSettings> wideBvhCandidates() {
@@ -77,16 +61,18 @@ TraversalWork measureTraversalWork(const Bvh& bvh, const BvhWide& wide,
     for (const cbk::Ray& ray : rays) {
         cbk::Hit hit;
         cbk::sceneIntersect(&view, ray, CB_INFINITY, &hit);
-        const float o[3] = {ray.o.x, ray.o.y, ray.o.z};
-        const float inv[3] = {1.0f / ray.d.x, 1.0f / ray.d.y, 1.0f / ray.d.z};
+        // The traversal's own box test (conservative), with the hit as the closest distance.
+        const cbk::BvhWideSlabs slabs = cbk::bvhWideSlabsOf(ray.o, ray.d);
         todo.assign(1, 0u);
         while (!todo.empty()) {
             const cbk::BvhNodeWide& node = wide.nodes[todo.back()];
             todo.pop_back();
             nodes += 1.0;
+            cbk::BvhWideReal tn, far;
+            cbk::bvhWideBoxes(&node, slabs.invNear, slabs.addNear, slabs.invFar, slabs.addFar,
+                              hit.t, &tn, &far);
             for (int k = 0; k < CBW; ++k) {
-                if (node.child[k] == CB_BVHW_NONE || !entersBefore(node, k, o, inv, hit.t))
-                    continue;
+                if (node.child[k] == CB_BVHW_NONE || !(tn.v[k] <= far.v[k])) continue;
                 const uint32_t count = cbk::bvhWideCount(&node, k);
                 if (count == 0u)
                     todo.push_back(cbk::bvhWideInteriorChild(&node, k));
@@ -111,24 +97,13 @@ std::vector<cbk::Ray> sampleBounceRays(const Bvh& bvh, const BvhWide& wide,
             rays.push_back(ray);
             cbk::Hit hit;
             if (segment == bounces || !cbk::sceneIntersect(&view, ray, CB_INFINITY, &hit)) break;
-            const cbk::Primitive& prim = bvh.primitives[size_t(hit.primitive)];
-            const cbk::Vec3 p = cbk::vmadd(ray.o, ray.d, hit.t);
-            const cbk::Vec3 p0 = cbk::vec3FromArray(prim.p0);
-            cbk::Vec3 n = prim.kind == CB_PRIM_SPHERE
-                              ? cbk::vsub(p, p0)
-                              : cbk::vcross(cbk::vsub(cbk::vec3FromArray(prim.p1), p0),
-                                            cbk::vsub(cbk::vec3FromArray(prim.p2), p0));
-            if (cbk::vlength2(n) == 0.0f) break;
-            n = cbk::vnormalize(n);
-            if (cbk::vdot(n, ray.d) > 0.0f) n = cbk::vneg(n);
+            // The renderers' hit point, geometric normal and ray spawning.
+            const cbk::SurfacePoint sp = cbk::surfacePointFromHit(&view, ray, hit);
+            const cbk::Vec3 n = cbk::vdot(sp.ng, ray.d) > 0.0f ? cbk::vneg(sp.ng) : sp.ng;
             const float u0 = random.next(), u1 = random.next();
             const cbk::Vec3 d =
                 cbk::frameToWorld(cbk::frameFromNormal(n), cbk::sampleCosineHemisphere(u0, u1));
-            // Off the surface by a small multiple of the point's own magnitude: enough that
-            // the bounce does not find its own surface, and the estimate needs no more.
-            const float scale = std::max({std::fabs(p.x), std::fabs(p.y), std::fabs(p.z), 1e-6f});
-            ray.o = cbk::vmadd(p, n, 1e-4f * scale);
-            ray.d = d;
+            ray = cbk::spawnRay(sp, d);
         }
     }
     return rays;

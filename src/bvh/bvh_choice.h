@@ -25,9 +25,10 @@ struct WideBvhSettings {
 std::vector<WideBvhSettings> wideBvhCandidates();
 
 // The work of a closest-hit traversal that knew the hit distance in advance: the wide nodes
-// whose box the ray enters before the hit (each costs one node visit) and the leaf packs
-// under them. A near-first traversal does this work and a little more; both trees of a
-// comparison are charged the same way.
+// it enters before the hit (each costs one node visit) and the leaf packs under them, as the
+// traversal's own box test (bvhWideBoxes) decides with the hit as the closest distance. A
+// near-first traversal does this work and a little more; both trees of a comparison are
+// charged the same way.
 struct TraversalWork {
     double nodeVisits = 0.0; // per ray
     double packTests = 0.0;  // per ray
@@ -35,8 +36,8 @@ struct TraversalWork {
     // (about 90 against 60 under callgrind): a node visit is a chain of dependent loads and
     // picks that ends in the next node's address, while the tests of a leaf's packs are
     // independent of each other and overlap. Fitted to render and traversal times of both
-    // candidates in the seven scenes and on three isolated meshes: every weight from 0.16 to
-    // 0.50 picks the faster tree in all ten (docs/performance.md).
+    // candidates in the seven scenes and on three isolated meshes: every weight from 0.17 to
+    // 0.51 picks the faster tree in all ten (docs/performance.md).
     static constexpr double kPackWeight = 0.3;
     double cost() const { return nodeVisits + kPackWeight * packTests; }
 };
