@@ -595,9 +595,10 @@ TEST_CASE("bvh choice: the isolated bunny takes SAH block 4; the chosen trees, i
     const auto prims = meshPrimitives(mesh);
     const Bounds b = boundsOf(prims);
     const auto camera = cameraRays(b, 32);
-    const auto candidates = cb::wideBvhCandidates();
+    // The default candidates, whatever CBDPT_BVH_SETTINGS says.
+    const auto candidates = cb::defaultWideBvhCandidates();
     REQUIRE(candidates.size() == 2);
-    cb::WideBvhChoice isolated = cb::buildWideBvhForRays(prims, camera);
+    cb::WideBvhChoice isolated = cb::buildWideBvhForRays(prims, camera, candidates);
     REQUIRE(isolated.work.size() == 2);
     CHECK(isolated.settings.sahBlock == 4);
     CHECK(isolated.chosen == 1);
@@ -625,18 +626,18 @@ TEST_CASE("bvh choice: the isolated bunny takes SAH block 4; the chosen trees, i
     const Vec3 eye = cbk::vadd(centre, cbk::vec3(0.0f, 0.0f, 0.5f * half));
     for (const Ray& r : camera)
         inside.push_back({eye, r.d});
-    cb::WideBvhChoice roomChoice = cb::buildWideBvhForRays(room, inside);
+    cb::WideBvhChoice roomChoice = cb::buildWideBvhForRays(room, inside, candidates);
     REQUIRE(roomChoice.work.size() == 2);
     checkWide(roomChoice.wide, roomChoice.bvh.primitives);
     m = compareAll(roomChoice.bvh, makeRays(boundsOf(room), 2000, 78u), &roomChoice.wide);
     CHECK(m.closest == 0);
     CHECK(m.occluded == 0);
     // No camera rays: the first candidate, nothing measured.
-    cb::WideBvhChoice none = cb::buildWideBvhForRays(prims, {});
+    cb::WideBvhChoice none = cb::buildWideBvhForRays(prims, {}, candidates);
     CHECK(none.settings.sahBlock == candidates[0].sahBlock);
     CHECK(none.work.empty());
     // No primitives (a scene of point lights): every ray visits the empty root and stops.
-    cb::WideBvhChoice empty = cb::buildWideBvhForRays({}, camera);
+    cb::WideBvhChoice empty = cb::buildWideBvhForRays({}, camera, candidates);
     REQUIRE(empty.work.size() == 2);
     for (const cb::TraversalWork& w : empty.work) {
         CHECK(w.nodeVisits == 1.0);
@@ -1005,7 +1006,7 @@ TEST_CASE("bvh: OpenCL traversal of the bunny wide BVH matches the host") {
                     prims.push_back(sphere(pointIn(box, rng), size * 0.02f * u(rng)));
             }
             cb::WideBvhSettings settings{1, 4};
-            if (variant > 0) settings = cb::wideBvhCandidates()[size_t(variant - 1)];
+            if (variant > 0) settings = cb::defaultWideBvhCandidates()[size_t(variant - 1)];
             cb::Bvh bvh = cb::buildBvh(prims, {settings.maxLeafSize, 16, settings.sahBlock});
             auto wide = cb::collapseBvhWide(bvh);
             // Random rays, then camera rays in pixel order (the coherent traversal's use).

@@ -35,6 +35,10 @@ cbk::SceneView viewOf(const Bvh& bvh, const BvhWide& wide) {
 
 } // namespace
 
+std::vector<WideBvhSettings> defaultWideBvhCandidates() {
+    return {{2, 4}, {4, 8}};
+}
+
 std::vector<WideBvhSettings> wideBvhCandidates() {
     // CBDPT_BVH_SETTINGS=BLOCK,LEAF builds only that one: what docs/performance.md compares.
     if (const char* forced = std::getenv("CBDPT_BVH_SETTINGS"); forced && *forced) {
@@ -48,7 +52,7 @@ std::vector<WideBvhSettings> wideBvhCandidates() {
                             forced));
         return {s};
     }
-    return {{2, 4}, {4, 8}};
+    return defaultWideBvhCandidates();
 }
 
 TraversalWork measureTraversalWork(const Bvh& bvh, const BvhWide& wide,
@@ -110,13 +114,16 @@ std::vector<cbk::Ray> sampleBounceRays(const Bvh& bvh, const BvhWide& wide,
 }
 
 WideBvhChoice buildWideBvhForRays(const std::vector<cbk::Primitive>& primitives,
-                                  const std::vector<cbk::Ray>& cameraRays, int bins) {
-    const std::vector<WideBvhSettings> candidates = wideBvhCandidates();
+                                  const std::vector<cbk::Ray>& cameraRays,
+                                  const std::vector<WideBvhSettings>& candidates) {
+    if (candidates.empty())
+        throw std::invalid_argument("buildWideBvhForRays: no candidate BVH settings");
     auto build = [&](const WideBvhSettings& s) {
         WideBvhChoice c;
-        c.bvh = buildBvh(primitives, {s.maxLeafSize, bins, s.sahBlock});
+        c.bvh = buildBvh(primitives, {s.maxLeafSize, 16, s.sahBlock});
         c.wide = collapseBvhWide(c.bvh);
         c.settings = s;
+        c.candidates = candidates;
         return c;
     };
     if (cameraRays.empty() || candidates.size() == 1) return build(candidates[0]);
@@ -142,7 +149,7 @@ WideBvhChoice buildWideBvhForRays(const std::vector<cbk::Primitive>& primitives,
 }
 
 std::string describeChoice(const WideBvhChoice& choice) {
-    const auto candidates = wideBvhCandidates();
+    const auto& candidates = choice.candidates;
     auto name = [](const WideBvhSettings& s) {
         return fmt::format("SAH block {}, leaves <= {}", s.sahBlock, s.maxLeafSize);
     };

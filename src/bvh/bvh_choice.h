@@ -19,9 +19,13 @@ struct WideBvhSettings {
     int maxLeafSize = 4; // BvhBuildOptions::maxLeafSize
 };
 
-// The candidates, the first being the one kept on ties and for scenes with no sample rays.
-// The environment variable CBDPT_BVH_SETTINGS=BLOCK,LEAF (e.g. 4,8) makes it that one alone;
-// a malformed value throws std::invalid_argument.
+// The two candidates, the first being the one kept on ties and for scenes with no sample
+// rays: SAH block 2 with leaves of up to 4, block 4 with leaves of up to 8.
+std::vector<WideBvhSettings> defaultWideBvhCandidates();
+
+// What the renderers and the bench choose from: the default candidates, or the one that the
+// environment variable CBDPT_BVH_SETTINGS=BLOCK,LEAF (e.g. 4,8) names; a malformed value
+// throws std::invalid_argument.
 std::vector<WideBvhSettings> wideBvhCandidates();
 
 // The work of a closest-hit traversal that knew the hit distance in advance: the wide nodes
@@ -54,14 +58,18 @@ struct WideBvhChoice {
     Bvh bvh;
     BvhWide wide;
     WideBvhSettings settings;
-    std::vector<TraversalWork> work; // per candidate, in wideBvhCandidates() order
-    int chosen = 0;
+    std::vector<WideBvhSettings> candidates; // what it was chosen from
+    std::vector<TraversalWork> work;         // per candidate, when more than one was measured
+    int chosen = 0;                          // index into candidates
 };
 
-// Builds each candidate and keeps the cheapest for sampleBounceRays(cameraRays). With no
-// camera rays, or a single candidate, only the first is built.
-WideBvhChoice buildWideBvhForRays(const std::vector<cbk::Primitive>& primitives,
-                                  const std::vector<cbk::Ray>& cameraRays, int bins = 16);
+// Builds each candidate (at least one) and keeps the cheapest for
+// sampleBounceRays(cameraRays). With no camera rays, or a single candidate, only the first is
+// built.
+WideBvhChoice
+buildWideBvhForRays(const std::vector<cbk::Primitive>& primitives,
+                    const std::vector<cbk::Ray>& cameraRays,
+                    const std::vector<WideBvhSettings>& candidates = wideBvhCandidates());
 
 // "SAH block 4, leaves <= 8 (cost per sample ray 31.2; block 2, leaves <= 4: 40.5)".
 std::string describeChoice(const WideBvhChoice& choice);
