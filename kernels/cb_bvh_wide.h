@@ -104,22 +104,34 @@ typedef struct BvhWideSlabs {
  * microcode assist on every FMA with a subnormal operand (renders 40-90% slower). */
 #define CB_BVHW_TINY 1.175494351e-38f /* 2^-126 */
 
+/* One axis per lane of T (real on the host, float4 in the kernels: the three axes at once, a
+ * quarter of the scalar set-up's instructions, which rays with few node visits notice), the
+ * same arithmetic written once. The conditional operator selects lane by lane on vectors. */
+#define CB_DEFINE_WIDE_SLAB_LANES(T, SUFFIX)                                                       \
+    CB_FN void bvhWideSlabLanes##SUFFIX(T d, T o, T* invNear, T* addNear, T* invFar,              \
+                                        T* addFar) {                                              \
+        T inv = 1.0f / (d + 0.0f);                                                                 \
+        T h = inv > 0.0f ? (T)(CB_BVHW_FLAT) : (T)(-CB_BVHW_FLAT);                                 \
+        T n = inv * (1.0f - 4.0f * cbGamma(3));                                                    \
+        T a = -o * n;                                                                              \
+        T b = -o * inv;                                                                            \
+        T oh = -o * h;                                                                             \
+        T nearAdd = a - fabs(a) * CB_BVHW_TWO_ULPS - CB_BVHW_TINY;                                 \
+        T farAdd = b + fabs(b) * CB_BVHW_TWO_ULPS + CB_BVHW_TINY;                                  \
+        *invNear = fabs(inv) < CB_BVHW_FLAT ? n : h;                                               \
+        *addNear = fabs(inv) < CB_BVHW_FLAT ? nearAdd : oh;                                        \
+        *invFar = fabs(inv) < CB_BVHW_FLAT ? inv : h;                                              \
+        *addFar = fabs(inv) < CB_BVHW_FLAT ? farAdd : oh + CB_BVHW_NEVER;                          \
+    }
+CB_DEFINE_WIDE_SLAB_LANES(real, )
+
 #ifdef CB_KERNEL_SIDE
-/* The three axes at once, one lane each: a quarter of the scalar set-up's instructions, which
- * rays with few node visits notice. Lane by lane the same operations as the host's. */
+CB_DEFINE_WIDE_SLAB_LANES(float4, 4)
+
 CB_FN BvhWideSlabs bvhWideSlabsOf(Vec3 o, Vec3 d) {
-    float4 o4 = (float4)(o.x, o.y, o.z, 0.0f);
-    float4 inv = 1.0f / ((float4)(d.x, d.y, d.z, 1.0f) + 0.0f);
-    int4 flat = !(fabs(inv) < CB_BVHW_FLAT);
-    float4 h = select((float4)(-CB_BVHW_FLAT), (float4)(CB_BVHW_FLAT), inv > 0.0f);
-    float4 n = inv * (1.0f - 4.0f * cbGamma(3));
-    float4 a = -o4 * n;
-    float4 b = -o4 * inv;
-    float4 oh = -o4 * h;
-    float4 invNear = select(n, h, flat);
-    float4 addNear = select(a - fabs(a) * CB_BVHW_TWO_ULPS - CB_BVHW_TINY, oh, flat);
-    float4 invFar = select(inv, h, flat);
-    float4 addFar = select(b + fabs(b) * CB_BVHW_TWO_ULPS + CB_BVHW_TINY, oh + CB_BVHW_NEVER, flat);
+    float4 invNear, addNear, invFar, addFar;
+    bvhWideSlabLanes4((float4)(d.x, d.y, d.z, 1.0f), (float4)(o.x, o.y, o.z, 0.0f), &invNear,
+                      &addNear, &invFar, &addFar);
     BvhWideSlabs s;
     s.invNear = vec3(invNear.x, invNear.y, invNear.z);
     s.addNear = vec3(addNear.x, addNear.y, addNear.z);
@@ -128,31 +140,11 @@ CB_FN BvhWideSlabs bvhWideSlabsOf(Vec3 o, Vec3 d) {
     return s;
 }
 #else
-CB_FN void bvhWideSlabAxis(real d, real o, real* invNear, real* addNear, real* invFar,
-                           real* addFar) {
-    real inv = 1.0f / (d + 0.0f);
-    if (!(fabs(inv) < CB_BVHW_FLAT)) {
-        real h = inv > 0.0f ? CB_BVHW_FLAT : -CB_BVHW_FLAT;
-        *invNear = h;
-        *invFar = h;
-        *addNear = -o * h;
-        *addFar = -o * h + CB_BVHW_NEVER;
-        return;
-    }
-    real n = inv * (1.0f - 4.0f * cbGamma(3));
-    real a = -o * n;
-    real b = -o * inv;
-    *invNear = n;
-    *addNear = a - fabs(a) * CB_BVHW_TWO_ULPS - CB_BVHW_TINY;
-    *invFar = inv;
-    *addFar = b + fabs(b) * CB_BVHW_TWO_ULPS + CB_BVHW_TINY;
-}
-
 CB_FN BvhWideSlabs bvhWideSlabsOf(Vec3 o, Vec3 d) {
     BvhWideSlabs s;
-    bvhWideSlabAxis(d.x, o.x, &s.invNear.x, &s.addNear.x, &s.invFar.x, &s.addFar.x);
-    bvhWideSlabAxis(d.y, o.y, &s.invNear.y, &s.addNear.y, &s.invFar.y, &s.addFar.y);
-    bvhWideSlabAxis(d.z, o.z, &s.invNear.z, &s.addNear.z, &s.invFar.z, &s.addFar.z);
+    bvhWideSlabLanes(d.x, o.x, &s.invNear.x, &s.addNear.x, &s.invFar.x, &s.addFar.x);
+    bvhWideSlabLanes(d.y, o.y, &s.invNear.y, &s.addNear.y, &s.invFar.y, &s.addFar.y);
+    bvhWideSlabLanes(d.z, o.z, &s.invNear.z, &s.addNear.z, &s.invFar.z, &s.addFar.z);
     return s;
 }
 #endif
