@@ -108,8 +108,7 @@ typedef struct BvhWideSlabs {
  * quarter of the scalar set-up's instructions, which rays with few node visits notice), the
  * same arithmetic written once. The conditional operator selects lane by lane on vectors. */
 #define CB_DEFINE_WIDE_SLAB_LANES(T, SUFFIX)                                                       \
-    CB_FN void bvhWideSlabLanes##SUFFIX(T d, T o, T* invNear, T* addNear, T* invFar,              \
-                                        T* addFar) {                                              \
+    CB_FN void bvhWideSlabLanes##SUFFIX(T d, T o, T* invNear, T* addNear, T* invFar, T* addFar) {  \
         T inv = 1.0f / (d + 0.0f);                                                                 \
         T h = inv > 0.0f ? (T)(CB_BVHW_FLAT) : (T)(-CB_BVHW_FLAT);                                 \
         T n = inv * (1.0f - 4.0f * cbGamma(3));                                                    \
