@@ -49,6 +49,24 @@ typedef struct BvhNode {
 
 CB_STATIC_ASSERT(sizeof(BvhNode) == 32, "BvhNode must be 32 bytes");
 
+/* The interval of a box from its per-axis near and far distances: entry = the largest near
+ * distance and 0, exit = the smallest far distance and tMax. fmax/fmin spelled as selects
+ * with the running value second: `a > acc ? a : acc` is false for a NaN `a` and keeps acc,
+ * which is fmax's NaN rule (acc is never NaN), and compiles to one maxss/minss instead of a
+ * libm call on the host (g++ without -ffast-math) and a NaN-checking sequence in PoCL
+ * (docs/performance.md). Shared by the binary and the wide BVH's host box tests. */
+CB_FN void bvhSlabCombine(real nx, real ny, real nz, real fx, real fy, real fz, real tMax,
+                          real* tNearOut, real* tFarOut) {
+    real tNear = nx > 0.0f ? nx : 0.0f;
+    tNear = ny > tNear ? ny : tNear;
+    tNear = nz > tNear ? nz : tNear;
+    real tFar = fx < tMax ? fx : tMax;
+    tFar = fy < tFar ? fy : tFar;
+    tFar = fz < tFar ? fz : tFar;
+    *tNearOut = tNear;
+    *tFarOut = tFar;
+}
+
 /* Slab test (Kay & Kajiya 1986) made conservative as in pbrt 3rd ed. sec. 3.9.2: the far
  * distance is enlarged by 1 + 2 gamma(3) to cover the rounding of both slab distances.
  * A zero direction component has inverse +inf (bvhInverseDirection turns -0 into +0). If the
@@ -71,18 +89,7 @@ CB_FN void bvhSlabInterval(Vec3 lo, Vec3 hi, Vec3 o, Vec3 invD, real tMax, real*
     real fy = ty0 > ty1 ? ty0 : ty1;
     real nz = tz0 > tz1 ? tz1 : tz0;
     real fz = tz0 > tz1 ? tz0 : tz1;
-    /* fmax/fmin spelled as selects with the running value second: `a > acc ? a : acc` is
-     * false for a NaN `a` and keeps acc, which is fmax's NaN rule (acc is never NaN), and
-     * compiles to one maxss/minss instead of a libm call on the host (g++ without
-     * -ffast-math) and a NaN-checking sequence in PoCL (docs/performance.md). */
-    real tNear = nx > 0.0f ? nx : 0.0f;
-    tNear = ny > tNear ? ny : tNear;
-    tNear = nz > tNear ? nz : tNear;
-    real tFar = fx < tMax ? fx : tMax;
-    tFar = fy < tFar ? fy : tFar;
-    tFar = fz < tFar ? fz : tFar;
-    *tNearOut = tNear;
-    *tFarOut = tFar;
+    bvhSlabCombine(nx, ny, nz, fx, fy, fz, tMax, tNearOut, tFarOut);
 }
 
 CB_FN bool bvhBoxHit(CB_GLOBAL const BvhNode* node, Vec3 o, Vec3 invD, real tMax) {

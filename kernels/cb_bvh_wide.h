@@ -345,14 +345,7 @@ CB_FN void bvhWideBoxes(CB_GLOBAL const BvhNodeWide* node, Vec3 invNear, Vec3 ad
         real fy = fma(py ? node->hi[1][k] : node->lo[1][k], invFar.y, addFar.y);
         real nz = fma(pz ? node->lo[2][k] : node->hi[2][k], invNear.z, addNear.z);
         real fz = fma(pz ? node->hi[2][k] : node->lo[2][k], invFar.z, addFar.z);
-        real n = nx > 0.0f ? nx : 0.0f;
-        n = ny > n ? ny : n;
-        n = nz > n ? nz : n;
-        real f = fx < closest ? fx : closest;
-        f = fy < f ? fy : f;
-        f = fz < f ? fz : f;
-        tn->v[k] = n;
-        far->v[k] = f;
+        bvhSlabCombine(nx, ny, nz, fx, fy, fz, closest, &tn->v[k], &far->v[k]);
     }
 }
 
