@@ -50,6 +50,7 @@ __kernel void benchClosestWideCoherent(__global const struct BvhNodeWide* nodes,
     hits[i] = h;
 }
 
+/* Any hit, traced as the renderers' sceneOccluded traces it (the coherent traversal). */
 __kernel void benchOccludedWide(__global const struct BvhNodeWide* nodes,
                                 __global const TrianglePack* packs,
                                 __global const Primitive* primitives, __global const Ray* rays,
@@ -58,5 +59,5 @@ __kernel void benchOccludedWide(__global const struct BvhNodeWide* nodes,
     if (i >= count) return;
     Hit h;
     occluded[i] =
-        bvhWideTraverse(nodes, packs, primitives, rays[i], tMax[i], false, false, &h) ? 1 : 0;
+        bvhWideTraverse(nodes, packs, primitives, rays[i], tMax[i], false, true, &h) ? 1 : 0;
 }

@@ -289,8 +289,9 @@ typedef struct BvhWideCand {
  * the work-group take the same path, camera rays above all. A lone candidate, their most
  * common case, is then found from the candidate bits with a leading-zero count, behind a
  * branch that predicts well for such rays; *key is then just the lane: nothing is left to
- * order after it. Incoherent rays mispredict that branch, and are 5-10% slower with it
- * (docs/performance.md), so they always take the minimum across the lanes. */
+ * order after it. Incoherent closest-hit queries mispredict that branch, and are 0-10% slower
+ * with it (docs/performance.md), so they always take the minimum across the lanes. Any-hit
+ * queries, which stop at their first hit, are faster with it, incoherent or not. */
 CB_FN int bvhWideNext(CB_GLOBAL const BvhNodeWide* node, BvhWideReal tn, BvhWideReal far,
                       BvhWideInt keys, BvhWideKey after, bool coherent, BvhWideKey* key,
                       BvhWideCand* cand) {
@@ -466,8 +467,8 @@ CB_FN CB_BVHW_SPECIALISE bool bvhWideTraverse(CB_GLOBAL const BvhNodeWide* nodes
      * coming back up to it reuses them instead of testing its boxes again (far clamped to the
      * closest hit found since). They depend only on the node and the ray, so the order and the
      * hits are the same; this saves the box tests of most returns (a stack would hold a child
-     * per level, this holds one node's lanes, in registers). Camera rays only: incoherent and
-     * shadow rays were 3-5% slower with it (docs/performance.md). */
+     * per level, this holds one node's lanes, in registers). Coherent queries only (see
+     * bvhWideNext): incoherent closest-hit queries were 3-5% slower with it. */
     uint cachedNode = CB_BVHW_NONE;
     int cachedDepth = -1, cachedLane = -1;     /* its depth and the lane it was left through */
     BvhWideKey cachedAfter = bvhWideKeyNone(); /* that lane's key */
@@ -580,10 +581,12 @@ CB_FN CB_BVHW_ONE_COPY bool sceneIntersectCoherent(const SceneView* scene, Ray r
                            hit);
 }
 
-/* Any hit with t in (0, tMax): shadow rays stop at the first one. */
+/* Any hit with t in (0, tMax): shadow rays stop at the first one. With the coherent traversal
+ * whatever the rays: measured faster for any-hit queries, incoherent ones included (shadow and
+ * incoherent any-hit rays 0-7%, every renderer 1-4%; docs/performance.md). */
 CB_FN CB_BVHW_ONE_COPY bool sceneOccluded(const SceneView* scene, Ray ray, real tMax) {
     Hit h;
-    return bvhWideTraverse(scene->nodes, scene->packs, scene->primitives, ray, tMax, false, false,
+    return bvhWideTraverse(scene->nodes, scene->packs, scene->primitives, ray, tMax, false, true,
                            &h);
 }
 
