@@ -246,7 +246,7 @@ CB_FN void bvhWideBoxes(CB_GLOBAL const BvhNodeWide* node, Vec3 invNear, Vec3 ad
     *far = bvhWideMin(bvhWideMin(fx, (BvhWideReal)(closest)), bvhWideMin(fy, fz));
 }
 
-/* far after a leaf moved closest nearer. */
+/* A cached node's far (bvhWideTraverse), clamped to the closest hit found since. */
 CB_FN BvhWideReal bvhWideClamp(BvhWideReal far, real closest) {
     return select(far, (BvhWideReal)(closest), closest < far);
 }
@@ -356,6 +356,12 @@ CB_FN BvhWideReal bvhWideClamp(BvhWideReal far, real closest) {
     return far;
 }
 
+/* Whether lane k holds a child whose box the ray enters (the kernels' mask, one lane). */
+CB_FN bool bvhWideLaneHit(CB_GLOBAL const BvhNodeWide* node, BvhWideReal tn, BvhWideReal far,
+                          int k) {
+    return node->child[k] != CB_BVHW_NONE && tn.v[k] <= far.v[k];
+}
+
 CB_FN real bvhWideTruncate(real t) {
     if constexpr (sizeof(real) == sizeof(uint)) {
         uint bits;
@@ -408,7 +414,7 @@ CB_FN int bvhWideNext(CB_GLOBAL const BvhNodeWide* node, BvhWideReal tn, BvhWide
     *cand = 0;
     *key = after; /* read only when a lane is returned; set so g++ can see that */
     for (int k = 0; k < CBW; ++k) {
-        bool hit = node->child[k] != CB_BVHW_NONE && tn.v[k] <= far.v[k];
+        bool hit = bvhWideLaneHit(node, tn, far, k);
         BvhWideKey kk = bvhWideKeyOf(keys, k);
         if (!hit || !bvhWideKeyLess(after, kk)) continue;
         ++*cand;

@@ -76,7 +76,7 @@ TraversalWork measureTraversalWork(const Bvh& bvh, const BvhWide& wide,
             cbk::bvhWideBoxes(&node, slabs.invNear, slabs.addNear, slabs.invFar, slabs.addFar,
                               hit.t, &tn, &far);
             for (int k = 0; k < CBW; ++k) {
-                if (node.child[k] == CB_BVHW_NONE || !(tn.v[k] <= far.v[k])) continue;
+                if (!cbk::bvhWideLaneHit(&node, tn, far, k)) continue;
                 const uint32_t count = cbk::bvhWideCount(&node, k);
                 if (count == 0u)
                     todo.push_back(cbk::bvhWideInteriorChild(&node, k));
