@@ -859,7 +859,9 @@ __kernel void trace(__global const BvhNodeWide* nodes, __global const TrianglePa
         out[3 * i] = -1.0f;
         outPrim[2 * i] = -1;
     }
-    out[3 * i + 1] = sceneOccluded(&scene, r, 0.5f * fabs(out[3 * i])) ? 1.0f : 0.0f;
+    /* Even rays: the segment up to half the closest hit (free); odd rays: past it (blocked). */
+    float tOcc = (i % 2 == 0 ? 0.5f : 1.5f) * fabs(out[3 * i]);
+    out[3 * i + 1] = sceneOccluded(&scene, r, tOcc) ? 1.0f : 0.0f;
     Hit c;
     if (sceneIntersectCoherent(&scene, r, CB_INFINITY, &c)) {
         out[3 * i + 2] = c.t;
@@ -924,7 +926,7 @@ class ClTracer {
     struct Result {
         std::vector<float> t;               // closest hit, -1 for a miss
         std::vector<int> primitive;         // -1 for a miss
-        std::vector<int> occluded;          // anything within half the closest distance
+        std::vector<int> occluded;          // anything within 0.5 (even rays) or 1.5 (odd) x t
         std::vector<float> coherentT;       // sceneIntersectCoherent's closest hit
         std::vector<int> coherentPrimitive; // and its primitive
     };
@@ -1018,7 +1020,7 @@ TEST_CASE("bvh: OpenCL traversal of the bunny wide BVH matches the host") {
 
             SceneView scene = viewOf(bvh, wide);
             int hits = 0, cameraHits = 0, sphereHits = 0, primMismatch = 0, tMismatch = 0,
-                occMismatch = 0, coherentMismatch = 0;
+                occMismatch = 0, coherentMismatch = 0, occludedCount = 0;
             for (size_t i = 0; i < rays.size(); ++i) {
                 Hit h{};
                 bool hit = cbk::sceneIntersect(&scene, rays[i], CB_INFINITY, &h);
@@ -1028,8 +1030,12 @@ TEST_CASE("bvh: OpenCL traversal of the bunny wide BVH matches the host") {
                 sphereHits += hit && bvh.primitives[size_t(h.primitive)].kind == CB_PRIM_SPHERE;
                 if ((hit ? h.primitive : -1) != device.primitive[i]) ++primMismatch;
                 if (std::fabs(device.t[i] - t) > 1e-5f * std::fabs(t)) ++tMismatch;
-                bool occ = cbk::sceneOccluded(&scene, rays[i], 0.5f * std::fabs(t));
+                const float tOcc = (i % 2 == 0 ? 0.5f : 1.5f) * std::fabs(t);
+                bool occ = cbk::sceneOccluded(&scene, rays[i], tOcc);
                 if ((device.occluded[i] != 0) != occ) ++occMismatch;
+                // Past the closest hit the segment is blocked, before half of it free.
+                if (hit && occ != (i % 2 == 1)) ++occMismatch;
+                occludedCount += device.occluded[i] != 0;
                 // Only the way the next child is found differs: the same hit, bit for bit.
                 if (device.coherentPrimitive[i] != device.primitive[i] ||
                     device.coherentT[i] != device.t[i])
@@ -1043,6 +1049,7 @@ TEST_CASE("bvh: OpenCL traversal of the bunny wide BVH matches the host") {
             CHECK(primMismatch == 0);
             CHECK(tMismatch == 0);
             CHECK(occMismatch == 0);
+            CHECK(occludedCount > hits / 3); // the any-hit query's early return is exercised
             CHECK(coherentMismatch == 0);
         }
     }
