@@ -1,10 +1,13 @@
 #include "image/image.h"
 
 #include <ImfChannelList.h>
+#include <ImfDoubleAttribute.h>
 #include <ImfFrameBuffer.h>
 #include <ImfHeader.h>
 #include <ImfInputFile.h>
+#include <ImfIntAttribute.h>
 #include <ImfOutputFile.h>
+#include <ImfStringAttribute.h>
 #include <png.h>
 
 #include <algorithm>
@@ -17,34 +20,53 @@
 
 namespace cb {
 
+namespace {
+// Welford's update of one running mean and M2 with an estimate; `count` already includes it.
+void welfordAdd(std::vector<double>& mean, std::vector<double>& m2, long count, const float* rgb) {
+    const double invCount = 1.0 / double(count);
+    for (size_t i = 0; i < mean.size(); ++i) {
+        double x = rgb[i];
+        double delta = x - mean[i];
+        mean[i] += delta * invCount;
+        m2[i] += delta * (x - mean[i]);
+    }
+}
+
+RgbImage toImage(int width, int height, const std::vector<double>& values) {
+    RgbImage out(width, height);
+    for (size_t i = 0; i < values.size(); ++i)
+        out.rgb[i] = float(values[i]);
+    return out;
+}
+
+RgbImage standardErrorImage(int width, int height, long count, const std::vector<double>& m2) {
+    RgbImage out(width, height);
+    if (count < 2) return out;
+    const double n = double(count);
+    for (size_t i = 0; i < m2.size(); ++i)
+        out.rgb[i] = float(std::sqrt(std::max(m2[i], 0.0) / (n - 1.0) / n));
+    return out;
+}
+} // namespace
+
 EstimateAccumulator::EstimateAccumulator(int width, int height)
     : width_(width), height_(height), mean_(size_t(3) * size_t(width) * size_t(height), 0.0),
       m2_(mean_.size(), 0.0) {}
 
 void EstimateAccumulator::add(const float* rgb) {
-    ++count_;
-    const double invCount = 1.0 / double(count_);
-    for (size_t i = 0; i < mean_.size(); ++i) {
-        double x = rgb[i];
-        double delta = x - mean_[i];
-        mean_[i] += delta * invCount;
-        m2_[i] += delta * (x - mean_[i]);
+    if (halvesTracked_) {
+        Half& half = halves_[size_t(count_ % 2)];
+        welfordAdd(half.mean, half.m2, ++half.count, rgb);
     }
+    welfordAdd(mean_, m2_, ++count_, rgb);
 }
 
 RgbImage EstimateAccumulator::mean() const {
-    RgbImage out(width_, height_);
-    for (size_t i = 0; i < mean_.size(); ++i) out.rgb[i] = float(mean_[i]);
-    return out;
+    return toImage(width_, height_, mean_);
 }
 
 RgbImage EstimateAccumulator::standardError() const {
-    RgbImage out(width_, height_);
-    if (count_ < 2) return out;
-    const double n = double(count_);
-    for (size_t i = 0; i < m2_.size(); ++i)
-        out.rgb[i] = float(std::sqrt(std::max(m2_[i], 0.0) / (n - 1.0) / n));
-    return out;
+    return standardErrorImage(width_, height_, count_, m2_);
 }
 
 void EstimateAccumulator::restore(long count, std::vector<double> mean, std::vector<double> m2) {
@@ -53,6 +75,39 @@ void EstimateAccumulator::restore(long count, std::vector<double> mean, std::vec
     count_ = count;
     mean_ = std::move(mean);
     m2_ = std::move(m2);
+}
+
+void EstimateAccumulator::trackHalves() {
+    if (count_ != 0)
+        throw std::logic_error("EstimateAccumulator::trackHalves after estimates were added");
+    halvesTracked_ = true;
+    for (Half& half : halves_) {
+        half.count = 0;
+        half.mean.assign(mean_.size(), 0.0);
+        half.m2.assign(mean_.size(), 0.0);
+    }
+}
+
+RgbImage EstimateAccumulator::halfMean(int half) const {
+    return toImage(width_, height_, halves_[size_t(half)].mean);
+}
+
+RgbImage EstimateAccumulator::halfStandardError(int half) const {
+    const Half& h = halves_[size_t(half)];
+    return standardErrorImage(width_, height_, h.count, h.m2);
+}
+
+void EstimateAccumulator::restoreHalf(int half, long count, std::vector<double> mean,
+                                      std::vector<double> m2) {
+    if (mean.size() != mean_.size() || m2.size() != m2_.size())
+        throw std::runtime_error("saved render state does not match the image size");
+    halvesTracked_ = true;
+    halves_[size_t(half)] = Half{count, std::move(mean), std::move(m2)};
+}
+
+void EstimateAccumulator::dropHalves() {
+    halvesTracked_ = false;
+    halves_ = {};
 }
 
 std::string temporarySiblingPath(const std::string& path) {
@@ -87,20 +142,43 @@ void writeFileAtomically(const std::string& path, const std::string& bytes) {
 }
 
 void writeExr(const std::string& path, const RgbImage& image, const RgbImage* standardError) {
-    const int w = image.width, h = image.height;
+    std::vector<ExrLayer> layers{{"", &image}};
+    if (standardError) layers.push_back({"stderr", standardError});
+    writeExr(path, layers, {});
+}
+
+namespace {
+std::string channelName(const std::string& layer, int channel) {
+    const char* names[3] = {"R", "G", "B"};
+    return layer.empty() ? names[channel] : layer + "." + names[channel];
+}
+} // namespace
+
+void writeExr(const std::string& path, const std::vector<ExrLayer>& layers,
+              const ExrAttributes& attributes) {
+    if (layers.empty() || !layers[0].image)
+        throw std::invalid_argument("writeExr: no image to write to " + path);
+    const int w = layers[0].image->width, h = layers[0].image->height;
     Imf::Header header(w, h);
     header.compression() = Imf::ZIP_COMPRESSION;
-    const char* names[3] = {"R", "G", "B"};
-    const char* errorNames[3] = {"stderr.R", "stderr.G", "stderr.B"};
+    for (const auto& [name, value] : attributes.strings)
+        header.insert(name, Imf::StringAttribute(value));
+    for (const auto& [name, value] : attributes.ints)
+        header.insert(name, Imf::IntAttribute(value));
+    for (const auto& [name, value] : attributes.doubles)
+        header.insert(name, Imf::DoubleAttribute(value));
     Imf::FrameBuffer fb;
     const size_t xStride = 3 * sizeof(float), yStride = xStride * size_t(w);
-    for (int c = 0; c < 3; ++c) {
-        header.channels().insert(names[c], Imf::Channel(Imf::FLOAT));
-        fb.insert(names[c], Imf::Slice(Imf::FLOAT, (char*)(image.rgb.data() + c), xStride, yStride));
-        if (standardError) {
-            header.channels().insert(errorNames[c], Imf::Channel(Imf::FLOAT));
-            fb.insert(errorNames[c], Imf::Slice(Imf::FLOAT, (char*)(standardError->rgb.data() + c),
-                                                xStride, yStride));
+    for (const ExrLayer& layer : layers) {
+        if (!layer.image || layer.image->width != w || layer.image->height != h)
+            throw std::invalid_argument("writeExr: layer '" + layer.name + "' of " + path +
+                                        " is missing or not " + std::to_string(w) + "x" +
+                                        std::to_string(h));
+        for (int c = 0; c < 3; ++c) {
+            const std::string name = channelName(layer.name, c);
+            header.channels().insert(name, Imf::Channel(Imf::FLOAT));
+            fb.insert(name, Imf::Slice(Imf::FLOAT, (char*)(layer.image->rgb.data() + c), xStride,
+                                       yStride));
         }
     }
     std::string tmp = temporarySiblingPath(path);
@@ -116,21 +194,49 @@ void writeExr(const std::string& path, const RgbImage& image, const RgbImage* st
 }
 
 RgbImage readExr(const std::string& path) {
+    RgbImage image;
+    if (!readExrLayer(path, "", image))
+        throw std::runtime_error("cannot read " + path + ": it has no R, G, B channels");
+    return image;
+}
+
+bool readExrLayer(const std::string& path, const std::string& layer, RgbImage& out) {
     try {
         Imf::InputFile file(path.c_str());
+        for (int c = 0; c < 3; ++c)
+            if (!file.header().channels().findChannel(channelName(layer, c))) return false;
         Imath::Box2i dw = file.header().dataWindow();
-        int w = dw.max.x - dw.min.x + 1, h = dw.max.y - dw.min.y + 1;
-        RgbImage image(w, h);
+        const int w = dw.max.x - dw.min.x + 1, h = dw.max.y - dw.min.y + 1;
+        out = RgbImage(w, h);
         Imf::FrameBuffer fb;
         const size_t xStride = 3 * sizeof(float), yStride = xStride * size_t(w);
-        const char* names[3] = {"R", "G", "B"};
-        char* base = (char*)image.rgb.data() -
-                     (ptrdiff_t(dw.min.x) * ptrdiff_t(xStride) + ptrdiff_t(dw.min.y) * ptrdiff_t(yStride));
+        // OpenEXR addresses pixels by absolute data-window coordinates.
+        char* base = (char*)out.rgb.data() - (ptrdiff_t(dw.min.x) * ptrdiff_t(xStride) +
+                                              ptrdiff_t(dw.min.y) * ptrdiff_t(yStride));
         for (int c = 0; c < 3; ++c)
-            fb.insert(names[c], Imf::Slice(Imf::FLOAT, base + c * sizeof(float), xStride, yStride));
+            fb.insert(channelName(layer, c),
+                      Imf::Slice(Imf::FLOAT, base + size_t(c) * sizeof(float), xStride, yStride));
         file.setFrameBuffer(fb);
         file.readPixels(dw.min.y, dw.max.y);
-        return image;
+        return true;
+    } catch (const std::exception& e) {
+        throw std::runtime_error("cannot read " + path + ": " + e.what());
+    }
+}
+
+ExrAttributes readExrAttributes(const std::string& path) {
+    try {
+        Imf::InputFile file(path.c_str());
+        ExrAttributes out;
+        for (auto it = file.header().begin(); it != file.header().end(); ++it) {
+            if (auto* s = dynamic_cast<const Imf::StringAttribute*>(&it.attribute()))
+                out.strings[it.name()] = s->value();
+            else if (auto* i = dynamic_cast<const Imf::IntAttribute*>(&it.attribute()))
+                out.ints[it.name()] = i->value();
+            else if (auto* d = dynamic_cast<const Imf::DoubleAttribute*>(&it.attribute()))
+                out.doubles[it.name()] = d->value();
+        }
+        return out;
     } catch (const std::exception& e) {
         throw std::runtime_error("cannot read " + path + ": " + e.what());
     }
@@ -141,7 +247,9 @@ float srgbEncode(float linear) {
     linear = std::clamp(linear, 0.f, 1.f);
     return linear <= 0.0031308f ? 12.92f * linear : 1.055f * std::pow(linear, 1.f / 2.4f) - 0.055f;
 }
-float luminance(const float* rgb) { return 0.2126f * rgb[0] + 0.7152f * rgb[1] + 0.0722f * rgb[2]; }
+float luminance(const float* rgb) {
+    return 0.2126f * rgb[0] + 0.7152f * rgb[1] + 0.0722f * rgb[2];
+}
 } // namespace
 
 std::vector<std::uint8_t> tonemapReinhard(const RgbImage& image, float key) {
@@ -174,7 +282,8 @@ std::vector<std::uint8_t> tonemapReinhard(const RgbImage& image, float key) {
     return out;
 }
 
-void writePng8(const std::string& path, int width, int height, const std::vector<std::uint8_t>& rgb) {
+void writePng8(const std::string& path, int width, int height,
+               const std::vector<std::uint8_t>& rgb) {
     std::string tmp = temporarySiblingPath(path);
     FILE* fp = std::fopen(tmp.c_str(), "wb");
     if (!fp) throw std::runtime_error("cannot create " + tmp);

@@ -1,9 +1,5 @@
 #include "image/metrics.h"
 
-#include <ImfChannelList.h>
-#include <ImfFrameBuffer.h>
-#include <ImfHeader.h>
-#include <ImfInputFile.h>
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -110,28 +106,7 @@ NoiseEstimate estimateNoise(const EstimateAccumulator& accumulator) {
 }
 
 bool readExrStandardError(const std::string& path, RgbImage& out) {
-    try {
-        Imf::InputFile file(path.c_str());
-        const char* names[3] = {"stderr.R", "stderr.G", "stderr.B"};
-        for (const char* name : names)
-            if (!file.header().channels().findChannel(name)) return false;
-        Imath::Box2i dw = file.header().dataWindow();
-        const int w = dw.max.x - dw.min.x + 1, h = dw.max.y - dw.min.y + 1;
-        out = RgbImage(w, h);
-        Imf::FrameBuffer fb;
-        const size_t xStride = 3 * sizeof(float), yStride = xStride * size_t(w);
-        // OpenEXR addresses pixels by absolute data-window coordinates.
-        char* base = (char*)out.rgb.data() - (ptrdiff_t(dw.min.x) * ptrdiff_t(xStride) +
-                                              ptrdiff_t(dw.min.y) * ptrdiff_t(yStride));
-        for (int c = 0; c < 3; ++c)
-            fb.insert(names[c],
-                      Imf::Slice(Imf::FLOAT, base + size_t(c) * sizeof(float), xStride, yStride));
-        file.setFrameBuffer(fb);
-        file.readPixels(dw.min.y, dw.max.y);
-        return true;
-    } catch (const std::exception& e) {
-        throw std::runtime_error("cannot read " + path + ": " + e.what());
-    }
+    return readExrLayer(path, "stderr", out);
 }
 
 std::vector<std::uint8_t> relativeErrorColourMap(const RgbImage& image, const RgbImage& reference,

@@ -2,6 +2,8 @@
 
 #include <fmt/format.h>
 
+#include <filesystem>
+
 #include <chrono>
 #include <cmath>
 #include <sstream>
@@ -151,6 +153,24 @@ RenderOutcome renderEstimates(Integrator& integrator, EstimateAccumulator& accum
     if (onCheckpoint && first + done > 0 && lastCheckpoint != first + done)
         fire(outcome.renderSeconds, outcome.renderCpuSeconds, true);
     return outcome;
+}
+
+RenderRecord makeRenderRecord(const IntegratorSettings& settings, const std::string& scenePath,
+                              int channels, const RenderOutcome& outcome) {
+    RenderRecord r;
+    r.method = settings.name;
+    r.eyeVertices = settings.eyeVertices;
+    r.lightVertices = settings.lightVertices;
+    r.weights = settings.weights;
+    r.coherenceTile = settings.coherenceTile;
+    r.rouletteVertex = settings.rouletteVertex;
+    r.seed = settings.seed;
+    r.channels = channels;
+    r.renderSeconds = outcome.renderSeconds;
+    r.renderCpuSeconds = outcome.renderCpuSeconds;
+    r.sceneFile = std::filesystem::path(scenePath).filename().string();
+    r.sceneHash = sceneContentHash(scenePath);
+    return r;
 }
 
 } // namespace cb

@@ -3,6 +3,7 @@
 #pragma once
 
 #include "image/image.h"
+#include "image/render_record.h"
 #include "integrators/integrator.h"
 
 #include <atomic>
@@ -78,5 +79,10 @@ RenderOutcome renderEstimates(Integrator& integrator, EstimateAccumulator& accum
                               const std::function<void(const RenderProgress&)>& onProgress,
                               const CheckpointSchedule& checkpoints,
                               const std::function<void(const Checkpoint&)>& onCheckpoint);
+
+// The header record of a render (image/render_record.h) with these settings of the scene file
+// `scenePath`; estimates and size are filled in when the EXR is written.
+RenderRecord makeRenderRecord(const IntegratorSettings& settings, const std::string& scenePath,
+                              int channels, const RenderOutcome& outcome);
 
 } // namespace cb

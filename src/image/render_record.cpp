@@ -1,0 +1,124 @@
+#include "image/render_record.h"
+
+#include <fmt/format.h>
+
+#include <array>
+#include <climits>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <stdexcept>
+
+namespace cb {
+
+namespace {
+int checkedInt(long value, const char* what) {
+    if (value < INT_MIN || value > INT_MAX)
+        throw std::out_of_range(
+            fmt::format("{} {} does not fit an EXR int attribute", what, value));
+    return int(value);
+}
+} // namespace
+
+ExrAttributes toExrAttributes(const RenderRecord& r) {
+    ExrAttributes a;
+    a.strings["cbdpt_method"] = r.method;
+    a.strings["cbdpt_weights"] = r.weights;
+    a.strings["cbdpt_scene"] = r.sceneFile;
+    a.strings["cbdpt_scene_hash"] = r.sceneHash;
+    if (!r.inputs.empty()) a.strings["cbdpt_inputs"] = r.inputs;
+    a.ints["cbdpt_eye_vertices"] = r.eyeVertices;
+    a.ints["cbdpt_light_vertices"] = r.lightVertices;
+    a.ints["cbdpt_coherence_tile"] = r.coherenceTile;
+    a.ints["cbdpt_roulette_vertex"] = r.rouletteVertex;
+    // The 32-bit seed in a signed int attribute, bit for bit.
+    a.ints["cbdpt_seed"] = int(r.seed);
+    a.ints["cbdpt_channels"] = r.channels;
+    a.ints["cbdpt_width"] = r.width;
+    a.ints["cbdpt_height"] = r.height;
+    a.ints["cbdpt_estimates"] = checkedInt(r.estimates, "estimate count");
+    a.ints["cbdpt_estimate_first"] = checkedInt(r.estimateFirst, "first estimate");
+    a.doubles["cbdpt_render_seconds"] = r.renderSeconds;
+    a.doubles["cbdpt_render_cpu_seconds"] = r.renderCpuSeconds;
+    return a;
+}
+
+RenderRecord renderRecordFromExr(const ExrAttributes& a, const std::string& path) {
+    auto it = a.strings.find("cbdpt_method");
+    if (it == a.strings.end())
+        throw std::runtime_error(fmt::format(
+            "{} has no cbdpt render record in its header (attribute cbdpt_method); render it "
+            "again with this cbdpt",
+            path));
+    auto str = [&](const char* name) {
+        auto s = a.strings.find(name);
+        return s == a.strings.end() ? std::string() : s->second;
+    };
+    auto integer = [&](const char* name) {
+        auto s = a.ints.find(name);
+        if (s == a.ints.end())
+            throw std::runtime_error(fmt::format(
+                "{}: the header's render record lacks the int attribute {}", path, name));
+        return s->second;
+    };
+    auto real = [&](const char* name) {
+        auto s = a.doubles.find(name);
+        if (s == a.doubles.end())
+            throw std::runtime_error(fmt::format(
+                "{}: the header's render record lacks the double attribute {}", path, name));
+        return s->second;
+    };
+    RenderRecord r;
+    r.method = it->second;
+    r.weights = str("cbdpt_weights");
+    r.sceneFile = str("cbdpt_scene");
+    r.sceneHash = str("cbdpt_scene_hash");
+    r.inputs = str("cbdpt_inputs");
+    r.eyeVertices = integer("cbdpt_eye_vertices");
+    r.lightVertices = integer("cbdpt_light_vertices");
+    r.coherenceTile = integer("cbdpt_coherence_tile");
+    r.rouletteVertex = integer("cbdpt_roulette_vertex");
+    r.seed = std::uint32_t(integer("cbdpt_seed"));
+    r.channels = integer("cbdpt_channels");
+    r.width = integer("cbdpt_width");
+    r.height = integer("cbdpt_height");
+    r.estimates = integer("cbdpt_estimates");
+    r.estimateFirst = integer("cbdpt_estimate_first");
+    r.renderSeconds = real("cbdpt_render_seconds");
+    r.renderCpuSeconds = real("cbdpt_render_cpu_seconds");
+    return r;
+}
+
+void writeRenderExr(const std::string& path, const EstimateAccumulator& accumulator,
+                    RenderRecord record) {
+    record.estimates = accumulator.estimates();
+    record.width = accumulator.width();
+    record.height = accumulator.height();
+    const RgbImage mean = accumulator.mean(), error = accumulator.standardError();
+    std::vector<ExrLayer> layers{{"", &mean}, {"stderr", &error}};
+    std::array<RgbImage, 2> halfMean, halfError;
+    if (accumulator.tracksHalves()) {
+        for (int half = 0; half < 2; ++half) {
+            halfMean[size_t(half)] = accumulator.halfMean(half);
+            halfError[size_t(half)] = accumulator.halfStandardError(half);
+        }
+        layers.push_back({"half0", &halfMean[0]});
+        layers.push_back({"half0.stderr", &halfError[0]});
+        layers.push_back({"half1", &halfMean[1]});
+        layers.push_back({"half1.stderr", &halfError[1]});
+    }
+    writeExr(path, layers, toExrAttributes(record));
+}
+
+std::string sceneContentHash(const std::string& scenePath) {
+    std::ifstream in(scenePath, std::ios::binary);
+    if (!in) throw std::runtime_error(fmt::format("cannot read scene file {}", scenePath));
+    std::uint64_t hash = 14695981039346656037ull; // FNV-1a offset basis
+    for (std::istreambuf_iterator<char> c(in), end; c != end; ++c) {
+        hash ^= std::uint64_t(static_cast<unsigned char>(*c));
+        hash *= 1099511628211ull; // FNV prime
+    }
+    return fmt::format("{:016x}", hash);
+}
+
+} // namespace cb

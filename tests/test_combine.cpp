@@ -1,0 +1,412 @@
+// Combinations of renders (image/combine.h): the analytic inverse-variance optimum on synthetic
+// inputs, identities, refusals of inputs that cannot be combined, the EXR round trip of the
+// render record and halves, and each combination's bias on the furnace against its bound.
+#include "image/combine.h"
+#include "image/render_state.h"
+#include "integrators/split_budget.h"
+#include "scene_builders.h"
+
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <random>
+
+namespace {
+
+cb::RenderRecord syntheticRecord(const std::string& method, std::uint32_t seed) {
+    cb::RenderRecord r;
+    r.method = method;
+    r.eyeVertices = method == "pt" ? 8 : 4;
+    r.lightVertices = 4;
+    r.seed = seed;
+    r.channels = 3;
+    r.sceneFile = "synthetic.pbrt";
+    r.sceneHash = "0123456789abcdef";
+    return r;
+}
+
+// An input whose every estimate of every pixel and channel is N(mu, sigma^2).
+cb::CombineInput gaussianInput(const std::string& method, std::uint32_t seed, int size,
+                               long estimates, double mu, double sigma) {
+    std::mt19937_64 rng(seed);
+    std::normal_distribution<double> normal(mu, sigma);
+    cb::EstimateAccumulator acc(size, size);
+    acc.trackHalves();
+    std::vector<float> estimate(size_t(3 * size * size));
+    for (long e = 0; e < estimates; ++e) {
+        for (float& v : estimate)
+            v = float(normal(rng));
+        acc.add(estimate.data());
+    }
+    return cb::combineInputFromAccumulator(acc, syntheticRecord(method, seed),
+                                           method + std::to_string(seed));
+}
+
+double imageMean(const cb::RgbImage& image) {
+    double sum = 0.0;
+    for (float v : image.rgb)
+        sum += v;
+    return sum / double(image.rgb.size());
+}
+
+double meanSquaredDeviation(const cb::RgbImage& image, double mu) {
+    double sum = 0.0;
+    for (float v : image.rgb)
+        sum += (v - mu) * (v - mu);
+    return sum / double(image.rgb.size());
+}
+
+} // namespace
+
+TEST_CASE("combine: inverse variance of constant halves is the analytic weighted mean") {
+    // Halves with known values and standard errors: the cross weights are the other half's
+    // variances, so the result is sum_h (sum_i x_ih / v_i) / (sum_i 1 / v_i) / 2 exactly.
+    std::vector<cb::CombineInput> inputs(2);
+    const double values[2][2] = {{1.0, 1.2}, {0.7, 0.9}};
+    const double se[2] = {0.1, 0.3};
+    for (int i = 0; i < 2; ++i) {
+        auto& in = inputs[size_t(i)];
+        in.path = "in" + std::to_string(i);
+        in.record = syntheticRecord(i ? "cbdpt" : "pt", std::uint32_t(i));
+        in.mean = cb::RgbImage(3, 2);
+        in.standardError = cb::RgbImage(3, 2);
+        in.hasHalves = true;
+        in.halfEstimates = {10, 10};
+        for (int h = 0; h < 2; ++h) {
+            in.halfMean[size_t(h)] = cb::RgbImage(3, 2);
+            in.halfStandardError[size_t(h)] = cb::RgbImage(3, 2);
+            for (float& v : in.halfMean[size_t(h)].rgb)
+                v = float(values[i][h]);
+            for (float& v : in.halfStandardError[size_t(h)].rgb)
+                v = float(se[i]);
+        }
+        for (float& v : in.mean.rgb)
+            v = float(0.5 * (values[i][0] + values[i][1]));
+        for (float& v : in.standardError.rgb)
+            v = float(se[i] / std::sqrt(2.0));
+    }
+    cb::CombineSettings settings;
+    settings.how = cb::Combination::InverseVariance;
+    auto result = cb::combine(inputs, settings);
+    const double w0 = 1.0 / (se[0] * se[0]), w1 = 1.0 / (se[1] * se[1]);
+    double expected = 0.0;
+    for (int h = 0; h < 2; ++h)
+        expected += 0.5 * (w0 * values[0][h] + w1 * values[1][h]) / (w0 + w1);
+    for (float v : result.image.rgb)
+        CHECK(v == doctest::Approx(expected).epsilon(1e-6));
+    // Its standard error: 1 / sqrt(sum of the full means' inverse variances).
+    const double full = 1.0 / std::sqrt(2.0 * w0 + 2.0 * w1);
+    for (float v : result.standardError.rgb)
+        CHECK(v == doctest::Approx(full).epsilon(1e-5));
+}
+
+TEST_CASE("combine: Gaussian inputs of known variance reach the inverse-variance optimum" *
+          doctest::test_suite("statistical")) {
+    // Two unbiased inputs, variances per estimate 1 and 9, 64 and 32 estimates: the optimum
+    // variance is 1 / (64 / 1 + 32 / 9) = 0.01480; the plain mean's is (1/64 + 9/32) / 4 = 0.0742.
+    const double mu = 2.0;
+    const int size = 64;
+    auto a = gaussianInput("pt", 11, size, 64, mu, 1.0);
+    auto b = gaussianInput("cbdpt", 12, size, 32, mu, 3.0);
+    const double optimum = 1.0 / (64.0 / 1.0 + 32.0 / 9.0);
+    const double plain = (1.0 / 64.0 + 9.0 / 32.0) / 4.0;
+    cb::CombineSettings settings;
+    settings.how = cb::Combination::InverseVariance;
+    settings.varianceRadius = 2; // 5x5 smoothing: weights from 25 x 16 estimates
+    auto iv = cb::combine({a, b}, settings);
+    const double n = double(iv.image.rgb.size());
+    const double msd = meanSquaredDeviation(iv.image, mu);
+    CAPTURE(msd);
+    CAPTURE(optimum);
+    // Cross weights from half the estimates cost a little: within 5% of the optimum, far from
+    // the plain mean's 5x; and unbiased: the pixel mean within 4 standard errors of mu.
+    CHECK(msd < 1.05 * optimum);
+    CHECK(msd > 0.95 * optimum);
+    CHECK(std::fabs(imageMean(iv.image) - mu) < 4.0 * std::sqrt(optimum / n));
+    settings.how = cb::Combination::Mean;
+    auto mean = cb::combine({a, b}, settings);
+    CHECK(meanSquaredDeviation(mean.image, mu) == doctest::Approx(plain).epsilon(0.05));
+}
+
+TEST_CASE("combine: naive inverse-variance weights are biased, cross weights are not" *
+          doctest::test_suite("statistical")) {
+    // Skewed estimates (exponential, mean 1): a pixel whose samples came out low also measured a
+    // low variance, so same-sample weights favour low values (bias < 0); cross weights do not.
+    const int size = 64;
+    auto exponentialInput = [&](const std::string& method, std::uint32_t seed, long estimates) {
+        std::mt19937_64 rng(seed);
+        std::exponential_distribution<double> exponential(1.0);
+        cb::EstimateAccumulator acc(size, size);
+        acc.trackHalves();
+        std::vector<float> estimate(size_t(3 * size * size));
+        for (long e = 0; e < estimates; ++e) {
+            for (float& v : estimate)
+                v = float(exponential(rng));
+            acc.add(estimate.data());
+        }
+        return cb::combineInputFromAccumulator(acc, syntheticRecord(method, seed), method);
+    };
+    auto a = exponentialInput("pt", 21, 8);
+    auto b = exponentialInput("cbdpt", 22, 8);
+    cb::CombineSettings settings;
+    settings.varianceRadius = 0;
+    settings.how = cb::Combination::InverseVarianceNaive;
+    const double naive = imageMean(cb::combine({a, b}, settings).image) - 1.0;
+    settings.how = cb::Combination::InverseVariance;
+    auto cross = cb::combine({a, b}, settings);
+    const double crossBias = imageMean(cross.image) - 1.0;
+    // The pixel mean of the cross combination: per-pixel variance below that of one 4-estimate
+    // half (1/4), 3 x 64 x 64 independent pixels.
+    const double tolerance = 4.0 * std::sqrt(0.25 / double(cross.image.rgb.size()));
+    CAPTURE(naive);
+    CAPTURE(crossBias);
+    CHECK(std::fabs(crossBias) < tolerance);
+    CHECK(naive < -4.0 * tolerance);
+}
+
+TEST_CASE("combine: a method combined with itself gives its own image") {
+    auto a = gaussianInput("cbdpt", 5, 8, 16, 1.0, 0.5);
+    for (auto how : {cb::Combination::Mean, cb::Combination::InverseVariance,
+                     cb::Combination::InverseVarianceNaive, cb::Combination::Median,
+                     cb::Combination::Reject}) {
+        CAPTURE(cb::combinationName(how));
+        cb::CombineSettings settings;
+        settings.how = how;
+        auto result = cb::combine({a, a, a}, settings);
+        // Inverse variance mixes the halves, whose average is the mean (equal half counts).
+        for (size_t e = 0; e < a.mean.rgb.size(); ++e)
+            CHECK(result.image.rgb[e] == doctest::Approx(a.mean.rgb[e]).epsilon(1e-5));
+    }
+}
+
+TEST_CASE("combine: two independent renders of one method give about their plain mean" *
+          doctest::test_suite("statistical")) {
+    // Same variance: the weights are equal up to their own noise, so inverse variance differs
+    // from the plain mean by a small fraction of the standard error.
+    auto a = gaussianInput("pt", 31, 32, 64, 1.0, 1.0);
+    auto b = gaussianInput("pt", 32, 32, 64, 1.0, 1.0);
+    cb::CombineSettings settings;
+    settings.how = cb::Combination::Mean;
+    auto mean = cb::combine({a, b}, settings);
+    settings.how = cb::Combination::InverseVariance;
+    settings.varianceRadius = 2;
+    auto iv = cb::combine({a, b}, settings);
+    const double se = std::sqrt(1.0 / 128.0);
+    double sum = 0.0;
+    for (size_t e = 0; e < iv.image.rgb.size(); ++e)
+        sum += (iv.image.rgb[e] - mean.image.rgb[e]) * (iv.image.rgb[e] - mean.image.rgb[e]);
+    const double rms = std::sqrt(sum / double(iv.image.rgb.size()));
+    CAPTURE(rms);
+    CHECK(rms < 0.25 * se);
+}
+
+TEST_CASE("combine: robust combinations reject an outlier run") {
+    // Five runs agree on 1 except one that is 10 standard errors off at every pixel.
+    std::vector<cb::CombineInput> inputs;
+    for (int i = 0; i < 5; ++i) {
+        cb::CombineInput in;
+        in.path = "run" + std::to_string(i);
+        in.record = syntheticRecord("cbdpt", std::uint32_t(i));
+        in.mean = cb::RgbImage(2, 2);
+        in.standardError = cb::RgbImage(2, 2);
+        for (float& v : in.mean.rgb)
+            v = i == 3 ? 2.0f : 1.0f + 0.01f * float(i);
+        for (float& v : in.standardError.rgb)
+            v = 0.1f;
+        inputs.push_back(in);
+    }
+    cb::CombineSettings settings;
+    settings.how = cb::Combination::Median;
+    for (float v : cb::combine(inputs, settings).image.rgb)
+        CHECK(v == doctest::Approx(1.02));
+    settings.how = cb::Combination::Reject;
+    for (float v : cb::combine(inputs, settings).image.rgb)
+        CHECK(v == doctest::Approx((1.0 + 1.01 + 1.02 + 1.04) / 4.0));
+    settings.how = cb::Combination::Mean;
+    for (float v : cb::combine(inputs, settings).image.rgb)
+        CHECK(v == doctest::Approx((1.0 + 1.01 + 1.02 + 2.0 + 1.04) / 5.0));
+}
+
+TEST_CASE("combine: the guided filter keeps constants and stops at the guide's edges") {
+    cb::RgbImage values(16, 16), guide(16, 16);
+    for (float& v : values.rgb)
+        v = 0.5f;
+    auto smooth = cb::jointBilateralFilter(values, values, 2.0, 0.25);
+    for (float v : smooth.rgb)
+        CHECK(v == doctest::Approx(0.5f));
+    // Left half of the guide dark, right half bright; values -1 left, +1 right: with the edge
+    // stop the columns next to the edge keep their side's value, without it they blur.
+    for (int y = 0; y < 16; ++y)
+        for (int x = 0; x < 16; ++x)
+            for (int c = 0; c < 3; ++c) {
+                guide.rgb[size_t(3 * (16 * y + x) + c)] = x < 8 ? 0.1f : 1.0f;
+                values.rgb[size_t(3 * (16 * y + x) + c)] = x < 8 ? -1.0f : 1.0f;
+            }
+    auto stopped = cb::jointBilateralFilter(values, guide, 2.0, 0.25);
+    auto blurred = cb::jointBilateralFilter(values, guide, 2.0, 0.0);
+    const size_t left = size_t(3 * (16 * 8 + 7)), right = size_t(3 * (16 * 8 + 8));
+    CHECK(stopped.rgb[left] < -0.99f);
+    CHECK(stopped.rgb[right] > 0.99f);
+    CHECK(blurred.rgb[left] > -0.5f);
+    CHECK(blurred.rgb[right] < 0.5f);
+}
+
+TEST_CASE("combine: inputs of other scenes, sizes, caps or shared random numbers are refused") {
+    auto base = gaussianInput("pt", 1, 4, 8, 1.0, 0.1);
+    auto check = [&](cb::CombineInput other, const std::string& words) {
+        CAPTURE(words);
+        try {
+            cb::requireCombinable({base, other});
+            FAIL("not refused");
+        } catch (const std::invalid_argument& e) {
+            const std::string what = e.what();
+            CAPTURE(what);
+            CHECK(what.find(words) != std::string::npos);
+            CHECK(what.find(base.path) != std::string::npos);
+        }
+    };
+    auto other = gaussianInput("cbdpt", 2, 4, 8, 1.0, 0.1);
+    CHECK_NOTHROW(cb::requireCombinable({base, other}));
+    auto scene = other;
+    scene.record.sceneHash = "fedcba9876543210";
+    check(scene, "different scenes");
+    scene = other;
+    scene.record.sceneFile = "other.pbrt";
+    check(scene, "different scenes");
+    check(gaussianInput("cbdpt", 2, 5, 8, 1.0, 0.1), "differ in size");
+    auto caps = other;
+    caps.record.lightVertices = 3;
+    check(caps, "vertex caps");
+    auto channels = other;
+    channels.record.channels = 16;
+    check(channels, "colour channels");
+    check(gaussianInput("pt", 1, 4, 8, 1.0, 0.1), "not independent");
+}
+
+TEST_CASE("combine: the render record and halves round-trip through EXR and the state") {
+    const auto dir =
+        std::filesystem::temp_directory_path() / ("cbdpt-combine-" + std::to_string(::getpid()));
+    std::filesystem::create_directories(dir);
+    const std::string path = (dir / "r.exr").string();
+    cb::EstimateAccumulator acc(4, 3);
+    acc.trackHalves();
+    std::vector<float> estimate(36);
+    for (int e = 0; e < 5; ++e) {
+        for (size_t i = 0; i < estimate.size(); ++i)
+            estimate[i] = float(e * e) + 0.1f * float(i);
+        acc.add(estimate.data());
+    }
+    CHECK(acc.halfEstimates(0) == 3);
+    CHECK(acc.halfEstimates(1) == 2);
+    // Half 0 holds estimates 0, 2, 4 (values 0, 4, 16 plus the offset), half 1 estimates 1, 3.
+    CHECK(acc.halfMean(0).rgb[0] == doctest::Approx(20.0 / 3.0));
+    CHECK(acc.halfMean(1).rgb[0] == doctest::Approx(5.0));
+    cb::RenderRecord record = syntheticRecord("cbdpt", 0xdeadbeefu);
+    record.renderCpuSeconds = 1.25;
+    cb::writeRenderExr(path, acc, record);
+    auto in = cb::readCombineInput(path);
+    CHECK(in.record.method == "cbdpt");
+    CHECK(in.record.seed == 0xdeadbeefu);
+    CHECK(in.record.estimates == 5);
+    CHECK(in.record.width == 4);
+    CHECK(in.record.renderCpuSeconds == 1.25);
+    CHECK(in.record.sceneHash == record.sceneHash);
+    REQUIRE(in.hasHalves);
+    CHECK(in.halfEstimates[0] == 3);
+    CHECK(in.halfEstimates[1] == 2);
+    CHECK(in.halfMean[1].rgb[0] == doctest::Approx(5.0));
+    CHECK(in.halfStandardError[0].rgb[0] == doctest::Approx(acc.halfStandardError(0).rgb[0]));
+
+    // The state keeps the halves, exactly.
+    const std::string state = (dir / "r.state").string();
+    cb::saveRenderState(state, "settings", acc);
+    cb::EstimateAccumulator restored(4, 3);
+    restored.trackHalves();
+    cb::loadRenderState(state, "settings", restored);
+    REQUIRE(restored.tracksHalves());
+    for (int h = 0; h < 2; ++h) {
+        CHECK(restored.halfEstimates(h) == acc.halfEstimates(h));
+        CHECK(restored.halfMeanData(h) == acc.halfMeanData(h));
+        CHECK(restored.halfM2Data(h) == acc.halfM2Data(h));
+    }
+    std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("combine: each combination's bias on the furnace is within its bound" *
+          doctest::test_suite("statistical")) {
+    // A closed emitting diffuse box: every pixel's radiance is Le (1 - a^(n-1)) / (1 - a) for paths
+    // of at most n vertices. PT (Ne = 5) and three CBDPT runs (Ne = 3, Nl = 2) of 16x16 pixels.
+    cb::ClRuntime runtime;
+    const float albedo = 0.8f, emission = 0.25f;
+    const int vertices = 5;
+    cb::DeviceScene scene =
+        cb::buildDeviceScene(cbtest::furnaceScene(albedo, emission), cb::ChannelMode::Rgb);
+    const double expected =
+        emission * (1.0 - std::pow(double(albedo), vertices - 1)) / (1.0 - double(albedo));
+    auto render = [&](const std::string& method, std::uint32_t seed, long estimates) {
+        cb::IntegratorSettings s;
+        s.name = method;
+        s.eyeVertices = method == "pt" ? vertices : 3;
+        s.lightVertices = 2;
+        s.seed = seed;
+        auto integrator = cb::makeIntegrator(s, scene, runtime);
+        cb::EstimateAccumulator acc(scene.camera.width, scene.camera.height);
+        acc.trackHalves();
+        std::atomic<bool> stop{false};
+        cb::RenderLimits limits;
+        limits.estimates = estimates;
+        cb::renderEstimates(*integrator, acc, limits, stop);
+        cb::RenderRecord record = syntheticRecord(method, seed);
+        record.eyeVertices = s.eyeVertices;
+        record.lightVertices = s.lightVertices;
+        return cb::combineInputFromAccumulator(acc, record, method + std::to_string(seed));
+    };
+    std::vector<cb::CombineInput> all{render("pt", 1, 64), render("cbdpt", 2, 32),
+                                      render("cbdpt", 3, 32), render("cbdpt", 4, 32)};
+    REQUIRE_NOTHROW(cb::requireCombinable(all));
+    std::vector<cb::CombineInput> patterned(all.begin() + 1, all.end());
+    // The image mean of pixels that may be correlated (CBDPT) has a standard deviation of at most
+    // the mean per-pixel standard deviation: the statistical slack is 4 of those.
+    auto meanStandardError = [](const std::vector<cb::CombineInput>& ins) {
+        double s = 0.0;
+        for (const auto& in : ins)
+            s = std::max(s, imageMean(in.standardError));
+        return s;
+    };
+    struct Case {
+        cb::Combination how;
+        const std::vector<cb::CombineInput>* inputs;
+        double boundInSe; // the stated bias bound, in units of the largest input's standard error
+    };
+    const double k = 3.0, z = 3.0;
+    const double medianBound = std::sqrt(k / std::ceil(k / 2.0));
+    const Case cases[] = {
+        {cb::Combination::Mean, &all, 0.0},
+        {cb::Combination::InverseVariance, &all, 0.0},
+        // The naive weights' output lies between the inputs: |bias| <= sqrt(sum of variances).
+        {cb::Combination::InverseVarianceNaive, &all, 2.0},
+        {cb::Combination::Guided, &all, 0.0},
+        {cb::Combination::Median, &patterned, medianBound},
+        {cb::Combination::Reject, &patterned, medianBound + z},
+    };
+    for (const Case& c : cases) {
+        CAPTURE(cb::combinationName(c.how));
+        cb::CombineSettings settings;
+        settings.how = c.how;
+        settings.rejectThreshold = z;
+        auto result = cb::combine(*c.inputs, settings);
+        const double se = meanStandardError(*c.inputs);
+        const double bias = imageMean(result.image) - expected;
+        // A guided pixel is a half image plus a convex filter of (noisy - other half): its
+        // deviation is at most two half images' (sqrt 2 se each) and the noisy image's.
+        const double slack =
+            4.0 * (c.how == cb::Combination::Guided ? 2.0 * std::sqrt(2.0) + 1.0 : 1.0) * se;
+        CAPTURE(expected);
+        CAPTURE(bias);
+        CAPTURE(se);
+        MESSAGE(cb::combinationName(c.how), ": furnace bias ", bias, " (", bias / expected * 100.0,
+                "% of the radiance; input standard error ", se, ")");
+        CHECK(std::fabs(bias) <= c.boundInSe * se + slack);
+    }
+}
