@@ -3,6 +3,7 @@
 #include "cl/cl_runtime.h"
 #include "cli/checkpoint_log.h"
 #include "cli/cli_format.h"
+#include "cli/command_support.h"
 #include "cli/commands.h"
 #include "cli/progress_bar.h"
 #include "image/image.h"
@@ -18,7 +19,6 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
-#include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <limits>
@@ -35,22 +35,6 @@ using Clock = std::chrono::steady_clock;
 
 double secondsSince(Clock::time_point start) {
     return std::chrono::duration<double>(Clock::now() - start).count();
-}
-
-std::atomic<bool> gStopRequested{false};
-
-extern "C" void onStopSignal(int) {
-    gStopRequested.store(true);
-    // A second Ctrl-C ends the program at once.
-    std::signal(SIGINT, SIG_DFL);
-    std::signal(SIGTERM, SIG_DFL);
-}
-
-cb::ChannelMode parseChannels(const std::string& s) {
-    if (s == "auto") return cb::ChannelMode::Auto;
-    if (s == "rgb") return cb::ChannelMode::Rgb;
-    if (s == "spectral") return cb::ChannelMode::Spectral;
-    throw std::invalid_argument("--channels must be auto, rgb or spectral");
 }
 
 struct RenderOptions {
@@ -104,6 +88,7 @@ class RenderJob {
     int finish(const cb::RenderOutcome& outcome);
     void writeImages(const cb::RenderOutcome& outcome);
     nlohmann::json statistics(const cb::RenderOutcome& outcome) const;
+    cb::RenderRecord renderRecord(const cb::RenderOutcome& outcome) const;
 
     RenderOptions& o_;
     Clock::time_point start_ = Clock::now();
@@ -121,6 +106,7 @@ class RenderJob {
     std::optional<cb::EstimateAccumulator> accumulator_;
     std::string stateSettings_;
     std::string statePath_;
+    cb::RenderRecord previous_; // of the runs before a --resume: their render seconds
     double warmupSeconds_ = 0.0;
     std::optional<CheckpointLog> log_;
     double checkpointSeconds_ = 0.0;
@@ -233,9 +219,10 @@ void RenderJob::startIntegrator() {
 
 // Ctrl-C handling, the accumulator, and what it holds already when resuming.
 void RenderJob::startAccumulator() {
-    std::signal(SIGINT, onStopSignal);
-    std::signal(SIGTERM, onStopSignal);
+    installStopHandler();
     accumulator_.emplace(scene_.camera.width, scene_.camera.height);
+    // Two independent halves of the estimates, for `cbdpt combine` (image/combine.h).
+    accumulator_->trackHalves();
     // Everything that decides the estimates' values: a resumed render must match it exactly.
     stateSettings_ =
         nlohmann::json{{"scene", std::filesystem::absolute(o_.scene).lexically_normal().string()},
@@ -256,6 +243,15 @@ void RenderJob::startAccumulator() {
         throw std::invalid_argument("--resume is not supported for mlt: its Markov chains "
                                     "are not saved");
     cb::loadRenderState(statePath_, stateSettings_, *accumulator_);
+    // The render time of the runs before, from the image they wrote, so the record's time
+    // covers all the estimates.
+    try {
+        previous_ = cb::renderRecordFromExr(cb::readExrAttributes(output_), output_);
+    } catch (const std::exception& e) {
+        if (!o_.quiet)
+            fmt::print(stderr, "cbdpt: warning: the earlier runs' render time is unknown ({})\n",
+                       e.what());
+    }
     if (!o_.quiet)
         fmt::print(stderr, "cbdpt: resuming from {} estimates ({})\n", accumulator_->estimates(),
                    statePath_);
@@ -323,11 +319,13 @@ void RenderJob::onCheckpoint(const cb::Checkpoint& c) {
         cb::RgbImage mean = accumulator_->mean();
         if (reference_) metrics = cb::compareImages(mean, *reference_);
         if (!o_.checkpointImages.empty()) {
-            cb::RgbImage error = accumulator_->standardError();
             auto name = fmt::format("{}-{:08d}.exr", std::filesystem::path(output_).stem().string(),
                                     c.estimates);
-            cb::writeExr((std::filesystem::path(o_.checkpointImages) / name).string(), mean,
-                         &error);
+            cb::RenderOutcome sofar;
+            sofar.renderSeconds = c.renderSeconds;
+            sofar.renderCpuSeconds = c.renderCpuSeconds;
+            cb::writeRenderExr((std::filesystem::path(o_.checkpointImages) / name).string(),
+                               *accumulator_, renderRecord(sofar));
         }
     }
     checkpointSeconds_ += secondsSince(before);
@@ -340,7 +338,7 @@ void RenderJob::onCheckpoint(const cb::Checkpoint& c) {
 cb::RenderOutcome RenderJob::renderWithProgress(const cb::RenderLimits& limits) {
     ProgressBar bar(!o_.quiet);
     auto outcome = cb::renderEstimates(
-        *integrator_, *accumulator_, limits, gStopRequested,
+        *integrator_, *accumulator_, limits, stopRequested(),
         [&](const cb::RenderProgress& p) { bar.update(p); }, schedule_,
         wantCheckpoints_ ? std::function<void(const cb::Checkpoint&)>(
                                [this](const cb::Checkpoint& c) { onCheckpoint(c); })
@@ -373,7 +371,7 @@ int RenderJob::finish(const cb::RenderOutcome& outcome) {
 void RenderJob::writeImages(const cb::RenderOutcome& outcome) {
     mean_ = accumulator_->mean();
     error_ = accumulator_->standardError();
-    cb::writeExr(output_, mean_, &error_);
+    cb::writeRenderExr(output_, *accumulator_, renderRecord(outcome));
     cb::writePng(png_, mean_);
     // An interrupted render leaves its exact sums beside the EXR for --resume; a finished one
     // removes them (unless asked to keep them, to extend the render later).
@@ -385,6 +383,15 @@ void RenderJob::writeImages(const cb::RenderOutcome& outcome) {
         std::error_code ignored;
         std::filesystem::remove(statePath_, ignored);
     }
+}
+
+// The EXR header's record of the estimates so far, earlier runs' time included when resuming.
+cb::RenderRecord RenderJob::renderRecord(const cb::RenderOutcome& outcome) const {
+    cb::RenderRecord record =
+        cb::makeRenderRecord(o_.integrator, o_.scene, scene_.channels, outcome);
+    record.renderSeconds += previous_.renderSeconds;
+    record.renderCpuSeconds += previous_.renderCpuSeconds;
+    return record;
 }
 
 // The --stats JSON.
