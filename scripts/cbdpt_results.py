@@ -189,6 +189,25 @@ def read_exr(path, layer=""):
         raise ValueError(f"{path} has no channels {prefix}R,G,B") from None
 
 
+def read_exr_attributes(path):
+    """The header's string, int and double attributes of an EXR (cbdpt's render record:
+    cbdpt_method, cbdpt_seed, cbdpt_render_cpu_seconds, ...) as a dict."""
+    with open(path, "rb") as f:
+        data = f.read()
+    if struct.unpack_from("<I", data, 0)[0] != 20000630:
+        raise ValueError(f"{path} is not an OpenEXR file")
+    attrs, _ = _read_attributes(data, 8)
+    out = {}
+    for name, (kind, blob) in attrs.items():
+        if kind == "string":
+            out[name] = blob.decode()
+        elif kind == "int":
+            out[name] = struct.unpack("<i", blob)[0]
+        elif kind == "double":
+            out[name] = struct.unpack("<d", blob)[0]
+    return out
+
+
 def need_matplotlib():
     try:
         import matplotlib

@@ -29,3 +29,7 @@ endif()
 # Error against time (issue 7): checkpoints, logs, compare, experiment --quick -> report.
 add_test(NAME checkpoints COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_checkpoints.py $<TARGET_FILE:cbdpt> ${CMAKE_SOURCE_DIR})
 set_tests_properties(checkpoints PROPERTIES TIMEOUT 600)
+
+# cbdpt combine (docs/combine.md): render records, halves, combinations, --split-budget, refusals.
+add_test(NAME combine_cli COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_combine_cli.py $<TARGET_FILE:cbdpt> ${CMAKE_SOURCE_DIR})
+set_tests_properties(combine_cli PROPERTIES TIMEOUT 600)

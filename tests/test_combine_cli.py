@@ -1,0 +1,155 @@
+#!/usr/bin/env python3
+"""End-to-end tests of `cbdpt combine` and of what `cbdpt render` records for it: the render
+record in the EXR header, the halves of the estimates (also through --resume), every
+combination on real renders, --split-budget, and the refusal of inputs that cannot be combined.
+
+Usage: test_combine_cli.py PATH/TO/cbdpt REPO_ROOT"""
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+
+import numpy as np
+
+cbdpt, root = sys.argv[1], sys.argv[2]
+sys.path.insert(0, os.path.join(root, "scripts"))
+import cbdpt_results as cr  # noqa: E402
+
+scene = os.path.join(root, "scenes", "cornell-box.pbrt")
+failures = []
+passed = 0
+
+
+def check(condition, message):
+    global passed
+    if condition:
+        passed += 1
+    else:
+        failures.append(message)
+        print("FAIL:", message)
+
+
+def render(out, *args):
+    r = subprocess.run([cbdpt, "render", scene, "--width", "24", "--height", "24", "-o", out,
+                        "-q"] + list(args), capture_output=True, text=True)
+    check(r.returncode == 0, f"render {args} exits 0 ({r.stderr.strip()})")
+    return r
+
+
+def combine(*args):
+    return subprocess.run([cbdpt, "combine", "-q"] + list(args), capture_output=True, text=True)
+
+
+with tempfile.TemporaryDirectory() as tmp:
+    pt1, pt2, cb1, cb2 = (os.path.join(tmp, n) for n in ("pt1.exr", "pt2.exr", "cb1.exr",
+                                                           "cb2.exr"))
+    render(pt1, "--integrator", "pt", "--eye-vertices", "6", "--spp", "16", "--seed", "1")
+    render(pt2, "--integrator", "pt", "--eye-vertices", "6", "--spp", "16", "--seed", "2")
+    for path, seed in ((cb1, "3"), (cb2, "4")):
+        render(path, "--integrator", "cbdpt", "--eye-vertices", "3", "--light-vertices", "3",
+               "--spp", "8", "--seed", seed)
+
+    # The render record and the halves.
+    rec = cr.read_exr_attributes(cb1)
+    check(rec.get("cbdpt_method") == "cbdpt" and rec.get("cbdpt_eye_vertices") == 3
+          and rec.get("cbdpt_light_vertices") == 3 and rec.get("cbdpt_seed") == 3
+          and rec.get("cbdpt_estimates") == 8 and rec.get("cbdpt_estimate_first") == 0
+          and rec.get("cbdpt_scene") == "cornell-box.pbrt"
+          and len(rec.get("cbdpt_scene_hash", "")) == 16
+          and rec.get("cbdpt_render_cpu_seconds", 0) > 0, f"render record in the header ({rec})")
+    mean, h0, h1 = (cr.read_exr(cb1, layer) for layer in ("", "half0", "half1"))
+    check(np.allclose((h0 + h1) / 2, mean, rtol=1e-5, atol=1e-6),
+          "the halves of 8 estimates average to the mean")
+    check(not np.allclose(h0, h1), "the halves differ (independent estimates)")
+
+    # --resume keeps the halves and adds the earlier run's time to the record.
+    kept = os.path.join(tmp, "kept.exr")
+    render(kept, "--spp", "6", "--seed", "7", "--keep-state")
+    first = cr.read_exr_attributes(kept)["cbdpt_render_seconds"]
+    render(kept, "--spp", "10", "--seed", "7", "--resume")
+    rec = cr.read_exr_attributes(kept)
+    mean, h0, h1 = (cr.read_exr(kept, layer) for layer in ("", "half0", "half1"))
+    check(rec["cbdpt_estimates"] == 10 and rec["cbdpt_render_seconds"] > first,
+          f"resumed record: 10 estimates, time of both runs ({rec}, first run {first})")
+    check(np.allclose((h0 + h1) / 2, mean, rtol=1e-5, atol=1e-6),
+          "after --resume the halves (5 + 5 estimates) still average to the mean")
+
+    # Every combination runs; the plain mean is the inputs' mean; a method with itself (two
+    # seeds) under inverse variance is close to their plain mean.
+    for how in ("mean", "inverse-variance", "inverse-variance-naive", "median", "reject",
+                "guided"):
+        out = os.path.join(tmp, how + ".exr")
+        r = combine(pt1, cb1, cb2, "--how", how, "-o", out)
+        check(r.returncode == 0 and os.path.exists(out) and os.path.exists(out[:-4] + ".png"),
+              f"combine --how {how} writes EXR and PNG ({r.stderr.strip()})")
+        if r.returncode == 0:
+            rec = cr.read_exr_attributes(out)
+            check(rec["cbdpt_method"] == "combine:" + how and rec["cbdpt_estimates"] == 32,
+                  f"{how}: the output's record ({rec})")
+    check(np.allclose(cr.read_exr(os.path.join(tmp, "mean.exr")),
+                      (cr.read_exr(pt1) + cr.read_exr(cb1) + cr.read_exr(cb2)) / 3, atol=1e-6),
+          "mean is the inputs' plain mean")
+    out_mean, out_iv = os.path.join(tmp, "pp-mean.exr"), os.path.join(tmp, "pp-iv.exr")
+    combine(pt1, pt2, "--how", "mean", "-o", out_mean)
+    combine(pt1, pt2, "--how", "inverse-variance", "--variance-radius", "2", "-o", out_iv)
+    se = cr.read_exr(out_mean, "stderr")
+    diff = cr.read_exr(out_iv) - cr.read_exr(out_mean)
+    check(np.sqrt((diff ** 2).mean()) < 0.5 * np.sqrt((se ** 2).mean()),
+          "PT with PT: inverse variance within half a standard error of the plain mean")
+
+    # Refusals, each naming what differs.
+    def refused(args, words, what):
+        r = combine(*args, "-o", os.path.join(tmp, "refused.exr"))
+        check(r.returncode != 0 and all(w in r.stderr for w in words),
+              f"{what} refused naming {words} ({r.returncode}: {r.stderr.strip()})")
+
+    refused([pt1, pt1], ["not independent", "pt1.exr"], "the same render twice")
+    pt8 = os.path.join(tmp, "pt8.exr")
+    render(pt8, "--integrator", "pt", "--eye-vertices", "8", "--spp", "4", "--seed", "9")
+    refused([pt1, pt8], ["vertex caps", "6 vs 8"], "other caps")
+    small = os.path.join(tmp, "small.exr")
+    subprocess.run([cbdpt, "render", scene, "--width", "16", "--height", "16", "--eye-vertices",
+                    "6", "--spp", "4", "--seed", "9", "-o", small, "-q"], check=True)
+    refused([pt1, small], ["differ in size", "24x24 vs 16x16"], "another size")
+    other_dir = os.path.join(tmp, "other")
+    os.makedirs(other_dir)
+    shutil.copy(scene, other_dir)
+    with open(os.path.join(other_dir, "cornell-box.pbrt"), "a") as f:
+        f.write("\n# changed\n")
+    other = os.path.join(tmp, "other.exr")
+    subprocess.run([cbdpt, "render", os.path.join(other_dir, "cornell-box.pbrt"), "--width", "24",
+                    "--height", "24", "--eye-vertices", "6", "--spp", "4", "--seed", "9", "-o",
+                    other, "-q"], check=True)
+    refused([pt1, other], ["different scenes"], "a scene file of the same name, other content")
+    refused([pt1, os.path.join(root, "scenes", "references", "cornell-box-v8.exr")],
+            ["no cbdpt render record"], "a file without a record")
+    refused([pt1], ["at least two"], "a single input")
+    refused([pt1, pt2, "--how", "guided"], ["pattern-prone"], "guided without a CBDPT input")
+
+    # --split-budget: two methods in one budget, shares recorded, parts kept.
+    out = os.path.join(tmp, "split.exr")
+    parts = os.path.join(tmp, "parts")
+    r = combine("--split-budget", "1.5", "--methods", "pt,cbdpt", "--shares", "0.4",
+                "--eye-vertices", "3", "--light-vertices", "3", "--width", "24", "--height", "24",
+                scene, "--how", "guided", "-o", out, "--keep-inputs", parts, "--stats",
+                out[:-4] + ".json")
+    check(r.returncode == 0 and os.path.exists(out), f"--split-budget runs ({r.stderr.strip()})")
+    if r.returncode == 0:
+        import json
+        stats = json.load(open(out[:-4] + ".json"))
+        secs = [i["render_seconds"] for i in stats["inputs"]]
+        check(stats["split_budget"]["shares"] == [0.4, 0.6]
+              and abs(secs[0] - 0.6) < 0.5 and abs(secs[1] - 0.9) < 0.5
+              and [i["method"] for i in stats["inputs"]] == ["pt", "cbdpt"]
+              and stats["inputs"][0]["eye_vertices"] == 6,
+              f"split budget: shares, methods, caps and times ({stats})")
+        p0 = cr.read_exr_attributes(os.path.join(parts, "0-pt.exr"))
+        p1 = cr.read_exr_attributes(os.path.join(parts, "1-cbdpt.exr"))
+        check(p0["cbdpt_seed"] != p1["cbdpt_seed"], "the methods of a split get distinct seeds")
+    r = combine("--split-budget", "1", "--methods", "pt,cbdpt", "--shares", "0.4,0.4", scene,
+                "-o", out)
+    check(r.returncode != 0 and "--shares" in r.stderr, f"bad shares refused ({r.stderr.strip()})")
+
+print(f"{passed} passed, {len(failures)} failed")
+sys.exit(1 if failures else 0)
