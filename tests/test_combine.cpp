@@ -378,6 +378,7 @@ TEST_CASE("combine: each combination's bias on the furnace is within its bound" 
         cb::Combination how;
         const std::vector<cb::CombineInput>* inputs;
         double boundInSe; // the stated bias bound, in units of the largest input's standard error
+        bool blend = false;
     };
     const double k = 3.0, z = 3.0;
     const double medianBound = std::sqrt(k / std::ceil(k / 2.0));
@@ -387,6 +388,7 @@ TEST_CASE("combine: each combination's bias on the furnace is within its bound" 
         // The naive weights' output lies between the inputs: |bias| <= sqrt(sum of variances).
         {cb::Combination::InverseVarianceNaive, &all, 2.0},
         {cb::Combination::Guided, &all, 0.0},
+        {cb::Combination::Guided, &all, 0.0, true},
         {cb::Combination::Median, &patterned, medianBound},
         {cb::Combination::Reject, &patterned, medianBound + z},
     };
@@ -395,17 +397,21 @@ TEST_CASE("combine: each combination's bias on the furnace is within its bound" 
         cb::CombineSettings settings;
         settings.how = c.how;
         settings.rejectThreshold = z;
+        settings.guideBlend = c.blend;
+        CAPTURE(c.blend);
         auto result = cb::combine(*c.inputs, settings);
         const double se = meanStandardError(*c.inputs);
         const double bias = imageMean(result.image) - expected;
-        // A guided pixel is a half image plus a convex filter of (noisy - other half): its
-        // deviation is at most two half images' (sqrt 2 se each) and the noisy image's.
+        // A guided pixel is a half image plus a convex filter of (noisy half - that half), or a
+        // convex mix of that and the noisy half: its deviation is at most three half images'
+        // (sqrt 2 se each).
         const double slack =
-            4.0 * (c.how == cb::Combination::Guided ? 2.0 * std::sqrt(2.0) + 1.0 : 1.0) * se;
+            4.0 * (c.how == cb::Combination::Guided ? 3.0 * std::sqrt(2.0) : 1.0) * se;
         CAPTURE(expected);
         CAPTURE(bias);
         CAPTURE(se);
-        MESSAGE(cb::combinationName(c.how), ": furnace bias ", bias, " (", bias / expected * 100.0,
+        const std::string name = cb::combinationName(c.how) + (c.blend ? " (blended)" : "");
+        MESSAGE(name, ": furnace bias ", bias, " (", bias / expected * 100.0,
                 "% of the radiance; input standard error ", se, ")");
         CHECK(std::fabs(bias) <= c.boundInSe * se + slack);
     }

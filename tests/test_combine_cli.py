@@ -126,6 +126,9 @@ with tempfile.TemporaryDirectory() as tmp:
             ["no cbdpt render record"], "a file without a record")
     refused([pt1], ["at least two"], "a single input")
     refused([pt1, pt2, "--how", "guided"], ["pattern-prone"], "guided without a CBDPT input")
+    out = os.path.join(tmp, "blend.exr")
+    r = combine(pt1, cb1, "--how", "guided", "--guide-blend", "-o", out)
+    check(r.returncode == 0 and os.path.exists(out), f"guided --guide-blend runs ({r.stderr})")
 
     # --split-budget: two methods in one budget, shares recorded, parts kept.
     out = os.path.join(tmp, "split.exr")

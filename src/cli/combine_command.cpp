@@ -215,6 +215,9 @@ Command addCombineCommand(CLI::App& app) {
                     "guided: Gaussian sigma (pixels) of the correction filter");
     cmd->add_option("--guide-range", o.settings.guideRange,
                     "guided: relative luminance difference of the edge stop (0: none)");
+    cmd->add_flag("--guide-blend", o.settings.guideBlend,
+                  "guided: then mix the corrected image with the noisy one per pixel by inverse "
+                  "variance");
     cmd->add_option("--stats", o.statsPath, "write the inputs' records and times as JSON");
     cmd->add_option("--split-budget", o.budget,
                     "render the --methods within this many render seconds in all, then combine");

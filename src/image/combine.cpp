@@ -364,9 +364,10 @@ CombineResult combine(const std::vector<CombineInput>& inputs, const CombineSett
         break;
     }
     case Combination::Guided: {
-        // P: the noisy inputs' mean. C0, C1: the pattern-prone inputs' half means. Each half is
-        // corrected by the noisy image's local mean difference, filtered with edge stops taken
-        // from the other half, so the filter's weights are independent of what they average.
+        // P_h, C_h: the noisy and the pattern-prone inputs' half means. Each C_h is corrected by
+        // the local mean of P_h - C_h, filtered with edge stops from C_(1-h); with blending, the
+        // corrected C_h and P_h are then mixed by inverse variances that half 1-h measured. All
+        // weights come from half 1-h, independent of the half-h values they weight.
         std::vector<const CombineInput*> noisy, patterned;
         for (const auto& in : inputs)
             (isPatternProne(in.record.method) ? patterned : noisy).push_back(&in);
@@ -375,34 +376,51 @@ CombineResult combine(const std::vector<CombineInput>& inputs, const CombineSett
                 "combine: guided needs at least one noisy input (pt, bdpt) and one pattern-prone "
                 "input (cpt, cbdpt, mlt)");
         requireHalves();
-        RgbImage p(w, h);
-        for (const auto* in : noisy)
-            for (size_t e = 0; e < p.rgb.size(); ++e)
-                p.rgb[e] += in->mean.rgb[e] / float(noisy.size());
-        std::array<RgbImage, 2> c{RgbImage(w, h), RgbImage(w, h)};
-        for (int half = 0; half < 2; ++half)
-            for (const auto* in : patterned)
-                for (size_t e = 0; e < p.rgb.size(); ++e)
-                    c[size_t(half)].rgb[e] +=
-                        in->halfMean[size_t(half)].rgb[e] / float(patterned.size());
+        // The mean of a group's half-h images and its variance estimated from half 1-h.
+        auto groupHalf = [&](const std::vector<const CombineInput*>& group, int half,
+                             RgbImage& mean, std::vector<double>& variance) {
+            const double m = double(group.size());
+            mean = RgbImage(w, h);
+            variance.assign(mean.rgb.size(), 0.0);
+            for (const auto* in : group) {
+                const auto v = crossVariance(*in, half, s.varianceRadius);
+                for (size_t e = 0; e < mean.rgb.size(); ++e) {
+                    mean.rgb[e] += float(double(in->halfMean[size_t(half)].rgb[e]) / m);
+                    variance[e] += v[e] / (m * m);
+                }
+            }
+        };
+        std::array<RgbImage, 2> p, c;
+        std::array<std::vector<double>, 2> pVariance, cVariance;
+        for (int half = 0; half < 2; ++half) {
+            groupHalf(noisy, half, p[size_t(half)], pVariance[size_t(half)]);
+            groupHalf(patterned, half, c[size_t(half)], cVariance[size_t(half)]);
+        }
         for (int half = 0; half < 2; ++half) {
             const RgbImage& value = c[size_t(half)];
             RgbImage difference(w, h);
-            for (size_t e = 0; e < p.rgb.size(); ++e)
-                difference.rgb[e] = p.rgb[e] - value.rgb[e];
-            RgbImage correction =
+            for (size_t e = 0; e < difference.rgb.size(); ++e)
+                difference.rgb[e] = p[size_t(half)].rgb[e] - value.rgb[e];
+            RgbImage corrected =
                 jointBilateralFilter(difference, c[size_t(1 - half)], s.guideSigma, s.guideRange);
-            for (size_t e = 0; e < p.rgb.size(); ++e)
-                result.image.rgb[e] += 0.5f * (value.rgb[e] + correction.rgb[e]);
+            for (size_t e = 0; e < corrected.rgb.size(); ++e)
+                corrected.rgb[e] += value.rgb[e];
+            if (s.guideBlend)
+                inverseVarianceMix({&corrected, &p[size_t(half)]},
+                                   {cVariance[size_t(half)], pVariance[size_t(half)]}, result.image,
+                                   nullptr, 0.5);
+            else
+                for (size_t e = 0; e < corrected.rgb.size(); ++e)
+                    result.image.rgb[e] += 0.5f * corrected.rgb[e];
         }
-        std::string roles;
-        for (const auto* in : noisy)
-            roles += (roles.empty() ? "" : ", ") + in->path;
-        roles += " guide ";
+        std::string roles = "noisy";
+        for (size_t i = 0; i < noisy.size(); ++i)
+            roles += (i ? ", " : " ") + noisy[i]->path;
+        roles += "; pattern-prone";
         for (size_t i = 0; i < patterned.size(); ++i)
-            roles += (i ? ", " : "") + patterned[i]->path;
-        result.description = fmt::format("guided (sigma {:g} px, range {:g}): {}", s.guideSigma,
-                                         s.guideRange, roles);
+            roles += (i ? ", " : " ") + patterned[i]->path;
+        result.description = fmt::format("guided (sigma {:g} px, range {:g}{}): {}", s.guideSigma,
+                                         s.guideRange, s.guideBlend ? ", blended" : "", roles);
         break;
     }
     }
