@@ -372,7 +372,7 @@ void checkWide(const cb::BvhWide& wide, const std::vector<Primitive>& prims) {
     for (size_t i = 0; i < nodes.size(); ++i) {
         const auto& n = nodes[i];
         if (i == 0) CHECK(n.parent == CB_BVHW_NONE);
-        for (int k = 0; k < CBW; ++k) {
+        for (int k = 0; k < CB_BVH_WIDE_LANES; ++k) {
             if (n.child[k] == CB_BVHW_NONE) continue;
             uint32_t count = cbk::bvhWideCount(&n, k);
             if (count == 0) {
@@ -382,7 +382,7 @@ void checkWide(const cb::BvhWide& wide, const std::vector<Primitive>& prims) {
                 CHECK(nodes[n.child[k]].parent == i);
                 CHECK(nodes[n.child[k]].lane == uint32_t(k));
                 for (int a = 0; a < 3; ++a)
-                    for (int j = 0; j < CBW; ++j)
+                    for (int j = 0; j < CB_BVH_WIDE_LANES; ++j)
                         if (nodes[n.child[k]].child[j] != CB_BVHW_NONE) {
                             CHECK(nodes[n.child[k]].lo[a][j] >= n.lo[a][k]);
                             CHECK(nodes[n.child[k]].hi[a][j] <= n.hi[a][k]);

@@ -7,7 +7,7 @@
 #include "integrators/integrator.h"
 #include "integrators/scene_buffers.h"
 
-#include "cb_path.h"
+#include "cb_bdpt.h"
 
 #include <algorithm>
 #include <chrono>

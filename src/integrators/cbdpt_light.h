@@ -1,5 +1,5 @@
 // CBDPT's host half (METHOD.md, CBDPT steps 1 and 3): per estimate, trace the few light subpaths
-// with the shared kernel code (kernels/cb_path.h compiled as C++) and splat their camera
+// with the shared kernel code (kernels/cb_bdpt.h compiled as C++) and splat their camera
 // connections (t = 1). The kernel (kernels/cbdpt.cl) does the rest.
 //
 // The shared code's Spectrum has CB_CHANNELS floats, fixed at compile time, so the host needs

@@ -2,7 +2,7 @@
 // CB_CHANNELS (3), i.e. the same `cbk` instantiation every other host file uses.
 #include "integrators/cbdpt_light.h"
 
-#include "cb_path.h"
+#include "cb_bdpt.h"
 
 #include <algorithm>
 #include <cstring>

@@ -26,7 +26,7 @@
 
 namespace cb {
 namespace cbdpt_spectral {
-#include "cb_path.h"
+#include "cb_bdpt.h"
 namespace device = cbk; // the arrays are in this instantiation's own layout
 #include "scene/host_scene.inc"
 // needs HostScene, so after host_scene.inc

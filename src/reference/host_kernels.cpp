@@ -1,4 +1,4 @@
-// Two host instantiations of the shared kernel code (all of it: cb_path.h and cb_pt.h) in one
+// Two host instantiations of the shared kernel code (all of it: cb_bdpt.h and cb_pt.h) in one
 // translation unit: real = float in namespace f32 and real = double in namespace f64. The headers
 // are included twice, so their include guards are reset in between; nothing else in the program
 // sees these namespaces (the rest of the host uses the global `cbk` instantiation), so there is no
@@ -22,7 +22,7 @@
 
 #define CB_REAL float
 namespace cb::reference::f32 {
-#include "cb_path.h"
+#include "cb_bdpt.h"
 #include "cb_pt.h"
 namespace device = cbk;
 #include "scene/host_scene.inc"
@@ -44,11 +44,11 @@ namespace device = cbk;
 #undef CB_CAMERA_H
 #undef CB_LIGHTS_H
 #undef CB_PT_H
-#undef CB_PATH_H
+#undef CB_BDPT_H
 
 #define CB_REAL double
 namespace cb::reference::f64 {
-#include "cb_path.h"
+#include "cb_bdpt.h"
 #include "cb_pt.h"
 static_assert(sizeof(cbk::real) == sizeof(double), "the f64 instantiation must compute in double");
 namespace device = ::cb::reference::f32::cbk; // the device's float layout
