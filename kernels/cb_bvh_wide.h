@@ -1,8 +1,8 @@
 /* cb_bvh_wide.h - a 4- or 8-wide BVH and its stackless traversal: sceneIntersect,
  * sceneIntersectCoherent (camera rays) and sceneOccluded, what every renderer (PT, BDPT,
  * CBDPT, MLT, their host builds) traces with.
- * The binary BVH of cb_bvh.h is what it is collapsed from, and stays as the comparison for
- * cbdpt-bench and the tests (docs/performance.md, traverse section).
+ * The binary BVH of cb_bvh.h is what it is collapsed from; its traversals stay as the comparison
+ * for cbdpt-bench and the tests (src/bench/kernels/bench_bvh_binary.h).
  *
  * One node holds the boxes of up to CB_BVH_WIDE_LANES children in structure-of-arrays form,
  * so one node visit tests all of them with the same instructions on all lanes (what Embree's
@@ -20,11 +20,30 @@
 #ifndef CB_BVH_WIDE_H
 #define CB_BVH_WIDE_H
 
-#include "cb_bvh.h"
+#include "cb_intersect.h"
 
 CB_BEGIN_NAMESPACE
 
 #define CB_BVHW_NONE 0xffffffffu
+
+/* The interval of a box from its per-axis near and far distances: entry = the largest near
+ * distance and 0, exit = the smallest far distance and tMax. fmax/fmin spelled as selects
+ * with the running value second: `a > acc ? a : acc` is false for a NaN `a` and keeps acc,
+ * which is fmax's NaN rule (acc is never NaN), and compiles to one maxss/minss instead of a
+ * libm call on the host (g++ without -ffast-math) and a NaN-checking sequence in PoCL
+ * (docs/performance.md). Shared with the binary BVH's box test
+ * (src/bench/kernels/bench_bvh_binary.h). */
+CB_FN void bvhSlabCombine(real nx, real ny, real nz, real fx, real fy, real fz, real tMax,
+                          real* tNearOut, real* tFarOut) {
+    real tNear = nx > 0.0f ? nx : 0.0f;
+    tNear = ny > tNear ? ny : tNear;
+    tNear = nz > tNear ? nz : tNear;
+    real tFar = fx < tMax ? fx : tMax;
+    tFar = fy < tFar ? fy : tFar;
+    tFar = fz < tFar ? fz : tFar;
+    *tNearOut = tNear;
+    *tFarOut = tFar;
+}
 
 /* Children per node: 4 (SSE) or 8 (AVX). */
 #ifndef CB_BVH_WIDE_LANES
@@ -158,7 +177,7 @@ CB_FN BvhWideSlabs bvhWideSlabsOf(Vec3 o, Vec3 d) {
  * often (docs/performance.md: fewer instructions than lane order, shadow rays 0-10% faster). */
 #ifdef CB_KERNEL_SIDE
 /* The kernels test the lanes with OpenCL vectors (one SSE/AVX instruction per step under
- * PoCL). The selects are bvhBoxHit's, lane by lane (see there for NaNs). */
+ * PoCL). The selects are bvhSlabCombine's, lane by lane (see there for NaNs). */
 #if CB_BVH_WIDE_LANES == 4
 typedef float4 BvhWideReal;
 typedef int4 BvhWideInt;

@@ -6,6 +6,7 @@
 // table per section and writes everything to --json. All timings are medians of repeats.
 #include "bench/bench_meshes.h"
 #include "bench/embree_baseline.h"
+#include "bench/kernels/bench_bvh_binary.h"
 #include "bench/parallel_rays.h"
 
 #include "bvh/bvh.h"
@@ -356,8 +357,8 @@ std::vector<MeshEntry> loadMeshes(const Options& o) {
 
 // Agreement of closest hits: same hit/miss and primitive, or a tie (both primitives at the
 // same distance up to 1e-5 relative: shared edges and vertices).
-// The binary cb_bvh.h traversal compiled by g++ for the host, on `threads` std::threads: separates
-// what the traversal algorithm costs from what PoCL's code generation adds.
+// The binary BVH traversal (bench_bvh_binary.h) compiled by g++ for the host, on `threads`
+// std::threads: separates what the traversal algorithm costs from what PoCL's code generation adds.
 double hostSeconds(const Bvh& bvh, const std::vector<Ray>& rays, const std::vector<float>* tMax,
                    int threads, int repeats) {
     std::vector<double> times;
@@ -957,7 +958,7 @@ int run(int argc, char** argv) {
         "bvh_choice.h; 1 for the binary)");
     app.add_option("--rays", o.rays, "rays per traversal case");
     app.add_option("--threads", o.threads, "Embree (and --host) threads");
-    app.add_flag("--host", o.host, "also time cb_bvh.h compiled for the host");
+    app.add_flag("--host", o.host, "also time bench_bvh_binary.h compiled for the host");
     app.add_option("--meshes", o.meshes, "bunny, dragon, buddha, sphere-<n>[k|M]")->delimiter(',');
     app.add_option("--device", o.device, "OpenCL device P:D");
     app.add_option("--cases", o.cases, "traverse: primary, incoherent, shadow, incoh-any")
