@@ -215,6 +215,9 @@ Command addCombineCommand(CLI::App& app) {
                     "guided: Gaussian sigma (pixels) of the correction filter");
     cmd->add_option("--guide-range", o.settings.guideRange,
                     "guided: relative luminance difference of the edge stop (0: none)");
+    cmd->add_option("--guide-clamp", o.settings.guideClamp,
+                    "guided: clamp the noisy - pattern-prone difference at this many standard "
+                    "deviations before filtering (0: off)");
     cmd->add_flag("--guide-blend", o.settings.guideBlend,
                   "guided: then mix the corrected image with the noisy one per pixel by inverse "
                   "variance");

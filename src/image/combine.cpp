@@ -399,8 +399,16 @@ CombineResult combine(const std::vector<CombineInput>& inputs, const CombineSett
         for (int half = 0; half < 2; ++half) {
             const RgbImage& value = c[size_t(half)];
             RgbImage difference(w, h);
-            for (size_t e = 0; e < difference.rgb.size(); ++e)
-                difference.rgb[e] = p[size_t(half)].rgb[e] - value.rgb[e];
+            for (size_t e = 0; e < difference.rgb.size(); ++e) {
+                double d = double(p[size_t(half)].rgb[e]) - double(value.rgb[e]);
+                // Winsorised at z standard deviations that the other half measured, so one
+                // outlier (a firefly in P, a bright pattern in C) does not spread over the
+                // filter's support; bias at most sigma_D / (4 z) (docs/combine.md).
+                const double limit = s.guideClamp * std::sqrt(pVariance[size_t(half)][e] +
+                                                              cVariance[size_t(half)][e]);
+                if (s.guideClamp > 0.0 && limit > 0.0) d = std::clamp(d, -limit, limit);
+                difference.rgb[e] = float(d);
+            }
             RgbImage corrected =
                 jointBilateralFilter(difference, c[size_t(1 - half)], s.guideSigma, s.guideRange);
             for (size_t e = 0; e < corrected.rgb.size(); ++e)

@@ -64,6 +64,7 @@ struct CombineSettings {
     double rejectThreshold = 3.0; // reject: standard errors from the median that an input may be
     double guideSigma = 3.0;      // guided: Gaussian sigma of the correction filter, pixels
     double guideRange = 0.25; // guided: relative luminance difference of the edge stop (0: none)
+    double guideClamp = 0.0;  // guided: the difference winsorised at this many std devs (0: off)
     bool guideBlend = false;  // guided: then mix with the noisy image by inverse variance
 };
 
