@@ -4,6 +4,7 @@
 
 #include "scene/ply.h"
 #include "scene/scene_desc.h"
+#include "stanford_models.h"
 
 #include <bit>
 #include <chrono>
@@ -303,11 +304,8 @@ TEST_CASE("ply: malformed headers are rejected with the header line") {
 }
 
 TEST_CASE("ply: the Stanford models load with the README's counts and bounding boxes") {
-    const fs::path dir = CBDPT_MODELS_DIR;
-    if (!fs::is_directory(dir)) {
-        MESSAGE("skipped: " << dir.string() << " is absent");
-        return;
-    }
+    if (!cbtest::stanfordModelsOrSkip()) return;
+    const fs::path dir = cbtest::stanfordModelDir();
     struct Expect {
         const char* file;
         size_t vertices, triangles;
