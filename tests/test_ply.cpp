@@ -303,7 +303,7 @@ TEST_CASE("ply: malformed headers are rejected with the header line") {
     CHECK_THROWS_AS(cb::readPly("/nonexistent/dir/x.ply"), cb::SceneError);
 }
 
-TEST_CASE("ply: the Stanford models load with the README's counts and bounding boxes") {
+TEST_CASE("ply: the Stanford models load with the counts and bounding boxes of docs/scenes.md") {
     if (!cbtest::stanfordModelsOrSkip()) return;
     const fs::path dir = cbtest::stanfordModelDir();
     struct Expect {
