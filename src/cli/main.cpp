@@ -298,25 +298,13 @@ int runRender(RenderOptions& o) {
     std::signal(SIGTERM, onStopSignal);
     cb::EstimateAccumulator accumulator(scene.camera.width, scene.camera.height);
     // Everything that decides the estimates' values: a resumed render must match it exactly.
-    const std::string stateSettings = nlohmann::json{
-        {"scene", std::filesystem::absolute(o.scene).lexically_normal().string()},
-        {"integrator", o.integrator.name},
-        {"eye_vertices", o.integrator.eyeVertices},
-        {"light_vertices", o.integrator.lightVertices},
-        {"weights", o.integrator.weights},
-        {"strategy", o.strategy},
-        {"roulette_vertex", o.integrator.rouletteVertex},
-        {"coherence_tile", o.integrator.coherenceTile},
-        {"seed", o.integrator.seed},
-        {"channels", scene.channels},
-        {"width", scene.camera.width},
-        {"height", scene.camera.height}}.dump();
+    const cb::RenderIdentity stateSettings = cb::renderIdentity(o.integrator, desc, scene);
     const std::string statePath = cb::renderStatePath(output);
     if (o.resume) {
         if (o.integrator.name == "mlt")
             throw std::invalid_argument("--resume is not supported for mlt: its Markov chains "
                                         "are not saved");
-        cb::loadRenderState(statePath, stateSettings, accumulator);
+        cb::resumeRenderState(statePath, stateSettings, accumulator);
         if (!o.quiet)
             fmt::print(stderr, "cbdpt: resuming from {} estimates ({})\n", accumulator.estimates(),
                        statePath);

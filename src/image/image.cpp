@@ -17,44 +17,6 @@
 
 namespace cb {
 
-EstimateAccumulator::EstimateAccumulator(int width, int height)
-    : width_(width), height_(height), mean_(size_t(3) * size_t(width) * size_t(height), 0.0),
-      m2_(mean_.size(), 0.0) {}
-
-void EstimateAccumulator::add(const float* rgb) {
-    ++count_;
-    const double invCount = 1.0 / double(count_);
-    for (size_t i = 0; i < mean_.size(); ++i) {
-        double x = rgb[i];
-        double delta = x - mean_[i];
-        mean_[i] += delta * invCount;
-        m2_[i] += delta * (x - mean_[i]);
-    }
-}
-
-RgbImage EstimateAccumulator::mean() const {
-    RgbImage out(width_, height_);
-    for (size_t i = 0; i < mean_.size(); ++i) out.rgb[i] = float(mean_[i]);
-    return out;
-}
-
-RgbImage EstimateAccumulator::standardError() const {
-    RgbImage out(width_, height_);
-    if (count_ < 2) return out;
-    const double n = double(count_);
-    for (size_t i = 0; i < m2_.size(); ++i)
-        out.rgb[i] = float(std::sqrt(std::max(m2_[i], 0.0) / (n - 1.0) / n));
-    return out;
-}
-
-void EstimateAccumulator::restore(long count, std::vector<double> mean, std::vector<double> m2) {
-    if (mean.size() != mean_.size() || m2.size() != m2_.size())
-        throw std::runtime_error("saved render state does not match the image size");
-    count_ = count;
-    mean_ = std::move(mean);
-    m2_ = std::move(m2);
-}
-
 std::string temporarySiblingPath(const std::string& path) {
     std::filesystem::path p(path);
     // Appended piece by piece: GCC 12 warns falsely (-Wrestrict, its bug 105651) on

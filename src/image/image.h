@@ -17,29 +17,6 @@ struct RgbImage {
     RgbImage(int w, int h) : width(w), height(h), rgb(size_t(3) * size_t(w) * size_t(h), 0.f) {}
 };
 
-// Per-pixel running mean and variance of estimates (Welford 1962), in double so that
-// thousands of estimates add without loss (METHOD.md, vocabulary).
-class EstimateAccumulator {
-  public:
-    EstimateAccumulator(int width, int height);
-    void add(const float* rgb); // one estimate: 3 * width * height floats
-    long estimates() const { return count_; }
-    int width() const { return width_; }
-    int height() const { return height_; }
-    RgbImage mean() const;
-    // Standard error of the mean per channel: sqrt(sample variance / n); zero for n < 2.
-    RgbImage standardError() const;
-    // Raw state, for checkpoints and resume.
-    const std::vector<double>& meanData() const { return mean_; }
-    const std::vector<double>& m2Data() const { return m2_; }
-    void restore(long count, std::vector<double> mean, std::vector<double> m2);
-
-  private:
-    int width_, height_;
-    long count_ = 0;
-    std::vector<double> mean_, m2_;
-};
-
 // OpenEXR with lossless ZIP compression: channels R, G, B (linear) and, if given, a layer
 // "stderr" (stderr.R, stderr.G, stderr.B) holding the per-pixel standard error. Written to a
 // temporary file in the same folder, then renamed, so a reader never sees a partial file.
