@@ -123,7 +123,7 @@ RenderOutcome renderEstimates(Integrator& integrator, EstimateAccumulator& accum
     const std::uint64_t rangeEnd = limits.estimates > 0
                                        ? limits.firstEstimate + std::uint64_t(limits.estimates)
                                        : std::numeric_limits<std::uint64_t>::max();
-    const EstimateSet initial = accumulator.indices();
+    const EstimateSet initial = crew.shareFromRoot(accumulator.indices());
     long initialInRange = 0;
     for (const auto& [b, e] : initial.ranges()) {
         const std::uint64_t lo = std::max(b, limits.firstEstimate), hi = std::min(e, rangeEnd);

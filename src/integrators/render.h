@@ -40,6 +40,8 @@ class RenderTeam {
     virtual int size() const { return 1; }
     // Element-wise sum of `values` over the processes, the same result on every one.
     virtual void sumAll(std::vector<double>& values) { (void)values; }
+    // Process 0's `indices` on every process (the estimates a resumed state already holds).
+    virtual EstimateSet shareFromRoot(const EstimateSet& indices) { return indices; }
     // The sum of every process's accumulator on process 0, nullptr on the others.
     virtual const EstimateAccumulator* gather(const EstimateAccumulator& local) { return &local; }
 };
