@@ -21,10 +21,9 @@ bool launchedByMpi() {
 
 #ifndef CBDPT_HAVE_MPI
 
-bool mpiAvailable() {
-    return false;
-}
-std::unique_ptr<RenderTeam> joinMpiTeam(int&, char**&) {
+bool mpiAvailable() { return false; }
+void abortMpiJob(int) {}
+std::unique_ptr<RenderTeam> joinMpiTeam() {
     return nullptr;
 }
 double measureMpiReduction(RenderTeam&, int, int, int) {
@@ -152,13 +151,12 @@ class MpiTeam final : public RenderTeam {
 
 } // namespace
 
-bool mpiAvailable() {
-    return true;
-}
+bool mpiAvailable() { return true; }
+void abortMpiJob(int code) { MPI_Abort(MPI_COMM_WORLD, code); }
 
-std::unique_ptr<RenderTeam> joinMpiTeam(int& argc, char**& argv) {
+std::unique_ptr<RenderTeam> joinMpiTeam() {
     if (!launchedByMpi()) return nullptr;
-    check(MPI_Init(&argc, &argv), "MPI_Init");
+    check(MPI_Init(nullptr, nullptr), "MPI_Init");
     // Ranks on one machine share its cores: PoCL's thread count per rank, unless set.
     MPI_Comm local;
     check(MPI_Comm_split_type(MPI_COMM_WORLD, MPI_COMM_TYPE_SHARED, 0, MPI_INFO_NULL, &local),

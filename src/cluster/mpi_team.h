@@ -17,7 +17,7 @@ bool launchedByMpi();
 // nullptr when cbdpt was built without MPI or not started by an MPI launcher. Where several
 // ranks share a machine and POCL_MAX_PTHREAD_COUNT is not set, it is set to the machine's cores
 // divided by its ranks, so that each rank's PoCL device gets its share of the cores.
-std::unique_ptr<RenderTeam> joinMpiTeam(int& argc, char**& argv);
+std::unique_ptr<RenderTeam> joinMpiTeam();
 
 // Seconds one reduction of a width x height accumulator to rank 0 takes (the cost of each
 // checkpoint under MPI); each rank holds its share of `estimates`. Collective.
@@ -25,5 +25,9 @@ double measureMpiReduction(RenderTeam& team, int width, int height, int repeats)
 
 // Whether this build has MPI support.
 bool mpiAvailable();
+
+// Ends every rank of the job (MPI_Abort): a rank that fails alone would leave the others
+// waiting in a collective call. Does nothing without MPI.
+void abortMpiJob(int code);
 
 } // namespace cb
