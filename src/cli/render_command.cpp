@@ -527,6 +527,8 @@ nlohmann::json RenderJob::statistics(const cb::RenderOutcome& outcome) const {
         {"estimates", estimates_},
         {"estimate_ranges", estimateRanges_},
         {"processes", team_ ? team_->size() : 1},
+        {"reductions", team_ ? team_->reductions() : 0},
+        {"reduction_seconds", team_ ? team_->reductionSeconds() : 0.0},
         {"render_seconds", outcome.renderSeconds},
         {"render_cpu_seconds", outcome.renderCpuSeconds},
         {"estimates_rendered", outcome.estimatesRendered},

@@ -21,15 +21,13 @@ bool launchedByMpi() {
 
 #ifndef CBDPT_HAVE_MPI
 
-bool mpiAvailable() { return false; }
+bool mpiAvailable() {
+    return false;
+}
 void abortMpiJob(int) {}
 std::unique_ptr<RenderTeam> joinMpiTeam() {
     return nullptr;
 }
-double measureMpiReduction(RenderTeam&, int, int, int) {
-    throw std::runtime_error("this cbdpt was built without MPI");
-}
-
 #else
 
 namespace {
@@ -86,6 +84,18 @@ class MpiTeam final : public RenderTeam {
         return unflatten(flat);
     }
     const EstimateAccumulator* gather(const EstimateAccumulator& local) override {
+        const auto start = std::chrono::steady_clock::now();
+        const EstimateAccumulator* total = reduce(local);
+        reductionSeconds_ +=
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        ++reductions_;
+        return total;
+    }
+    double reductionSeconds() const override { return reductionSeconds_; }
+    long reductions() const override { return reductions_; }
+
+  private:
+    const EstimateAccumulator* reduce(const EstimateAccumulator& local) {
         const bool root = rank_ == 0;
         if (root && (total_.width() != local.width() || total_.height() != local.height()))
             total_ = EstimateAccumulator(local.width(), local.height());
@@ -128,7 +138,6 @@ class MpiTeam final : public RenderTeam {
         return &total_;
     }
 
-  private:
     static std::vector<std::uint64_t> flatten(const EstimateSet& s) {
         std::vector<std::uint64_t> flat;
         for (const auto& [b, e] : s.ranges()) {
@@ -147,12 +156,18 @@ class MpiTeam final : public RenderTeam {
     MPI_Datatype sampleType_{}, squareType_{};
     MPI_Op sampleOp_{}, squareOp_{};
     EstimateAccumulator total_{0, 0};
+    double reductionSeconds_ = 0.0;
+    long reductions_ = 0;
 };
 
 } // namespace
 
-bool mpiAvailable() { return true; }
-void abortMpiJob(int code) { MPI_Abort(MPI_COMM_WORLD, code); }
+bool mpiAvailable() {
+    return true;
+}
+void abortMpiJob(int code) {
+    MPI_Abort(MPI_COMM_WORLD, code);
+}
 
 std::unique_ptr<RenderTeam> joinMpiTeam() {
     if (!launchedByMpi()) return nullptr;
@@ -170,21 +185,6 @@ std::unique_ptr<RenderTeam> joinMpiTeam() {
         setenv("POCL_MAX_PTHREAD_COUNT", std::to_string(share).c_str(), 1);
     }
     return std::make_unique<MpiTeam>();
-}
-
-double measureMpiReduction(RenderTeam& team, int width, int height, int repeats) {
-    EstimateAccumulator local(width, height);
-    std::vector<float> rgb(size_t(3) * size_t(width) * size_t(height), 0.5f);
-    local.add(std::uint64_t(team.rank()), rgb.data());
-    team.gather(local); // warm-up: allocates rank 0's total
-    std::vector<double> sync{0.0};
-    team.sumAll(sync);
-    const auto start = std::chrono::steady_clock::now();
-    for (int i = 0; i < repeats; ++i)
-        team.gather(local);
-    team.sumAll(sync);
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() /
-           double(repeats);
 }
 
 #endif

@@ -19,10 +19,6 @@ bool launchedByMpi();
 // divided by its ranks, so that each rank's PoCL device gets its share of the cores.
 std::unique_ptr<RenderTeam> joinMpiTeam();
 
-// Seconds one reduction of a width x height accumulator to rank 0 takes (the cost of each
-// checkpoint under MPI); each rank holds its share of `estimates`. Collective.
-double measureMpiReduction(RenderTeam& team, int width, int height, int repeats);
-
 // Whether this build has MPI support.
 bool mpiAvailable();
 

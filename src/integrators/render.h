@@ -44,6 +44,9 @@ class RenderTeam {
     virtual EstimateSet shareFromRoot(const EstimateSet& indices) { return indices; }
     // The sum of every process's accumulator on process 0, nullptr on the others.
     virtual const EstimateAccumulator* gather(const EstimateAccumulator& local) { return &local; }
+    // Wall seconds spent in gather() (its reductions across processes) and how many calls.
+    virtual double reductionSeconds() const { return 0.0; }
+    virtual long reductions() const { return 0; }
 };
 
 struct RenderProgress {
