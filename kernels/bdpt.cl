@@ -4,7 +4,7 @@
  * in other pixels: each work-item records its own (one slot per light vertex, target pixel and
  * RGB) and the host adds them in pixel order, so an estimate is the same bits however the
  * work-items were scheduled (atomic float adds would sum in a different order each run). */
-#include "cb_path.h"
+#include "cb_bdpt.h"
 
 #ifndef CB_MAX_EYE_VERTICES
 #define CB_MAX_EYE_VERTICES 8
@@ -52,7 +52,8 @@ __kernel void renderBdpt(CB_SCENE_KERNEL_PARAMS,
     for (int t = 1; t <= nEye; ++t) {
         for (int s = 0; s <= nLight; ++s) {
             float rx = 0.0f, ry = 0.0f;
-            Spectrum c = bdptConnect(&scene, &camera, light, s, eye, t, settings, &rx, &ry, &rays);
+            Spectrum c =
+                bdptConnect(&scene, &camera, light, s, eye, t, settings, 1.0f, &rx, &ry, &rays);
             if (specIsBlack(c)) continue;
             if (!specIsFinite(c)) {
                 ++nonFinite;
