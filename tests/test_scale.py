@@ -83,6 +83,11 @@ with tempfile.TemporaryDirectory() as tmp:
         check(r.returncode == 0 and r2.returncode == 0 and r3.returncode == 0 and
               data(P("s12.exr")) == data(P("one-pt.exr")),
               f"an MPI shard merges with a single-process one ({r2.stderr} {r3.stderr})")
+        # --resume under MPI: rank 0 reads the state, the ranks share the estimates left.
+        r = render(P("res.exr"), "--spp", 4, "--keep-state")
+        r2 = render(P("res.exr"), "--spp", 7, "--resume", prefix=mpirun + ["-n", "2"])
+        check(r2.returncode == 0 and data(P("res.exr")) == data(P("one-pt.exr")),
+              f"4 estimates resumed to 7 by 2 ranks equal the single-process render ({r2.stderr})")
         # A time budget and checkpoints across ranks: rank 0 decides, every row counts all ranks.
         r = render(P("t.exr"), "--time", 3, "--checkpoint-every", 1, "--log", P("t.csv"),
                    "--stats", P("t.json"), prefix=mpirun + ["-n", "2"])
