@@ -46,9 +46,7 @@ class MltIntegrator final : public KernelIntegrator {
         chains_ =
             settings.mltChains > 0 ? size_t(settings.mltChains) : std::max<size_t>(1, pixels_ / 16);
         mutationsPerChain_ = long((pixels_ + chains_ - 1) / chains_);
-        bootstrapSamples_ = settings.mltBootstrap > 0
-                                ? settings.mltBootstrap
-                                : std::max<long>(long(pixels_), kBootstrapBatch);
+        bootstrapSamples_ = mltBootstrapSamples(settings, long(pixels_));
         maxSplats_ = size_t(settings.lightVertices) + 1;
 
         auto defines = vertexCapDefines();
@@ -242,6 +240,10 @@ std::unique_ptr<Integrator> makeMltIntegrator(const IntegratorSettings& settings
     if (settings.debugS >= 0 || settings.debugT >= 0)
         throw std::invalid_argument("--strategy is a BDPT debug mode, not available with mlt");
     return std::make_unique<MltIntegrator>(settings, scene, runtime);
+}
+
+long mltBootstrapSamples(const IntegratorSettings& settings, long pixels) {
+    return settings.mltBootstrap > 0 ? settings.mltBootstrap : std::max(pixels, kBootstrapBatch);
 }
 
 const MltStatistics* mltStatistics(const Integrator& integrator) {

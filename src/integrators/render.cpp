@@ -1,5 +1,7 @@
 #include "integrators/render.h"
 
+#include "image/metrics.h"
+
 #include <fmt/format.h>
 
 #include <chrono>
@@ -65,9 +67,9 @@ RenderOutcome renderEstimates(Integrator& integrator, EstimateAccumulator& accum
                               const std::function<void(const RenderProgress&)>& onProgress,
                               const CheckpointSchedule& checkpoints,
                               const std::function<void(const Checkpoint&)>& onCheckpoint) {
-    if (limits.estimates <= 0 && limits.seconds <= 0.0)
-        throw std::invalid_argument("a render needs a number of estimates (--spp) or a time "
-                                    "(--time), both were zero");
+    if (limits.estimates <= 0 && limits.seconds <= 0.0 && limits.targetStandardError <= 0.0)
+        throw std::invalid_argument("a render needs a number of estimates (--spp), a time "
+                                    "(--time) or a target standard error (--target-stderr)");
     if (checkpoints.everySeconds < 0.0 || !std::isfinite(checkpoints.everySeconds))
         throw std::invalid_argument("--checkpoint-every must be a positive number of seconds");
     using Clock = std::chrono::steady_clock;
@@ -102,9 +104,17 @@ RenderOutcome renderEstimates(Integrator& integrator, EstimateAccumulator& accum
         paused += Clock::now() - before;
         cpuPaused += processCpuSeconds() - cpuBefore;
     };
+    // Of the estimates so far (a resumed render starts with some), when there is a target.
+    const bool haveTarget = limits.targetStandardError > 0.0;
+    double standardError =
+        haveTarget && first >= 2 ? estimateNoise(accumulator).meanStandardError : 0.0;
     while (true) {
         if (limits.estimates > 0 && first + done >= limits.estimates) break;
         if (limits.seconds > 0.0 && elapsed() >= limits.seconds) break;
+        if (haveTarget && first + done >= 2 && standardError < limits.targetStandardError) {
+            outcome.reachedTargetStandardError = true;
+            break;
+        }
         if (stop.load()) {
             outcome.interrupted = true;
             break;
@@ -112,6 +122,8 @@ RenderOutcome renderEstimates(Integrator& integrator, EstimateAccumulator& accum
         integrator.renderEstimate(std::uint32_t(first + done), rgb);
         accumulator.add(rgb.data());
         ++done;
+        if (haveTarget && first + done >= 2)
+            standardError = estimateNoise(accumulator).meanStandardError;
         const double now = elapsed();
         const double cpuNow = cpuElapsed();
         if (done == 1) outcome.firstEstimateSeconds = now;
@@ -140,7 +152,14 @@ RenderOutcome renderEstimates(Integrator& integrator, EstimateAccumulator& accum
                                  ? perEstimate * double(limits.estimates - first - done)
                                  : 1e300;
             double byTime = limits.seconds > 0.0 ? limits.seconds - p.elapsedSeconds : 1e300;
-            p.remainingSeconds = std::max(0.0, std::min(byCount, byTime));
+            // The standard error falls as 1/sqrt(n): n (E_n / target)^2 estimates reach it.
+            double byTarget = 1e300;
+            if (haveTarget && standardError > 0.0) {
+                const double n = double(first + done);
+                const double needed = n * std::pow(standardError / limits.targetStandardError, 2);
+                byTarget = perEstimate * std::max(0.0, needed - n);
+            }
+            p.remainingSeconds = std::max(0.0, std::min({byCount, byTime, byTarget}));
             onProgress(p);
         }
     }
