@@ -4,8 +4,8 @@
  * in other pixels and are added to a separate splat image with atomic float adds; the host adds
  * the splat image to the pixel image after the kernel. */
 #include "cb_atomics.h"
+#include "cb_bdpt.h"
 #include "cb_kernel.h"
-#include "cb_path.h"
 
 #ifndef CB_MAX_EYE_VERTICES
 #define CB_MAX_EYE_VERTICES 8
@@ -43,7 +43,8 @@ __kernel void renderBdpt(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings),
     for (int t = 1; t <= nEye; ++t) {
         for (int s = 0; s <= nLight; ++s) {
             float rx = 0.0f, ry = 0.0f;
-            Spectrum c = bdptConnect(&scene, &camera, light, s, eye, t, settings, &rx, &ry, &rays);
+            Spectrum c =
+                bdptConnect(&scene, &camera, light, s, eye, t, settings, 1.0f, &rx, &ry, &rays);
             if (specIsBlack(c)) continue;
             if (!specIsFinite(c)) {
                 ++nonFinite;

@@ -8,7 +8,7 @@
 #include "integrators/bdpt_settings.h"
 #include "integrators/kernel_integrator.h"
 
-#include "cb_path.h"
+#include "cb_bdpt.h"
 
 #include <algorithm>
 #include <cmath>
@@ -36,7 +36,7 @@ class MltIntegrator final : public KernelIntegrator {
   public:
     MltIntegrator(const IntegratorSettings& settings, const DeviceScene& scene, ClRuntime& runtime)
         : KernelIntegrator("mlt", settings, scene, runtime), bdpt_(bdptSettingsFor(settings)) {
-        // Dimensions the BDPT subpaths can read (cb_path.h): eye bounce b uses
+        // Dimensions the BDPT subpaths can read (cb_bdpt.h): eye bounce b uses
         // 4 + 8b + {0,1,2} for b <= Ne-3; light bounce b uses 8 + 8b + {0,1,2} for b <= Nl-3.
         eyeDims_ = CB_DIM_FIRST_BOUNCE +
                    CB_DIMS_PER_BOUNCE * unsigned(std::max(0, settings.eyeVertices - 2));
