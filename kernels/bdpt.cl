@@ -1,10 +1,11 @@
 /* bdpt.cl - bidirectional path tracing (METHOD.md, BDPT). One work-item per pixel, work-groups
  * are square pixel tiles: each work-item traces a light subpath and an eye subpath into private
  * arrays and combines every (s,t) allowed by the caps. Light-tracing (t = 1) contributions land
- * in other pixels and are added to a separate splat image with atomic float adds; the host adds
- * the splat image to the pixel image after the kernel. */
-#include "cb_atomics.h"
+ * in other pixels: each work-item records its own (one slot per light vertex, target pixel and
+ * RGB) and the host adds them in pixel order, so an estimate is the same bits however the
+ * work-items were scheduled (atomic float adds would sum in a different order each run). */
 #include "cb_bdpt.h"
+#include "cb_kernel.h"
 
 #ifndef CB_MAX_EYE_VERTICES
 #define CB_MAX_EYE_VERTICES 8
@@ -14,17 +15,12 @@
 #endif
 
 
-__kernel void renderBdpt(CB_SCENE_KERNEL_PARAMS,
-                         __global const float* toRgb,
-                         Camera camera,
-                         BdptSettings settings,
-                         uint seed,
+__kernel void renderBdpt(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings),
                          uint estimate,
+                         __global int* splatTarget,
+                         __global float* splatRgb,
                          __global float* outRgb,
-                         volatile __global float* splatRgb,
-                         volatile __global int* nonFiniteCount,
-                         volatile __global uint* rayCount,
-                         int countRays) {
+                         CB_COUNTER_PARAMS) {
     int x = (int)get_global_id(0);
     int y = (int)get_global_id(1);
     if (x >= camera.width || y >= camera.height) return;
@@ -45,6 +41,9 @@ __kernel void renderBdpt(CB_SCENE_KERNEL_PARAMS,
 
     Spectrum radiance = specZero();
     int nonFinite = 0;
+    const uint splatBase = pixel * (uint)CB_MAX_LIGHT_VERTICES;
+    for (int k = 0; k < CB_MAX_LIGHT_VERTICES; ++k)
+        splatTarget[splatBase + (uint)k] = -1;
     for (int t = 1; t <= nEye; ++t) {
         for (int s = 0; s <= nLight; ++s) {
             float rx = 0.0f, ry = 0.0f;
@@ -59,24 +58,16 @@ __kernel void renderBdpt(CB_SCENE_KERNEL_PARAMS,
                 Vec3 rgb = specToRgb(c, toRgb);
                 int px = min((int)rx, camera.width - 1);
                 int py = min((int)ry, camera.height - 1);
-                uint target = (uint)(py * camera.width + px);
-                atomicAddFloat(&splatRgb[3 * target + 0], rgb.x);
-                atomicAddFloat(&splatRgb[3 * target + 1], rgb.y);
-                atomicAddFloat(&splatRgb[3 * target + 2], rgb.z);
+                /* s >= 1 when t = 1: slot s - 1 of this pixel's light vertices. */
+                const uint slot = splatBase + (uint)(s - 1);
+                splatTarget[slot] = py * camera.width + px;
+                splatRgb[3 * slot + 0] = rgb.x;
+                splatRgb[3 * slot + 1] = rgb.y;
+                splatRgb[3 * slot + 2] = rgb.z;
             } else {
                 radiance = specAdd(radiance, c);
             }
         }
     }
-    Vec3 rgb = specToRgb(radiance, toRgb);
-    if (!(isfinite(rgb.x) && isfinite(rgb.y) && isfinite(rgb.z))) {
-        ++nonFinite;
-        rgb = vec3(0.0f, 0.0f, 0.0f);
-    }
-    if (nonFinite > 0) atomic_add(nonFiniteCount, nonFinite);
-    /* A per-pixel atomic on one counter contends between threads: only when asked for. */
-    if (countRays) atomic_add(rayCount, (uint)rays);
-    outRgb[3 * pixel + 0] = rgb.x;
-    outRgb[3 * pixel + 1] = rgb.y;
-    outRgb[3 * pixel + 2] = rgb.z;
+    cbWritePixel(outRgb, CB_COUNTERS, pixel, specToRgb(radiance, toRgb), nonFinite, rays);
 }

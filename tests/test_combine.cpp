@@ -271,9 +271,10 @@ TEST_CASE("combine: inputs of other scenes, sizes, caps or shared random numbers
     auto scene = other;
     scene.record.sceneHash = "fedcba9876543210";
     check(scene, "different scenes");
+    // The content hash decides, not the file's name (a merged image records none).
     scene = other;
-    scene.record.sceneFile = "other.pbrt";
-    check(scene, "different scenes");
+    scene.record.sceneFile = "";
+    CHECK_NOTHROW(cb::requireCombinable({base, scene}));
     check(gaussianInput("cbdpt", 2, 5, 8, 1.0, 0.1), "differ in size");
     auto caps = other;
     caps.record.lightVertices = 3;
@@ -318,18 +319,47 @@ TEST_CASE("combine: the render record and halves round-trip through EXR and the 
     CHECK(in.halfMean[1].rgb[0] == doctest::Approx(5.0));
     CHECK(in.halfStandardError[0].rgb[0] == doctest::Approx(acc.halfStandardError(0).rgb[0]));
 
+    // Half 0 (even indices) is the full sums less the odd ones: its standard error is that of
+    // 0, 4, 16: sqrt(var / 3) with var = ((20/3)^2 + (8/3)^2 + (28/3)^2) / 2.
+    CHECK(acc.halfStandardError(0).rgb[0] ==
+          doctest::Approx(std::sqrt((400.0 + 64.0 + 784.0) / 9.0 / 2.0 / 3.0)));
+    CHECK(acc.halfStandardError(1).rgb[0] == doctest::Approx(4.0)); // 1, 9: var 32, n 2
+
     // The state keeps the halves, exactly.
     const std::string state = (dir / "r.state").string();
-    cb::saveRenderState(state, "settings", acc);
+    cb::RenderIdentity identity;
+    identity.settings = {{"test", "halves"}};
+    identity.sceneHash = "0123456789abcdef";
+    cb::saveRenderState(state, identity, acc);
     cb::EstimateAccumulator restored(4, 3);
     restored.trackHalves();
-    cb::loadRenderState(state, "settings", restored);
+    cb::resumeRenderState(state, identity, restored);
     REQUIRE(restored.tracksHalves());
-    for (int h = 0; h < 2; ++h) {
+    CHECK(restored.oddSums() == acc.oddSums());
+    CHECK(restored.oddSquares() == acc.oddSquares());
+    for (int h = 0; h < 2; ++h)
         CHECK(restored.halfEstimates(h) == acc.halfEstimates(h));
-        CHECK(restored.halfMeanData(h) == acc.halfMeanData(h));
-        CHECK(restored.halfM2Data(h) == acc.halfM2Data(h));
+
+    // Shards merged in any order hold the same halves, bit for bit, as the whole render.
+    cb::EstimateAccumulator first(4, 3), second(4, 3);
+    first.trackHalves();
+    second.trackHalves();
+    for (std::uint64_t e = 0; e < 5; ++e) {
+        for (size_t i = 0; i < estimate.size(); ++i)
+            estimate[i] = float(e * e) + 0.1f * float(i);
+        (e == 1 || e == 4 ? first : second).add(e, estimate.data());
     }
+    first.merge(second);
+    CHECK(first.tracksHalves());
+    CHECK(first.sums() == acc.sums());
+    CHECK(first.oddSums() == acc.oddSums());
+    CHECK(first.oddSquares() == acc.oddSquares());
+    // A merge with estimates that have no halves cannot keep them.
+    cb::EstimateAccumulator plain(4, 3);
+    plain.add(7, estimate.data());
+    first.merge(plain);
+    CHECK_FALSE(first.tracksHalves());
+    CHECK(first.estimates() == 6);
     std::filesystem::remove_all(dir);
 }
 

@@ -54,7 +54,7 @@ with tempfile.TemporaryDirectory() as tmp:
     rec = cr.read_exr_attributes(cb1)
     check(rec.get("cbdpt_method") == "cbdpt" and rec.get("cbdpt_eye_vertices") == 3
           and rec.get("cbdpt_light_vertices") == 3 and rec.get("cbdpt_seed") == 3
-          and rec.get("cbdpt_estimates") == 8 and rec.get("cbdpt_estimate_first") == 0
+          and rec.get("cbdpt_estimates") == 8 and rec.get("cbdpt_estimate_ranges") == "0:8"
           and rec.get("cbdpt_scene") == "cornell-box.pbrt"
           and len(rec.get("cbdpt_scene_hash", "")) == 16
           and rec.get("cbdpt_render_cpu_seconds", 0) > 0, f"render record in the header ({rec})")

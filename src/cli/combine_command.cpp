@@ -100,7 +100,7 @@ std::vector<CombineInput> renderInputs(const CombineOptions& o, nlohmann::json& 
     installStopHandler();
     ProgressBar bar(!o.quiet);
     size_t current = 0;
-    auto rendered = renderSplitBudget(scene, runtime, scenePath, split, stopRequested(),
+    auto rendered = renderSplitBudget(scene, runtime, desc, split, stopRequested(),
                                       [&](size_t i, const RenderProgress& p) {
                                           if (i != current) {
                                               bar.finish();

@@ -17,5 +17,6 @@ Command addRenderCommand(CLI::App& app);
 Command addCompareCommand(CLI::App& app);
 Command addInfoCommand(CLI::App& app);
 Command addCombineCommand(CLI::App& app);
+Command addMergeCommand(CLI::App& app);
 
 } // namespace cb::cli

@@ -3,9 +3,11 @@
 #include "cl/cl_runtime.h"
 #include "cli/checkpoint_log.h"
 #include "cli/cli_format.h"
+#include "cli/cli_options.h"
 #include "cli/command_support.h"
 #include "cli/commands.h"
 #include "cli/progress_bar.h"
+#include "cluster/mpi_team.h"
 #include "image/image.h"
 #include "image/metrics.h"
 #include "image/render_state.h"
@@ -26,6 +28,7 @@
 #include <optional>
 #include <sstream>
 #include <stdexcept>
+#include <unistd.h>
 
 namespace cb::cli {
 
@@ -43,15 +46,20 @@ struct RenderOptions {
     std::string png;
     std::string statsPath;
     std::string channels = "auto";
-    std::string device;
+    DeviceOptions device;
     long spp = 16;
     double seconds = 0.0;
-    int width = 0;
+    double targetStandardError = 0.0; // 0: none
+    bool quick = false;
+    int width = 0; // 0: the scene's
     int height = 0;
+    std::vector<double> cropWindow; // empty or x0 x1 y0 y1
     bool noRoulette = false;
     bool sppGiven = false;
     bool resume = false;
     bool keepState = false;
+    std::string estimateRange; // --estimates A:B
+    double saveStateEvery = 60.0;
     std::string strategy;
     bool quiet = false;
     bool noWarmup = false;
@@ -72,7 +80,16 @@ class RenderJob {
     int run();
 
   private:
+    int runSteps();
+    void joinTeam();
     void readSceneDescription();
+    void readShard();
+    void checkOutputs() const;
+    void applyQuick();
+    // --cropwindow's pixel bounds [x0, x1, y0, y1] of the full film, or null.
+    nlohmann::json pixelBoundsJson() const {
+        return desc_.film.pixelBounds ? nlohmann::json(*desc_.film.pixelBounds) : nlohmann::json();
+    }
     void readCheckpointRequests();
     void readReference();
     void buildScene();
@@ -86,7 +103,8 @@ class RenderJob {
     void onCheckpoint(const cb::Checkpoint& c);
     cb::RenderOutcome renderWithProgress(const cb::RenderLimits& limits);
     int finish(const cb::RenderOutcome& outcome);
-    void writeImages(const cb::RenderOutcome& outcome);
+    void writeOutputs(const cb::RenderOutcome& outcome, const cb::EstimateAccumulator& image);
+    void keepWork(const cb::EstimateAccumulator& image, const std::string& failure) const;
     nlohmann::json statistics(const cb::RenderOutcome& outcome) const;
     cb::RenderRecord renderRecord(const cb::RenderOutcome& outcome) const;
 
@@ -104,7 +122,10 @@ class RenderJob {
     std::optional<cb::ClRuntime> runtime_;
     std::unique_ptr<cb::Integrator> integrator_;
     std::optional<cb::EstimateAccumulator> accumulator_;
-    std::string stateSettings_;
+    std::unique_ptr<cb::RenderTeam> team_; // MPI ranks; null when rendering alone
+    bool root_ = true;                     // writes outputs and shows progress
+    std::optional<cb::EstimateSet::Range> shard_;
+    cb::RenderIdentity identity_;
     std::string statePath_;
     cb::RenderRecord previous_; // of the runs before a --resume: their render seconds
     double warmupSeconds_ = 0.0;
@@ -112,15 +133,33 @@ class RenderJob {
     double checkpointSeconds_ = 0.0;
     cb::RgbImage mean_;
     cb::RgbImage error_;
+    long estimates_ = 0; // in the written image (every rank's)
+    std::string estimateRanges_;
 };
 
 int RenderJob::run() {
+    try {
+        return runSteps();
+    } catch (const std::exception& e) {
+        if (!team_ || team_->size() < 2) throw;
+        // One failing rank would leave the others waiting in a collective call.
+        fmt::print(stderr, "cbdpt: error (rank {}): {}\n", team_->rank(), e.what());
+        std::fflush(stderr);
+        cb::abortMpiJob(1);
+        throw;
+    }
+}
+
+int RenderJob::runSteps() {
+    joinTeam();
     readSceneDescription();
+    readShard();
     readCheckpointRequests();
+    chooseOutputPaths();
+    checkOutputs();
     readReference();
     buildScene();
     applyPathOptions();
-    chooseOutputPaths();
     startIntegrator();
     startAccumulator();
     const cb::RenderLimits limits = renderLimits();
@@ -129,10 +168,43 @@ int RenderJob::run() {
     return finish(renderWithProgress(limits));
 }
 
+// Under mpirun (or srun) the ranks form a team: rank 0 reads states, shows progress and writes
+// every output; the others render their share quietly.
+void RenderJob::joinTeam() {
+    team_ = cb::joinMpiTeam();
+    if (!team_) return;
+    root_ = team_->rank() == 0;
+    if (!root_) o_.quiet = true;
+    if (o_.integrator.name == "mlt" && team_->size() > 1)
+        throw std::invalid_argument(
+            "mlt cannot be split among MPI ranks: its Markov chains carry their state from one "
+            "estimate to the next, so estimates are not independent (run it in one process)");
+}
+
+// --quick, as pbrt-v4 does it: a quarter of the film's width and height, one estimate (MLT,
+// whose estimates are mutations per pixel: a sixteenth of them and of the bootstrap).
+void RenderJob::applyQuick() {
+    desc_.film.width = std::max(1, desc_.film.width / 4);
+    desc_.film.height = std::max(1, desc_.film.height / 4);
+    o_.sppGiven = true;
+    if (o_.integrator.name != "mlt") {
+        o_.spp = 1;
+        return;
+    }
+    o_.spp = std::max(1L, o_.spp / 16);
+    const long pixels = long(desc_.film.width) * long(desc_.film.height);
+    o_.integrator.mltBootstrap = std::max(1L, cb::mltBootstrapSamples(o_.integrator, pixels) / 16);
+}
+
 void RenderJob::readSceneDescription() {
     desc_ = cb::parseSceneFile(o_.scene);
     if (o_.width > 0) desc_.film.width = o_.width;
     if (o_.height > 0) desc_.film.height = o_.height;
+    if (o_.quick) applyQuick();
+    if (!o_.cropWindow.empty())
+        desc_.film.pixelBounds = cb::cropWindowPixels(
+            desc_.film.width, desc_.film.height,
+            {o_.cropWindow[0], o_.cropWindow[1], o_.cropWindow[2], o_.cropWindow[3]});
     // Refuse absurd requests before any allocation.
     const long long pixels = (long long)desc_.film.width * desc_.film.height;
     if (desc_.film.width <= 0 || desc_.film.height <= 0 || desc_.film.width > 32768 ||
@@ -143,12 +215,35 @@ void RenderJob::readSceneDescription() {
             desc_.film.width, desc_.film.height));
 }
 
+// --estimates A:B: a shard of a render, estimate indices A to B-1.
+void RenderJob::readShard() {
+    if (o_.estimateRange.empty()) return;
+    if (o_.integrator.name == "mlt")
+        throw std::invalid_argument(
+            "--estimates: mlt renders cannot be split into shards: its Markov chains carry "
+            "their state from one estimate to the next, so estimate A cannot start alone");
+    shard_ = cb::parseEstimateRange(o_.estimateRange);
+    // Estimate indices seed 32-bit random streams: larger ones would repeat estimates.
+    if (shard_->second > (std::uint64_t(1) << 32))
+        throw std::invalid_argument(fmt::format(
+            "--estimates {}: estimate indices seed 32-bit random streams, so B must be at most "
+            "4294967296",
+            o_.estimateRange));
+    if (o_.sppGiven && shard_->second > std::uint64_t(std::max(0L, o_.spp)))
+        throw std::invalid_argument(
+            fmt::format("--estimates {} is outside the render of --spp {} (indices 0 to {})",
+                        o_.estimateRange, o_.spp, o_.spp - 1));
+}
+
 // Checkpoint requests are checked before the scene is built or kernels compiled.
 void RenderJob::readCheckpointRequests() {
     if (!o_.checkpoints.empty()) schedule_.estimates = cb::parseCheckpointList(o_.checkpoints);
     if (o_.checkpointEvery < 0.0 || !std::isfinite(o_.checkpointEvery))
         throw std::invalid_argument("--checkpoint-every must be a positive number of seconds");
     schedule_.everySeconds = o_.checkpointEvery;
+    if (o_.saveStateEvery < 0.0 || !std::isfinite(o_.saveStateEvery))
+        throw std::invalid_argument(
+            "--save-state-every must be a positive number of seconds (0: never)");
     // --checkpoints alone renders up to the last checkpoint.
     if (!schedule_.estimates.empty() && !o_.sppGiven && o_.seconds <= 0.0) {
         o_.spp = schedule_.estimates.back();
@@ -176,7 +271,6 @@ void RenderJob::readReference() {
                 fmt::format("--log '{}' must end in .csv or .json", o_.logPath));
     }
     wantCheckpoints_ = !schedule_.empty() || !o_.logPath.empty() || !o_.checkpointImages.empty();
-    if (!o_.checkpointImages.empty()) std::filesystem::create_directories(o_.checkpointImages);
 }
 
 void RenderJob::buildScene() {
@@ -197,6 +291,23 @@ void RenderJob::applyPathOptions() {
             o_.strategy));
 }
 
+// Every output is checked before the scene is built: a render must not run for hours and then
+// fail to write. Nothing is created or touched but the checkpoint image folder.
+void RenderJob::checkOutputs() const {
+    if (!root_) return;
+    cb::requireWritable(output_, "the image (-o)");
+    cb::requireWritable(png_, "the PNG (--png)");
+    cb::requireWritable(statePath_, "the render state");
+    if (!o_.statsPath.empty()) cb::requireWritable(o_.statsPath, "the statistics (--stats)");
+    if (!o_.logPath.empty()) cb::requireWritable(o_.logPath, "the log (--log)");
+    if (!o_.checkpointImages.empty()) {
+        std::filesystem::create_directories(o_.checkpointImages);
+        cb::requireWritable(
+            (std::filesystem::path(o_.checkpointImages) / "checkpoint.exr").string(),
+            "the checkpoint images (--checkpoint-images)");
+    }
+}
+
 void RenderJob::chooseOutputPaths() {
     output_ = o_.output.empty() ? std::filesystem::path(desc_.film.filename).filename().string()
                                 : o_.output;
@@ -208,7 +319,7 @@ void RenderJob::chooseOutputPaths() {
 }
 
 void RenderJob::startIntegrator() {
-    runtime_.emplace(o_.device);
+    runtime_.emplace(o_.device.device);
     integrator_ = cb::makeIntegrator(o_.integrator, scene_, *runtime_);
     if (!o_.quiet)
         fmt::print(stderr, "cbdpt: {} on {} | {}x{} {} | {} | Ne={} | kernel build {:.2f}s\n",
@@ -223,26 +334,12 @@ void RenderJob::startAccumulator() {
     accumulator_.emplace(scene_.camera.width, scene_.camera.height);
     // Two independent halves of the estimates, for `cbdpt combine` (image/combine.h).
     accumulator_->trackHalves();
-    // Everything that decides the estimates' values: a resumed render must match it exactly.
-    stateSettings_ =
-        nlohmann::json{{"scene", std::filesystem::absolute(o_.scene).lexically_normal().string()},
-                       {"integrator", o_.integrator.name},
-                       {"eye_vertices", o_.integrator.eyeVertices},
-                       {"light_vertices", o_.integrator.lightVertices},
-                       {"weights", o_.integrator.weights},
-                       {"strategy", o_.strategy},
-                       {"roulette_vertex", o_.integrator.rouletteVertex},
-                       {"coherence_tile", o_.integrator.coherenceTile},
-                       {"seed", o_.integrator.seed},
-                       {"channels", scene_.channels},
-                       {"width", scene_.camera.width},
-                       {"height", scene_.camera.height}}
-            .dump();
-    if (!o_.resume) return;
+    identity_ = cb::renderIdentity(o_.integrator, desc_, scene_);
+    if (!o_.resume || !root_) return;
     if (o_.integrator.name == "mlt")
         throw std::invalid_argument("--resume is not supported for mlt: its Markov chains "
                                     "are not saved");
-    cb::loadRenderState(statePath_, stateSettings_, *accumulator_);
+    cb::resumeRenderState(statePath_, identity_, *accumulator_);
     // The render time of the runs before, from the image they wrote, so the record's time
     // covers all the estimates.
     try {
@@ -253,17 +350,25 @@ void RenderJob::startAccumulator() {
                        e.what());
     }
     if (!o_.quiet)
-        fmt::print(stderr, "cbdpt: resuming from {} estimates ({})\n", accumulator_->estimates(),
-                   statePath_);
+        fmt::print(stderr, "cbdpt: resuming from {} estimates {} ({})\n", accumulator_->estimates(),
+                   accumulator_->indices().toString(), statePath_);
 }
 
 cb::RenderLimits RenderJob::renderLimits() const {
     cb::RenderLimits limits;
-    // --time alone renders until the time is up; with --spp too, whichever comes first.
-    limits.estimates = o_.seconds > 0.0 && !o_.sppGiven ? 0 : o_.spp;
-    if (limits.estimates < 0 || limits.estimates > (1L << 40))
-        throw std::invalid_argument(fmt::format("--spp {} is out of range", o_.spp));
+    // --time or --target-stderr alone render until they are met; with --spp too, until the first
+    // limit is reached.
+    const bool otherLimit = o_.seconds > 0.0 || o_.targetStandardError > 0.0;
+    limits.estimates = otherLimit && !o_.sppGiven ? 0 : o_.spp;
+    if (limits.estimates < 0 || limits.estimates > (1L << 32))
+        throw std::invalid_argument(fmt::format(
+            "--spp {} is out of range (estimate indices seed 32-bit random streams)", o_.spp));
+    if (shard_) {
+        limits.firstEstimate = shard_->first;
+        limits.estimates = long(shard_->second - shard_->first);
+    }
     limits.seconds = o_.seconds;
+    limits.targetStandardError = o_.targetStandardError;
     if (!schedule_.estimates.empty() && limits.estimates > 0 &&
         schedule_.estimates.back() > limits.estimates && !o_.quiet)
         fmt::print(stderr, "cbdpt: warning: checkpoints past --spp {} will not be reached\n",
@@ -312,11 +417,15 @@ void RenderJob::openLog() {
 
 // Noise, error against the reference and checkpoint images; its time is reported apart.
 void RenderJob::onCheckpoint(const cb::Checkpoint& c) {
+    const cb::EstimateAccumulator& image = *c.image;
+    // The periodic state: what a SIGKILL, the out-of-memory killer or a power cut would lose.
+    if (c.saveState) cb::saveRenderState(statePath_, identity_, image);
+    if (!c.evaluate || !wantCheckpoints_) return;
     const auto before = Clock::now();
-    cb::NoiseEstimate noise = cb::estimateNoise(*accumulator_);
+    cb::NoiseEstimate noise = cb::estimateNoise(image);
     cb::ImageMetrics metrics;
     if (reference_ || !o_.checkpointImages.empty()) {
-        cb::RgbImage mean = accumulator_->mean();
+        cb::RgbImage mean = image.mean();
         if (reference_) metrics = cb::compareImages(mean, *reference_);
         if (!o_.checkpointImages.empty()) {
             auto name = fmt::format("{}-{:08d}.exr", std::filesystem::path(output_).stem().string(),
@@ -324,8 +433,8 @@ void RenderJob::onCheckpoint(const cb::Checkpoint& c) {
             cb::RenderOutcome sofar;
             sofar.renderSeconds = c.renderSeconds;
             sofar.renderCpuSeconds = c.renderCpuSeconds;
-            cb::writeRenderExr((std::filesystem::path(o_.checkpointImages) / name).string(),
-                               *accumulator_, renderRecord(sofar));
+            cb::writeRenderExr((std::filesystem::path(o_.checkpointImages) / name).string(), image,
+                               renderRecord(sofar));
         }
     }
     checkpointSeconds_ += secondsSince(before);
@@ -337,46 +446,71 @@ void RenderJob::onCheckpoint(const cb::Checkpoint& c) {
 
 cb::RenderOutcome RenderJob::renderWithProgress(const cb::RenderLimits& limits) {
     ProgressBar bar(!o_.quiet);
+    // MLT cannot resume, so its state is not saved periodically.
+    if (o_.integrator.name != "mlt") schedule_.saveStateEverySeconds = o_.saveStateEvery;
+    const bool callback = wantCheckpoints_ || schedule_.saveStateEverySeconds > 0.0;
     auto outcome = cb::renderEstimates(
         *integrator_, *accumulator_, limits, stopRequested(),
         [&](const cb::RenderProgress& p) { bar.update(p); }, schedule_,
-        wantCheckpoints_ ? std::function<void(const cb::Checkpoint&)>(
-                               [this](const cb::Checkpoint& c) { onCheckpoint(c); })
-                         : nullptr);
+        callback ? std::function<void(const cb::Checkpoint&)>(
+                       [this](const cb::Checkpoint& c) { onCheckpoint(c); })
+                 : nullptr,
+        team_.get());
     bar.finish();
     return outcome;
 }
 
 int RenderJob::finish(const cb::RenderOutcome& outcome) {
+    // Every rank's estimates, on rank 0 (a collective call: every rank makes it).
+    const cb::EstimateAccumulator* image = team_ ? team_->gather(*accumulator_) : &*accumulator_;
+    if (!image) return outcome.interrupted ? 130 : 0;
+    estimates_ = image->estimates();
+    estimateRanges_ = image->indices().toString();
     if (outcome.interrupted)
-        fmt::print(stderr, "cbdpt: interrupted; writing the {} estimates done\n",
-                   accumulator_->estimates());
+        fmt::print(stderr, "cbdpt: interrupted; writing the {} estimates done\n", estimates_);
+    if (outcome.reachedTargetStandardError && !o_.quiet)
+        fmt::print(stderr, "cbdpt: the mean standard error fell below --target-stderr {:g}\n",
+                   o_.targetStandardError);
     if (outcome.nonFiniteSamples > 0)
         fmt::print(stderr, "cbdpt: warning: {} samples were NaN or infinite and were dropped\n",
                    outcome.nonFiniteSamples);
-    if (accumulator_->estimates() == 0) {
+    if (image->droppedSamples() > 0)
+        fmt::print(stderr,
+                   "cbdpt: warning: {} samples of magnitude 2^48 or more were dropped (too large "
+                   "for the exact sums)\n",
+                   image->droppedSamples());
+    if (estimates_ == 0) {
         fmt::print(stderr, "cbdpt: no estimate finished; nothing written\n");
         return 130;
     }
-    writeImages(outcome);
-    if (!o_.statsPath.empty())
-        cb::writeFileAtomically(o_.statsPath, statistics(outcome).dump(2) + "\n");
+    try {
+        writeOutputs(outcome, *image);
+    } catch (const std::exception& e) {
+        keepWork(*image, e.what());
+        return 1;
+    }
     if (!o_.quiet)
         fmt::print(stderr, "cbdpt: {} estimates in {} ({:.3f} s/estimate); wrote {} and {}\n",
-                   accumulator_->estimates(), formatSeconds(outcome.renderSeconds),
-                   outcome.renderSeconds / double(accumulator_->estimates()), output_, png_);
+                   estimates_, formatSeconds(outcome.renderSeconds),
+                   outcome.renderSeconds / double(std::max(1L, outcome.estimatesRendered)), output_,
+                   png_);
     return outcome.interrupted ? 130 : 0;
 }
 
-void RenderJob::writeImages(const cb::RenderOutcome& outcome) {
-    mean_ = accumulator_->mean();
-    error_ = accumulator_->standardError();
-    cb::writeRenderExr(output_, *accumulator_, renderRecord(outcome));
+void RenderJob::writeOutputs(const cb::RenderOutcome& outcome,
+                             const cb::EstimateAccumulator& image) {
+    mean_ = image.mean();
+    error_ = image.standardError();
+    // The state first: if anything below fails, the work is on disk already.
+    const bool keep = outcome.interrupted || o_.keepState;
+    if (keep) cb::saveRenderState(statePath_, identity_, image);
+    cb::writeRenderExr(output_, image, renderRecord(outcome));
     cb::writePng(png_, mean_);
+    if (!o_.statsPath.empty())
+        cb::writeFileAtomically(o_.statsPath, statistics(outcome).dump(2) + "\n");
     // An interrupted render leaves its exact sums beside the EXR for --resume; a finished one
     // removes them (unless asked to keep them, to extend the render later).
-    if (outcome.interrupted || o_.keepState) {
-        cb::saveRenderState(statePath_, stateSettings_, *accumulator_);
+    if (keep) {
         if (outcome.interrupted && !o_.quiet)
             fmt::print(stderr, "cbdpt: continue with the same command plus --resume\n");
     } else {
@@ -387,11 +521,32 @@ void RenderJob::writeImages(const cb::RenderOutcome& outcome) {
 
 // The EXR header's record of the estimates so far, earlier runs' time included when resuming.
 cb::RenderRecord RenderJob::renderRecord(const cb::RenderOutcome& outcome) const {
-    cb::RenderRecord record =
-        cb::makeRenderRecord(o_.integrator, o_.scene, scene_.channels, outcome);
+    cb::RenderRecord record = cb::makeRenderRecord(o_.integrator, o_.scene, identity_.sceneHash,
+                                                   scene_.channels, outcome);
     record.renderSeconds += previous_.renderSeconds;
     record.renderCpuSeconds += previous_.renderCpuSeconds;
     return record;
+}
+
+// A final write failed although the outputs were checked before rendering (a disk filled up, a
+// folder was removed): the work is saved where it can be, and the message says where.
+void RenderJob::keepWork(const cb::EstimateAccumulator& image, const std::string& failure) const {
+    fmt::print(stderr, "cbdpt: error: {}\n", failure);
+    const std::string name = std::filesystem::path(statePath_).filename().string();
+    for (const std::string& path : {statePath_, std::string()}) {
+        try {
+            const std::string target =
+                path.empty() ? cb::fallbackPath(fmt::format("{}.{}", name, ::getpid())) : path;
+            cb::saveRenderState(target, identity_, image);
+            fmt::print(stderr,
+                       "cbdpt: the render's {} estimates are kept in {}; write its image with: "
+                       "cbdpt merge {} -o IMAGE.exr\n",
+                       estimates_, target, target);
+            return;
+        } catch (const std::exception& e) {
+            fmt::print(stderr, "cbdpt: cannot keep the state there either: {}\n", e.what());
+        }
+    }
 }
 
 // The --stats JSON.
@@ -411,7 +566,11 @@ nlohmann::json RenderJob::statistics(const cb::RenderOutcome& outcome) const {
         {"width", scene_.camera.width},
         {"height", scene_.camera.height},
         {"channels", scene_.channels},
-        {"estimates", accumulator_->estimates()},
+        {"estimates", estimates_},
+        {"estimate_ranges", estimateRanges_},
+        {"processes", team_ ? team_->size() : 1},
+        {"reductions", team_ ? team_->reductions() : 0},
+        {"reduction_seconds", team_ ? team_->reductionSeconds() : 0.0},
         {"render_seconds", outcome.renderSeconds},
         {"render_cpu_seconds", outcome.renderCpuSeconds},
         {"estimates_rendered", outcome.estimatesRendered},
@@ -423,7 +582,13 @@ nlohmann::json RenderJob::statistics(const cb::RenderOutcome& outcome) const {
         {"mean_standard_error", meanError},
         {"interrupted", outcome.interrupted},
         {"device", runtime_->info().deviceName},
+        {"device_compute_units", runtime_->info().computeUnits},
+        {"pixel_bounds", pixelBoundsJson()},
     };
+    if (o_.targetStandardError > 0.0) {
+        stats["target_stderr"] = o_.targetStandardError;
+        stats["reached_target_stderr"] = outcome.reachedTargetStandardError;
+    }
     if (const cb::MltStatistics* mlt = cb::mltStatistics(*integrator_)) {
         stats["mlt"] = {{"normalization", mlt->normalization},
                         {"bootstrap_normalization", mlt->bootstrapNormalization},
@@ -452,72 +617,174 @@ nlohmann::json RenderJob::statistics(const cb::RenderOutcome& outcome) const {
     return stats;
 }
 
-// The options, in the order --help lists them.
-void addRenderOptions(CLI::App& cmd, RenderOptions& o) {
+// The options, by group, in the order --help lists them. Values out of range are refused when
+// parsed; the integrator checks its settings again for callers of the library.
+void addOutputOptions(CLI::App& cmd, RenderOptions& o) {
+    const char* group = "Output";
     cmd.add_option("scene", o.scene, "scene file (pbrt-v4 subset)")->required();
-    cmd.add_option("-o,--output", o.output, "EXR output (default: the Film filename)");
-    cmd.add_option("--png", o.png, "PNG preview (default: output with .png)");
-    cmd.add_option("--integrator", o.integrator.name, "pt | cpt | bdpt | cbdpt | mlt");
-    cmd.add_option("--spp", o.spp, "estimates (samples per pixel)");
-    cmd.add_option("--time", o.seconds, "render for this many seconds");
-    cmd.add_option("--eye-vertices", o.integrator.eyeVertices,
-                   "Ne: path vertices, the camera included");
-    cmd.add_option("--light-vertices", o.integrator.lightVertices,
-                   "Nl: light subpath vertices, the point on the light included");
-    cmd.add_option("--weights", o.integrator.weights,
-                   "bidirectional MIS weights: power | lafortune");
+    cmd.add_option("-o,--output,--outfile", o.output, "EXR output (default: the Film filename)")
+        ->group(group);
+    cmd.add_option("--png", o.png, "PNG preview (default: the output with .png)")->group(group);
+    cmd.add_option("--stats", o.statsPath, "write render statistics as JSON")->group(group);
+    cmd.add_option("--width", o.width, "film width (default: the scene's)")
+        ->check(CLI::Range(1, 32768))
+        ->group(group);
+    cmd.add_option("--height", o.height, "film height (default: the scene's)")
+        ->check(CLI::Range(1, 32768))
+        ->group(group);
+    cmd.add_option("--cropwindow", o.cropWindow,
+                   "x0 x1 y0 y1: render only this part of the film, in [0,1] fractions of it "
+                   "(pbrt's crop window; the image has the crop's size)")
+        ->expected(4)
+        ->check(finiteRange(0.0, 1.0))
+        ->group(group);
+    cmd.add_option("--channels", o.channels,
+                   "auto (spectral when the scene has spectrum values) | rgb | spectral")
+        ->check(CLI::IsMember({"auto", "rgb", "spectral"}))
+        ->capture_default_str()
+        ->group(group);
+    cmd.add_flag("-q,--quiet", o.quiet, "no progress output")->group(group);
+}
+
+void addMethodOptions(CLI::App& cmd, RenderOptions& o) {
+    const char* group = "Method";
+    auto& s = o.integrator;
+    cmd.add_option("--integrator", s.name, "pt | cpt | bdpt | cbdpt | mlt")
+        ->check(CLI::IsMember({"pt", "cpt", "bdpt", "cbdpt", "mlt"}))
+        ->capture_default_str()
+        ->group(group);
+    cmd.add_option("--eye-vertices", s.eyeVertices, "Ne: path vertices, the camera included")
+        ->check(CLI::Range(2, 1024))
+        ->capture_default_str()
+        ->group(group);
+    cmd.add_option("--light-vertices", s.lightVertices,
+                   "Nl: light subpath vertices, the point on the light included")
+        ->check(CLI::Range(1, 1024))
+        ->capture_default_str()
+        ->group(group);
+    cmd.add_option("--weights", s.weights, "bidirectional MIS weights: power | lafortune")
+        ->check(CLI::IsMember({"power", "lafortune"}))
+        ->capture_default_str()
+        ->group(group);
     cmd.add_option("--strategy", o.strategy,
-                   "debug: render only strategy S,T unweighted (e.g. 2,3)");
-    cmd.add_option("--rr-vertex", o.integrator.rouletteVertex,
-                   "Russian roulette from this vertex on (0: off)");
-    cmd.add_flag("--no-rr", o.noRoulette, "disable Russian roulette");
-    cmd.add_option("--seed", o.integrator.seed, "random seed");
-    cmd.add_option("--coherence-tile", o.integrator.coherenceTile,
-                   "cpt, cbdpt: k x k sample vectors per estimate (1: full coherence)");
-    cmd.add_option("--large-step", o.integrator.largeStepProbability,
-                   "mlt: probability of a large step (all samples new)");
-    cmd.add_option("--mutation-size", o.integrator.mutationSize,
-                   "mlt: largest small-step perturbation s2 (s1 = s2/16)");
-    cmd.add_option("--chains", o.integrator.mltChains,
-                   "mlt: Markov chains (work-items); 0: pixels / 16");
-    cmd.add_option("--bootstrap", o.integrator.mltBootstrap,
-                   "mlt: bootstrap samples for the normalisation; 0: automatic");
-    cmd.add_option("--tile", o.integrator.tileSize, "pixel tile (work-group) edge");
-    cmd.add_option("--channels", o.channels, "auto | rgb | spectral");
-    cmd.add_option("--width", o.width, "override the film width");
-    cmd.add_option("--height", o.height, "override the film height");
-    cmd.add_option("--device", o.device, "OpenCL device P:D (default: CBDPT_DEVICE or 0:0)");
-    cmd.add_option("--stats", o.statsPath, "write render statistics as JSON");
-    cmd.add_flag("-q,--quiet", o.quiet, "no progress output");
-    cmd.add_option("--checkpoints", o.checkpoints,
-                   "evaluate at these estimate counts, e.g. 1,2,4,8 (renders up to the "
-                   "last unless --spp/--time say otherwise)");
-    cmd.add_option("--checkpoint-every", o.checkpointEvery,
-                   "evaluate every this many seconds of render time");
-    cmd.add_option("--reference", o.reference,
-                   "reference EXR: log RMSE, relative MSE and MAE at each checkpoint");
-    cmd.add_option("--log", o.logPath,
-                   "checkpoint log, CSV or JSON by extension (a final row is always "
-                   "written)");
+                   "debug: render only strategy S,T unweighted (e.g. 2,3)")
+        ->group(group);
+    cmd.add_option("--rr-vertex", s.rouletteVertex, "Russian roulette from this vertex on (0: off)")
+        ->check(CLI::Range(0, 1024))
+        ->capture_default_str()
+        ->group(group);
+    cmd.add_flag("--no-rr", o.noRoulette, "disable Russian roulette")->group(group);
+    cmd.add_option("--seed", s.seed, "random seed")->capture_default_str()->group(group);
+    cmd.add_option("--coherence-tile", s.coherenceTile,
+                   "cpt, cbdpt: k x k sample vectors per estimate (1: full coherence)")
+        ->check(CLI::Range(1, 4096))
+        ->capture_default_str()
+        ->group(group);
+    cmd.add_option("--large-step", s.largeStepProbability,
+                   "mlt: probability of a large step (all samples new)")
+        ->check(finiteRange(0.0, 1.0))
+        ->capture_default_str()
+        ->group(group);
+    cmd.add_option("--mutation-size", s.mutationSize,
+                   "mlt: largest small-step perturbation s2 (s1 = s2/16)")
+        ->check(finiteRange(0.0, 0.5, true))
+        ->capture_default_str()
+        ->group(group);
+    cmd.add_option("--chains", s.mltChains, "mlt: Markov chains (work-items); 0: pixels / 16")
+        ->check(CLI::Range(0, 1 << 24))
+        ->capture_default_str()
+        ->group(group);
+    cmd.add_option("--bootstrap", s.mltBootstrap,
+                   "mlt: bootstrap samples for the normalisation; 0: max(pixels, 65536)")
+        ->check(CLI::Range(0L, 1L << 31))
+        ->capture_default_str()
+        ->group(group);
+    cmd.add_option("--tile", s.tileSize, "pixel tile (work-group) edge")
+        ->check(CLI::Range(1, 32))
+        ->capture_default_str()
+        ->group(group);
+}
+
+void addBudgetOptions(CLI::App& cmd, RenderOptions& o) {
+    const char* group = "Budget (the first limit reached ends the render)";
+    cmd.add_option("--spp", o.spp, "estimates (samples per pixel)")
+        ->check(CLI::Range(1L, 1L << 40))
+        ->capture_default_str()
+        ->group(group);
+    cmd.add_option("--time", o.seconds, "render for this many seconds")
+        ->check(finiteRange(0.0, 1e9, true))
+        ->group(group);
+    cmd.add_option("--target-stderr", o.targetStandardError,
+                   "stop when the mean per-pixel standard error falls below this")
+        ->check(finiteRange(0.0, 1e30, true))
+        ->group(group);
+    cmd.add_flag("--quick", o.quick,
+                 "as pbrt-v4: a quarter of the film's width and height, 1 estimate (mlt: "
+                 "--spp and the bootstrap / 16)")
+        ->group(group);
     cmd.add_flag("--resume", o.resume,
                  "continue an interrupted render from OUTPUT.exr.state (same settings; "
-                 "--spp is the total)");
-    cmd.add_flag("--keep-state", o.keepState,
-                 "also save OUTPUT.exr.state when the render finishes");
-    cmd.add_flag("--no-warmup", o.noWarmup,
-                 "with checkpoints or --log: skip the discarded warm-up estimate");
-    cmd.add_option("--checkpoint-images", o.checkpointImages,
-                   "folder for the EXR image at each checkpoint");
+                 "--spp is the total)")
+        ->group(group);
+    cmd.add_flag("--keep-state", o.keepState, "also save OUTPUT.exr.state when the render finishes")
+        ->group(group);
+    cmd.add_option("--estimates", o.estimateRange,
+                   "render only estimate indices A to B-1 (A:B), a shard: shards of one seed "
+                   "merge (cbdpt merge) into the render of their union")
+        ->group(group);
+    cmd.add_option("--save-state-every", o.saveStateEvery,
+                   "save OUTPUT.exr.state every this many seconds (default 60; 0: never), so "
+                   "that a killed render can --resume")
+        ->check(finiteRange(0.0, 1e9))
+        ->group(group);
 }
+
+void addCheckpointOptions(CLI::App& cmd, RenderOptions& o) {
+    const char* group = "Error against time";
+    cmd.add_option("--checkpoints", o.checkpoints,
+                   "evaluate at these estimate counts, e.g. 1,2,4,8 (renders up to the "
+                   "last unless --spp/--time say otherwise)")
+        ->group(group);
+    cmd.add_option("--checkpoint-every", o.checkpointEvery,
+                   "evaluate every this many seconds of render time")
+        ->check(finiteRange(0.0, 1e9, true))
+        ->group(group);
+    cmd.add_option("--reference", o.reference,
+                   "reference EXR: log RMSE, relative MSE and MAE at each checkpoint")
+        ->group(group);
+    cmd.add_option("--log", o.logPath,
+                   "checkpoint log, CSV or JSON by extension (a final row is always written)")
+        ->group(group);
+    cmd.add_flag("--no-warmup", o.noWarmup,
+                 "with checkpoints or --log: skip the discarded warm-up estimate")
+        ->group(group);
+    cmd.add_option("--checkpoint-images", o.checkpointImages,
+                   "folder for the EXR image at each checkpoint")
+        ->group(group);
+}
+
+constexpr const char* kRenderExamples = R"(Examples:
+  cbdpt render scenes/cornell-box.pbrt --quick
+  cbdpt render scenes/cornell-box.pbrt --integrator cbdpt --eye-vertices 4 --light-vertices 4 \
+      --spp 64 -o cornell.exr --stats cornell.json
+  cbdpt render scenes/cornell-box.pbrt --integrator bdpt --target-stderr 0.002 --time 600
+  cbdpt render scenes/cornell-box.pbrt --cropwindow 0.25 0.75 0.5 1 --nthreads 1
+  cbdpt render scenes/cornell-box.pbrt --checkpoints 1,4,16,64 --reference ref.exr --log err.csv)";
 
 } // namespace
 
 Command addRenderCommand(CLI::App& app) {
     auto o = std::make_shared<RenderOptions>();
     auto* cmd = app.add_subcommand("render", "render a scene to EXR and PNG");
-    addRenderOptions(*cmd, *o);
+    addOutputOptions(*cmd, *o);
+    addMethodOptions(*cmd, *o);
+    addBudgetOptions(*cmd, *o);
+    addCheckpointOptions(*cmd, *o);
+    addDeviceOptions(*cmd, o->device);
+    cmd->footer(kRenderExamples);
     return {cmd, [o, cmd] {
                 o->sppGiven = cmd->count("--spp") > 0;
+                applyThreadLimit(o->device);
                 return RenderJob(*o).run();
             }};
 }

@@ -124,10 +124,9 @@ CombineInput readCombineInput(const std::string& path) {
                    readExrLayer(path, kHalfErrorLayers[0], in.halfStandardError[0]) &&
                    readExrLayer(path, kHalfErrorLayers[1], in.halfStandardError[1]);
     if (in.hasHalves) {
-        // Estimate k of the render (k from 0) is in half k % 2.
-        const long first = in.record.estimateFirst, n = in.record.estimates;
-        in.halfEstimates[0] = (first + n + 1) / 2 - (first + 1) / 2;
-        in.halfEstimates[1] = n - in.halfEstimates[0];
+        // Estimate index i is in half i % 2 (EstimateAccumulator::trackHalves).
+        for (int half = 0; half < 2; ++half)
+            in.halfEstimates[size_t(half)] = long(in.record.estimateSet.countWithParity(half));
     }
     return in;
 }
@@ -138,6 +137,7 @@ CombineInput combineInputFromAccumulator(const EstimateAccumulator& accumulator,
     in.path = name;
     in.record = record;
     in.record.estimates = accumulator.estimates();
+    in.record.estimateSet = accumulator.indices();
     in.record.width = accumulator.width();
     in.record.height = accumulator.height();
     in.mean = accumulator.mean();
@@ -165,7 +165,8 @@ void requireCombinable(const std::vector<CombineInput>& inputs) {
             throw refuse(fmt::format("differ in size ({}x{} vs {}x{}); render both at one "
                                      "--width/--height",
                                      a.mean.width, a.mean.height, b.mean.width, b.mean.height));
-        if (ra.sceneFile != rb.sceneFile || ra.sceneHash != rb.sceneHash)
+        // The content hash decides (a merged image has no scene file name).
+        if (ra.sceneHash != rb.sceneHash)
             throw refuse(fmt::format("are of different scenes ({} [{}] vs {} [{}])", ra.sceneFile,
                                      ra.sceneHash, rb.sceneFile, rb.sceneHash));
         if (ra.channels != rb.channels)
@@ -179,8 +180,7 @@ void requireCombinable(const std::vector<CombineInput>& inputs) {
                 pathVertexCap(ra), pathVertexCap(rb)));
         for (size_t j = 0; j < i; ++j) {
             const RenderRecord& rj = inputs[j].record;
-            const bool overlap = rj.estimateFirst < rb.estimateFirst + rb.estimates &&
-                                 rb.estimateFirst < rj.estimateFirst + rj.estimates;
+            const bool overlap = rj.estimateSet.intersects(rb.estimateSet);
             if (rj.seed == rb.seed && overlap)
                 throw std::invalid_argument(fmt::format(
                     "combine: {} and {} use one seed and overlapping estimate numbers, so they "

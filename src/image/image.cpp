@@ -10,105 +10,20 @@
 #include <ImfStringAttribute.h>
 #include <png.h>
 
+#include <fmt/format.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <stdexcept>
 #include <unistd.h>
 
 namespace cb {
-
-namespace {
-// Welford's update of one running mean and M2 with an estimate; `count` already includes it.
-void welfordAdd(std::vector<double>& mean, std::vector<double>& m2, long count, const float* rgb) {
-    const double invCount = 1.0 / double(count);
-    for (size_t i = 0; i < mean.size(); ++i) {
-        double x = rgb[i];
-        double delta = x - mean[i];
-        mean[i] += delta * invCount;
-        m2[i] += delta * (x - mean[i]);
-    }
-}
-
-RgbImage toImage(int width, int height, const std::vector<double>& values) {
-    RgbImage out(width, height);
-    for (size_t i = 0; i < values.size(); ++i)
-        out.rgb[i] = float(values[i]);
-    return out;
-}
-
-RgbImage standardErrorImage(int width, int height, long count, const std::vector<double>& m2) {
-    RgbImage out(width, height);
-    if (count < 2) return out;
-    const double n = double(count);
-    for (size_t i = 0; i < m2.size(); ++i)
-        out.rgb[i] = float(std::sqrt(std::max(m2[i], 0.0) / (n - 1.0) / n));
-    return out;
-}
-} // namespace
-
-EstimateAccumulator::EstimateAccumulator(int width, int height)
-    : width_(width), height_(height), mean_(size_t(3) * size_t(width) * size_t(height), 0.0),
-      m2_(mean_.size(), 0.0) {}
-
-void EstimateAccumulator::add(const float* rgb) {
-    if (halvesTracked_) {
-        Half& half = halves_[size_t(count_ % 2)];
-        welfordAdd(half.mean, half.m2, ++half.count, rgb);
-    }
-    welfordAdd(mean_, m2_, ++count_, rgb);
-}
-
-RgbImage EstimateAccumulator::mean() const {
-    return toImage(width_, height_, mean_);
-}
-
-RgbImage EstimateAccumulator::standardError() const {
-    return standardErrorImage(width_, height_, count_, m2_);
-}
-
-void EstimateAccumulator::restore(long count, std::vector<double> mean, std::vector<double> m2) {
-    if (mean.size() != mean_.size() || m2.size() != m2_.size())
-        throw std::runtime_error("saved render state does not match the image size");
-    count_ = count;
-    mean_ = std::move(mean);
-    m2_ = std::move(m2);
-}
-
-void EstimateAccumulator::trackHalves() {
-    if (count_ != 0)
-        throw std::logic_error("EstimateAccumulator::trackHalves after estimates were added");
-    halvesTracked_ = true;
-    for (Half& half : halves_) {
-        half.count = 0;
-        half.mean.assign(mean_.size(), 0.0);
-        half.m2.assign(mean_.size(), 0.0);
-    }
-}
-
-RgbImage EstimateAccumulator::halfMean(int half) const {
-    return toImage(width_, height_, halves_[size_t(half)].mean);
-}
-
-RgbImage EstimateAccumulator::halfStandardError(int half) const {
-    const Half& h = halves_[size_t(half)];
-    return standardErrorImage(width_, height_, h.count, h.m2);
-}
-
-void EstimateAccumulator::restoreHalf(int half, long count, std::vector<double> mean,
-                                      std::vector<double> m2) {
-    if (mean.size() != mean_.size() || m2.size() != m2_.size())
-        throw std::runtime_error("saved render state does not match the image size");
-    halvesTracked_ = true;
-    halves_[size_t(half)] = Half{count, std::move(mean), std::move(m2)};
-}
-
-void EstimateAccumulator::dropHalves() {
-    halvesTracked_ = false;
-    halves_ = {};
-}
 
 std::string temporarySiblingPath(const std::string& path) {
     std::filesystem::path p(path);
@@ -128,6 +43,42 @@ void commitTemporary(const std::string& temporary, const std::string& path) {
         std::filesystem::remove(temporary);
         throw std::runtime_error("cannot write " + path + ": " + ec.message());
     }
+}
+
+void requireWritable(const std::string& path, const std::string& what) {
+    namespace fs = std::filesystem;
+    const fs::path p(path);
+    std::error_code ec;
+    if (fs::is_directory(p, ec))
+        throw std::runtime_error(fmt::format("cannot write {} {}: it is a folder", what, path));
+    const fs::path folder = p.parent_path().empty() ? fs::path(".") : p.parent_path();
+    if (!fs::is_directory(folder, ec))
+        throw std::runtime_error(fmt::format("cannot write {} {}: the folder {} does not exist",
+                                             what, path, folder.string()));
+    const std::string probe = temporarySiblingPath(path) + ".probe";
+    std::FILE* f = std::fopen(probe.c_str(), "wb");
+    if (!f)
+        throw std::runtime_error(fmt::format("cannot write {} {}: cannot create files in {} ({})",
+                                             what, path, folder.string(), std::strerror(errno)));
+    std::fclose(f);
+    fs::remove(probe, ec);
+}
+
+std::string fallbackPath(const std::string& name) {
+    std::vector<std::string> folders;
+    if (const char* tmp = std::getenv("TMPDIR"); tmp && *tmp) folders.push_back(tmp);
+    folders.push_back("/tmp");
+    folders.push_back(".");
+    for (const auto& folder : folders) {
+        const std::string path = (std::filesystem::path(folder) / name).string();
+        try {
+            requireWritable(path, "fallback");
+            return path;
+        } catch (const std::exception&) {
+        }
+    }
+    throw std::runtime_error("no folder to keep the work in: $TMPDIR, /tmp and the current "
+                             "folder are not writable");
 }
 
 void writeFileAtomically(const std::string& path, const std::string& bytes) {

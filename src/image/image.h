@@ -1,7 +1,6 @@
 // Images: the running per-pixel statistics of estimates, and OpenEXR / PNG output.
 #pragma once
 
-#include <array>
 #include <cstdint>
 #include <map>
 #include <string>
@@ -17,49 +16,6 @@ struct RgbImage {
 
     RgbImage() = default;
     RgbImage(int w, int h) : width(w), height(h), rgb(size_t(3) * size_t(w) * size_t(h), 0.f) {}
-};
-
-// Per-pixel running mean and variance of estimates (Welford 1962), in double so that
-// thousands of estimates add without loss.
-class EstimateAccumulator {
-  public:
-    EstimateAccumulator(int width, int height);
-    void add(const float* rgb); // one estimate: 3 * width * height floats
-    long estimates() const { return count_; }
-    int width() const { return width_; }
-    int height() const { return height_; }
-    RgbImage mean() const;
-    // Standard error of the mean per channel: sqrt(sample variance / n); zero for n < 2.
-    RgbImage standardError() const;
-    // Raw state, for checkpoints and resume.
-    const std::vector<double>& meanData() const { return mean_; }
-    const std::vector<double>& m2Data() const { return m2_; }
-    void restore(long count, std::vector<double> mean, std::vector<double> m2);
-
-    // Two disjoint halves of the estimates: the accumulator's k-th estimate (from 0) also goes
-    // to half k % 2. The halves are independent, so statistics of one can weight the values of
-    // the other without bias (image/combine.h). Call before the first add.
-    void trackHalves();
-    bool tracksHalves() const { return halvesTracked_; }
-    long halfEstimates(int half) const { return halves_[size_t(half)].count; }
-    RgbImage halfMean(int half) const;
-    RgbImage halfStandardError(int half) const;
-    const std::vector<double>& halfMeanData(int half) const { return halves_[size_t(half)].mean; }
-    const std::vector<double>& halfM2Data(int half) const { return halves_[size_t(half)].m2; }
-    void restoreHalf(int half, long count, std::vector<double> mean, std::vector<double> m2);
-    // A resumed render whose saved state has no halves stops tracking them.
-    void dropHalves();
-
-  private:
-    struct Half {
-        long count = 0;
-        std::vector<double> mean, m2;
-    };
-    int width_, height_;
-    long count_ = 0;
-    std::vector<double> mean_, m2_;
-    bool halvesTracked_ = false;
-    std::array<Half, 2> halves_;
 };
 
 // Attributes written into an EXR header (OpenEXR string, int and double attributes), so a
@@ -100,6 +56,13 @@ void writePng8(const std::string& path, int width, int height,
 
 // Write `bytes` to `path` atomically (temporary file in the same folder, then rename).
 void writeFileAtomically(const std::string& path, const std::string& bytes);
+// Throws std::runtime_error naming `what` and `path` unless a file can be created at `path`
+// (its folder exists and is writable, and it is not a folder): checked before long work. Leaves
+// nothing behind and never touches an existing file at `path`.
+void requireWritable(const std::string& path, const std::string& what);
+// Where to keep work when its own destination cannot be written: `name` in $TMPDIR (or /tmp),
+// else in the current folder; the first folder where a file can be created. Throws if none.
+std::string fallbackPath(const std::string& name);
 // Temporary name next to `path` for writers that need a file name (OpenEXR, libpng).
 std::string temporarySiblingPath(const std::string& path);
 void commitTemporary(const std::string& temporary, const std::string& path);

@@ -37,7 +37,7 @@ ExrAttributes toExrAttributes(const RenderRecord& r) {
     a.ints["cbdpt_width"] = r.width;
     a.ints["cbdpt_height"] = r.height;
     a.ints["cbdpt_estimates"] = checkedInt(r.estimates, "estimate count");
-    a.ints["cbdpt_estimate_first"] = checkedInt(r.estimateFirst, "first estimate");
+    a.strings["cbdpt_estimate_ranges"] = r.estimateSet.toString();
     a.doubles["cbdpt_render_seconds"] = r.renderSeconds;
     a.doubles["cbdpt_render_cpu_seconds"] = r.renderCpuSeconds;
     return a;
@@ -83,15 +83,39 @@ RenderRecord renderRecordFromExr(const ExrAttributes& a, const std::string& path
     r.width = integer("cbdpt_width");
     r.height = integer("cbdpt_height");
     r.estimates = integer("cbdpt_estimates");
-    r.estimateFirst = integer("cbdpt_estimate_first");
+    try {
+        r.estimateSet = EstimateSet::parse(str("cbdpt_estimate_ranges"), "cbdpt_estimate_ranges");
+    } catch (const std::invalid_argument& e) {
+        throw std::runtime_error(fmt::format("{}: {}", path, e.what()));
+    }
+    if (long(r.estimateSet.count()) != r.estimates)
+        throw std::runtime_error(
+            fmt::format("{}: cbdpt_estimate_ranges {} holds {} estimates, cbdpt_estimates says {}",
+                        path, r.estimateSet.toString(), r.estimateSet.count(), r.estimates));
     r.renderSeconds = real("cbdpt_render_seconds");
     r.renderCpuSeconds = real("cbdpt_render_cpu_seconds");
+    return r;
+}
+
+RenderRecord renderRecordFromIdentity(const RenderIdentity& identity) {
+    const nlohmann::json& s = identity.settings;
+    RenderRecord r;
+    r.method = s.value("integrator", "");
+    r.eyeVertices = s.value("eye_vertices", 0);
+    r.lightVertices = s.value("light_vertices", 0);
+    r.weights = s.value("weights", "");
+    r.coherenceTile = s.value("coherence_tile", 0);
+    r.rouletteVertex = s.value("roulette_vertex", 0);
+    r.seed = s.value("seed", std::uint32_t(0));
+    r.channels = s.value("channels", 0);
+    r.sceneHash = identity.sceneHash;
     return r;
 }
 
 void writeRenderExr(const std::string& path, const EstimateAccumulator& accumulator,
                     RenderRecord record) {
     record.estimates = accumulator.estimates();
+    record.estimateSet = accumulator.indices();
     record.width = accumulator.width();
     record.height = accumulator.height();
     const RgbImage mean = accumulator.mean(), error = accumulator.standardError();
@@ -108,17 +132,6 @@ void writeRenderExr(const std::string& path, const EstimateAccumulator& accumula
         layers.push_back({"half1.stderr", &halfError[1]});
     }
     writeExr(path, layers, toExrAttributes(record));
-}
-
-std::string sceneContentHash(const std::string& scenePath) {
-    std::ifstream in(scenePath, std::ios::binary);
-    if (!in) throw std::runtime_error(fmt::format("cannot read scene file {}", scenePath));
-    std::uint64_t hash = 14695981039346656037ull; // FNV-1a offset basis
-    for (std::istreambuf_iterator<char> c(in), end; c != end; ++c) {
-        hash ^= std::uint64_t(static_cast<unsigned char>(*c));
-        hash *= 1099511628211ull; // FNV prime
-    }
-    return fmt::format("{:016x}", hash);
 }
 
 } // namespace cb

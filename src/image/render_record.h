@@ -2,7 +2,9 @@
 // and compared without side files: method, vertex caps, seed, estimates, CPU time and the scene.
 #pragma once
 
+#include "image/accumulator.h"
 #include "image/image.h"
+#include "image/render_state.h"
 
 #include <cstdint>
 #include <string>
@@ -20,16 +22,19 @@ struct RenderRecord {
     int channels = 0; // 3 (RGB) or 16 (spectral bins)
     int width = 0, height = 0;
     long estimates = 0;
-    // Estimate numbers [estimateFirst, estimateFirst + estimates): with the seed they name the
-    // random numbers used, so two renders with overlapping ranges and one seed are not
-    // independent.
-    long estimateFirst = 0;
+    // The estimate indices held: with the seed they name the random numbers used, so two
+    // renders with overlapping sets and one seed are not independent.
+    EstimateSet estimateSet;
     double renderSeconds = 0.0;
     double renderCpuSeconds = 0.0;
     std::string sceneFile; // the scene file's name (no folder)
-    std::string sceneHash; // sceneContentHash of the scene file
+    std::string sceneHash; // sceneContentHash of the scene file, its Includes and meshes
     std::string inputs;    // combinations: the input files
 };
+
+// The record of a render from its state's identity (`cbdpt merge`): the scene file's name and
+// the render times are not in a state, so they are left empty and zero.
+RenderRecord renderRecordFromIdentity(const RenderIdentity& identity);
 
 // Attribute names are "cbdpt_" + the field in snake case (cbdpt_method, cbdpt_eye_vertices...).
 ExrAttributes toExrAttributes(const RenderRecord& record);
@@ -41,9 +46,5 @@ RenderRecord renderRecordFromExr(const ExrAttributes& attributes, const std::str
 // record (its estimate count and size taken from the accumulator) in the header.
 void writeRenderExr(const std::string& path, const EstimateAccumulator& accumulator,
                     RenderRecord record);
-
-// 64-bit FNV-1a of the scene file's bytes, as 16 hex digits: two renders of one scene file agree.
-// (Meshes the file references are not included; their names are part of the file.)
-std::string sceneContentHash(const std::string& scenePath);
 
 } // namespace cb

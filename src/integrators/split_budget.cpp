@@ -9,7 +9,7 @@
 namespace cb {
 
 SplitBudgetRender
-renderSplitBudget(const DeviceScene& scene, ClRuntime& runtime, const std::string& scenePath,
+renderSplitBudget(const DeviceScene& scene, ClRuntime& runtime, const SceneDesc& desc,
                   const SplitBudgetSettings& s, const std::atomic<bool>& stop,
                   const std::function<void(size_t, const RenderProgress&)>& onProgress) {
     if (s.methods.empty() || s.methods.size() != s.shares.size())
@@ -18,6 +18,7 @@ renderSplitBudget(const DeviceScene& scene, ClRuntime& runtime, const std::strin
         throw std::invalid_argument("--split-budget: the budget must be a positive number of "
                                     "seconds");
     SplitBudgetRender out;
+    const std::string sceneHash = sceneContentHash(desc.sourceFiles);
     std::vector<std::unique_ptr<Integrator>> integrators;
     for (const auto& settings : s.methods) {
         integrators.push_back(makeIntegrator(settings, scene, runtime));
@@ -39,7 +40,8 @@ renderSplitBudget(const DeviceScene& scene, ClRuntime& runtime, const std::strin
                                       });
             out.interrupted = outcome.interrupted;
         }
-        out.records.push_back(makeRenderRecord(s.methods[i], scenePath, scene.channels, outcome));
+        out.records.push_back(makeRenderRecord(s.methods[i], desc.sourceFiles.at(0), sceneHash,
+                                               scene.channels, outcome));
         out.outcomes.push_back(outcome);
     }
     return out;

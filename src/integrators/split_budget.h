@@ -31,8 +31,9 @@ struct SplitBudgetRender {
 // compiles work-group functions at the first launch), then each method for its share of the
 // budget, one after the other. Each method's seed is settings.seed as given; the caller makes
 // them differ so the renders are independent. `stop` ends the current method and skips the rest.
+// `desc` (the parsed scene of `scene`) names the files whose content hash the records carry.
 SplitBudgetRender
-renderSplitBudget(const DeviceScene& scene, ClRuntime& runtime, const std::string& scenePath,
+renderSplitBudget(const DeviceScene& scene, ClRuntime& runtime, const SceneDesc& desc,
                   const SplitBudgetSettings& settings, const std::atomic<bool>& stop,
                   const std::function<void(size_t, const RenderProgress&)>& onProgress = {});
 

@@ -400,6 +400,13 @@ struct SourceFile {
     fs::path key;    // canonical path, for recursive-include detection
 };
 
+// Refuses a file that is not text (an image, a mesh, any binary data), saying what it is.
+void requireText(const std::string& bytes, const SourceLocation& where, const std::string& path) {
+    const std::string what = describeNonTextFile(bytes);
+    if (!what.empty())
+        throw SceneError(where, "\"" + path + "\" is " + what + ", not a pbrt scene (text)");
+}
+
 std::string readWholeFile(const std::string& path, bool& ok) {
     std::ifstream f(path, std::ios::binary);
     ok = static_cast<bool>(f);
@@ -977,6 +984,7 @@ class Parser {
             if (!file) throw SceneError(t.where, "plymesh needs \"string filename\"");
             pl.finish();
             const std::string path = resolveModel(*file, fp->valueLoc(0));
+            scene_.sourceFiles.push_back(path);
             PlyMesh ply;
             try {
                 ply = readPly(path);
@@ -1149,6 +1157,8 @@ class Parser {
             bool ok = false;
             std::string text = readWholeFile(path, ok);
             if (!ok) throw SceneError(name.where, "cannot read included file \"" + path + "\"");
+            requireText(text, name.where, path);
+            scene_.sourceFiles.push_back(path);
             files_.push_back(std::make_unique<SourceFile>(
                 SourceFile{Tokenizer(std::move(text), path), parentDir(path), key}));
             return;
@@ -1174,6 +1184,7 @@ class Parser {
 } // namespace
 
 SceneDesc parseSceneString(const std::string& text, const std::string& virtualPath) {
+    requireText(text, SourceLocation{virtualPath, 0, 0}, virtualPath);
     SceneDesc scene;
     scene.path = virtualPath;
     Parser(scene).run(text, virtualPath);
@@ -1184,7 +1195,9 @@ SceneDesc parseSceneFile(const std::string& path) {
     bool ok = false;
     std::string text = readWholeFile(path, ok);
     if (!ok) throw SceneError(SourceLocation{path, 0, 0}, "cannot open scene file");
-    return parseSceneString(text, path);
+    SceneDesc scene = parseSceneString(text, path);
+    scene.sourceFiles.insert(scene.sourceFiles.begin(), path);
+    return scene;
 }
 
 } // namespace cb

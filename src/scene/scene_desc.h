@@ -4,6 +4,7 @@
 #pragma once
 
 #include <array>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -18,7 +19,15 @@ struct SourceLocation {
     std::string str() const; // "file:line:column"
 };
 
-// Thrown for every malformed input; what() is "file:line:column: message".
+// `text` with every byte that is not printable ASCII, a tab, a newline or part of a valid UTF-8
+// sequence written as \xNN, so that a message quoting a file never prints raw binary.
+std::string printableText(const std::string& text);
+
+// What a file is when its first bytes say it is not text ("an OpenEXR image", "a PLY mesh", "a
+// binary file"); empty when it looks like text.
+std::string describeNonTextFile(const std::string& bytes);
+
+// Thrown for every malformed input; what() is "file:line:column: message", made printable.
 class SceneError : public std::runtime_error {
   public:
     SceneError(const SourceLocation& where, const std::string& message);
@@ -44,9 +53,9 @@ struct MaterialDesc {
     std::string name; // the MakeNamedMaterial name, or "" for an anonymous Material
     MaterialKind kind = MaterialKind::Diffuse;
     SpectrumValue reflectance = SpectrumValue::constant(0.5f); // diffuse and conductor
-    float roughness = 0.f;       // conductor: as written in the file
-    bool remapRoughness = true;  // conductor: pbrt-v4's default maps roughness to alpha=sqrt(r)
-    float eta = 1.5f;            // dielectric
+    float roughness = 0.f;                                     // conductor: as written in the file
+    bool remapRoughness = true;     // conductor: pbrt-v4's default maps roughness to alpha=sqrt(r)
+    float eta = 1.5f;               // dielectric
     std::array<int, 2> mix{-1, -1}; // mix: indices into SceneDesc::materials
     float amount = 0.5f;            // mix: probability of choosing mix[1] (pbrt-v4 semantics)
     SourceLocation where;
@@ -79,7 +88,7 @@ struct SphereDesc {
 };
 
 struct PointLightDesc {
-    std::array<double, 3> position{0.0, 0.0, 0.0}; // world space
+    std::array<double, 3> position{0.0, 0.0, 0.0};          // world space
     SpectrumValue intensity = SpectrumValue::constant(1.f); // "I"
     float scale = 1.f;
     SourceLocation where;
@@ -97,10 +106,17 @@ struct FilmDesc {
     int width = 1280; // pbrt-v4 defaults
     int height = 720;
     std::string filename = "pbrt.exr";
+    // pbrt's pixel bounds x0, x1, y0, y1: only pixels [x0, x1) x [y0, y1) of the film are
+    // rendered, into an image of that size (cropWindowPixels in device_scene.h). Absent: the whole
+    // film.
+    std::optional<std::array<int, 4>> pixelBounds;
 };
 
 struct SceneDesc {
     std::string path; // the scene file, as given
+    // Every file read, in order: the scene file (when parsed from a file), its Includes and
+    // plymesh files; their bytes identify the scene's content (render states).
+    std::vector<std::string> sourceFiles;
     CameraDesc camera;
     FilmDesc film;
     std::vector<MaterialDesc> materials;
@@ -108,7 +124,7 @@ struct SceneDesc {
     std::vector<TriangleMeshDesc> meshes;
     std::vector<SphereDesc> spheres;
     std::vector<PointLightDesc> pointLights;
-    bool usesSpectra = false;        // any parameter was given as `spectrum` (render spectrally)
+    bool usesSpectra = false; // any parameter was given as `spectrum` (render spectrally)
     long droppedDegenerateTriangles = 0; // zero-area triangles removed at load
 };
 
