@@ -224,11 +224,17 @@ void RenderJob::chooseOutputPaths() {
 void RenderJob::startIntegrator() {
     runtime_.emplace(o_.device);
     integrator_ = cb::makeIntegrator(o_.integrator, scene_, *runtime_);
+    // Logs and statistics state the subpath caps the total-length cap resolved to.
+    o_.integrator = cb::withResolvedCaps(o_.integrator);
     if (!o_.quiet)
-        fmt::print(stderr, "cbdpt: {} on {} | {}x{} {} | {} | Ne={} | kernel build {:.2f}s\n",
+        fmt::print(stderr, "cbdpt: {} on {} | {}x{} {} | {} | {} | kernel build {:.2f}s\n",
                    o_.integrator.name, runtime_->info().deviceName, scene_.camera.width,
                    scene_.camera.height, scene_.channels == 16 ? "spectral-16" : "rgb", o_.scene,
-                   o_.integrator.eyeVertices, integrator_->buildSeconds());
+                   o_.integrator.maxPathVertices > 0
+                       ? fmt::format("N={} (Ne={}, Nl={})", o_.integrator.maxPathVertices,
+                                     o_.integrator.eyeVertices, o_.integrator.lightVertices)
+                       : fmt::format("Ne={}", o_.integrator.eyeVertices),
+                   integrator_->buildSeconds());
 }
 
 // Ctrl-C handling, the accumulator, and what it holds already when resuming.
@@ -242,6 +248,7 @@ void RenderJob::startAccumulator() {
                        {"integrator", o_.integrator.name},
                        {"eye_vertices", o_.integrator.eyeVertices},
                        {"light_vertices", o_.integrator.lightVertices},
+                       {"max_vertices", o_.integrator.maxPathVertices},
                        {"weights", o_.integrator.weights},
                        {"strategy", o_.strategy},
                        {"roulette_vertex", o_.integrator.rouletteVertex},
@@ -296,6 +303,7 @@ void RenderJob::openLog() {
             {"integrator", o_.integrator.name},
             {"eye_vertices", o_.integrator.eyeVertices},
             {"light_vertices", o_.integrator.lightVertices},
+            {"max_vertices", o_.integrator.maxPathVertices},
             {"weights", o_.integrator.weights},
             {"coherence_tile", o_.integrator.coherenceTile},
             {"seed", o_.integrator.seed},
@@ -398,6 +406,7 @@ nlohmann::json RenderJob::statistics(const cb::RenderOutcome& outcome) const {
         {"integrator", o_.integrator.name},
         {"eye_vertices", o_.integrator.eyeVertices},
         {"light_vertices", o_.integrator.lightVertices},
+        {"max_vertices", o_.integrator.maxPathVertices},
         {"weights", o_.integrator.weights},
         {"coherence_tile", o_.integrator.coherenceTile},
         {"seed", o_.integrator.seed},
@@ -453,10 +462,16 @@ void addRenderOptions(CLI::App& cmd, RenderOptions& o) {
     cmd.add_option("--integrator", o.integrator.name, "pt | cpt | bdpt | cbdpt | mlt");
     cmd.add_option("--spp", o.spp, "estimates (samples per pixel)");
     cmd.add_option("--time", o.seconds, "render for this many seconds");
-    cmd.add_option("--eye-vertices", o.integrator.eyeVertices,
-                   "Ne: path vertices, the camera included");
-    cmd.add_option("--light-vertices", o.integrator.lightVertices,
-                   "Nl: light subpath vertices, the point on the light included");
+    auto* eye = cmd.add_option("--eye-vertices", o.integrator.eyeVertices,
+                               "Ne: path vertices, the camera included");
+    auto* light = cmd.add_option("--light-vertices", o.integrator.lightVertices,
+                                 "Nl: light subpath vertices, the point on the light included");
+    cmd.add_option("--max-vertices", o.integrator.maxPathVertices,
+                   "N: a cap on the whole path's vertices instead of Ne and Nl (pbrt-v4's "
+                   "maxdepth + 2): every strategy with s + t <= N, so bdpt, cbdpt and mlt "
+                   "cover PT's paths of N vertices (0: off, the thesis's caps)")
+        ->excludes(light)
+        ->excludes(eye);
     cmd.add_option("--weights", o.integrator.weights,
                    "bidirectional MIS weights: power | lafortune");
     cmd.add_option("--strategy", o.strategy,
