@@ -41,18 +41,21 @@ SCENES = {
 ALL_METHODS = ["pt", "cpt", "bdpt", "cbdpt", "mlt"]
 
 # The thesis's timings, tables 4.1-4.9 (seconds; Core 2 Duo E4600, LuxRender).
-THESIS_TIMES = [
-    ("cornell-box", "4+4", 5, dict(pt=55, bdpt=96, cbdpt=72, cpt=48)),
-    ("cornell-box", "4+4", 25, dict(pt=245, bdpt=420, cbdpt=290, cpt=202)),
-    ("cornell-box", "4+4", 100, dict(pt=945, bdpt=1622, cbdpt=1100, cpt=812)),
-    ("dragon", "2+2", 100, dict(pt=744, bdpt=638, cbdpt=462, cpt=563)),
-    ("buddha", "2+2", 100, dict(pt=708, bdpt=624, cbdpt=450, cpt=545)),
-    ("bunny", "2+2", 100, dict(pt=721, bdpt=625, cbdpt=449, cpt=550)),
-    ("grade", "4+4", 100, dict(bdpt=1342, cbdpt=1006)),
-    ("grade", "2+2", 100, dict(bdpt=716, cbdpt=507, mlt=674)),
-    ("gaiola", "2+2", 100, dict(bdpt=1012, cbdpt=755)),
-    ("luminaria", "2+2", 100, dict(bdpt=775, cbdpt=664)),
+THESIS_TIMES = [  # (table, scene, Ne+Nl, estimates, {method: [seconds of each run]})
+    ("4.1", "cornell-box", "4+4", 5, dict(pt=[55], bdpt=[96], cbdpt=[72], cpt=[48])),
+    ("4.2", "cornell-box", "4+4", 25, dict(pt=[245], bdpt=[420], cbdpt=[290], cpt=[202])),
+    ("4.3", "cornell-box", "4+4", 100,
+     dict(pt=[945], bdpt=[1622], cbdpt=[1100, 1098], cpt=[812])),
+    ("4.4", "dragon", "2+2", 100, dict(pt=[744], bdpt=[638], cbdpt=[462], cpt=[563])),
+    ("4.5", "buddha", "2+2", 100, dict(pt=[708], bdpt=[624], cbdpt=[450], cpt=[545])),
+    ("4.6", "bunny", "2+2", 100, dict(pt=[721], bdpt=[625], cbdpt=[449], cpt=[550])),
+    ("4.7", "grade", "4+4", 100, dict(bdpt=[1342], cbdpt=[1006])),
+    ("4.7", "grade", "2+2", 100, dict(bdpt=[716], cbdpt=[507], mlt=[674])),
+    ("4.8", "gaiola", "2+2", 100, dict(bdpt=[1012], cbdpt=[755, 750])),
+    ("4.9", "luminaria", "2+2", 100, dict(bdpt=[775], cbdpt=[664])),
 ]
+# The thesis's timing runs repeated per (scene, method): CBDPT twice in tables 4.3 and 4.8.
+THESIS_REPEATS = {("cornell-box", "cbdpt"): 2, ("gaiola", "cbdpt"): 2}
 
 
 def find_cbdpt(explicit=None):
@@ -91,8 +94,44 @@ def available_integrators(cbdpt):
     return out
 
 
-def reference_path(scene, vertices):
-    return os.path.join(REFERENCES, f"{scene}-v{vertices}.exr")
+# Rough seconds per estimate at 256x256 on the 2-core development machine (a quarter of the
+# 512x512 times in README.md), only for scripts/experiment's time estimate.
+SECONDS_PER_ESTIMATE = dict(pt=0.03, cpt=0.025, bdpt=0.08, cbdpt=0.04, mlt=0.1)
+
+
+def configurations(scene):
+    """A scene's vertex configurations: the thesis's per-subpath caps "Ne+Nl" (bidirectional
+    methods) and the total-length cap "nN" with N = Ne + Nl (every method)."""
+    out = []
+    for ne, nl in SCENES[scene]["bidir"]:
+        out += [f"{ne}+{nl}", f"n{ne + nl}"]
+    return out
+
+
+def method_runs_config(scene, method, config):
+    """PT and CPT have one cap, the total; the thesis ran MLT on the grille only."""
+    if method in ("pt", "cpt"):
+        return config.startswith("n") and int(config[1:]) == SCENES[scene]["pt_vertices"]
+    return method in SCENES[scene]["methods"] or method in ("bdpt", "cbdpt")
+
+
+def config_args(method, config):
+    if config.startswith("n"):
+        return ["--max-vertices", config[1:]]
+    ne, nl = config.split("+")
+    return ["--eye-vertices", ne, "--light-vertices", nl]
+
+
+def reference_path(scene, config, method="pt"):
+    """The reference of the integral that `method` computes under `config`: PT with N vertices
+    (SCENE-vN.exr) for PT and CPT; a long BDPT run with the same caps (SCENE-bdpt-4p4.exr,
+    SCENE-bdpt-n8.exr) for BDPT, CBDPT and MLT, whose integral differs from PT's under the
+    per-subpath caps (paths needing a connection at a delta vertex are missed) and, with a point
+    light and a mirror, also under the total cap (light tracing samples the point light's
+    caustics, which PT cannot; docs/bdpt.md)."""
+    if method in ("pt", "cpt"):
+        return os.path.join(REFERENCES, f"{scene}-v{config.lstrip('n')}.exr")
+    return os.path.join(REFERENCES, f"{scene}-bdpt-{config.replace('+', 'p')}.exr")
 
 
 def read_log(path):
@@ -153,6 +192,43 @@ def write_exr(path, layers):
     with OpenEXR.File(header, channels) as f:
         f.write(tmp)
     os.replace(tmp, path)
+
+
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
+LOW_FREQUENCY = 0.1  # cycles per pixel: "low" below this
+
+
+def radial_spectrum(error):
+    """Radially averaged power spectrum of a square error image. P = |FFT|^2 / pixels, so white
+    noise of variance s^2 is flat at s^2 (Parseval), returned against |f| in cycles/pixel, with
+    the fraction of the power below LOW_FREQUENCY."""
+    h, w = error.shape
+    power = np.abs(np.fft.fft2(error)) ** 2 / (h * w)
+    fy = np.fft.fftfreq(h)[:, None]
+    fx = np.fft.fftfreq(w)[None, :]
+    radius = np.sqrt(fx ** 2 + fy ** 2)
+    bins = np.arange(0, 0.5 + 1e-9, 1.0 / max(h, w))
+    index = np.digitize(radius, bins) - 1
+    freqs, values = [], []
+    for i in range(1, len(bins) - 1):
+        sel = index == i
+        if sel.any():
+            freqs.append(radius[sel].mean())
+            values.append(power[sel].mean())
+    low = power[(radius < LOW_FREQUENCY) & (radius > 0)].sum() / max(power[radius > 0].sum(), 1e-300)
+    return np.array(freqs), np.array(values), float(low)
+
+
+def flip_mean(image, reference):
+    """Mean HDR-FLIP (NVIDIA's flip-evaluator) of image against reference; None without it."""
+    try:
+        import flip_evaluator
+    except ImportError:
+        return None
+    _, mean, _ = flip_evaluator.evaluate(np.ascontiguousarray(reference, np.float32),
+                                         np.ascontiguousarray(np.maximum(image, 0), np.float32),
+                                         "HDR")
+    return float(mean)
 
 
 def need_matplotlib():
