@@ -18,6 +18,7 @@
 #include "bvh/bvh.h"
 #include "bvh/bvh_choice.h"
 #include "bvh/bvh_wide.h"
+#include "models_dir.h"
 #include "scene/ply.h"
 
 using cbk::Hit;
@@ -34,7 +35,7 @@ struct Mesh {
 };
 
 Mesh loadModel(const std::string& name) {
-    cb::PlyMesh ply = cb::readPly(std::string(CBDPT_MODELS_DIR) + "/" + name);
+    cb::PlyMesh ply = cb::readPly((cbtest::modelsDir() / name).string());
     Mesh mesh;
     for (const auto& p : ply.positions)
         mesh.positions.push_back(cbk::vec3(p[0], p[1], p[2]));
@@ -587,7 +588,7 @@ TEST_CASE("bvh choice: bounce rays inside a closed cube") {
     CHECK(cosines / bounces == doctest::Approx(2.0 / 3.0).epsilon(0.045));
 }
 
-TEST_CASE("bvh choice: the isolated bunny takes SAH block 4; the chosen trees, in a room too, "
+TEST_CASE("bvh choice: the isolated bunny takes SAH block 4, the chosen trees, in a room too, "
           "find the brute-force hits") {
     // Which candidate is faster was measured (docs/performance.md): block 4 on the isolated
     // meshes; test_scenes.cpp checks the seven scenes' choices against the same table.

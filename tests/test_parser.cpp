@@ -3,6 +3,7 @@
 // path with its file:line:column.
 #include <doctest/doctest.h>
 
+#include "models_dir.h"
 #include "scene/scene_desc.h"
 #include "scene/transform.h"
 
@@ -424,7 +425,7 @@ TEST_CASE("parser: plymesh search path (scene folder, then CBDPT_MODEL_PATH)") {
 }
 
 TEST_CASE("parser: the Stanford bunny loads through a scene file") {
-    const fs::path dir = CBDPT_MODELS_DIR;
+    const fs::path dir = cbtest::modelsDir();
     if (!fs::is_directory(dir)) {
         MESSAGE("skipped: " << dir.string() << " is absent");
         return;

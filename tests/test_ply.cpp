@@ -2,6 +2,7 @@
 // reader must skip, quads and a pentagon), hostile files, and the Stanford meshes.
 #include <doctest/doctest.h>
 
+#include "models_dir.h"
 #include "scene/ply.h"
 #include "scene/scene_desc.h"
 
@@ -303,7 +304,7 @@ TEST_CASE("ply: malformed headers are rejected with the header line") {
 }
 
 TEST_CASE("ply: the Stanford models load with the README's counts and bounding boxes") {
-    const fs::path dir = CBDPT_MODELS_DIR;
+    const fs::path dir = cbtest::modelsDir();
     if (!fs::is_directory(dir)) {
         MESSAGE("skipped: " << dir.string() << " is absent");
         return;
