@@ -383,7 +383,7 @@ cb::IntegratorSettings settingsFor(const char* name, int ne, int nl, int total,
 
 } // namespace
 
-TEST_CASE("Path space: BDPT 2+2 misses exactly camera-mirror-diffuse-light; the total cap "
+TEST_CASE("Path space: BDPT 2+2 misses exactly camera-mirror-diffuse-light, the total cap "
           "misses none" *
           doctest::test_suite("statistical")) {
     cb::ClRuntime runtime;
