@@ -21,6 +21,8 @@ def _reexecute():
         return
     if os.environ.get("CBDPT_VENV_ACTIVE") == VENV:
         return  # already re-executed once: never loop
+    if not sys.argv or not os.path.isfile(sys.argv[0]):
+        return  # python -c or an interactive session: nothing to re-execute
     os.environ["CBDPT_VENV_ACTIVE"] = VENV
     os.execv(python, [python] + sys.argv)
 

@@ -18,8 +18,9 @@ struct IntegratorSettings {
     int lightVertices = 4;   // Nl, the point on the light included (bidirectional methods)
     // N > 0: pbrt-v4's and SmallVCM's total-length cap instead of the thesis's per-subpath caps:
     // paths of at most N vertices (camera and light point included), every strategy with
-    // s + t <= N, so that BDPT, CBDPT and MLT compute PT's integral for N vertices
-    // (docs/bdpt.md). makeIntegrator then sets Ne = N and Nl = N - 1. 0: the caps above.
+    // s + t <= N, so that BDPT, CBDPT and MLT cover every path PT renders with N vertices (and
+    // point lights' caustics, which PT cannot sample; docs/bdpt.md). makeIntegrator then sets
+    // Ne = N and Nl = N - 1. 0: the caps above.
     int maxPathVertices = 0;
     std::string weights = "power"; // bidirectional MIS: power | lafortune
     int debugS = -1;               // >= 0 with debugT: render only strategy (s, t), unweighted
