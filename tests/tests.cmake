@@ -22,8 +22,10 @@ set_tests_properties(meshes_reproducible PROPERTIES
 # cbdpt-bench --quick runs and writes well-formed JSON (issue 9); no timing assertions.
 if(TARGET cbdpt-bench)
   add_test(NAME bench_quick COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_bench.py $<TARGET_FILE:cbdpt-bench>)
+  # The caller's CBDPT_MODEL_PATH first, then the default beside the source tree.
   set_tests_properties(bench_quick PROPERTIES TIMEOUT 900
-                       ENVIRONMENT "CBDPT_MODEL_PATH=${CMAKE_SOURCE_DIR}/../shared/models")
+                       ENVIRONMENT_MODIFICATION
+                       "CBDPT_MODEL_PATH=path_list_append:${CMAKE_SOURCE_DIR}/../shared/models")
 endif()
 
 # Error against time (issue 7): checkpoints, logs, compare, experiment --quick -> report.
