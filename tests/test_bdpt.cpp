@@ -1,10 +1,10 @@
-// BDPT (kernels/cb_path.h, kernels/bdpt.cl): MIS weights against an explicit-ratio oracle, and
+// BDPT (kernels/cb_bdpt.h, kernels/bdpt.cl): MIS weights against an explicit-ratio oracle, and
 // renders against PT. Statistical checks compare image-region means with error bars from the
 // per-pixel spread (pixels of PT and BDPT are independent), at 4 standard errors.
 #include "scene_builders.h"
 #include "test_render_util.h"
 
-#include "cb_path.h"
+#include "cb_bdpt.h"
 
 #include <algorithm>
 #include <cmath>
@@ -422,7 +422,7 @@ TEST_CASE("BDPT MIS weights equal the explicit-ratio oracle and sum to one") {
                                 continue;
                             float w = cbk::bdptMisWeight(&view, light.data(), s, eye.data(), t,
                                                          c.ptPdfRev, c.ptMinusPdfRev, c.qsPdfRev,
-                                                         c.qsMinusPdfRev, settings);
+                                                         c.qsMinusPdfRev, settings, 1.0f);
                             FullPath path = joinPath(light, s, eye, t);
                             const bool cut = total > 0 && s + t > total;
                             double expected = cut ? 0.0
@@ -451,9 +451,10 @@ TEST_CASE("BDPT MIS weights equal the explicit-ratio oracle and sum to one") {
                                 if (!cbk::bdptConnectUnoccluded(&view, &camera, l2.data(), s2,
                                                                 e2.data(), k - s2, &c2))
                                     continue;
-                                sum += cbk::bdptMisWeight(&view, l2.data(), s2, e2.data(), k - s2,
-                                                          c2.ptPdfRev, c2.ptMinusPdfRev,
-                                                          c2.qsPdfRev, c2.qsMinusPdfRev, settings);
+                                sum +=
+                                    cbk::bdptMisWeight(&view, l2.data(), s2, e2.data(), k - s2,
+                                                       c2.ptPdfRev, c2.ptMinusPdfRev, c2.qsPdfRev,
+                                                       c2.qsMinusPdfRev, settings, 1.0f);
                             }
                             // Lafortune's remainder goes to the last allowed strategy; where that
                             // one cannot make the path (a point light cannot be hit; or k > Ne and

@@ -19,8 +19,8 @@
 #include "scene/device_scene.h"
 #include "scene/scene_desc.h"
 
+#include "cb_bdpt.h"
 #include "cb_camera.h"
-#include "cb_path.h"
 
 #include <array>
 #include <cmath>
