@@ -15,7 +15,7 @@ import numpy as np  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 REFERENCES = os.path.join(ROOT, "scenes", "references")
-MODEL_PATH = os.path.join(os.path.dirname(ROOT), "shared", "models")
+MODEL_PATH = os.path.join(ROOT, "models")  # scripts/get-models's output, if CBDPT_MODEL_PATH is unset
 
 # The thesis's settings per scene (its chapter 4): path-tracing vertex cap, the bidirectional
 # (Ne, Nl) configurations, which methods it timed, and its estimate counts. "pt_vertices" equals
