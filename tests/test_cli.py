@@ -65,6 +65,27 @@ with tempfile.TemporaryDirectory() as tmp:
             check(0 < s["mlt"]["acceptance_rate"] < 1 and s["mlt"]["mutations"] > 0,
                   f"mlt statistics in the stats file ({s.get('mlt')})")
 
+    # The total-length cap: subpath caps N and N - 1, stated in the statistics; it replaces
+    # --eye-vertices and --light-vertices, so giving both is an error.
+    for integrator in ("pt", "bdpt", "cbdpt", "mlt"):
+        r = subprocess.run([cbdpt, "render", scene, "--integrator", integrator, "--max-vertices",
+                            "4", "--spp", "2", "--width", "8", "--height", "8", "-o", exr,
+                            "--stats", stats, "-q"] +
+                           (["--chains", "4", "--bootstrap", "256"] if integrator == "mlt" else []),
+                           capture_output=True, text=True)
+        check(r.returncode == 0, f"{integrator} --max-vertices 4 renders ({r.stderr})")
+        s = json.load(open(stats))
+        check((s["max_vertices"], s["eye_vertices"], s["light_vertices"]) == (4, 4, 3),
+              f"{integrator} --max-vertices 4: N=4, Ne=4, Nl=3 in the statistics ({s})")
+    r = subprocess.run([cbdpt, "render", scene, "--max-vertices", "4", "--eye-vertices", "3",
+                        "-o", exr], capture_output=True, text=True)
+    check(r.returncode != 0 and "excludes" in r.stderr,
+          f"--max-vertices with --eye-vertices is refused ({r.returncode}: {r.stderr})")
+    r = subprocess.run([cbdpt, "render", scene, "--max-vertices", "1", "-o", exr],
+                       capture_output=True, text=True)
+    check(r.returncode != 0 and "--max-vertices 1 is out of range" in r.stderr,
+          f"--max-vertices 1 is refused ({r.returncode}: {r.stderr})")
+
     # Ctrl-C mid-render: the estimates done are written, exit code 130.
     os.remove(exr)
     p = subprocess.Popen([cbdpt, "render", scene, "--spp", "100000", "--width", "32", "--height",

@@ -335,11 +335,17 @@ void RenderJob::chooseOutputPaths() {
 void RenderJob::startIntegrator() {
     runtime_.emplace(o_.device.device);
     integrator_ = cb::makeIntegrator(o_.integrator, scene_, *runtime_);
+    // Logs and statistics state the subpath caps the total-length cap resolved to.
+    o_.integrator = cb::withResolvedCaps(o_.integrator);
     if (!o_.quiet)
-        fmt::print(stderr, "cbdpt: {} on {} | {}x{} {} | {} | Ne={} | kernel build {:.2f}s\n",
+        fmt::print(stderr, "cbdpt: {} on {} | {}x{} {} | {} | {} | kernel build {:.2f}s\n",
                    o_.integrator.name, runtime_->info().deviceName, scene_.camera.width,
                    scene_.camera.height, scene_.channels == 16 ? "spectral-16" : "rgb", o_.scene,
-                   o_.integrator.eyeVertices, integrator_->buildSeconds());
+                   o_.integrator.maxPathVertices > 0
+                       ? fmt::format("N={} (Ne={}, Nl={})", o_.integrator.maxPathVertices,
+                                     o_.integrator.eyeVertices, o_.integrator.lightVertices)
+                       : fmt::format("Ne={}", o_.integrator.eyeVertices),
+                   integrator_->buildSeconds());
 }
 
 // Ctrl-C handling, the accumulator, and what it holds already when resuming.
@@ -401,6 +407,7 @@ void RenderJob::openLog() {
             {"integrator", o_.integrator.name},
             {"eye_vertices", o_.integrator.eyeVertices},
             {"light_vertices", o_.integrator.lightVertices},
+            {"max_vertices", o_.integrator.maxPathVertices},
             {"weights", o_.integrator.weights},
             {"coherence_tile", o_.integrator.coherenceTile},
             {"seed", o_.integrator.seed},
@@ -553,6 +560,7 @@ nlohmann::json RenderJob::statistics(const cb::RenderOutcome& outcome) const {
         {"integrator", o_.integrator.name},
         {"eye_vertices", o_.integrator.eyeVertices},
         {"light_vertices", o_.integrator.lightVertices},
+        {"max_vertices", o_.integrator.maxPathVertices},
         {"weights", o_.integrator.weights},
         {"coherence_tile", o_.integrator.coherenceTile},
         {"seed", o_.integrator.seed},
@@ -646,14 +654,23 @@ void addMethodOptions(CLI::App& cmd, RenderOptions& o) {
         ->check(CLI::IsMember({"pt", "cpt", "bdpt", "cbdpt", "mlt"}))
         ->capture_default_str()
         ->group(group);
-    cmd.add_option("--eye-vertices", s.eyeVertices, "Ne: path vertices, the camera included")
-        ->check(CLI::Range(2, 1024))
-        ->capture_default_str()
-        ->group(group);
-    cmd.add_option("--light-vertices", s.lightVertices,
-                   "Nl: light subpath vertices, the point on the light included")
-        ->check(CLI::Range(1, 1024))
-        ->capture_default_str()
+    auto* eye =
+        cmd.add_option("--eye-vertices", s.eyeVertices, "Ne: path vertices, the camera included")
+            ->check(CLI::Range(2, 1024))
+            ->capture_default_str()
+            ->group(group);
+    auto* light = cmd.add_option("--light-vertices", s.lightVertices,
+                                 "Nl: light subpath vertices, the point on the light included")
+                      ->check(CLI::Range(1, 1024))
+                      ->capture_default_str()
+                      ->group(group);
+    cmd.add_option("--max-vertices", s.maxPathVertices,
+                   "N: a cap on the whole path's vertices instead of Ne and Nl (pbrt-v4's "
+                   "maxdepth + 2): every strategy with s + t <= N, so bdpt, cbdpt and mlt "
+                   "cover PT's paths of N vertices (0: off, the thesis's caps)")
+        ->check(CLI::Range(0, 1024))
+        ->excludes(light)
+        ->excludes(eye)
         ->group(group);
     cmd.add_option("--weights", s.weights, "bidirectional MIS weights: power | lafortune")
         ->check(CLI::IsMember({"power", "lafortune"}))
