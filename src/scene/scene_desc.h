@@ -44,14 +44,18 @@ struct MaterialDesc {
     std::string name; // the MakeNamedMaterial name, or "" for an anonymous Material
     MaterialKind kind = MaterialKind::Diffuse;
     SpectrumValue reflectance = SpectrumValue::constant(0.5f); // diffuse and conductor
-    float roughness = 0.f;       // conductor: as written in the file
-    bool remapRoughness = true;  // conductor: pbrt-v4's default maps roughness to alpha=sqrt(r)
-    float eta = 1.5f;            // dielectric
+    float roughness = 0.f;                                     // conductor: as written in the file
+    bool remapRoughness = true;     // conductor: pbrt-v4's default maps roughness to alpha=sqrt(r)
+    float eta = 1.5f;               // dielectric
     std::array<int, 2> mix{-1, -1}; // mix: indices into SceneDesc::materials
     float amount = 0.5f;            // mix: probability of choosing mix[1] (pbrt-v4 semantics)
     SourceLocation where;
 };
 
+// Light emission is the value as written times `scale`, which is pbrt-v4's: the file's "scale"
+// divided by the spectrum's photometric integral for a `spectrum` value (pbrt-v4's
+// SpectrumToPhotometric), times "power" over the unit-scale power where given. An RGB value
+// stands for RGB times the colour space's illuminant at luminance 1 (device_scene.cpp).
 struct AreaLightDesc {
     SpectrumValue radiance = SpectrumValue::constant(1.f); // "L"
     float scale = 1.f;
@@ -79,7 +83,7 @@ struct SphereDesc {
 };
 
 struct PointLightDesc {
-    std::array<double, 3> position{0.0, 0.0, 0.0}; // world space
+    std::array<double, 3> position{0.0, 0.0, 0.0};          // world space
     SpectrumValue intensity = SpectrumValue::constant(1.f); // "I"
     float scale = 1.f;
     SourceLocation where;
@@ -93,22 +97,45 @@ struct CameraDesc {
     SourceLocation where;
 };
 
+// pbrt-v4's "rgb" film with its "cie1931" sensor (docs/scene-format.md).
 struct FilmDesc {
     int width = 1280; // pbrt-v4 defaults
     int height = 720;
     std::string filename = "pbrt.exr";
+    double iso = 100.0;
+    double whiteBalance = 0.0; // kelvin; 0: no white balance (the cie1931 default)
+    double exposureTime = 1.0; // the camera's shutterclose - shutteropen
+    bool saveFp16 = true;      // pbrt-v4's default: half-float EXR
+    bool saveFp16Given = false;
+};
+
+// pbrt-v4's Sampler and Integrator lines: cbdpt's defaults for the render (the command line
+// overrides them).
+struct SamplerDesc {
+    std::string type;     // "" when the file has no Sampler
+    int pixelSamples = 0; // 0 when not given
+    SourceLocation where;
+};
+
+struct IntegratorDesc {
+    std::string type;  // "" when the file has no Integrator; else "pt", "bdpt" or "mlt"
+    int maxDepth = -1; // pbrt-v4's "maxdepth" (bounces); -1 when not given
+    SourceLocation where;
 };
 
 struct SceneDesc {
     std::string path; // the scene file, as given
     CameraDesc camera;
     FilmDesc film;
+    SamplerDesc sampler;
+    IntegratorDesc integrator;
+    std::vector<std::string> notes; // what was read but not used, each reported once on stderr
     std::vector<MaterialDesc> materials;
     std::vector<AreaLightDesc> areaLights;
     std::vector<TriangleMeshDesc> meshes;
     std::vector<SphereDesc> spheres;
     std::vector<PointLightDesc> pointLights;
-    bool usesSpectra = false;        // any parameter was given as `spectrum` (render spectrally)
+    bool usesSpectra = false; // any parameter was given as `spectrum` (render spectrally)
     long droppedDegenerateTriangles = 0; // zero-area triangles removed at load
 };
 
