@@ -66,6 +66,9 @@ struct RenderOptions {
     int height = 0;
     bool noRoulette = false;
     bool sppGiven = false;
+    bool integratorGiven = false;
+    bool eyeVerticesGiven = false;
+    bool lightVerticesGiven = false;
     bool resume = false;
     bool keepState = false;
     std::string strategy;
@@ -89,6 +92,7 @@ class RenderJob {
 
   private:
     void readSceneDescription();
+    void applySceneDefaults();
     void readCheckpointRequests();
     void readReference();
     void buildScene();
@@ -145,6 +149,7 @@ int RenderJob::run() {
 
 void RenderJob::readSceneDescription() {
     desc_ = cb::parseSceneFile(o_.scene);
+    applySceneDefaults();
     if (o_.width > 0) desc_.film.width = o_.width;
     if (o_.height > 0) desc_.film.height = o_.height;
     // Refuse absurd requests before any allocation.
@@ -155,6 +160,25 @@ void RenderJob::readSceneDescription() {
             "resolution {}x{} is outside what cbdpt renders (each side 1..32768, at most 2^28 "
             "pixels)",
             desc_.film.width, desc_.film.height));
+}
+
+// A pbrt-v4 file's Sampler and Integrator lines are defaults that the command line overrides:
+// pixelsamples -> --spp; the integrator -> --integrator; maxdepth d -> d + 2 path vertices (pbrt
+// counts bounces): --eye-vertices for PT, and Ne + Nl = d + 2 for the bidirectional methods,
+// whose caps together bound the path length.
+void RenderJob::applySceneDefaults() {
+    if (!o_.sppGiven && desc_.sampler.pixelSamples > 0) o_.spp = desc_.sampler.pixelSamples;
+    const cb::IntegratorDesc& in = desc_.integrator;
+    if (!o_.integratorGiven && !in.type.empty()) o_.integrator.name = in.type;
+    if (in.maxDepth < 0) return;
+    const int vertices = in.maxDepth + 2;
+    if (o_.integrator.name == "pt" || o_.integrator.name == "cpt") {
+        if (!o_.eyeVerticesGiven) o_.integrator.eyeVertices = vertices;
+    } else {
+        const int light = std::max(1, vertices / 2);
+        if (!o_.lightVerticesGiven) o_.integrator.lightVertices = light;
+        if (!o_.eyeVerticesGiven) o_.integrator.eyeVertices = std::max(2, vertices - light);
+    }
 }
 
 // Checkpoint requests are checked before the scene is built or kernels compiled.
@@ -450,8 +474,11 @@ void addRenderOptions(CLI::App& cmd, RenderOptions& o) {
     cmd.add_option("scene", o.scene, "scene file (pbrt-v4 subset)")->required();
     cmd.add_option("-o,--output", o.output, "EXR output (default: the Film filename)");
     cmd.add_option("--png", o.png, "PNG preview (default: output with .png)");
-    cmd.add_option("--integrator", o.integrator.name, "pt | cpt | bdpt | cbdpt | mlt");
-    cmd.add_option("--spp", o.spp, "estimates (samples per pixel)");
+    cmd.add_option("--integrator", o.integrator.name,
+                   "pt | cpt | bdpt | cbdpt | mlt (default: the scene's Integrator, else pt)");
+    cmd.add_option(
+        "--spp", o.spp,
+        "estimates (samples per pixel; default: the scene's Sampler pixelsamples, else 16)");
     cmd.add_option("--time", o.seconds, "render for this many seconds");
     cmd.add_option("--eye-vertices", o.integrator.eyeVertices,
                    "Ne: path vertices, the camera included");
@@ -511,6 +538,9 @@ Command addRenderCommand(CLI::App& app) {
     addRenderOptions(*cmd, *o);
     return {cmd, [o, cmd] {
                 o->sppGiven = cmd->count("--spp") > 0;
+                o->integratorGiven = cmd->count("--integrator") > 0;
+                o->eyeVerticesGiven = cmd->count("--eye-vertices") > 0;
+                o->lightVerticesGiven = cmd->count("--light-vertices") > 0;
                 return RenderJob(*o).run();
             }};
 }
