@@ -6,7 +6,9 @@
 
 #include "scene/scene_desc.h"
 #include "spectral/spectral.h"
+#include "test_render_util.h"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -298,4 +300,78 @@ TEST_CASE("pbrt-v4 film colour: XYZ to sRGB without adaptation, white balance, i
     for (int r = 0; r < 3; ++r)
         for (int c = 0; c < 3; ++c)
             CHECK(identity[r * 3 + c] == doctest::Approx(r == c ? 1.0 : 0.0).epsilon(1e-6));
+}
+
+TEST_CASE("pbrt-v4 spot light: parameters, normalisation and power") {
+    const auto s =
+        parseSceneString("WorldBegin\nTranslate 1 2 3\n"
+                         "LightSource \"spot\" \"point3 from\" [0 0 0] \"point3 to\" [0 -2 0] "
+                         "\"float coneangle\" 40 \"float conedeltaangle\" 10 \"float power\" 3\n",
+                         "t.pbrt");
+    REQUIRE(s.pointLights.size() == 1);
+    const auto& l = s.pointLights[0];
+    CHECK(l.spot);
+    CHECK(l.position == std::array<double, 3>{1, 2, 3});
+    CHECK(l.spotAxis == std::array<double, 3>{0, -1, 0});
+    CHECK(l.spotCosEnd == doctest::Approx(std::cos(40.0 * M_PI / 180.0)));
+    CHECK(l.spotCosStart == doctest::Approx(std::cos(30.0 * M_PI / 180.0)));
+    // pbrt-v4's SpotLight::Create: k_e = 2 pi ((1 - cosStart) + (cosStart - cosEnd) / 2).
+    const double ke = 2.0 * M_PI *
+                      ((1.0 - std::cos(M_PI / 6.0)) +
+                       (std::cos(M_PI / 6.0) - std::cos(40.0 * M_PI / 180.0)) / 2.0);
+    CHECK(l.scale == doctest::Approx(3.0 / ke).epsilon(1e-5));
+    CHECK(contains(errorOf("WorldBegin\nLightSource \"spot\" \"float conedeltaangle\" 40\n"),
+                   "conedeltaangle"));
+    CHECK(contains(errorOf("WorldBegin\nScale 1 2 1\nLightSource \"spot\"\n"), "similarity"));
+    CHECK(contains(errorOf("WorldBegin\nLightSource \"distant\"\n"), "\"spot\""));
+}
+
+// A spot light 1 m above a diffuse plane, seen from straight above: each pixel's radiance is
+// (rho / pi) I S(cos theta) cos theta / d^2 with d = sqrt(1 + r^2), cos theta = 1 / d, and S
+// pbrt-v4's smoothstep falloff. The image mean is that averaged over the view, integrated here
+// on a fine grid; PT (next-event estimation) and BDPT (light subpaths leave the spot with its
+// falloff) must reproduce it.
+TEST_CASE("pbrt-v4 spot light: falloff on a diffuse plane against the analytic image mean") {
+    cb::ClRuntime runtime;
+    const double rho = 0.5, coneDeg = 30.0, deltaDeg = 10.0;
+    for (double fovDeg : {40.0, 90.0}) {
+        CAPTURE(fovDeg);
+        const std::string text =
+            "LookAt 0 2 0  0 0 0  0 0 1\nCamera \"perspective\" \"float fov\" " +
+            std::to_string(fovDeg) +
+            "\nFilm \"rgb\" \"integer xresolution\" 32 \"integer yresolution\" 32\nWorldBegin\n"
+            "LightSource \"spot\" \"point3 from\" [0 1 0] \"point3 to\" [0 0 0] "
+            "\"float coneangle\" 30 \"float conedeltaangle\" 10\n"
+            "Material \"diffuse\" \"rgb reflectance\" [0.5 0.5 0.5]\n"
+            "Shape \"bilinearmesh\" \"point3 P\" [-10 0 -10  10 0 -10  -10 0 10  10 0 10]\n";
+        const cb::DeviceScene scene = cb::buildDeviceScene(parseSceneString(text, "t.pbrt"));
+        CHECK(contains(scene.featureNames(), "spot-light"));
+        const double cosEnd = std::cos(coneDeg * M_PI / 180.0);
+        const double cosStart = std::cos((coneDeg - deltaDeg) * M_PI / 180.0);
+        const double halfWidth = 2.0 * std::tan(fovDeg * M_PI / 360.0);
+        const int n = 400;
+        double expected = 0.0;
+        for (int i = 0; i < n; ++i)
+            for (int j = 0; j < n; ++j) {
+                const double x = halfWidth * (2.0 * (i + 0.5) / n - 1.0);
+                const double y = halfWidth * (2.0 * (j + 0.5) / n - 1.0);
+                const double d = std::sqrt(1.0 + x * x + y * y), c = 1.0 / d;
+                const double t = std::clamp((c - cosEnd) / (cosStart - cosEnd), 0.0, 1.0);
+                expected += rho / M_PI * t * t * (3.0 - 2.0 * t) * c / (d * d);
+            }
+        expected /= double(n) * n;
+        for (const char* method : {"pt", "bdpt"}) {
+            CAPTURE(method);
+            cb::IntegratorSettings settings;
+            settings.name = method;
+            settings.eyeVertices = 3;
+            settings.lightVertices = 2;
+            settings.seed = 11;
+            const auto stats = cbtest::renderPooled(scene, runtime, settings, 16);
+            CAPTURE(expected);
+            CAPTURE(stats.mean);
+            CAPTURE(stats.standardError);
+            CHECK(std::fabs(stats.mean - expected) <= 3.5 * stats.standardError + 1e-4 * expected);
+        }
+    }
 }

@@ -15,7 +15,7 @@ namespace cb {
 
 static_assert(sizeof(cbk::Primitive) == 48, "Primitive must match the OpenCL layout");
 static_assert(sizeof(cbk::Material) == 32, "Material must match the OpenCL layout");
-static_assert(sizeof(cbk::Light) == 48, "Light must match the OpenCL layout");
+static_assert(sizeof(cbk::Light) == 64, "Light must match the OpenCL layout");
 static_assert(sizeof(cbk::Camera) == 112, "Camera must match the OpenCL layout");
 
 namespace {
@@ -292,7 +292,19 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         light.primitive = -1;
         light.emission = spectra.add(pl.intensity, pl.scale, true);
         toDevice(pl.position, light.position);
-        lightPower.push_back(spectra.average(light.emission) * 4.f * float(M_PI));
+        light.spotCosEnd = -2.f;
+        // A unit-intensity point light emits 4 pi; a spot 2 pi (1 - (cosStart + cosEnd) / 2)
+        // (pbrt-v4's SpotLight::Phi).
+        float solidAngle = 4.f * float(M_PI);
+        if (pl.spot) {
+            light.spotCosStart = pl.spotCosStart;
+            light.spotCosEnd = pl.spotCosEnd;
+            for (int a = 0; a < 3; ++a)
+                light.spotAxis[a] = float(pl.spotAxis[size_t(a)]);
+            solidAngle = 2.f * float(M_PI) * (1.f - 0.5f * (pl.spotCosStart + pl.spotCosEnd));
+            scene.features |= CB_FEATURE_SPOT_LIGHT;
+        }
+        lightPower.push_back(spectra.average(light.emission) * solidAngle);
         scene.lights.push_back(light);
         scene.features |= CB_FEATURE_POINT_LIGHT;
     }
@@ -365,6 +377,7 @@ std::string DeviceScene::featureNames() const {
     add(CB_FEATURE_AREA_LIGHT, "area-light");
     add(CB_FEATURE_POINT_LIGHT, "point-light");
     add(CB_FEATURE_SPHERES, "spheres");
+    add(CB_FEATURE_SPOT_LIGHT, "spot-light");
     names += channels == 16 ? " spectral-16" : " rgb";
     return names;
 }

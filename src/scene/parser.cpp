@@ -1162,23 +1162,55 @@ class Parser {
 
     void lightSource(const Token& t) {
         const Token type = quoted(t, "a light type");
-        if (type.text != "point")
+        const bool spot = type.text == "spot";
+        if (type.text != "point" && !spot)
             throw SceneError(type.where, "unsupported light \"" + type.text +
-                                             "\" (cbdpt supports \"point\" only)");
-        ParamList pl = params("LightSource \"point\"");
+                                             "\" (cbdpt supports \"point\" and \"spot\")");
+        ParamList pl = params("LightSource \"" + type.text + "\"");
         PointLightDesc l;
         l.where = t.where;
         if (auto i = pl.spectrum("I", SpectrumRole::Emission)) l.intensity = *i;
         double scale = scaleParam(pl) / photometric(l.intensity, pl.peek("I"));
-        // pbrt-v4: "power" is the luminous power; a unit-scale point light emits 4 pi.
-        if (const auto power = pl.oneFloat("power"); power && *power > 0.0)
-            scale *= *power / (4.0 * M_PI);
-        l.scale = static_cast<float>(scale);
-        std::array<double, 3> from{0, 0, 0};
-        if (const Param* p = pl.numeric("from", "point3", 3)) {
-            if (p->size() != 3) throw SceneError(p->where, "\"point3 from\" expects 3 values");
-            from = {p->numbers[0], p->numbers[1], p->numbers[2]};
+        std::array<double, 3> from{0, 0, 0}, to{0, 0, 1};
+        for (auto [name, value] : {std::pair{"from", &from}, std::pair{"to", &to}}) {
+            if (!spot && std::string(name) == "to") continue;
+            if (const Param* p = pl.numeric(name, "point3", 3)) {
+                if (p->size() != 3)
+                    throw SceneError(p->where,
+                                     "\"point3 " + std::string(name) + "\" expects 3 values");
+                *value = {p->numbers[0], p->numbers[1], p->numbers[2]};
+            }
         }
+        // pbrt-v4: "power" is the luminous power; a unit-scale point light emits 4 pi, a spot
+        // 2 pi (1 - (cosStart + cosEnd) / 2).
+        double solidAngle = 4.0 * M_PI;
+        if (spot) {
+            const double cone = pl.oneFloat("coneangle").value_or(30.0);
+            const double delta = pl.oneFloat("conedeltaangle").value_or(5.0);
+            if (!(cone > 0.0 && cone <= 180.0) || !(delta >= 0.0 && delta <= cone))
+                throw SceneError(t.where, "spot light: \"coneangle\" must be in (0, 180] and "
+                                          "\"conedeltaangle\" in [0, coneangle]");
+            l.spot = true;
+            l.spotCosEnd = static_cast<float>(std::cos(cone * M_PI / 180.0));
+            l.spotCosStart = static_cast<float>(std::cos((cone - delta) * M_PI / 180.0));
+            solidAngle = 2.0 * M_PI * (1.0 - 0.5 * (double(l.spotCosStart) + l.spotCosEnd));
+            // The cone's angles are measured in the light's space; only a similarity keeps them.
+            similarityScale(t.where);
+            const std::array<double, 3> d{to[0] - from[0], to[1] - from[1], to[2] - from[2]};
+            const Mat4& m = state_.ctm;
+            std::array<double, 3> axis{};
+            for (int r = 0; r < 3; ++r)
+                axis[r] = m(r, 0) * d[0] + m(r, 1) * d[1] + m(r, 2) * d[2];
+            const double len = std::sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]);
+            if (!(len > 0.0) || !std::isfinite(len))
+                throw SceneError(t.where, "spot light: \"from\" and \"to\" must differ");
+            for (double& c : axis)
+                c /= len;
+            l.spotAxis = axis;
+        }
+        if (const auto power = pl.oneFloat("power"); power && *power > 0.0)
+            scale *= *power / solidAngle;
+        l.scale = static_cast<float>(scale);
         pl.finish();
         requireAffine(t.where);
         const auto w = state_.ctm.point(from);

@@ -86,6 +86,10 @@ struct PointLightDesc {
     std::array<double, 3> position{0.0, 0.0, 0.0};          // world space
     SpectrumValue intensity = SpectrumValue::constant(1.f); // "I"
     float scale = 1.f;
+    // LightSource "spot": intensity falls off from 1 at cos = spotCosStart to 0 at spotCosEnd.
+    bool spot = false;
+    std::array<double, 3> spotAxis{0.0, 0.0, 1.0}; // world space, unit
+    float spotCosStart = 1.f, spotCosEnd = 1.f;
     SourceLocation where;
 };
 
