@@ -15,9 +15,12 @@
 #include <thread>
 #include <vector>
 
+#include "bench/kernels/bench_bvh_binary.h"
 #include "bvh/bvh.h"
 #include "bvh/bvh_choice.h"
 #include "bvh/bvh_wide.h"
+#include "cl/cl_runtime.h"
+#include "cl/embedded_kernels.h"
 #include "scene/ply.h"
 
 using cbk::Hit;
@@ -372,7 +375,7 @@ void checkWide(const cb::BvhWide& wide, const std::vector<Primitive>& prims) {
     for (size_t i = 0; i < nodes.size(); ++i) {
         const auto& n = nodes[i];
         if (i == 0) CHECK(n.parent == CB_BVHW_NONE);
-        for (int k = 0; k < CBW; ++k) {
+        for (int k = 0; k < CB_BVH_WIDE_LANES; ++k) {
             if (n.child[k] == CB_BVHW_NONE) continue;
             uint32_t count = cbk::bvhWideCount(&n, k);
             if (count == 0) {
@@ -382,7 +385,7 @@ void checkWide(const cb::BvhWide& wide, const std::vector<Primitive>& prims) {
                 CHECK(nodes[n.child[k]].parent == i);
                 CHECK(nodes[n.child[k]].lane == uint32_t(k));
                 for (int a = 0; a < 3; ++a)
-                    for (int j = 0; j < CBW; ++j)
+                    for (int j = 0; j < CB_BVH_WIDE_LANES; ++j)
                         if (nodes[n.child[k]].child[j] != CB_BVHW_NONE) {
                             CHECK(nodes[n.child[k]].lo[a][j] >= n.lo[a][k]);
                             CHECK(nodes[n.child[k]].hi[a][j] <= n.hi[a][k]);
@@ -1072,4 +1075,43 @@ TEST_CASE("bvh: OpenCL traversal: rays through the closed Buddha's vertices and 
     CHECK(rays.size() > 30000);
     CHECK(escapes == 0);
     CHECK(coherentEscapes == 0);
+}
+
+// The render programs (every embedded .cl but the bench's) are compiled without the binary BVH's
+// traversals: they trace the wide BVH only. The names are read from the bench header itself, and
+// the bench program, which includes it, must contain them (so the search can fail).
+TEST_CASE("bvh: render programs hold no binary-BVH traversal") {
+    const auto& sources = cb::embeddedKernelSources();
+    const std::string& bench = sources.at("bench_bvh_binary.h");
+    std::vector<std::string> functions;
+    for (std::size_t at = bench.find("CB_FN "); at != std::string::npos;
+         at = bench.find("CB_FN ", at + 1)) {
+        const std::size_t open = bench.find('(', at);
+        const std::size_t nameStart = bench.rfind(' ', open) + 1;
+        functions.push_back(bench.substr(nameStart, open - nameStart));
+    }
+    REQUIRE(functions.size() >= 8);
+    auto mentions = [](const std::string& source, const std::string& name) {
+        return source.find(" " + name + "(") != std::string::npos;
+    };
+    const std::string benchProgram = cb::assembleKernelSource("bench_traverse.cl");
+    CHECK(benchProgram.find("#line 1 \"bench_bvh_binary.h\"") != std::string::npos);
+    for (const std::string& name : functions) {
+        CAPTURE(name);
+        CHECK(mentions(benchProgram, name));
+    }
+    int programs = 0;
+    for (const auto& [file, text] : sources) {
+        if (!file.ends_with(".cl") || file.starts_with("bench_")) continue;
+        ++programs;
+        const std::string program = cb::assembleKernelSource(file);
+        CAPTURE(file);
+        CHECK(program.find("#line 1 \"bench_bvh_binary.h\"") == std::string::npos);
+        CHECK(program.find("struct BvhNode {") == std::string::npos);
+        for (const std::string& name : functions) {
+            CAPTURE(name);
+            CHECK_FALSE(mentions(program, name));
+        }
+    }
+    CHECK(programs == 4); // pt.cl, bdpt.cl, cbdpt.cl, mlt.cl
 }
