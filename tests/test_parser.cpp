@@ -538,8 +538,7 @@ TEST_CASE("parser: parameter errors name the parameter") {
     expectError("Film \"rgb\" \"float gain\" 100\n", "t.pbrt:1:12",
                 "unknown or unsupported parameter");
     expectError("Camera \"perspective\" \"float fov\" 180\n", "t.pbrt:1:22", "(0, 180)");
-    expectError("Camera \"perspective\" \"float lensradius\" 0.1\n", "t.pbrt:1:22",
-                "thin lens");
+    expectError("Camera \"perspective\" \"float lensradius\" 0.1\n", "t.pbrt:1:22", "thin lens");
     expectError("Camera \"perspective\" \"float screenwindow\" [-1 1 -1 1]\n", "t.pbrt:1:22",
                 "unknown or unsupported parameter");
 }
@@ -566,7 +565,8 @@ TEST_CASE("parser: unsupported types are rejected") {
     const std::string w = kWorld;
     expectError(w + "Shape \"disk\"\n", "t.pbrt:2:7", "unsupported shape \"disk\"");
     expectError("Camera \"orthographic\"\n", "t.pbrt:1:8", "unsupported camera \"orthographic\"");
-    expectError(w + "LightSource \"spot\"\n", "t.pbrt:2:13", "unsupported light \"spot\"");
+    expectError(w + "LightSource \"goniometric\"\n", "t.pbrt:2:13",
+                "unsupported light \"goniometric\"");
     expectError(w + "AreaLightSource \"projection\"\n", "t.pbrt:2:17", "unsupported area light");
     expectError("Film \"gbuffer\"\n", "t.pbrt:1:6", "unsupported film \"gbuffer\"");
     expectError(w + "Material \"coateddiffuse\"\n", "t.pbrt:2:10",
