@@ -290,7 +290,7 @@ double oraclePowerWeight(const cbk::SceneView& scene, const cbk::Camera& camera,
     return std::pow(oraclePdf(scene, camera, path, s), 2) / sum;
 }
 
-// METHOD.md's Lafortune weights written out directly: eye vertex j is y_{k-1-j}.
+// Lafortune's weights (docs/method.md) written out directly: eye vertex j is y_{k-1-j}.
 double oracleLafortuneWeight(const cbk::SceneView& scene, const FullPath& path, int s, int ne,
                              int nl) {
     int k = int(path.y.size()), t = k - s;

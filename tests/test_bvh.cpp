@@ -22,6 +22,7 @@
 #include "cl/cl_runtime.h"
 #include "cl/embedded_kernels.h"
 #include "scene/ply.h"
+#include "stanford_models.h"
 
 using cbk::Hit;
 using cbk::Primitive;
@@ -36,8 +37,9 @@ struct Mesh {
     std::vector<int> indices;
 };
 
+// Callers first check cbtest::stanfordModelsOrSkip().
 Mesh loadModel(const std::string& name) {
-    cb::PlyMesh ply = cb::readPly(std::string(CBDPT_MODELS_DIR) + "/" + name);
+    cb::PlyMesh ply = cb::readPly((cbtest::stanfordModelDir() / name).string());
     Mesh mesh;
     for (const auto& p : ply.positions)
         mesh.positions.push_back(cbk::vec3(p[0], p[1], p[2]));
@@ -329,6 +331,7 @@ void checkStructure(const cb::Bvh& bvh, size_t primitiveCount, int maxLeaf) {
 } // namespace
 
 TEST_CASE("bvh: structure of the bunny BVH") {
+    if (!cbtest::stanfordModelsOrSkip()) return;
     Mesh mesh = loadModel("bunny.ply");
     auto prims = meshPrimitives(mesh);
     REQUIRE(prims.size() == 34831);
@@ -344,6 +347,7 @@ TEST_CASE("bvh: structure of the bunny BVH") {
 }
 
 TEST_CASE("bvh: closest hit and occlusion equal brute force on the bunny (3k rays)") {
+    if (!cbtest::stanfordModelsOrSkip()) return;
     Mesh mesh = loadModel("bunny.ply");
     cb::Bvh bvh = cb::buildBvh(meshPrimitives(mesh));
     auto rays = makeRays(boundsOf(bvh.primitives), 3000, 1234u);
@@ -355,6 +359,7 @@ TEST_CASE("bvh: closest hit and occlusion equal brute force on the bunny (3k ray
 
 TEST_CASE("bvh: closest hit and occlusion equal brute force on the bunny (100k rays)" *
           doctest::test_suite("statistical")) {
+    if (!cbtest::stanfordModelsOrSkip()) return;
     Mesh mesh = loadModel("bunny.ply");
     cb::Bvh bvh = cb::buildBvh(meshPrimitives(mesh));
     auto rays = makeRays(boundsOf(bvh.primitives), 100000, 99u);
@@ -425,6 +430,7 @@ void checkWide(const cb::BvhWide& wide, const std::vector<Primitive>& prims) {
 }
 
 TEST_CASE("bvh: the wide BVH equals brute force on the bunny (3k rays)") {
+    if (!cbtest::stanfordModelsOrSkip()) return;
     Mesh mesh = loadModel("bunny.ply");
     cb::Bvh bvh = cb::buildBvh(meshPrimitives(mesh));
     auto wide = cb::collapseBvhWide(bvh);
@@ -594,6 +600,7 @@ TEST_CASE("bvh choice: the isolated bunny takes SAH block 4; the chosen trees, i
           "find the brute-force hits") {
     // Which candidate is faster was measured (docs/performance.md): block 4 on the isolated
     // meshes; test_scenes.cpp checks the seven scenes' choices against the same table.
+    if (!cbtest::stanfordModelsOrSkip()) return;
     Mesh mesh = loadModel("bunny.ply");
     const auto prims = meshPrimitives(mesh);
     const Bounds b = boundsOf(prims);
@@ -650,6 +657,7 @@ TEST_CASE("bvh choice: the isolated bunny takes SAH block 4; the chosen trees, i
 }
 
 TEST_CASE("bvh: mixed triangles and spheres equal brute force") {
+    if (!cbtest::stanfordModelsOrSkip()) return;
     Mesh mesh = loadModel("dragon.ply");
     auto prims = meshPrimitives(mesh);
     Bounds b = boundsOf(prims);
@@ -819,6 +827,7 @@ std::vector<Ray> raysThroughVerticesAndEdges(const Mesh& mesh, const cb::Bvh& bv
 }
 
 TEST_CASE("bvh: rays from inside the closed Buddha through vertices and edges never escape") {
+    if (!cbtest::stanfordModelsOrSkip()) return;
     Mesh mesh = loadModel("buddha.ply");
     cb::Bvh bvh = cb::buildBvh(meshPrimitives(mesh), {4, 16, CB_PACK_LANES});
     auto wideNodes = cb::collapseBvhWide(bvh);
@@ -991,6 +1000,7 @@ class ClTracer {
 TEST_CASE("bvh: OpenCL traversal of the bunny wide BVH matches the host") {
     // The candidate lanes' bits come from movmskps on x86; the portable multiply that other
     // targets use is checked here as well.
+    if (!cbtest::stanfordModelsOrSkip()) return;
     Mesh mesh = loadModel("bunny.ply");
     const Bounds box = boundsOf(meshPrimitives(mesh));
     for (const char* options : {"", "-DCB_PORTABLE_LANE_BITS"}) {
@@ -1061,6 +1071,7 @@ TEST_CASE("bvh: OpenCL traversal of the bunny wide BVH matches the host") {
 TEST_CASE("bvh: OpenCL traversal: rays through the closed Buddha's vertices and edges never "
           "escape") {
     ClTracer tracer;
+    if (!cbtest::stanfordModelsOrSkip()) return;
     Mesh mesh = loadModel("buddha.ply");
     cb::Bvh bvh = cb::buildBvh(meshPrimitives(mesh), {4, 16, CB_PACK_LANES});
     auto wide = cb::collapseBvhWide(bvh);

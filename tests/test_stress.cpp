@@ -1,9 +1,10 @@
-// Numerical stability on stiff and extreme cases (issue 8): invariances and analytic values
+// Numerical stability on stiff and extreme cases: invariances and analytic values
 // that every integrator must hold. Each case runs for every integrator listed in
 // kStressIntegrators.
 #include "scene_builders.h"
 #include "test_render_util.h"
 
+#include "image/accumulator.h"
 #include "image/image.h"
 #include "scene/device_scene.h"
 #include "scene/scene_desc.h"

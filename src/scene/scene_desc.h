@@ -129,6 +129,9 @@ struct IntegratorDesc {
 
 struct SceneDesc {
     std::string path; // the scene file, as given
+    // Every file read, in order: the scene file (when parsed from a file), its Includes and
+    // plymesh files; their bytes identify the scene's content (render states).
+    std::vector<std::string> sourceFiles;
     CameraDesc camera;
     FilmDesc film;
     SamplerDesc sampler;
