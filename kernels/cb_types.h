@@ -135,6 +135,11 @@ typedef struct Camera {
     real tanHalfFovY;
     int width;
     int height;
+    /* The screen window's centre at z = 1: zero, except for a crop window (pbrt's
+     * --cropwindow), whose image is that part of the full film's screen window. */
+    real screenCenterX;
+    real screenCenterY;
+    int pad[2];
 } Camera;
 
 CB_FN Vec3 affineTransformPoint(const real* m, Vec3 p) {

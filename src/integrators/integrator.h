@@ -60,6 +60,10 @@ std::unique_ptr<Integrator> makeCbdptIntegrator(const IntegratorSettings& settin
 std::unique_ptr<Integrator> makeMltIntegrator(const IntegratorSettings& settings,
                                               const DeviceScene& scene, ClRuntime& runtime);
 
+// The bootstrap samples an MLT render of `pixels` pixels draws: settings.mltBootstrap, or when
+// that is 0, max(pixels, 65536).
+long mltBootstrapSamples(const IntegratorSettings& settings, long pixels);
+
 // Chain statistics of an MLT render, over all estimates so far.
 struct MltStatistics {
     double normalization = 0;       // b: mean luminance of the image, bootstrap + large steps

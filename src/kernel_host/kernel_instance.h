@@ -123,6 +123,9 @@ template <class Visit> void forEachField(cbk::Camera& s, Visit&& visit) {
     visit(s.tanHalfFovY);
     visit(s.width);
     visit(s.height);
+    visit(s.screenCenterX);
+    visit(s.screenCenterY);
+    visit(s.pad);
 }
 
 // Calls word(element) for each scalar of a field, arrays of arrays included.

@@ -16,7 +16,7 @@ namespace cb {
 static_assert(sizeof(cbk::Primitive) == 48, "Primitive must match the OpenCL layout");
 static_assert(sizeof(cbk::Material) == 32, "Material must match the OpenCL layout");
 static_assert(sizeof(cbk::Light) == 64, "Light must match the OpenCL layout");
-static_assert(sizeof(cbk::Camera) == 112, "Camera must match the OpenCL layout");
+static_assert(sizeof(cbk::Camera) == 128, "Camera must match the OpenCL layout");
 
 namespace {
 
@@ -94,6 +94,25 @@ std::array<double, 3> deviceOrigin(const SceneDesc& desc) {
     return origin;
 }
 
+// Narrows the camera to pixels [x0, x1) x [y0, y1) of its film: a screen window that is that part
+// of the full one, so rays, projections and importance (per pixel area) are the full film's.
+void cropCamera(cbk::Camera& camera, const std::array<int, 4>& bounds,
+                const SourceLocation& where) {
+    const auto [x0, x1, y0, y1] = bounds;
+    if (!(0 <= x0 && x0 < x1 && x1 <= camera.width && 0 <= y0 && y0 < y1 && y1 <= camera.height))
+        throw SceneError(where,
+                         fmt::format("pixel bounds {} {} {} {} are not inside the {}x{} film", x0,
+                                     x1, y0, y1, camera.width, camera.height));
+    const double w = camera.width, h = camera.height;
+    const double tanX = camera.tanHalfFovX, tanY = camera.tanHalfFovY;
+    camera.screenCenterX = float((double(x0 + x1) / w - 1.0) * tanX);
+    camera.screenCenterY = float((1.0 - double(y0 + y1) / h) * tanY);
+    camera.tanHalfFovX = float(tanX * double(x1 - x0) / w);
+    camera.tanHalfFovY = float(tanY * double(y1 - y0) / h);
+    camera.width = x1 - x0;
+    camera.height = y1 - y0;
+}
+
 cbk::Camera makeCamera(const SceneDesc& desc, const std::array<double, 3>& origin) {
     const FilmDesc& film = desc.film;
     SourceLocation where = desc.camera.where;
@@ -126,6 +145,7 @@ cbk::Camera makeCamera(const SceneDesc& desc, const std::array<double, 3>& origi
     camera.tanHalfFovY = float(aspect >= 1.0 ? tanHalf : tanHalf / aspect);
     camera.width = film.width;
     camera.height = film.height;
+    if (film.pixelBounds) cropCamera(camera, *film.pixelBounds, where);
     return camera;
 }
 
@@ -144,6 +164,25 @@ unsigned materialFeature(MaterialKind kind) {
 }
 
 } // namespace
+
+std::array<int, 4> cropWindowPixels(int width, int height, const std::array<double, 4>& crop) {
+    const auto [x0, x1, y0, y1] = crop;
+    for (double f : crop)
+        if (!(f >= 0.0 && f <= 1.0))
+            throw std::invalid_argument(fmt::format(
+                "--cropwindow {} {} {} {}: each value must be in [0, 1]", x0, x1, y0, y1));
+    if (!(x0 < x1 && y0 < y1))
+        throw std::invalid_argument(
+            fmt::format("--cropwindow {} {} {} {}: must be x0 x1 y0 y1 with x0 < x1 and y0 < y1",
+                        x0, x1, y0, y1));
+    const std::array<int, 4> pixels = {int(std::ceil(width * x0)), int(std::ceil(width * x1)),
+                                       int(std::ceil(height * y0)), int(std::ceil(height * y1))};
+    if (pixels[0] >= pixels[1] || pixels[2] >= pixels[3])
+        throw std::invalid_argument(
+            fmt::format("--cropwindow {} {} {} {} holds no pixel of the {}x{} film", x0, x1, y0, y1,
+                        width, height));
+    return pixels;
+}
 
 DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
     DeviceScene scene;

@@ -420,6 +420,13 @@ struct SourceFile {
     fs::path key;    // canonical path, for recursive-include detection
 };
 
+// Refuses a file that is not text (an image, a mesh, any binary data), saying what it is.
+void requireText(const std::string& bytes, const SourceLocation& where, const std::string& path) {
+    const std::string what = describeNonTextFile(bytes);
+    if (!what.empty())
+        throw SceneError(where, "\"" + path + "\" is " + what + ", not a pbrt scene (text)");
+}
+
 std::string readWholeFile(const std::string& path, bool& ok) {
     std::ifstream f(path, std::ios::binary);
     ok = static_cast<bool>(f);
@@ -1559,6 +1566,7 @@ class Parser {
             bool ok = false;
             std::string text = readWholeFile(path, ok);
             if (!ok) throw SceneError(name.where, "cannot read included file \"" + path + "\"");
+            requireText(text, name.where, path);
             scene_.sourceFiles.push_back(path);
             files_.push_back(std::make_unique<SourceFile>(
                 SourceFile{Tokenizer(std::move(text), path), parentDir(path), key}));
@@ -1598,6 +1606,7 @@ class Parser {
 } // namespace
 
 SceneDesc parseSceneString(const std::string& text, const std::string& virtualPath) {
+    requireText(text, SourceLocation{virtualPath, 0, 0}, virtualPath);
     SceneDesc scene;
     scene.path = virtualPath;
     Parser(scene).run(text, virtualPath);

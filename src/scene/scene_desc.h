@@ -4,6 +4,7 @@
 #pragma once
 
 #include <array>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -18,7 +19,15 @@ struct SourceLocation {
     std::string str() const; // "file:line:column"
 };
 
-// Thrown for every malformed input; what() is "file:line:column: message".
+// `text` with every byte that is not printable ASCII, a tab, a newline or part of a valid UTF-8
+// sequence written as \xNN, so that a message quoting a file never prints raw binary.
+std::string printableText(const std::string& text);
+
+// What a file is when its first bytes say it is not text ("an OpenEXR image", "a PLY mesh", "a
+// binary file"); empty when it looks like text.
+std::string describeNonTextFile(const std::string& bytes);
+
+// Thrown for every malformed input; what() is "file:line:column: message", made printable.
 class SceneError : public std::runtime_error {
   public:
     SceneError(const SourceLocation& where, const std::string& message);
@@ -111,6 +120,10 @@ struct FilmDesc {
     double exposureTime = 1.0; // the camera's shutterclose - shutteropen
     bool saveFp16 = true;      // pbrt-v4's default: half-float EXR
     bool saveFp16Given = false;
+    // pbrt's pixel bounds x0, x1, y0, y1: only pixels [x0, x1) x [y0, y1) of the film are
+    // rendered, into an image of that size (cropWindowPixels in device_scene.h). Absent: the whole
+    // film.
+    std::optional<std::array<int, 4>> pixelBounds;
 };
 
 // pbrt-v4's Sampler and Integrator lines: cbdpt's defaults for the render (the command line
