@@ -179,8 +179,7 @@ CB_FN PathVertex bdptCameraVertex(const Camera* camera) {
 /* Le(light[0] -> w) / Le_base: the spectrum a light vertex sends in unit direction w (radiance
  * for area lights, intensity for point lights). */
 CB_FN Spectrum bdptLightEmission(const SceneView* scene, const PathVertex* v, Vec3 w) {
-    if (v->type == CB_VERTEX_POINT_LIGHT)
-        return specLoad(scene->spectra, scene->lights[v->light].emission);
+    if (v->type == CB_VERTEX_POINT_LIGHT) return pointLightIntensity(scene, v->light, w);
     return lightEmittedRadiance(scene, v->light, pvN(v), w);
 }
 

@@ -49,6 +49,24 @@ with tempfile.TemporaryDirectory() as tmp:
           f"seconds_per_estimate * (n - 1) + first_estimate_seconds = render_seconds ({s})")
     check(not any(n.startswith(".") for n in os.listdir(tmp)), "no temporary files left behind")
 
+    # A pbrt-v4 file's Sampler and Integrator lines are defaults: pixelsamples 64 -> 64
+    # estimates, "path" with maxdepth 5 -> PT with 7 vertices; the command line overrides them.
+    pbrt_scene = os.path.join(root, "scenes", "pbrt-v4", "cornell-box.pbrt")
+    r = subprocess.run([cbdpt, "render", pbrt_scene, "--width", "8", "--height", "8", "-o", exr,
+                        "--png", png, "--stats", stats, "-q"], capture_output=True, text=True)
+    check(r.returncode == 0, f"pbrt-v4 file renders (got {r.returncode}: {r.stderr})")
+    s = json.load(open(stats))
+    check(s["estimates"] == 64 and s["integrator"] == "pt" and s["eye_vertices"] == 7,
+          f"Sampler/Integrator defaults applied ({s})")
+    check(r.stderr.count("not used") == 1, f"the sampler is reported once ({r.stderr})")
+    r = subprocess.run([cbdpt, "render", pbrt_scene, "--width", "8", "--height", "8", "--spp", "2",
+                        "--integrator", "bdpt", "--eye-vertices", "3", "-o", exr, "--png", png,
+                        "--stats", stats, "-q"], capture_output=True, text=True)
+    s = json.load(open(stats))
+    check(r.returncode == 0 and s["estimates"] == 2 and s["integrator"] == "bdpt" and
+          s["eye_vertices"] == 3 and s["light_vertices"] == 3,
+          f"the command line overrides the file; maxdepth 5 -> Nl = 3 ({s})")
+
     # Every integrator renders from the command line; MLT reports its chain statistics.
     for integrator, extra in (("bdpt", ["--light-vertices", "3"]), ("cbdpt", ["--light-vertices", "3"]),
                               ("cpt", ["--coherence-tile", "2"]),

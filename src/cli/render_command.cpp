@@ -72,6 +72,9 @@ struct RenderOptions {
     std::vector<double> cropWindow; // empty or x0 x1 y0 y1
     bool noRoulette = false;
     bool sppGiven = false;
+    bool integratorGiven = false;
+    bool eyeVerticesGiven = false;
+    bool lightVerticesGiven = false;
     bool resume = false;
     bool keepState = false;
     std::string estimateRange; // --estimates A:B
@@ -99,6 +102,7 @@ class RenderJob {
     int runSteps();
     void joinTeam();
     void readSceneDescription();
+    void applySceneDefaults();
     void readShard();
     void checkOutputs() const;
     void applyQuick();
@@ -212,6 +216,7 @@ void RenderJob::applyQuick() {
 
 void RenderJob::readSceneDescription() {
     desc_ = cb::parseSceneFile(o_.scene);
+    applySceneDefaults();
     if (o_.width > 0) desc_.film.width = o_.width;
     if (o_.height > 0) desc_.film.height = o_.height;
     if (o_.quick) applyQuick();
@@ -227,6 +232,25 @@ void RenderJob::readSceneDescription() {
             "resolution {}x{} is outside what cbdpt renders (each side 1..32768, at most 2^28 "
             "pixels)",
             desc_.film.width, desc_.film.height));
+}
+
+// A pbrt-v4 file's Sampler and Integrator lines are defaults that the command line overrides:
+// pixelsamples -> --spp; the integrator -> --integrator; maxdepth d -> d + 2 path vertices (pbrt
+// counts bounces): --eye-vertices for PT, and Ne + Nl = d + 2 for the bidirectional methods,
+// whose caps together bound the path length.
+void RenderJob::applySceneDefaults() {
+    if (!o_.sppGiven && desc_.sampler.pixelSamples > 0) o_.spp = desc_.sampler.pixelSamples;
+    const cb::IntegratorDesc& in = desc_.integrator;
+    if (!o_.integratorGiven && !in.type.empty()) o_.integrator.name = in.type;
+    if (in.maxDepth < 0) return;
+    const int vertices = in.maxDepth + 2;
+    if (o_.integrator.name == "pt" || o_.integrator.name == "cpt") {
+        if (!o_.eyeVerticesGiven) o_.integrator.eyeVertices = vertices;
+    } else {
+        const int light = std::max(1, vertices / 2);
+        if (!o_.lightVerticesGiven) o_.integrator.lightVertices = light;
+        if (!o_.eyeVerticesGiven) o_.integrator.eyeVertices = std::max(2, vertices - light);
+    }
 }
 
 // --estimates A:B: a shard of a render, estimate indices A to B-1.
@@ -650,7 +674,8 @@ void addOutputOptions(CLI::App& cmd, RenderOptions& o) {
 void addMethodOptions(CLI::App& cmd, RenderOptions& o) {
     const char* group = "Method";
     auto& s = o.integrator;
-    cmd.add_option("--integrator", s.name, "pt | cpt | bdpt | cbdpt | mlt")
+    cmd.add_option("--integrator", s.name,
+                   "pt | cpt | bdpt | cbdpt | mlt (default: the scene's Integrator, else pt)")
         ->check(CLI::IsMember({"pt", "cpt", "bdpt", "cbdpt", "mlt"}))
         ->capture_default_str()
         ->group(group);
@@ -717,7 +742,9 @@ void addMethodOptions(CLI::App& cmd, RenderOptions& o) {
 
 void addBudgetOptions(CLI::App& cmd, RenderOptions& o) {
     const char* group = "Budget (the first limit reached ends the render)";
-    cmd.add_option("--spp", o.spp, "estimates (samples per pixel)")
+    cmd.add_option(
+           "--spp", o.spp,
+           "estimates (samples per pixel; default: the scene's Sampler pixelsamples, else 16)")
         ->check(CLI::Range(1L, 1L << 40))
         ->capture_default_str()
         ->group(group);
@@ -794,6 +821,9 @@ Command addRenderCommand(CLI::App& app) {
     cmd->footer(kRenderExamples);
     return {cmd, [o, cmd] {
                 o->sppGiven = cmd->count("--spp") > 0;
+                o->integratorGiven = cmd->count("--integrator") > 0;
+                o->eyeVerticesGiven = cmd->count("--eye-vertices") > 0;
+                o->lightVerticesGiven = cmd->count("--light-vertices") > 0;
                 applyThreadLimit(o->device);
                 return RenderJob(*o).run();
             }};
