@@ -58,6 +58,32 @@ with tempfile.TemporaryDirectory() as tmp:
           f"seconds_per_estimate * (n - 1) + first_estimate_seconds = render_seconds ({s})")
     check(not any(n.startswith(".") for n in os.listdir(tmp)), "no temporary files left behind")
 
+    # A pbrt-v4 file's Sampler and Integrator lines are defaults: pixelsamples 64 -> 64
+    # estimates, "path" with maxdepth 5 -> PT with 7 vertices; the command line overrides them.
+    pbrt_scene = os.path.join(root, "scenes", "pbrt-v4", "cornell-box.pbrt")
+    r = subprocess.run([cbdpt, "render", pbrt_scene, "--width", "8", "--height", "8", "-o", exr,
+                        "--png", png, "--stats", stats, "-q"], capture_output=True, text=True)
+    check(r.returncode == 0, f"pbrt-v4 file renders (got {r.returncode}: {r.stderr})")
+    s = json.load(open(stats))
+    check(s["estimates"] == 64 and s["integrator"] == "pt" and s["eye_vertices"] == 7,
+          f"Sampler/Integrator defaults applied ({s})")
+    check(r.stderr.count("not used") == 1, f"the sampler is reported once ({r.stderr})")
+    r = subprocess.run([cbdpt, "render", pbrt_scene, "--width", "8", "--height", "8", "--spp", "2",
+                        "--integrator", "bdpt", "--eye-vertices", "3", "-o", exr, "--png", png,
+                        "--stats", stats, "-q"], capture_output=True, text=True)
+    s = json.load(open(stats))
+    check(r.returncode == 0 and s["estimates"] == 2 and s["integrator"] == "bdpt" and
+          s["eye_vertices"] == 3 and s["light_vertices"] == 3,
+          f"the command line overrides the file; maxdepth 5 -> Nl = 3 ({s})")
+    # Without subpath caps, a bidirectional method takes pbrt-v4's convention: maxdepth 5 is the
+    # total-length cap N = 7 (Ne = 7, Nl = 6, strategies with s + t <= 7).
+    r = subprocess.run([cbdpt, "render", pbrt_scene, "--width", "8", "--height", "8", "--spp", "2",
+                        "--integrator", "bdpt", "-o", exr, "--png", png, "--stats", stats, "-q"],
+                       capture_output=True, text=True)
+    s = json.load(open(stats)) if r.returncode == 0 else {}
+    check(r.returncode == 0 and (s["max_vertices"], s["eye_vertices"], s["light_vertices"]) ==
+          (7, 7, 6), f"maxdepth 5 -> --max-vertices 7 for bdpt ({r.stderr} {s})")
+
     # Every integrator renders from the command line; MLT reports its chain statistics.
     for integrator, extra in (("bdpt", ["--light-vertices", "3"]), ("cbdpt", ["--light-vertices", "3"]),
                               ("cpt", ["--coherence-tile", "2"]),
@@ -73,6 +99,27 @@ with tempfile.TemporaryDirectory() as tmp:
         if integrator == "mlt":
             check(0 < s["mlt"]["acceptance_rate"] < 1 and s["mlt"]["mutations"] > 0,
                   f"mlt statistics in the stats file ({s.get('mlt')})")
+
+    # The total-length cap: subpath caps N and N - 1, stated in the statistics; it replaces
+    # --eye-vertices and --light-vertices, so giving both is an error.
+    for integrator in ("pt", "bdpt", "cbdpt", "mlt"):
+        r = subprocess.run([cbdpt, "render", scene, "--integrator", integrator, "--max-vertices",
+                            "4", "--spp", "2", "--width", "8", "--height", "8", "-o", exr,
+                            "--stats", stats, "-q"] +
+                           (["--chains", "4", "--bootstrap", "256"] if integrator == "mlt" else []),
+                           capture_output=True, text=True)
+        check(r.returncode == 0, f"{integrator} --max-vertices 4 renders ({r.stderr})")
+        s = json.load(open(stats))
+        check((s["max_vertices"], s["eye_vertices"], s["light_vertices"]) == (4, 4, 3),
+              f"{integrator} --max-vertices 4: N=4, Ne=4, Nl=3 in the statistics ({s})")
+    r = subprocess.run([cbdpt, "render", scene, "--max-vertices", "4", "--eye-vertices", "3",
+                        "-o", exr], capture_output=True, text=True)
+    check(r.returncode != 0 and "excludes" in r.stderr,
+          f"--max-vertices with --eye-vertices is refused ({r.returncode}: {r.stderr})")
+    r = subprocess.run([cbdpt, "render", scene, "--max-vertices", "1", "-o", exr],
+                       capture_output=True, text=True)
+    check(r.returncode != 0 and "--max-vertices 1 is out of range" in r.stderr,
+          f"--max-vertices 1 is refused ({r.returncode}: {r.stderr})")
 
     # Ctrl-C mid-render: the estimates done are written, exit code 130.
     os.remove(exr)

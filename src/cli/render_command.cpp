@@ -56,6 +56,9 @@ struct RenderOptions {
     std::vector<double> cropWindow; // empty or x0 x1 y0 y1
     bool noRoulette = false;
     bool sppGiven = false;
+    bool integratorGiven = false;
+    bool eyeVerticesGiven = false;
+    bool lightVerticesGiven = false;
     bool resume = false;
     bool keepState = false;
     std::string estimateRange; // --estimates A:B
@@ -83,6 +86,7 @@ class RenderJob {
     int runSteps();
     void joinTeam();
     void readSceneDescription();
+    void applySceneDefaults();
     void readShard();
     void checkOutputs() const;
     void applyQuick();
@@ -198,6 +202,7 @@ void RenderJob::applyQuick() {
 
 void RenderJob::readSceneDescription() {
     desc_ = cb::parseSceneFile(o_.scene);
+    applySceneDefaults();
     if (o_.width > 0) desc_.film.width = o_.width;
     if (o_.height > 0) desc_.film.height = o_.height;
     if (o_.quick) applyQuick();
@@ -213,6 +218,28 @@ void RenderJob::readSceneDescription() {
             "resolution {}x{} is outside what cbdpt renders (each side 1..32768, at most 2^28 "
             "pixels)",
             desc_.film.width, desc_.film.height));
+}
+
+// A pbrt-v4 file's Sampler and Integrator lines are defaults that the command line overrides:
+// pixelsamples -> --spp; the integrator -> --integrator; maxdepth d -> d + 2 path vertices (pbrt
+// counts bounces): --eye-vertices for PT, and for the bidirectional methods pbrt-v4's own
+// convention, the total-length cap --max-vertices d + 2 (unless a subpath cap is given: then the
+// other one makes Ne + Nl = d + 2).
+void RenderJob::applySceneDefaults() {
+    if (!o_.sppGiven && desc_.sampler.pixelSamples > 0) o_.spp = desc_.sampler.pixelSamples;
+    const cb::IntegratorDesc& in = desc_.integrator;
+    if (!o_.integratorGiven && !in.type.empty()) o_.integrator.name = in.type;
+    if (in.maxDepth < 0) return;
+    const int vertices = in.maxDepth + 2;
+    if (o_.integrator.name == "pt" || o_.integrator.name == "cpt") {
+        if (!o_.eyeVerticesGiven) o_.integrator.eyeVertices = vertices;
+    } else if (!o_.eyeVerticesGiven && !o_.lightVerticesGiven) {
+        if (o_.integrator.maxPathVertices == 0) o_.integrator.maxPathVertices = vertices;
+    } else {
+        const int light = std::max(1, vertices / 2);
+        if (!o_.lightVerticesGiven) o_.integrator.lightVertices = light;
+        if (!o_.eyeVerticesGiven) o_.integrator.eyeVertices = std::max(2, vertices - light);
+    }
 }
 
 // --estimates A:B: a shard of a render, estimate indices A to B-1.
@@ -321,11 +348,17 @@ void RenderJob::chooseOutputPaths() {
 void RenderJob::startIntegrator() {
     runtime_.emplace(o_.device.device);
     integrator_ = cb::makeIntegrator(o_.integrator, scene_, *runtime_);
+    // Logs and statistics state the subpath caps the total-length cap resolved to.
+    o_.integrator = cb::withResolvedCaps(o_.integrator);
     if (!o_.quiet)
-        fmt::print(stderr, "cbdpt: {} on {} | {}x{} {} | {} | Ne={} | kernel build {:.2f}s\n",
+        fmt::print(stderr, "cbdpt: {} on {} | {}x{} {} | {} | {} | kernel build {:.2f}s\n",
                    o_.integrator.name, runtime_->info().deviceName, scene_.camera.width,
                    scene_.camera.height, scene_.channels == 16 ? "spectral-16" : "rgb", o_.scene,
-                   o_.integrator.eyeVertices, integrator_->buildSeconds());
+                   o_.integrator.maxPathVertices > 0
+                       ? fmt::format("N={} (Ne={}, Nl={})", o_.integrator.maxPathVertices,
+                                     o_.integrator.eyeVertices, o_.integrator.lightVertices)
+                       : fmt::format("Ne={}", o_.integrator.eyeVertices),
+                   integrator_->buildSeconds());
 }
 
 // Ctrl-C handling, the accumulator, and what it holds already when resuming.
@@ -397,6 +430,7 @@ void RenderJob::openLog() {
             {"integrator", o_.integrator.name},
             {"eye_vertices", o_.integrator.eyeVertices},
             {"light_vertices", o_.integrator.lightVertices},
+            {"max_vertices", o_.integrator.maxPathVertices},
             {"weights", o_.integrator.weights},
             {"coherence_tile", o_.integrator.coherenceTile},
             {"seed", o_.integrator.seed},
@@ -560,6 +594,7 @@ nlohmann::json RenderJob::statistics(const cb::RenderOutcome& outcome) const {
         {"integrator", o_.integrator.name},
         {"eye_vertices", o_.integrator.eyeVertices},
         {"light_vertices", o_.integrator.lightVertices},
+        {"max_vertices", o_.integrator.maxPathVertices},
         {"weights", o_.integrator.weights},
         {"coherence_tile", o_.integrator.coherenceTile},
         {"seed", o_.integrator.seed},
@@ -649,18 +684,28 @@ void addOutputOptions(CLI::App& cmd, RenderOptions& o) {
 void addMethodOptions(CLI::App& cmd, RenderOptions& o) {
     const char* group = "Method";
     auto& s = o.integrator;
-    cmd.add_option("--integrator", s.name, "pt | cpt | bdpt | cbdpt | mlt")
+    cmd.add_option("--integrator", s.name,
+                   "pt | cpt | bdpt | cbdpt | mlt (default: the scene's Integrator, else pt)")
         ->check(CLI::IsMember({"pt", "cpt", "bdpt", "cbdpt", "mlt"}))
         ->capture_default_str()
         ->group(group);
-    cmd.add_option("--eye-vertices", s.eyeVertices, "Ne: path vertices, the camera included")
-        ->check(CLI::Range(2, 1024))
-        ->capture_default_str()
-        ->group(group);
-    cmd.add_option("--light-vertices", s.lightVertices,
-                   "Nl: light subpath vertices, the point on the light included")
-        ->check(CLI::Range(1, 1024))
-        ->capture_default_str()
+    auto* eye =
+        cmd.add_option("--eye-vertices", s.eyeVertices, "Ne: path vertices, the camera included")
+            ->check(CLI::Range(2, 1024))
+            ->capture_default_str()
+            ->group(group);
+    auto* light = cmd.add_option("--light-vertices", s.lightVertices,
+                                 "Nl: light subpath vertices, the point on the light included")
+                      ->check(CLI::Range(1, 1024))
+                      ->capture_default_str()
+                      ->group(group);
+    cmd.add_option("--max-vertices", s.maxPathVertices,
+                   "N: a cap on the whole path's vertices instead of Ne and Nl (pbrt-v4's "
+                   "maxdepth + 2): every strategy with s + t <= N, so bdpt, cbdpt and mlt "
+                   "cover PT's paths of N vertices (0: off, the thesis's caps)")
+        ->check(CLI::Range(0, 1024))
+        ->excludes(light)
+        ->excludes(eye)
         ->group(group);
     cmd.add_option("--weights", s.weights, "bidirectional MIS weights: power | lafortune")
         ->check(CLI::IsMember({"power", "lafortune"}))
@@ -707,7 +752,9 @@ void addMethodOptions(CLI::App& cmd, RenderOptions& o) {
 
 void addBudgetOptions(CLI::App& cmd, RenderOptions& o) {
     const char* group = "Budget (the first limit reached ends the render)";
-    cmd.add_option("--spp", o.spp, "estimates (samples per pixel)")
+    cmd.add_option(
+           "--spp", o.spp,
+           "estimates (samples per pixel; default: the scene's Sampler pixelsamples, else 16)")
         ->check(CLI::Range(1L, 1L << 40))
         ->capture_default_str()
         ->group(group);
@@ -784,6 +831,9 @@ Command addRenderCommand(CLI::App& app) {
     cmd->footer(kRenderExamples);
     return {cmd, [o, cmd] {
                 o->sppGiven = cmd->count("--spp") > 0;
+                o->integratorGiven = cmd->count("--integrator") > 0;
+                o->eyeVerticesGiven = cmd->count("--eye-vertices") > 0;
+                o->lightVerticesGiven = cmd->count("--light-vertices") > 0;
                 applyThreadLimit(o->device);
                 return RenderJob(*o).run();
             }};

@@ -59,12 +59,14 @@ class BdptIntegrator final : public PixelKernelIntegrator {
 std::unique_ptr<Integrator> makeBdptIntegrator(const IntegratorSettings& settings,
                                                const DeviceScene& scene, ClRuntime& runtime) {
     if (settings.debugS >= 0 || settings.debugT >= 0) {
-        if (!cbk::bdptStrategyAllowed(settings.debugS, settings.debugT, settings.eyeVertices,
-                                      settings.lightVertices))
+        if (!cbk::bdptStrategyExists(settings.debugS, settings.debugT, bdptSettingsFor(settings)))
             throw std::invalid_argument(fmt::format(
-                "--strategy {},{} does not exist with --eye-vertices {} --light-vertices {}: "
+                "--strategy {},{} does not exist with --eye-vertices {} --light-vertices {}{}: "
                 "need 0 <= s <= Nl, 1 <= t <= Ne, s + t >= 2, and not (1,1)",
-                settings.debugS, settings.debugT, settings.eyeVertices, settings.lightVertices));
+                settings.debugS, settings.debugT, settings.eyeVertices, settings.lightVertices,
+                settings.maxPathVertices > 0
+                    ? fmt::format(" and s + t <= --max-vertices {}", settings.maxPathVertices)
+                    : std::string()));
     }
     return std::make_unique<BdptIntegrator>(settings, scene, runtime);
 }

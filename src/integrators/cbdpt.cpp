@@ -40,6 +40,7 @@ class CbdptIntegrator final : public PixelKernelIntegrator {
         light_.seed = settings.seed;
         light_.eyeVertices = settings.eyeVertices;
         light_.lightVertices = settings.lightVertices;
+        light_.maxPathVertices = settings.maxPathVertices;
         light_.weights = bdptSettingsFor(settings).weights;
         light_.coherenceTile = k;
         light_.tileRows = std::min(k, scene.camera.height);

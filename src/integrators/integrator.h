@@ -13,16 +13,22 @@
 namespace cb {
 
 struct IntegratorSettings {
-    std::string name = "pt";  // pt | cpt | bdpt | cbdpt | mlt
-    int eyeVertices = 8;      // Ne, the camera included (thesis convention)
-    int lightVertices = 4;    // Nl, the point on the light included (bidirectional methods)
+    std::string name = "pt"; // pt | cpt | bdpt | cbdpt | mlt
+    int eyeVertices = 8;     // Ne, the camera included (thesis convention)
+    int lightVertices = 4;   // Nl, the point on the light included (bidirectional methods)
+    // N > 0: pbrt-v4's and SmallVCM's total-length cap instead of the thesis's per-subpath caps:
+    // paths of at most N vertices (camera and light point included), every strategy with
+    // s + t <= N, so that BDPT, CBDPT and MLT cover every path PT renders with N vertices (and
+    // point lights' caustics, which PT cannot sample; docs/bdpt.md). makeIntegrator then sets
+    // Ne = N and Nl = N - 1. 0: the caps above.
+    int maxPathVertices = 0;
     std::string weights = "power"; // bidirectional MIS: power | lafortune
-    int debugS = -1;          // >= 0 with debugT: render only strategy (s, t), unweighted
+    int debugS = -1;               // >= 0 with debugT: render only strategy (s, t), unweighted
     int debugT = -1;
-    int rouletteVertex = 3;   // Russian roulette from this vertex on; 0 disables it
+    int rouletteVertex = 3; // Russian roulette from this vertex on; 0 disables it
     std::uint32_t seed = 0;
-    int coherenceTile = 1;    // cpt, cbdpt: k x k distinct sample vectors per estimate
-    int tileSize = 8;         // pixel tile (work-group) edge
+    int coherenceTile = 1; // cpt, cbdpt: k x k distinct sample vectors per estimate
+    int tileSize = 8;      // pixel tile (work-group) edge
     // mlt (docs/mlt.md): Kelemen et al. 2002 primary-sample-space MLT over BDPT.
     double largeStepProbability = 0.3; // probability that a mutation draws all samples anew
     double mutationSize = 1.0 / 64.0;  // largest perturbation s2 (Kelemen: s1 = s2 / 16)
@@ -40,6 +46,11 @@ class Integrator {
     // Seconds spent building OpenCL programs (not part of render time).
     virtual double buildSeconds() const = 0;
 };
+
+// The settings with the total-length cap resolved into subpath caps: with maxPathVertices N > 0,
+// eyeVertices = N and lightVertices = N - 1 (each subpath as long as the cap allows); unchanged
+// otherwise. makeIntegrator applies it; reports call it to state the caps actually used.
+IntegratorSettings withResolvedCaps(const IntegratorSettings& settings);
 
 // Validates the settings against the scene (caps, names) and builds the kernels.
 std::unique_ptr<Integrator> makeIntegrator(const IntegratorSettings& settings,
@@ -66,18 +77,18 @@ long mltBootstrapSamples(const IntegratorSettings& settings, long pixels);
 
 // Chain statistics of an MLT render, over all estimates so far.
 struct MltStatistics {
-    double normalization = 0;       // b: mean luminance of the image, bootstrap + large steps
+    double normalization = 0;          // b: mean luminance of the image, bootstrap + large steps
     double bootstrapNormalization = 0; // b from the bootstrap alone
     double bootstrapStandardError = 0; // of bootstrapNormalization
     long bootstrapSamples = 0;
-    long bootstrapNonZero = 0;      // bootstrap samples with I > 0
+    long bootstrapNonZero = 0; // bootstrap samples with I > 0
     long chains = 0;
-    long mutationsPerChain = 0;     // per estimate
-    long mutations = 0;             // proposals so far
+    long mutationsPerChain = 0; // per estimate
+    long mutations = 0;         // proposals so far
     long accepted = 0;
     long largeSteps = 0;
     long largeStepsAccepted = 0;
-    long zeroProposals = 0;         // proposals with I = 0 (always rejected)
+    long zeroProposals = 0; // proposals with I = 0 (always rejected)
     double acceptanceRate() const { return mutations ? double(accepted) / double(mutations) : 0; }
 };
 

@@ -68,6 +68,7 @@ RenderIdentity renderIdentity(const IntegratorSettings& settings, const SceneDes
     id.settings = {{"integrator", settings.name},
                    {"eye_vertices", settings.eyeVertices},
                    {"light_vertices", settings.lightVertices},
+                   {"max_vertices", settings.maxPathVertices},
                    {"weights", settings.weights},
                    {"strategy", {settings.debugS, settings.debugT}},
                    {"roulette_vertex", settings.rouletteVertex},

@@ -111,6 +111,9 @@ template <class Visit> void forEachField(cbk::Light& s, Visit&& visit) {
     visit(s.area);
     visit(s.pickProbability);
     visit(s.cdf);
+    visit(s.spotCosStart);
+    visit(s.spotCosEnd);
+    visit(s.spotAxis);
     visit(s.pad);
 }
 template <class Visit> void forEachField(cbk::Camera& s, Visit&& visit) {

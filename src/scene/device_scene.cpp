@@ -15,7 +15,7 @@ namespace cb {
 
 static_assert(sizeof(cbk::Primitive) == 48, "Primitive must match the OpenCL layout");
 static_assert(sizeof(cbk::Material) == 32, "Material must match the OpenCL layout");
-static_assert(sizeof(cbk::Light) == 48, "Light must match the OpenCL layout");
+static_assert(sizeof(cbk::Light) == 64, "Light must match the OpenCL layout");
 static_assert(sizeof(cbk::Camera) == 128, "Camera must match the OpenCL layout");
 
 namespace {
@@ -24,15 +24,21 @@ class SpectraTable {
   public:
     SpectraTable(int channels, std::vector<float>& data) : channels_(channels), data_(data) {}
 
-    int add(const SpectrumValue& value, float scale) {
+    // Emission (`emission` true) follows pbrt-v4's illuminant meaning: an RGB value is RGB times
+    // the colour space's white illuminant, a spectrum is converted by the film's own CMFs.
+    int add(const SpectrumValue& value, float scale, bool emission = false) {
         int index = int(data_.size()) / channels_;
         if (channels_ == kSpectralBins) {
             std::array<float, kSpectralBins> bins =
-                value.isRgb ? rgbToSpectrum(value.rgb) : binSpectrum(value.samples);
+                value.isRgb
+                    ? (emission ? rgbIlluminantSpectrum(value.rgb) : rgbToSpectrum(value.rgb))
+                    : binSpectrum(value.samples);
             for (float b : bins)
                 data_.push_back(b * scale);
         } else {
-            std::array<float, 3> rgb = value.isRgb ? value.rgb : spectrumToRgb(value.samples);
+            std::array<float, 3> rgb = value.isRgb ? value.rgb
+                                                   : (emission ? emissionToRgb(value.samples)
+                                                               : spectrumToRgb(value.samples));
             for (float c : rgb)
                 data_.push_back(c * scale);
         }
@@ -183,7 +189,9 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
     bool spectral =
         mode == ChannelMode::Spectral || (mode == ChannelMode::Auto && desc.usesSpectra);
     scene.channels = spectral ? kSpectralBins : 3;
-    scene.toRgb = channelsToRgbMatrix(scene.channels);
+    scene.toRgb =
+        filmMatrix(scene.channels, FilmColour{desc.film.whiteBalance,
+                                              desc.film.exposureTime * desc.film.iso / 100.0});
     // Camera-relative rendering: positions are made relative to the camera (or, for a camera
     // outside the scene, to the scene point nearest to it: deviceOrigin) in double, then rounded
     // to float, so precision is finest where the image needs it and a scene far from the world
@@ -248,7 +256,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
     auto addAreaLight = [&](int areaLight, float area) {
         const AreaLightDesc& al = desc.areaLights[size_t(areaLight)];
         int& entry = emissionEntry[size_t(areaLight)];
-        if (entry < 0) entry = spectra.add(al.radiance, al.scale);
+        if (entry < 0) entry = spectra.add(al.radiance, al.scale, true);
         cbk::Light light{};
         light.kind = CB_LIGHT_AREA;
         light.primitive = -1; // set once the BVH has placed the primitive
@@ -321,9 +329,21 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         cbk::Light light{};
         light.kind = CB_LIGHT_POINT;
         light.primitive = -1;
-        light.emission = spectra.add(pl.intensity, pl.scale);
+        light.emission = spectra.add(pl.intensity, pl.scale, true);
         toDevice(pl.position, light.position);
-        lightPower.push_back(spectra.average(light.emission) * 4.f * float(M_PI));
+        light.spotCosEnd = -2.f;
+        // A unit-intensity point light emits 4 pi; a spot 2 pi (1 - (cosStart + cosEnd) / 2)
+        // (pbrt-v4's SpotLight::Phi).
+        float solidAngle = 4.f * float(M_PI);
+        if (pl.spot) {
+            light.spotCosStart = pl.spotCosStart;
+            light.spotCosEnd = pl.spotCosEnd;
+            for (int a = 0; a < 3; ++a)
+                light.spotAxis[a] = float(pl.spotAxis[size_t(a)]);
+            solidAngle = 2.f * float(M_PI) * (1.f - 0.5f * (pl.spotCosStart + pl.spotCosEnd));
+            scene.features |= CB_FEATURE_SPOT_LIGHT;
+        }
+        lightPower.push_back(spectra.average(light.emission) * solidAngle);
         scene.lights.push_back(light);
         scene.features |= CB_FEATURE_POINT_LIGHT;
     }
@@ -396,6 +416,7 @@ std::string DeviceScene::featureNames() const {
     add(CB_FEATURE_AREA_LIGHT, "area-light");
     add(CB_FEATURE_POINT_LIGHT, "point-light");
     add(CB_FEATURE_SPHERES, "spheres");
+    add(CB_FEATURE_SPOT_LIGHT, "spot-light");
     names += channels == 16 ? " spectral-16" : " rgb";
     return names;
 }

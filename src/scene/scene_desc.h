@@ -61,6 +61,10 @@ struct MaterialDesc {
     SourceLocation where;
 };
 
+// Light emission is the value as written times `scale`, which is pbrt-v4's: the file's "scale"
+// divided by the spectrum's photometric integral for a `spectrum` value (pbrt-v4's
+// SpectrumToPhotometric), times "power" over the unit-scale power where given. An RGB value
+// stands for RGB times the colour space's illuminant at luminance 1 (device_scene.cpp).
 struct AreaLightDesc {
     SpectrumValue radiance = SpectrumValue::constant(1.f); // "L"
     float scale = 1.f;
@@ -91,6 +95,10 @@ struct PointLightDesc {
     std::array<double, 3> position{0.0, 0.0, 0.0};          // world space
     SpectrumValue intensity = SpectrumValue::constant(1.f); // "I"
     float scale = 1.f;
+    // LightSource "spot": intensity falls off from 1 at cos = spotCosStart to 0 at spotCosEnd.
+    bool spot = false;
+    std::array<double, 3> spotAxis{0.0, 0.0, 1.0}; // world space, unit
+    float spotCosStart = 1.f, spotCosEnd = 1.f;
     SourceLocation where;
 };
 
@@ -102,14 +110,34 @@ struct CameraDesc {
     SourceLocation where;
 };
 
+// pbrt-v4's "rgb" film with its "cie1931" sensor (docs/scene-format.md).
 struct FilmDesc {
     int width = 1280; // pbrt-v4 defaults
     int height = 720;
     std::string filename = "pbrt.exr";
+    double iso = 100.0;
+    double whiteBalance = 0.0; // kelvin; 0: no white balance (the cie1931 default)
+    double exposureTime = 1.0; // the camera's shutterclose - shutteropen
+    bool saveFp16 = true;      // pbrt-v4's default: half-float EXR
+    bool saveFp16Given = false;
     // pbrt's pixel bounds x0, x1, y0, y1: only pixels [x0, x1) x [y0, y1) of the film are
     // rendered, into an image of that size (cropWindowPixels in device_scene.h). Absent: the whole
     // film.
     std::optional<std::array<int, 4>> pixelBounds;
+};
+
+// pbrt-v4's Sampler and Integrator lines: cbdpt's defaults for the render (the command line
+// overrides them).
+struct SamplerDesc {
+    std::string type;     // "" when the file has no Sampler
+    int pixelSamples = 0; // 0 when not given
+    SourceLocation where;
+};
+
+struct IntegratorDesc {
+    std::string type;  // "" when the file has no Integrator; else "pt", "bdpt" or "mlt"
+    int maxDepth = -1; // pbrt-v4's "maxdepth" (bounces); -1 when not given
+    SourceLocation where;
 };
 
 struct SceneDesc {
@@ -119,6 +147,9 @@ struct SceneDesc {
     std::vector<std::string> sourceFiles;
     CameraDesc camera;
     FilmDesc film;
+    SamplerDesc sampler;
+    IntegratorDesc integrator;
+    std::vector<std::string> notes; // what was read but not used, each reported once on stderr
     std::vector<MaterialDesc> materials;
     std::vector<AreaLightDesc> areaLights;
     std::vector<TriangleMeshDesc> meshes;
