@@ -239,12 +239,20 @@ def read_exr_attributes(path):
     cbdpt_method, cbdpt_seed, cbdpt_render_cpu_seconds, ...) as a dict."""
     OpenEXR = _openexr()
     try:
+        # Copied while the file is open: closing it empties the bindings' header dict.
         with OpenEXR.File(path, header_only=True) as f:
-            header = f.header()
+            header = dict(f.header())
     except Exception as e:  # the bindings raise plain exceptions for unreadable files
         raise ValueError(f"{path}: not a readable OpenEXR file ({e})") from None
-    return {k: (v.decode() if isinstance(v, bytes) else v) for k, v in header.items()
-            if isinstance(v, (str, bytes, int, float)) and not isinstance(v, bool)}
+    out = {}
+    for name, value in header.items():
+        if isinstance(value, bytes):
+            out[name] = value.decode()
+        elif isinstance(value, (str, int, float)) and not isinstance(value, bool):
+            out[name] = value
+        elif isinstance(value, np.ndarray) and value.size == 1:  # doubles come as 1-arrays
+            out[name] = float(value.reshape(-1)[0])
+    return out
 
 
 def need_matplotlib():
