@@ -18,7 +18,7 @@ __kernel void renderBdpt(CB_SCENE_KERNEL_PARAMS,
                          __global const float* toRgb,
                          Camera camera,
                          BdptSettings settings,
-                         uint seed,
+                         SamplerSettings sampler,
                          uint estimate,
                          __global float* outRgb,
                          volatile __global float* splatRgb,
@@ -35,9 +35,9 @@ __kernel void renderBdpt(CB_SCENE_KERNEL_PARAMS,
     int rays = 0;
     PathVertex light[CB_MAX_LIGHT_VERTICES];
     PathVertex eye[CB_MAX_EYE_VERTICES];
-    int nLight = bdptLightSubpath(&scene, bdptLightStream(seed, estimate, pixel),
+    int nLight = bdptLightSubpath(&scene, bdptLightStream(sampler, estimate, pixel),
                                   settings.lightVertices, light, &rays);
-    SampleStream eyeStream = sampleStreamStart(seed, estimate, pixel);
+    SampleStream eyeStream = samplerStream(sampler, estimate, pixel);
     float rasterX, rasterY;
     cameraJitteredRaster(eyeStream, x, y, &rasterX, &rasterY);
     int nEye = bdptEyeSubpath(&scene, &camera, rasterX, rasterY, true, eyeStream,
@@ -46,9 +46,13 @@ __kernel void renderBdpt(CB_SCENE_KERNEL_PARAMS,
     Spectrum radiance = specZero();
     int nonFinite = 0;
     for (int t = 1; t <= nEye; ++t) {
+        PathVertex nee[1]; /* s = 1's own light point for eye[t-1] */
+        bool haveNee = bdptNeeLightVertex(&scene, eyeStream, eye, t, nee);
         for (int s = 0; s <= nLight; ++s) {
+            if (s == 1 && !haveNee) continue;
             float rx = 0.0f, ry = 0.0f;
-            Spectrum c = bdptConnect(&scene, &camera, light, s, eye, t, settings, &rx, &ry, &rays);
+            Spectrum c = bdptConnect(&scene, &camera, s == 1 ? nee : light, s, eye, t, settings,
+                                     &rx, &ry, &rays);
             if (specIsBlack(c)) continue;
             if (!specIsFinite(c)) {
                 ++nonFinite;

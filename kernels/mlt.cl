@@ -92,9 +92,13 @@ static void mltEvaluate(const SceneView* scene, const Camera* camera, __global c
 
     Spectrum radiance = specZero();
     for (int t = 1; t <= nEye; ++t) {
+        PathVertex nee[1]; /* s = 1's own light point for eye[t-1] */
+        bool haveNee = bdptNeeLightVertex(scene, eyeStream, eye, t, nee);
         for (int s = 0; s <= nLight; ++s) {
+            if (s == 1 && !haveNee) continue;
             float rx = 0.0f, ry = 0.0f;
-            Spectrum c = bdptConnect(scene, camera, light, s, eye, t, settings, &rx, &ry, rays);
+            Spectrum c = bdptConnect(scene, camera, s == 1 ? nee : light, s, eye, t, settings, &rx,
+                                     &ry, rays);
             if (specIsBlack(c)) continue;
             if (!specIsFinite(c)) {
                 *nonFinite += 1;

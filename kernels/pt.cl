@@ -7,7 +7,7 @@ __kernel void renderPathTracing(CB_SCENE_KERNEL_PARAMS,
                                 __global const float* toRgb,
                                 Camera camera,
                                 PathSettings settings,
-                                uint seed,
+                                SamplerSettings sampler,
                                 uint estimate,
                                 int streamTile,
                                 __global float* outRgb,
@@ -18,7 +18,7 @@ __kernel void renderPathTracing(CB_SCENE_KERNEL_PARAMS,
 
     CB_SCENE_VIEW(scene);
 
-    Vec3 rgb = ptPixelRgb(&scene, toRgb, &camera, settings, seed, estimate, streamTile, x, y);
+    Vec3 rgb = ptPixelRgb(&scene, toRgb, &camera, settings, sampler, estimate, streamTile, x, y);
     if (!(isfinite(rgb.x) && isfinite(rgb.y) && isfinite(rgb.z))) {
         atomic_inc(nonFiniteCount);
         rgb = vec3(0.0f, 0.0f, 0.0f);

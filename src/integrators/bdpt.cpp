@@ -45,7 +45,7 @@ class BdptIntegrator final : public Integrator {
         kernel_.setArg(arg++, buffers_.toRgb);
         kernel_.setArg(arg++, scene.camera);
         kernel_.setArg(arg++, bdpt);
-        kernel_.setArg(arg++, settings.seed);
+        kernel_.setArg(arg++, samplerSettings(settings));
         estimateArg_ = arg++;
         kernel_.setArg(estimateArg_, 0u);
         kernel_.setArg(arg++, output_);

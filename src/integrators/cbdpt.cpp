@@ -40,6 +40,7 @@ class CbdptIntegrator final : public Integrator {
         : settings_(settings), scene_(scene), runtime_(runtime), buffers_(runtime, scene) {
         const int k = settings.coherenceTile;
         light_.seed = settings.seed;
+        light_.sampler = samplerSettings(settings).kind;
         light_.eyeVertices = settings.eyeVertices;
         light_.lightVertices = settings.lightVertices;
         light_.weights = bdptSettingsFor(settings).weights;
@@ -75,7 +76,7 @@ class CbdptIntegrator final : public Integrator {
         kernel_.setArg(arg++, buffers_.toRgb);
         kernel_.setArg(arg++, scene.camera);
         kernel_.setArg(arg++, bdpt);
-        kernel_.setArg(arg++, settings.seed);
+        kernel_.setArg(arg++, samplerSettings(settings));
         estimateArg_ = arg++;
         kernel_.setArg(estimateArg_, 0u);
         kernel_.setArg(arg++, k);

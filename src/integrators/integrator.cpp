@@ -5,6 +5,19 @@
 
 namespace cb {
 
+cbk::SamplerSettings samplerSettings(const IntegratorSettings& settings) {
+    cbk::SamplerSettings sampler{};
+    sampler.seed = settings.seed;
+    if (settings.sampler == "independent")
+        sampler.kind = CB_SAMPLER_INDEPENDENT;
+    else if (settings.sampler == "sobol")
+        sampler.kind = CB_SAMPLER_SOBOL;
+    else
+        throw std::invalid_argument(
+            fmt::format("unknown --sampler '{}' (independent or sobol)", settings.sampler));
+    return sampler;
+}
+
 std::unique_ptr<Integrator> makeIntegrator(const IntegratorSettings& settings,
                                            const DeviceScene& scene, ClRuntime& runtime) {
     (void)scene;
@@ -27,6 +40,10 @@ std::unique_ptr<Integrator> makeIntegrator(const IntegratorSettings& settings,
     if (settings.weights != "power" && settings.weights != "lafortune")
         throw std::invalid_argument(
             fmt::format("unknown --weights '{}' (power or lafortune)", settings.weights));
+    (void)samplerSettings(settings); // validates the name
+    if (settings.name == "mlt" && settings.sampler != "independent")
+        throw std::invalid_argument(
+            "--sampler sobol does not apply to mlt: its Markov chains choose the samples");
     if (settings.name == "pt" || settings.name == "cpt")
         return makePathTracingIntegrator(settings, scene, runtime);
     // The bidirectional methods keep whole subpaths in each work-item's private memory.
@@ -39,8 +56,8 @@ std::unique_ptr<Integrator> makeIntegrator(const IntegratorSettings& settings,
     if (settings.name == "bdpt") return makeBdptIntegrator(settings, scene, runtime);
     if (settings.name == "cbdpt") return makeCbdptIntegrator(settings, scene, runtime);
     if (settings.name == "mlt") return makeMltIntegrator(settings, scene, runtime);
-    throw std::invalid_argument(
-        fmt::format("unknown integrator '{}' (available: pt, cpt, bdpt, cbdpt, mlt)", settings.name));
+    throw std::invalid_argument(fmt::format(
+        "unknown integrator '{}' (available: pt, cpt, bdpt, cbdpt, mlt)", settings.name));
 }
 
 } // namespace cb

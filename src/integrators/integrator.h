@@ -5,6 +5,8 @@
 #include "cl/cl_runtime.h"
 #include "scene/device_scene.h"
 
+#include "cb_rng.h"
+
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -13,16 +15,18 @@
 namespace cb {
 
 struct IntegratorSettings {
-    std::string name = "pt";  // pt | cpt | bdpt | cbdpt | mlt
-    int eyeVertices = 8;      // Ne, the camera included (thesis convention)
-    int lightVertices = 4;    // Nl, the point on the light included (bidirectional methods)
+    std::string name = "pt";       // pt | cpt | bdpt | cbdpt | mlt
+    int eyeVertices = 8;           // Ne, the camera included (thesis convention)
+    int lightVertices = 4;         // Nl, the point on the light included (bidirectional methods)
     std::string weights = "power"; // bidirectional MIS: power | lafortune
-    int debugS = -1;          // >= 0 with debugT: render only strategy (s, t), unweighted
+    int debugS = -1;               // >= 0 with debugT: render only strategy (s, t), unweighted
     int debugT = -1;
-    int rouletteVertex = 3;   // Russian roulette from this vertex on; 0 disables it
+    int rouletteVertex = 3; // Russian roulette from this vertex on; 0 disables it
     std::uint32_t seed = 0;
-    int coherenceTile = 1;    // cpt, cbdpt: k x k distinct sample vectors per estimate
-    int tileSize = 8;         // pixel tile (work-group) edge
+    // independent | sobol: the sample vectors' sampler (cb_rng.h, docs/sampling.md)
+    std::string sampler = "independent";
+    int coherenceTile = 1; // cpt, cbdpt: k x k distinct sample vectors per estimate
+    int tileSize = 8;      // pixel tile (work-group) edge
     // mlt (docs/mlt.md): Kelemen et al. 2002 primary-sample-space MLT over BDPT.
     double largeStepProbability = 0.3; // probability that a mutation draws all samples anew
     double mutationSize = 1.0 / 64.0;  // largest perturbation s2 (Kelemen: s1 = s2 / 16)
@@ -40,6 +44,9 @@ class Integrator {
     // Seconds spent building OpenCL programs (not part of render time).
     virtual double buildSeconds() const = 0;
 };
+
+// The kernels' sampler settings: seed and kind (CB_SAMPLER_*), from a validated name.
+cbk::SamplerSettings samplerSettings(const IntegratorSettings& settings);
 
 // Validates the settings against the scene (caps, names) and builds the kernels.
 std::unique_ptr<Integrator> makeIntegrator(const IntegratorSettings& settings,
@@ -62,18 +69,18 @@ std::unique_ptr<Integrator> makeMltIntegrator(const IntegratorSettings& settings
 
 // Chain statistics of an MLT render, over all estimates so far.
 struct MltStatistics {
-    double normalization = 0;       // b: mean luminance of the image, bootstrap + large steps
+    double normalization = 0;          // b: mean luminance of the image, bootstrap + large steps
     double bootstrapNormalization = 0; // b from the bootstrap alone
     double bootstrapStandardError = 0; // of bootstrapNormalization
     long bootstrapSamples = 0;
-    long bootstrapNonZero = 0;      // bootstrap samples with I > 0
+    long bootstrapNonZero = 0; // bootstrap samples with I > 0
     long chains = 0;
-    long mutationsPerChain = 0;     // per estimate
-    long mutations = 0;             // proposals so far
+    long mutationsPerChain = 0; // per estimate
+    long mutations = 0;         // proposals so far
     long accepted = 0;
     long largeSteps = 0;
     long largeStepsAccepted = 0;
-    long zeroProposals = 0;         // proposals with I = 0 (always rejected)
+    long zeroProposals = 0; // proposals with I = 0 (always rejected)
     double acceptanceRate() const { return mutations ? double(accepted) / double(mutations) : 0; }
 };
 

@@ -32,7 +32,7 @@ class PathTracingIntegrator final : public Integrator {
         kernel_.setArg(arg++, buffers_.toRgb);
         kernel_.setArg(arg++, scene.camera);
         kernel_.setArg(arg++, path);
-        kernel_.setArg(arg++, settings.seed);
+        kernel_.setArg(arg++, samplerSettings(settings));
         estimateArg_ = arg++;
         kernel_.setArg(estimateArg_, 0u);
         int streamTile = settings.name == "cpt" ? settings.coherenceTile : 0;
