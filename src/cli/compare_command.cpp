@@ -1,0 +1,102 @@
+// `cbdpt compare IMAGE REFERENCE`: error metrics of an EXR against a reference EXR.
+#include "cli/cli_format.h"
+#include "cli/commands.h"
+#include "image/image.h"
+#include "image/metrics.h"
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <stdexcept>
+
+namespace cb::cli {
+
+namespace {
+
+struct CompareOptions {
+    std::string image;
+    std::string reference;
+    std::string diffPng;
+    double diffScale = 1.0;
+    bool json = false;
+};
+
+void printCompareJson(const CompareOptions& o, const cb::RgbImage& image, const cb::ImageMetrics& m,
+                      double imageSe, double referenceSe) {
+    nlohmann::json j = {{"image", o.image},
+                        {"reference", o.reference},
+                        {"width", image.width},
+                        {"height", image.height},
+                        {"rmse", jsonNumber(m.rmse)},
+                        {"rel_mse", jsonNumber(m.relMse)},
+                        {"rel_mse_epsilon", cb::kRelMseEpsilon},
+                        {"mae", jsonNumber(m.mae)},
+                        {"image_mean", jsonNumber(cb::meanValue(image))},
+                        {"reference_mean", jsonNumber(m.referenceMean)},
+                        {"mean_stderr", jsonNumber(imageSe)},
+                        {"reference_rms_stderr", jsonNumber(referenceSe)}};
+    fmt::print("{}\n", j.dump(2));
+}
+
+void printCompareText(const CompareOptions& o, const cb::RgbImage& image, const cb::ImageMetrics& m,
+                      double imageSe, double referenceSe) {
+    auto optional = [](double v) { return std::isfinite(v) ? fmt::format("{:.6g}", v) : "n/a"; };
+    fmt::print("image           {} ({}x{})\n", o.image, image.width, image.height);
+    fmt::print("reference       {}\n", o.reference);
+    fmt::print("rmse            {:.6g}\n", m.rmse);
+    fmt::print("rel_mse         {:.6g}  (mean (x-ref)^2/(ref^2+{}))\n", m.relMse,
+               cb::kRelMseEpsilon);
+    fmt::print("mae             {:.6g}\n", m.mae);
+    fmt::print("image mean      {:.6g}\n", cb::meanValue(image));
+    fmt::print("reference mean  {:.6g}\n", m.referenceMean);
+    fmt::print("mean stderr     {}  (image's stderr layer)\n", optional(imageSe));
+    fmt::print("ref rms stderr  {}  (reference's stderr layer: the RMSE floor)\n",
+               optional(referenceSe));
+    if (!o.diffPng.empty()) fmt::print("wrote           {}\n", o.diffPng);
+}
+
+int runCompare(const CompareOptions& o) {
+    cb::RgbImage image = cb::readExr(o.image);
+    cb::RgbImage reference = cb::readExr(o.reference);
+    cb::requireSameSize(image, reference,
+                        fmt::format("{} ({}x{})", o.image, image.width, image.height),
+                        fmt::format("{} ({}x{})", o.reference, reference.width, reference.height));
+    if (!(o.diffScale > 0.0) || !std::isfinite(o.diffScale))
+        throw std::invalid_argument("--diff-scale must be a positive number");
+    cb::ImageMetrics m = cb::compareImages(image, reference);
+    double imageSe = std::numeric_limits<double>::quiet_NaN();
+    double referenceSe = imageSe;
+    cb::RgbImage se;
+    if (cb::readExrStandardError(o.image, se)) imageSe = cb::meanOf(se.rgb);
+    if (cb::readExrStandardError(o.reference, se)) referenceSe = cb::rootMeanSquareOf(se.rgb);
+    if (!o.diffPng.empty())
+        cb::writePng8(o.diffPng, image.width, image.height,
+                      cb::relativeErrorColourMap(image, reference, o.diffScale));
+    if (o.json)
+        printCompareJson(o, image, m, imageSe, referenceSe);
+    else
+        printCompareText(o, image, m, imageSe, referenceSe);
+    return 0;
+}
+
+} // namespace
+
+Command addCompareCommand(CLI::App& app) {
+    auto o = std::make_shared<CompareOptions>();
+    auto* cmd = app.add_subcommand(
+        "compare", "error metrics of an EXR against a reference EXR (the second file)");
+    cmd->add_option("image", o->image, "EXR to evaluate")->required();
+    cmd->add_option("reference", o->reference, "reference EXR")->required();
+    cmd->add_option("--diff-png", o->diffPng,
+                    "write a signed relative luminance error map (blue: too dark, white: "
+                    "exact, red: too bright)");
+    cmd->add_option("--diff-scale", o->diffScale,
+                    "relative error at which the map saturates (default 1)");
+    cmd->add_flag("--json", o->json, "print the metrics as JSON");
+    return {cmd, [o] { return runCompare(*o); }};
+}
+
+} // namespace cb::cli

@@ -1,0 +1,74 @@
+// `cbdpt info [SCENE]`: the OpenCL devices, and a scene's statistics and kernel features.
+#include "cl/cl_runtime.h"
+#include "cli/commands.h"
+#include "scene/device_scene.h"
+#include "scene/scene_desc.h"
+
+#include <fmt/format.h>
+
+#include <memory>
+#include <string>
+
+namespace cb::cli {
+
+namespace {
+
+struct InfoOptions {
+    std::string scene;
+    std::string device;
+};
+
+void printDevices() {
+    auto devices = cb::listClDevices();
+    fmt::print("OpenCL devices (select with --device P:D or CBDPT_DEVICE=P:D):\n");
+    for (const auto& d : devices)
+        fmt::print("  {}:{}  {} | {} | {} | {} compute units, {:.1f} GiB\n", d.platformIndex,
+                   d.deviceIndex, d.platformName, d.deviceName, d.deviceVersion, d.computeUnits,
+                   double(d.globalMemoryBytes) / (1024.0 * 1024.0 * 1024.0));
+}
+
+void printScene(const std::string& scenePath) {
+    cb::SceneDesc desc = cb::parseSceneFile(scenePath);
+    cb::DeviceScene scene = cb::buildDeviceScene(desc);
+    fmt::print("\nscene {}\n", scenePath);
+    fmt::print("  triangles        {}\n", scene.triangleCount);
+    fmt::print("  vertices         {}\n", scene.vertexCount);
+    fmt::print("  spheres          {}\n", scene.sphereCount);
+    fmt::print("  lights           {} ({} area-light primitives, {} point lights)\n",
+               scene.lights.size(), scene.lights.size() - desc.pointLights.size(),
+               desc.pointLights.size());
+    fmt::print("  materials        {}\n", scene.materials.size());
+    fmt::print("  bounding box     ({:.4g}, {:.4g}, {:.4g}) - ({:.4g}, {:.4g}, {:.4g})\n",
+               scene.boundsMin[0], scene.boundsMin[1], scene.boundsMin[2], scene.boundsMax[0],
+               scene.boundsMax[1], scene.boundsMax[2]);
+    fmt::print("  BVH              {} nodes, depth {}; wide: {} nodes, {} leaf packs\n",
+               scene.bvh.nodes.size(), scene.bvh.depth, scene.wide.nodes.size(),
+               scene.wide.packs.size());
+    fmt::print("  BVH settings     {}\n", scene.wideSettingsWhy);
+    fmt::print("  film             {}x{}\n", scene.camera.width, scene.camera.height);
+    fmt::print("  kernel features  {}\n", scene.featureNames());
+    std::string defines;
+    for (const auto& d : scene.kernelDefines())
+        defines += " -D" + d;
+    fmt::print("  kernel defines  {}\n", defines);
+    if (desc.droppedDegenerateTriangles)
+        fmt::print("  dropped          {} degenerate triangles\n", desc.droppedDegenerateTriangles);
+}
+
+int runInfo(const InfoOptions& o) {
+    printDevices();
+    if (!o.scene.empty()) printScene(o.scene);
+    return 0;
+}
+
+} // namespace
+
+Command addInfoCommand(CLI::App& app) {
+    auto o = std::make_shared<InfoOptions>();
+    auto* cmd = app.add_subcommand("info", "list OpenCL devices; describe a scene");
+    cmd->add_option("scene", o->scene, "scene file");
+    cmd->add_option("--device", o->device, "OpenCL device P:D");
+    return {cmd, [o] { return runInfo(*o); }};
+}
+
+} // namespace cb::cli

@@ -1,0 +1,518 @@
+// `cbdpt render SCENE [options]`: renders estimates to an EXR (mean and standard error) and a
+// PNG preview, with checkpoints, logs, statistics and interruption (Ctrl-C, --resume).
+#include "cl/cl_runtime.h"
+#include "cli/checkpoint_log.h"
+#include "cli/cli_format.h"
+#include "cli/commands.h"
+#include "cli/progress_bar.h"
+#include "image/image.h"
+#include "image/metrics.h"
+#include "image/render_state.h"
+#include "integrators/render.h"
+#include "scene/device_scene.h"
+#include "scene/scene_desc.h"
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <limits>
+#include <memory>
+#include <optional>
+#include <sstream>
+#include <stdexcept>
+
+namespace cb::cli {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double secondsSince(Clock::time_point start) {
+    return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+std::atomic<bool> gStopRequested{false};
+
+extern "C" void onStopSignal(int) {
+    gStopRequested.store(true);
+    // A second Ctrl-C ends the program at once.
+    std::signal(SIGINT, SIG_DFL);
+    std::signal(SIGTERM, SIG_DFL);
+}
+
+cb::ChannelMode parseChannels(const std::string& s) {
+    if (s == "auto") return cb::ChannelMode::Auto;
+    if (s == "rgb") return cb::ChannelMode::Rgb;
+    if (s == "spectral") return cb::ChannelMode::Spectral;
+    throw std::invalid_argument("--channels must be auto, rgb or spectral");
+}
+
+struct RenderOptions {
+    std::string scene;
+    std::string output;
+    std::string png;
+    std::string statsPath;
+    std::string channels = "auto";
+    std::string device;
+    long spp = 16;
+    double seconds = 0.0;
+    int width = 0;
+    int height = 0;
+    bool noRoulette = false;
+    bool sppGiven = false;
+    bool resume = false;
+    bool keepState = false;
+    std::string strategy;
+    bool quiet = false;
+    bool noWarmup = false;
+    cb::IntegratorSettings integrator;
+    // Error against time: checkpoints, a reference and a log.
+    std::string checkpoints;
+    double checkpointEvery = 0.0;
+    std::string reference;
+    std::string logPath;
+    std::string checkpointImages;
+};
+
+// One render, in the order its steps run: everything that can be checked is checked before the
+// scene is built and the kernels compiled; the images and statistics are written at the end.
+class RenderJob {
+  public:
+    explicit RenderJob(RenderOptions& options) : o_(options) {}
+    int run();
+
+  private:
+    void readSceneDescription();
+    void readCheckpointRequests();
+    void readReference();
+    void buildScene();
+    void applyPathOptions();
+    void chooseOutputPaths();
+    void startIntegrator();
+    void startAccumulator();
+    cb::RenderLimits renderLimits() const;
+    void warmUp();
+    void openLog();
+    void onCheckpoint(const cb::Checkpoint& c);
+    cb::RenderOutcome renderWithProgress(const cb::RenderLimits& limits);
+    int finish(const cb::RenderOutcome& outcome);
+    void writeImages(const cb::RenderOutcome& outcome);
+    nlohmann::json statistics(const cb::RenderOutcome& outcome) const;
+
+    RenderOptions& o_;
+    Clock::time_point start_ = Clock::now();
+    cb::SceneDesc desc_;
+    cb::CheckpointSchedule schedule_;
+    std::optional<cb::RgbImage> reference_;
+    double referenceRmsError_ = std::numeric_limits<double>::quiet_NaN();
+    bool wantCheckpoints_ = false;
+    cb::DeviceScene scene_;
+    double loadSeconds_ = 0.0;
+    std::string output_;
+    std::string png_;
+    std::optional<cb::ClRuntime> runtime_;
+    std::unique_ptr<cb::Integrator> integrator_;
+    std::optional<cb::EstimateAccumulator> accumulator_;
+    std::string stateSettings_;
+    std::string statePath_;
+    double warmupSeconds_ = 0.0;
+    std::optional<CheckpointLog> log_;
+    double checkpointSeconds_ = 0.0;
+    cb::RgbImage mean_;
+    cb::RgbImage error_;
+};
+
+int RenderJob::run() {
+    readSceneDescription();
+    readCheckpointRequests();
+    readReference();
+    buildScene();
+    applyPathOptions();
+    chooseOutputPaths();
+    startIntegrator();
+    startAccumulator();
+    const cb::RenderLimits limits = renderLimits();
+    warmUp();
+    openLog();
+    return finish(renderWithProgress(limits));
+}
+
+void RenderJob::readSceneDescription() {
+    desc_ = cb::parseSceneFile(o_.scene);
+    if (o_.width > 0) desc_.film.width = o_.width;
+    if (o_.height > 0) desc_.film.height = o_.height;
+    // Refuse absurd requests before any allocation.
+    const long long pixels = (long long)desc_.film.width * desc_.film.height;
+    if (desc_.film.width <= 0 || desc_.film.height <= 0 || desc_.film.width > 32768 ||
+        desc_.film.height > 32768 || pixels > (1LL << 28))
+        throw std::invalid_argument(fmt::format(
+            "resolution {}x{} is outside what cbdpt renders (each side 1..32768, at most 2^28 "
+            "pixels)",
+            desc_.film.width, desc_.film.height));
+}
+
+// Checkpoint requests are checked before the scene is built or kernels compiled.
+void RenderJob::readCheckpointRequests() {
+    if (!o_.checkpoints.empty()) schedule_.estimates = cb::parseCheckpointList(o_.checkpoints);
+    if (o_.checkpointEvery < 0.0 || !std::isfinite(o_.checkpointEvery))
+        throw std::invalid_argument("--checkpoint-every must be a positive number of seconds");
+    schedule_.everySeconds = o_.checkpointEvery;
+    // --checkpoints alone renders up to the last checkpoint.
+    if (!schedule_.estimates.empty() && !o_.sppGiven && o_.seconds <= 0.0) {
+        o_.spp = schedule_.estimates.back();
+        o_.sppGiven = true;
+    }
+}
+
+// The reference image (--reference), the log's name (--log) and the checkpoint image folder.
+void RenderJob::readReference() {
+    if (!o_.reference.empty()) {
+        reference_ = cb::readExr(o_.reference);
+        if (reference_->width != desc_.film.width || reference_->height != desc_.film.height)
+            throw std::invalid_argument(fmt::format(
+                "--reference {} is {}x{} but the render is {}x{} (set --width/--height to match)",
+                o_.reference, reference_->width, reference_->height, desc_.film.width,
+                desc_.film.height));
+        cb::RgbImage referenceError;
+        if (cb::readExrStandardError(o_.reference, referenceError))
+            referenceRmsError_ = cb::rootMeanSquareOf(referenceError.rgb);
+    }
+    if (!o_.logPath.empty()) {
+        const auto ext = std::filesystem::path(o_.logPath).extension();
+        if (ext != ".csv" && ext != ".json")
+            throw std::invalid_argument(
+                fmt::format("--log '{}' must end in .csv or .json", o_.logPath));
+    }
+    wantCheckpoints_ = !schedule_.empty() || !o_.logPath.empty() || !o_.checkpointImages.empty();
+    if (!o_.checkpointImages.empty()) std::filesystem::create_directories(o_.checkpointImages);
+}
+
+void RenderJob::buildScene() {
+    scene_ = cb::buildDeviceScene(desc_, parseChannels(o_.channels));
+    loadSeconds_ = secondsSince(start_);
+}
+
+// --no-rr and --strategy S,T.
+void RenderJob::applyPathOptions() {
+    if (o_.noRoulette) o_.integrator.rouletteVertex = 0;
+    if (o_.strategy.empty()) return;
+    char comma = 0;
+    std::istringstream in(o_.strategy);
+    if (!(in >> o_.integrator.debugS >> comma >> o_.integrator.debugT) || comma != ',' ||
+        o_.integrator.debugS < 0 || o_.integrator.debugT < 1)
+        throw std::invalid_argument(fmt::format(
+            "--strategy '{}' must be S,T with S >= 0 light vertices and T >= 1 eye vertices",
+            o_.strategy));
+}
+
+void RenderJob::chooseOutputPaths() {
+    output_ = o_.output.empty() ? std::filesystem::path(desc_.film.filename).filename().string()
+                                : o_.output;
+    if (std::filesystem::path(output_).extension() != ".exr")
+        throw std::invalid_argument(fmt::format("output '{}' must end in .exr", output_));
+    png_ =
+        o_.png.empty() ? std::filesystem::path(output_).replace_extension(".png").string() : o_.png;
+    statePath_ = cb::renderStatePath(output_);
+}
+
+void RenderJob::startIntegrator() {
+    runtime_.emplace(o_.device);
+    integrator_ = cb::makeIntegrator(o_.integrator, scene_, *runtime_);
+    if (!o_.quiet)
+        fmt::print(stderr, "cbdpt: {} on {} | {}x{} {} | {} | Ne={} | kernel build {:.2f}s\n",
+                   o_.integrator.name, runtime_->info().deviceName, scene_.camera.width,
+                   scene_.camera.height, scene_.channels == 16 ? "spectral-16" : "rgb", o_.scene,
+                   o_.integrator.eyeVertices, integrator_->buildSeconds());
+}
+
+// Ctrl-C handling, the accumulator, and what it holds already when resuming.
+void RenderJob::startAccumulator() {
+    std::signal(SIGINT, onStopSignal);
+    std::signal(SIGTERM, onStopSignal);
+    accumulator_.emplace(scene_.camera.width, scene_.camera.height);
+    // Everything that decides the estimates' values: a resumed render must match it exactly.
+    stateSettings_ =
+        nlohmann::json{{"scene", std::filesystem::absolute(o_.scene).lexically_normal().string()},
+                       {"integrator", o_.integrator.name},
+                       {"eye_vertices", o_.integrator.eyeVertices},
+                       {"light_vertices", o_.integrator.lightVertices},
+                       {"weights", o_.integrator.weights},
+                       {"strategy", o_.strategy},
+                       {"roulette_vertex", o_.integrator.rouletteVertex},
+                       {"coherence_tile", o_.integrator.coherenceTile},
+                       {"seed", o_.integrator.seed},
+                       {"channels", scene_.channels},
+                       {"width", scene_.camera.width},
+                       {"height", scene_.camera.height}}
+            .dump();
+    if (!o_.resume) return;
+    if (o_.integrator.name == "mlt")
+        throw std::invalid_argument("--resume is not supported for mlt: its Markov chains "
+                                    "are not saved");
+    cb::loadRenderState(statePath_, stateSettings_, *accumulator_);
+    if (!o_.quiet)
+        fmt::print(stderr, "cbdpt: resuming from {} estimates ({})\n", accumulator_->estimates(),
+                   statePath_);
+}
+
+cb::RenderLimits RenderJob::renderLimits() const {
+    cb::RenderLimits limits;
+    // --time alone renders until the time is up; with --spp too, whichever comes first.
+    limits.estimates = o_.seconds > 0.0 && !o_.sppGiven ? 0 : o_.spp;
+    if (limits.estimates < 0 || limits.estimates > (1L << 40))
+        throw std::invalid_argument(fmt::format("--spp {} is out of range", o_.spp));
+    limits.seconds = o_.seconds;
+    if (!schedule_.estimates.empty() && limits.estimates > 0 &&
+        schedule_.estimates.back() > limits.estimates && !o_.quiet)
+        fmt::print(stderr, "cbdpt: warning: checkpoints past --spp {} will not be reached\n",
+                   limits.estimates);
+    return limits;
+}
+
+// PoCL compiles a kernel for its work-group size at the first launch, not at clBuildProgram, so
+// on a cold kernel cache the first estimate can take seconds. Error-against-time logs would
+// charge that to the method; one discarded estimate before the clock starts keeps it out (for
+// stateful methods such as MLT it is extra burn-in).
+void RenderJob::warmUp() {
+    if (!wantCheckpoints_ || o_.noWarmup) return;
+    const auto before = Clock::now();
+    std::vector<float> discarded;
+    integrator_->renderEstimate(std::uint32_t(accumulator_->estimates()), discarded);
+    warmupSeconds_ = secondsSince(before);
+}
+
+void RenderJob::openLog() {
+    if (o_.logPath.empty()) return;
+    log_.emplace(
+        o_.logPath,
+        nlohmann::json{
+            {"scene", o_.scene},
+            {"integrator", o_.integrator.name},
+            {"eye_vertices", o_.integrator.eyeVertices},
+            {"light_vertices", o_.integrator.lightVertices},
+            {"weights", o_.integrator.weights},
+            {"coherence_tile", o_.integrator.coherenceTile},
+            {"seed", o_.integrator.seed},
+            {"width", scene_.camera.width},
+            {"height", scene_.camera.height},
+            {"channels", scene_.channels},
+            {"device", runtime_->info().deviceName},
+            {"scene_load_seconds", loadSeconds_},
+            {"kernel_build_seconds", integrator_->buildSeconds()},
+            {"warmup_seconds", warmupSeconds_},
+            {"reference", o_.reference},
+            {"reference_rms_stderr", jsonNumber(referenceRmsError_)},
+            {"rel_mse_epsilon", cb::kRelMseEpsilon},
+            {"seconds_note", "render wall seconds: estimates only, scene load, "
+                             "kernel build, warm-up estimate and checkpoint evaluation excluded"},
+        });
+}
+
+// Noise, error against the reference and checkpoint images; its time is reported apart.
+void RenderJob::onCheckpoint(const cb::Checkpoint& c) {
+    const auto before = Clock::now();
+    cb::NoiseEstimate noise = cb::estimateNoise(*accumulator_);
+    cb::ImageMetrics metrics;
+    if (reference_ || !o_.checkpointImages.empty()) {
+        cb::RgbImage mean = accumulator_->mean();
+        if (reference_) metrics = cb::compareImages(mean, *reference_);
+        if (!o_.checkpointImages.empty()) {
+            cb::RgbImage error = accumulator_->standardError();
+            auto name = fmt::format("{}-{:08d}.exr", std::filesystem::path(output_).stem().string(),
+                                    c.estimates);
+            cb::writeExr((std::filesystem::path(o_.checkpointImages) / name).string(), mean,
+                         &error);
+        }
+    }
+    checkpointSeconds_ += secondsSince(before);
+    if (log_)
+        log_->add({double(c.estimates), c.renderSeconds, metrics.rmse, metrics.relMse, metrics.mae,
+                   noise.meanStandardError, noise.rmsStandardError, noise.imageMean,
+                   checkpointSeconds_, c.renderCpuSeconds});
+}
+
+cb::RenderOutcome RenderJob::renderWithProgress(const cb::RenderLimits& limits) {
+    ProgressBar bar(!o_.quiet);
+    auto outcome = cb::renderEstimates(
+        *integrator_, *accumulator_, limits, gStopRequested,
+        [&](const cb::RenderProgress& p) { bar.update(p); }, schedule_,
+        wantCheckpoints_ ? std::function<void(const cb::Checkpoint&)>(
+                               [this](const cb::Checkpoint& c) { onCheckpoint(c); })
+                         : nullptr);
+    bar.finish();
+    return outcome;
+}
+
+int RenderJob::finish(const cb::RenderOutcome& outcome) {
+    if (outcome.interrupted)
+        fmt::print(stderr, "cbdpt: interrupted; writing the {} estimates done\n",
+                   accumulator_->estimates());
+    if (outcome.nonFiniteSamples > 0)
+        fmt::print(stderr, "cbdpt: warning: {} samples were NaN or infinite and were dropped\n",
+                   outcome.nonFiniteSamples);
+    if (accumulator_->estimates() == 0) {
+        fmt::print(stderr, "cbdpt: no estimate finished; nothing written\n");
+        return 130;
+    }
+    writeImages(outcome);
+    if (!o_.statsPath.empty())
+        cb::writeFileAtomically(o_.statsPath, statistics(outcome).dump(2) + "\n");
+    if (!o_.quiet)
+        fmt::print(stderr, "cbdpt: {} estimates in {} ({:.3f} s/estimate); wrote {} and {}\n",
+                   accumulator_->estimates(), formatSeconds(outcome.renderSeconds),
+                   outcome.renderSeconds / double(accumulator_->estimates()), output_, png_);
+    return outcome.interrupted ? 130 : 0;
+}
+
+void RenderJob::writeImages(const cb::RenderOutcome& outcome) {
+    mean_ = accumulator_->mean();
+    error_ = accumulator_->standardError();
+    cb::writeExr(output_, mean_, &error_);
+    cb::writePng(png_, mean_);
+    // An interrupted render leaves its exact sums beside the EXR for --resume; a finished one
+    // removes them (unless asked to keep them, to extend the render later).
+    if (outcome.interrupted || o_.keepState) {
+        cb::saveRenderState(statePath_, stateSettings_, *accumulator_);
+        if (outcome.interrupted && !o_.quiet)
+            fmt::print(stderr, "cbdpt: continue with the same command plus --resume\n");
+    } else {
+        std::error_code ignored;
+        std::filesystem::remove(statePath_, ignored);
+    }
+}
+
+// The --stats JSON.
+nlohmann::json RenderJob::statistics(const cb::RenderOutcome& outcome) const {
+    double meanError = 0.0;
+    for (float e : error_.rgb)
+        meanError += e;
+    meanError /= double(std::max<size_t>(1, error_.rgb.size()));
+    nlohmann::json stats = {
+        {"scene", o_.scene},
+        {"integrator", o_.integrator.name},
+        {"eye_vertices", o_.integrator.eyeVertices},
+        {"light_vertices", o_.integrator.lightVertices},
+        {"weights", o_.integrator.weights},
+        {"coherence_tile", o_.integrator.coherenceTile},
+        {"seed", o_.integrator.seed},
+        {"width", scene_.camera.width},
+        {"height", scene_.camera.height},
+        {"channels", scene_.channels},
+        {"estimates", accumulator_->estimates()},
+        {"render_seconds", outcome.renderSeconds},
+        {"render_cpu_seconds", outcome.renderCpuSeconds},
+        {"estimates_rendered", outcome.estimatesRendered},
+        {"first_estimate_seconds", outcome.firstEstimateSeconds},
+        {"seconds_per_estimate", outcome.secondsPerEstimate()},
+        {"kernel_build_seconds", integrator_->buildSeconds()},
+        {"scene_load_seconds", loadSeconds_},
+        {"non_finite_samples", outcome.nonFiniteSamples},
+        {"mean_standard_error", meanError},
+        {"interrupted", outcome.interrupted},
+        {"device", runtime_->info().deviceName},
+    };
+    if (const cb::MltStatistics* mlt = cb::mltStatistics(*integrator_)) {
+        stats["mlt"] = {{"normalization", mlt->normalization},
+                        {"bootstrap_normalization", mlt->bootstrapNormalization},
+                        {"bootstrap_standard_error", mlt->bootstrapStandardError},
+                        {"bootstrap_samples", mlt->bootstrapSamples},
+                        {"chains", mlt->chains},
+                        {"mutations_per_chain", mlt->mutationsPerChain},
+                        {"mutations", mlt->mutations},
+                        {"accepted", mlt->accepted},
+                        {"acceptance_rate", mlt->acceptanceRate()},
+                        {"large_steps", mlt->largeSteps},
+                        {"large_steps_accepted", mlt->largeStepsAccepted},
+                        {"zero_proposals", mlt->zeroProposals}};
+    }
+    if (wantCheckpoints_) {
+        stats["checkpoint_seconds"] = checkpointSeconds_;
+        stats["warmup_seconds"] = warmupSeconds_;
+    }
+    if (reference_) {
+        cb::ImageMetrics m = cb::compareImages(mean_, *reference_);
+        stats["reference"] = o_.reference;
+        stats["rmse"] = jsonNumber(m.rmse);
+        stats["rel_mse"] = jsonNumber(m.relMse);
+        stats["mae"] = jsonNumber(m.mae);
+    }
+    return stats;
+}
+
+// The options, in the order --help lists them.
+void addRenderOptions(CLI::App& cmd, RenderOptions& o) {
+    cmd.add_option("scene", o.scene, "scene file (pbrt-v4 subset)")->required();
+    cmd.add_option("-o,--output", o.output, "EXR output (default: the Film filename)");
+    cmd.add_option("--png", o.png, "PNG preview (default: output with .png)");
+    cmd.add_option("--integrator", o.integrator.name, "pt | cpt | bdpt | cbdpt | mlt");
+    cmd.add_option("--spp", o.spp, "estimates (samples per pixel)");
+    cmd.add_option("--time", o.seconds, "render for this many seconds");
+    cmd.add_option("--eye-vertices", o.integrator.eyeVertices,
+                   "Ne: path vertices, the camera included");
+    cmd.add_option("--light-vertices", o.integrator.lightVertices,
+                   "Nl: light subpath vertices, the point on the light included");
+    cmd.add_option("--weights", o.integrator.weights,
+                   "bidirectional MIS weights: power | lafortune");
+    cmd.add_option("--strategy", o.strategy,
+                   "debug: render only strategy S,T unweighted (e.g. 2,3)");
+    cmd.add_option("--rr-vertex", o.integrator.rouletteVertex,
+                   "Russian roulette from this vertex on (0: off)");
+    cmd.add_flag("--no-rr", o.noRoulette, "disable Russian roulette");
+    cmd.add_option("--seed", o.integrator.seed, "random seed");
+    cmd.add_option("--coherence-tile", o.integrator.coherenceTile,
+                   "cpt, cbdpt: k x k sample vectors per estimate (1: full coherence)");
+    cmd.add_option("--large-step", o.integrator.largeStepProbability,
+                   "mlt: probability of a large step (all samples new)");
+    cmd.add_option("--mutation-size", o.integrator.mutationSize,
+                   "mlt: largest small-step perturbation s2 (s1 = s2/16)");
+    cmd.add_option("--chains", o.integrator.mltChains,
+                   "mlt: Markov chains (work-items); 0: pixels / 16");
+    cmd.add_option("--bootstrap", o.integrator.mltBootstrap,
+                   "mlt: bootstrap samples for the normalisation; 0: automatic");
+    cmd.add_option("--tile", o.integrator.tileSize, "pixel tile (work-group) edge");
+    cmd.add_option("--channels", o.channels, "auto | rgb | spectral");
+    cmd.add_option("--width", o.width, "override the film width");
+    cmd.add_option("--height", o.height, "override the film height");
+    cmd.add_option("--device", o.device, "OpenCL device P:D (default: CBDPT_DEVICE or 0:0)");
+    cmd.add_option("--stats", o.statsPath, "write render statistics as JSON");
+    cmd.add_flag("-q,--quiet", o.quiet, "no progress output");
+    cmd.add_option("--checkpoints", o.checkpoints,
+                   "evaluate at these estimate counts, e.g. 1,2,4,8 (renders up to the "
+                   "last unless --spp/--time say otherwise)");
+    cmd.add_option("--checkpoint-every", o.checkpointEvery,
+                   "evaluate every this many seconds of render time");
+    cmd.add_option("--reference", o.reference,
+                   "reference EXR: log RMSE, relative MSE and MAE at each checkpoint");
+    cmd.add_option("--log", o.logPath,
+                   "checkpoint log, CSV or JSON by extension (a final row is always "
+                   "written)");
+    cmd.add_flag("--resume", o.resume,
+                 "continue an interrupted render from OUTPUT.exr.state (same settings; "
+                 "--spp is the total)");
+    cmd.add_flag("--keep-state", o.keepState,
+                 "also save OUTPUT.exr.state when the render finishes");
+    cmd.add_flag("--no-warmup", o.noWarmup,
+                 "with checkpoints or --log: skip the discarded warm-up estimate");
+    cmd.add_option("--checkpoint-images", o.checkpointImages,
+                   "folder for the EXR image at each checkpoint");
+}
+
+} // namespace
+
+Command addRenderCommand(CLI::App& app) {
+    auto o = std::make_shared<RenderOptions>();
+    auto* cmd = app.add_subcommand("render", "render a scene to EXR and PNG");
+    addRenderOptions(*cmd, *o);
+    return {cmd, [o, cmd] {
+                o->sppGiven = cmd->count("--spp") > 0;
+                return RenderJob(*o).run();
+            }};
+}
+
+} // namespace cb::cli
