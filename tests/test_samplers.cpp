@@ -158,7 +158,8 @@ TEST_CASE("Sobol sampler: the first 2^k estimates of every dimension pair are a 
             }
 }
 
-TEST_CASE("Sobol sampler: the index shuffle maps every [0, 2^k) onto itself") {
+TEST_CASE(
+    "Sobol sampler: the index shuffle maps every power-of-two prefix of estimates onto itself") {
     for (uint key : {3u, 77u, 0xfeedfaceu}) {
         std::vector<int> seen(1024, 0);
         for (uint i = 0; i < 1024; ++i) {

@@ -247,6 +247,7 @@ void RenderJob::startAccumulator() {
                        {"roulette_vertex", o_.integrator.rouletteVertex},
                        {"coherence_tile", o_.integrator.coherenceTile},
                        {"seed", o_.integrator.seed},
+                       {"sampler", o_.integrator.sampler},
                        {"channels", scene_.channels},
                        {"width", scene_.camera.width},
                        {"height", scene_.camera.height}}
@@ -299,6 +300,7 @@ void RenderJob::openLog() {
             {"weights", o_.integrator.weights},
             {"coherence_tile", o_.integrator.coherenceTile},
             {"seed", o_.integrator.seed},
+            {"sampler", o_.integrator.sampler},
             {"width", scene_.camera.width},
             {"height", scene_.camera.height},
             {"channels", scene_.channels},
@@ -401,6 +403,7 @@ nlohmann::json RenderJob::statistics(const cb::RenderOutcome& outcome) const {
         {"weights", o_.integrator.weights},
         {"coherence_tile", o_.integrator.coherenceTile},
         {"seed", o_.integrator.seed},
+        {"sampler", o_.integrator.sampler},
         {"width", scene_.camera.width},
         {"height", scene_.camera.height},
         {"channels", scene_.channels},
@@ -465,6 +468,9 @@ void addRenderOptions(CLI::App& cmd, RenderOptions& o) {
                    "Russian roulette from this vertex on (0: off)");
     cmd.add_flag("--no-rr", o.noRoulette, "disable Russian roulette");
     cmd.add_option("--seed", o.integrator.seed, "random seed");
+    cmd.add_option("--sampler", o.integrator.sampler,
+                   "sobol | independent: the sample vectors (default sobol; docs/sampling.md); "
+                   "mlt's chains choose their own");
     cmd.add_option("--coherence-tile", o.integrator.coherenceTile,
                    "cpt, cbdpt: k x k sample vectors per estimate (1: full coherence)");
     cmd.add_option("--large-step", o.integrator.largeStepProbability,

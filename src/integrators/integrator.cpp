@@ -40,10 +40,7 @@ std::unique_ptr<Integrator> makeIntegrator(const IntegratorSettings& settings,
     if (settings.weights != "power" && settings.weights != "lafortune")
         throw std::invalid_argument(
             fmt::format("unknown --weights '{}' (power or lafortune)", settings.weights));
-    (void)samplerSettings(settings); // validates the name
-    if (settings.name == "mlt" && settings.sampler != "independent")
-        throw std::invalid_argument(
-            "--sampler sobol does not apply to mlt: its Markov chains choose the samples");
+    (void)samplerSettings(settings); // validates the name; mlt's chains choose their own samples
     if (settings.name == "pt" || settings.name == "cpt")
         return makePathTracingIntegrator(settings, scene, runtime);
     // The bidirectional methods keep whole subpaths in each work-item's private memory.

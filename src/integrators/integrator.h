@@ -23,8 +23,9 @@ struct IntegratorSettings {
     int debugT = -1;
     int rouletteVertex = 3; // Russian roulette from this vertex on; 0 disables it
     std::uint32_t seed = 0;
-    // independent | sobol: the sample vectors' sampler (cb_rng.h, docs/sampling.md)
-    std::string sampler = "independent";
+    // sobol | independent: the sample vectors' sampler (cb_rng.h, docs/sampling.md); sobol
+    // measures best for every method; mlt's Markov chains choose their own samples
+    std::string sampler = "sobol";
     int coherenceTile = 1; // cpt, cbdpt: k x k distinct sample vectors per estimate
     int tileSize = 8;      // pixel tile (work-group) edge
     // mlt (docs/mlt.md): Kelemen et al. 2002 primary-sample-space MLT over BDPT.
