@@ -257,7 +257,18 @@ TEST_CASE("sphere light by cone: points on the visible cap, uniform in solid ang
             CHECK(double(lightPdfSolidAngleFrom(&view, 0, ref, ls.p, ls.n)) ==
                   doctest::Approx(conePdf).epsilon(1e-6));
             Vec3 local = frameToLocal(frame, w);
-            double u = (1.0 - double(local.z)) / (1.0 - cosMax); // uniform in [0, 1)
+            // 1 - cos(theta) in double from |d x a|^2: in float it would be quantised at the
+            // small cone's scale.
+            double d[3] = {double(ls.p.x) - ref.x, double(ls.p.y) - ref.y, double(ls.p.z) - ref.z};
+            double a[3] = {double(center.x) - ref.x, double(center.y) - ref.y,
+                           double(center.z) - ref.z};
+            double cx = d[1] * a[2] - d[2] * a[1], cy = d[2] * a[0] - d[0] * a[2],
+                   cz = d[0] * a[1] - d[1] * a[0];
+            double dd = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+            double aa = a[0] * a[0] + a[1] * a[1] + a[2] * a[2];
+            double sin2 = (cx * cx + cy * cy + cz * cz) / (dd * aa);
+            double cosTheta = (d[0] * a[0] + d[1] * a[1] + d[2] * a[2]) / std::sqrt(dd * aa);
+            double u = sin2 / (1.0 + cosTheta) / (1.0 - cosMax); // uniform in [0, 1)
             int ti = std::min(thetaBins - 1, std::max(0, int(u * thetaBins)));
             double phi = std::atan2(double(local.y), double(local.x)) + cbtest::kPi;
             int pi = std::min(phiBins - 1, int(phi / (2.0 * cbtest::kPi) * phiBins));
