@@ -4,7 +4,7 @@
  * in other pixels and are added to a separate splat image with atomic float adds; the host adds
  * the splat image to the pixel image after the kernel. */
 #include "cb_atomics.h"
-#include "cb_path.h"
+#include "cb_bdpt.h"
 
 #ifndef CB_MAX_EYE_VERTICES
 #define CB_MAX_EYE_VERTICES 8
@@ -52,7 +52,7 @@ __kernel void renderBdpt(CB_SCENE_KERNEL_PARAMS,
             if (s == 1 && !haveNee) continue;
             float rx = 0.0f, ry = 0.0f;
             Spectrum c = bdptConnect(&scene, &camera, s == 1 ? nee : light, s, eye, t, settings,
-                                     &rx, &ry, &rays);
+                                     1.0f, &rx, &ry, &rays);
             if (specIsBlack(c)) continue;
             if (!specIsFinite(c)) {
                 ++nonFinite;

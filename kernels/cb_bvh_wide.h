@@ -1,8 +1,8 @@
 /* cb_bvh_wide.h - a 4- or 8-wide BVH and its stackless traversal: sceneIntersect,
  * sceneIntersectCoherent (camera rays) and sceneOccluded, what every renderer (PT, BDPT,
  * CBDPT, MLT, their host builds) traces with.
- * The binary BVH of cb_bvh.h is what it is collapsed from, and stays as the comparison for
- * cbdpt-bench and the tests (docs/performance.md, traverse section).
+ * The binary BVH of cb_bvh.h is what it is collapsed from; its traversals stay as the comparison
+ * for cbdpt-bench and the tests (src/bench/kernels/bench_bvh_binary.h).
  *
  * One node holds the boxes of up to CB_BVH_WIDE_LANES children in structure-of-arrays form,
  * so one node visit tests all of them with the same instructions on all lanes (what Embree's
@@ -20,17 +20,35 @@
 #ifndef CB_BVH_WIDE_H
 #define CB_BVH_WIDE_H
 
-#include "cb_bvh.h"
+#include "cb_intersect.h"
 
 CB_BEGIN_NAMESPACE
 
 #define CB_BVHW_NONE 0xffffffffu
 
+/* The interval of a box from its per-axis near and far distances: entry = the largest near
+ * distance and 0, exit = the smallest far distance and tMax. fmax/fmin spelled as selects
+ * with the running value second: `a > acc ? a : acc` is false for a NaN `a` and keeps acc,
+ * which is fmax's NaN rule (acc is never NaN), and compiles to one maxss/minss instead of a
+ * libm call on the host (g++ without -ffast-math) and a NaN-checking sequence in PoCL
+ * (docs/performance.md). Shared with the binary BVH's box test
+ * (src/bench/kernels/bench_bvh_binary.h). */
+CB_FN void bvhSlabCombine(real nx, real ny, real nz, real fx, real fy, real fz, real tMax,
+                          real* tNearOut, real* tFarOut) {
+    real tNear = nx > 0.0f ? nx : 0.0f;
+    tNear = ny > tNear ? ny : tNear;
+    tNear = nz > tNear ? nz : tNear;
+    real tFar = fx < tMax ? fx : tMax;
+    tFar = fy < tFar ? fy : tFar;
+    tFar = fz < tFar ? fz : tFar;
+    *tNearOut = tNear;
+    *tFarOut = tFar;
+}
+
 /* Children per node: 4 (SSE) or 8 (AVX). */
 #ifndef CB_BVH_WIDE_LANES
 #define CB_BVH_WIDE_LANES 8
 #endif
-#define CBW CB_BVH_WIDE_LANES
 
 /* 128 bytes (4 lanes) or 256 (8 lanes). lo/hi[axis][lane] are the children's boxes.
  * child[lane]: the child node for an interior child, the first TrianglePack for a leaf,
@@ -40,16 +58,17 @@ CB_BEGIN_NAMESPACE
  * or an empty lane. parent: the parent node, CB_BVHW_NONE for the root (node 0); lane: this node's
  * lane in its parent, so that coming back up needs no search. */
 typedef struct BvhNodeWide {
-    real lo[3][CBW];
-    real hi[3][CBW];
-    uint child[CBW];
-    uint counts[CBW / 4];
+    real lo[3][CB_BVH_WIDE_LANES];
+    real hi[3][CB_BVH_WIDE_LANES];
+    uint child[CB_BVH_WIDE_LANES];
+    uint counts[CB_BVH_WIDE_LANES / 4];
     uint parent;
     uint lane;
-    uint pad[CBW == 4 ? 1 : 4];
+    uint pad[CB_BVH_WIDE_LANES == 4 ? 1 : 4];
 } BvhNodeWide;
 
-CB_STATIC_ASSERT(sizeof(BvhNodeWide) == 32 * CBW, "BvhNodeWide must be 32 bytes per lane");
+CB_STATIC_ASSERT(sizeof(BvhNodeWide) == 32 * CB_BVH_WIDE_LANES,
+                 "BvhNodeWide must be 32 bytes per lane");
 
 CB_FN uint bvhWideCount(CB_GLOBAL const BvhNodeWide* node, int k) {
     return (node->counts[k >> 2] >> (8 * (k & 3))) & 0xffu;
@@ -158,14 +177,14 @@ CB_FN BvhWideSlabs bvhWideSlabsOf(Vec3 o, Vec3 d) {
  * often (docs/performance.md: fewer instructions than lane order, shadow rays 0-10% faster). */
 #ifdef CB_KERNEL_SIDE
 /* The kernels test the lanes with OpenCL vectors (one SSE/AVX instruction per step under
- * PoCL). The selects are bvhBoxHit's, lane by lane (see there for NaNs). */
-#if CBW == 4
+ * PoCL). The selects are bvhSlabCombine's, lane by lane (see there for NaNs). */
+#if CB_BVH_WIDE_LANES == 4
 typedef float4 BvhWideReal;
 typedef int4 BvhWideInt;
-#define BVHW_LOAD(p) vload4(0, p)
-#define BVHW_AS_INT(v) as_int4(v)
-#define BVHW_LANES ((int4)(0, 1, 2, 3))
-#define BVHW_AS_REAL(v) as_float4(v)
+#define CB_BVHW_LOAD(p) vload4(0, p)
+#define CB_BVHW_AS_INT(v) as_int4(v)
+#define CB_BVHW_LANE_INDICES ((int4)(0, 1, 2, 3))
+#define CB_BVHW_AS_REAL(v) as_float4(v)
 CB_FN int bvhWideOrAll(int4 v) {
     int2 a = v.lo | v.hi;
     return a.x | a.y;
@@ -177,10 +196,10 @@ CB_FN int bvhWideMinAll(int4 v) {
 #else
 typedef float8 BvhWideReal;
 typedef int8 BvhWideInt;
-#define BVHW_LOAD(p) vload8(0, p)
-#define BVHW_AS_INT(v) as_int8(v)
-#define BVHW_LANES ((int8)(0, 1, 2, 3, 4, 5, 6, 7))
-#define BVHW_AS_REAL(v) as_float8(v)
+#define CB_BVHW_LOAD(p) vload8(0, p)
+#define CB_BVHW_AS_INT(v) as_int8(v)
+#define CB_BVHW_LANE_INDICES ((int8)(0, 1, 2, 3, 4, 5, 6, 7))
+#define CB_BVHW_AS_REAL(v) as_float8(v)
 CB_FN int bvhWideOrAll(int8 v) {
     int4 a = v.lo | v.hi;
     int2 b = a.lo | a.hi;
@@ -202,11 +221,11 @@ typedef int BvhWideKey;
  * check it). The bits replace the mask's bytes on the path from a node's boxes to its child:
  * two dependent instructions instead of four. */
 CB_FN uint bvhWideBits(BvhWideInt mask) {
-#if defined(__AVX__) && CBW == 8 && !defined(CB_PORTABLE_LANE_BITS)
-    return (uint)__builtin_ia32_movmskps256(BVHW_AS_REAL(mask));
-#elif defined(__SSE__) && CBW == 4 && !defined(CB_PORTABLE_LANE_BITS)
-    return (uint)__builtin_ia32_movmskps(BVHW_AS_REAL(mask));
-#elif CBW == 8
+#if defined(__AVX__) && CB_BVH_WIDE_LANES == 8 && !defined(CB_PORTABLE_LANE_BITS)
+    return (uint)__builtin_ia32_movmskps256(CB_BVHW_AS_REAL(mask));
+#elif defined(__SSE__) && CB_BVH_WIDE_LANES == 4 && !defined(CB_PORTABLE_LANE_BITS)
+    return (uint)__builtin_ia32_movmskps(CB_BVHW_AS_REAL(mask));
+#elif CB_BVH_WIDE_LANES == 8
     ulong signs = as_ulong(convert_char8(mask)) & 0x8080808080808080UL;
     return (uint)((signs * 0x0002040810204081UL) >> 56);
 #else
@@ -230,18 +249,20 @@ CB_FN void bvhWideBoxes(CB_GLOBAL const BvhNodeWide* node, Vec3 invNear, Vec3 ad
      * negative (Williams et al. 2005), picked once per ray. */
     CB_GLOBAL const real* planes = &node->lo[0][0];
     bool px = invFar.x >= 0.0f, py = invFar.y >= 0.0f, pz = invFar.z >= 0.0f;
-    BvhWideReal nx = fma(BVHW_LOAD(planes + (px ? 0 : 3 * CBW)), (BvhWideReal)(invNear.x),
-                         (BvhWideReal)(addNear.x));
-    BvhWideReal fx = fma(BVHW_LOAD(planes + (px ? 3 * CBW : 0)), (BvhWideReal)(invFar.x),
-                         (BvhWideReal)(addFar.x));
-    BvhWideReal ny = fma(BVHW_LOAD(planes + (py ? CBW : 4 * CBW)), (BvhWideReal)(invNear.y),
-                         (BvhWideReal)(addNear.y));
-    BvhWideReal fy = fma(BVHW_LOAD(planes + (py ? 4 * CBW : CBW)), (BvhWideReal)(invFar.y),
-                         (BvhWideReal)(addFar.y));
-    BvhWideReal nz = fma(BVHW_LOAD(planes + (pz ? 2 * CBW : 5 * CBW)), (BvhWideReal)(invNear.z),
-                         (BvhWideReal)(addNear.z));
-    BvhWideReal fz = fma(BVHW_LOAD(planes + (pz ? 5 * CBW : 2 * CBW)), (BvhWideReal)(invFar.z),
-                         (BvhWideReal)(addFar.z));
+    BvhWideReal nx = fma(CB_BVHW_LOAD(planes + (px ? 0 : 3 * CB_BVH_WIDE_LANES)),
+                         (BvhWideReal)(invNear.x), (BvhWideReal)(addNear.x));
+    BvhWideReal fx = fma(CB_BVHW_LOAD(planes + (px ? 3 * CB_BVH_WIDE_LANES : 0)),
+                         (BvhWideReal)(invFar.x), (BvhWideReal)(addFar.x));
+    BvhWideReal ny = fma(CB_BVHW_LOAD(planes + (py ? CB_BVH_WIDE_LANES : 4 * CB_BVH_WIDE_LANES)),
+                         (BvhWideReal)(invNear.y), (BvhWideReal)(addNear.y));
+    BvhWideReal fy = fma(CB_BVHW_LOAD(planes + (py ? 4 * CB_BVH_WIDE_LANES : CB_BVH_WIDE_LANES)),
+                         (BvhWideReal)(invFar.y), (BvhWideReal)(addFar.y));
+    BvhWideReal nz =
+        fma(CB_BVHW_LOAD(planes + (pz ? 2 * CB_BVH_WIDE_LANES : 5 * CB_BVH_WIDE_LANES)),
+            (BvhWideReal)(invNear.z), (BvhWideReal)(addNear.z));
+    BvhWideReal fz =
+        fma(CB_BVHW_LOAD(planes + (pz ? 5 * CB_BVH_WIDE_LANES : 2 * CB_BVH_WIDE_LANES)),
+            (BvhWideReal)(invFar.z), (BvhWideReal)(addFar.z));
     *tn = bvhWideMax(bvhWideMax(nx, (BvhWideReal)(0.0f)), bvhWideMax(ny, nz));
     *far = bvhWideMin(bvhWideMin(fx, (BvhWideReal)(closest)), bvhWideMin(fy, fz));
 }
@@ -253,7 +274,7 @@ CB_FN BvhWideReal bvhWideClamp(BvhWideReal far, real closest) {
 
 /* The keys of a node's lanes (see above). */
 CB_FN BvhWideInt bvhWideKeys(BvhWideReal tn) {
-    return (BVHW_AS_INT(tn) & (BvhWideInt)(~7)) | BVHW_LANES;
+    return (CB_BVHW_AS_INT(tn) & (BvhWideInt)(~7)) | CB_BVHW_LANE_INDICES;
 }
 
 /* Below every key: where a node is entered from its parent. */
@@ -272,7 +293,8 @@ CB_FN BvhWideInt bvhWideZeroInt(void) {
 /* The key of lane k, coming back up from it. A select and a minimum, not a private array:
  * PoCL gives every private array a copy per work-item, stored to on every node visit. */
 CB_FN BvhWideKey bvhWideKeyOf(BvhWideInt keys, int k) {
-    return bvhWideMinAll(select((BvhWideInt)(INT_MAX), keys, BVHW_LANES == (BvhWideInt)(k)));
+    return bvhWideMinAll(
+        select((BvhWideInt)(INT_MAX), keys, CB_BVHW_LANE_INDICES == (BvhWideInt)(k)));
 }
 
 /* The candidates of bvhWideNext: the hit lanes above `after` as a mask, and for coherent
@@ -295,7 +317,7 @@ typedef struct BvhWideCand {
 CB_FN int bvhWideNext(CB_GLOBAL const BvhNodeWide* node, BvhWideReal tn, BvhWideReal far,
                       BvhWideInt keys, BvhWideKey after, bool coherent, BvhWideKey* key,
                       BvhWideCand* cand) {
-    BvhWideInt c = (BVHW_LOAD(node->child) != CB_BVHW_NONE) & (tn <= far);
+    BvhWideInt c = (CB_BVHW_LOAD(node->child) != CB_BVHW_NONE) & (tn <= far);
     /* Coming down every key is above `after`, so camera rays, for which the branch predicts
      * well, keep the compare off the descent's path; incoherent rays were 1-3% slower with it. */
     if (!coherent || after != bvhWideKeyNone()) c &= keys > after;
@@ -313,7 +335,7 @@ CB_FN int bvhWideNext(CB_GLOBAL const BvhNodeWide* node, BvhWideReal tn, BvhWide
     int m = bvhWideMinAll(select((BvhWideInt)(INT_MAX), keys, c));
     if (m == INT_MAX) return -1;
     *key = m;
-    return m & (CBW - 1);
+    return m & (CB_BVH_WIDE_LANES - 1);
 }
 
 /* Whether a candidate other than the lane bvhWideNext returned (with `key`) remains. */
@@ -325,10 +347,10 @@ CB_FN bool bvhWideMore(BvhWideCand cand, BvhWideInt keys, BvhWideKey key, bool c
 /* The host: the same per-lane arithmetic as plain loops, and the same order: (entry distance
  * with its 3 lowest mantissa bits cleared, lane), lexicographically. */
 typedef struct BvhWideReal {
-    real v[CBW];
+    real v[CB_BVH_WIDE_LANES];
 } BvhWideReal;
 typedef struct BvhWideInt {
-    real t[CBW];
+    real t[CB_BVH_WIDE_LANES];
 } BvhWideInt;
 typedef struct BvhWideKey {
     real t;
@@ -339,7 +361,7 @@ typedef int BvhWideCand;
 CB_FN void bvhWideBoxes(CB_GLOBAL const BvhNodeWide* node, Vec3 invNear, Vec3 addNear, Vec3 invFar,
                         Vec3 addFar, real closest, BvhWideReal* tn, BvhWideReal* far) {
     bool px = invFar.x >= 0.0f, py = invFar.y >= 0.0f, pz = invFar.z >= 0.0f;
-    for (int k = 0; k < CBW; ++k) {
+    for (int k = 0; k < CB_BVH_WIDE_LANES; ++k) {
         real nx = fma(px ? node->lo[0][k] : node->hi[0][k], invNear.x, addNear.x);
         real fx = fma(px ? node->hi[0][k] : node->lo[0][k], invFar.x, addFar.x);
         real ny = fma(py ? node->lo[1][k] : node->hi[1][k], invNear.y, addNear.y);
@@ -351,7 +373,7 @@ CB_FN void bvhWideBoxes(CB_GLOBAL const BvhNodeWide* node, Vec3 invNear, Vec3 ad
 }
 
 CB_FN BvhWideReal bvhWideClamp(BvhWideReal far, real closest) {
-    for (int k = 0; k < CBW; ++k)
+    for (int k = 0; k < CB_BVH_WIDE_LANES; ++k)
         far.v[k] = closest < far.v[k] ? closest : far.v[k];
     return far;
 }
@@ -379,7 +401,7 @@ CB_FN real bvhWideTruncate(real t) {
 
 CB_FN BvhWideInt bvhWideKeys(BvhWideReal tn) {
     BvhWideInt keys;
-    for (int k = 0; k < CBW; ++k)
+    for (int k = 0; k < CB_BVH_WIDE_LANES; ++k)
         keys.t[k] = bvhWideTruncate(tn.v[k]);
     return keys;
 }
@@ -413,7 +435,7 @@ CB_FN int bvhWideNext(CB_GLOBAL const BvhNodeWide* node, BvhWideReal tn, BvhWide
     int best = -1;
     *cand = 0;
     *key = after; /* read only when a lane is returned; set so g++ can see that */
-    for (int k = 0; k < CBW; ++k) {
+    for (int k = 0; k < CB_BVH_WIDE_LANES; ++k) {
         bool hit = bvhWideLaneHit(node, tn, far, k);
         BvhWideKey kk = bvhWideKeyOf(keys, k);
         if (!hit || !bvhWideKeyLess(after, kk)) continue;

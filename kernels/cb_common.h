@@ -5,11 +5,11 @@
  * the code lives in namespace `cbk`. Shared structs use plain real arrays, never float3
  * (16 bytes in OpenCL, 12 in C++), and are padded to 16-byte multiples explicitly.
  *
- * `real` is float everywhere except in one host build: a translation unit that defines
- * CB_REAL as double before including the shared headers (inside its own namespace) gets the same
- * geometry, sampling and path code in double precision, the oracle that the float kernels are
- * checked against (src/reference/, tests/test_precision.cpp). Layout asserts hold only for
- * float. */
+ * `real` is float and Spectrum has CB_CHANNELS = 3 floats by default, which is the global host
+ * `cbk`. Other real types and channel counts are host instances compiled by
+ * src/kernel_host/kernel_instance.h, e.g. real = double: the same geometry, sampling and path
+ * code in double precision, the oracle that the float kernels are checked against (src/float64/,
+ * tests/test_precision.cpp). Layout asserts hold only for float. */
 #ifndef CB_COMMON_H
 #define CB_COMMON_H
 

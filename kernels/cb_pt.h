@@ -131,7 +131,7 @@ CB_FN Spectrum ptRadiance(const SceneView* scene, Ray ray, SampleStream stream,
 }
 
 /* One PT/CPT sample of pixel (x, y) in linear sRGB: the whole work of one work-item of
- * renderPathTracing (pt.cl), shared so that the host's double-precision build (src/reference/)
+ * renderPathTracing (pt.cl), shared so that the host's double-precision build (src/float64/)
  * computes exactly the same estimate. streamTile == 0: every pixel has its own sample vector
  * (PT); streamTile == k > 0: the pixel at position (i, j) of its k x k tile uses vector (i, j)
  * of the estimate (CPT, METHOD.md). */

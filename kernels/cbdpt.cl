@@ -1,10 +1,10 @@
 /* cbdpt.cl - the combination kernel of coherent bidirectional path tracing (METHOD.md, CBDPT;
  * docs/cbdpt.md). The host has traced this estimate's light subpaths (one per coherence-tile
- * position) with the same cb_path.h code and splats their camera connections (t = 1) itself.
+ * position) with the same cb_bdpt.h code and splats their camera connections (t = 1) itself.
  * Here each pixel traces its eye subpath from the sample vector it shares with every pixel at
  * the same tile position (jitter included, as CPT), copies its tile position's light subpath into
  * private memory, and adds every strategy with t >= 2 with the BDPT weights. */
-#include "cb_path.h"
+#include "cb_bdpt.h"
 
 #ifndef CB_MAX_EYE_VERTICES
 #define CB_MAX_EYE_VERTICES 8
@@ -45,7 +45,7 @@ __kernel void renderCbdpt(CB_SCENE_KERNEL_PARAMS,
     uint stream = (uint)(ti * streamTile + tj);
     int subpath = ti * tileColumns + tj;
 
-    /* cb_path.h reads light vertices through private pointers; Nl is a handful. */
+    /* cb_bdpt.h reads light vertices through private pointers; Nl is a handful. */
     PathVertex light[CB_MAX_LIGHT_VERTICES];
     int nLight = lightCounts[subpath];
     for (int i = 0; i < nLight; ++i)
@@ -67,8 +67,8 @@ __kernel void renderCbdpt(CB_SCENE_KERNEL_PARAMS,
         for (int s = 0; s <= nLight; ++s) {
             if (s == 1 && !haveNee) continue;
             float rx = 0.0f, ry = 0.0f;
-            Spectrum c = bdptConnectCounted(&scene, &camera, s == 1 ? nee : light, s, eye, t,
-                                            settings, cameraCount, &rx, &ry, &rays);
+            Spectrum c = bdptConnect(&scene, &camera, s == 1 ? nee : light, s, eye, t, settings,
+                                     cameraCount, &rx, &ry, &rays);
             if (specIsBlack(c)) continue;
             if (!specIsFinite(c)) {
                 ++nonFinite;

@@ -6,7 +6,7 @@
  * film instead of jittering inside one pixel), then the light stream's (CB_MLT_LIGHT_DIMS, BDPT's
  * light layout). Connections draw no random numbers, so the two streams are all there is, and a
  * mutation of one leaves the other's decisions where they were (STYLE.md: separate streams).
- * The path code (cb_path.h) reads u through SampleStream's primary-sample table (cb_rng.h,
+ * The path code (cb_bdpt.h) reads u through SampleStream's primary-sample table (cb_rng.h,
  * CB_PRIMARY_SAMPLES).
  *
  * The contribution F(u) of a state is BDPT's full estimate for that sample: the weighted sum of
@@ -16,7 +16,7 @@
  * state lives in private arrays during a launch and in __global buffers between launches. */
 #define CB_PRIMARY_SAMPLES
 #include "cb_atomics.h"
-#include "cb_path.h"
+#include "cb_bdpt.h"
 
 #ifndef CB_MAX_EYE_VERTICES
 #define CB_MAX_EYE_VERTICES 8
@@ -97,8 +97,8 @@ static void mltEvaluate(const SceneView* scene, const Camera* camera, __global c
         for (int s = 0; s <= nLight; ++s) {
             if (s == 1 && !haveNee) continue;
             float rx = 0.0f, ry = 0.0f;
-            Spectrum c = bdptConnect(scene, camera, s == 1 ? nee : light, s, eye, t, settings, &rx,
-                                     &ry, rays);
+            Spectrum c = bdptConnect(scene, camera, s == 1 ? nee : light, s, eye, t, settings, 1.0f,
+                                     &rx, &ry, rays);
             if (specIsBlack(c)) continue;
             if (!specIsFinite(c)) {
                 *nonFinite += 1;

@@ -1,5 +1,5 @@
-"""Shared pieces of scripts/make-reference, scripts/experiment and scripts/report (issue 7):
-the thesis's per-scene settings (SCENES.md), locating the cbdpt binary, reading checkpoint logs,
+"""Shared pieces of scripts/make-reference, scripts/experiment and scripts/report: the
+thesis's per-scene settings (docs/scenes.md), locating the cbdpt binary, reading checkpoint logs,
 and a small reader for the EXR files cbdpt writes (so the scripts need only numpy)."""
 import csv
 import math
@@ -13,9 +13,9 @@ import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 REFERENCES = os.path.join(ROOT, "scenes", "references")
-MODEL_PATH = os.path.join(os.path.dirname(ROOT), "shared", "models")
+MODEL_PATH = os.path.join(ROOT, "models")  # scripts/get-models's output, if CBDPT_MODEL_PATH is unset
 
-# The thesis's settings per scene (SCENES.md, "thesis settings"): path-tracing vertex cap, the
+# The thesis's settings per scene (docs/scenes.md, thesis chapter 4): path-tracing vertex cap, the
 # bidirectional (Ne, Nl) configurations, which methods it timed, and its estimate counts.
 # "pt_vertices" equals Ne + Nl of the first bidirectional configuration, so every method of a
 # configuration renders the same path-length-limited transport and one reference serves all.
@@ -36,7 +36,7 @@ SCENES = {
 }
 ALL_METHODS = ["pt", "cpt", "bdpt", "cbdpt", "mlt"]
 
-# SCENES.md, "The thesis's timings" (seconds; Core 2 Duo E4600, LuxRender).
+# The thesis's timings, tables 4.1-4.9 (seconds; Core 2 Duo E4600, LuxRender).
 THESIS_TIMES = [
     ("cornell-box", "4+4", 5, dict(pt=55, bdpt=96, cbdpt=72, cpt=48)),
     ("cornell-box", "4+4", 25, dict(pt=245, bdpt=420, cbdpt=290, cpt=202)),

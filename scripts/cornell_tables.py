@@ -4,7 +4,9 @@
 The scene file is this script's output: the numbers are taken verbatim from the thesis text
 (decimal commas turned into points), so rerunning it reproduces the file byte for byte.
 
-    python3 scripts/cornell_tables.py [--thesis PATH] [--out PATH] [--check]
+    python3 scripts/cornell_tables.py --thesis PATH [--out PATH] [--check]
+
+PATH is the thesis's text (Mesquita 2010), which is not part of the repository.
 
 --check compares the generated text with the existing file instead of writing it (exit 1 on a
 difference).
@@ -16,7 +18,6 @@ import re
 import sys
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
-DEFAULT_THESIS = ROOT.parent / "shared" / "seed" / "000_4896fd20cfff7df6.txt"
 DEFAULT_OUT = ROOT / "scenes" / "cornell-box.pbrt"
 
 TABLE_RE = re.compile(r"^Tabela A\.(\d+):")
@@ -125,12 +126,12 @@ HEADER = """\
 #   is HDR OpenEXR and exposure is set afterwards), so these are relative units.
 # - The emitters' reflectance is not given (material "luz" lists emission only): they are
 #   black diffuse here, so they only emit.
-# - The ceiling light is one-sided, facing down (SCENES.md). Every polygon is wound so that
+# - The ceiling light is one-sided, facing down (docs/scenes.md). Every polygon is wound so that
 #   cross(p1-p0, p2-p0) faces into the room (walls, light) or out of the blocks; each quad is
 #   split into triangles (0,1,2) and (0,2,3). Reversed relative to the table's vertex order:
 #   {flipped}.
 # - The light quad sits at y=0.548, 0.8 mm below the ceiling (y=0.5488), as in the tables.
-# - Camera: the classic Cornell box view (SCENES.md). pbrt is left-handed, so the leading
+# - Camera: the classic Cornell box view (docs/scenes.md). pbrt is left-handed, so the leading
 #   Scale -1 1 1 mirrors the image to the right-handed view: red wall on the left.
 """
 
@@ -216,7 +217,8 @@ def build(thesis):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--thesis", type=pathlib.Path, default=DEFAULT_THESIS)
+    ap.add_argument("--thesis", type=pathlib.Path, required=True,
+                    help="the thesis's text (Mesquita 2010), with its appendix A tables")
     ap.add_argument("--out", type=pathlib.Path, default=DEFAULT_OUT)
     ap.add_argument("--check", action="store_true")
     args = ap.parse_args()

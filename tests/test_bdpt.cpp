@@ -1,10 +1,10 @@
-// BDPT (kernels/cb_path.h, kernels/bdpt.cl): MIS weights against an explicit-ratio oracle, and
+// BDPT (kernels/cb_bdpt.h, kernels/bdpt.cl): MIS weights against an explicit-ratio oracle, and
 // renders against PT. Statistical checks compare image-region means with error bars from the
 // per-pixel spread (pixels of PT and BDPT are independent), at 4 standard errors.
 #include "scene_builders.h"
 #include "test_render_util.h"
 
-#include "cb_path.h"
+#include "cb_bdpt.h"
 
 #include <algorithm>
 #include <cmath>
@@ -307,7 +307,7 @@ double oraclePowerWeight(const cbk::SceneView& scene, const cbk::Camera& camera,
     return std::pow(oraclePdf(scene, camera, path, s), 2) / sum;
 }
 
-// METHOD.md's Lafortune weights written out directly: eye vertex j is y_{k-1-j}.
+// Lafortune's weights (docs/method.md) written out directly: eye vertex j is y_{k-1-j}.
 double oracleLafortuneWeight(const cbk::SceneView& scene, const FullPath& path, int s, int ne,
                              int nl) {
     int k = int(path.y.size()), t = k - s;
@@ -447,7 +447,7 @@ TEST_CASE("BDPT MIS weights equal the explicit-ratio oracle and sum to one") {
                             continue;
                         float w = cbk::bdptMisWeight(&view, light.data(), s, eye.data(), t,
                                                      c.ptPdfRev, c.ptMinusPdfRev, c.qsPdfRev,
-                                                     c.qsMinusPdfRev, settings);
+                                                     c.qsMinusPdfRev, settings, 1.0f);
                         FullPath path = joinPath(light, s, eye, t);
                         double expected = weights == CB_WEIGHTS_POWER
                                               ? oraclePowerWeight(view, camera, path, s, ne, nl)
@@ -473,7 +473,7 @@ TEST_CASE("BDPT MIS weights equal the explicit-ratio oracle and sum to one") {
                                 continue;
                             sum += cbk::bdptMisWeight(&view, l2.data(), s2, e2.data(), k - s2,
                                                       c2.ptPdfRev, c2.ptMinusPdfRev, c2.qsPdfRev,
-                                                      c2.qsMinusPdfRev, settings);
+                                                      c2.qsMinusPdfRev, settings, 1.0f);
                         }
                         // Lafortune's remainder goes to the last allowed strategy; where that
                         // one cannot make the path (a point light cannot be hit; or k > Ne and

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""cbdpt-bench --quick runs and writes well-formed JSON with every section (issue 9). No
+"""cbdpt-bench --quick runs and writes well-formed JSON with every section. No
 timing assertions: only structure, positive finite timings, and that our traversal and Embree
 (when built in) agree on the rays.
 
@@ -11,8 +11,19 @@ import subprocess
 import sys
 import tempfile
 
+import stanford_models
+
 bench = sys.argv[1]
 failures = []
+
+# The quick run traces the bunny and renders the dragon scene. Without the models the test is
+# skipped ("cbdpt-skip:", SKIP_REGULAR_EXPRESSION in tests/tests.cmake), except in CI.
+if stanford_models.model_dir() is None:
+    if stanford_models.required():
+        print("FAIL: CBDPT_REQUIRE_MODELS=1 but " + stanford_models.missing_message())
+        sys.exit(1)
+    print("cbdpt-skip: " + stanford_models.missing_message())
+    sys.exit(0)
 
 
 def check(condition, message):

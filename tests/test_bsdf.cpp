@@ -88,7 +88,7 @@ struct Fixture {
         tiny = s.conductor(white, 1e-4f);
         mixDiffuseRough = s.mix(diffuse, rough03, 0.3f);
         int goldDiffuse = s.diffuse(gold), goldMirror = s.conductor(gold, 0.0f);
-        mixDragon = s.mix(goldDiffuse, goldMirror, 0.3f); // SCENES.md dragon: 70% / 30%
+        mixDragon = s.mix(goldDiffuse, goldMirror, 0.3f); // the thesis's dragon: 70% / 30%
         mixDiffuseGlossy = s.mix(diffuseTint, rough005, 0.6f);
         mixDiffuseGlass = s.mix(diffuse, glass, 0.5f);
         mixMirrorGlass = s.mix(mirror, glass, 0.4f);

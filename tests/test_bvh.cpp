@@ -15,10 +15,14 @@
 #include <thread>
 #include <vector>
 
+#include "bench/kernels/bench_bvh_binary.h"
 #include "bvh/bvh.h"
 #include "bvh/bvh_choice.h"
 #include "bvh/bvh_wide.h"
+#include "cl/cl_runtime.h"
+#include "cl/embedded_kernels.h"
 #include "scene/ply.h"
+#include "stanford_models.h"
 
 using cbk::Hit;
 using cbk::Primitive;
@@ -33,8 +37,9 @@ struct Mesh {
     std::vector<int> indices;
 };
 
+// Callers first check cbtest::stanfordModelsOrSkip().
 Mesh loadModel(const std::string& name) {
-    cb::PlyMesh ply = cb::readPly(std::string(CBDPT_MODELS_DIR) + "/" + name);
+    cb::PlyMesh ply = cb::readPly((cbtest::stanfordModelDir() / name).string());
     Mesh mesh;
     for (const auto& p : ply.positions)
         mesh.positions.push_back(cbk::vec3(p[0], p[1], p[2]));
@@ -326,6 +331,7 @@ void checkStructure(const cb::Bvh& bvh, size_t primitiveCount, int maxLeaf) {
 } // namespace
 
 TEST_CASE("bvh: structure of the bunny BVH") {
+    if (!cbtest::stanfordModelsOrSkip()) return;
     Mesh mesh = loadModel("bunny.ply");
     auto prims = meshPrimitives(mesh);
     REQUIRE(prims.size() == 34831);
@@ -341,6 +347,7 @@ TEST_CASE("bvh: structure of the bunny BVH") {
 }
 
 TEST_CASE("bvh: closest hit and occlusion equal brute force on the bunny (3k rays)") {
+    if (!cbtest::stanfordModelsOrSkip()) return;
     Mesh mesh = loadModel("bunny.ply");
     cb::Bvh bvh = cb::buildBvh(meshPrimitives(mesh));
     auto rays = makeRays(boundsOf(bvh.primitives), 3000, 1234u);
@@ -352,6 +359,7 @@ TEST_CASE("bvh: closest hit and occlusion equal brute force on the bunny (3k ray
 
 TEST_CASE("bvh: closest hit and occlusion equal brute force on the bunny (100k rays)" *
           doctest::test_suite("statistical")) {
+    if (!cbtest::stanfordModelsOrSkip()) return;
     Mesh mesh = loadModel("bunny.ply");
     cb::Bvh bvh = cb::buildBvh(meshPrimitives(mesh));
     auto rays = makeRays(boundsOf(bvh.primitives), 100000, 99u);
@@ -372,7 +380,7 @@ void checkWide(const cb::BvhWide& wide, const std::vector<Primitive>& prims) {
     for (size_t i = 0; i < nodes.size(); ++i) {
         const auto& n = nodes[i];
         if (i == 0) CHECK(n.parent == CB_BVHW_NONE);
-        for (int k = 0; k < CBW; ++k) {
+        for (int k = 0; k < CB_BVH_WIDE_LANES; ++k) {
             if (n.child[k] == CB_BVHW_NONE) continue;
             uint32_t count = cbk::bvhWideCount(&n, k);
             if (count == 0) {
@@ -382,7 +390,7 @@ void checkWide(const cb::BvhWide& wide, const std::vector<Primitive>& prims) {
                 CHECK(nodes[n.child[k]].parent == i);
                 CHECK(nodes[n.child[k]].lane == uint32_t(k));
                 for (int a = 0; a < 3; ++a)
-                    for (int j = 0; j < CBW; ++j)
+                    for (int j = 0; j < CB_BVH_WIDE_LANES; ++j)
                         if (nodes[n.child[k]].child[j] != CB_BVHW_NONE) {
                             CHECK(nodes[n.child[k]].lo[a][j] >= n.lo[a][k]);
                             CHECK(nodes[n.child[k]].hi[a][j] <= n.hi[a][k]);
@@ -422,6 +430,7 @@ void checkWide(const cb::BvhWide& wide, const std::vector<Primitive>& prims) {
 }
 
 TEST_CASE("bvh: the wide BVH equals brute force on the bunny (3k rays)") {
+    if (!cbtest::stanfordModelsOrSkip()) return;
     Mesh mesh = loadModel("bunny.ply");
     cb::Bvh bvh = cb::buildBvh(meshPrimitives(mesh));
     auto wide = cb::collapseBvhWide(bvh);
@@ -591,6 +600,7 @@ TEST_CASE("bvh choice: the isolated bunny takes SAH block 4; the chosen trees, i
           "find the brute-force hits") {
     // Which candidate is faster was measured (docs/performance.md): block 4 on the isolated
     // meshes; test_scenes.cpp checks the seven scenes' choices against the same table.
+    if (!cbtest::stanfordModelsOrSkip()) return;
     Mesh mesh = loadModel("bunny.ply");
     const auto prims = meshPrimitives(mesh);
     const Bounds b = boundsOf(prims);
@@ -647,6 +657,7 @@ TEST_CASE("bvh choice: the isolated bunny takes SAH block 4; the chosen trees, i
 }
 
 TEST_CASE("bvh: mixed triangles and spheres equal brute force") {
+    if (!cbtest::stanfordModelsOrSkip()) return;
     Mesh mesh = loadModel("dragon.ply");
     auto prims = meshPrimitives(mesh);
     Bounds b = boundsOf(prims);
@@ -816,6 +827,7 @@ std::vector<Ray> raysThroughVerticesAndEdges(const Mesh& mesh, const cb::Bvh& bv
 }
 
 TEST_CASE("bvh: rays from inside the closed Buddha through vertices and edges never escape") {
+    if (!cbtest::stanfordModelsOrSkip()) return;
     Mesh mesh = loadModel("buddha.ply");
     cb::Bvh bvh = cb::buildBvh(meshPrimitives(mesh), {4, 16, CB_PACK_LANES});
     auto wideNodes = cb::collapseBvhWide(bvh);
@@ -988,6 +1000,7 @@ class ClTracer {
 TEST_CASE("bvh: OpenCL traversal of the bunny wide BVH matches the host") {
     // The candidate lanes' bits come from movmskps on x86; the portable multiply that other
     // targets use is checked here as well.
+    if (!cbtest::stanfordModelsOrSkip()) return;
     Mesh mesh = loadModel("bunny.ply");
     const Bounds box = boundsOf(meshPrimitives(mesh));
     for (const char* options : {"", "-DCB_PORTABLE_LANE_BITS"}) {
@@ -1058,6 +1071,7 @@ TEST_CASE("bvh: OpenCL traversal of the bunny wide BVH matches the host") {
 TEST_CASE("bvh: OpenCL traversal: rays through the closed Buddha's vertices and edges never "
           "escape") {
     ClTracer tracer;
+    if (!cbtest::stanfordModelsOrSkip()) return;
     Mesh mesh = loadModel("buddha.ply");
     cb::Bvh bvh = cb::buildBvh(meshPrimitives(mesh), {4, 16, CB_PACK_LANES});
     auto wide = cb::collapseBvhWide(bvh);
@@ -1072,4 +1086,43 @@ TEST_CASE("bvh: OpenCL traversal: rays through the closed Buddha's vertices and 
     CHECK(rays.size() > 30000);
     CHECK(escapes == 0);
     CHECK(coherentEscapes == 0);
+}
+
+// The render programs (every embedded .cl but the bench's) are compiled without the binary BVH's
+// traversals: they trace the wide BVH only. The names are read from the bench header itself, and
+// the bench program, which includes it, must contain them (so the search can fail).
+TEST_CASE("bvh: render programs hold no binary-BVH traversal") {
+    const auto& sources = cb::embeddedKernelSources();
+    const std::string& bench = sources.at("bench_bvh_binary.h");
+    std::vector<std::string> functions;
+    for (std::size_t at = bench.find("CB_FN "); at != std::string::npos;
+         at = bench.find("CB_FN ", at + 1)) {
+        const std::size_t open = bench.find('(', at);
+        const std::size_t nameStart = bench.rfind(' ', open) + 1;
+        functions.push_back(bench.substr(nameStart, open - nameStart));
+    }
+    REQUIRE(functions.size() >= 8);
+    auto mentions = [](const std::string& source, const std::string& name) {
+        return source.find(" " + name + "(") != std::string::npos;
+    };
+    const std::string benchProgram = cb::assembleKernelSource("bench_traverse.cl");
+    CHECK(benchProgram.find("#line 1 \"bench_bvh_binary.h\"") != std::string::npos);
+    for (const std::string& name : functions) {
+        CAPTURE(name);
+        CHECK(mentions(benchProgram, name));
+    }
+    int programs = 0;
+    for (const auto& [file, text] : sources) {
+        if (!file.ends_with(".cl") || file.starts_with("bench_")) continue;
+        ++programs;
+        const std::string program = cb::assembleKernelSource(file);
+        CAPTURE(file);
+        CHECK(program.find("#line 1 \"bench_bvh_binary.h\"") == std::string::npos);
+        CHECK(program.find("struct BvhNode {") == std::string::npos);
+        for (const std::string& name : functions) {
+            CAPTURE(name);
+            CHECK_FALSE(mentions(program, name));
+        }
+    }
+    CHECK(programs == 4); // pt.cl, bdpt.cl, cbdpt.cl, mlt.cl
 }

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""End-to-end test of error against time (issue 7): checkpoints, logs (CSV and JSON), the
+"""End-to-end test of error against time: checkpoints, logs (CSV and JSON), the
 reference metrics, `cbdpt compare`, and the scripts/experiment --quick -> scripts/report
 pipeline, on tiny Cornell box renders.
 

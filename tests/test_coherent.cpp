@@ -1,4 +1,4 @@
-// Coherent methods (issue 5): every pixel of an estimate shares its sample vector, so one
+// Coherent methods: every pixel of an estimate shares its sample vector, so one
 // estimate is a smooth pattern rather than noise, yet the mean over estimates converges to the
 // same image as the independent methods. Statistics use whole estimates as the independent
 // samples, since pixels within one coherent estimate are correlated.

@@ -1,4 +1,4 @@
-// Device memory limits (issue 8): a buffer too large for the device, or one that would take the
+// Device memory limits: a buffer too large for the device, or one that would take the
 // device past its global memory, is refused before it is allocated, with an error that names
 // the buffer, its size and the limit, and says what to reduce. The end-to-end check (a real
 // PoCL device shrunk with POCL_MEMORY_LIMIT, through the CLI) is in tests/test_cli.py.

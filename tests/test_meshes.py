@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Checks of the reconstructed meshes and of the thesis scene files (issue 3).
+"""Checks of the reconstructed meshes and of the thesis scene files.
 
 - scripts/make-meshes --check: the committed PLYs are what the script builds, byte for byte;
 - every mesh is closed (0 boundary edges: all three are expected closed, the cage as two
@@ -22,6 +22,8 @@ import sys
 from collections import Counter
 
 import numpy as np
+
+import stanford_models
 
 ROOT = os.environ.get("CBDPT_SOURCE_DIR") or os.path.dirname(os.path.dirname(
     os.path.abspath(__file__)))
@@ -208,7 +210,6 @@ def rotation(deg, axis):
 
 def find_model(name, scene_dir):
     dirs = [scene_dir] + [d for d in os.environ.get("CBDPT_MODEL_PATH", "").split(os.pathsep) if d]
-    dirs.append(os.path.join(ROOT, "..", "shared", "models"))
     for d in dirs:
         if os.path.isfile(os.path.join(d, name)):
             return os.path.join(d, name)
@@ -272,8 +273,12 @@ def test_scenes():
                     problems.append(f"plymesh {fname} does not exist")
                     return
                 if model is None:
-                    print(f"note: {scene}: {fname} not found on the model path; "
-                          "its placement is not checked")
+                    # CI always has the models: there a missing one fails.
+                    if stanford_models.required():
+                        check(f"{scene}: {fname} found", False, stanford_models.missing_message())
+                    else:
+                        print(f"note: {scene}: {fname} not found, its placement is not checked: "
+                              + stanford_models.missing_message())
                     return
                 p = read_ply(model)[0]
             elif kind == "trianglemesh":

@@ -1,4 +1,4 @@
-// Error metrics and checkpoints (issue 7) on images whose answers are known in closed form.
+// Error metrics and checkpoints on images whose answers are known in closed form.
 #include "image/metrics.h"
 #include "integrators/render.h"
 

@@ -5,6 +5,7 @@
 
 #include "scene/scene_desc.h"
 #include "scene/transform.h"
+#include "stanford_models.h"
 
 #include <cmath>
 #include <cstdlib>
@@ -424,11 +425,8 @@ TEST_CASE("parser: plymesh search path (scene folder, then CBDPT_MODEL_PATH)") {
 }
 
 TEST_CASE("parser: the Stanford bunny loads through a scene file") {
-    const fs::path dir = CBDPT_MODELS_DIR;
-    if (!fs::is_directory(dir)) {
-        MESSAGE("skipped: " << dir.string() << " is absent");
-        return;
-    }
+    if (!cbtest::stanfordModelsOrSkip()) return;
+    const fs::path dir = cbtest::stanfordModelDir();
     const auto s =
         parseSceneString("WorldBegin\nShape \"plymesh\" \"string filename\" \"bunny.ply\"\n",
                          (dir / "virtual.pbrt").string());

@@ -4,6 +4,7 @@
 
 #include "scene/ply.h"
 #include "scene/scene_desc.h"
+#include "stanford_models.h"
 
 #include <bit>
 #include <chrono>
@@ -302,12 +303,9 @@ TEST_CASE("ply: malformed headers are rejected with the header line") {
     CHECK_THROWS_AS(cb::readPly("/nonexistent/dir/x.ply"), cb::SceneError);
 }
 
-TEST_CASE("ply: the Stanford models load with the README's counts and bounding boxes") {
-    const fs::path dir = CBDPT_MODELS_DIR;
-    if (!fs::is_directory(dir)) {
-        MESSAGE("skipped: " << dir.string() << " is absent");
-        return;
-    }
+TEST_CASE("ply: the Stanford models load with the counts and bounding boxes of docs/scenes.md") {
+    if (!cbtest::stanfordModelsOrSkip()) return;
+    const fs::path dir = cbtest::stanfordModelDir();
     struct Expect {
         const char* file;
         size_t vertices, triangles;

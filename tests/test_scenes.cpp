@@ -1,4 +1,4 @@
-// The thesis's seven scenes (issue 3, docs/scenes.md): each parses, builds, has the documented
+// The thesis's seven scenes (docs/scenes.md): each parses, builds, has the documented
 // triangle/vertex counts and kernel features, keeps its object meshes closed (or open exactly
 // where the Stanford sources are), and renders a few PT estimates with sane pixels. Also the
 // missing-model error of the model search path.
@@ -7,6 +7,7 @@
 #include "integrators/integrator.h"
 #include "scene/device_scene.h"
 #include "scene/scene_desc.h"
+#include "stanford_models.h"
 
 #include <algorithm>
 #include <cmath>
@@ -23,18 +24,12 @@ std::string scenePath(const std::string& name) {
     return std::string(CBDPT_SOURCE_DIR) + "/scenes/" + name + ".pbrt";
 }
 
-// The Stanford models live outside the repository (../shared/models); the CLI and scripts find
-// them through CBDPT_MODEL_PATH, so the tests do the same unless the caller chose a folder.
-void ensureModelPath() {
-    if (!std::getenv("CBDPT_MODEL_PATH")) ::setenv("CBDPT_MODEL_PATH", CBDPT_MODELS_DIR, 1);
-}
-
 // Expected counts, written from the documented pieces rather than from the code's output:
 //  - the Cornell box shell (tables A.3-A.7) is 5 quads = 10 triangles, 20 vertices;
 //  - the Cornell box scene is tables A.2-A.17: 16 quads (ceiling light, 5 walls, 2 x 5 block
 //    faces) = 32 triangles, 64 vertices, plus the sphere light;
 //  - the grille scene adds the ceiling light quad of table A.2 (2 triangles, 4 vertices);
-//  - the Stanford models as in ../shared/models/README.md (bunny 34,831 / 17,524, dragon
+//  - the Stanford models as documented in docs/scenes.md (bunny 34,831 / 17,524, dragon
 //    29,999 / 15,025, Buddha 29,998 / 14,989);
 //  - the reconstructed meshes as in docs/scenes.md (grade 228 / 100, gaiola 1,920 / 836,
 //    luminaria 64 / 34).
@@ -149,7 +144,7 @@ std::pair<long, long> edgeDefects(const cb::TriangleMeshDesc& m) {
 } // namespace
 
 TEST_CASE("thesis scenes: parse, build, documented counts, features and closed meshes") {
-    ensureModelPath();
+    if (!cbtest::stanfordModelsOrSkip()) return; // the dragon, Buddha and bunny scenes
     for (const Expected& e : kScenes) {
         const std::string sceneName = e.name;
         CAPTURE(sceneName);
@@ -191,7 +186,7 @@ TEST_CASE("thesis scenes: parse, build, documented counts, features and closed m
 }
 
 TEST_CASE("thesis scenes: a few PT estimates give finite, non-negative pixels of sane brightness") {
-    ensureModelPath();
+    if (!cbtest::stanfordModelsOrSkip()) return; // the dragon, Buddha and bunny scenes
     cb::ClRuntime runtime;
     // Reference radiance L_ref = Phi / (pi A): the light's whole power Phi spread evenly over
     // the box's five walls (A = 2 x 0.556 x 0.5592 + 0.556 x 0.5488 + 2 x 0.5488 x 0.5592

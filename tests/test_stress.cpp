@@ -1,4 +1,4 @@
-// Numerical stability on stiff and extreme cases (issue 8): invariances and analytic values
+// Numerical stability on stiff and extreme cases: invariances and analytic values
 // that every integrator must hold. Each case runs for every integrator listed in
 // kStressIntegrators.
 #include "scene_builders.h"

@@ -29,7 +29,9 @@ PlyMesh displacedSphere(long triangles, const float centre[3], float radius) {
             push(pi * i / rings, 2.0 * pi * j / segments);
     push(pi, 0.0); // south pole
     const unsigned south = unsigned(m.positions.size() - 1);
-    auto v = [&](int ring, int seg) { return unsigned(1 + (ring - 1) * segments + seg % segments); };
+    auto v = [&](int ring, int seg) {
+        return unsigned(1 + (ring - 1) * segments + seg % segments);
+    };
     for (int j = 0; j < segments; ++j)
         m.triangles.push_back({0u, v(1, j + 1), v(1, j)});
     for (int i = 1; i < rings - 1; ++i)

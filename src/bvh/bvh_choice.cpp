@@ -75,7 +75,7 @@ TraversalWork measureTraversalWork(const Bvh& bvh, const BvhWide& wide,
             cbk::BvhWideReal tn, far;
             cbk::bvhWideBoxes(&node, slabs.invNear, slabs.addNear, slabs.invFar, slabs.addFar,
                               hit.t, &tn, &far);
-            for (int k = 0; k < CBW; ++k) {
+            for (int k = 0; k < CB_BVH_WIDE_LANES; ++k) {
                 if (!cbk::bvhWideLaneHit(&node, tn, far, k)) continue;
                 const uint32_t count = cbk::bvhWideCount(&node, k);
                 if (count == 0u)

@@ -81,7 +81,7 @@ BvhWide collapseBvhWide(const Bvh& bvh) {
             uint32_t c[2];
             binaryChildren(bin, t.binary, c);
             kids = {c[0], c[1]};
-            while (kids.size() < CBW) {
+            while (kids.size() < CB_BVH_WIDE_LANES) {
                 int best = -1;
                 double bestArea = -1.0;
                 for (size_t k = 0; k < kids.size(); ++k)
@@ -107,7 +107,7 @@ BvhWide collapseBvhWide(const Bvh& bvh) {
         cbk::BvhNodeWide node{};
         node.parent = t.parent;
         node.lane = t.lane;
-        for (uint32_t k = 0; k < uint32_t(CBW); ++k) {
+        for (uint32_t k = 0; k < uint32_t(CB_BVH_WIDE_LANES); ++k) {
             const bool emptyLeaf =
                 k < kids.size() && isLeaf(bin[kids[k]]) && (bin[kids[k]].count & ~CB_BVH_LEAF) == 0;
             if (k >= kids.size() || emptyLeaf) {

@@ -1,11 +1,11 @@
-// BDPT (kernels/bdpt.cl, shared code in kernels/cb_path.h): one kernel per estimate traces a
+// BDPT (kernels/bdpt.cl, shared code in kernels/cb_bdpt.h): one kernel per estimate traces a
 // light and an eye subpath per pixel and combines them; light-tracing splats go to a second
 // image that is added to the pixel image here.
 #include "integrators/bdpt_settings.h"
 #include "integrators/integrator.h"
 #include "integrators/scene_buffers.h"
 
-#include "cb_path.h"
+#include "cb_bdpt.h"
 
 #include <chrono>
 #include <cstdio>

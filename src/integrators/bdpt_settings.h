@@ -4,7 +4,7 @@
 
 #include "integrators/integrator.h"
 
-#include "cb_path.h"
+#include "cb_bdpt.h"
 
 namespace cb {
 

@@ -7,7 +7,7 @@
 #include "integrators/integrator.h"
 #include "integrators/scene_buffers.h"
 
-#include "cb_path.h"
+#include "cb_bdpt.h"
 
 #include <algorithm>
 #include <chrono>
@@ -23,8 +23,8 @@ std::unique_ptr<CbdptLightTracer> makeCbdptLightTracer(const DeviceScene& scene,
     SceneBytes raw = sceneBytes(scene);
     if (scene.toRgb.size() != size_t(3 * scene.channels))
         throw std::logic_error("cbdpt: toRgb is not 3 x channels");
-    if (scene.channels == 3) return makeCbdptLightTracerRgb(raw, settings);
-    if (scene.channels == 16) return makeCbdptLightTracerSpectral(raw, settings);
+    if (scene.channels == 3) return makeCbdptLightTracerFor<float, 3>(raw, settings);
+    if (scene.channels == 16) return makeCbdptLightTracerFor<float, 16>(raw, settings);
     throw std::invalid_argument(fmt::format(
         "cbdpt traces light subpaths on the host, which is built for 3 (RGB) or 16 (spectral) "
         "channels, not {}",

@@ -1,11 +1,11 @@
-// CBDPT's host half (METHOD.md, CBDPT steps 1 and 3): per estimate, trace the few light subpaths
-// with the shared kernel code (kernels/cb_path.h compiled as C++) and splat their camera
+// CBDPT's host half (docs/cbdpt.md, steps 1 and 3): per estimate, trace the few light subpaths
+// with the shared kernel code (kernels/cb_bdpt.h compiled as C++) and splat their camera
 // connections (t = 1). The kernel (kernels/cbdpt.cl) does the rest.
 //
-// The shared code's Spectrum has CB_CHANNELS floats, fixed at compile time, so the host needs
-// one instantiation per channel count: cbdpt_light_rgb.cpp (3) and cbdpt_light_spectral.cpp
-// (16) each compile cbdpt_light.inc once, inside their own namespace (docs/cbdpt.md). This
-// header therefore uses no shared-header type: the scene comes in as raw arrays.
+// The shared code's Spectrum has CB_CHANNELS floats, fixed at compile time, so the light pass
+// (cbdpt_light_instance.cpp) is compiled once per host instance of the kernel code
+// (src/kernel_host/kernel_instance.h). This header therefore uses no shared-header type: the
+// scene comes in as raw arrays.
 #pragma once
 
 #include <cstddef>
@@ -73,9 +73,19 @@ inline float cbdptCameraCount(int width, int height, const CbdptLightSettings& s
 std::unique_ptr<CbdptLightTracer> makeCbdptLightTracer(const DeviceScene& scene,
                                                        const CbdptLightSettings& settings);
 
-std::unique_ptr<CbdptLightTracer> makeCbdptLightTracerRgb(const SceneBytes& scene,
+// The light pass of the host instance with real = Real and Spectrum = Channels floats, one per
+// instance that compiles cbdpt_light_instance.cpp (src/kernel_host/kernel_host.cmake).
+template <typename Real, int Channels>
+std::unique_ptr<CbdptLightTracer> makeCbdptLightTracerFor(const SceneBytes& scene,
                                                           const CbdptLightSettings& settings);
-std::unique_ptr<CbdptLightTracer> makeCbdptLightTracerSpectral(const SceneBytes& scene,
-                                                               const CbdptLightSettings& settings);
+template <>
+std::unique_ptr<CbdptLightTracer> makeCbdptLightTracerFor<float, 3>(const SceneBytes& scene,
+                                                                    const CbdptLightSettings& s);
+template <>
+std::unique_ptr<CbdptLightTracer> makeCbdptLightTracerFor<float, 16>(const SceneBytes& scene,
+                                                                     const CbdptLightSettings& s);
+template <>
+std::unique_ptr<CbdptLightTracer> makeCbdptLightTracerFor<double, 3>(const SceneBytes& scene,
+                                                                     const CbdptLightSettings& s);
 
 } // namespace cb

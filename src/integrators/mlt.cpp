@@ -9,7 +9,7 @@
 #include "integrators/integrator.h"
 #include "integrators/scene_buffers.h"
 
-#include "cb_path.h"
+#include "cb_bdpt.h"
 
 #include <algorithm>
 #include <chrono>
@@ -40,7 +40,7 @@ class MltIntegrator final : public Integrator {
     MltIntegrator(const IntegratorSettings& settings, const DeviceScene& scene, ClRuntime& runtime)
         : settings_(settings), scene_(scene), runtime_(runtime), buffers_(runtime, scene) {
         pixels_ = size_t(scene.camera.width) * size_t(scene.camera.height);
-        // Dimensions the BDPT subpaths can read (cb_path.h): eye bounce b uses 4 + 8b + {0,1,2}
+        // Dimensions the BDPT subpaths can read (cb_bdpt.h): eye bounce b uses 4 + 8b + {0,1,2}
         // for b <= Ne-3 and the s = 1 light point 4 + 8b + {4,5,6} for b <= Ne-2; light bounce b
         // uses 8 + 8b + {0,1,2} for b <= Nl-3.
         eyeDims_ = CB_DIM_FIRST_BOUNCE +

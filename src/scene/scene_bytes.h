@@ -1,13 +1,9 @@
-// A DeviceScene as raw arrays, for translation units that compile the shared kernel headers in a
-// different instantiation (16 channels, or real = double) and therefore cannot see DeviceScene's
-// 3-channel float types: they copy the bytes into their own structs.
+// A DeviceScene as raw arrays, for the host instances of the kernel code
+// (src/kernel_host/kernel_instance.h), which cannot see DeviceScene's types: each reads the bytes
+// into its own structs (HostScene).
 #pragma once
 
 #include <cstddef>
-#include <cstring>
-#include <stdexcept>
-#include <string>
-#include <vector>
 
 namespace cb {
 
@@ -34,18 +30,5 @@ struct SceneBytes {
 
 // Points into `scene`, which must outlive the result.
 SceneBytes sceneBytes(const DeviceScene& scene);
-
-// Copies `count` structs of `bytes` bytes each into the reader's own type T, which must have the
-// same layout (the shared headers assert every float-layout size). The types are distinct, so
-// the bytes are copied rather than aliased.
-template <typename T>
-std::vector<T> copySceneArray(const void* data, std::size_t count, std::size_t bytes,
-                              const char* what) {
-    if (count > 0 && bytes != sizeof(T))
-        throw std::logic_error(std::string("host struct size mismatch for ") + what);
-    std::vector<T> out(count);
-    if (count > 0) std::memcpy(static_cast<void*>(out.data()), data, count * sizeof(T));
-    return out;
-}
 
 } // namespace cb

@@ -1,11 +1,16 @@
-// CBDPT's host light pass, written once against the shared kernel code (`cbk::`, from
-// kernels/cb_path.h) and compiled once per channel count: the including translation unit has
-// already included cb_path.h with its CB_CHANNELS, and includes this file inside its own
-// namespace (cbdpt_light_rgb.cpp, cbdpt_light_spectral.cpp). No path code is duplicated: the
-// light subpaths, the camera connection and its MIS weight are the kernels' own functions.
-//
-// Needs: <algorithm>, <cstring>, <memory>, <stdexcept>, <vector>, cbdpt_light.h, and
-// scene/host_scene.inc included before it in the same namespace.
+// CBDPT's host light pass, written once against the shared kernel code and compiled once per
+// host instance that lists it (src/kernel_host/kernel_host.cmake: float with 3 and 16 channels,
+// double with 3 for the float64 check). No path code is duplicated: the light subpaths, the
+// camera connection and its MIS weight are the kernels' own functions (kernels/cb_bdpt.h).
+#include "kernel_host/kernel_instance.h"
+
+#include <algorithm>
+#include <memory>
+
+#include "integrators/cbdpt_light.h"
+
+namespace cb::CB_KERNEL_INSTANCE {
+namespace {
 
 class LightTracer final : public CbdptLightTracer {
   public:
@@ -64,9 +69,8 @@ class LightTracer final : public CbdptLightTracer {
                 // t = 1: the few light vertices this estimate has, projected and tested here.
                 for (int s = 2; s <= count; ++s) {
                     cbk::real rx = 0.0f, ry = 0.0f;
-                    cbk::Spectrum c =
-                        cbk::bdptConnectCounted(&view_, &camera_, path_.data(), s, eye, 1, bdpt_,
-                                                cameraCount_, &rx, &ry, &rays);
+                    cbk::Spectrum c = cbk::bdptConnect(&view_, &camera_, path_.data(), s, eye, 1,
+                                                       bdpt_, cameraCount_, &rx, &ry, &rays);
                     if (cbk::specIsBlack(c)) continue;
                     if (!cbk::specIsFinite(c)) {
                         ++out.nonFinite;
@@ -100,3 +104,15 @@ class LightTracer final : public CbdptLightTracer {
     int subpaths_ = 1;
     float cameraCount_ = 1.0f;
 };
+
+} // namespace
+} // namespace cb::CB_KERNEL_INSTANCE
+
+namespace cb {
+template <>
+std::unique_ptr<CbdptLightTracer>
+makeCbdptLightTracerFor<CB_REAL, CB_CHANNELS>(const SceneBytes& scene,
+                                              const CbdptLightSettings& settings) {
+    return std::make_unique<CB_KERNEL_INSTANCE::LightTracer>(scene, settings);
+}
+} // namespace cb

@@ -1,12 +1,31 @@
-// The body of one HostKernels instantiation, written once and included by host_kernels.cpp
-// inside the namespace of each precision, after the shared headers and scene/host_scene.inc.
+// The float64 check's HostKernels in one host instance of the kernel code: compiled for
+// (float, 3) and (double, 3) (src/kernel_host/kernel_host.cmake).
+#include "kernel_host/kernel_instance.h"
+
+#include <array>
+#include <memory>
+
+#include "float64/host_kernels.h"
+
+static_assert(CB_CHANNELS == 3, "the float64 check's host kernels are RGB only");
+
+namespace cb::CB_KERNEL_INSTANCE {
+namespace {
+
+using float64::HostKernels;
+using float64::Precision;
+using float64::PtPixelSettings;
+using float64::RayHit;
+using float64::RayQuery;
 
 class Instance final : public HostKernels {
   public:
-    Instance(const SceneBytes& scene, Precision precision)
-        : precision_(precision), scene_(scene), view_(scene_.view), camera_(scene_.camera) {}
+    explicit Instance(const SceneBytes& scene)
+        : scene_(scene), view_(scene_.view), camera_(scene_.camera) {}
 
-    Precision precision() const override { return precision_; }
+    Precision precision() const override {
+        return sizeof(cbk::real) == sizeof(double) ? Precision::Double : Precision::Float;
+    }
 
     RayQuery cameraRay(double rasterX, double rasterY) const override {
         cbk::Ray ray = cbk::cameraGenerateRay(&camera_, cbk::real(rasterX), cbk::real(rasterY));
@@ -56,8 +75,16 @@ class Instance final : public HostKernels {
         return ray;
     }
 
-    Precision precision_;
     HostScene scene_;
     const cbk::SceneView& view_;
     const cbk::Camera& camera_;
 };
+
+} // namespace
+} // namespace cb::CB_KERNEL_INSTANCE
+
+namespace cb::float64 {
+template <> std::unique_ptr<HostKernels> makeHostKernelsFor<CB_REAL>(const SceneBytes& scene) {
+    return std::make_unique<CB_KERNEL_INSTANCE::Instance>(scene);
+}
+} // namespace cb::float64

@@ -1,10 +1,11 @@
-// The shared kernel code (kernels/cb_*.h) run on the host, in float or in double precision.
+// The float64 check: the shared kernel code (kernels/cb_*.h) run on the host in double
+// precision, against the float kernels.
 //
-// The double build is the oracle of issue 8's float64 check: the same source as the OpenCL
-// kernels, compiled by g++ with `real` = double, on the same scene arrays widened exactly from
-// the device's floats. Where the float kernels and this build disagree, the cause is float
-// arithmetic in our code, not a second implementation. The float build (g++, real = float)
-// separates PoCL's code generation from the arithmetic itself.
+// The double build is the oracle: the same source as the OpenCL kernels, compiled by g++ with
+// `real` = double, on the same scene arrays widened exactly from the device's floats. Where the
+// float kernels and this build disagree, the cause is float arithmetic in our code, not a second
+// implementation. The float build (g++, real = float) separates PoCL's code generation from the
+// arithmetic itself. Both are host instances of the kernel code (src/kernel_host/).
 //
 // Error bounds used for spawning rays stay float-sized in both builds (CB_MACHINE_EPSILON), so
 // that both trace the same paths; only the arithmetic along them differs.
@@ -17,7 +18,7 @@
 #include <cstdint>
 #include <memory>
 
-namespace cb::reference {
+namespace cb::float64 {
 
 enum class Precision { Float, Double };
 
@@ -63,11 +64,16 @@ class HostKernels {
 // std::invalid_argument for spectral scenes.
 std::unique_ptr<HostKernels> makeHostKernels(const SceneBytes& scene, Precision precision);
 
-// CBDPT's host light pass (integrators/cbdpt_light.inc: light subpaths, their t = 1 camera
-// connections and MIS weights) in this precision; RGB scenes only. Float: the one `cbdpt`
-// renders RGB scenes with (makeCbdptLightTracerRgb).
+// The instance with real = Real (src/float64/host_kernels_instance.cpp).
+template <typename Real> std::unique_ptr<HostKernels> makeHostKernelsFor(const SceneBytes& scene);
+template <> std::unique_ptr<HostKernels> makeHostKernelsFor<float>(const SceneBytes& scene);
+template <> std::unique_ptr<HostKernels> makeHostKernelsFor<double>(const SceneBytes& scene);
+
+// CBDPT's host light pass (src/integrators/cbdpt_light_instance.cpp: light subpaths, their t = 1
+// camera connections and MIS weights) in this precision; RGB scenes only. Float: the one `cbdpt`
+// renders RGB scenes with.
 std::unique_ptr<CbdptLightTracer> makeHostLightTracer(const SceneBytes& scene,
                                                       const CbdptLightSettings& settings,
                                                       Precision precision);
 
-} // namespace cb::reference
+} // namespace cb::float64

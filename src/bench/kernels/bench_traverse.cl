@@ -1,9 +1,11 @@
 /* bench_traverse.cl - traversal micro-benchmark kernels for cbdpt-bench (src/bench/).
  *
  * One work-item per ray, rays and results in flat buffers, nothing else: the measured time is
- * the BVH traversal and the primitive tests. benchClosest/benchOccluded run the binary BVH of
- * cb_bvh.h (-DCB_BVH_SKIP_ORDER: its unordered preorder closest-hit loop), kept for
- * comparison; the *Wide kernels run cb_bvh_wide.h, the traversal the renderers use. */
+ * the BVH traversal and the primitive tests. benchClosest/benchOccluded run the binary BVH's
+ * traversals of bench_bvh_binary.h (-DCB_BVH_SKIP_ORDER: its unordered preorder closest-hit
+ * loop), kept for comparison; the *Wide kernels run cb_bvh_wide.h, the traversal the renderers
+ * use. */
+#include "bench_bvh_binary.h"
 #include "cb_bvh_wide.h"
 
 __kernel void benchClosest(__global const struct BvhNode* nodes,

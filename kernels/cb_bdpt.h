@@ -1,4 +1,4 @@
-/* cb_path.h - bidirectional path vertices, subpath generation, connection and MIS weights
+/* cb_bdpt.h - bidirectional path vertices, subpath generation, connection and MIS weights
  * (METHOD.md, BDPT; Veach 1997 ch. 10; pbrt-v4's BDPT bookkeeping).
  *
  * Written once for BDPT (kernels/bdpt.cl), CBDPT (one light subpath per estimate traced on the
@@ -18,8 +18,8 @@
  *
  * Connections read the light vertices through a private pointer: BDPT generates them into a
  * private array; CBDPT copies its uploaded vertices into a private array first (Nl is small). */
-#ifndef CB_PATH_H
-#define CB_PATH_H
+#ifndef CB_BDPT_H
+#define CB_BDPT_H
 
 #include "cb_bsdf.h"
 #include "cb_bvh_wide.h"
@@ -378,13 +378,12 @@ CB_FN real cbRemap0(real f) {
  * pdfRev that the connection changes are passed in, and pt and qs count as non-delta (the
  * connection used their non-delta part), so that no vertex is modified.
  * cameraCount scales the sampling rate of the t = 1 strategy (Veach's heuristics weigh
- * n_i p_i, eq. 9.13): 1 in BDPT, whose W*H light subpaths per estimate all splat; CBDPT traces
- * fewer light subpaths per estimate than there are pixels and passes their number / (W*H)
- * (docs/cbdpt.md); coneRatio is bdptConeRatio of the full path's y0, y1. */
-CB_FN real bdptPowerWeightCounted(const PathVertex* light, int s, const PathVertex* eye, int t,
-                                  real ptPdfRev, real ptMinusPdfRev, real qsPdfRev,
-                                  real qsMinusPdfRev, BdptSettings settings, real cameraCount,
-                                  real coneRatio) {
+ * n_i p_i, eq. 9.13): 1 in BDPT and MLT, whose W*H light subpaths per estimate all splat; CBDPT
+ * traces fewer light subpaths per estimate than there are pixels and passes their number / (W*H)
+ * (docs/cbdpt.md). coneRatio is bdptConeRatio of the full path's y0, y1. */
+CB_FN real bdptPowerWeight(const PathVertex* light, int s, const PathVertex* eye, int t,
+                           real ptPdfRev, real ptMinusPdfRev, real qsPdfRev, real qsMinusPdfRev,
+                           BdptSettings settings, real cameraCount, real coneRatio) {
     if (s + t == 2) return 1.0f; /* only (0,2) exists: (1,1) is excluded */
     /* p_1 carries coneRatio (bdptConeRatio): ratios to s' = 1 gain it, ratios from s = 1 lose it.
      */
@@ -472,10 +471,10 @@ CB_FN real bdptLafortuneWeight(const SceneView* scene, const PathVertex* light, 
     return prefix * (1.0f - bdptLafortuneW(scene, light, s, eye, t, t - 1));
 }
 
-CB_FN real bdptMisWeightCounted(const SceneView* scene, const PathVertex* light, int s,
-                                const PathVertex* eye, int t, real ptPdfRev, real ptMinusPdfRev,
-                                real qsPdfRev, real qsMinusPdfRev, BdptSettings settings,
-                                real cameraCount) {
+CB_FN real bdptMisWeight(const SceneView* scene, const PathVertex* light, int s,
+                         const PathVertex* eye, int t, real ptPdfRev, real ptMinusPdfRev,
+                         real qsPdfRev, real qsMinusPdfRev, BdptSettings settings,
+                         real cameraCount) {
     if (!bdptStrategyAllowed(s, t, settings.eyeVertices, settings.lightVertices)) return 0.0f;
     if (settings.debugS >= 0) return 1.0f;
     if (settings.weights == CB_WEIGHTS_LAFORTUNE)
@@ -483,16 +482,8 @@ CB_FN real bdptMisWeightCounted(const SceneView* scene, const PathVertex* light,
     /* y0 and y1 of the full path, for the s = 1 strategy's light density. */
     const PathVertex* y0 = s >= 1 ? &light[0] : &eye[t - 1];
     const PathVertex* y1 = s >= 2 ? &light[1] : (s == 1 ? &eye[t - 1] : &eye[t - 2]);
-    return bdptPowerWeightCounted(light, s, eye, t, ptPdfRev, ptMinusPdfRev, qsPdfRev,
-                                  qsMinusPdfRev, settings, cameraCount,
-                                  bdptConeRatio(scene, y0, y1));
-}
-
-CB_FN real bdptMisWeight(const SceneView* scene, const PathVertex* light, int s,
-                         const PathVertex* eye, int t, real ptPdfRev, real ptMinusPdfRev,
-                         real qsPdfRev, real qsMinusPdfRev, BdptSettings settings) {
-    return bdptMisWeightCounted(scene, light, s, eye, t, ptPdfRev, ptMinusPdfRev, qsPdfRev,
-                                qsMinusPdfRev, settings, 1.0f);
+    return bdptPowerWeight(light, s, eye, t, ptPdfRev, ptMinusPdfRev, qsPdfRev, qsMinusPdfRev,
+                           settings, cameraCount, bdptConeRatio(scene, y0, y1));
 }
 
 /* ---- Connection ---------------------------------------------------------------------------- */
@@ -613,18 +604,17 @@ CB_FN bool bdptConnectionVisible(const SceneView* scene, const Camera* camera,
 
 /* Weighted (or, in debug mode, unweighted) contribution of strategy (s,t), visibility included;
  * *rays counts the shadow ray. Black when the strategy does not apply. */
-CB_FN Spectrum bdptConnectCounted(const SceneView* scene, const Camera* camera,
-                                  const PathVertex* light, int s, const PathVertex* eye, int t,
-                                  BdptSettings settings, real cameraCount, real* rasterX,
-                                  real* rasterY, int* rays) {
+CB_FN Spectrum bdptConnect(const SceneView* scene, const Camera* camera, const PathVertex* light,
+                           int s, const PathVertex* eye, int t, BdptSettings settings,
+                           real cameraCount, real* rasterX, real* rasterY, int* rays) {
     BdptConnection c;
     if (!bdptStrategyAllowed(s, t, settings.eyeVertices, settings.lightVertices)) return specZero();
     if (settings.debugS >= 0 && (s != settings.debugS || t != settings.debugT)) return specZero();
     if (settings.debugS < 0 && settings.weights == CB_WEIGHTS_LAFORTUNE && t == 1)
         return specZero(); /* weight 0: skip the shadow ray */
     if (!bdptConnectUnoccluded(scene, camera, light, s, eye, t, &c)) return specZero();
-    real weight = bdptMisWeightCounted(scene, light, s, eye, t, c.ptPdfRev, c.ptMinusPdfRev,
-                                       c.qsPdfRev, c.qsMinusPdfRev, settings, cameraCount);
+    real weight = bdptMisWeight(scene, light, s, eye, t, c.ptPdfRev, c.ptMinusPdfRev, c.qsPdfRev,
+                                c.qsMinusPdfRev, settings, cameraCount);
     if (!(weight > 0.0f)) return specZero();
     if (c.needsShadow) {
         *rays += 1;
@@ -635,13 +625,6 @@ CB_FN Spectrum bdptConnectCounted(const SceneView* scene, const Camera* camera,
     return specScale(c.contribution, weight);
 }
 
-CB_FN Spectrum bdptConnect(const SceneView* scene, const Camera* camera, const PathVertex* light,
-                           int s, const PathVertex* eye, int t, BdptSettings settings,
-                           real* rasterX, real* rasterY, int* rays) {
-    return bdptConnectCounted(scene, camera, light, s, eye, t, settings, 1.0f, rasterX, rasterY,
-                              rays);
-}
-
 CB_END_NAMESPACE
 
-#endif /* CB_PATH_H */
+#endif /* CB_BDPT_H */

@@ -1,0 +1,386 @@
+// cbdpt-bench, traverse section: our OpenCL traversals (the renderers' wide BVH, the binary
+// BVH's for comparison) against Embree 3 on the same rays and threads, in Mrays/s.
+#include "bench/bench.h"
+#include "bench/embree_baseline.h"
+#include "bench/kernels/bench_bvh_binary.h"
+#include "bench/parallel_rays.h"
+
+#include "bvh/bvh.h"
+#include "bvh/bvh_choice.h"
+#include "bvh/bvh_wide.h"
+#include "cl/cl_runtime.h"
+#include "integrators/scene_buffers.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <memory>
+
+using cbk::Ray;
+
+namespace cb::bench {
+namespace {
+
+class ClTraversal {
+  public:
+    // variant: ordered | skip (binary BVH) | wide (cb_bvh_wide.h, what the renderers use)
+    ClTraversal(ClRuntime& rt, const Bvh& bvh, const std::string& variant, int localSize)
+        : rt_(rt), localSize_(localSize) {
+        std::vector<std::string> defines = {"CB_CHANNELS=3", "CB_FEATURES=0x101u"};
+        if (variant == "skip") defines.push_back("CB_BVH_SKIP_ORDER=1");
+        program_ = rt.buildProgram("bench_traverse.cl", defines);
+        const bool wide = variant == "wide";
+        closest_ = cl::Kernel(program_, wide ? "benchClosestWide" : "benchClosest");
+        occluded_ = cl::Kernel(program_, wide ? "benchOccludedWide" : "benchOccluded");
+        if (wide) closestCoherent_ = cl::Kernel(program_, "benchClosestWideCoherent");
+        if (wide) {
+            wide_ = collapseBvhWide(bvh);
+            nodes_ = uploadArray(rt, "bench wide BVH nodes", wide_.nodes);
+            packs_ = uploadArray(rt, "bench BVH leaf triangles", wide_.packs);
+        } else {
+            nodes_ = uploadArray(rt, "bench binary BVH nodes", bvh.nodes);
+        }
+        prims_ = uploadArray(rt, "bench primitives", bvh.primitives);
+    }
+
+    // Returns the median seconds of `repeats` launches; hits from the last one.
+    double closest(const std::vector<Ray>& rays, bool coherent, int repeats,
+                   std::vector<cbk::Hit>& hits) {
+        auto& ctx = rt_.context();
+        cl::Buffer rayBuf(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, rays.size() * sizeof(Ray),
+                          const_cast<Ray*>(rays.data()));
+        cl::Buffer hitBuf(ctx, CL_MEM_WRITE_ONLY, rays.size() * sizeof(cbk::Hit));
+        // Coherent rays go through the renderers' camera-ray traversal (wide BVH only).
+        cl::Kernel& kernel = coherent && !wide_.nodes.empty() ? closestCoherent_ : closest_;
+        int arg = setBvhArgs(kernel);
+        kernel.setArg(arg++, rayBuf);
+        kernel.setArg(arg++, cl_uint(rays.size()));
+        kernel.setArg(arg, hitBuf);
+        double t = launch(kernel, rays.size(), repeats);
+        hits.resize(rays.size());
+        rt_.queue().enqueueReadBuffer(hitBuf, CL_TRUE, 0, hits.size() * sizeof(cbk::Hit),
+                                      hits.data());
+        return t;
+    }
+
+    double occluded(const std::vector<Ray>& rays, const std::vector<float>& tMax, int repeats,
+                    std::vector<int>& out) {
+        auto& ctx = rt_.context();
+        cl::Buffer rayBuf(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, rays.size() * sizeof(Ray),
+                          const_cast<Ray*>(rays.data()));
+        cl::Buffer tBuf(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, tMax.size() * sizeof(float),
+                        const_cast<float*>(tMax.data()));
+        cl::Buffer outBuf(ctx, CL_MEM_WRITE_ONLY, rays.size() * sizeof(int));
+        int arg = setBvhArgs(occluded_);
+        occluded_.setArg(arg++, rayBuf);
+        occluded_.setArg(arg++, tBuf);
+        occluded_.setArg(arg++, cl_uint(rays.size()));
+        occluded_.setArg(arg, outBuf);
+        double t = launch(occluded_, rays.size(), repeats);
+        out.resize(rays.size());
+        rt_.queue().enqueueReadBuffer(outBuf, CL_TRUE, 0, out.size() * sizeof(int), out.data());
+        return t;
+    }
+
+  private:
+    // The BVH arguments: nodes, [packs,] primitives. Returns the next argument index.
+    int setBvhArgs(cl::Kernel& k) {
+        int arg = 0;
+        k.setArg(arg++, nodes_);
+        if (!wide_.nodes.empty()) k.setArg(arg++, packs_);
+        k.setArg(arg++, prims_);
+        return arg;
+    }
+
+    double launch(cl::Kernel& k, size_t n, int repeats) {
+        size_t global = n;
+        cl::NDRange local = cl::NullRange;
+        if (localSize_ > 0) {
+            global = (n + size_t(localSize_) - 1) / size_t(localSize_) * size_t(localSize_);
+            local = cl::NDRange(size_t(localSize_));
+        }
+        // One untimed launch: first-launch costs (PoCL's work-group function compilation for
+        // this local size, buffer migration) are not traversal.
+        rt_.queue().enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(global), local);
+        rt_.queue().finish();
+        std::vector<double> times, cpu;
+        for (int r = 0; r < repeats; ++r) {
+            auto start = Clock::now();
+            double cpuStart = processCpuSeconds();
+            rt_.queue().enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(global), local);
+            rt_.queue().finish();
+            times.push_back(secondsSince(start));
+            cpu.push_back(processCpuSeconds() - cpuStart);
+        }
+        lastCpu = median(cpu);
+        return median(times);
+    }
+
+    ClRuntime& rt_;
+    int localSize_;
+    cl::Program program_;
+    cl::Kernel closest_, closestCoherent_, occluded_;
+    cl::Buffer nodes_, packs_, prims_;
+    BvhWide wide_; // empty for the binary BVH
+
+  public:
+    double lastCpu = 0.0; // median CPU seconds of the last closest() or occluded()
+};
+
+// The binary BVH traversal (bench_bvh_binary.h) compiled by g++ for the host, on `threads`
+// std::threads: separates what the traversal algorithm costs from what PoCL's code generation adds.
+double hostSeconds(const Bvh& bvh, const std::vector<Ray>& rays, const std::vector<float>* tMax,
+                   int threads, int repeats) {
+    std::vector<double> times;
+    std::atomic<int> sink{0}; // keeps the traversal from being optimised away
+    for (int r = 0; r < repeats; ++r) {
+        auto start = Clock::now();
+        parallelRayChunks(rays.size(), threads, [&](size_t b, size_t e) {
+            int count = 0;
+            for (size_t i = b; i < e; ++i) {
+                if (tMax) {
+                    count += cbk::bvhOccluded(bvh.nodes.data(), bvh.primitives.data(), rays[i],
+                                              (*tMax)[i]);
+                } else {
+                    cbk::Hit h;
+                    count += cbk::bvhIntersect(bvh.nodes.data(), bvh.primitives.data(), rays[i],
+                                               CB_INFINITY, &h);
+                }
+            }
+            sink += count;
+        });
+        times.push_back(secondsSince(start));
+    }
+    return median(times);
+}
+
+// Agreement of closest hits: same hit/miss and primitive, or a tie (both primitives at the
+// same distance up to 1e-5 relative: shared edges and vertices).
+double closestAgreement(const std::vector<cbk::Hit>& ours, const Bvh& bvh,
+                        const std::vector<BaselineHit>& theirs) {
+    size_t agree = 0;
+    for (size_t i = 0; i < ours.size(); ++i) {
+        bool hitA = ours[i].primitive >= 0, hitB = theirs[i].primitive >= 0;
+        if (hitA != hitB) continue;
+        if (!hitA) {
+            ++agree;
+            continue;
+        }
+        int primA = bvh.originalIndex[size_t(ours[i].primitive)];
+        if (primA == theirs[i].primitive ||
+            std::fabs(ours[i].t - theirs[i].t) <= 1e-5f * std::max(ours[i].t, theirs[i].t))
+            ++agree;
+    }
+    return ours.empty() ? 1.0 : double(agree) / double(ours.size());
+}
+
+// Median wall and CPU seconds of `repeats` calls after one untimed call.
+template <typename Call> void timeEmbree(int repeats, Call call, double& wall, double& cpu) {
+    std::vector<double> times, cpuTimes;
+    for (int r = 0; r < repeats + 1; ++r) {
+        auto start = Clock::now();
+        double cpuStart = processCpuSeconds();
+        call();
+        if (r > 0) times.push_back(secondsSince(start));
+        if (r > 0) cpuTimes.push_back(processCpuSeconds() - cpuStart);
+    }
+    wall = median(times);
+    cpu = median(cpuTimes);
+}
+
+// One ray set of one mesh and traversal: ours, Embree's (when built in) and their agreement.
+struct CaseResult {
+    double ours = 0.0, theirs = 0.0, theirsCpu = 0.0, agree = 1.0;
+    size_t n = 0;
+    long hitCount = 0;
+};
+
+CaseResult closestCase(ClTraversal& cl, const EmbreeBaseline* embree, const Bvh& bvh,
+                       const std::vector<Ray>& rays, bool coherent, int repeats, bool compare,
+                       std::vector<cbk::Hit>& hits) {
+    CaseResult r;
+    r.ours = cl.closest(rays, coherent, repeats, hits);
+    r.n = rays.size();
+    for (const auto& h : hits)
+        r.hitCount += h.primitive >= 0;
+    if (compare && embree) {
+        std::vector<BaselineHit> ref;
+        timeEmbree(
+            repeats, [&] { embree->intersect(rays, ref); }, r.theirs, r.theirsCpu);
+        r.agree = closestAgreement(hits, bvh, ref);
+    }
+    return r;
+}
+
+CaseResult anyHitCase(ClTraversal& cl, const EmbreeBaseline* embree, const std::vector<Ray>& rays,
+                      const std::vector<float>& tMax, int repeats) {
+    CaseResult r;
+    std::vector<int> occ;
+    r.ours = cl.occluded(rays, tMax, repeats, occ);
+    r.n = rays.size();
+    for (int v : occ)
+        r.hitCount += v;
+    if (embree) {
+        std::vector<int> ref;
+        timeEmbree(
+            repeats, [&] { embree->occluded(rays, tMax, ref); }, r.theirs, r.theirsCpu);
+        size_t same = 0;
+        for (size_t i = 0; i < r.n; ++i)
+            same += occ[i] == ref[i];
+        r.agree = double(same) / double(r.n);
+    }
+    return r;
+}
+
+// What one traversal of one mesh is run on.
+struct TraverseInput {
+    const BenchMesh& mesh;
+    size_t triangles;
+    const std::string& variant;
+    const std::string& settings;
+    const Bvh& bvh;
+    const EmbreeBaseline* embree;
+};
+
+// Prints the case's table line(s) and returns its JSON row.
+json caseRow(const TraverseInput& in, const char* name, bool anyHit, const CaseResult& r,
+             double cpuOurs, double host) {
+    double oursM = double(r.n) / r.ours * 1e-6;
+    double theirsM = r.theirs > 0 ? double(r.n) / r.theirs * 1e-6 : 0.0;
+    double ratio = theirsM > 0 ? oursM / theirsM : 0.0;
+    double cpuRatio = r.theirsCpu > 0 && cpuOurs > 0 ? r.theirsCpu / cpuOurs : 0.0;
+    fmt::print("{:<11} {:>9} {:<8} {:<10} {:>9.2f} {:>9.2f} {:>7.3f} {:>9.3f} "
+               "{:>8.4f}%\n",
+               in.mesh.name, in.triangles, in.variant, name, oursM, theirsM, ratio, cpuRatio,
+               100.0 * r.agree);
+    std::fflush(stdout);
+    json row = {{"mesh", in.mesh.name},
+                {"triangles", in.triangles},
+                {"order", in.variant},
+                {"bvh_settings", in.settings},
+                {"rays", name},
+                {"query", anyHit ? "any-hit" : "closest-hit"},
+                {"count", r.n},
+                {"hit_fraction", double(r.hitCount) / double(r.n)},
+                {"ours_mrays_per_s", oursM},
+                {"ours_seconds", r.ours}};
+    if (host > 0.0) {
+        row["host_mrays_per_s"] = double(r.n) / host * 1e-6;
+        fmt::print("{:<11} {:>9} {:<8} {:<10} {:>9.2f}  (same code, g++ on the host)\n", "", "",
+                   "host", name, double(r.n) / host * 1e-6);
+    }
+    if (in.embree) {
+        row["embree_mrays_per_s"] = theirsM;
+        row["embree_seconds"] = r.theirs;
+        row["ratio"] = ratio;
+        row["cpu_ratio"] = cpuRatio;
+        row["agreement"] = r.agree;
+    }
+    return row;
+}
+
+// The BVH a traversal variant runs on and a description of its settings.
+Bvh variantBvh(const Options& o, const std::string& variant,
+               const std::vector<cbk::Primitive>& prims, const std::vector<Ray>& primary,
+               std::string& settings) {
+    if (variant == "wide" && o.sahBlock <= 0) {
+        // As the renderers build it (DeviceScene): the candidate cheapest for a sample of the
+        // camera rays and their bounces.
+        WideBvhChoice choice = buildWideBvhForRays(prims, cameraSample(primary));
+        settings = describeChoice(choice);
+        return std::move(choice.bvh);
+    }
+    const int block = o.sahBlock > 0 ? o.sahBlock : 1;
+    settings = fmt::format("SAH block {}, leaves <= {}", block, o.leafSize);
+    return buildBvh(prims, {o.leafSize, 16, block});
+}
+
+// Every wanted ray set of one mesh through one traversal variant, rows appended to `out`.
+void traverseVariant(const Options& o, ClRuntime& rt, const BenchMesh& m,
+                     const std::vector<cbk::Primitive>& prims, const EmbreeBaseline* embree,
+                     const std::string& variant, const std::vector<Ray>& primary,
+                     const std::vector<Ray>& incoherent, json& out) {
+    const int repeats = o.repeats > 0 ? o.repeats : (o.quick ? 2 : 5);
+    std::string settings;
+    const Bvh bvh = variantBvh(o, variant, prims, primary, settings);
+    fmt::print("{:<11} {:>9} {:<8} BVH: {}\n", m.name, prims.size(), variant, settings);
+    const TraverseInput in{m, prims.size(), variant, settings, bvh, embree};
+    ClTraversal cl(rt, bvh, variant, o.localSize);
+    auto wanted = [&](const char* name) {
+        return std::find(o.cases.begin(), o.cases.end(), name) != o.cases.end();
+    };
+    std::vector<Ray> shadow;
+    std::vector<float> shadowT;
+    const std::vector<float> infT(incoherent.size(), CB_INFINITY);
+    // Shadow rays need the primary hits first.
+    if (wanted("primary") || wanted("shadow")) {
+        std::vector<cbk::Hit> hits;
+        CaseResult r =
+            closestCase(cl, embree, bvh, primary, true, repeats, wanted("primary"), hits);
+        shadowRays(meshBounds(m.mesh), primary, hits, 11u, shadow, shadowT);
+        if (wanted("primary")) {
+            double host = o.host && variant == "ordered"
+                              ? hostSeconds(bvh, primary, nullptr, o.threads, repeats)
+                              : 0.0;
+            out.push_back(caseRow(in, "primary", false, r, cl.lastCpu, host));
+        }
+    }
+    if (wanted("incoherent")) {
+        std::vector<cbk::Hit> hits;
+        CaseResult r = closestCase(cl, embree, bvh, incoherent, false, repeats, true, hits);
+        double host = o.host && variant == "ordered"
+                          ? hostSeconds(bvh, incoherent, nullptr, o.threads, repeats)
+                          : 0.0;
+        out.push_back(caseRow(in, "incoherent", false, r, cl.lastCpu, host));
+    }
+    struct AnyHit {
+        const char* name;
+        const std::vector<Ray>& rays;
+        const std::vector<float>& tMax;
+    };
+    for (const AnyHit& c :
+         {AnyHit{"shadow", shadow, shadowT}, AnyHit{"incoh-any", incoherent, infT}}) {
+        if (!wanted(c.name)) continue;
+        CaseResult r = anyHitCase(cl, embree, c.rays, c.tMax, repeats);
+        double host = o.host && variant == "ordered"
+                          ? hostSeconds(bvh, c.rays, &c.tMax, o.threads, repeats)
+                          : 0.0;
+        out.push_back(caseRow(in, c.name, true, r, cl.lastCpu, host));
+    }
+}
+
+} // namespace
+
+json runTraverse(const Options& o, ClRuntime& rt) {
+    json out = json::array();
+    const int repeats = o.repeats > 0 ? o.repeats : (o.quick ? 2 : 5);
+    const long rayCount = o.rays > 0 ? o.rays : (o.quick ? 65536 : 1 << 20);
+    std::vector<std::string> variants;
+    if (o.traversal == "both")
+        variants = {"ordered", "skip"};
+    else
+        variants = splitCommas(o.traversal);
+    fmt::print("\n== traverse: Mrays/s (median of {}), {} rays, local size {}, Embree on {} "
+               "threads, wide BVH {} lanes; each BVH's settings on its own line\n",
+               repeats, rayCount, o.localSize, o.threads, CB_BVH_WIDE_LANES);
+    // cpu-ratio: the same ratio from process CPU seconds instead of wall seconds, steadier when
+    // other jobs share the cores.
+    fmt::print("{:<11} {:>9} {:<8} {:<10} {:>9} {:>9} {:>7} {:>9} {:>9}\n", "mesh", "triangles",
+               "order", "rays", "ours", "embree", "ratio", "cpu-ratio", "agree");
+    for (auto& m : loadMeshes(o)) {
+        auto prims = meshPrimitives(m.mesh);
+        Box3 box = meshBounds(m.mesh);
+        std::unique_ptr<EmbreeBaseline> embree;
+        if (embreeAvailable()) embree = std::make_unique<EmbreeBaseline>(m.mesh, o.threads);
+        auto primary = primaryRays(box, rayCount);
+        auto incoherent = incoherentRays(box, rayCount, 7u);
+        for (const auto& variant : variants)
+            traverseVariant(o, rt, m, prims, embree.get(), variant, primary, incoherent, out);
+    }
+    return out;
+}
+
+} // namespace cb::bench
