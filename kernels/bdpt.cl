@@ -1,9 +1,9 @@
 /* bdpt.cl - bidirectional path tracing (METHOD.md, BDPT). One work-item per pixel, work-groups
  * are square pixel tiles: each work-item traces a light subpath and an eye subpath into private
  * arrays and combines every (s,t) allowed by the caps. Light-tracing (t = 1) contributions land
- * in other pixels and are added to a separate splat image with atomic float adds; the host adds
- * the splat image to the pixel image after the kernel. */
-#include "cb_atomics.h"
+ * in other pixels: each work-item records its own (one slot per light vertex, target pixel and
+ * RGB) and the host adds them in pixel order, so an estimate is the same bits however the
+ * work-items were scheduled (atomic float adds would sum in a different order each run). */
 #include "cb_bdpt.h"
 
 #ifndef CB_MAX_EYE_VERTICES
@@ -21,7 +21,8 @@ __kernel void renderBdpt(CB_SCENE_KERNEL_PARAMS,
                          SamplerSettings sampler,
                          uint estimate,
                          __global float* outRgb,
-                         volatile __global float* splatRgb,
+                         __global int* splatTarget,
+                         __global float* splatRgb,
                          volatile __global int* nonFiniteCount,
                          volatile __global uint* rayCount,
                          int countRays) {
@@ -45,6 +46,9 @@ __kernel void renderBdpt(CB_SCENE_KERNEL_PARAMS,
 
     Spectrum radiance = specZero();
     int nonFinite = 0;
+    const uint splatBase = pixel * (uint)CB_MAX_LIGHT_VERTICES;
+    for (int k = 0; k < CB_MAX_LIGHT_VERTICES; ++k)
+        splatTarget[splatBase + (uint)k] = -1;
     for (int t = 1; t <= nEye; ++t) {
         PathVertex nee[1]; /* s = 1's own light point for eye[t-1] */
         bool haveNee = bdptNeeLightVertex(&scene, eyeStream, eye, t, nee);
@@ -62,10 +66,12 @@ __kernel void renderBdpt(CB_SCENE_KERNEL_PARAMS,
                 Vec3 rgb = specToRgb(c, toRgb);
                 int px = min((int)rx, camera.width - 1);
                 int py = min((int)ry, camera.height - 1);
-                uint target = (uint)(py * camera.width + px);
-                atomicAddFloat(&splatRgb[3 * target + 0], rgb.x);
-                atomicAddFloat(&splatRgb[3 * target + 1], rgb.y);
-                atomicAddFloat(&splatRgb[3 * target + 2], rgb.z);
+                /* s >= 1 when t = 1: slot s - 1 of this pixel's light vertices. */
+                const uint slot = splatBase + (uint)(s - 1);
+                splatTarget[slot] = py * camera.width + px;
+                splatRgb[3 * slot + 0] = rgb.x;
+                splatRgb[3 * slot + 1] = rgb.y;
+                splatRgb[3 * slot + 2] = rgb.z;
             } else {
                 radiance = specAdd(radiance, c);
             }

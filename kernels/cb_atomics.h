@@ -1,4 +1,4 @@
-/* cb_atomics.h - kernel-only helpers for race-free accumulation (t = 1 splats, MLT splats). */
+/* cb_atomics.h - kernel-only helpers for race-free accumulation (MLT splats). */
 #ifndef CB_ATOMICS_H
 #define CB_ATOMICS_H
 

@@ -4,6 +4,7 @@
 #include "scene_builders.h"
 #include "test_render_util.h"
 
+#include "image/accumulator.h"
 #include "image/image.h"
 #include "scene/device_scene.h"
 #include "scene/scene_desc.h"

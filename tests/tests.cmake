@@ -30,3 +30,14 @@ endif()
 # Error against time: checkpoints, logs, compare, experiment --quick -> report.
 add_test(NAME checkpoints COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_checkpoints.py $<TARGET_FILE:cbdpt> ${CMAKE_SOURCE_DIR})
 set_tests_properties(checkpoints PROPERTIES TIMEOUT 600)
+
+# Renders that scale and survive: shards merged bit for bit (PT, CPT, BDPT, CBDPT), SIGKILL and
+# --resume from the periodic state, output checks and kept work, corrupted states refused.
+add_test(NAME scale COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_scale.py $<TARGET_FILE:cbdpt> ${CMAKE_SOURCE_DIR})
+set_tests_properties(scale PROPERTIES TIMEOUT 900)
+# The same estimates rendered by 2 MPI ranks equal the single-process render (MPI builds only).
+if(MPI_CXX_FOUND AND MPIEXEC_EXECUTABLE)
+  add_test(NAME scale_mpi COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_scale.py $<TARGET_FILE:cbdpt>
+           ${CMAKE_SOURCE_DIR} --mpi "${MPIEXEC_EXECUTABLE} --oversubscribe --allow-run-as-root")
+  set_tests_properties(scale_mpi PROPERTIES TIMEOUT 900)
+endif()

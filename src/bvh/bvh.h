@@ -1,5 +1,6 @@
-// Binned-SAH BVH built on the host and flattened for the stackless traversals in cb_bvh.h
-// (preorder with skip indices; interior nodes also record their parent and split axis).
+// Binned-SAH BVH built on the host in the node layout of kernels/cb_bvh.h (preorder with skip
+// indices; interior nodes also record their parent and split axis). The renderers trace the wide
+// BVH collapsed from it (bvh_wide.h); the bench and tests also trace it directly.
 #pragma once
 
 #include <vector>

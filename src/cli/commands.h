@@ -16,5 +16,6 @@ struct Command {
 Command addRenderCommand(CLI::App& app);
 Command addCompareCommand(CLI::App& app);
 Command addInfoCommand(CLI::App& app);
+Command addMergeCommand(CLI::App& app);
 
 } // namespace cb::cli

@@ -1,5 +1,5 @@
-// cbdpt command line: `cbdpt render SCENE [options]`, `cbdpt compare IMAGE REFERENCE` and
-// `cbdpt info [SCENE]`.
+// cbdpt command line: `cbdpt render SCENE [options]`, `cbdpt compare IMAGE REFERENCE`,
+// `cbdpt info [SCENE]` and `cbdpt merge STATE... -o IMAGE`.
 //
 // Each command lives in its own file, src/cli/NAME_command.cpp, which defines
 // `Command addNameCommand(CLI::App& app)` (declared in cli/commands.h): it adds its subcommand
@@ -38,6 +38,7 @@ int main(int argc, char** argv) {
         cb::cli::addRenderCommand(app),
         cb::cli::addCompareCommand(app),
         cb::cli::addInfoCommand(app),
+        cb::cli::addMergeCommand(app),
     };
     CLI11_PARSE(app, argc, argv);
     try {

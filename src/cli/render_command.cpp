@@ -5,6 +5,7 @@
 #include "cli/cli_format.h"
 #include "cli/commands.h"
 #include "cli/progress_bar.h"
+#include "cluster/mpi_team.h"
 #include "image/image.h"
 #include "image/metrics.h"
 #include "image/render_state.h"
@@ -26,6 +27,7 @@
 #include <optional>
 #include <sstream>
 #include <stdexcept>
+#include <unistd.h>
 
 namespace cb::cli {
 
@@ -68,6 +70,8 @@ struct RenderOptions {
     bool sppGiven = false;
     bool resume = false;
     bool keepState = false;
+    std::string estimateRange; // --estimates A:B
+    double saveStateEvery = 60.0;
     std::string strategy;
     bool quiet = false;
     bool noWarmup = false;
@@ -88,7 +92,11 @@ class RenderJob {
     int run();
 
   private:
+    int runSteps();
+    void joinTeam();
     void readSceneDescription();
+    void readShard();
+    void checkOutputs() const;
     void readCheckpointRequests();
     void readReference();
     void buildScene();
@@ -102,7 +110,8 @@ class RenderJob {
     void onCheckpoint(const cb::Checkpoint& c);
     cb::RenderOutcome renderWithProgress(const cb::RenderLimits& limits);
     int finish(const cb::RenderOutcome& outcome);
-    void writeImages(const cb::RenderOutcome& outcome);
+    void writeOutputs(const cb::RenderOutcome& outcome, const cb::EstimateAccumulator& image);
+    void keepWork(const cb::EstimateAccumulator& image, const std::string& failure) const;
     nlohmann::json statistics(const cb::RenderOutcome& outcome) const;
 
     RenderOptions& o_;
@@ -119,28 +128,62 @@ class RenderJob {
     std::optional<cb::ClRuntime> runtime_;
     std::unique_ptr<cb::Integrator> integrator_;
     std::optional<cb::EstimateAccumulator> accumulator_;
-    std::string stateSettings_;
+    std::unique_ptr<cb::RenderTeam> team_; // MPI ranks; null when rendering alone
+    bool root_ = true;                     // writes outputs and shows progress
+    std::optional<cb::EstimateSet::Range> shard_;
+    cb::RenderIdentity identity_;
     std::string statePath_;
     double warmupSeconds_ = 0.0;
     std::optional<CheckpointLog> log_;
     double checkpointSeconds_ = 0.0;
     cb::RgbImage mean_;
     cb::RgbImage error_;
+    long estimates_ = 0; // in the written image (every rank's)
+    std::string estimateRanges_;
 };
 
 int RenderJob::run() {
+    try {
+        return runSteps();
+    } catch (const std::exception& e) {
+        if (!team_ || team_->size() < 2) throw;
+        // One failing rank would leave the others waiting in a collective call.
+        fmt::print(stderr, "cbdpt: error (rank {}): {}\n", team_->rank(), e.what());
+        std::fflush(stderr);
+        cb::abortMpiJob(1);
+        throw;
+    }
+}
+
+int RenderJob::runSteps() {
+    joinTeam();
     readSceneDescription();
+    readShard();
     readCheckpointRequests();
+    chooseOutputPaths();
+    checkOutputs();
     readReference();
     buildScene();
     applyPathOptions();
-    chooseOutputPaths();
     startIntegrator();
     startAccumulator();
     const cb::RenderLimits limits = renderLimits();
     warmUp();
     openLog();
     return finish(renderWithProgress(limits));
+}
+
+// Under mpirun (or srun) the ranks form a team: rank 0 reads states, shows progress and writes
+// every output; the others render their share quietly.
+void RenderJob::joinTeam() {
+    team_ = cb::joinMpiTeam();
+    if (!team_) return;
+    root_ = team_->rank() == 0;
+    if (!root_) o_.quiet = true;
+    if (o_.integrator.name == "mlt" && team_->size() > 1)
+        throw std::invalid_argument(
+            "mlt cannot be split among MPI ranks: its Markov chains carry their state from one "
+            "estimate to the next, so estimates are not independent (run it in one process)");
 }
 
 void RenderJob::readSceneDescription() {
@@ -157,12 +200,35 @@ void RenderJob::readSceneDescription() {
             desc_.film.width, desc_.film.height));
 }
 
+// --estimates A:B: a shard of a render, estimate indices A to B-1.
+void RenderJob::readShard() {
+    if (o_.estimateRange.empty()) return;
+    if (o_.integrator.name == "mlt")
+        throw std::invalid_argument(
+            "--estimates: mlt renders cannot be split into shards: its Markov chains carry "
+            "their state from one estimate to the next, so estimate A cannot start alone");
+    shard_ = cb::parseEstimateRange(o_.estimateRange);
+    // Estimate indices seed 32-bit random streams: larger ones would repeat estimates.
+    if (shard_->second > (std::uint64_t(1) << 32))
+        throw std::invalid_argument(fmt::format(
+            "--estimates {}: estimate indices seed 32-bit random streams, so B must be at most "
+            "4294967296",
+            o_.estimateRange));
+    if (o_.sppGiven && shard_->second > std::uint64_t(std::max(0L, o_.spp)))
+        throw std::invalid_argument(
+            fmt::format("--estimates {} is outside the render of --spp {} (indices 0 to {})",
+                        o_.estimateRange, o_.spp, o_.spp - 1));
+}
+
 // Checkpoint requests are checked before the scene is built or kernels compiled.
 void RenderJob::readCheckpointRequests() {
     if (!o_.checkpoints.empty()) schedule_.estimates = cb::parseCheckpointList(o_.checkpoints);
     if (o_.checkpointEvery < 0.0 || !std::isfinite(o_.checkpointEvery))
         throw std::invalid_argument("--checkpoint-every must be a positive number of seconds");
     schedule_.everySeconds = o_.checkpointEvery;
+    if (o_.saveStateEvery < 0.0 || !std::isfinite(o_.saveStateEvery))
+        throw std::invalid_argument(
+            "--save-state-every must be a positive number of seconds (0: never)");
     // --checkpoints alone renders up to the last checkpoint.
     if (!schedule_.estimates.empty() && !o_.sppGiven && o_.seconds <= 0.0) {
         o_.spp = schedule_.estimates.back();
@@ -190,7 +256,6 @@ void RenderJob::readReference() {
                 fmt::format("--log '{}' must end in .csv or .json", o_.logPath));
     }
     wantCheckpoints_ = !schedule_.empty() || !o_.logPath.empty() || !o_.checkpointImages.empty();
-    if (!o_.checkpointImages.empty()) std::filesystem::create_directories(o_.checkpointImages);
 }
 
 void RenderJob::buildScene() {
@@ -209,6 +274,23 @@ void RenderJob::applyPathOptions() {
         throw std::invalid_argument(fmt::format(
             "--strategy '{}' must be S,T with S >= 0 light vertices and T >= 1 eye vertices",
             o_.strategy));
+}
+
+// Every output is checked before the scene is built: a render must not run for hours and then
+// fail to write. Nothing is created or touched but the checkpoint image folder.
+void RenderJob::checkOutputs() const {
+    if (!root_) return;
+    cb::requireWritable(output_, "the image (-o)");
+    cb::requireWritable(png_, "the PNG (--png)");
+    cb::requireWritable(statePath_, "the render state");
+    if (!o_.statsPath.empty()) cb::requireWritable(o_.statsPath, "the statistics (--stats)");
+    if (!o_.logPath.empty()) cb::requireWritable(o_.logPath, "the log (--log)");
+    if (!o_.checkpointImages.empty()) {
+        std::filesystem::create_directories(o_.checkpointImages);
+        cb::requireWritable(
+            (std::filesystem::path(o_.checkpointImages) / "checkpoint.exr").string(),
+            "the checkpoint images (--checkpoint-images)");
+    }
 }
 
 void RenderJob::chooseOutputPaths() {
@@ -236,38 +318,28 @@ void RenderJob::startAccumulator() {
     std::signal(SIGINT, onStopSignal);
     std::signal(SIGTERM, onStopSignal);
     accumulator_.emplace(scene_.camera.width, scene_.camera.height);
-    // Everything that decides the estimates' values: a resumed render must match it exactly.
-    stateSettings_ =
-        nlohmann::json{{"scene", std::filesystem::absolute(o_.scene).lexically_normal().string()},
-                       {"integrator", o_.integrator.name},
-                       {"eye_vertices", o_.integrator.eyeVertices},
-                       {"light_vertices", o_.integrator.lightVertices},
-                       {"weights", o_.integrator.weights},
-                       {"strategy", o_.strategy},
-                       {"roulette_vertex", o_.integrator.rouletteVertex},
-                       {"coherence_tile", o_.integrator.coherenceTile},
-                       {"seed", o_.integrator.seed},
-                       {"sampler", o_.integrator.sampler},
-                       {"channels", scene_.channels},
-                       {"width", scene_.camera.width},
-                       {"height", scene_.camera.height}}
-            .dump();
-    if (!o_.resume) return;
+    identity_ = cb::renderIdentity(o_.integrator, desc_, scene_);
+    if (!o_.resume || !root_) return;
     if (o_.integrator.name == "mlt")
         throw std::invalid_argument("--resume is not supported for mlt: its Markov chains "
                                     "are not saved");
-    cb::loadRenderState(statePath_, stateSettings_, *accumulator_);
+    cb::resumeRenderState(statePath_, identity_, *accumulator_);
     if (!o_.quiet)
-        fmt::print(stderr, "cbdpt: resuming from {} estimates ({})\n", accumulator_->estimates(),
-                   statePath_);
+        fmt::print(stderr, "cbdpt: resuming from {} estimates {} ({})\n", accumulator_->estimates(),
+                   accumulator_->indices().toString(), statePath_);
 }
 
 cb::RenderLimits RenderJob::renderLimits() const {
     cb::RenderLimits limits;
     // --time alone renders until the time is up; with --spp too, whichever comes first.
     limits.estimates = o_.seconds > 0.0 && !o_.sppGiven ? 0 : o_.spp;
-    if (limits.estimates < 0 || limits.estimates > (1L << 40))
-        throw std::invalid_argument(fmt::format("--spp {} is out of range", o_.spp));
+    if (limits.estimates < 0 || limits.estimates > (1L << 32))
+        throw std::invalid_argument(fmt::format(
+            "--spp {} is out of range (estimate indices seed 32-bit random streams)", o_.spp));
+    if (shard_) {
+        limits.firstEstimate = shard_->first;
+        limits.estimates = long(shard_->second - shard_->first);
+    }
     limits.seconds = o_.seconds;
     if (!schedule_.estimates.empty() && limits.estimates > 0 &&
         schedule_.estimates.back() > limits.estimates && !o_.quiet)
@@ -318,14 +390,18 @@ void RenderJob::openLog() {
 
 // Noise, error against the reference and checkpoint images; its time is reported apart.
 void RenderJob::onCheckpoint(const cb::Checkpoint& c) {
+    const cb::EstimateAccumulator& image = *c.image;
+    // The periodic state: what a SIGKILL, the out-of-memory killer or a power cut would lose.
+    if (c.saveState) cb::saveRenderState(statePath_, identity_, image);
+    if (!c.evaluate || !wantCheckpoints_) return;
     const auto before = Clock::now();
-    cb::NoiseEstimate noise = cb::estimateNoise(*accumulator_);
+    cb::NoiseEstimate noise = cb::estimateNoise(image);
     cb::ImageMetrics metrics;
     if (reference_ || !o_.checkpointImages.empty()) {
-        cb::RgbImage mean = accumulator_->mean();
+        cb::RgbImage mean = image.mean();
         if (reference_) metrics = cb::compareImages(mean, *reference_);
         if (!o_.checkpointImages.empty()) {
-            cb::RgbImage error = accumulator_->standardError();
+            cb::RgbImage error = image.standardError();
             auto name = fmt::format("{}-{:08d}.exr", std::filesystem::path(output_).stem().string(),
                                     c.estimates);
             cb::writeExr((std::filesystem::path(o_.checkpointImages) / name).string(), mean,
@@ -341,51 +417,94 @@ void RenderJob::onCheckpoint(const cb::Checkpoint& c) {
 
 cb::RenderOutcome RenderJob::renderWithProgress(const cb::RenderLimits& limits) {
     ProgressBar bar(!o_.quiet);
+    // MLT cannot resume, so its state is not saved periodically.
+    if (o_.integrator.name != "mlt") schedule_.saveStateEverySeconds = o_.saveStateEvery;
+    const bool callback = wantCheckpoints_ || schedule_.saveStateEverySeconds > 0.0;
     auto outcome = cb::renderEstimates(
         *integrator_, *accumulator_, limits, gStopRequested,
         [&](const cb::RenderProgress& p) { bar.update(p); }, schedule_,
-        wantCheckpoints_ ? std::function<void(const cb::Checkpoint&)>(
-                               [this](const cb::Checkpoint& c) { onCheckpoint(c); })
-                         : nullptr);
+        callback ? std::function<void(const cb::Checkpoint&)>(
+                       [this](const cb::Checkpoint& c) { onCheckpoint(c); })
+                 : nullptr,
+        team_.get());
     bar.finish();
     return outcome;
 }
 
 int RenderJob::finish(const cb::RenderOutcome& outcome) {
+    // Every rank's estimates, on rank 0 (a collective call: every rank makes it).
+    const cb::EstimateAccumulator* image = team_ ? team_->gather(*accumulator_) : &*accumulator_;
+    if (!image) return outcome.interrupted ? 130 : 0;
+    estimates_ = image->estimates();
+    estimateRanges_ = image->indices().toString();
     if (outcome.interrupted)
-        fmt::print(stderr, "cbdpt: interrupted; writing the {} estimates done\n",
-                   accumulator_->estimates());
+        fmt::print(stderr, "cbdpt: interrupted; writing the {} estimates done\n", estimates_);
     if (outcome.nonFiniteSamples > 0)
         fmt::print(stderr, "cbdpt: warning: {} samples were NaN or infinite and were dropped\n",
                    outcome.nonFiniteSamples);
-    if (accumulator_->estimates() == 0) {
+    if (image->droppedSamples() > 0)
+        fmt::print(stderr,
+                   "cbdpt: warning: {} samples of magnitude 2^48 or more were dropped (too large "
+                   "for the exact sums)\n",
+                   image->droppedSamples());
+    if (estimates_ == 0) {
         fmt::print(stderr, "cbdpt: no estimate finished; nothing written\n");
         return 130;
     }
-    writeImages(outcome);
-    if (!o_.statsPath.empty())
-        cb::writeFileAtomically(o_.statsPath, statistics(outcome).dump(2) + "\n");
+    try {
+        writeOutputs(outcome, *image);
+    } catch (const std::exception& e) {
+        keepWork(*image, e.what());
+        return 1;
+    }
     if (!o_.quiet)
         fmt::print(stderr, "cbdpt: {} estimates in {} ({:.3f} s/estimate); wrote {} and {}\n",
-                   accumulator_->estimates(), formatSeconds(outcome.renderSeconds),
-                   outcome.renderSeconds / double(accumulator_->estimates()), output_, png_);
+                   estimates_, formatSeconds(outcome.renderSeconds),
+                   outcome.renderSeconds / double(std::max(1L, outcome.estimatesRendered)), output_,
+                   png_);
     return outcome.interrupted ? 130 : 0;
 }
 
-void RenderJob::writeImages(const cb::RenderOutcome& outcome) {
-    mean_ = accumulator_->mean();
-    error_ = accumulator_->standardError();
+void RenderJob::writeOutputs(const cb::RenderOutcome& outcome,
+                             const cb::EstimateAccumulator& image) {
+    mean_ = image.mean();
+    error_ = image.standardError();
+    // The state first: if anything below fails, the work is on disk already.
+    const bool keep = outcome.interrupted || o_.keepState;
+    if (keep) cb::saveRenderState(statePath_, identity_, image);
     cb::writeExr(output_, mean_, &error_);
     cb::writePng(png_, mean_);
+    if (!o_.statsPath.empty())
+        cb::writeFileAtomically(o_.statsPath, statistics(outcome).dump(2) + "\n");
     // An interrupted render leaves its exact sums beside the EXR for --resume; a finished one
     // removes them (unless asked to keep them, to extend the render later).
-    if (outcome.interrupted || o_.keepState) {
-        cb::saveRenderState(statePath_, stateSettings_, *accumulator_);
+    if (keep) {
         if (outcome.interrupted && !o_.quiet)
             fmt::print(stderr, "cbdpt: continue with the same command plus --resume\n");
     } else {
         std::error_code ignored;
         std::filesystem::remove(statePath_, ignored);
+    }
+}
+
+// A final write failed although the outputs were checked before rendering (a disk filled up, a
+// folder was removed): the work is saved where it can be, and the message says where.
+void RenderJob::keepWork(const cb::EstimateAccumulator& image, const std::string& failure) const {
+    fmt::print(stderr, "cbdpt: error: {}\n", failure);
+    const std::string name = std::filesystem::path(statePath_).filename().string();
+    for (const std::string& path : {statePath_, std::string()}) {
+        try {
+            const std::string target =
+                path.empty() ? cb::fallbackPath(fmt::format("{}.{}", name, ::getpid())) : path;
+            cb::saveRenderState(target, identity_, image);
+            fmt::print(stderr,
+                       "cbdpt: the render's {} estimates are kept in {}; write its image with: "
+                       "cbdpt merge {} -o IMAGE.exr\n",
+                       estimates_, target, target);
+            return;
+        } catch (const std::exception& e) {
+            fmt::print(stderr, "cbdpt: cannot keep the state there either: {}\n", e.what());
+        }
     }
 }
 
@@ -407,7 +526,11 @@ nlohmann::json RenderJob::statistics(const cb::RenderOutcome& outcome) const {
         {"width", scene_.camera.width},
         {"height", scene_.camera.height},
         {"channels", scene_.channels},
-        {"estimates", accumulator_->estimates()},
+        {"estimates", estimates_},
+        {"estimate_ranges", estimateRanges_},
+        {"processes", team_ ? team_->size() : 1},
+        {"reductions", team_ ? team_->reductions() : 0},
+        {"reduction_seconds", team_ ? team_->reductionSeconds() : 0.0},
         {"render_seconds", outcome.renderSeconds},
         {"render_cpu_seconds", outcome.renderCpuSeconds},
         {"estimates_rendered", outcome.estimatesRendered},
@@ -503,6 +626,12 @@ void addRenderOptions(CLI::App& cmd, RenderOptions& o) {
                  "--spp is the total)");
     cmd.add_flag("--keep-state", o.keepState,
                  "also save OUTPUT.exr.state when the render finishes");
+    cmd.add_option("--estimates", o.estimateRange,
+                   "render only estimate indices A to B-1 (A:B), a shard: shards of one seed "
+                   "merge (cbdpt merge) into the render of their union");
+    cmd.add_option("--save-state-every", o.saveStateEvery,
+                   "save OUTPUT.exr.state every this many seconds (default 60; 0: never), so "
+                   "that a killed render can --resume");
     cmd.add_flag("--no-warmup", o.noWarmup,
                  "with checkpoints or --log: skip the discarded warm-up estimate");
     cmd.add_option("--checkpoint-images", o.checkpointImages,

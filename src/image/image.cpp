@@ -7,53 +7,20 @@
 #include <ImfOutputFile.h>
 #include <png.h>
 
+#include <fmt/format.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <stdexcept>
 #include <unistd.h>
 
 namespace cb {
-
-EstimateAccumulator::EstimateAccumulator(int width, int height)
-    : width_(width), height_(height), mean_(size_t(3) * size_t(width) * size_t(height), 0.0),
-      m2_(mean_.size(), 0.0) {}
-
-void EstimateAccumulator::add(const float* rgb) {
-    ++count_;
-    const double invCount = 1.0 / double(count_);
-    for (size_t i = 0; i < mean_.size(); ++i) {
-        double x = rgb[i];
-        double delta = x - mean_[i];
-        mean_[i] += delta * invCount;
-        m2_[i] += delta * (x - mean_[i]);
-    }
-}
-
-RgbImage EstimateAccumulator::mean() const {
-    RgbImage out(width_, height_);
-    for (size_t i = 0; i < mean_.size(); ++i) out.rgb[i] = float(mean_[i]);
-    return out;
-}
-
-RgbImage EstimateAccumulator::standardError() const {
-    RgbImage out(width_, height_);
-    if (count_ < 2) return out;
-    const double n = double(count_);
-    for (size_t i = 0; i < m2_.size(); ++i)
-        out.rgb[i] = float(std::sqrt(std::max(m2_[i], 0.0) / (n - 1.0) / n));
-    return out;
-}
-
-void EstimateAccumulator::restore(long count, std::vector<double> mean, std::vector<double> m2) {
-    if (mean.size() != mean_.size() || m2.size() != m2_.size())
-        throw std::runtime_error("saved render state does not match the image size");
-    count_ = count;
-    mean_ = std::move(mean);
-    m2_ = std::move(m2);
-}
 
 std::string temporarySiblingPath(const std::string& path) {
     std::filesystem::path p(path);
@@ -73,6 +40,42 @@ void commitTemporary(const std::string& temporary, const std::string& path) {
         std::filesystem::remove(temporary);
         throw std::runtime_error("cannot write " + path + ": " + ec.message());
     }
+}
+
+void requireWritable(const std::string& path, const std::string& what) {
+    namespace fs = std::filesystem;
+    const fs::path p(path);
+    std::error_code ec;
+    if (fs::is_directory(p, ec))
+        throw std::runtime_error(fmt::format("cannot write {} {}: it is a folder", what, path));
+    const fs::path folder = p.parent_path().empty() ? fs::path(".") : p.parent_path();
+    if (!fs::is_directory(folder, ec))
+        throw std::runtime_error(fmt::format("cannot write {} {}: the folder {} does not exist",
+                                             what, path, folder.string()));
+    const std::string probe = temporarySiblingPath(path) + ".probe";
+    std::FILE* f = std::fopen(probe.c_str(), "wb");
+    if (!f)
+        throw std::runtime_error(fmt::format("cannot write {} {}: cannot create files in {} ({})",
+                                             what, path, folder.string(), std::strerror(errno)));
+    std::fclose(f);
+    fs::remove(probe, ec);
+}
+
+std::string fallbackPath(const std::string& name) {
+    std::vector<std::string> folders;
+    if (const char* tmp = std::getenv("TMPDIR"); tmp && *tmp) folders.push_back(tmp);
+    folders.push_back("/tmp");
+    folders.push_back(".");
+    for (const auto& folder : folders) {
+        const std::string path = (std::filesystem::path(folder) / name).string();
+        try {
+            requireWritable(path, "fallback");
+            return path;
+        } catch (const std::exception&) {
+        }
+    }
+    throw std::runtime_error("no folder to keep the work in: $TMPDIR, /tmp and the current "
+                             "folder are not writable");
 }
 
 void writeFileAtomically(const std::string& path, const std::string& bytes) {
@@ -96,7 +99,8 @@ void writeExr(const std::string& path, const RgbImage& image, const RgbImage* st
     const size_t xStride = 3 * sizeof(float), yStride = xStride * size_t(w);
     for (int c = 0; c < 3; ++c) {
         header.channels().insert(names[c], Imf::Channel(Imf::FLOAT));
-        fb.insert(names[c], Imf::Slice(Imf::FLOAT, (char*)(image.rgb.data() + c), xStride, yStride));
+        fb.insert(names[c],
+                  Imf::Slice(Imf::FLOAT, (char*)(image.rgb.data() + c), xStride, yStride));
         if (standardError) {
             header.channels().insert(errorNames[c], Imf::Channel(Imf::FLOAT));
             fb.insert(errorNames[c], Imf::Slice(Imf::FLOAT, (char*)(standardError->rgb.data() + c),
@@ -124,8 +128,8 @@ RgbImage readExr(const std::string& path) {
         Imf::FrameBuffer fb;
         const size_t xStride = 3 * sizeof(float), yStride = xStride * size_t(w);
         const char* names[3] = {"R", "G", "B"};
-        char* base = (char*)image.rgb.data() -
-                     (ptrdiff_t(dw.min.x) * ptrdiff_t(xStride) + ptrdiff_t(dw.min.y) * ptrdiff_t(yStride));
+        char* base = (char*)image.rgb.data() - (ptrdiff_t(dw.min.x) * ptrdiff_t(xStride) +
+                                                ptrdiff_t(dw.min.y) * ptrdiff_t(yStride));
         for (int c = 0; c < 3; ++c)
             fb.insert(names[c], Imf::Slice(Imf::FLOAT, base + c * sizeof(float), xStride, yStride));
         file.setFrameBuffer(fb);
@@ -141,7 +145,9 @@ float srgbEncode(float linear) {
     linear = std::clamp(linear, 0.f, 1.f);
     return linear <= 0.0031308f ? 12.92f * linear : 1.055f * std::pow(linear, 1.f / 2.4f) - 0.055f;
 }
-float luminance(const float* rgb) { return 0.2126f * rgb[0] + 0.7152f * rgb[1] + 0.0722f * rgb[2]; }
+float luminance(const float* rgb) {
+    return 0.2126f * rgb[0] + 0.7152f * rgb[1] + 0.0722f * rgb[2];
+}
 } // namespace
 
 std::vector<std::uint8_t> tonemapReinhard(const RgbImage& image, float key) {
@@ -174,7 +180,8 @@ std::vector<std::uint8_t> tonemapReinhard(const RgbImage& image, float key) {
     return out;
 }
 
-void writePng8(const std::string& path, int width, int height, const std::vector<std::uint8_t>& rgb) {
+void writePng8(const std::string& path, int width, int height,
+               const std::vector<std::uint8_t>& rgb) {
     std::string tmp = temporarySiblingPath(path);
     FILE* fp = std::fopen(tmp.c_str(), "wb");
     if (!fp) throw std::runtime_error("cannot create " + tmp);

@@ -87,25 +87,23 @@ double meanValue(const RgbImage& image) {
 
 NoiseEstimate estimateNoise(const EstimateAccumulator& accumulator) {
     NoiseEstimate out;
-    const auto& mean = accumulator.meanData();
-    const auto& m2 = accumulator.m2Data();
-    if (mean.empty()) return out;
+    const size_t values = accumulator.sums().size();
+    if (values == 0) return out;
     double meanSum = 0.0;
-    for (double v : mean)
-        meanSum += v;
-    out.imageMean = meanSum / double(mean.size());
+    for (size_t i = 0; i < values; ++i)
+        meanSum += accumulator.meanAt(i);
+    out.imageMean = meanSum / double(values);
     const long count = accumulator.estimates();
     if (count < 2) return out;
-    // Variance of the mean = sample variance / n, sample variance = M2 / (n - 1).
-    const double scale = 1.0 / (double(count) * double(count - 1));
+    // Variance of the mean = sample variance / n.
     double seSum = 0.0, varSum = 0.0;
-    for (double v : m2) {
-        const double var = std::max(v, 0.0) * scale;
+    for (size_t i = 0; i < values; ++i) {
+        const double var = accumulator.varianceAt(i) / double(count);
         seSum += std::sqrt(var);
         varSum += var;
     }
-    out.meanStandardError = seSum / double(m2.size());
-    out.rmsStandardError = std::sqrt(varSum / double(m2.size()));
+    out.meanStandardError = seSum / double(values);
+    out.rmsStandardError = std::sqrt(varSum / double(values));
     return out;
 }
 

@@ -3,6 +3,7 @@
 // per-pixel standard error from the spread across estimates).
 #pragma once
 
+#include "image/accumulator.h"
 #include "image/image.h"
 
 #include <cstdint>

@@ -1,6 +1,6 @@
 // BDPT (kernels/bdpt.cl, shared code in kernels/cb_bdpt.h): one kernel per estimate traces a
-// light and an eye subpath per pixel and combines them; light-tracing splats go to a second
-// image that is added to the pixel image here.
+// light and an eye subpath per pixel and combines them; light-tracing splats are recorded per
+// work-item and added to the pixel image here, in pixel order (deterministic).
 #include "integrators/bdpt_settings.h"
 #include "integrators/integrator.h"
 #include "integrators/scene_buffers.h"
@@ -32,8 +32,13 @@ class BdptIntegrator final : public Integrator {
         pixels_ = size_t(scene.camera.width) * size_t(scene.camera.height);
         output_ = runtime.createBuffer("BDPT image (width x height RGB)", CL_MEM_WRITE_ONLY,
                                        3 * sizeof(float) * pixels_);
-        splat_ = runtime.createBuffer("BDPT light-tracing image (width x height RGB)",
-                                      CL_MEM_READ_WRITE, 3 * sizeof(float) * pixels_);
+        splatSlots_ = pixels_ * size_t(settings.lightVertices);
+        splatTarget_ = runtime.createBuffer(
+            "BDPT light-tracing splat targets (width x height x --light-vertices)",
+            CL_MEM_WRITE_ONLY, sizeof(int) * splatSlots_);
+        splat_ = runtime.createBuffer("BDPT light-tracing splats (width x height x "
+                                      "--light-vertices RGB)",
+                                      CL_MEM_WRITE_ONLY, 3 * sizeof(float) * splatSlots_);
         int zero = 0;
         nonFinite_ = cl::Buffer(ctx, CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, sizeof(int), &zero);
         rays_ = cl::Buffer(ctx, CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, sizeof(int), &zero);
@@ -49,6 +54,7 @@ class BdptIntegrator final : public Integrator {
         estimateArg_ = arg++;
         kernel_.setArg(estimateArg_, 0u);
         kernel_.setArg(arg++, output_);
+        kernel_.setArg(arg++, splatTarget_);
         kernel_.setArg(arg++, splat_);
         kernel_.setArg(arg++, nonFinite_);
         kernel_.setArg(arg++, rays_);
@@ -68,7 +74,6 @@ class BdptIntegrator final : public Integrator {
     void renderEstimate(std::uint32_t estimate, std::vector<float>& rgb) override {
         auto& queue = runtime_.queue();
         kernel_.setArg(estimateArg_, estimate);
-        queue.enqueueFillBuffer(splat_, 0.0f, 0, 3 * sizeof(float) * pixels_);
         if (reportRays_) {
             std::uint32_t zero = 0;
             queue.enqueueWriteBuffer(rays_, CL_TRUE, 0, sizeof(zero), &zero);
@@ -79,11 +84,19 @@ class BdptIntegrator final : public Integrator {
         kernelSeconds_ +=
             std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         rgb.resize(3 * pixels_);
-        splatHost_.resize(3 * pixels_);
+        splatHost_.resize(3 * splatSlots_);
+        splatTargetHost_.resize(splatSlots_);
         queue.enqueueReadBuffer(output_, CL_TRUE, 0, 3 * sizeof(float) * pixels_, rgb.data());
-        queue.enqueueReadBuffer(splat_, CL_TRUE, 0, 3 * sizeof(float) * pixels_, splatHost_.data());
-        for (size_t i = 0; i < rgb.size(); ++i)
-            rgb[i] += splatHost_[i];
+        queue.enqueueReadBuffer(splatTarget_, CL_TRUE, 0, sizeof(int) * splatSlots_,
+                                splatTargetHost_.data());
+        queue.enqueueReadBuffer(splat_, CL_TRUE, 0, 3 * sizeof(float) * splatSlots_,
+                                splatHost_.data());
+        for (size_t slot = 0; slot < splatSlots_; ++slot) {
+            const int target = splatTargetHost_[slot];
+            if (target < 0) continue;
+            for (size_t c = 0; c < 3; ++c)
+                rgb[3 * size_t(target) + c] += splatHost_[3 * slot + c];
+        }
         int count = 0;
         queue.enqueueReadBuffer(nonFinite_, CL_TRUE, 0, sizeof(int), &count);
         nonFiniteTotal_ = count;
@@ -104,8 +117,10 @@ class BdptIntegrator final : public Integrator {
     cl::Program program_;
     cl::Kernel kernel_;
     SceneBuffers buffers_;
-    cl::Buffer output_, splat_, nonFinite_, rays_;
+    cl::Buffer output_, splatTarget_, splat_, nonFinite_, rays_;
     std::vector<float> splatHost_;
+    std::vector<int> splatTargetHost_;
+    size_t splatSlots_ = 0;
     size_t pixels_ = 0;
     int estimateArg_ = 0;
     long nonFiniteTotal_ = 0;

@@ -4,6 +4,8 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 #include <time.h>
@@ -54,6 +56,32 @@ double RenderOutcome::secondsPerEstimate() const {
     return perEstimateSeconds(renderSeconds, firstEstimateSeconds, estimatesRendered);
 }
 
+RenderIdentity renderIdentity(const IntegratorSettings& settings, const SceneDesc& desc,
+                              const DeviceScene& scene) {
+    RenderIdentity id;
+    const char* forcedBvh = std::getenv("CBDPT_BVH_SETTINGS");
+    id.settings = {{"integrator", settings.name},
+                   {"eye_vertices", settings.eyeVertices},
+                   {"light_vertices", settings.lightVertices},
+                   {"weights", settings.weights},
+                   {"strategy", {settings.debugS, settings.debugT}},
+                   {"roulette_vertex", settings.rouletteVertex},
+                   {"coherence_tile", settings.coherenceTile},
+                   {"tile", settings.tileSize},
+                   {"seed", settings.seed},
+                   {"sampler", settings.sampler},
+                   {"channels", scene.channels},
+                   {"width", scene.camera.width},
+                   {"height", scene.camera.height},
+                   {"bvh_settings", forcedBvh ? forcedBvh : "chosen"},
+                   {"kernel_sources", kernelSourceHash()}};
+    if (settings.name == "mlt")
+        id.settings["mlt"] = {settings.largeStepProbability, settings.mutationSize,
+                              settings.mltChains, settings.mltBootstrap};
+    id.sceneHash = sceneContentHash(desc.sourceFiles);
+    return id;
+}
+
 RenderOutcome renderEstimates(Integrator& integrator, EstimateAccumulator& accumulator,
                               const RenderLimits& limits, const std::atomic<bool>& stop,
                               const std::function<void(const RenderProgress&)>& onProgress) {
@@ -64,12 +92,19 @@ RenderOutcome renderEstimates(Integrator& integrator, EstimateAccumulator& accum
                               const RenderLimits& limits, const std::atomic<bool>& stop,
                               const std::function<void(const RenderProgress&)>& onProgress,
                               const CheckpointSchedule& checkpoints,
-                              const std::function<void(const Checkpoint&)>& onCheckpoint) {
+                              const std::function<void(const Checkpoint&)>& onCheckpoint,
+                              RenderTeam* team) {
     if (limits.estimates <= 0 && limits.seconds <= 0.0)
         throw std::invalid_argument("a render needs a number of estimates (--spp) or a time "
                                     "(--time), both were zero");
     if (checkpoints.everySeconds < 0.0 || !std::isfinite(checkpoints.everySeconds))
         throw std::invalid_argument("--checkpoint-every must be a positive number of seconds");
+    if (checkpoints.saveStateEverySeconds < 0.0 ||
+        !std::isfinite(checkpoints.saveStateEverySeconds))
+        throw std::invalid_argument("--save-state-every must be a positive number of seconds");
+    RenderTeam alone;
+    RenderTeam& crew = team ? *team : alone;
+    const bool root = crew.rank() == 0;
     using Clock = std::chrono::steady_clock;
     RenderOutcome outcome;
     std::vector<float> rgb;
@@ -79,77 +114,145 @@ RenderOutcome renderEstimates(Integrator& integrator, EstimateAccumulator& accum
     const double cpuStart = processCpuSeconds();
     double cpuPaused = 0.0;
     auto cpuElapsed = [&] { return processCpuSeconds() - cpuStart - cpuPaused; };
-    long done = 0;
-    const long first = accumulator.estimates();
     auto elapsed = [&] {
         return std::chrono::duration<double>(Clock::now() - start - paused).count();
     };
+    auto wall = [&] { return std::chrono::duration<double>(Clock::now() - start).count(); };
+
+    // The estimates left: indices from firstEstimate on that the accumulator does not hold yet
+    // (every process walks the same sequence and takes every size()-th of it).
+    const std::uint64_t rangeEnd = limits.estimates > 0
+                                       ? limits.firstEstimate + std::uint64_t(limits.estimates)
+                                       : std::numeric_limits<std::uint64_t>::max();
+    const EstimateSet initial = crew.shareFromRoot(accumulator.indices());
+    long initialInRange = 0;
+    for (const auto& [b, e] : initial.ranges()) {
+        const std::uint64_t lo = std::max(b, limits.firstEstimate), hi = std::min(e, rangeEnd);
+        if (lo < hi) initialInRange += long(hi - lo);
+    }
+    std::uint64_t cursor = limits.firstEstimate;
+    std::uint64_t position = 0;
+    auto nextOwnIndex = [&](std::uint64_t& index) {
+        while (true) {
+            cursor = initial.nextMissing(cursor);
+            if (cursor >= rangeEnd) return false;
+            const std::uint64_t candidate = cursor++;
+            if (position++ % std::uint64_t(crew.size()) == std::uint64_t(crew.rank())) {
+                index = candidate;
+                return true;
+            }
+        }
+    };
+    std::uint64_t pending = 0;
+    bool havePending = nextOwnIndex(pending);
+
+    long done = 0;      // this process's estimates
+    long totalDone = 0; // every process's, as last agreed
     size_t nextListed = 0;
-    while (nextListed < checkpoints.estimates.size() && checkpoints.estimates[nextListed] <= first)
+    while (nextListed < checkpoints.estimates.size() &&
+           checkpoints.estimates[nextListed] <= initialInRange)
         ++nextListed;
     double nextTime = checkpoints.everySeconds;
+    double nextSave = checkpoints.saveStateEverySeconds;
+    double lastEstimateSeconds = 0.0, lastEstimateCpu = 0.0;
     long lastCheckpoint = -1;
-    auto fire = [&](double seconds, double cpuSeconds, bool final) {
+    auto fire = [&](double seconds, double cpuSeconds, bool final, bool evaluate, bool save) {
         const auto before = Clock::now();
         const double cpuBefore = processCpuSeconds();
-        Checkpoint c;
-        c.estimates = first + done;
-        c.renderSeconds = seconds;
-        c.renderCpuSeconds = cpuSeconds;
-        c.final = final;
-        onCheckpoint(c);
-        lastCheckpoint = first + done;
+        const EstimateAccumulator* image = crew.gather(accumulator);
+        if (image) {
+            Checkpoint c;
+            c.estimates = initialInRange + totalDone;
+            c.renderSeconds = seconds;
+            c.renderCpuSeconds = cpuSeconds;
+            c.final = final;
+            c.evaluate = evaluate;
+            c.saveState = save;
+            c.image = image;
+            onCheckpoint(c);
+        }
+        if (evaluate) lastCheckpoint = totalDone;
         paused += Clock::now() - before;
         cpuPaused += processCpuSeconds() - cpuBefore;
+        if (save) {
+            const double took = std::chrono::duration<double>(Clock::now() - before).count();
+            nextSave = wall() + std::max(checkpoints.saveStateEverySeconds, 20.0 * took);
+        }
     };
+    // One round per estimate: agree on the totals and on process 0's clock, evaluate what is
+    // due for the estimates done so far, then stop or render the next.
+    std::vector<double> shared(7);
+    long lastReported = -1;
     while (true) {
-        if (limits.estimates > 0 && first + done >= limits.estimates) break;
-        if (limits.seconds > 0.0 && elapsed() >= limits.seconds) break;
-        if (stop.load()) {
+        shared = {double(done),
+                  stop.load() ? 1.0 : 0.0,
+                  havePending ? 1.0 : 0.0,
+                  root ? lastEstimateSeconds : 0.0,
+                  root ? lastEstimateCpu : 0.0,
+                  root ? wall() : 0.0,
+                  root ? elapsed() : 0.0};
+        crew.sumAll(shared);
+        const long previous = totalDone;
+        totalDone = long(shared[0]);
+        const bool stopAsked = shared[1] > 0.0;
+        const bool workLeft = shared[2] > 0.0;
+        const double now = shared[3], cpuNow = shared[4], wallNow = shared[5];
+        if (totalDone > previous) {
+            if (previous == 0) outcome.firstEstimateSeconds = now;
+            if (onCheckpoint) {
+                bool due = false;
+                while (nextListed < checkpoints.estimates.size() &&
+                       checkpoints.estimates[nextListed] <= initialInRange + totalDone) {
+                    due = true;
+                    ++nextListed;
+                }
+                if (nextTime > 0.0 && now >= nextTime) {
+                    due = true;
+                    // A slow estimate may cross several multiples; the next is the one after now.
+                    nextTime = (std::floor(now / checkpoints.everySeconds) + 1.0) *
+                               checkpoints.everySeconds;
+                }
+                const bool save = nextSave > 0.0 && wallNow >= nextSave;
+                if (due || save) fire(now, cpuNow, false, due, save);
+            }
+        }
+        if (onProgress && root && totalDone != lastReported) {
+            lastReported = totalDone;
+            RenderProgress p;
+            p.estimatesDone = initialInRange + totalDone;
+            p.estimatesTarget = limits.estimates;
+            p.elapsedSeconds = now;
+            double perEstimate = perEstimateSeconds(now, outcome.firstEstimateSeconds, totalDone) /
+                                 double(crew.size());
+            double byCount =
+                limits.estimates > 0
+                    ? perEstimate * double(limits.estimates - initialInRange - totalDone)
+                    : 1e300;
+            double byTime = limits.seconds > 0.0 ? limits.seconds - p.elapsedSeconds : 1e300;
+            p.remainingSeconds = std::max(0.0, std::min(byCount, byTime));
+            if (totalDone > 0) onProgress(p);
+        }
+        if (stopAsked) {
             outcome.interrupted = true;
             break;
         }
-        integrator.renderEstimate(std::uint32_t(first + done), rgb);
-        accumulator.add(rgb.data());
-        ++done;
-        const double now = elapsed();
-        const double cpuNow = cpuElapsed();
-        if (done == 1) outcome.firstEstimateSeconds = now;
-        if (onCheckpoint) {
-            bool due = false;
-            while (nextListed < checkpoints.estimates.size() &&
-                   checkpoints.estimates[nextListed] <= first + done) {
-                due = true;
-                ++nextListed;
-            }
-            if (nextTime > 0.0 && now >= nextTime) {
-                due = true;
-                // A slow estimate may cross several multiples; the next is the one after now.
-                nextTime =
-                    (std::floor(now / checkpoints.everySeconds) + 1.0) * checkpoints.everySeconds;
-            }
-            if (due) fire(now, cpuNow, false);
+        if (!workLeft) break;
+        if (limits.seconds > 0.0 && shared[6] >= limits.seconds) break;
+        if (havePending) {
+            integrator.renderEstimate(std::uint32_t(pending), rgb);
+            accumulator.add(pending, rgb.data());
+            ++done;
+            havePending = nextOwnIndex(pending);
         }
-        if (onProgress) {
-            RenderProgress p;
-            p.estimatesDone = first + done;
-            p.estimatesTarget = limits.estimates;
-            p.elapsedSeconds = now;
-            double perEstimate = perEstimateSeconds(now, outcome.firstEstimateSeconds, done);
-            double byCount = limits.estimates > 0
-                                 ? perEstimate * double(limits.estimates - first - done)
-                                 : 1e300;
-            double byTime = limits.seconds > 0.0 ? limits.seconds - p.elapsedSeconds : 1e300;
-            p.remainingSeconds = std::max(0.0, std::min(byCount, byTime));
-            onProgress(p);
-        }
+        lastEstimateSeconds = elapsed();
+        lastEstimateCpu = cpuElapsed();
     }
     outcome.renderSeconds = elapsed();
     outcome.renderCpuSeconds = cpuElapsed();
     outcome.estimatesRendered = done;
     outcome.nonFiniteSamples = integrator.nonFiniteSamples();
-    if (onCheckpoint && first + done > 0 && lastCheckpoint != first + done)
-        fire(outcome.renderSeconds, outcome.renderCpuSeconds, true);
+    if (onCheckpoint && initialInRange + totalDone > 0 && lastCheckpoint != totalDone)
+        fire(outcome.renderSeconds, outcome.renderCpuSeconds, true, true, false);
     return outcome;
 }
 

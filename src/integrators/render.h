@@ -2,8 +2,11 @@
 // stops cleanly between estimates when asked (Ctrl-C).
 #pragma once
 
+#include "image/accumulator.h"
 #include "image/image.h"
+#include "image/render_state.h"
 #include "integrators/integrator.h"
+#include "scene/scene_desc.h"
 
 #include <atomic>
 #include <functional>
@@ -12,13 +15,42 @@
 
 namespace cb {
 
+// The render covers estimate indices [firstEstimate, firstEstimate + estimates): the index seeds
+// every random stream of the estimate, so disjoint ranges (shards) rendered anywhere add up to
+// the estimates of one render. Indices the accumulator already holds (a resumed state) are
+// skipped.
 struct RenderLimits {
-    long estimates = 16;  // stop after this many (0: no limit; then seconds must be > 0)
+    long estimates = 16;  // this many indices (0: no limit; then seconds must be > 0)
     double seconds = 0.0; // stop once this much render time has passed (0: no limit)
+    std::uint64_t firstEstimate = 0;
+};
+
+// What identifies a render for --resume and merge: every setting that changes its image (the
+// kernel sources' hash included) and the hash of the scene's files (docs/scale-out.md).
+RenderIdentity renderIdentity(const IntegratorSettings& settings, const SceneDesc& desc,
+                              const DeviceScene& scene);
+
+// Processes that render one image together (MPI: src/cluster/mpi_team.h). Each takes every
+// size()-th of the estimates left to render, and they agree once per estimate on when to stop,
+// checkpoint and save, by process 0's clock. The default is one process alone.
+class RenderTeam {
+  public:
+    virtual ~RenderTeam() = default;
+    virtual int rank() const { return 0; }
+    virtual int size() const { return 1; }
+    // Element-wise sum of `values` over the processes, the same result on every one.
+    virtual void sumAll(std::vector<double>& values) { (void)values; }
+    // Process 0's `indices` on every process (the estimates a resumed state already holds).
+    virtual EstimateSet shareFromRoot(const EstimateSet& indices) { return indices; }
+    // The sum of every process's accumulator on process 0, nullptr on the others.
+    virtual const EstimateAccumulator* gather(const EstimateAccumulator& local) { return &local; }
+    // Wall seconds spent in gather() (its reductions across processes) and how many calls.
+    virtual double reductionSeconds() const { return 0.0; }
+    virtual long reductions() const { return 0; }
 };
 
 struct RenderProgress {
-    long estimatesDone = 0;
+    long estimatesDone = 0;   // all processes', the resumed ones included
     long estimatesTarget = 0; // 0 when rendering to time
     double elapsedSeconds = 0.0;
     double remainingSeconds = 0.0; // estimate
@@ -57,6 +89,10 @@ double processCpuSeconds();
 struct CheckpointSchedule {
     std::vector<long> estimates; // ascending, positive
     double everySeconds = 0.0;   // 0: none by time
+    // Periodic state saves (wall seconds; 0: none): they fire as checkpoints with saveState set
+    // and evaluate clear unless an evaluation is due too. The interval stretches to 20 times
+    // the last save's duration, so saving never takes more than about 5% of the time.
+    double saveStateEverySeconds = 0.0;
     bool empty() const { return estimates.empty() && everySeconds <= 0.0; }
 };
 
@@ -66,7 +102,11 @@ struct Checkpoint {
     // Process CPU seconds (all threads, PoCL's included) over the same span: robust to other
     // processes sharing the machine, which wall time is not.
     double renderCpuSeconds = 0.0;
-    bool final = false; // the render's last checkpoint
+    bool final = false;     // the render's last checkpoint
+    bool evaluate = true;   // a scheduled or final checkpoint (not only a state save)
+    bool saveState = false; // the periodic state save is due
+    // The image so far: every process's estimates (process 0 only; the callback runs there).
+    const EstimateAccumulator* image = nullptr;
 };
 
 // Parses "1,2,4,8": positive, strictly increasing; throws std::invalid_argument naming `option`.
@@ -77,6 +117,7 @@ RenderOutcome renderEstimates(Integrator& integrator, EstimateAccumulator& accum
                               const RenderLimits& limits, const std::atomic<bool>& stop,
                               const std::function<void(const RenderProgress&)>& onProgress,
                               const CheckpointSchedule& checkpoints,
-                              const std::function<void(const Checkpoint&)>& onCheckpoint);
+                              const std::function<void(const Checkpoint&)>& onCheckpoint,
+                              RenderTeam* team = nullptr);
 
 } // namespace cb

@@ -977,6 +977,7 @@ class Parser {
             if (!file) throw SceneError(t.where, "plymesh needs \"string filename\"");
             pl.finish();
             const std::string path = resolveModel(*file, fp->valueLoc(0));
+            scene_.sourceFiles.push_back(path);
             PlyMesh ply;
             try {
                 ply = readPly(path);
@@ -1149,6 +1150,7 @@ class Parser {
             bool ok = false;
             std::string text = readWholeFile(path, ok);
             if (!ok) throw SceneError(name.where, "cannot read included file \"" + path + "\"");
+            scene_.sourceFiles.push_back(path);
             files_.push_back(std::make_unique<SourceFile>(
                 SourceFile{Tokenizer(std::move(text), path), parentDir(path), key}));
             return;
@@ -1184,7 +1186,9 @@ SceneDesc parseSceneFile(const std::string& path) {
     bool ok = false;
     std::string text = readWholeFile(path, ok);
     if (!ok) throw SceneError(SourceLocation{path, 0, 0}, "cannot open scene file");
-    return parseSceneString(text, path);
+    SceneDesc scene = parseSceneString(text, path);
+    scene.sourceFiles.insert(scene.sourceFiles.begin(), path);
+    return scene;
 }
 
 } // namespace cb

@@ -101,6 +101,9 @@ struct FilmDesc {
 
 struct SceneDesc {
     std::string path; // the scene file, as given
+    // Every file read, in order: the scene file (when parsed from a file), its Includes and
+    // plymesh files; their bytes identify the scene's content (render states).
+    std::vector<std::string> sourceFiles;
     CameraDesc camera;
     FilmDesc film;
     std::vector<MaterialDesc> materials;

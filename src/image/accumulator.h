@@ -1,0 +1,110 @@
+// Exact per-pixel sums of estimates, and the set of estimate indices they hold.
+//
+// Each sample (a float) and its square are added to fixed-point integers on a grid of 2^-112:
+// integer addition is associative, so the sums of estimates rendered in any order, in any number
+// of shards, processes or machines, merged in any order, are the same bits, and so are the
+// image and the standard error computed from them (docs/scale-out.md).
+#pragma once
+
+#include "image/image.h"
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace cb {
+
+// A fixed-point number: `Words` 64-bit words, little-endian, two's complement, in units of
+// 2^-kFixedPointFractionBits.
+constexpr int kFixedPointFractionBits = 112;
+template <int Words> struct FixedPoint {
+    std::array<std::uint64_t, Words> word{};
+    // this += value * 2^kFixedPointFractionBits rounded to an integer (deterministically, so
+    // the same sample always adds the same bits). |value| must be below 2^(64 Words - 113).
+    void addScaled(double value);
+    void add(const FixedPoint& other);
+    bool negative() const { return (word[Words - 1] >> 63) != 0; }
+    // The value in units of the grid (not scaled back), rounded to double.
+    double toDouble() const;
+    bool operator==(const FixedPoint&) const = default;
+};
+using SampleSum = FixedPoint<3>; // up to 2^79 in magnitude: samples below 2^48, 2^31 of them
+using SquareSum = FixedPoint<4>; // up to 2^143: squares below 2^96, 2^47 of them
+constexpr double kLargestSample = 281474976710656.0; // 2^48: larger samples are refused
+
+// A set of estimate indices as sorted, disjoint, non-adjacent half-open ranges [begin, end).
+class EstimateSet {
+  public:
+    using Range = std::pair<std::uint64_t, std::uint64_t>;
+    EstimateSet() = default;
+    static EstimateSet range(std::uint64_t begin, std::uint64_t end);
+    // Throws std::invalid_argument if the ranges are not sorted, disjoint and non-empty.
+    static EstimateSet fromRanges(std::vector<Range> ranges);
+    const std::vector<Range>& ranges() const { return ranges_; }
+    std::uint64_t count() const;
+    bool empty() const { return ranges_.empty(); }
+    bool contains(std::uint64_t index) const;
+    bool intersects(const EstimateSet& other) const;
+    void insert(std::uint64_t index);
+    void unite(const EstimateSet& other);
+    // The smallest index at or after `index` that is not in the set.
+    std::uint64_t nextMissing(std::uint64_t index) const;
+    // One past the largest index (0 when empty).
+    std::uint64_t end() const { return ranges_.empty() ? 0 : ranges_.back().second; }
+    // The indices of [begin, end) that are not in the set, ascending, at most `limit` of them.
+    std::vector<std::uint64_t> missingIn(std::uint64_t begin, std::uint64_t end,
+                                         std::uint64_t limit) const;
+    // "0:8,12:16" (A:B means indices A to B-1); "none" when empty.
+    std::string toString() const;
+    bool operator==(const EstimateSet&) const = default;
+
+  private:
+    std::vector<Range> ranges_;
+};
+
+// Parses "A:B" (estimate indices A to B-1, A < B); throws std::invalid_argument naming `option`.
+EstimateSet::Range parseEstimateRange(const std::string& text,
+                                      const std::string& option = "--estimates");
+
+class EstimateAccumulator {
+  public:
+    EstimateAccumulator(int width, int height);
+    // Adds estimate number `index` (3 * width * height floats); throws std::invalid_argument
+    // if that estimate is already held. A sample of magnitude kLargestSample or more is dropped
+    // (counted by droppedSamples()): such values are a numerical accident, not radiance.
+    void add(std::uint64_t index, const float* rgb);
+    // Adds the estimate after the largest held (index 0 for an empty accumulator).
+    void add(const float* rgb) { add(indices_.end(), rgb); }
+    long estimates() const { return long(indices_.count()); }
+    const EstimateSet& indices() const { return indices_; }
+    int width() const { return width_; }
+    int height() const { return height_; }
+    long droppedSamples() const { return dropped_; }
+    RgbImage mean() const;
+    // Standard error of the mean per channel: sqrt(sample variance / n); zero for n < 2.
+    RgbImage standardError() const;
+    // Per-value mean and sample variance in double (for noise statistics).
+    double meanAt(size_t value) const;
+    double varianceAt(size_t value) const;
+    // Adds another accumulator's estimates; throws std::invalid_argument when the sizes differ
+    // or the two hold a common estimate (sums of sums, never means of means).
+    void merge(const EstimateAccumulator& other);
+    // Raw state, for saved states and reductions across processes.
+    std::vector<SampleSum>& sums() { return sums_; }
+    std::vector<SquareSum>& squares() { return squares_; }
+    const std::vector<SampleSum>& sums() const { return sums_; }
+    const std::vector<SquareSum>& squares() const { return squares_; }
+    void setIndices(EstimateSet indices) { indices_ = std::move(indices); }
+    void setDroppedSamples(long dropped) { dropped_ = dropped; }
+
+  private:
+    int width_, height_;
+    EstimateSet indices_;
+    long dropped_ = 0;
+    std::vector<SampleSum> sums_;
+    std::vector<SquareSum> squares_;
+};
+
+} // namespace cb

@@ -1,0 +1,230 @@
+#!/usr/bin/env python3
+"""End-to-end tests of renders that scale and survive: shards (--estimates) merged with
+`cbdpt merge` equal one render bit for bit (PT, CPT, BDPT, CBDPT); a render killed with SIGKILL
+resumes from its periodic state and ends where an uninterrupted one ends; outputs are checked
+before rendering and a failed final write keeps the state; bad states and bad requests are
+refused with clear messages and leave files on disk untouched. With --mpi MPIRUN, the same
+estimates rendered by 2 MPI ranks equal the single-process render.
+
+Usage: test_scale.py PATH/TO/cbdpt REPO_ROOT [--mpi MPIRUN]"""
+import argparse
+import json
+import os
+import random
+import re
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+
+parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+parser.add_argument("cbdpt")
+parser.add_argument("root")
+parser.add_argument("--mpi", help="mpirun command: run only the MPI checks")
+args = parser.parse_args()
+cbdpt = os.path.abspath(args.cbdpt)
+scene = os.path.join(args.root, "scenes", "cornell-box.pbrt")
+failures = []
+passed = 0
+SIZE = ["--width", "16", "--height", "12"]
+METHODS = {"pt": ["--eye-vertices", "4"], "cpt": ["--eye-vertices", "4", "--coherence-tile", "2"],
+           "bdpt": ["--eye-vertices", "3", "--light-vertices", "3"],
+           "cbdpt": ["--eye-vertices", "3", "--light-vertices", "3"]}
+
+
+def check(condition, message):
+    global passed
+    if condition:
+        passed += 1
+    else:
+        failures.append(message)
+        print("FAIL:", message)
+
+
+def run(*a, prefix=(), **kw):
+    return subprocess.run(list(prefix) + [cbdpt] + [str(x) for x in a], capture_output=True,
+                          text=True, **kw)
+
+
+def render(out, *a, method="pt", prefix=()):
+    return run("render", scene, "-q", *SIZE, "--integrator", method, *METHODS[method], "-o", out,
+               *a, prefix=prefix)
+
+
+def data(path):
+    with open(path, "rb") as f:
+        return f.read()
+
+
+with tempfile.TemporaryDirectory() as tmp:
+    P = lambda name: os.path.join(tmp, name)  # noqa: E731
+
+    if args.mpi:
+        # 2 ranks share the estimates; rank 0 writes the image of all of them.
+        mpirun = args.mpi.split()
+        for method in ("pt", "cbdpt"):
+            r = render(P(f"one-{method}.exr"), "--spp", 7, method=method)
+            check(r.returncode == 0, f"{method} single-process render ({r.stderr})")
+            r = render(P(f"mpi-{method}.exr"), "--spp", 7, "--stats", P("mpi.json"),
+                       "--keep-state", method=method, prefix=mpirun + ["-n", "2"])
+            check(r.returncode == 0, f"{method} with 2 MPI ranks exits 0 ({r.stderr})")
+            stats = json.load(open(P("mpi.json")))
+            check(stats["processes"] == 2 and stats["estimates"] == 7 and
+                  stats["estimate_ranges"] == "0:7",
+                  f"{method}: 2 processes rendered estimates 0:7 ({stats})")
+            check(data(P(f"mpi-{method}.exr")) == data(P(f"one-{method}.exr")),
+                  f"{method}: 2 MPI ranks give the single-process image bit for bit")
+        # A shard under MPI, merged with a single-process shard: the whole render.
+        r = render(P("s1.exr"), "--estimates", "0:3", "--keep-state")
+        r2 = render(P("s2.exr"), "--estimates", "3:7", "--keep-state", prefix=mpirun + ["-n", "2"])
+        r3 = run("merge", P("s1.exr.state"), P("s2.exr.state"), "-o", P("s12.exr"), "-q")
+        check(r.returncode == 0 and r2.returncode == 0 and r3.returncode == 0 and
+              data(P("s12.exr")) == data(P("one-pt.exr")),
+              f"an MPI shard merges with a single-process one ({r2.stderr} {r3.stderr})")
+        # --resume under MPI: rank 0 reads the state, the ranks share the estimates left.
+        r = render(P("res.exr"), "--spp", 4, "--keep-state")
+        r2 = render(P("res.exr"), "--spp", 7, "--resume", prefix=mpirun + ["-n", "2"])
+        check(r2.returncode == 0 and data(P("res.exr")) == data(P("one-pt.exr")),
+              f"4 estimates resumed to 7 by 2 ranks equal the single-process render ({r2.stderr})")
+        # A time budget and checkpoints across ranks: rank 0 decides, every row counts all ranks.
+        r = render(P("t.exr"), "--time", 3, "--checkpoint-every", 1, "--log", P("t.csv"),
+                   "--stats", P("t.json"), prefix=mpirun + ["-n", "2"])
+        stats = json.load(open(P("t.json"))) if os.path.exists(P("t.json")) else {}
+        check(r.returncode == 0 and stats.get("estimates", 0) > 0 and
+              stats.get("estimate_ranges", "").startswith("0:"),
+              f"--time under MPI ends on every rank and writes contiguous estimates ({r.stderr} "
+              f"{stats})")
+        check(os.path.exists(P("t.csv")), "rank 0 writes the checkpoint log")
+        print(f"{passed} passed, {len(failures)} failed")
+        sys.exit(1 if failures else 0)
+
+    # Shards merged in any order equal one render of the union, bit for bit, per method.
+    for method in METHODS:
+        r = render(P("full.exr"), "--spp", 9, "--keep-state", method=method)
+        check(r.returncode == 0, f"{method} full render ({r.stderr})")
+        cuts = [(0, 2), (2, 3), (3, 9)]
+        for a, b in cuts:
+            r = render(P(f"s{a}.exr"), "--estimates", f"{a}:{b}", "--keep-state", method=method)
+            check(r.returncode == 0, f"{method} shard {a}:{b} ({r.stderr})")
+        states = [P(f"s{a}.exr.state") for a, _ in cuts]
+        for order in (states, states[::-1]):
+            r = run("merge", *order, "-o", P("merged.exr"), "--state", P("merged.state"), "-q")
+            check(r.returncode == 0, f"{method} merge ({r.stderr})")
+            check(data(P("merged.exr")) == data(P("full.exr")),
+                  f"{method}: shards merged ({'forward' if order == states else 'reversed'}) "
+                  f"equal the full render bit for bit")
+            check(data(P("merged.state")) == data(P("full.exr.state")),
+                  f"{method}: the merged state equals the full render's state")
+
+    # Merge refusals; a failed merge leaves an existing output untouched.
+    with open(P("keep.exr"), "wb") as f:
+        f.write(b"precious")
+    s0, s2 = P("s0.exr.state"), P("s2.exr.state")
+    render(P("seed.exr"), "--estimates", "3:5", "--seed", 4, "--keep-state", method="cbdpt")
+    render(P("pt.exr"), "--estimates", "9:10", "--keep-state", method="pt")
+    for name, states, expect in (
+            ("itself", [s0, s0], "merging a state with itself"),
+            ("overlap", [s0, P("merged.state")], "overlap"),
+            ("other seed", [s2, P("seed.exr.state")], "seed: 0 there, 4 here"),
+            ("other method", [s2, P("pt.exr.state")], "integrator: \"cbdpt\" there, \"pt\" here"),
+            ("missing", [s0, P("none.state")], "cannot read the render state")):
+        r = run("merge", *states, "-o", P("keep.exr"))
+        check(r.returncode != 0 and expect in r.stderr, f"merge {name} refused ({r.stderr.strip()})")
+        check(data(P("keep.exr")) == b"precious", f"a refused merge ({name}) overwrites nothing")
+
+    # Corrupted and truncated states through the command line: a clear error, no crash.
+    good = data(s0)
+    rng = random.Random(5)
+    corpus = [good[:n] for n in sorted(rng.sample(range(len(good)), 40))]
+    for _ in range(40):
+        bad = bytearray(good)
+        bad[rng.randrange(len(bad))] ^= 1 << rng.randrange(8)
+        corpus.append(bytes(bad))
+    corpus.append(b"cbdpt render state v1\n" + good[22:])
+    bad_version = bytearray(good)
+    bad_version[19] = 9
+    corpus.append(bytes(bad_version))
+    clean = 0
+    for i, bad in enumerate(corpus):
+        with open(P("bad.state"), "wb") as f:
+            f.write(bad)
+        r = run("merge", P("bad.state"), s2, "-o", P("keep.exr"))
+        clean += (r.returncode == 1 and "is not a usable render state" in r.stderr and
+                  data(P("keep.exr")) == b"precious")
+    check(clean == len(corpus), f"{clean} of {len(corpus)} truncated/corrupted states refused "
+                                f"cleanly")
+    check("format version 9, this cbdpt reads version 2" in r.stderr,
+          f"another version is named ({r.stderr.strip()})")
+
+    # Bad requests: clear errors before anything is rendered or written.
+    for name, extra, expect in (
+            ("empty range", ["--estimates", "4:4"], "is empty"),
+            ("reversed range", ["--estimates", "5:2"], "is empty"),
+            ("range past --spp", ["--estimates", "0:20", "--spp", "16"], "outside the render"),
+            ("malformed range", ["--estimates", "3"], "must be A:B"),
+            ("mlt shard", ["--estimates", "0:2", "--integrator", "mlt"], "mlt"),
+            ("negative save interval", ["--save-state-every", "-1"], "--save-state-every"),
+            ("missing output folder", ["-o", P("no/such/a.exr")], "does not exist"),
+            ("missing log folder", ["--log", P("no/such/a.csv")], "the log (--log)"),
+            ("missing stats folder", ["--stats", P("no/such/a.json")], "the statistics"),
+            ("output is a folder", ["-o", tmp + "/"], "output"),
+    ):
+        out = [] if "-o" in extra else ["-o", P("keep.exr")]
+        r = run("render", scene, "-q", *SIZE, *out, *extra)
+        check(r.returncode != 0 and expect in r.stderr, f"{name} refused ({r.stderr.strip()})")
+        check(data(P("keep.exr")) == b"precious", f"{name}: nothing overwritten")
+
+    # SIGKILL: the periodic state survives it; --resume ends bit for bit where an uninterrupted
+    # render ends.
+    big = ["--width", "48", "--height", "48"]
+    kill = P("kill.exr")
+    p = subprocess.Popen([cbdpt, "render", scene, "-q", *big, "--spp", "100000", "-o", kill,
+                          "--save-state-every", "0.3"], stderr=subprocess.PIPE)
+    deadline = time.time() + 120
+    while time.time() < deadline and not os.path.exists(kill + ".state"):
+        time.sleep(0.2)
+    time.sleep(1.0)
+    p.send_signal(signal.SIGKILL)
+    p.wait()
+    check(os.path.exists(kill + ".state") and not os.path.exists(kill),
+          "a killed render leaves its periodic state and no image")
+    if os.path.exists(kill + ".state"):
+        r = run("merge", kill + ".state", "-o", P("saved.exr"), "-q")
+        saved = run("merge", kill + ".state", "-o", P("saved.exr"))
+        done = int(saved.stderr.split("state: ")[1].split(" ")[0]) if "state: " in saved.stderr else 0
+        check(done > 0, f"the periodic state holds estimates ({saved.stderr.strip()})")
+        total = done + 2
+        r = run("render", scene, "-q", *big, "--spp", total, "-o", kill, "--resume",
+                "--stats", P("kill.json"))
+        s = json.load(open(P("kill.json"))) if os.path.exists(P("kill.json")) else {}
+        check(r.returncode == 0 and s.get("estimates_rendered") == 2,
+              f"--resume continues from the saved state ({r.stderr} {s})")
+        r = run("render", scene, "-q", *big, "--spp", total, "-o", P("straight.exr"))
+        check(data(kill) == data(P("straight.exr")),
+              f"killed at {done} and resumed to {total} equals an uninterrupted render")
+        check(not os.path.exists(kill + ".state"), "the finished render removes its state")
+
+    # A final write that fails although the checks passed (the folder vanished mid-render):
+    # the state is kept in a fallback path, named in the message, and merges into the image.
+    gone = P("gone")
+    os.mkdir(gone)
+    env = dict(os.environ, TMPDIR=tmp)
+    p = subprocess.Popen([cbdpt, "render", scene, "-q", *big, "--spp", "100000", "--time", "4",
+                          "-o", os.path.join(gone, "a.exr"), "--save-state-every", "0"],
+                         stderr=subprocess.PIPE, text=True, env=env)
+    time.sleep(2)
+    shutil.rmtree(gone)
+    _, err = p.communicate(timeout=300)
+    kept = re.findall(r"are kept in (\S+);", err)
+    check(p.returncode == 1 and "are kept in" in err and kept and os.path.exists(kept[0]),
+          f"a failed final write keeps the state and says where ({p.returncode}, {kept}: "
+          f"{err.strip()})")
+    if kept and os.path.exists(kept[0]):
+        r = run("merge", kept[0], "-o", P("rescued.exr"), "-q")
+        check(r.returncode == 0 and os.path.exists(P("rescued.exr")),
+              f"the kept state gives the image ({r.stderr})")
+
+print(f"{passed} passed, {len(failures)} failed")
+sys.exit(1 if failures else 0)
