@@ -5,6 +5,7 @@
  * RGB) and the host adds them in pixel order, so an estimate is the same bits however the
  * work-items were scheduled (atomic float adds would sum in a different order each run). */
 #include "cb_bdpt.h"
+#include "cb_kernel.h"
 
 #ifndef CB_MAX_EYE_VERTICES
 #define CB_MAX_EYE_VERTICES 8
@@ -14,18 +15,12 @@
 #endif
 
 
-__kernel void renderBdpt(CB_SCENE_KERNEL_PARAMS,
-                         __global const float* toRgb,
-                         Camera camera,
-                         BdptSettings settings,
-                         SamplerSettings sampler,
+__kernel void renderBdpt(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings),
                          uint estimate,
-                         __global float* outRgb,
                          __global int* splatTarget,
                          __global float* splatRgb,
-                         volatile __global int* nonFiniteCount,
-                         volatile __global uint* rayCount,
-                         int countRays) {
+                         __global float* outRgb,
+                         CB_COUNTER_PARAMS) {
     int x = (int)get_global_id(0);
     int y = (int)get_global_id(1);
     if (x >= camera.width || y >= camera.height) return;
@@ -77,15 +72,5 @@ __kernel void renderBdpt(CB_SCENE_KERNEL_PARAMS,
             }
         }
     }
-    Vec3 rgb = specToRgb(radiance, toRgb);
-    if (!(isfinite(rgb.x) && isfinite(rgb.y) && isfinite(rgb.z))) {
-        ++nonFinite;
-        rgb = vec3(0.0f, 0.0f, 0.0f);
-    }
-    if (nonFinite > 0) atomic_add(nonFiniteCount, nonFinite);
-    /* A per-pixel atomic on one counter contends between threads: only when asked for. */
-    if (countRays) atomic_add(rayCount, (uint)rays);
-    outRgb[3 * pixel + 0] = rgb.x;
-    outRgb[3 * pixel + 1] = rgb.y;
-    outRgb[3 * pixel + 2] = rgb.z;
+    cbWritePixel(outRgb, CB_COUNTERS, pixel, specToRgb(radiance, toRgb), nonFinite, rays);
 }

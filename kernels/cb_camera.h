@@ -10,8 +10,10 @@ CB_BEGIN_NAMESPACE
 /* Primary ray through raster position (rasterX, rasterY), (0,0) the top-left image corner.
  * Direction is unit length; origin is the camera position. */
 CB_FN Ray cameraGenerateRay(const Camera* camera, real rasterX, real rasterY) {
-    real sx = (2.0f * rasterX / (real)camera->width - 1.0f) * camera->tanHalfFovX;
-    real sy = (1.0f - 2.0f * rasterY / (real)camera->height) * camera->tanHalfFovY;
+    real sx =
+        camera->screenCenterX + (2.0f * rasterX / (real)camera->width - 1.0f) * camera->tanHalfFovX;
+    real sy = camera->screenCenterY +
+              (1.0f - 2.0f * rasterY / (real)camera->height) * camera->tanHalfFovY;
     Ray ray;
     ray.o = affineTransformPoint(camera->cameraToWorld, vec3(0.0f, 0.0f, 0.0f));
     ray.d = vnormalize(affineTransformVector(camera->cameraToWorld, vec3(sx, sy, 1.0f)));
@@ -30,8 +32,8 @@ CB_FN void cameraJitteredRaster(SampleStream stream, int x, int y, real* rasterX
 CB_FN bool cameraProjectPoint(const Camera* camera, Vec3 p, real* rasterX, real* rasterY) {
     Vec3 c = affineTransformPoint(camera->worldToCamera, p);
     if (c.z <= 0.0f) return false;
-    real sx = c.x / (c.z * camera->tanHalfFovX);
-    real sy = c.y / (c.z * camera->tanHalfFovY);
+    real sx = (c.x - camera->screenCenterX * c.z) / (c.z * camera->tanHalfFovX);
+    real sy = (c.y - camera->screenCenterY * c.z) / (c.z * camera->tanHalfFovY);
     *rasterX = (sx + 1.0f) * 0.5f * (real)camera->width;
     *rasterY = (1.0f - sy) * 0.5f * (real)camera->height;
     return *rasterX >= 0.0f && *rasterX < (real)camera->width && *rasterY >= 0.0f &&

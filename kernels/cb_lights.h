@@ -194,6 +194,23 @@ CB_FN Spectrum lightEmittedRadiance(const SceneView* scene, int lightIndex, Vec3
     return specLoad(scene->spectra, light->emission);
 }
 
+/* Intensity a point light sends in unit direction w: uniform, or for a spot light pbrt-v4's
+ * SmoothStep(cosEnd, cosStart, cos theta) falloff from its axis. */
+CB_FN Spectrum pointLightIntensity(const SceneView* scene, int lightIndex, Vec3 w) {
+    CB_GLOBAL const Light* light = &scene->lights[lightIndex];
+    Spectrum intensity = specLoad(scene->spectra, light->emission);
+#if CB_HAS(CB_FEATURE_SPOT_LIGHT)
+    if (light->spotCosEnd >= -1.0f) {
+        real c = vdot(w, vec3FromGlobalArray(light->spotAxis));
+        real t = (c - light->spotCosEnd) / (light->spotCosStart - light->spotCosEnd);
+        t = fmin(fmax(t, 0.0f), 1.0f);
+        if (!(light->spotCosStart > light->spotCosEnd)) t = c < light->spotCosEnd ? 0.0f : 1.0f;
+        intensity = specScale(intensity, t * t * (3.0f - 2.0f * t));
+    }
+#endif
+    return intensity;
+}
+
 /* Probability density, in area measure and including the choice of light, with which
  * lightSample produces a given point of area light `lightIndex`. */
 CB_FN real lightPdfArea(const SceneView* scene, int lightIndex) {

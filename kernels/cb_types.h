@@ -82,6 +82,7 @@ typedef struct SurfacePoint {
 #define CB_FEATURE_AREA_LIGHT (1u << 8)
 #define CB_FEATURE_POINT_LIGHT (1u << 9)
 #define CB_FEATURE_SPHERES (1u << 10)
+#define CB_FEATURE_SPOT_LIGHT (1u << 11) /* point lights with a cone (pbrt-v4's "spot") */
 
 #ifndef CB_FEATURES
 #define CB_FEATURES 0xffffffffu
@@ -106,7 +107,8 @@ typedef struct Material {
 
 /* Area lights are one entry per emitting primitive (a triangle or a sphere), so that lights
  * can be chosen by power and points sampled uniformly by area (METHOD.md, BDPT). Point lights
- * emit intensity `emission` uniformly in all directions. */
+ * emit intensity `emission` uniformly in all directions; a spot light is a point light whose
+ * intensity falls off with the angle to spotAxis (pbrt-v4's SpotLight::I). */
 typedef struct Light {
     int kind;         /* CB_LIGHT_* */
     int primitive;    /* CB_LIGHT_AREA: the emitting primitive */
@@ -116,7 +118,10 @@ typedef struct Light {
     real area;        /* CB_LIGHT_AREA: surface area of the primitive */
     real pickProbability; /* probability of choosing this light (proportional to power) */
     real cdf;             /* sum of pickProbability over lights 0..this one (for binary search) */
-    real pad[2];
+    real spotCosStart;    /* full intensity inside this cosine of the angle to spotAxis */
+    real spotCosEnd;      /* zero outside it; below -1: not a spot (uniform point light) */
+    real spotAxis[3];     /* unit direction of the cone's axis */
+    real pad;
 } Light;
 
 /* ---- Camera ------------------------------------------------------------------------------- */
@@ -130,6 +135,11 @@ typedef struct Camera {
     real tanHalfFovY;
     int width;
     int height;
+    /* The screen window's centre at z = 1: zero, except for a crop window (pbrt's
+     * --cropwindow), whose image is that part of the full film's screen window. */
+    real screenCenterX;
+    real screenCenterY;
+    int pad[2];
 } Camera;
 
 CB_FN Vec3 affineTransformPoint(const real* m, Vec3 p) {

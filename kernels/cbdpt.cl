@@ -5,6 +5,7 @@
  * the same tile position (jitter included, as CPT), copies its tile position's light subpath into
  * private memory, and adds every strategy with t >= 2 with the BDPT weights. */
 #include "cb_bdpt.h"
+#include "cb_kernel.h"
 
 #ifndef CB_MAX_EYE_VERTICES
 #define CB_MAX_EYE_VERTICES 8
@@ -18,11 +19,7 @@
  * (y mod k) * tileColumns + (x mod k) of lightVertices (tileColumns = min(k, width)), each
  * subpath owning lightVertexStride slots. cameraCount = (light subpaths) / (W*H): the t = 1
  * strategy's sampling rate relative to BDPT's, for the power heuristic (docs/cbdpt.md). */
-__kernel void renderCbdpt(CB_SCENE_KERNEL_PARAMS,
-                          __global const float* toRgb,
-                          Camera camera,
-                          BdptSettings settings,
-                          SamplerSettings sampler,
+__kernel void renderCbdpt(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings),
                           uint estimate,
                           int streamTile,
                           int tileColumns,
@@ -31,9 +28,7 @@ __kernel void renderCbdpt(CB_SCENE_KERNEL_PARAMS,
                           int lightVertexStride,
                           float cameraCount,
                           __global float* outRgb,
-                          volatile __global int* nonFiniteCount,
-                          volatile __global uint* rayCount,
-                          int countRays) {
+                          CB_COUNTER_PARAMS) {
     int x = (int)get_global_id(0);
     int y = (int)get_global_id(1);
     if (x >= camera.width || y >= camera.height) return;
@@ -77,16 +72,6 @@ __kernel void renderCbdpt(CB_SCENE_KERNEL_PARAMS,
             radiance = specAdd(radiance, c);
         }
     }
-    Vec3 rgb = specToRgb(radiance, toRgb);
-    if (!(isfinite(rgb.x) && isfinite(rgb.y) && isfinite(rgb.z))) {
-        ++nonFinite;
-        rgb = vec3(0.0f, 0.0f, 0.0f);
-    }
-    if (nonFinite > 0) atomic_add(nonFiniteCount, nonFinite);
-    /* A per-pixel atomic on one counter contends between threads: only when asked for. */
-    if (countRays) atomic_add(rayCount, (uint)rays);
-    uint pixel = (uint)(y * camera.width + x);
-    outRgb[3 * pixel + 0] = rgb.x;
-    outRgb[3 * pixel + 1] = rgb.y;
-    outRgb[3 * pixel + 2] = rgb.z;
+    cbWritePixel(outRgb, CB_COUNTERS, (uint)(y * camera.width + x), specToRgb(radiance, toRgb),
+                 nonFinite, rays);
 }

@@ -17,6 +17,7 @@
 #define CB_PRIMARY_SAMPLES
 #include "cb_atomics.h"
 #include "cb_bdpt.h"
+#include "cb_kernel.h"
 
 #ifndef CB_MAX_EYE_VERTICES
 #define CB_MAX_EYE_VERTICES 8
@@ -147,25 +148,21 @@ static void mltBootstrapVector(uint seed, uint index, float* u) {
 
 /* Bootstrap: I(u) of independent uniform vectors u_i, i = first .. first + count - 1. Their mean
  * estimates the normalisation b = integral of I over [0,1)^D. */
-__kernel void mltBootstrap(CB_SCENE_KERNEL_PARAMS,
-                           __global const float* toRgb,
-                           Camera camera,
-                           BdptSettings settings,
-                           uint seed,
+__kernel void mltBootstrap(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings),
                            uint first,
                            uint count,
                            __global float* luminance,
-                           volatile __global int* nonFiniteCount) {
+                           CB_COUNTER_PARAMS) {
     uint i = (uint)get_global_id(0);
     if (i >= count) return;
     CB_SCENE_VIEW(scene);
     float u[CB_MLT_DIMS];
-    mltBootstrapVector(seed, first + i, u);
+    mltBootstrapVector(sampler.seed, first + i, u);
     MltSample sample;
     int rays = 0, nonFinite = 0;
     mltEvaluate(&scene, &camera, toRgb, settings, u, &sample, &rays, &nonFinite);
     luminance[i] = sample.luminance;
-    if (nonFinite > 0) atomic_add(nonFiniteCount, nonFinite);
+    cbAddCounts(CB_COUNTERS, nonFinite, rays);
 }
 
 static void mltStoreState(__global float* state, __global float* chainLum,
@@ -185,11 +182,7 @@ static void mltStoreState(__global float* state, __global float* chainLum,
 
 /* Chain c starts at bootstrap vector bootstrapIndex[c] (resampled on the host in proportion to
  * I, so the chains start close to their stationary distribution). */
-__kernel void mltSeedChains(CB_SCENE_KERNEL_PARAMS,
-                            __global const float* toRgb,
-                            Camera camera,
-                            BdptSettings settings,
-                            uint seed,
+__kernel void mltSeedChains(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings),
                             uint chains,
                             __global const uint* bootstrapIndex,
                             __global float* state,
@@ -201,7 +194,7 @@ __kernel void mltSeedChains(CB_SCENE_KERNEL_PARAMS,
     if (chain >= chains) return;
     CB_SCENE_VIEW(scene);
     float u[CB_MLT_DIMS];
-    mltBootstrapVector(seed, bootstrapIndex[chain], u);
+    mltBootstrapVector(sampler.seed, bootstrapIndex[chain], u);
     MltSample sample;
     int rays = 0, nonFinite = 0;
     mltEvaluate(&scene, &camera, toRgb, settings, u, &sample, &rays, &nonFinite);
@@ -228,11 +221,7 @@ static void mltSplat(volatile __global float* image, const MltSample* s, float w
  * same amounts with fewer atomics). The image receives sum weight * F / I; the host multiplies
  * by b * pixels / mutations. largeSum/largeCount collect I of large-step proposals, which are
  * uniform draws and so refine the estimate of b. */
-__kernel void mltAdvance(CB_SCENE_KERNEL_PARAMS,
-                         __global const float* toRgb,
-                         Camera camera,
-                         BdptSettings settings,
-                         uint seed,
+__kernel void mltAdvance(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings),
                          uint chains,
                          uint firstStep,
                          int mutations,
@@ -247,8 +236,7 @@ __kernel void mltAdvance(CB_SCENE_KERNEL_PARAMS,
                          volatile __global float* image,
                          __global float* largeSum,
                          __global uint* stats,
-                         volatile __global int* nonFiniteCount,
-                         volatile __global uint* rayCount) {
+                         CB_COUNTER_PARAMS) {
     uint chain = (uint)get_global_id(0);
     if (chain >= chains) return;
     CB_SCENE_VIEW(scene);
@@ -273,7 +261,7 @@ __kernel void mltAdvance(CB_SCENE_KERNEL_PARAMS,
     float sumLarge = 0.0f;
     float curWeight = 0.0f;
     int rays = 0, nonFinite = 0;
-    uint chainKey = cbHashCombine(cbHash32(seed ^ CB_MLT_MUTATION_SALT), chain);
+    uint chainKey = cbHashCombine(cbHash32(sampler.seed ^ CB_MLT_MUTATION_SALT), chain);
     for (int m = 0; m < mutations; ++m) {
         uint key = cbHashCombine(chainKey, firstStep + (uint)m);
         bool isLarge = mltUniform(key, 0u) < largeStepProbability;
@@ -325,6 +313,5 @@ __kernel void mltAdvance(CB_SCENE_KERNEL_PARAMS,
     stats[CB_MLT_STATS * chain + CB_MLT_STAT_LARGE] = large;
     stats[CB_MLT_STATS * chain + CB_MLT_STAT_LARGE_ACCEPTED] = largeAccepted;
     stats[CB_MLT_STATS * chain + CB_MLT_STAT_ZERO_PROPOSALS] = zero;
-    if (nonFinite > 0) atomic_add(nonFiniteCount, nonFinite);
-    atomic_add(rayCount, (uint)rays);
+    cbAddCounts(CB_COUNTERS, nonFinite, rays);
 }

@@ -1,29 +1,33 @@
-"""Shared pieces of scripts/make-reference, scripts/experiment and scripts/report: the
-thesis's per-scene settings (docs/scenes.md), locating the cbdpt binary, reading checkpoint logs,
-and a small reader for the EXR files cbdpt writes (so the scripts need only numpy)."""
+"""Shared pieces of scripts/make-reference, scripts/experiment, scripts/report and
+scripts/bias-check: the thesis's per-scene settings, locating the cbdpt binary, reading
+checkpoint logs, and EXR input/output through the OpenEXR bindings."""
 import csv
 import math
 import os
 import shutil
-import struct
 import subprocess
-import zlib
+import sys
 
-import numpy as np
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import python_env  # noqa: E402  (the scripts' pinned environment, .venv/)
+
+import numpy as np  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 REFERENCES = os.path.join(ROOT, "scenes", "references")
 MODEL_PATH = os.path.join(ROOT, "models")  # scripts/get-models's output, if CBDPT_MODEL_PATH is unset
 
-# The thesis's settings per scene (docs/scenes.md, thesis chapter 4): path-tracing vertex cap, the
-# bidirectional (Ne, Nl) configurations, which methods it timed, and its estimate counts.
-# "pt_vertices" equals Ne + Nl of the first bidirectional configuration, so every method of a
-# configuration renders the same path-length-limited transport and one reference serves all.
+# The thesis's settings per scene (its chapter 4): path-tracing vertex cap, the bidirectional
+# (Ne, Nl) configurations, which methods it timed, and its estimate counts. "pt_vertices" equals
+# Ne + Nl of the first bidirectional configuration. PT with N vertices and BDPT/CBDPT/MLT with
+# the total-length cap N compute the same image; under the per-subpath caps Ne + Nl the
+# bidirectional methods miss the paths that need a connection at a delta vertex (docs/bdpt.md),
+# so they are measured against references of their own integral (reference_path's `method`).
 SCENES = {
     "cornell-box": dict(pt_vertices=8, bidir=[(4, 4)], methods=["pt", "bdpt", "cbdpt", "cpt"],
                         estimates=[5, 25, 100]),
     "dragon": dict(pt_vertices=4, bidir=[(2, 2)], methods=["pt", "bdpt", "cbdpt", "cpt"],
-                   estimates=[100]),
+                   estimates=[100], delta_lobes=True),  # the mix material's mirror lobe
     "buddha": dict(pt_vertices=4, bidir=[(2, 2)], methods=["pt", "bdpt", "cbdpt", "cpt"],
                    estimates=[100]),
     "bunny": dict(pt_vertices=4, bidir=[(2, 2)], methods=["pt", "bdpt", "cbdpt", "cpt"],
@@ -37,18 +41,21 @@ SCENES = {
 ALL_METHODS = ["pt", "cpt", "bdpt", "cbdpt", "mlt"]
 
 # The thesis's timings, tables 4.1-4.9 (seconds; Core 2 Duo E4600, LuxRender).
-THESIS_TIMES = [
-    ("cornell-box", "4+4", 5, dict(pt=55, bdpt=96, cbdpt=72, cpt=48)),
-    ("cornell-box", "4+4", 25, dict(pt=245, bdpt=420, cbdpt=290, cpt=202)),
-    ("cornell-box", "4+4", 100, dict(pt=945, bdpt=1622, cbdpt=1100, cpt=812)),
-    ("dragon", "2+2", 100, dict(pt=744, bdpt=638, cbdpt=462, cpt=563)),
-    ("buddha", "2+2", 100, dict(pt=708, bdpt=624, cbdpt=450, cpt=545)),
-    ("bunny", "2+2", 100, dict(pt=721, bdpt=625, cbdpt=449, cpt=550)),
-    ("grade", "4+4", 100, dict(bdpt=1342, cbdpt=1006)),
-    ("grade", "2+2", 100, dict(bdpt=716, cbdpt=507, mlt=674)),
-    ("gaiola", "2+2", 100, dict(bdpt=1012, cbdpt=755)),
-    ("luminaria", "2+2", 100, dict(bdpt=775, cbdpt=664)),
+THESIS_TIMES = [  # (table, scene, Ne+Nl, estimates, {method: [seconds of each run]})
+    ("4.1", "cornell-box", "4+4", 5, dict(pt=[55], bdpt=[96], cbdpt=[72], cpt=[48])),
+    ("4.2", "cornell-box", "4+4", 25, dict(pt=[245], bdpt=[420], cbdpt=[290], cpt=[202])),
+    ("4.3", "cornell-box", "4+4", 100,
+     dict(pt=[945], bdpt=[1622], cbdpt=[1100, 1098], cpt=[812])),
+    ("4.4", "dragon", "2+2", 100, dict(pt=[744], bdpt=[638], cbdpt=[462], cpt=[563])),
+    ("4.5", "buddha", "2+2", 100, dict(pt=[708], bdpt=[624], cbdpt=[450], cpt=[545])),
+    ("4.6", "bunny", "2+2", 100, dict(pt=[721], bdpt=[625], cbdpt=[449], cpt=[550])),
+    ("4.7", "grade", "4+4", 100, dict(bdpt=[1342], cbdpt=[1006])),
+    ("4.7", "grade", "2+2", 100, dict(bdpt=[716], cbdpt=[507], mlt=[674])),
+    ("4.8", "gaiola", "2+2", 100, dict(bdpt=[1012], cbdpt=[755, 750])),
+    ("4.9", "luminaria", "2+2", 100, dict(bdpt=[775], cbdpt=[664])),
 ]
+# The thesis's timing runs repeated per (scene, method): CBDPT twice in tables 4.3 and 4.8.
+THESIS_REPEATS = {("cornell-box", "cbdpt"): 2, ("gaiola", "cbdpt"): 2}
 
 
 def find_cbdpt(explicit=None):
@@ -87,8 +94,47 @@ def available_integrators(cbdpt):
     return out
 
 
-def reference_path(scene, vertices):
-    return os.path.join(REFERENCES, f"{scene}-v{vertices}.exr")
+# Rough seconds per estimate at 256x256 on the 2-core development machine (a quarter of the
+# 512x512 times in README.md), only for scripts/experiment's time estimate.
+SECONDS_PER_ESTIMATE = dict(pt=0.03, cpt=0.025, bdpt=0.08, cbdpt=0.04, mlt=0.1)
+
+
+def configurations(scene):
+    """A scene's vertex configurations: the thesis's per-subpath caps "Ne+Nl" (bidirectional
+    methods) and the total-length cap "nN" with N = Ne + Nl (every method)."""
+    out = []
+    for ne, nl in SCENES[scene]["bidir"]:
+        out += [f"{ne}+{nl}", f"n{ne + nl}"]
+    return out
+
+
+def method_runs_config(scene, method, config):
+    """PT and CPT have one cap, the total; the thesis ran MLT on the grille only."""
+    if method in ("pt", "cpt"):
+        return config.startswith("n") and int(config[1:]) == SCENES[scene]["pt_vertices"]
+    return method in SCENES[scene]["methods"] or method in ("bdpt", "cbdpt")
+
+
+def config_args(method, config):
+    if config.startswith("n"):
+        return ["--max-vertices", config[1:]]
+    ne, nl = config.split("+")
+    return ["--eye-vertices", ne, "--light-vertices", nl]
+
+
+def reference_path(scene, config, method="pt"):
+    """The reference of the integral that `method` computes under `config`: PT with N vertices
+    (SCENE-vN.exr) for PT and CPT; a long BDPT run with the same caps (SCENE-bdpt-4p4.exr,
+    SCENE-bdpt-n8.exr) for BDPT, CBDPT and MLT, whose integral differs from PT's under the
+    per-subpath caps (paths needing a connection at a delta vertex are missed) and, with a point
+    light and a mirror, also under the total cap (light tracing samples the point light's
+    caustics, which PT cannot; docs/bdpt.md). Scenes without delta lobes (all but the
+    dragon) have no such paths, so there every method shares PT's reference: fewer large files
+    in the repository."""
+    if method in ("pt", "cpt") or not SCENES[scene].get("delta_lobes"):
+        total = config[1:] if config.startswith("n") else sum(map(int, config.split("+")))
+        return os.path.join(REFERENCES, f"{scene}-v{total}.exr")
+    return os.path.join(REFERENCES, f"{scene}-bdpt-{config.replace('+', 'p')}.exr")
 
 
 def read_log(path):
@@ -110,94 +156,89 @@ def read_log(path):
     return header, columns
 
 
-# --- EXR reading (OpenEXR 2 scan-line files, NONE/ZIPS/ZIP compression, HALF/FLOAT) ---------
+# --- EXR files, through the OpenEXR project's Python bindings (PyPI "OpenEXR") ------------
 
-def _read_attributes(data, pos):
-    attrs = {}
-    while data[pos] != 0:
-        end = data.index(b"\0", pos)
-        name = data[pos:end].decode()
-        pos = end + 1
-        end = data.index(b"\0", pos)
-        kind = data[pos:end].decode()
-        pos = end + 1
-        (size,) = struct.unpack_from("<i", data, pos)
-        pos += 4
-        attrs[name] = (kind, data[pos:pos + size])
-        pos += size
-    return attrs, pos + 1
-
-
-def _channels(blob):
-    out, pos = [], 0
-    while blob[pos] != 0:
-        end = blob.index(b"\0", pos)
-        name = blob[pos:end].decode()
-        pixel_type, _, xs, ys = struct.unpack_from("<iB3xii", blob, end + 1)
-        if xs != 1 or ys != 1:
-            raise ValueError("subsampled EXR channels are not supported")
-        out.append((name, pixel_type))
-        pos = end + 1 + 16
-    return out
+def _openexr():
+    return python_env.require("OpenEXR", "reading and writing EXR files")
 
 
 def read_exr(path, layer=""):
-    """Float32 array HxWx3 of channels R,G,B (layer '' ) or LAYER.R/G/B (e.g. 'stderr')."""
-    with open(path, "rb") as f:
-        data = f.read()
-    if struct.unpack_from("<I", data, 0)[0] != 20000630:
-        raise ValueError(f"{path} is not an OpenEXR file")
-    if data[5] & 0x1E:
-        raise ValueError(f"{path}: only single-part scan-line EXR files are supported")
-    attrs, pos = _read_attributes(data, 8)
-    xmin, ymin, xmax, ymax = struct.unpack("<iiii", attrs["dataWindow"][1])
-    width, height = xmax - xmin + 1, ymax - ymin + 1
-    compression = attrs["compression"][1][0]
-    lines_per_block = {0: 1, 2: 1, 3: 16}.get(compression)
-    if lines_per_block is None:
-        raise ValueError(f"{path}: EXR compression {compression} not supported (NONE/ZIPS/ZIP)")
-    channels = sorted(_channels(attrs["channels"][1]))  # EXR stores channels sorted by name
-    blocks = (height + lines_per_block - 1) // lines_per_block
-    offsets = struct.unpack_from(f"<{blocks}Q", data, pos)
-    planes = {name: np.zeros((height, width), np.float32) for name, _ in channels}
-    for offset in offsets:
-        y, size = struct.unpack_from("<ii", data, offset)
-        raw = data[offset + 8:offset + 8 + size]
-        rows = min(lines_per_block, ymax + 1 - y)
-        expected = sum((2 if t == 1 else 4) * width * rows for _, t in channels)
-        if compression != 0 and size < expected:
-            # Undo zlib, then the byte interleave and the delta predictor (OpenEXR's ZIP).
-            packed = np.frombuffer(zlib.decompress(raw), np.uint8).astype(np.int32)
-            packed = (np.cumsum(packed) - 128 * np.arange(packed.size)) % 256
-            packed = packed.astype(np.uint8)
-            half = (packed.size + 1) // 2
-            raw_bytes = np.empty(packed.size, np.uint8)
-            raw_bytes[0::2] = packed[:half]
-            raw_bytes[1::2] = packed[half:]
-            raw = raw_bytes.tobytes()
-        p = 0
-        for r in range(rows):
-            for name, t in channels:
-                n = (2 if t == 1 else 4) * width
-                dtype = {0: "<u4", 1: "<f2", 2: "<f4"}[t]
-                planes[name][y - ymin + r] = np.frombuffer(raw, dtype, width, p).astype(np.float32)
-                p += n
-    prefix = layer + "." if layer else ""
+    """Float32 array HxWx3 of channels R,G,B (layer '') or LAYER.R/G/B (e.g. 'stderr')."""
+    OpenEXR = _openexr()
     try:
-        return np.stack([planes[prefix + c] for c in "RGB"], axis=-1)
-    except KeyError:
-        raise ValueError(f"{path} has no channels {prefix}R,G,B") from None
+        with OpenEXR.File(path, separate_channels=True) as f:
+            channels = f.channels()
+            prefix = layer + "." if layer else ""
+            try:
+                planes = [channels[prefix + c].pixels for c in "RGB"]
+            except KeyError:
+                raise ValueError(f"{path} has no channels {prefix}R,G,B "
+                                 f"(it has {', '.join(sorted(channels))})") from None
+    except RuntimeError as e:  # the bindings' error for unreadable or non-EXR files
+        raise ValueError(f"{path}: not a readable OpenEXR file ({e})") from None
+    return np.stack([np.asarray(p, np.float32) for p in planes], axis=-1)
+
+
+def write_exr(path, layers):
+    """Writes a ZIP-compressed float EXR: `layers` maps a layer name ('' for the main image) to
+    an HxWx3 array, stored as R,G,B or LAYER.R/G/B. Written to a temporary file, then renamed,
+    so that an interrupted write never leaves a truncated image."""
+    OpenEXR = _openexr()
+    channels = {}
+    for layer, image in layers.items():
+        prefix = layer + "." if layer else ""
+        image = np.ascontiguousarray(image, np.float32)
+        for i, c in enumerate("RGB"):
+            channels[prefix + c] = OpenEXR.Channel(np.ascontiguousarray(image[..., i]))
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    tmp = path + ".tmp.exr"
+    with OpenEXR.File(header, channels) as f:
+        f.write(tmp)
+    os.replace(tmp, path)
+
+
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
+LOW_FREQUENCY = 0.1  # cycles per pixel: "low" below this
+
+
+def radial_spectrum(error):
+    """Radially averaged power spectrum of a square error image. P = |FFT|^2 / pixels, so white
+    noise of variance s^2 is flat at s^2 (Parseval), returned against |f| in cycles/pixel, with
+    the fraction of the power below LOW_FREQUENCY."""
+    h, w = error.shape
+    power = np.abs(np.fft.fft2(error)) ** 2 / (h * w)
+    fy = np.fft.fftfreq(h)[:, None]
+    fx = np.fft.fftfreq(w)[None, :]
+    radius = np.sqrt(fx ** 2 + fy ** 2)
+    bins = np.arange(0, 0.5 + 1e-9, 1.0 / max(h, w))
+    index = np.digitize(radius, bins) - 1
+    freqs, values = [], []
+    for i in range(1, len(bins) - 1):
+        sel = index == i
+        if sel.any():
+            freqs.append(radius[sel].mean())
+            values.append(power[sel].mean())
+    low = power[(radius < LOW_FREQUENCY) & (radius > 0)].sum() / max(power[radius > 0].sum(), 1e-300)
+    return np.array(freqs), np.array(values), float(low)
+
+
+def flip_mean(image, reference):
+    """Mean HDR-FLIP (NVIDIA's flip-evaluator) of image against reference; None without it."""
+    try:
+        import flip_evaluator
+    except ImportError:
+        return None
+    _, mean, _ = flip_evaluator.evaluate(np.ascontiguousarray(reference, np.float32),
+                                         np.ascontiguousarray(np.maximum(image, 0), np.float32),
+                                         "HDR")
+    return float(mean)
 
 
 def need_matplotlib():
-    try:
-        import matplotlib
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-        return plt
-    except ImportError:
-        raise SystemExit("scripts/report needs matplotlib: pip install matplotlib "
-                         "(or apt-get install python3-matplotlib)") from None
+    matplotlib = python_env.require("matplotlib", "plotting")
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    return plt
 
 
 def has(program):

@@ -20,6 +20,12 @@ import sys
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 DEFAULT_OUT = ROOT / "scenes" / "cornell-box.pbrt"
 
+# pbrt-v4 divides a light's spectrum by its luminance integral (SpectrumToPhotometric) and
+# multiplies by "scale". The thesis gives absolute emission, so "scale" is table A.1's luminance:
+# its integral against y-bar over 360-830 nm divided by y-bar's integral over 400-700 nm, with
+# the renderer's CMF fit (docs/spectral.md). tests/test_parser.cpp recomputes it.
+LIGHT_SCALE = "12.384308"
+
 TABLE_RE = re.compile(r"^Tabela A\.(\d+):")
 ROW_RE = re.compile(r"^\d+(,\d+)?(\t\d+(,\d+)?)+$")
 
@@ -177,7 +183,8 @@ def build(thesis):
                'LookAt 0.278 0.273 -0.800  0.278 0.273 0  0 1 0\n'
                'Camera "perspective" "float fov" 39.3077\n'
                'Film "rgb" "integer xresolution" 512 "integer yresolution" 512\n'
-               '    "string filename" "cornell-box.exr"\n\n'
+               '    "string filename" "cornell-box.exr"\n'
+               'PixelFilter "box"\n\n'
                'WorldBegin\n')
     for name, table in (("white", "A.18-A.19"), ("green", "A.20-A.21"), ("red", "A.22-A.23")):
         out.append(f'# Tables {table}: measured reflectance, 400-700 nm every 4 nm.\n'
@@ -202,12 +209,14 @@ def build(thesis):
     out.append("# Table A.2: ceiling light, one-sided, facing -y. Emission: table A.1.\n"
                "AttributeBegin\n"
                f'    AreaLightSource "diffuse" "spectrum L" {emission}\n'
+               f'        "float scale" {LIGHT_SCALE}\n'
                '    NamedMaterial "light"\n'
                f"{mesh([light])}\nAttributeEnd\n")
     out.append("# Spherical light at (0.200, 0.100, 0.400), radius 0.025 (appendix A.1.1, "
                "'Fontes de luz').\n# Emission: table A.1.\n"
                "AttributeBegin\n"
                f'    AreaLightSource "diffuse" "spectrum L" {emission}\n'
+               f'        "float scale" {LIGHT_SCALE}\n'
                '    NamedMaterial "light"\n'
                "    Translate 0.200 0.100 0.400\n"
                '    Shape "sphere" "float radius" 0.025\n'

@@ -417,80 +417,98 @@ TEST_CASE("BDPT MIS weights equal the explicit-ratio oracle and sum to one") {
         cbk::SceneView view = hostView(scene);
         const cbk::Camera& camera = scene.camera;
         const int ne = 5, nl = 4;
-        long compared = 0, sums = 0;
-        for (int weights : {CB_WEIGHTS_POWER, CB_WEIGHTS_LAFORTUNE}) {
-            cbk::BdptSettings settings{};
-            settings.eyeVertices = ne;
-            settings.lightVertices = nl;
-            settings.weights = weights;
-            settings.debugS = settings.debugT = -1;
-            for (unsigned pixel = 0; pixel < 256; ++pixel) {
-                std::vector<PathVertex> light(static_cast<size_t>(nl)),
-                    eye(static_cast<size_t>(ne));
-                int rays = 0;
-                int nLight = cbk::bdptLightSubpath(
-                    &view,
-                    cbk::bdptLightStream(cbk::SamplerSettings{3, CB_SAMPLER_INDEPENDENT, {0, 0}}, 0,
-                                         pixel),
-                    nl, light.data(), &rays);
-                cbk::SampleStream es = cbk::sampleStreamStart(3, 0, pixel);
-                float rx = float(pixel % 16) + cbk::sampleAt(es, 0);
-                float ry = float(pixel / 16) + cbk::sampleAt(es, 1);
-                int nEye =
-                    cbk::bdptEyeSubpath(&view, &camera, rx, ry, true, es, ne, eye.data(), &rays);
-                for (int t = 1; t <= nEye; ++t)
-                    for (int s = 0; s <= nLight; ++s) {
-                        if (!cbk::bdptStrategyAllowed(s, t, ne, nl)) continue;
-                        cbk::BdptConnection c;
-                        if (!cbk::bdptConnectUnoccluded(&view, &camera, light.data(), s, eye.data(),
-                                                        t, &c))
-                            continue;
-                        float w = cbk::bdptMisWeight(&view, light.data(), s, eye.data(), t,
-                                                     c.ptPdfRev, c.ptMinusPdfRev, c.qsPdfRev,
-                                                     c.qsMinusPdfRev, settings, 1.0f);
-                        FullPath path = joinPath(light, s, eye, t);
-                        double expected = weights == CB_WEIGHTS_POWER
-                                              ? oraclePowerWeight(view, camera, path, s, ne, nl)
-                                              : oracleLafortuneWeight(view, path, s, ne, nl);
-                        CAPTURE(lightKind);
-                        CAPTURE(weights);
-                        CAPTURE(s);
-                        CAPTURE(t);
-                        CHECK(double(w) == doctest::Approx(expected).epsilon(2e-3));
-                        ++compared;
-
-                        // Every strategy of this same path, through the shared code.
-                        double sum = 0.0;
-                        int k = s + t;
-                        for (int s2 = 0; s2 < k; ++s2) {
-                            std::vector<PathVertex> l2, e2;
-                            subpathsOf(view, camera, path, s2, l2, e2);
-                            cbk::BdptConnection c2;
-                            if (!cbk::bdptStrategyAllowed(s2, k - s2, ne, nl)) continue;
-                            if (!oracleFeasible(path, s2, ne, nl)) continue;
-                            if (!cbk::bdptConnectUnoccluded(&view, &camera, l2.data(), s2,
-                                                            e2.data(), k - s2, &c2))
+        long compared = 0, uncut = 0, sums = 0;
+        // total = 5: the total-length cap with its subpath caps Ne = 5, Nl = 4: paths of up to 5
+        // vertices keep every strategy (the oracle's caps then exclude none), longer ones none.
+        for (int total : {0, 5})
+            for (int weights : {CB_WEIGHTS_POWER, CB_WEIGHTS_LAFORTUNE}) {
+                cbk::BdptSettings settings{};
+                settings.eyeVertices = ne;
+                settings.lightVertices = nl;
+                settings.maxPathVertices = total;
+                settings.weights = weights;
+                settings.debugS = settings.debugT = -1;
+                for (unsigned pixel = 0; pixel < 256; ++pixel) {
+                    std::vector<PathVertex> light(static_cast<size_t>(nl)),
+                        eye(static_cast<size_t>(ne));
+                    int rays = 0;
+                    int nLight = cbk::bdptLightSubpath(
+                        &view,
+                        cbk::bdptLightStream(
+                            cbk::SamplerSettings{3, CB_SAMPLER_INDEPENDENT, {0, 0}}, 0, pixel),
+                        nl, light.data(), &rays);
+                    cbk::SampleStream es = cbk::sampleStreamStart(3, 0, pixel);
+                    float rx = float(pixel % 16) + cbk::sampleAt(es, 0);
+                    float ry = float(pixel / 16) + cbk::sampleAt(es, 1);
+                    int nEye = cbk::bdptEyeSubpath(&view, &camera, rx, ry, true, es, ne, eye.data(),
+                                                   &rays);
+                    for (int t = 1; t <= nEye; ++t)
+                        for (int s = 0; s <= nLight; ++s) {
+                            if (!cbk::bdptStrategyAllowed(s, t, ne, nl)) continue;
+                            cbk::BdptConnection c;
+                            if (!cbk::bdptConnectUnoccluded(&view, &camera, light.data(), s,
+                                                            eye.data(), t, &c))
                                 continue;
-                            sum += cbk::bdptMisWeight(&view, l2.data(), s2, e2.data(), k - s2,
-                                                      c2.ptPdfRev, c2.ptMinusPdfRev, c2.qsPdfRev,
-                                                      c2.qsMinusPdfRev, settings, 1.0f);
+                            float w = cbk::bdptMisWeight(&view, light.data(), s, eye.data(), t,
+                                                         c.ptPdfRev, c.ptMinusPdfRev, c.qsPdfRev,
+                                                         c.qsMinusPdfRev, settings, 1.0f);
+                            FullPath path = joinPath(light, s, eye, t);
+                            const bool cut = total > 0 && s + t > total;
+                            double expected = cut ? 0.0
+                                              : weights == CB_WEIGHTS_POWER
+                                                  ? oraclePowerWeight(view, camera, path, s, ne, nl)
+                                                  : oracleLafortuneWeight(view, path, s, ne, nl);
+                            CAPTURE(lightKind);
+                            CAPTURE(total);
+                            CAPTURE(weights);
+                            CAPTURE(s);
+                            CAPTURE(t);
+                            CHECK(double(w) == doctest::Approx(expected).epsilon(2e-3));
+                            ++compared;
+                            if (cut) continue;
+                            ++uncut;
+
+                            // Every strategy of this same path, through the shared code.
+                            double sum = 0.0;
+                            int k = s + t;
+                            for (int s2 = 0; s2 < k; ++s2) {
+                                std::vector<PathVertex> l2, e2;
+                                subpathsOf(view, camera, path, s2, l2, e2);
+                                cbk::BdptConnection c2;
+                                if (!cbk::bdptStrategyAllowed(s2, k - s2, ne, nl)) continue;
+                                if (!oracleFeasible(path, s2, ne, nl)) continue;
+                                if (!cbk::bdptConnectUnoccluded(&view, &camera, l2.data(), s2,
+                                                                e2.data(), k - s2, &c2))
+                                    continue;
+                                sum +=
+                                    cbk::bdptMisWeight(&view, l2.data(), s2, e2.data(), k - s2,
+                                                       c2.ptPdfRev, c2.ptMinusPdfRev, c2.qsPdfRev,
+                                                       c2.qsMinusPdfRev, settings, 1.0f);
+                            }
+                            // Lafortune's remainder goes to the last allowed strategy; where that
+                            // one cannot make the path (a point light cannot be hit; or k > Ne and
+                            // a delta vertex at that connection) the path is lost (docs/bdpt.md).
+                            int tMax = std::min(ne, k);
+                            if (path.y[0].type == CB_VERTEX_POINT_LIGHT)
+                                tMax = std::min(tMax, k - 1);
+                            if (weights == CB_WEIGHTS_LAFORTUNE &&
+                                !oracleFeasible(path, k - tMax, ne, nl))
+                                continue;
+                            if (total > 0) {
+                                // Under the total cap every s in 0..k-1 passes the caps.
+                                for (int s2 = 0; s2 < k; ++s2)
+                                    CHECK(cbk::bdptStrategyAllowed(s2, k - s2, ne, nl) ==
+                                          !(s2 == 1 && k == 2));
+                            }
+                            CHECK(sum == doctest::Approx(1.0).epsilon(2e-3));
+                            ++sums;
                         }
-                        // Lafortune's remainder goes to the last allowed strategy; where that
-                        // one cannot make the path (a point light cannot be hit; or k > Ne and
-                        // a delta vertex at that connection) the path is lost (docs/bdpt.md).
-                        int tMax = std::min(ne, k);
-                        if (path.y[0].type == CB_VERTEX_POINT_LIGHT) tMax = std::min(tMax, k - 1);
-                        if (weights == CB_WEIGHTS_LAFORTUNE &&
-                            !oracleFeasible(path, k - tMax, ne, nl))
-                            continue;
-                        CHECK(sum == doctest::Approx(1.0).epsilon(2e-3));
-                        ++sums;
-                    }
+                }
             }
-        }
         CAPTURE(lightKind);
         CHECK(compared > 500);
-        CHECK(sums > compared * 9 / 10); // all but the lost Lafortune paths above
+        CHECK(sums > uncut * 9 / 10); // all but the lost Lafortune paths above
+        CHECK(uncut < compared);      // the total cap did cut some
     }
 }
 

@@ -276,7 +276,7 @@ TEST_CASE("mixtures with a delta component: non-delta pdf and delta probability 
     checkNonDelta(v, fx.mixDiffuseGlass, 0.5, true, {0.7f, -0.7f}, 80);
 }
 
-TEST_CASE("rough conductor loses mass only by masking; near-normal incidence keeps almost all") {
+TEST_CASE("rough conductor loses mass only by masking, near-normal incidence keeps almost all") {
     Fixture fx;
     SceneView v = fx.s.view();
     // At normal incidence and alpha = 0.05 almost no reflected direction goes below the surface,

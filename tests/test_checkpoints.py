@@ -132,40 +132,57 @@ with tempfile.TemporaryDirectory() as tmp:
     r = render(*size, "--log", P("x.txt"))
     check(r.returncode != 0 and ".csv or .json" in r.stderr, f"bad log name refused ({r.stderr.strip()})")
 
-    # The pipeline: scripts/experiment --quick, then scripts/report.
-    out = P("experiment")
-    r = subprocess.run([sys.executable, os.path.join(root, "scripts", "experiment"), "--quick",
-                        "--cbdpt", cbdpt, "--out", out], capture_output=True, text=True)
+    # The pipeline: scripts/experiment --quick in units, then scripts/report. PT and BDPT only
+    # (CPT and CBDPT share the machinery), so that it stays a few minutes on a loaded machine.
+    units = P("units")
+    experiment = [sys.executable, os.path.join(root, "scripts", "experiment"), "--quick",
+                  "--cbdpt", cbdpt, "--units", units, "--methods", "pt", "bdpt"]
+    r = subprocess.run(experiment + ["--seeds", "1"], capture_output=True, text=True)
     check(r.returncode == 0, f"experiment --quick exits 0 ({r.stdout[-500:]} {r.stderr[-500:]})")
-    manifest = json.load(open(os.path.join(out, "manifest.json")))
-    methods = {run["method"] for run in manifest["runs"]}
-    check({"pt", "cpt"} <= methods, f"experiment ran PT and CPT at least ({methods})")
-    for run in manifest["runs"]:
-        _, lrows = cr.read_log(run["log"])
-        ok = len(lrows["estimates"]) >= 3 and all(math.isfinite(v) for v in lrows["rmse"])
-        check(ok, f"{run['method']} {run['kind']} log has finite RMSE rows")
-        if run["kind"] == "time":
-            check(abs(lrows["seconds"][-1] - manifest["budget"]) < 0.5,
-                  f"{run['method']} equal-time run ends at the budget ({lrows['seconds'][-1]})")
-    try:
-        import matplotlib  # noqa: F401
-        have_plots = True
-    except ImportError:
-        have_plots = False
-        print("note: matplotlib missing, scripts/report not exercised")
-    if have_plots:
-        doc = P("results.md")
-        r = subprocess.run([sys.executable, os.path.join(root, "scripts", "report"), "--results",
-                            out, "--doc", doc, "--figures", P("fig"), "--no-flip"],
-                           capture_output=True, text=True)
-        check(r.returncode == 0, f"report exits 0 ({r.stderr[-800:]})")
-        text = open(doc).read() if os.path.exists(doc) else ""
-        for needle in ("Error against render time", "power spectrum", "timing tables", "| PT |"):
-            check(needle in text, f"report has '{needle}'")
-        figs = sorted(os.listdir(P("fig"))) if os.path.isdir(P("fig")) else []
-        check(any(f.startswith("error-time-") for f in figs) and
-              any(f.startswith("spectrum-") for f in figs) and
-              any(f.startswith("crops-") for f in figs), f"report figures {figs}")
+    records = {}
+    for dirpath, _, files in os.walk(units):
+        for name in files:
+            if name.endswith(".json"):
+                rec = json.load(open(os.path.join(dirpath, name)))
+                records[rec["id"]] = rec
+    check({"cornell-box/n8/pt/time-seed1", "cornell-box/4+4/bdpt/time-seed1",
+           "cornell-box/n8/bdpt/thesis-seed1"} <= set(records), f"units written ({sorted(records)})")
+    for uid, rec in records.items():
+        check(rec["status"] == "done" and rec["machine"]["cores"] >= 1 and
+              len(rec["load_before"]) == 3 and rec["process_cpu_seconds"] > 0,
+              f"{uid}: done, with machine, load and CPU seconds ({rec})")
+        _, lrows = cr.read_log(os.path.join(units, uid + ".csv"))
+        check(len(lrows["estimates"]) >= 3, f"{uid}: log has checkpoint rows")
+        if rec["kind"] == "time":
+            check(all(math.isfinite(v) for v in lrows["rmse"]), f"{uid}: finite RMSE rows")
+            check(abs(lrows["seconds"][-1] - 2.0) < 0.5, f"{uid}: ends at the 2 s budget")
+            check(len(rec.get("flip", {})) >= 3 and len(rec["spectrum"]["power"]) >= 4,
+                  f"{uid}: FLIP per checkpoint and the error spectrum recorded")
+    # Units already done are skipped: a second run with one more seed runs only the new ones.
+    before = {uid: rec["started"] for uid, rec in records.items()}
+    r = subprocess.run(experiment + ["--seeds", "1", "2", "--kinds", "time"], capture_output=True,
+                       text=True)
+    check(r.returncode == 0 and "[1/" in r.stdout, f"second experiment run ({r.stdout[-800:]})")
+    ran = [line for line in r.stdout.splitlines() if line.startswith("experiment: [")]
+    check(all("seed2" in line for line in ran) and len(ran) == 3,
+          f"only the seed-2 units ran the second time ({ran})")
+    for uid, started in before.items():
+        rec = json.load(open(os.path.join(units, uid + ".json")))
+        check(rec["started"] == started, f"{uid} was not run again")
+    # The report aggregates what exists and lists what is missing (seeds 3 and 4 here).
+    doc = P("results.md")
+    r = subprocess.run([sys.executable, os.path.join(root, "scripts", "report"), "--units", units,
+                        "--doc", doc, "--figures", P("fig"), "--scenes", "cornell-box",
+                        "--verdict-cpu-seconds", "0.2"], capture_output=True, text=True)
+    check(r.returncode == 0, f"report exits 0 ({r.stderr[-800:]})")
+    text = open(doc).read() if os.path.exists(doc) else ""
+    for needle in ("cornell-box/n8/pt/time-seed3", "cornell-box/4+4/cbdpt/time-seed4",
+                   "power spectrum", "timing tables", "| 0.2 | RMSE |", "per-subpath caps",
+                   "total-length cap N = 8"):
+        check(needle in text, f"report has '{needle}'")
+    figs = sorted(os.listdir(P("fig"))) if os.path.isdir(P("fig")) else []
+    check(any(f.startswith("error-time-") for f in figs) and
+          any(f.startswith("spectrum-") for f in figs), f"report figures {figs}")
 
 print(f"{passed} passed, {len(failures)} failed")
 sys.exit(1 if failures else 0)

@@ -49,6 +49,24 @@ with tempfile.TemporaryDirectory() as tmp:
           f"seconds_per_estimate * (n - 1) + first_estimate_seconds = render_seconds ({s})")
     check(not any(n.startswith(".") for n in os.listdir(tmp)), "no temporary files left behind")
 
+    # A pbrt-v4 file's Sampler and Integrator lines are defaults: pixelsamples 64 -> 64
+    # estimates, "path" with maxdepth 5 -> PT with 7 vertices; the command line overrides them.
+    pbrt_scene = os.path.join(root, "scenes", "pbrt-v4", "cornell-box.pbrt")
+    r = subprocess.run([cbdpt, "render", pbrt_scene, "--width", "8", "--height", "8", "-o", exr,
+                        "--png", png, "--stats", stats, "-q"], capture_output=True, text=True)
+    check(r.returncode == 0, f"pbrt-v4 file renders (got {r.returncode}: {r.stderr})")
+    s = json.load(open(stats))
+    check(s["estimates"] == 64 and s["integrator"] == "pt" and s["eye_vertices"] == 7,
+          f"Sampler/Integrator defaults applied ({s})")
+    check(r.stderr.count("not used") == 1, f"the sampler is reported once ({r.stderr})")
+    r = subprocess.run([cbdpt, "render", pbrt_scene, "--width", "8", "--height", "8", "--spp", "2",
+                        "--integrator", "bdpt", "--eye-vertices", "3", "-o", exr, "--png", png,
+                        "--stats", stats, "-q"], capture_output=True, text=True)
+    s = json.load(open(stats))
+    check(r.returncode == 0 and s["estimates"] == 2 and s["integrator"] == "bdpt" and
+          s["eye_vertices"] == 3 and s["light_vertices"] == 3,
+          f"the command line overrides the file; maxdepth 5 -> Nl = 3 ({s})")
+
     # Every integrator renders from the command line; MLT reports its chain statistics.
     for integrator, extra in (("bdpt", ["--light-vertices", "3"]), ("cbdpt", ["--light-vertices", "3"]),
                               ("cpt", ["--coherence-tile", "2"]),
@@ -64,6 +82,27 @@ with tempfile.TemporaryDirectory() as tmp:
         if integrator == "mlt":
             check(0 < s["mlt"]["acceptance_rate"] < 1 and s["mlt"]["mutations"] > 0,
                   f"mlt statistics in the stats file ({s.get('mlt')})")
+
+    # The total-length cap: subpath caps N and N - 1, stated in the statistics; it replaces
+    # --eye-vertices and --light-vertices, so giving both is an error.
+    for integrator in ("pt", "bdpt", "cbdpt", "mlt"):
+        r = subprocess.run([cbdpt, "render", scene, "--integrator", integrator, "--max-vertices",
+                            "4", "--spp", "2", "--width", "8", "--height", "8", "-o", exr,
+                            "--stats", stats, "-q"] +
+                           (["--chains", "4", "--bootstrap", "256"] if integrator == "mlt" else []),
+                           capture_output=True, text=True)
+        check(r.returncode == 0, f"{integrator} --max-vertices 4 renders ({r.stderr})")
+        s = json.load(open(stats))
+        check((s["max_vertices"], s["eye_vertices"], s["light_vertices"]) == (4, 4, 3),
+              f"{integrator} --max-vertices 4: N=4, Ne=4, Nl=3 in the statistics ({s})")
+    r = subprocess.run([cbdpt, "render", scene, "--max-vertices", "4", "--eye-vertices", "3",
+                        "-o", exr], capture_output=True, text=True)
+    check(r.returncode != 0 and "excludes" in r.stderr,
+          f"--max-vertices with --eye-vertices is refused ({r.returncode}: {r.stderr})")
+    r = subprocess.run([cbdpt, "render", scene, "--max-vertices", "1", "-o", exr],
+                       capture_output=True, text=True)
+    check(r.returncode != 0 and "--max-vertices 1 is out of range" in r.stderr,
+          f"--max-vertices 1 is refused ({r.returncode}: {r.stderr})")
 
     # Ctrl-C mid-render: the estimates done are written, exit code 130.
     os.remove(exr)
@@ -129,7 +168,7 @@ with tempfile.TemporaryDirectory() as tmp:
     r = subprocess.run([cbdpt, "render", bad], capture_output=True, text=True)
     check(r.returncode != 0 and "bad.pbrt:2:" in r.stderr,
           f"unknown shape names file and line ({r.stderr.strip()})")
-    r = subprocess.run([cbdpt, "render", scene, "--width", "1000000", "--height", "1000000"],
+    r = subprocess.run([cbdpt, "render", scene, "--width", "32768", "--height", "32768"],
                        capture_output=True, text=True)
     check(r.returncode != 0 and "resolution" in r.stderr, f"absurd resolution refused ({r.stderr.strip()})")
     r = subprocess.run([cbdpt, "render", scene, "--spp", "0"], capture_output=True, text=True)
@@ -163,6 +202,151 @@ with tempfile.TemporaryDirectory() as tmp:
     r = subprocess.run([cbdpt, "info", scene], capture_output=True, text=True)
     check(r.returncode == 0 and "triangles" in r.stdout and "spectral-16" in r.stdout,
           f"info describes the scene ({r.stdout.strip()})")
+
+# Command-line habits (pbrt-v4's names where it has them) and bad input.
+def run(*args, env=None):
+    return subprocess.run([cbdpt, *args], capture_output=True, text=True, env=env,
+                          errors="backslashreplace")
+
+
+def printable(text):
+    return all(c in "\t\n" or " " <= c <= "~" for c in text)
+
+
+with tempfile.TemporaryDirectory() as tmp:
+    out = os.path.join(tmp, "o.exr")
+    stats = os.path.join(tmp, "o.json")
+    small = ["--width", "16", "--height", "16", "-q"]
+
+    # Every out-of-range number and every unknown name is refused before rendering, naming the
+    # option; nothing is written.
+    for args in (["--width", "-5"], ["--width", "0"], ["--height", "0"], ["--spp", "-1"],
+                 ["--time", "-1"], ["--time", "nan"], ["--eye-vertices", "0"],
+                 ["--light-vertices", "0"], ["--rr-vertex", "-1"], ["--chains", "-5"],
+                 ["--bootstrap", "-1"], ["--large-step", "2"], ["--large-step", "nan"],
+                 ["--mutation-size", "0"], ["--tile", "0"], ["--tile", "64"],
+                 ["--coherence-tile", "0"], ["--seed", "-1"], ["--seed", "4294967296"],
+                 ["--nthreads", "0"], ["--target-stderr", "0"], ["--target-stderr", "inf"],
+                 ["--checkpoint-every", "-1"], ["--cropwindow", "0", "1.5", "0", "1"],
+                 ["--cropwindow", "0", "1", "0"], ["--integrator", "foo"],
+                 ["--weights", "foo"], ["--channels", "foo"], ["--width", "12x"]):
+        r = run("render", scene, "-o", out, *args)
+        check(r.returncode != 0 and args[0] in r.stderr and not os.path.exists(out),
+              f"render {' '.join(args)} is refused naming the option ({r.returncode}: "
+              f"{r.stderr.strip()})")
+    r = run("render", scene, "-o", out, "--integrator", "foo")
+    check("pt" in r.stderr and "cbdpt" in r.stderr and "mlt" in r.stderr,
+          f"an unknown integrator lists the known ones ({r.stderr.strip()})")
+    r = run("compare", out, out, "--diff-scale", "0")
+    check(r.returncode != 0 and "--diff-scale" in r.stderr, f"compare --diff-scale 0 ({r.stderr})")
+
+    # --outfile is -o; --help shows defaults and examples; --version names version, revision
+    # and platform.
+    r = run("render", scene, "--outfile", out, "--spp", "1", *small)
+    check(r.returncode == 0 and os.path.exists(out), f"--outfile writes the image ({r.stderr})")
+    r = run("render", "--help")
+    check(r.returncode == 0 and "Examples:" in r.stdout and "=16" in r.stdout
+          and "=power" in r.stdout and "--outfile" in r.stdout,
+          f"render --help shows defaults and examples ({r.stdout})")
+    r = run("--version")
+    check(r.returncode == 0 and r.stdout.startswith("cbdpt ") and "(git " in r.stdout
+          and "OpenCL platform: " in r.stdout, f"--version ({r.stdout.strip()} {r.stderr})")
+
+    # Devices: the default is PoCL's CPU device; --device and info --device choose one.
+    r = run("info", "--device", "0:0")
+    check(r.returncode == 0 and "* 0:0" in r.stdout and "--device 0:0" in r.stdout,
+          f"info --device marks the device ({r.stdout.strip()})")
+    r = run("info")
+    check(r.returncode == 0 and "default: PoCL's CPU device" in r.stdout,
+          f"info names the default device ({r.stdout.strip()})")
+    for device in ("7:0", "0:9", "x"):
+        r = run("info", "--device", device)
+        check(r.returncode != 0 and device in r.stderr and "0:0" in r.stderr,
+              f"info --device {device} is refused, listing the devices ({r.stderr.strip()})")
+    r = run("render", scene, "-o", out, "--device", "gpu", *small)
+    check(r.returncode != 0 and "no OpenCL device matches 'gpu'" in r.stderr,
+          f"--device gpu without a GPU ({r.stderr.strip()})")
+    r = run("render", scene, "-o", out, "--device", "cpu", "--spp", "1", "--stats", stats, *small)
+    check(r.returncode == 0 and json.load(open(stats))["device"] in run("info").stdout,
+          f"--device cpu renders on a device info lists ({r.stderr})")
+
+    # --nthreads limits PoCL's worker threads: the device reports them as its compute units, and
+    # with one thread BDPT's atomic splats add in one order, so two renders agree bit for bit.
+    r = run("info", "--nthreads", "1")
+    check(r.returncode == 0 and "* 0:0" in r.stdout and "| 1 compute units" in r.stdout,
+          f"info --nthreads 1 ({r.stdout.strip()})")
+    images = []
+    for i in range(2):
+        images.append(os.path.join(tmp, f"t{i}.exr"))
+        r = run("render", scene, "-o", images[-1], "--integrator", "bdpt", "--spp", "2",
+                "--nthreads", "1", "--stats", stats, *small)
+        check(r.returncode == 0 and json.load(open(stats))["device_compute_units"] == 1,
+              f"render --nthreads 1 runs on one compute unit ({r.stderr})")
+    check(open(images[0], "rb").read() == open(images[1], "rb").read(),
+          "two one-thread BDPT renders are identical")
+
+    # --quick as pbrt-v4: a quarter of the resolution each way, one estimate (MLT: / 16).
+    r = run("render", scene, "-o", out, "--quick", "--stats", stats, "-q")
+    s = json.load(open(stats))
+    check(r.returncode == 0 and (s["width"], s["height"], s["estimates"]) == (128, 128, 1),
+          f"--quick renders 128x128 with 1 estimate ({r.stderr} {s})")
+    r = run("render", scene, "-o", out, "--quick", "--integrator", "mlt", "--spp", "64",
+            "--stats", stats, "-q")
+    s = json.load(open(stats))
+    check(r.returncode == 0 and s["estimates"] == 4 and s["mlt"]["bootstrap_samples"] == 4096,
+          f"--quick with mlt: 64 / 16 estimates, 65536 / 16 bootstrap samples ({s})")
+
+    # --target-stderr stops at the first estimate whose mean standard error is below it.
+    r = run("render", scene, "-o", out, "--target-stderr", "0.05", "--spp", "1000", "--stats",
+            stats, *small[:4])
+    s = json.load(open(stats))
+    check(r.returncode == 0 and s["reached_target_stderr"] and 2 <= s["estimates"] < 1000
+          and s["mean_standard_error"] < 0.05 * 1.0001 and "--target-stderr" in r.stderr,
+          f"--target-stderr 0.05 ({r.stderr.strip()} {s})")
+
+    # --cropwindow as pbrt: fractions x0 x1 y0 y1 of the film, pixels ceil(W x0)..ceil(W x1);
+    # the image is the crop. Its pixels estimate the same values as the same pixels of the full
+    # film: region means agree within 5 standard errors (the renders are independent).
+    sys.path.insert(0, os.path.join(root, "scripts"))
+    import numpy as np  # noqa: E402
+    import cbdpt_results as cr  # noqa: E402
+    full, crop = os.path.join(tmp, "full.exr"), os.path.join(tmp, "crop.exr")
+    for integrator in ("pt", "bdpt"):
+        common = ["--integrator", integrator, "--eye-vertices", "5", "--spp", "32", "--width",
+                  "64", "--height", "64", "-q"]
+        r1 = run("render", scene, "-o", full, *common)
+        r2 = run("render", scene, "-o", crop, "--seed", "5", "--cropwindow", "0.1", "0.6", "0.5",
+                 "1", "--stats", stats, *common)
+        check(r1.returncode == 0 and r2.returncode == 0, f"crop renders ({r1.stderr}{r2.stderr})")
+        s = json.load(open(stats))
+        image, error = cr.read_exr(crop), cr.read_exr(crop, "stderr")
+        check((s["width"], s["height"], s["pixel_bounds"]) == (32, 32, [7, 39, 32, 64])
+              and image.shape == (32, 32, 3), f"crop size and bounds ({s}, {image.shape})")
+        whole, whole_error = cr.read_exr(full), cr.read_exr(full, "stderr")
+        part, part_error = whole[32:64, 7:39], whole_error[32:64, 7:39]
+        for name, rows, cols in (("left", slice(0, 32), slice(0, 16)),
+                                 ("right", slice(0, 32), slice(16, 32))):
+            a, b = image[rows, cols].mean(axis=(0, 1)), part[rows, cols].mean(axis=(0, 1))
+            n = image[rows, cols].shape[0] * image[rows, cols].shape[1]
+            se = np.sqrt((error[rows, cols] ** 2).sum(axis=(0, 1))
+                         + (part_error[rows, cols] ** 2).sum(axis=(0, 1))) / n
+            check(bool(np.all(np.abs(a - b) < 5 * se)) and float(a.mean()) > 0.01,
+                  f"{integrator} crop {name} half matches the full film's pixels ({a} vs {b}, "
+                  f"standard error {se})")
+
+    # A file that is not a scene is named for what it is, and no message prints raw bytes.
+    r = run("info", out)
+    check(r.returncode != 0 and "is an OpenEXR image, not a pbrt scene" in r.stderr
+          and printable(r.stderr), f"info IMAGE.exr says what it is ({r.stderr.strip()})")
+    r = run("render", os.path.join(tmp, "o.png"), *small)
+    check(r.returncode != 0 and "image, not a pbrt scene" in r.stderr and printable(r.stderr),
+          f"render IMAGE says what it is ({r.stderr.strip()})")
+    garbage = os.path.join(tmp, "garbage.pbrt")
+    with open(garbage, "wb") as f:
+        f.write(b"WorldBegin\nSha\x1b[2J\xff\xfepe \"sphere\"\n")
+    r = run("render", garbage, *small)
+    check(r.returncode != 0 and "garbage.pbrt:2:1" in r.stderr and "\\x1b" in r.stderr
+          and printable(r.stderr), f"stray bytes are escaped in messages ({r.stderr.strip()})")
 
 print(f"{passed} passed, {len(failures)} failed")
 sys.exit(1 if failures else 0)

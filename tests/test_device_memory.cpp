@@ -5,6 +5,7 @@
 #include "cl/cl_runtime.h"
 
 #include <doctest/doctest.h>
+#include <fmt/format.h>
 #include <string>
 #include <vector>
 
@@ -87,4 +88,56 @@ TEST_CASE("device memory: read-only copies hold the data, small and huge-page on
         }
         CHECK(runtime.liveBufferBytes() == before);
     }
+}
+
+namespace {
+
+cb::ClDeviceInfo fakeDevice(int platform, int device, const char* platformName, bool cpu,
+                            bool gpu) {
+    cb::ClDeviceInfo d;
+    d.platformIndex = platform;
+    d.deviceIndex = device;
+    d.platformName = platformName;
+    d.deviceName = fmt::format("device {}:{}", platform, device);
+    d.cpu = cpu;
+    d.gpu = gpu;
+    return d;
+}
+
+std::string chosen(const std::vector<cb::ClDeviceInfo>& devices, const std::string& selector) {
+    const cb::ClDeviceInfo& d = cb::chooseClDevice(devices, selector);
+    return fmt::format("{}:{}", d.platformIndex, d.deviceIndex);
+}
+
+} // namespace
+
+TEST_CASE("device choice: PoCL's CPU device by default, cpu, gpu and P:D on request") {
+    // A GPU platform installed before PoCL, and a second, non-PoCL CPU platform.
+    const std::vector<cb::ClDeviceInfo> devices = {
+        fakeDevice(0, 0, "NVIDIA CUDA", false, true),
+        fakeDevice(0, 1, "NVIDIA CUDA", false, true),
+        fakeDevice(1, 0, "Intel(R) OpenCL", true, false),
+        fakeDevice(2, 0, "Portable Computing Language", true, false),
+    };
+    CHECK(chosen(devices, "") == "2:0");
+    CHECK(chosen(devices, "cpu") == "2:0");
+    CHECK(chosen(devices, "gpu") == "0:0");
+    CHECK(chosen(devices, "0:1") == "0:1");
+    CHECK(chosen(devices, "1") == "1:0");
+    CHECK(chosen(devices, " 1:0 ") == "1:0");
+    // Without PoCL: the first CPU device; without CPUs: the first device, but no "cpu".
+    const std::vector<cb::ClDeviceInfo> noPocl(devices.begin(), devices.begin() + 3);
+    CHECK(chosen(noPocl, "") == "1:0");
+    const std::vector<cb::ClDeviceInfo> gpus(devices.begin(), devices.begin() + 2);
+    CHECK(chosen(gpus, "") == "0:0");
+    CHECK_THROWS_WITH_AS(chosen(gpus, "cpu"), doctest::Contains("no OpenCL device matches 'cpu'"),
+                         cb::ClError);
+    const std::vector<cb::ClDeviceInfo> cpus(devices.begin() + 2, devices.end());
+    CHECK_THROWS_WITH_AS(chosen(cpus, "gpu"), doctest::Contains("device 2:0 (CPU)"), cb::ClError);
+    for (const char* bad : {"0:", "x", "-1", "1:-2", "1:0:0", "1x", "GPU"})
+        CHECK_THROWS_WITH_AS(chosen(devices, bad), doctest::Contains("invalid device"),
+                             cb::ClError);
+    CHECK_THROWS_WITH_AS(chosen(devices, "3:0"),
+                         doctest::Contains("no OpenCL device matches '3:0'"), cb::ClError);
+    CHECK_THROWS_AS(chosen({}, ""), cb::ClError);
 }

@@ -14,9 +14,8 @@ TEST_CASE("PT furnace: truncated Neumann series Le (1 - a^(n-1)) / (1 - a)") {
         int eyeVertices;
         bool roulette;
     };
-    const Case cases[] = {{0.5f, 2, true},  {0.5f, 3, true},  {0.5f, 5, true},
-                          {0.8f, 8, true},  {0.8f, 8, false}, {0.99f, 12, true},
-                          {0.99f, 64, true}};
+    const Case cases[] = {{0.5f, 2, true},  {0.5f, 3, true},   {0.5f, 5, true},  {0.8f, 8, true},
+                          {0.8f, 8, false}, {0.99f, 12, true}, {0.99f, 64, true}};
     for (const Case& c : cases) {
         CAPTURE(c.albedo);
         CAPTURE(c.eyeVertices);
@@ -41,7 +40,7 @@ TEST_CASE("PT furnace: truncated Neumann series Le (1 - a^(n-1)) / (1 - a)") {
     }
 }
 
-TEST_CASE("PT furnace in 16-bin spectral mode: flat spectra give the analytic value times white") {
+TEST_CASE("PT furnace in 16-bin spectral mode: RGB white emission renders as white") {
     cb::ClRuntime runtime;
     const float albedo = 0.7f, emission = 0.5f;
     const int eyeVertices = 6;
@@ -52,12 +51,15 @@ TEST_CASE("PT furnace in 16-bin spectral mode: flat spectra give the analytic va
     settings.eyeVertices = eyeVertices;
     settings.seed = 3;
     auto stats = cbtest::renderPooled(scene, runtime, settings, 16);
-    // A flat spectrum of 1 maps to the documented white (docs/spectral.md); the pooled value is
-    // the mean of its three channels times the scalar furnace radiance.
-    std::array<float, 16> ones;
-    ones.fill(1.f);
-    auto white = cb::binsToRgb(ones);
-    double whiteMean = (double(white[0]) + white[1] + white[2]) / 3.0;
+    // RGB emission is RGB times the white illuminant (pbrt-v4's meaning), which the film maps to
+    // linear sRGB (1, 1, 1); the grey albedo becomes a flat reflectance. The pooled value is the
+    // mean of the three channels of the film's white times the scalar furnace radiance.
+    const auto film = cb::filmMatrix(16, {});
+    double whiteMean = 0.0;
+    for (int i = 0; i < 16; ++i)
+        for (int c = 0; c < 3; ++c)
+            whiteMean += film[c * 16 + i] * cb::whiteIlluminantBins()[i] / 3.0;
+    CHECK(whiteMean == doctest::Approx(1.0).epsilon(1e-5));
     double expected = whiteMean * emission * (1.0 - std::pow(double(albedo), eyeVertices - 1)) /
                       (1.0 - double(albedo));
     CAPTURE(expected);

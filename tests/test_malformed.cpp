@@ -141,3 +141,34 @@ TEST_CASE("malformed corpus: every file is rejected with its expected message an
     CHECK(ply >= 10);
     CHECK(scene >= 10);
 }
+
+TEST_CASE("messages: bytes that are not printable text are escaped, valid UTF-8 is kept") {
+    CHECK(cb::printableText("plain text\twith tab") == "plain text\twith tab");
+    CHECK(cb::printableText("caf\xc3\xa9 \xe2\x86\x92") == "caf\xc3\xa9 \xe2\x86\x92");
+    CHECK(cb::printableText(std::string("a\0b", 3)) == "a\\x00b");
+    CHECK(cb::printableText("\x1b[31mred\r") == "\\x1b[31mred\\x0d");
+    // Latin-1, a lone continuation byte, an overlong form, a truncated sequence.
+    CHECK(cb::printableText("caf\xe9") == "caf\\xe9");
+    CHECK(cb::printableText("\x80x") == "\\x80x");
+    CHECK(cb::printableText("\xc0\xaf") == "\\xc0\\xaf");
+    CHECK(cb::printableText("\xe2\x86") == "\\xe2\\x86");
+    const cb::SceneError error(cb::SourceLocation{"f.pbrt", 1, 2}, "unknown directive '\x01\xff'");
+    CHECK(std::string(error.what()) == "f.pbrt:1:2: unknown directive '\\x01\\xff'");
+}
+
+TEST_CASE("messages: files that are not text are named by their first bytes") {
+    CHECK(cb::describeNonTextFile("WorldBegin\nShape \"sphere\"\n").empty());
+    CHECK(cb::describeNonTextFile("").empty());
+    // A scene with a Latin-1 comment is still text.
+    CHECK(cb::describeNonTextFile("# ilumina\xe7\xe3o\nWorldBegin\n").empty());
+    CHECK(cb::describeNonTextFile("v/1\x01rest") == "an OpenEXR image");
+    CHECK(cb::describeNonTextFile("\x89PNG\r\n\x1a\nrest") == "a PNG image");
+    CHECK(cb::describeNonTextFile("\xff\xd8\xff\xe0") == "a JPEG image");
+    CHECK(cb::describeNonTextFile("ply\nformat ascii 1.0\n").rfind("a PLY mesh", 0) == 0);
+    CHECK(cb::describeNonTextFile("\x1f\x8b\x08").find("gzip") != std::string::npos);
+    CHECK(cb::describeNonTextFile(std::string("Shape\0", 6)) == "a binary file");
+    std::string noisy;
+    for (int i = 0; i < 1000; ++i)
+        noisy += char(0x80 + (i * 37) % 64); // continuation bytes only: never valid UTF-8
+    CHECK(cb::describeNonTextFile(noisy) == "a binary file");
+}

@@ -21,7 +21,10 @@ import subprocess
 import sys
 from collections import Counter
 
-import numpy as np
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "scripts"))
+import python_env  # noqa: E402,F401  (the scripts' pinned .venv/)
+
+import numpy as np  # noqa: E402
 
 import stanford_models
 

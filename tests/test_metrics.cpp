@@ -7,6 +7,7 @@
 #include <atomic>
 #include <cmath>
 #include <filesystem>
+#include <random>
 #include <stdexcept>
 #include <string>
 #include <thread>
@@ -295,4 +296,53 @@ TEST_CASE("render timing: the first estimate is reported apart from the steady-s
     auto none = cb::renderEstimates(integrator, single, limits, stop);
     CHECK(none.estimatesRendered == 0);
     CHECK(none.secondsPerEstimate() == 0.0);
+}
+
+namespace {
+
+// Independent noise around 1: each estimate's pixels are uniform in [0, 2).
+class NoisyIntegrator : public cb::Integrator {
+  public:
+    void renderEstimate(std::uint32_t estimate, std::vector<float>& rgb) override {
+        std::mt19937 rng(estimate);
+        std::uniform_real_distribution<float> uniform(0.0f, 2.0f);
+        rgb.resize(3 * 4 * 4);
+        for (float& v : rgb)
+            v = uniform(rng);
+    }
+    long nonFiniteSamples() const override { return 0; }
+    double buildSeconds() const override { return 0.0; }
+};
+
+} // namespace
+
+TEST_CASE("target standard error: the render stops at the first estimate count below it") {
+    // Uniform [0, 2) has standard deviation 1/sqrt(3): the mean standard error after n
+    // estimates is about 0.577 / sqrt(n), so 0.1 takes about 33 estimates.
+    NoisyIntegrator integrator;
+    cb::EstimateAccumulator acc(4, 4);
+    std::atomic<bool> stop{false};
+    cb::RenderLimits limits;
+    limits.estimates = 0;
+    limits.targetStandardError = 0.1;
+    const cb::RenderOutcome outcome = cb::renderEstimates(integrator, acc, limits, stop);
+    CHECK(outcome.reachedTargetStandardError);
+    const long n = acc.estimates();
+    CHECK(n > 15);
+    CHECK(n < 70);
+    CHECK(cb::estimateNoise(acc).meanStandardError < 0.1);
+    // One estimate fewer was not below the target.
+    cb::EstimateAccumulator fewer(4, 4);
+    std::vector<float> rgb;
+    for (long e = 0; e < n - 1; ++e) {
+        integrator.renderEstimate(std::uint32_t(e), rgb);
+        fewer.add(rgb.data());
+    }
+    CHECK(cb::estimateNoise(fewer).meanStandardError >= 0.1);
+    // With an estimate limit too, the first limit reached ends the render.
+    cb::EstimateAccumulator capped(4, 4);
+    limits.estimates = 5;
+    const cb::RenderOutcome early = cb::renderEstimates(integrator, capped, limits, stop);
+    CHECK(capped.estimates() == 5);
+    CHECK_FALSE(early.reachedTargetStandardError);
 }

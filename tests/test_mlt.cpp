@@ -277,7 +277,7 @@ TEST_CASE("MLT: acceptance rate in (0,1), statistics consistent, no NaN, options
     CHECK_THROWS(cb::makeIntegrator(bad, scene, runtime()));
 }
 
-TEST_CASE("MLT converges to PT on the Cornell box; b matches the PT image's mean luminance" *
+TEST_CASE("MLT converges to PT on the Cornell box, b matches the PT image's mean luminance" *
           doctest::test_suite("statistical")) {
     cb::SceneDesc desc = cb::parseSceneFile(scenePath("cornell-box.pbrt"));
     desc.film.width = desc.film.height = 16;
@@ -298,10 +298,12 @@ TEST_CASE("MLT converges to PT with a small bright light behind a grille" *
     checkConverges(scene, 3, 2, 2048, 32, 32);
 }
 
-TEST_CASE("MLT renders a 16-channel spectral scene (work-group size must not overflow PoCL's stack)") {
+TEST_CASE(
+    "MLT renders a 16-channel spectral scene (work-group size must not overflow PoCL's stack)") {
     // Regression: with the work-group size left to PoCL (4096), the private vertex arrays of a
     // spectral scene overflowed the worker thread's stack and the process crashed.
-    cb::SceneDesc desc = cb::parseSceneFile(std::string(CBDPT_SOURCE_DIR) + "/scenes/cornell-box.pbrt");
+    cb::SceneDesc desc =
+        cb::parseSceneFile(std::string(CBDPT_SOURCE_DIR) + "/scenes/cornell-box.pbrt");
     desc.film.width = desc.film.height = 16;
     cb::DeviceScene scene = cb::buildDeviceScene(desc, cb::ChannelMode::Spectral);
     REQUIRE(scene.channels == 16);

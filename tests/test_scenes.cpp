@@ -7,6 +7,7 @@
 #include "integrators/integrator.h"
 #include "scene/device_scene.h"
 #include "scene/scene_desc.h"
+#include "spectral/spectral.h"
 #include "stanford_models.h"
 
 #include <algorithm>
@@ -72,28 +73,6 @@ const Expected kScenes[] = {
      3, 1, 0, 2},
 };
 
-// Channel mean of a spectral value: RGB mean, or the mean over 400-700 nm of the
-// piecewise-linear samples (constant beyond the ends), by the trapezoid rule on a fine grid.
-double channelMean(const cb::SpectrumValue& s) {
-    if (s.isRgb) return (double(s.rgb[0]) + s.rgb[1] + s.rgb[2]) / 3.0;
-    auto at = [&](double wl) {
-        const auto& v = s.samples;
-        if (wl <= v.front().first) return double(v.front().second);
-        if (wl >= v.back().first) return double(v.back().second);
-        for (size_t i = 1; i < v.size(); ++i)
-            if (wl <= v[i].first) {
-                const double t = (wl - v[i - 1].first) / (v[i].first - v[i - 1].first);
-                return double(v[i - 1].second) + t * (double(v[i].second) - v[i - 1].second);
-            }
-        return double(v.back().second);
-    };
-    double sum = 0;
-    const int n = 300;
-    for (int i = 0; i <= n; ++i)
-        sum += at(400.0 + i) * (i == 0 || i == n ? 0.5 : 1.0);
-    return sum / n;
-}
-
 double triangleArea(const cb::TriangleMeshDesc& m, const std::array<unsigned, 3>& t) {
     double e1[3], e2[3];
     for (int a = 0; a < 3; ++a) {
@@ -107,13 +86,20 @@ double triangleArea(const cb::TriangleMeshDesc& m, const std::array<unsigned, 3>
 
 // Total emitted power (channel mean, W): point lights 4 pi I, one-sided diffuse emitters
 // pi L A (two-sided: twice that), spheres with area 4 pi r^2.
+// A light's brightness on the film: for a spectrum, its luminance (pbrt-v4 divides the spectrum
+// by its photometric integral, so that is the light's "scale"); for RGB, the channel mean.
+double emissionLevel(const cb::SpectrumValue& v, double scale) {
+    if (!v.isRgb) return scale * cb::photometricIntegral(v.samples);
+    return scale * (double(v.rgb[0]) + v.rgb[1] + v.rgb[2]) / 3.0;
+}
+
 double totalLightPower(const cb::SceneDesc& d) {
     double power = 0;
     for (const auto& pl : d.pointLights)
-        power += 4.0 * M_PI * channelMean(pl.intensity) * pl.scale;
+        power += 4.0 * M_PI * emissionLevel(pl.intensity, pl.scale);
     auto emitted = [&](int areaLight, double area) {
         const cb::AreaLightDesc& al = d.areaLights[size_t(areaLight)];
-        return M_PI * channelMean(al.radiance) * al.scale * area * (al.twoSided ? 2.0 : 1.0);
+        return M_PI * emissionLevel(al.radiance, al.scale) * area * (al.twoSided ? 2.0 : 1.0);
     };
     for (const auto& m : d.meshes)
         if (m.areaLight >= 0)

@@ -38,7 +38,7 @@ TEST_CASE("spectral: flat spectrum gives the documented white, within 1% of (1,1
     const auto m = channelsToRgbMatrix(kSpectralBins);
     REQUIRE(m.size() == 3 * kSpectralBins);
     const auto white = matrixTimesOnes(m, kSpectralBins);
-    const auto viaSpectrum = spectrumToRgb({{500.f, 1.f}});
+    const auto viaSpectrum = spectrumToRgb({{400.f, 1.f}, {700.f, 1.f}});
     for (int c = 0; c < 3; ++c) {
         CHECK(std::abs(white[c] - kDocumentedWhite[c]) < 1e-3);
         CHECK(std::abs(white[c] - 1.0) < 0.01);
@@ -69,10 +69,13 @@ TEST_CASE("spectral: CMF fit close to the CIE 1931 table") {
 
 TEST_CASE("spectral: binSpectrum is the exact mean over each bin") {
     SUBCASE("constant") {
-        const auto b = binSpectrum({{550.f, 0.37f}});
+        const auto b = binSpectrum({{400.f, 0.37f}, {700.f, 0.37f}});
         for (float v : b)
             CHECK(v == doctest::Approx(0.37f).epsilon(1e-6));
         for (float v : binSpectrum({}))
+            CHECK(v == 0.f);
+        // One sample is a spectrum that is zero except at that wavelength (pbrt-v4).
+        for (float v : binSpectrum({{550.f, 0.37f}}))
             CHECK(v == 0.f);
     }
     SUBCASE("linear: mean is the value at the bin centre") {
@@ -93,7 +96,7 @@ TEST_CASE("spectral: binSpectrum is the exact mean over each bin") {
             CHECK(b[i] == doctest::Approx(expect).epsilon(1e-6));
         }
     }
-    SUBCASE("constant extrapolation and the Cornell emission") {
+    SUBCASE("zero outside the samples, and the Cornell emission") {
         // Table A.1 read as piecewise linear; bin 0 is [400, 418.75]: mean 0.08 * 9.375 = 0.75.
         // Bin 5 = [493.75, 512.5] straddles the 500 nm sample; by hand, piece by piece:
         // 6.25 * (7.5 + 8) / 2 + 12.5 * (8 + 8.95) / 2 = 154.375.
@@ -101,10 +104,10 @@ TEST_CASE("spectral: binSpectrum is the exact mean over each bin") {
         CHECK(b[0] == doctest::Approx(0.75).epsilon(1e-6));
         CHECK(b[5] == doctest::Approx(154.375 / 18.75).epsilon(1e-6));
         const auto e = binSpectrum({{450.f, 3.f}, {650.f, 7.f}});
-        CHECK(e[0] == doctest::Approx(3.0).epsilon(1e-6));  // wholly below the first sample
-        CHECK(e[15] == doctest::Approx(7.0).epsilon(1e-6)); // wholly above the last
-        // Bin 2 = [437.5, 456.25]: 12.5 nm of 3, then a ramp from 3 to 3.125 over 6.25 nm.
-        CHECK(e[2] == doctest::Approx((12.5 * 3.0 + 6.25 * 3.0625) / 18.75).epsilon(1e-6));
+        CHECK(e[0] == 0.f);  // wholly below the first sample
+        CHECK(e[15] == 0.f); // wholly above the last
+        // Bin 2 = [437.5, 456.25]: 12.5 nm of 0, then a ramp from 3 to 3.125 over 6.25 nm.
+        CHECK(e[2] == doctest::Approx(6.25 * 3.0625 / 18.75).epsilon(1e-6));
     }
     SUBCASE("malformed input throws") {
         CHECK_THROWS_AS(binSpectrum({{500.f, 1.f}, {500.f, 2.f}}), std::invalid_argument);

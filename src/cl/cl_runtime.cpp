@@ -107,7 +107,9 @@ ClDeviceInfo describe(int platformIndex, int deviceIndex, const cl::Platform& pl
     info.computeUnits = device.getInfo<CL_DEVICE_MAX_COMPUTE_UNITS>();
     info.globalMemoryBytes = device.getInfo<CL_DEVICE_GLOBAL_MEM_SIZE>();
     info.maxAllocationBytes = device.getInfo<CL_DEVICE_MAX_MEM_ALLOC_SIZE>();
-    info.cpu = (device.getInfo<CL_DEVICE_TYPE>() & CL_DEVICE_TYPE_CPU) != 0;
+    const auto type = device.getInfo<CL_DEVICE_TYPE>();
+    info.cpu = (type & CL_DEVICE_TYPE_CPU) != 0;
+    info.gpu = (type & CL_DEVICE_TYPE_GPU) != 0;
     return info;
 }
 
@@ -121,20 +123,15 @@ std::vector<cl::Device> devicesOf(const cl::Platform& platform) {
     return devices;
 }
 
-void parseSelector(const std::string& selector, int& platform, int& device) {
-    platform = 0;
-    device = 0;
-    if (selector.empty()) return;
-    std::istringstream in(selector);
-    char colon = 0;
-    if (!(in >> platform) || platform < 0)
-        throw ClError(fmt::format("invalid device selector '{}': expected P or P:D (see `cbdpt "
-                                  "info`)",
-                                  selector));
-    if (in >> colon) {
-        if (colon != ':' || !(in >> device) || device < 0)
-            throw ClError(fmt::format("invalid device selector '{}': expected P or P:D", selector));
-    }
+std::string deviceList(const std::vector<ClDeviceInfo>& devices) {
+    std::string list;
+    for (const auto& d : devices)
+        list += fmt::format("{}{}:{} {} ({})", list.empty() ? "" : ", ", d.platformIndex,
+                            d.deviceIndex, d.deviceName,
+                            d.gpu   ? "GPU"
+                            : d.cpu ? "CPU"
+                                    : "other");
+    return list.empty() ? "none" : list;
 }
 
 } // namespace
@@ -232,24 +229,63 @@ std::vector<ClDeviceInfo> listClDevices() {
     return result;
 }
 
-ClRuntime::ClRuntime(const std::string& selector) {
-    std::string chosen = selector;
-    if (chosen.empty()) {
-        if (const char* env = std::getenv("CBDPT_DEVICE")) chosen = env;
+bool ClDeviceInfo::pocl() const {
+    return platformName.find("Portable Computing Language") != std::string::npos ||
+           platformName.find("PoCL") != std::string::npos;
+}
+
+const ClDeviceInfo& chooseClDevice(const std::vector<ClDeviceInfo>& devices,
+                                   const std::string& selector) {
+    auto first = [&](auto&& wanted) -> const ClDeviceInfo* {
+        for (const auto& d : devices)
+            if (wanted(d)) return &d;
+        return nullptr;
+    };
+    const ClDeviceInfo* found = nullptr;
+    if (selector.empty() || selector == "cpu") {
+        found = first([](const ClDeviceInfo& d) { return d.cpu && d.pocl(); });
+        if (!found) found = first([](const ClDeviceInfo& d) { return d.cpu; });
+        if (!found && selector.empty() && !devices.empty()) found = &devices.front();
+    } else if (selector == "gpu") {
+        found = first([](const ClDeviceInfo& d) { return d.gpu; });
+    } else {
+        int platform = -1, device = -1;
+        char colon = 0;
+        std::istringstream in(selector);
+        bool valid = bool(in >> platform) && platform >= 0;
+        const bool hasDevice = valid && bool(in >> colon);
+        if (hasDevice) valid = colon == ':' && bool(in >> device) && device >= 0;
+        if (!valid || !(in >> std::ws).eof())
+            throw ClError(fmt::format("invalid device '{}': expected cpu, gpu, P or P:D "
+                                      "(devices: {})",
+                                      selector, deviceList(devices)));
+        found = first([&](const ClDeviceInfo& d) {
+            return d.platformIndex == platform && (!hasDevice || d.deviceIndex == device);
+        });
     }
-    int platformIndex, deviceIndex;
-    parseSelector(chosen, platformIndex, deviceIndex);
-    auto platforms = platformsOrThrow();
-    if (platformIndex >= int(platforms.size()))
-        throw ClError(fmt::format("OpenCL platform {} does not exist ({} found; see `cbdpt info`)",
-                                  platformIndex, platforms.size()));
-    auto devices = devicesOf(platforms[platformIndex]);
-    if (deviceIndex >= int(devices.size()))
-        throw ClError(fmt::format("OpenCL device {}:{} does not exist (platform {} has {} "
-                                  "devices; see `cbdpt info`)",
-                                  platformIndex, deviceIndex, platformIndex, devices.size()));
-    device_ = devices[deviceIndex];
-    info_ = describe(platformIndex, deviceIndex, platforms[platformIndex], device_);
+    if (!found)
+        throw ClError(fmt::format("no OpenCL device matches '{}' (devices: {}; see `cbdpt info`)",
+                                  selector.empty() ? "the default" : selector,
+                                  deviceList(devices)));
+    return *found;
+}
+
+std::string deviceSelector(const std::string& option) {
+    if (!option.empty()) return option;
+    const char* env = std::getenv("CBDPT_DEVICE");
+    return env ? env : "";
+}
+
+void limitPoclThreads(int threads) {
+    if (threads < 1) throw std::invalid_argument("the thread count must be at least 1");
+    const std::string value = std::to_string(threads);
+    setenv("POCL_MAX_PTHREAD_COUNT", value.c_str(), 1);
+    setenv("POCL_CPU_MAX_CU_NUM", value.c_str(), 1);
+}
+
+ClRuntime::ClRuntime(const std::string& selector) {
+    info_ = chooseClDevice(listClDevices(), deviceSelector(selector));
+    device_ = devicesOf(platformsOrThrow()[size_t(info_.platformIndex)])[size_t(info_.deviceIndex)];
     try {
         context_ = cl::Context(device_);
         queue_ = cl::CommandQueue(context_, device_);

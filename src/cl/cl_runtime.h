@@ -41,7 +41,9 @@ struct ClDeviceInfo {
     unsigned computeUnits = 0;
     unsigned long long globalMemoryBytes = 0;
     unsigned long long maxAllocationBytes = 0;
-    bool cpu = false; // CL_DEVICE_TYPE_CPU: it reads host memory in place
+    bool cpu = false;  // CL_DEVICE_TYPE_CPU: it reads host memory in place
+    bool gpu = false;  // CL_DEVICE_TYPE_GPU
+    bool pocl() const; // the Portable Computing Language platform
 };
 
 // Refuses, before anything is allocated, a device buffer of `bytes` that is larger than the
@@ -57,8 +59,24 @@ void checkDeviceAllocation(const ClDeviceInfo& device, const std::string& what,
 // exists.
 std::vector<ClDeviceInfo> listClDevices();
 
-// A device selector is "P:D" (platform, device indices), "P" (first device of platform P), or
-// empty for the environment variable CBDPT_DEVICE, falling back to "0:0".
+// The device that `selector` names among `devices`: "P:D" (platform and device indices, as
+// `cbdpt info` lists them), "P" (the first device of platform P), "cpu" or "gpu" (the first
+// device of that type; PoCL's first among CPU devices), or "" for the default, PoCL's CPU device
+// (else the first CPU device, else the first device), since the kernels are written and tuned
+// for it. Throws ClError naming the selector and the devices there are.
+const ClDeviceInfo& chooseClDevice(const std::vector<ClDeviceInfo>& devices,
+                                   const std::string& selector);
+
+// The selector in effect: `option` when given, else the environment variable CBDPT_DEVICE, else
+// "" (the default device).
+std::string deviceSelector(const std::string& option);
+
+// Limits PoCL's CPU device to `threads` worker threads (POCL_MAX_PTHREAD_COUNT, and
+// POCL_CPU_MAX_CU_NUM for newer PoCL releases; the device reports them as its compute units).
+// PoCL reads them when the first OpenCL call loads it, so call this before any.
+void limitPoclThreads(int threads);
+
+// The device is chosen by chooseClDevice(listClDevices(), deviceSelector(selector)).
 class ClRuntime {
   public:
     explicit ClRuntime(const std::string& selector = "");

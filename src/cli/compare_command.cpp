@@ -1,5 +1,6 @@
 // `cbdpt compare IMAGE REFERENCE`: error metrics of an EXR against a reference EXR.
 #include "cli/cli_format.h"
+#include "cli/cli_options.h"
 #include "cli/commands.h"
 #include "image/image.h"
 #include "image/metrics.h"
@@ -93,8 +94,9 @@ Command addCompareCommand(CLI::App& app) {
     cmd->add_option("--diff-png", o->diffPng,
                     "write a signed relative luminance error map (blue: too dark, white: "
                     "exact, red: too bright)");
-    cmd->add_option("--diff-scale", o->diffScale,
-                    "relative error at which the map saturates (default 1)");
+    cmd->add_option("--diff-scale", o->diffScale, "relative error at which the map saturates")
+        ->check(finiteRange(0.0, 1e30, true))
+        ->capture_default_str();
     cmd->add_flag("--json", o->json, "print the metrics as JSON");
     return {cmd, [o] { return runCompare(*o); }};
 }

@@ -1,5 +1,6 @@
 // `cbdpt info [SCENE]`: the OpenCL devices, and a scene's statistics and kernel features.
 #include "cl/cl_runtime.h"
+#include "cli/cli_options.h"
 #include "cli/commands.h"
 #include "scene/device_scene.h"
 #include "scene/scene_desc.h"
@@ -15,16 +16,24 @@ namespace {
 
 struct InfoOptions {
     std::string scene;
-    std::string device;
+    DeviceOptions device;
 };
 
-void printDevices() {
-    auto devices = cb::listClDevices();
-    fmt::print("OpenCL devices (select with --device P:D or CBDPT_DEVICE=P:D):\n");
+// Every device, the one that --device (or CBDPT_DEVICE, or the default) selects marked with *.
+void printDevices(const DeviceOptions& o) {
+    const auto devices = cb::listClDevices();
+    const std::string selector = cb::deviceSelector(o.device);
+    const cb::ClDeviceInfo& chosen = cb::chooseClDevice(devices, selector);
+    fmt::print("OpenCL devices (select with --device cpu|gpu|P:D or CBDPT_DEVICE; * selected):\n");
     for (const auto& d : devices)
-        fmt::print("  {}:{}  {} | {} | {} | {} compute units, {:.1f} GiB\n", d.platformIndex,
-                   d.deviceIndex, d.platformName, d.deviceName, d.deviceVersion, d.computeUnits,
+        fmt::print("{} {}:{}  {} | {} | {} | {} compute units, {:.1f} GiB\n",
+                   &d == &chosen ? "*" : " ", d.platformIndex, d.deviceIndex, d.platformName,
+                   d.deviceName, d.deviceVersion, d.computeUnits,
                    double(d.globalMemoryBytes) / (1024.0 * 1024.0 * 1024.0));
+    fmt::print("selected {}:{} ({})\n", chosen.platformIndex, chosen.deviceIndex,
+               !o.device.empty()  ? "--device " + o.device
+               : selector.empty() ? std::string("default: PoCL's CPU device")
+                                  : "CBDPT_DEVICE=" + selector);
 }
 
 void printScene(const std::string& scenePath) {
@@ -56,7 +65,8 @@ void printScene(const std::string& scenePath) {
 }
 
 int runInfo(const InfoOptions& o) {
-    printDevices();
+    applyThreadLimit(o.device);
+    printDevices(o.device);
     if (!o.scene.empty()) printScene(o.scene);
     return 0;
 }
@@ -67,7 +77,7 @@ Command addInfoCommand(CLI::App& app) {
     auto o = std::make_shared<InfoOptions>();
     auto* cmd = app.add_subcommand("info", "list OpenCL devices; describe a scene");
     cmd->add_option("scene", o->scene, "scene file");
-    cmd->add_option("--device", o->device, "OpenCL device P:D");
+    addDeviceOptions(*cmd, o->device);
     return {cmd, [o] { return runInfo(*o); }};
 }
 

@@ -7,6 +7,7 @@
 // file and add its add function to the list below; main only parses and dispatches.
 #include "cl/cl_runtime.h"
 #include "cli/commands.h"
+#include "scene/scene_desc.h"
 
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
@@ -29,10 +30,33 @@ void printOpenClError(const cl::Error& e) {
                            : "");
 }
 
+// `cbdpt --version`: the version, the git revision the build was configured from, and the
+// OpenCL platforms.
+void printVersion() {
+    fmt::print("cbdpt {} (git {})\n", CBDPT_VERSION, CBDPT_GIT_REVISION);
+    try {
+        std::vector<cl::Platform> platforms;
+        cl::Platform::get(&platforms);
+        for (const auto& p : platforms)
+            fmt::print("OpenCL platform: {} | {}\n", p.getInfo<CL_PLATFORM_NAME>(),
+                       p.getInfo<CL_PLATFORM_VERSION>());
+        if (platforms.empty()) fmt::print("OpenCL platform: none found\n");
+    } catch (const cl::Error& e) {
+        fmt::print("OpenCL platform: none found ({})\n", cb::clStatusName(e.err()));
+    }
+}
+
 } // namespace
 
 int main(int argc, char** argv) {
     CLI::App app{"cbdpt - coherent bidirectional path tracing on OpenCL"};
+    app.add_flag_callback(
+        "--version",
+        [] {
+            printVersion();
+            throw CLI::Success();
+        },
+        "print the version, the git revision and the OpenCL platforms");
     app.require_subcommand(1);
     const std::vector<cb::cli::Command> commands = {
         cb::cli::addRenderCommand(app),
@@ -48,7 +72,7 @@ int main(int argc, char** argv) {
         printOpenClError(e);
         return 1;
     } catch (const std::exception& e) {
-        fmt::print(stderr, "cbdpt: error: {}\n", e.what());
+        fmt::print(stderr, "cbdpt: error: {}\n", cb::printableText(e.what()));
         return 1;
     }
     return 0;

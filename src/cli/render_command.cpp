@@ -3,6 +3,7 @@
 #include "cl/cl_runtime.h"
 #include "cli/checkpoint_log.h"
 #include "cli/cli_format.h"
+#include "cli/cli_options.h"
 #include "cli/commands.h"
 #include "cli/progress_bar.h"
 #include "cluster/mpi_team.h"
@@ -61,13 +62,19 @@ struct RenderOptions {
     std::string png;
     std::string statsPath;
     std::string channels = "auto";
-    std::string device;
+    DeviceOptions device;
     long spp = 16;
     double seconds = 0.0;
-    int width = 0;
+    double targetStandardError = 0.0; // 0: none
+    bool quick = false;
+    int width = 0; // 0: the scene's
     int height = 0;
+    std::vector<double> cropWindow; // empty or x0 x1 y0 y1
     bool noRoulette = false;
     bool sppGiven = false;
+    bool integratorGiven = false;
+    bool eyeVerticesGiven = false;
+    bool lightVerticesGiven = false;
     bool resume = false;
     bool keepState = false;
     std::string estimateRange; // --estimates A:B
@@ -95,8 +102,14 @@ class RenderJob {
     int runSteps();
     void joinTeam();
     void readSceneDescription();
+    void applySceneDefaults();
     void readShard();
     void checkOutputs() const;
+    void applyQuick();
+    // --cropwindow's pixel bounds [x0, x1, y0, y1] of the full film, or null.
+    nlohmann::json pixelBoundsJson() const {
+        return desc_.film.pixelBounds ? nlohmann::json(*desc_.film.pixelBounds) : nlohmann::json();
+    }
     void readCheckpointRequests();
     void readReference();
     void buildScene();
@@ -186,10 +199,31 @@ void RenderJob::joinTeam() {
             "estimate to the next, so estimates are not independent (run it in one process)");
 }
 
+// --quick, as pbrt-v4 does it: a quarter of the film's width and height, one estimate (MLT,
+// whose estimates are mutations per pixel: a sixteenth of them and of the bootstrap).
+void RenderJob::applyQuick() {
+    desc_.film.width = std::max(1, desc_.film.width / 4);
+    desc_.film.height = std::max(1, desc_.film.height / 4);
+    o_.sppGiven = true;
+    if (o_.integrator.name != "mlt") {
+        o_.spp = 1;
+        return;
+    }
+    o_.spp = std::max(1L, o_.spp / 16);
+    const long pixels = long(desc_.film.width) * long(desc_.film.height);
+    o_.integrator.mltBootstrap = std::max(1L, cb::mltBootstrapSamples(o_.integrator, pixels) / 16);
+}
+
 void RenderJob::readSceneDescription() {
     desc_ = cb::parseSceneFile(o_.scene);
+    applySceneDefaults();
     if (o_.width > 0) desc_.film.width = o_.width;
     if (o_.height > 0) desc_.film.height = o_.height;
+    if (o_.quick) applyQuick();
+    if (!o_.cropWindow.empty())
+        desc_.film.pixelBounds = cb::cropWindowPixels(
+            desc_.film.width, desc_.film.height,
+            {o_.cropWindow[0], o_.cropWindow[1], o_.cropWindow[2], o_.cropWindow[3]});
     // Refuse absurd requests before any allocation.
     const long long pixels = (long long)desc_.film.width * desc_.film.height;
     if (desc_.film.width <= 0 || desc_.film.height <= 0 || desc_.film.width > 32768 ||
@@ -198,6 +232,25 @@ void RenderJob::readSceneDescription() {
             "resolution {}x{} is outside what cbdpt renders (each side 1..32768, at most 2^28 "
             "pixels)",
             desc_.film.width, desc_.film.height));
+}
+
+// A pbrt-v4 file's Sampler and Integrator lines are defaults that the command line overrides:
+// pixelsamples -> --spp; the integrator -> --integrator; maxdepth d -> d + 2 path vertices (pbrt
+// counts bounces): --eye-vertices for PT, and Ne + Nl = d + 2 for the bidirectional methods,
+// whose caps together bound the path length.
+void RenderJob::applySceneDefaults() {
+    if (!o_.sppGiven && desc_.sampler.pixelSamples > 0) o_.spp = desc_.sampler.pixelSamples;
+    const cb::IntegratorDesc& in = desc_.integrator;
+    if (!o_.integratorGiven && !in.type.empty()) o_.integrator.name = in.type;
+    if (in.maxDepth < 0) return;
+    const int vertices = in.maxDepth + 2;
+    if (o_.integrator.name == "pt" || o_.integrator.name == "cpt") {
+        if (!o_.eyeVerticesGiven) o_.integrator.eyeVertices = vertices;
+    } else {
+        const int light = std::max(1, vertices / 2);
+        if (!o_.lightVerticesGiven) o_.integrator.lightVertices = light;
+        if (!o_.eyeVerticesGiven) o_.integrator.eyeVertices = std::max(2, vertices - light);
+    }
 }
 
 // --estimates A:B: a shard of a render, estimate indices A to B-1.
@@ -304,13 +357,19 @@ void RenderJob::chooseOutputPaths() {
 }
 
 void RenderJob::startIntegrator() {
-    runtime_.emplace(o_.device);
+    runtime_.emplace(o_.device.device);
     integrator_ = cb::makeIntegrator(o_.integrator, scene_, *runtime_);
+    // Logs and statistics state the subpath caps the total-length cap resolved to.
+    o_.integrator = cb::withResolvedCaps(o_.integrator);
     if (!o_.quiet)
-        fmt::print(stderr, "cbdpt: {} on {} | {}x{} {} | {} | Ne={} | kernel build {:.2f}s\n",
+        fmt::print(stderr, "cbdpt: {} on {} | {}x{} {} | {} | {} | kernel build {:.2f}s\n",
                    o_.integrator.name, runtime_->info().deviceName, scene_.camera.width,
                    scene_.camera.height, scene_.channels == 16 ? "spectral-16" : "rgb", o_.scene,
-                   o_.integrator.eyeVertices, integrator_->buildSeconds());
+                   o_.integrator.maxPathVertices > 0
+                       ? fmt::format("N={} (Ne={}, Nl={})", o_.integrator.maxPathVertices,
+                                     o_.integrator.eyeVertices, o_.integrator.lightVertices)
+                       : fmt::format("Ne={}", o_.integrator.eyeVertices),
+                   integrator_->buildSeconds());
 }
 
 // Ctrl-C handling, the accumulator, and what it holds already when resuming.
@@ -331,8 +390,10 @@ void RenderJob::startAccumulator() {
 
 cb::RenderLimits RenderJob::renderLimits() const {
     cb::RenderLimits limits;
-    // --time alone renders until the time is up; with --spp too, whichever comes first.
-    limits.estimates = o_.seconds > 0.0 && !o_.sppGiven ? 0 : o_.spp;
+    // --time or --target-stderr alone render until they are met; with --spp too, until the first
+    // limit is reached.
+    const bool otherLimit = o_.seconds > 0.0 || o_.targetStandardError > 0.0;
+    limits.estimates = otherLimit && !o_.sppGiven ? 0 : o_.spp;
     if (limits.estimates < 0 || limits.estimates > (1L << 32))
         throw std::invalid_argument(fmt::format(
             "--spp {} is out of range (estimate indices seed 32-bit random streams)", o_.spp));
@@ -341,6 +402,7 @@ cb::RenderLimits RenderJob::renderLimits() const {
         limits.estimates = long(shard_->second - shard_->first);
     }
     limits.seconds = o_.seconds;
+    limits.targetStandardError = o_.targetStandardError;
     if (!schedule_.estimates.empty() && limits.estimates > 0 &&
         schedule_.estimates.back() > limits.estimates && !o_.quiet)
         fmt::print(stderr, "cbdpt: warning: checkpoints past --spp {} will not be reached\n",
@@ -369,6 +431,7 @@ void RenderJob::openLog() {
             {"integrator", o_.integrator.name},
             {"eye_vertices", o_.integrator.eyeVertices},
             {"light_vertices", o_.integrator.lightVertices},
+            {"max_vertices", o_.integrator.maxPathVertices},
             {"weights", o_.integrator.weights},
             {"coherence_tile", o_.integrator.coherenceTile},
             {"seed", o_.integrator.seed},
@@ -439,6 +502,9 @@ int RenderJob::finish(const cb::RenderOutcome& outcome) {
     estimateRanges_ = image->indices().toString();
     if (outcome.interrupted)
         fmt::print(stderr, "cbdpt: interrupted; writing the {} estimates done\n", estimates_);
+    if (outcome.reachedTargetStandardError && !o_.quiet)
+        fmt::print(stderr, "cbdpt: the mean standard error fell below --target-stderr {:g}\n",
+                   o_.targetStandardError);
     if (outcome.nonFiniteSamples > 0)
         fmt::print(stderr, "cbdpt: warning: {} samples were NaN or infinite and were dropped\n",
                    outcome.nonFiniteSamples);
@@ -519,6 +585,7 @@ nlohmann::json RenderJob::statistics(const cb::RenderOutcome& outcome) const {
         {"integrator", o_.integrator.name},
         {"eye_vertices", o_.integrator.eyeVertices},
         {"light_vertices", o_.integrator.lightVertices},
+        {"max_vertices", o_.integrator.maxPathVertices},
         {"weights", o_.integrator.weights},
         {"coherence_tile", o_.integrator.coherenceTile},
         {"seed", o_.integrator.seed},
@@ -542,7 +609,13 @@ nlohmann::json RenderJob::statistics(const cb::RenderOutcome& outcome) const {
         {"mean_standard_error", meanError},
         {"interrupted", outcome.interrupted},
         {"device", runtime_->info().deviceName},
+        {"device_compute_units", runtime_->info().computeUnits},
+        {"pixel_bounds", pixelBoundsJson()},
     };
+    if (o_.targetStandardError > 0.0) {
+        stats["target_stderr"] = o_.targetStandardError;
+        stats["reached_target_stderr"] = outcome.reachedTargetStandardError;
+    }
     if (const cb::MltStatistics* mlt = cb::mltStatistics(*integrator_)) {
         stats["mlt"] = {{"normalization", mlt->normalization},
                         {"bootstrap_normalization", mlt->bootstrapNormalization},
@@ -571,81 +644,195 @@ nlohmann::json RenderJob::statistics(const cb::RenderOutcome& outcome) const {
     return stats;
 }
 
-// The options, in the order --help lists them.
-void addRenderOptions(CLI::App& cmd, RenderOptions& o) {
+// The options, by group, in the order --help lists them. Values out of range are refused when
+// parsed; the integrator checks its settings again for callers of the library.
+void addOutputOptions(CLI::App& cmd, RenderOptions& o) {
+    const char* group = "Output";
     cmd.add_option("scene", o.scene, "scene file (pbrt-v4 subset)")->required();
-    cmd.add_option("-o,--output", o.output, "EXR output (default: the Film filename)");
-    cmd.add_option("--png", o.png, "PNG preview (default: output with .png)");
-    cmd.add_option("--integrator", o.integrator.name, "pt | cpt | bdpt | cbdpt | mlt");
-    cmd.add_option("--spp", o.spp, "estimates (samples per pixel)");
-    cmd.add_option("--time", o.seconds, "render for this many seconds");
-    cmd.add_option("--eye-vertices", o.integrator.eyeVertices,
-                   "Ne: path vertices, the camera included");
-    cmd.add_option("--light-vertices", o.integrator.lightVertices,
-                   "Nl: light subpath vertices, the point on the light included");
-    cmd.add_option("--weights", o.integrator.weights,
-                   "bidirectional MIS weights: power | lafortune");
+    cmd.add_option("-o,--output,--outfile", o.output, "EXR output (default: the Film filename)")
+        ->group(group);
+    cmd.add_option("--png", o.png, "PNG preview (default: the output with .png)")->group(group);
+    cmd.add_option("--stats", o.statsPath, "write render statistics as JSON")->group(group);
+    cmd.add_option("--width", o.width, "film width (default: the scene's)")
+        ->check(CLI::Range(1, 32768))
+        ->group(group);
+    cmd.add_option("--height", o.height, "film height (default: the scene's)")
+        ->check(CLI::Range(1, 32768))
+        ->group(group);
+    cmd.add_option("--cropwindow", o.cropWindow,
+                   "x0 x1 y0 y1: render only this part of the film, in [0,1] fractions of it "
+                   "(pbrt's crop window; the image has the crop's size)")
+        ->expected(4)
+        ->check(finiteRange(0.0, 1.0))
+        ->group(group);
+    cmd.add_option("--channels", o.channels,
+                   "auto (spectral when the scene has spectrum values) | rgb | spectral")
+        ->check(CLI::IsMember({"auto", "rgb", "spectral"}))
+        ->capture_default_str()
+        ->group(group);
+    cmd.add_flag("-q,--quiet", o.quiet, "no progress output")->group(group);
+}
+
+void addMethodOptions(CLI::App& cmd, RenderOptions& o) {
+    const char* group = "Method";
+    auto& s = o.integrator;
+    cmd.add_option("--integrator", s.name,
+                   "pt | cpt | bdpt | cbdpt | mlt (default: the scene's Integrator, else pt)")
+        ->check(CLI::IsMember({"pt", "cpt", "bdpt", "cbdpt", "mlt"}))
+        ->capture_default_str()
+        ->group(group);
+    auto* eye =
+        cmd.add_option("--eye-vertices", s.eyeVertices, "Ne: path vertices, the camera included")
+            ->check(CLI::Range(2, 1024))
+            ->capture_default_str()
+            ->group(group);
+    auto* light = cmd.add_option("--light-vertices", s.lightVertices,
+                                 "Nl: light subpath vertices, the point on the light included")
+                      ->check(CLI::Range(1, 1024))
+                      ->capture_default_str()
+                      ->group(group);
+    cmd.add_option("--max-vertices", s.maxPathVertices,
+                   "N: a cap on the whole path's vertices instead of Ne and Nl (pbrt-v4's "
+                   "maxdepth + 2): every strategy with s + t <= N, so bdpt, cbdpt and mlt "
+                   "cover PT's paths of N vertices (0: off, the thesis's caps)")
+        ->check(CLI::Range(0, 1024))
+        ->excludes(light)
+        ->excludes(eye)
+        ->group(group);
+    cmd.add_option("--weights", s.weights, "bidirectional MIS weights: power | lafortune")
+        ->check(CLI::IsMember({"power", "lafortune"}))
+        ->capture_default_str()
+        ->group(group);
     cmd.add_option("--strategy", o.strategy,
-                   "debug: render only strategy S,T unweighted (e.g. 2,3)");
-    cmd.add_option("--rr-vertex", o.integrator.rouletteVertex,
-                   "Russian roulette from this vertex on (0: off)");
-    cmd.add_flag("--no-rr", o.noRoulette, "disable Russian roulette");
-    cmd.add_option("--seed", o.integrator.seed, "random seed");
-    cmd.add_option("--sampler", o.integrator.sampler,
-                   "sobol | independent: the sample vectors (default sobol; docs/sampling.md); "
-                   "mlt's chains choose their own");
-    cmd.add_option("--coherence-tile", o.integrator.coherenceTile,
-                   "cpt, cbdpt: k x k sample vectors per estimate (1: full coherence)");
-    cmd.add_option("--large-step", o.integrator.largeStepProbability,
-                   "mlt: probability of a large step (all samples new)");
-    cmd.add_option("--mutation-size", o.integrator.mutationSize,
-                   "mlt: largest small-step perturbation s2 (s1 = s2/16)");
-    cmd.add_option("--chains", o.integrator.mltChains,
-                   "mlt: Markov chains (work-items); 0: pixels / 16");
-    cmd.add_option("--bootstrap", o.integrator.mltBootstrap,
-                   "mlt: bootstrap samples for the normalisation; 0: automatic");
-    cmd.add_option("--tile", o.integrator.tileSize, "pixel tile (work-group) edge");
-    cmd.add_option("--channels", o.channels, "auto | rgb | spectral");
-    cmd.add_option("--width", o.width, "override the film width");
-    cmd.add_option("--height", o.height, "override the film height");
-    cmd.add_option("--device", o.device, "OpenCL device P:D (default: CBDPT_DEVICE or 0:0)");
-    cmd.add_option("--stats", o.statsPath, "write render statistics as JSON");
-    cmd.add_flag("-q,--quiet", o.quiet, "no progress output");
-    cmd.add_option("--checkpoints", o.checkpoints,
-                   "evaluate at these estimate counts, e.g. 1,2,4,8 (renders up to the "
-                   "last unless --spp/--time say otherwise)");
-    cmd.add_option("--checkpoint-every", o.checkpointEvery,
-                   "evaluate every this many seconds of render time");
-    cmd.add_option("--reference", o.reference,
-                   "reference EXR: log RMSE, relative MSE and MAE at each checkpoint");
-    cmd.add_option("--log", o.logPath,
-                   "checkpoint log, CSV or JSON by extension (a final row is always "
-                   "written)");
+                   "debug: render only strategy S,T unweighted (e.g. 2,3)")
+        ->group(group);
+    cmd.add_option("--rr-vertex", s.rouletteVertex, "Russian roulette from this vertex on (0: off)")
+        ->check(CLI::Range(0, 1024))
+        ->capture_default_str()
+        ->group(group);
+    cmd.add_flag("--no-rr", o.noRoulette, "disable Russian roulette")->group(group);
+    cmd.add_option("--seed", s.seed, "random seed")->capture_default_str()->group(group);
+    cmd.add_option("--sampler", s.sampler,
+                   "sobol | independent: the sample vectors (docs/sampling.md); mlt's chains "
+                   "choose their own")
+        ->check(CLI::IsMember({"sobol", "independent"}))
+        ->capture_default_str()
+        ->group(group);
+    cmd.add_option("--coherence-tile", s.coherenceTile,
+                   "cpt, cbdpt: k x k sample vectors per estimate (1: full coherence)")
+        ->check(CLI::Range(1, 4096))
+        ->capture_default_str()
+        ->group(group);
+    cmd.add_option("--large-step", s.largeStepProbability,
+                   "mlt: probability of a large step (all samples new)")
+        ->check(finiteRange(0.0, 1.0))
+        ->capture_default_str()
+        ->group(group);
+    cmd.add_option("--mutation-size", s.mutationSize,
+                   "mlt: largest small-step perturbation s2 (s1 = s2/16)")
+        ->check(finiteRange(0.0, 0.5, true))
+        ->capture_default_str()
+        ->group(group);
+    cmd.add_option("--chains", s.mltChains, "mlt: Markov chains (work-items); 0: pixels / 16")
+        ->check(CLI::Range(0, 1 << 24))
+        ->capture_default_str()
+        ->group(group);
+    cmd.add_option("--bootstrap", s.mltBootstrap,
+                   "mlt: bootstrap samples for the normalisation; 0: max(pixels, 65536)")
+        ->check(CLI::Range(0L, 1L << 31))
+        ->capture_default_str()
+        ->group(group);
+    cmd.add_option("--tile", s.tileSize, "pixel tile (work-group) edge")
+        ->check(CLI::Range(1, 32))
+        ->capture_default_str()
+        ->group(group);
+}
+
+void addBudgetOptions(CLI::App& cmd, RenderOptions& o) {
+    const char* group = "Budget (the first limit reached ends the render)";
+    cmd.add_option(
+           "--spp", o.spp,
+           "estimates (samples per pixel; default: the scene's Sampler pixelsamples, else 16)")
+        ->check(CLI::Range(1L, 1L << 40))
+        ->capture_default_str()
+        ->group(group);
+    cmd.add_option("--time", o.seconds, "render for this many seconds")
+        ->check(finiteRange(0.0, 1e9, true))
+        ->group(group);
+    cmd.add_option("--target-stderr", o.targetStandardError,
+                   "stop when the mean per-pixel standard error falls below this")
+        ->check(finiteRange(0.0, 1e30, true))
+        ->group(group);
+    cmd.add_flag("--quick", o.quick,
+                 "as pbrt-v4: a quarter of the film's width and height, 1 estimate (mlt: "
+                 "--spp and the bootstrap / 16)")
+        ->group(group);
     cmd.add_flag("--resume", o.resume,
                  "continue an interrupted render from OUTPUT.exr.state (same settings; "
-                 "--spp is the total)");
-    cmd.add_flag("--keep-state", o.keepState,
-                 "also save OUTPUT.exr.state when the render finishes");
+                 "--spp is the total)")
+        ->group(group);
+    cmd.add_flag("--keep-state", o.keepState, "also save OUTPUT.exr.state when the render finishes")
+        ->group(group);
     cmd.add_option("--estimates", o.estimateRange,
                    "render only estimate indices A to B-1 (A:B), a shard: shards of one seed "
-                   "merge (cbdpt merge) into the render of their union");
+                   "merge (cbdpt merge) into the render of their union")
+        ->group(group);
     cmd.add_option("--save-state-every", o.saveStateEvery,
                    "save OUTPUT.exr.state every this many seconds (default 60; 0: never), so "
-                   "that a killed render can --resume");
-    cmd.add_flag("--no-warmup", o.noWarmup,
-                 "with checkpoints or --log: skip the discarded warm-up estimate");
-    cmd.add_option("--checkpoint-images", o.checkpointImages,
-                   "folder for the EXR image at each checkpoint");
+                   "that a killed render can --resume")
+        ->check(finiteRange(0.0, 1e9))
+        ->group(group);
 }
+
+void addCheckpointOptions(CLI::App& cmd, RenderOptions& o) {
+    const char* group = "Error against time";
+    cmd.add_option("--checkpoints", o.checkpoints,
+                   "evaluate at these estimate counts, e.g. 1,2,4,8 (renders up to the "
+                   "last unless --spp/--time say otherwise)")
+        ->group(group);
+    cmd.add_option("--checkpoint-every", o.checkpointEvery,
+                   "evaluate every this many seconds of render time")
+        ->check(finiteRange(0.0, 1e9, true))
+        ->group(group);
+    cmd.add_option("--reference", o.reference,
+                   "reference EXR: log RMSE, relative MSE and MAE at each checkpoint")
+        ->group(group);
+    cmd.add_option("--log", o.logPath,
+                   "checkpoint log, CSV or JSON by extension (a final row is always written)")
+        ->group(group);
+    cmd.add_flag("--no-warmup", o.noWarmup,
+                 "with checkpoints or --log: skip the discarded warm-up estimate")
+        ->group(group);
+    cmd.add_option("--checkpoint-images", o.checkpointImages,
+                   "folder for the EXR image at each checkpoint")
+        ->group(group);
+}
+
+constexpr const char* kRenderExamples = R"(Examples:
+  cbdpt render scenes/cornell-box.pbrt --quick
+  cbdpt render scenes/cornell-box.pbrt --integrator cbdpt --eye-vertices 4 --light-vertices 4 \
+      --spp 64 -o cornell.exr --stats cornell.json
+  cbdpt render scenes/cornell-box.pbrt --integrator bdpt --target-stderr 0.002 --time 600
+  cbdpt render scenes/cornell-box.pbrt --cropwindow 0.25 0.75 0.5 1 --nthreads 1
+  cbdpt render scenes/cornell-box.pbrt --checkpoints 1,4,16,64 --reference ref.exr --log err.csv)";
 
 } // namespace
 
 Command addRenderCommand(CLI::App& app) {
     auto o = std::make_shared<RenderOptions>();
     auto* cmd = app.add_subcommand("render", "render a scene to EXR and PNG");
-    addRenderOptions(*cmd, *o);
+    addOutputOptions(*cmd, *o);
+    addMethodOptions(*cmd, *o);
+    addBudgetOptions(*cmd, *o);
+    addCheckpointOptions(*cmd, *o);
+    addDeviceOptions(*cmd, o->device);
+    cmd->footer(kRenderExamples);
     return {cmd, [o, cmd] {
                 o->sppGiven = cmd->count("--spp") > 0;
+                o->integratorGiven = cmd->count("--integrator") > 0;
+                o->eyeVerticesGiven = cmd->count("--eye-vertices") > 0;
+                o->lightVerticesGiven = cmd->count("--light-vertices") > 0;
+                applyThreadLimit(o->device);
                 return RenderJob(*o).run();
             }};
 }

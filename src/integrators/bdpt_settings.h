@@ -15,6 +15,7 @@ inline cbk::BdptSettings bdptSettingsFor(const IntegratorSettings& settings) {
     bdpt.weights = settings.weights == "lafortune" ? CB_WEIGHTS_LAFORTUNE : CB_WEIGHTS_POWER;
     bdpt.debugS = settings.debugS; // -1 unless BDPT's --strategy debug mode
     bdpt.debugT = settings.debugT;
+    bdpt.maxPathVertices = settings.maxPathVertices; // caps already resolved by makeIntegrator
     return bdpt;
 }
 

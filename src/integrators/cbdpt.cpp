@@ -4,14 +4,12 @@
 // it to its tile position's light subpath with the BDPT weights.
 #include "integrators/bdpt_settings.h"
 #include "integrators/cbdpt_light.h"
-#include "integrators/integrator.h"
-#include "integrators/scene_buffers.h"
+#include "integrators/kernel_integrator.h"
 
 #include "cb_bdpt.h"
 
 #include <algorithm>
 #include <chrono>
-#include <cstdio>
 #include <cstdlib>
 #include <fmt/format.h>
 #include <stdexcept>
@@ -33,16 +31,17 @@ std::unique_ptr<CbdptLightTracer> makeCbdptLightTracer(const DeviceScene& scene,
 
 namespace {
 
-class CbdptIntegrator final : public Integrator {
+class CbdptIntegrator final : public PixelKernelIntegrator {
   public:
     CbdptIntegrator(const IntegratorSettings& settings, const DeviceScene& scene,
                     ClRuntime& runtime)
-        : settings_(settings), scene_(scene), runtime_(runtime), buffers_(runtime, scene) {
+        : PixelKernelIntegrator("cbdpt", "CBDPT", settings, scene, runtime) {
         const int k = settings.coherenceTile;
         light_.seed = settings.seed;
         light_.sampler = samplerSettings(settings).kind;
         light_.eyeVertices = settings.eyeVertices;
         light_.lightVertices = settings.lightVertices;
+        light_.maxPathVertices = settings.maxPathVertices;
         light_.weights = bdptSettingsFor(settings).weights;
         light_.coherenceTile = k;
         light_.tileRows = std::min(k, scene.camera.height);
@@ -50,115 +49,59 @@ class CbdptIntegrator final : public Integrator {
         tracer_ = makeCbdptLightTracer(scene, light_);
         subpaths_ = size_t(light_.tileRows) * size_t(light_.tileColumns);
 
-        auto defines = scene.kernelDefines();
-        defines.push_back(fmt::format("CB_MAX_EYE_VERTICES={}", settings.eyeVertices));
-        defines.push_back(fmt::format("CB_MAX_LIGHT_VERTICES={}", settings.lightVertices));
-        program_ = runtime.buildProgram("cbdpt.cl", defines);
-        buildSeconds_ = runtime.lastBuildSeconds();
-        kernel_ = cl::Kernel(program_, "renderCbdpt");
-        auto& ctx = runtime.context();
-        pixels_ = size_t(scene.camera.width) * size_t(scene.camera.height);
-        output_ = runtime.createBuffer("CBDPT image (width x height RGB)", CL_MEM_WRITE_ONLY,
-                                       3 * sizeof(float) * pixels_);
+        buildProgram("cbdpt.cl", vertexCapDefines());
         vertexBufferBytes_ = subpaths_ * size_t(settings.lightVertices) * tracer_->vertexBytes();
         lightVertices_ = runtime.createBuffer(
             "CBDPT light subpaths (coherence tile^2 x --light-vertices vertices)", CL_MEM_READ_ONLY,
             vertexBufferBytes_);
-        lightCounts_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, sizeof(int) * subpaths_);
-        int zero = 0;
-        nonFinite_ = cl::Buffer(ctx, CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, sizeof(int), &zero);
-        rays_ = cl::Buffer(ctx, CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, sizeof(int), &zero);
-
-        reportRays_ = std::getenv("CBDPT_RAY_STATS") != nullptr;
-        const cbk::BdptSettings bdpt = bdptSettingsFor(settings);
-        int arg = 0;
-        arg = buffers_.setKernelArgs(kernel_, arg);
-        kernel_.setArg(arg++, buffers_.toRgb);
-        kernel_.setArg(arg++, scene.camera);
-        kernel_.setArg(arg++, bdpt);
-        kernel_.setArg(arg++, samplerSettings(settings));
-        estimateArg_ = arg++;
-        kernel_.setArg(estimateArg_, 0u);
-        kernel_.setArg(arg++, k);
-        kernel_.setArg(arg++, light_.tileColumns);
-        kernel_.setArg(arg++, lightVertices_);
-        kernel_.setArg(arg++, lightCounts_);
-        kernel_.setArg(arg++, settings.lightVertices);
-        kernel_.setArg(arg++, cbdptCameraCount(scene.camera.width, scene.camera.height, light_));
-        kernel_.setArg(arg++, output_);
-        kernel_.setArg(arg++, nonFinite_);
-        kernel_.setArg(arg++, rays_);
-        // Counting costs an atomic per pixel, so the kernel counts only when asked to.
-        kernel_.setArg(arg++, int(reportRays_));
+        lightCounts_ = cl::Buffer(runtime.context(), CL_MEM_READ_ONLY, sizeof(int) * subpaths_);
+        createKernel("renderCbdpt", bdptSettingsFor(settings), [&](KernelArguments& args) {
+            args.add(k).add(light_.tileColumns).add(lightVertices_).add(lightCounts_);
+            args.add(settings.lightVertices);
+            args.add(cbdptCameraCount(scene.camera.width, scene.camera.height, light_));
+        });
     }
 
     ~CbdptIntegrator() override {
-        if (reportRays_ && kernelSeconds_ > 0.0)
-            std::fprintf(stderr,
-                         "cbdpt: %lld kernel rays in %.3f s (%.3g rays/s); host light pass "
-                         "%lld rays in %.3f s\n",
-                         kernelRays_, kernelSeconds_, double(kernelRays_) / kernelSeconds_,
-                         hostRays_, hostSeconds_);
+        if (std::getenv("CBDPT_RAY_STATS") && hostRays_ > 0)
+            fmt::print(stderr, "cbdpt: host light pass {} rays in {:.3f} s\n", hostRays_,
+                       hostSeconds_);
     }
 
-    void renderEstimate(std::uint32_t estimate, std::vector<float>& rgb) override {
-        auto& queue = runtime_.queue();
+    long nonFiniteSamples() const override {
+        return PixelKernelIntegrator::nonFiniteSamples() + hostNonFinite_;
+    }
+
+  private:
+    // The estimate's light subpaths, traced on the host and copied to the device.
+    void beforeLaunch(std::uint32_t estimate) override {
         auto start = std::chrono::steady_clock::now();
         tracer_->trace(estimate, pass_);
-        auto traced = std::chrono::steady_clock::now();
-        hostSeconds_ += std::chrono::duration<double>(traced - start).count();
+        hostSeconds_ +=
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         hostRays_ += pass_.rays;
         hostNonFinite_ += pass_.nonFinite;
-
+        auto& queue = runtime_.queue();
         queue.enqueueWriteBuffer(lightVertices_, CL_FALSE, 0, vertexBufferBytes_,
                                  pass_.vertices.data());
         queue.enqueueWriteBuffer(lightCounts_, CL_FALSE, 0, sizeof(int) * subpaths_,
                                  pass_.counts.data());
-        if (reportRays_) {
-            std::uint32_t zero = 0;
-            queue.enqueueWriteBuffer(rays_, CL_TRUE, 0, sizeof(zero), &zero);
-        }
-        kernel_.setArg(estimateArg_, estimate);
-        auto launched = std::chrono::steady_clock::now();
-        launchOverPixels(queue, kernel_, scene_.camera, settings_.tileSize);
-        queue.finish();
-        kernelSeconds_ +=
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - launched).count();
-        rgb.resize(3 * pixels_);
-        queue.enqueueReadBuffer(output_, CL_TRUE, 0, 3 * sizeof(float) * pixels_, rgb.data());
+    }
+    // Their camera connections (t = 1), splatted on the host.
+    void afterReadBack(std::vector<float>& rgb) override {
         for (std::uint32_t p : pass_.splatPixels)
             for (size_t c = 3 * size_t(p); c < 3 * size_t(p) + 3; ++c)
                 rgb[c] += pass_.splatRgb[c];
-        int count = 0;
-        queue.enqueueReadBuffer(nonFinite_, CL_TRUE, 0, sizeof(int), &count);
-        kernelNonFinite_ = count;
-        if (reportRays_) {
-            std::uint32_t rays = 0;
-            queue.enqueueReadBuffer(rays_, CL_TRUE, 0, sizeof(rays), &rays);
-            kernelRays_ += rays;
-        }
     }
 
-    long nonFiniteSamples() const override { return kernelNonFinite_ + hostNonFinite_; }
-    double buildSeconds() const override { return buildSeconds_; }
-
-  private:
-    IntegratorSettings settings_;
-    const DeviceScene& scene_;
-    ClRuntime& runtime_;
     CbdptLightSettings light_;
     std::unique_ptr<CbdptLightTracer> tracer_;
     CbdptLightPass pass_;
-    cl::Program program_;
-    cl::Kernel kernel_;
-    SceneBuffers buffers_;
-    cl::Buffer output_, lightVertices_, lightCounts_, nonFinite_, rays_;
-    size_t pixels_ = 0, subpaths_ = 1, vertexBufferBytes_ = 0;
-    int estimateArg_ = 0;
-    long kernelNonFinite_ = 0, hostNonFinite_ = 0;
-    long long kernelRays_ = 0, hostRays_ = 0;
-    double kernelSeconds_ = 0.0, hostSeconds_ = 0.0, buildSeconds_ = 0.0;
-    bool reportRays_ = false;
+    cl::Buffer lightVertices_, lightCounts_;
+    size_t subpaths_ = 1, vertexBufferBytes_ = 0;
+    long hostNonFinite_ = 0;
+    long long hostRays_ = 0;
+    double hostSeconds_ = 0.0;
 };
 
 } // namespace

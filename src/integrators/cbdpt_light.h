@@ -21,10 +21,11 @@ struct DeviceScene;
 
 struct CbdptLightSettings {
     std::uint32_t seed = 0;
-    int sampler = 0;       // CB_SAMPLER_*, as the eye streams' (cb_rng.h)
-    int eyeVertices = 4;   // Ne: the caps decide which strategies exist (MIS)
-    int lightVertices = 4; // Nl
-    int weights = 0;       // CB_WEIGHTS_*
+    int sampler = 0;         // CB_SAMPLER_*, as the eye streams' (cb_rng.h)
+    int eyeVertices = 4;     // Ne: the caps decide which strategies exist (MIS)
+    int lightVertices = 4;   // Nl
+    int maxPathVertices = 0; // N > 0: only strategies with s + t <= N (BdptSettings)
+    int weights = 0;         // CB_WEIGHTS_*
     // Light subpaths per estimate: one per coherence-tile position present in the image,
     // numbered row-major over tileRows x tileColumns; subpath (i, j) uses the sample stream of
     // tile position (i, j), key i * coherenceTile + j (the same key as the eye stream there).

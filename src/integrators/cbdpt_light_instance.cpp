@@ -22,6 +22,7 @@ class LightTracer final : public CbdptLightTracer {
         bdpt_.weights = settings.weights;
         bdpt_.debugS = -1;
         bdpt_.debugT = -1;
+        bdpt_.maxPathVertices = settings.maxPathVertices;
         subpaths_ = settings.tileRows * settings.tileColumns;
         cameraCount_ = cbdptCameraCount(camera_.width, camera_.height, settings);
         sampler_ = cbk::SamplerSettings{};

@@ -1,5 +1,6 @@
 #include "integrators/integrator.h"
 
+#include <algorithm>
 #include <fmt/format.h>
 #include <stdexcept>
 
@@ -18,10 +19,26 @@ cbk::SamplerSettings samplerSettings(const IntegratorSettings& settings) {
     return sampler;
 }
 
-std::unique_ptr<Integrator> makeIntegrator(const IntegratorSettings& settings,
+IntegratorSettings withResolvedCaps(const IntegratorSettings& settings) {
+    IntegratorSettings resolved = settings;
+    if (settings.maxPathVertices > 0) {
+        resolved.eyeVertices = settings.maxPathVertices;
+        resolved.lightVertices = std::max(1, settings.maxPathVertices - 1);
+    }
+    return resolved;
+}
+
+std::unique_ptr<Integrator> makeIntegrator(const IntegratorSettings& requested,
                                            const DeviceScene& scene, ClRuntime& runtime) {
     (void)scene;
     // Caps are checked before anything is allocated or compiled.
+    if (requested.maxPathVertices < 0 || requested.maxPathVertices == 1 ||
+        requested.maxPathVertices > 1024)
+        throw std::invalid_argument(fmt::format(
+            "--max-vertices {} is out of range: 0 (off: the per-subpath caps) or 2 (emitters seen "
+            "directly) to 1024 vertices, the camera and the light point included",
+            requested.maxPathVertices));
+    const IntegratorSettings settings = withResolvedCaps(requested);
     if (settings.eyeVertices < 2 || settings.eyeVertices > 1024)
         throw std::invalid_argument(fmt::format(
             "--eye-vertices {} is out of range: it counts the camera, so 2 (emitters seen "
@@ -47,8 +64,8 @@ std::unique_ptr<Integrator> makeIntegrator(const IntegratorSettings& settings,
     if ((settings.name == "bdpt" || settings.name == "cbdpt" || settings.name == "mlt") &&
         (settings.eyeVertices > 64 || settings.lightVertices > 64))
         throw std::invalid_argument(fmt::format(
-            "{} keeps whole subpaths per work-item: --eye-vertices {} / --light-vertices {} must "
-            "be at most 64",
+            "{} keeps whole subpaths per work-item: --eye-vertices {} / --light-vertices {} "
+            "(--max-vertices N sets them to N and N - 1) must be at most 64",
             settings.name, settings.eyeVertices, settings.lightVertices));
     if (settings.name == "bdpt") return makeBdptIntegrator(settings, scene, runtime);
     if (settings.name == "cbdpt") return makeCbdptIntegrator(settings, scene, runtime);

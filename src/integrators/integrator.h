@@ -15,9 +15,15 @@
 namespace cb {
 
 struct IntegratorSettings {
-    std::string name = "pt";       // pt | cpt | bdpt | cbdpt | mlt
-    int eyeVertices = 8;           // Ne, the camera included (thesis convention)
-    int lightVertices = 4;         // Nl, the point on the light included (bidirectional methods)
+    std::string name = "pt"; // pt | cpt | bdpt | cbdpt | mlt
+    int eyeVertices = 8;     // Ne, the camera included (thesis convention)
+    int lightVertices = 4;   // Nl, the point on the light included (bidirectional methods)
+    // N > 0: pbrt-v4's and SmallVCM's total-length cap instead of the thesis's per-subpath caps:
+    // paths of at most N vertices (camera and light point included), every strategy with
+    // s + t <= N, so that BDPT, CBDPT and MLT cover every path PT renders with N vertices (and
+    // point lights' caustics, which PT cannot sample; docs/bdpt.md). makeIntegrator then sets
+    // Ne = N and Nl = N - 1. 0: the caps above.
+    int maxPathVertices = 0;
     std::string weights = "power"; // bidirectional MIS: power | lafortune
     int debugS = -1;               // >= 0 with debugT: render only strategy (s, t), unweighted
     int debugT = -1;
@@ -49,6 +55,11 @@ class Integrator {
 // The kernels' sampler settings: seed and kind (CB_SAMPLER_*), from a validated name.
 cbk::SamplerSettings samplerSettings(const IntegratorSettings& settings);
 
+// The settings with the total-length cap resolved into subpath caps: with maxPathVertices N > 0,
+// eyeVertices = N and lightVertices = N - 1 (each subpath as long as the cap allows); unchanged
+// otherwise. makeIntegrator applies it; reports call it to state the caps actually used.
+IntegratorSettings withResolvedCaps(const IntegratorSettings& settings);
+
 // Validates the settings against the scene (caps, names) and builds the kernels.
 std::unique_ptr<Integrator> makeIntegrator(const IntegratorSettings& settings,
                                            const DeviceScene& scene, ClRuntime& runtime);
@@ -67,6 +78,10 @@ std::unique_ptr<Integrator> makeCbdptIntegrator(const IntegratorSettings& settin
 // chains) and the BDPT caps.
 std::unique_ptr<Integrator> makeMltIntegrator(const IntegratorSettings& settings,
                                               const DeviceScene& scene, ClRuntime& runtime);
+
+// The bootstrap samples an MLT render of `pixels` pixels draws: settings.mltBootstrap, or when
+// that is 0, max(pixels, 65536).
+long mltBootstrapSamples(const IntegratorSettings& settings, long pixels);
 
 // Chain statistics of an MLT render, over all estimates so far.
 struct MltStatistics {

@@ -6,16 +6,13 @@
 // chain by a fixed number of mutations (chains x mutations ~ pixels, so `--spp K` is K mutations
 // per pixel); the chains carry their state from one estimate to the next.
 #include "integrators/bdpt_settings.h"
-#include "integrators/integrator.h"
-#include "integrators/scene_buffers.h"
+#include "integrators/kernel_integrator.h"
 
 #include "cb_bdpt.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <fmt/format.h>
 #include <random>
 #include <stdexcept>
@@ -35,11 +32,10 @@ size_t roundUp(size_t n, size_t multiple) {
     return (n + multiple - 1) / multiple * multiple;
 }
 
-class MltIntegrator final : public Integrator {
+class MltIntegrator final : public KernelIntegrator {
   public:
     MltIntegrator(const IntegratorSettings& settings, const DeviceScene& scene, ClRuntime& runtime)
-        : settings_(settings), scene_(scene), runtime_(runtime), buffers_(runtime, scene) {
-        pixels_ = size_t(scene.camera.width) * size_t(scene.camera.height);
+        : KernelIntegrator("mlt", settings, scene, runtime), bdpt_(bdptSettingsFor(settings)) {
         // Dimensions the BDPT subpaths can read (cb_bdpt.h): eye bounce b uses 4 + 8b + {0,1,2}
         // for b <= Ne-3 and the s = 1 light point 4 + 8b + {4,5,6} for b <= Ne-2; light bounce b
         // uses 8 + 8b + {0,1,2} for b <= Nl-3.
@@ -51,23 +47,16 @@ class MltIntegrator final : public Integrator {
         chains_ =
             settings.mltChains > 0 ? size_t(settings.mltChains) : std::max<size_t>(1, pixels_ / 16);
         mutationsPerChain_ = long((pixels_ + chains_ - 1) / chains_);
-        bootstrapSamples_ = settings.mltBootstrap > 0
-                                ? settings.mltBootstrap
-                                : std::max<long>(long(pixels_), kBootstrapBatch);
+        bootstrapSamples_ = mltBootstrapSamples(settings, long(pixels_));
         maxSplats_ = size_t(settings.lightVertices) + 1;
 
-        auto defines = scene.kernelDefines();
-        defines.push_back(fmt::format("CB_MAX_EYE_VERTICES={}", settings.eyeVertices));
-        defines.push_back(fmt::format("CB_MAX_LIGHT_VERTICES={}", settings.lightVertices));
+        auto defines = vertexCapDefines();
         defines.push_back(fmt::format("CB_MLT_EYE_DIMS={}u", eyeDims_));
         defines.push_back(fmt::format("CB_MLT_LIGHT_DIMS={}u", lightDims_));
-        program_ = runtime.buildProgram("mlt.cl", defines);
-        buildSeconds_ = runtime.lastBuildSeconds();
+        buildProgram("mlt.cl", defines);
         bootstrapKernel_ = cl::Kernel(program_, "mltBootstrap");
         seedKernel_ = cl::Kernel(program_, "mltSeedChains");
         advanceKernel_ = cl::Kernel(program_, "mltAdvance");
-
-        bdpt_ = bdptSettingsFor(settings);
 
         auto& ctx = runtime.context();
         state_ = runtime.createBuffer("MLT chain states (chains x primary samples)",
@@ -79,15 +68,11 @@ class MltIntegrator final : public Integrator {
         splatRgb_ =
             runtime.createBuffer("MLT splat values (chains x (--light-vertices + 1) RGB)",
                                  CL_MEM_READ_WRITE, 3 * sizeof(float) * chains_ * maxSplats_);
-        image_ = runtime.createBuffer("MLT image (width x height RGB)", CL_MEM_READ_WRITE,
-                                      3 * sizeof(float) * pixels_);
+        image_ =
+            runtime.createBuffer("MLT image (width x height RGB)", CL_MEM_READ_WRITE, imageBytes());
         largeSum_ = cl::Buffer(ctx, CL_MEM_READ_WRITE, sizeof(float) * chains_);
         stats_ =
             cl::Buffer(ctx, CL_MEM_READ_WRITE, sizeof(std::uint32_t) * kStatsPerChain * chains_);
-        int zero = 0;
-        nonFinite_ = cl::Buffer(ctx, CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, sizeof(int), &zero);
-        rays_ = cl::Buffer(ctx, CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, sizeof(int), &zero);
-        reportRays_ = std::getenv("CBDPT_RAY_STATS") != nullptr;
         stats.chains = long(chains_);
         stats.mutationsPerChain = mutationsPerChain_;
         stats.bootstrapSamples = bootstrapSamples_;
@@ -106,45 +91,26 @@ class MltIntegrator final : public Integrator {
                 stats.largeSteps ? double(stats.largeStepsAccepted) / double(stats.largeSteps)
                                  : 0.0,
                 stats.largeSteps, double(stats.zeroProposals) / double(stats.mutations));
-        if (reportRays_ && kernelSeconds_ > 0.0)
-            std::fprintf(stderr, "mlt: %lld rays in %.3f s of kernel time: %.3g rays/s\n",
-                         totalRays_, kernelSeconds_, double(totalRays_) / kernelSeconds_);
     }
 
     void renderEstimate(std::uint32_t estimate, std::vector<float>& rgb) override {
         auto& queue = runtime_.queue();
         if (!seeded_) bootstrapAndSeed();
 
-        queue.enqueueFillBuffer(image_, 0.0f, 0, 3 * sizeof(float) * pixels_);
-        std::uint32_t zero = 0;
-        queue.enqueueWriteBuffer(rays_, CL_TRUE, 0, sizeof(zero), &zero);
-        int arg = buffers_.setKernelArgs(advanceKernel_, 0);
-        advanceKernel_.setArg(arg++, buffers_.toRgb);
-        advanceKernel_.setArg(arg++, scene_.camera);
-        advanceKernel_.setArg(arg++, bdpt_);
-        advanceKernel_.setArg(arg++, settings_.seed);
-        advanceKernel_.setArg(arg++, cl_uint(chains_));
-        advanceKernel_.setArg(arg++,
-                              cl_uint(std::uint64_t(estimate) * std::uint64_t(mutationsPerChain_)));
-        advanceKernel_.setArg(arg++, cl_int(mutationsPerChain_));
-        advanceKernel_.setArg(arg++, float(settings_.largeStepProbability));
-        advanceKernel_.setArg(arg++, float(settings_.mutationSize / 16.0));
-        advanceKernel_.setArg(arg++, float(settings_.mutationSize));
-        arg = setStateArgs(advanceKernel_, arg);
-        advanceKernel_.setArg(arg++, image_);
-        advanceKernel_.setArg(arg++, largeSum_);
-        advanceKernel_.setArg(arg++, stats_);
-        advanceKernel_.setArg(arg++, nonFinite_);
-        advanceKernel_.setArg(arg++, rays_);
-        auto start = std::chrono::steady_clock::now();
-        queue.enqueueNDRangeKernel(advanceKernel_, cl::NullRange, cl::NDRange(roundUp(chains_, 64)),
-                                   cl::NDRange(kChainGroupSize));
-        queue.finish();
-        kernelSeconds_ +=
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        queue.enqueueFillBuffer(image_, 0.0f, 0, imageBytes());
+        KernelArguments args = integratorArguments(advanceKernel_, bdpt_);
+        args.add(cl_uint(chains_));
+        args.add(cl_uint(std::uint64_t(estimate) * std::uint64_t(mutationsPerChain_)));
+        args.add(cl_int(mutationsPerChain_));
+        args.add(float(settings_.largeStepProbability));
+        args.add(float(settings_.mutationSize / 16.0)).add(float(settings_.mutationSize));
+        addStateArguments(args);
+        args.add(image_).add(largeSum_).add(stats_);
+        addCounterArguments(args);
+        launch(advanceKernel_, cl::NDRange(roundUp(chains_, 64)), cl::NDRange(kChainGroupSize));
 
         rgb.resize(3 * pixels_);
-        queue.enqueueReadBuffer(image_, CL_TRUE, 0, 3 * sizeof(float) * pixels_, rgb.data());
+        queue.enqueueReadBuffer(image_, CL_TRUE, 0, imageBytes(), rgb.data());
         // Each mutation adds (expected) F/I with I distributed as I/b: times b it is F per unit
         // primary-sample volume, and pixels/mutations turns the sum into the image.
         const double mutations = double(chains_) * double(mutationsPerChain_);
@@ -171,37 +137,15 @@ class MltIntegrator final : public Integrator {
         // The next estimate uses b refined by this one's large steps (uniform draws, so unbiased
         // for b); this estimate used b from before it, which its own splats do not depend on.
         stats.normalization = bSum_ / bCount_;
-
-        int count = 0;
-        queue.enqueueReadBuffer(nonFinite_, CL_TRUE, 0, sizeof(int), &count);
-        nonFiniteTotal_ = count;
-        std::uint32_t rays = 0;
-        queue.enqueueReadBuffer(rays_, CL_TRUE, 0, sizeof(rays), &rays);
-        totalRays_ += rays;
+        readCounters();
     }
-
-    long nonFiniteSamples() const override { return nonFiniteTotal_; }
-    double buildSeconds() const override { return buildSeconds_; }
 
     MltStatistics stats;
 
   private:
-    int setStateArgs(cl::Kernel& kernel, int arg) {
-        kernel.setArg(arg++, state_);
-        kernel.setArg(arg++, chainLum_);
-        kernel.setArg(arg++, splatCount_);
-        kernel.setArg(arg++, splatPixel_);
-        kernel.setArg(arg++, splatRgb_);
-        return arg;
-    }
-
-    int setCommonArgs(cl::Kernel& kernel) {
-        int arg = buffers_.setKernelArgs(kernel, 0);
-        kernel.setArg(arg++, buffers_.toRgb);
-        kernel.setArg(arg++, scene_.camera);
-        kernel.setArg(arg++, bdpt_);
-        kernel.setArg(arg++, settings_.seed);
-        return arg;
+    // The chains' states, as mltSeedChains writes them and mltAdvance reads and writes them.
+    void addStateArguments(KernelArguments& args) const {
+        args.add(state_).add(chainLum_).add(splatCount_).add(splatPixel_).add(splatRgb_);
     }
 
     void bootstrapAndSeed() {
@@ -213,11 +157,9 @@ class MltIntegrator final : public Integrator {
         cl::Buffer lumBuffer(ctx, CL_MEM_WRITE_ONLY, sizeof(float) * batch);
         for (size_t first = 0; first < n; first += batch) {
             const size_t count = std::min(batch, n - first);
-            int arg = setCommonArgs(bootstrapKernel_);
-            bootstrapKernel_.setArg(arg++, cl_uint(first));
-            bootstrapKernel_.setArg(arg++, cl_uint(count));
-            bootstrapKernel_.setArg(arg++, lumBuffer);
-            bootstrapKernel_.setArg(arg++, nonFinite_);
+            KernelArguments args = integratorArguments(bootstrapKernel_, bdpt_);
+            args.add(cl_uint(first)).add(cl_uint(count)).add(lumBuffer);
+            addCounterArguments(args);
             queue.enqueueNDRangeKernel(bootstrapKernel_, cl::NullRange,
                                        cl::NDRange(roundUp(count, 64)),
                                        cl::NDRange(kChainGroupSize));
@@ -262,35 +204,23 @@ class MltIntegrator final : public Integrator {
         }
         cl::Buffer indexBuffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
                                sizeof(std::uint32_t) * chains_, index.data());
-        int arg = setCommonArgs(seedKernel_);
-        seedKernel_.setArg(arg++, cl_uint(chains_));
-        seedKernel_.setArg(arg++, indexBuffer);
-        setStateArgs(seedKernel_, arg);
+        KernelArguments args = integratorArguments(seedKernel_, bdpt_);
+        args.add(cl_uint(chains_)).add(indexBuffer);
+        addStateArguments(args);
         queue.enqueueNDRangeKernel(seedKernel_, cl::NullRange, cl::NDRange(roundUp(chains_, 64)),
                                    cl::NDRange(kChainGroupSize));
         queue.finish();
         seeded_ = true;
     }
 
-    IntegratorSettings settings_;
-    const DeviceScene& scene_;
-    ClRuntime& runtime_;
-    SceneBuffers buffers_;
-    cl::Program program_;
+    const cbk::BdptSettings bdpt_;
     cl::Kernel bootstrapKernel_, seedKernel_, advanceKernel_;
-    cbk::BdptSettings bdpt_{};
-    cl::Buffer state_, chainLum_, splatCount_, splatPixel_, splatRgb_, image_, largeSum_, stats_,
-        nonFinite_, rays_;
-    size_t pixels_ = 0, chains_ = 0, maxSplats_ = 0;
+    cl::Buffer state_, chainLum_, splatCount_, splatPixel_, splatRgb_, image_, largeSum_, stats_;
+    size_t chains_ = 0, maxSplats_ = 0;
     unsigned eyeDims_ = 0, lightDims_ = 0, dims_ = 0;
     long mutationsPerChain_ = 0, bootstrapSamples_ = 0;
     bool seeded_ = false;
     double bSum_ = 0, bCount_ = 0;
-    long nonFiniteTotal_ = 0;
-    long long totalRays_ = 0;
-    double kernelSeconds_ = 0.0;
-    double buildSeconds_ = 0.0;
-    bool reportRays_ = false;
 };
 
 } // namespace
@@ -311,6 +241,10 @@ std::unique_ptr<Integrator> makeMltIntegrator(const IntegratorSettings& settings
     if (settings.debugS >= 0 || settings.debugT >= 0)
         throw std::invalid_argument("--strategy is a BDPT debug mode, not available with mlt");
     return std::make_unique<MltIntegrator>(settings, scene, runtime);
+}
+
+long mltBootstrapSamples(const IntegratorSettings& settings, long pixels) {
+    return settings.mltBootstrap > 0 ? settings.mltBootstrap : std::max(pixels, kBootstrapBatch);
 }
 
 const MltStatistics* mltStatistics(const Integrator& integrator) {

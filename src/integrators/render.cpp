@@ -1,7 +1,10 @@
 #include "integrators/render.h"
 
+#include "image/metrics.h"
+
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
@@ -63,6 +66,7 @@ RenderIdentity renderIdentity(const IntegratorSettings& settings, const SceneDes
     id.settings = {{"integrator", settings.name},
                    {"eye_vertices", settings.eyeVertices},
                    {"light_vertices", settings.lightVertices},
+                   {"max_vertices", settings.maxPathVertices},
                    {"weights", settings.weights},
                    {"strategy", {settings.debugS, settings.debugT}},
                    {"roulette_vertex", settings.rouletteVertex},
@@ -75,6 +79,8 @@ RenderIdentity renderIdentity(const IntegratorSettings& settings, const SceneDes
                    {"height", scene.camera.height},
                    {"bvh_settings", forcedBvh ? forcedBvh : "chosen"},
                    {"kernel_sources", kernelSourceHash()}};
+    // A crop window (--cropwindow) renders part of a larger film: another image of the same size.
+    if (desc.film.pixelBounds) id.settings["pixel_bounds"] = *desc.film.pixelBounds;
     if (settings.name == "mlt")
         id.settings["mlt"] = {settings.largeStepProbability, settings.mutationSize,
                               settings.mltChains, settings.mltBootstrap};
@@ -94,9 +100,9 @@ RenderOutcome renderEstimates(Integrator& integrator, EstimateAccumulator& accum
                               const CheckpointSchedule& checkpoints,
                               const std::function<void(const Checkpoint&)>& onCheckpoint,
                               RenderTeam* team) {
-    if (limits.estimates <= 0 && limits.seconds <= 0.0)
-        throw std::invalid_argument("a render needs a number of estimates (--spp) or a time "
-                                    "(--time), both were zero");
+    if (limits.estimates <= 0 && limits.seconds <= 0.0 && limits.targetStandardError <= 0.0)
+        throw std::invalid_argument("a render needs a number of estimates (--spp), a time "
+                                    "(--time) or a target standard error (--target-stderr)");
     if (checkpoints.everySeconds < 0.0 || !std::isfinite(checkpoints.everySeconds))
         throw std::invalid_argument("--checkpoint-every must be a positive number of seconds");
     if (checkpoints.saveStateEverySeconds < 0.0 ||
@@ -179,6 +185,17 @@ RenderOutcome renderEstimates(Integrator& integrator, EstimateAccumulator& accum
             nextSave = wall() + std::max(checkpoints.saveStateEverySeconds, 20.0 * took);
         }
     };
+    // The target standard error is measured on this process's accumulator, which is the whole
+    // image only when it renders alone.
+    const bool haveTarget = limits.targetStandardError > 0.0;
+    if (haveTarget && crew.size() > 1)
+        throw std::invalid_argument("--target-stderr needs a single process (not under MPI)");
+    auto currentStandardError = [&] {
+        return haveTarget && accumulator.estimates() >= 2
+                   ? estimateNoise(accumulator).meanStandardError
+                   : 0.0;
+    };
+    double standardError = currentStandardError();
     // One round per estimate: agree on the totals and on process 0's clock, evaluate what is
     // due for the estimates done so far, then stop or render the next.
     std::vector<double> shared(7);
@@ -229,11 +246,23 @@ RenderOutcome renderEstimates(Integrator& integrator, EstimateAccumulator& accum
                     ? perEstimate * double(limits.estimates - initialInRange - totalDone)
                     : 1e300;
             double byTime = limits.seconds > 0.0 ? limits.seconds - p.elapsedSeconds : 1e300;
-            p.remainingSeconds = std::max(0.0, std::min(byCount, byTime));
+            // The standard error falls as 1/sqrt(n): n (E_n / target)^2 estimates reach it.
+            double byTarget = 1e300;
+            if (haveTarget && standardError > 0.0) {
+                const double n = double(accumulator.estimates());
+                const double needed = n * std::pow(standardError / limits.targetStandardError, 2);
+                byTarget = perEstimate * std::max(0.0, needed - n);
+            }
+            p.remainingSeconds = std::max(0.0, std::min({byCount, byTime, byTarget}));
             if (totalDone > 0) onProgress(p);
         }
         if (stopAsked) {
             outcome.interrupted = true;
+            break;
+        }
+        if (haveTarget && accumulator.estimates() >= 2 &&
+            standardError < limits.targetStandardError) {
+            outcome.reachedTargetStandardError = true;
             break;
         }
         if (!workLeft) break;
@@ -243,6 +272,7 @@ RenderOutcome renderEstimates(Integrator& integrator, EstimateAccumulator& accum
             accumulator.add(pending, rgb.data());
             ++done;
             havePending = nextOwnIndex(pending);
+            if (haveTarget) standardError = currentStandardError();
         }
         lastEstimateSeconds = elapsed();
         lastEstimateCpu = cpuElapsed();

@@ -20,8 +20,11 @@ namespace cb {
 // the estimates of one render. Indices the accumulator already holds (a resumed state) are
 // skipped.
 struct RenderLimits {
-    long estimates = 16;  // this many indices (0: no limit; then seconds must be > 0)
+    long estimates = 16;  // stop after this many (0: no limit; then seconds or target is > 0)
     double seconds = 0.0; // stop once this much render time has passed (0: no limit)
+    // Stop once the mean per-pixel standard error of the mean (estimateNoise, image/metrics.h)
+    // falls below this; it needs 2 estimates (0: no target).
+    double targetStandardError = 0.0;
     std::uint64_t firstEstimate = 0;
 };
 
@@ -68,6 +71,7 @@ struct RenderOutcome {
     // others (the steady-state cost); renderSeconds when only one estimate was rendered.
     double secondsPerEstimate() const;
     bool interrupted = false;
+    bool reachedTargetStandardError = false;
     long nonFiniteSamples = 0;
 };
 

@@ -1,5 +1,5 @@
-// The scene's device buffers and the kernel launch over pixel tiles, shared by every
-// integrator's host side (the kernels take the scene as CB_SCENE_KERNEL_PARAMS, cb_types.h).
+// The scene's device buffers, shared by every integrator's host side (the kernels take the scene
+// as CB_SCENE_KERNEL_PARAMS, cb_types.h), and the setting of kernel arguments in order.
 #pragma once
 
 #include "cl/cl_runtime.h"
@@ -21,19 +21,31 @@ cl::Buffer uploadArray(ClRuntime& runtime, const std::string& what, const std::v
     return runtime.createReadOnlyCopy(what, src, bytes);
 }
 
+// Sets a kernel's arguments one after the other, in the order its parameter list declares them.
+class KernelArguments {
+  public:
+    explicit KernelArguments(cl::Kernel& kernel) : kernel_(&kernel) {}
+    template <typename T> KernelArguments& add(const T& value) {
+        kernel_->setArg(next_++, value);
+        return *this;
+    }
+    // The index the next add() sets (to set that argument again before each launch).
+    int next() const { return next_; }
+
+  private:
+    cl::Kernel* kernel_;
+    int next_ = 0;
+};
+
 struct SceneBuffers {
     SceneBuffers(ClRuntime& runtime, const DeviceScene& scene);
 
-    // Sets the seven CB_SCENE_KERNEL_PARAMS arguments from index `first`; returns the next index.
-    int setKernelArgs(cl::Kernel& kernel, int first) const;
+    // Adds the seven CB_SCENE_KERNEL_PARAMS arguments.
+    void addKernelArguments(KernelArguments& args) const;
 
     cl::Buffer nodes, packs, primitives, materials, lights, spectra;
     cl::Buffer toRgb; // 3 x channels matrix, passed separately by the kernels that need it
     int lightCount = 0;
 };
-
-// One work-item per pixel over the whole image, in square work-groups of tile x tile pixels.
-void launchOverPixels(cl::CommandQueue& queue, cl::Kernel& kernel, const cbk::Camera& camera,
-                      int tile);
 
 } // namespace cb

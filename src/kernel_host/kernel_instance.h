@@ -111,6 +111,9 @@ template <class Visit> void forEachField(cbk::Light& s, Visit&& visit) {
     visit(s.area);
     visit(s.pickProbability);
     visit(s.cdf);
+    visit(s.spotCosStart);
+    visit(s.spotCosEnd);
+    visit(s.spotAxis);
     visit(s.pad);
 }
 template <class Visit> void forEachField(cbk::Camera& s, Visit&& visit) {
@@ -120,6 +123,9 @@ template <class Visit> void forEachField(cbk::Camera& s, Visit&& visit) {
     visit(s.tanHalfFovY);
     visit(s.width);
     visit(s.height);
+    visit(s.screenCenterX);
+    visit(s.screenCenterY);
+    visit(s.pad);
 }
 
 // Calls word(element) for each scalar of a field, arrays of arrays included.

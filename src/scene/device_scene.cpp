@@ -15,8 +15,8 @@ namespace cb {
 
 static_assert(sizeof(cbk::Primitive) == 48, "Primitive must match the OpenCL layout");
 static_assert(sizeof(cbk::Material) == 32, "Material must match the OpenCL layout");
-static_assert(sizeof(cbk::Light) == 48, "Light must match the OpenCL layout");
-static_assert(sizeof(cbk::Camera) == 112, "Camera must match the OpenCL layout");
+static_assert(sizeof(cbk::Light) == 64, "Light must match the OpenCL layout");
+static_assert(sizeof(cbk::Camera) == 128, "Camera must match the OpenCL layout");
 
 namespace {
 
@@ -24,15 +24,21 @@ class SpectraTable {
   public:
     SpectraTable(int channels, std::vector<float>& data) : channels_(channels), data_(data) {}
 
-    int add(const SpectrumValue& value, float scale) {
+    // Emission (`emission` true) follows pbrt-v4's illuminant meaning: an RGB value is RGB times
+    // the colour space's white illuminant, a spectrum is converted by the film's own CMFs.
+    int add(const SpectrumValue& value, float scale, bool emission = false) {
         int index = int(data_.size()) / channels_;
         if (channels_ == kSpectralBins) {
             std::array<float, kSpectralBins> bins =
-                value.isRgb ? rgbToSpectrum(value.rgb) : binSpectrum(value.samples);
+                value.isRgb
+                    ? (emission ? rgbIlluminantSpectrum(value.rgb) : rgbToSpectrum(value.rgb))
+                    : binSpectrum(value.samples);
             for (float b : bins)
                 data_.push_back(b * scale);
         } else {
-            std::array<float, 3> rgb = value.isRgb ? value.rgb : spectrumToRgb(value.samples);
+            std::array<float, 3> rgb = value.isRgb ? value.rgb
+                                                   : (emission ? emissionToRgb(value.samples)
+                                                               : spectrumToRgb(value.samples));
             for (float c : rgb)
                 data_.push_back(c * scale);
         }
@@ -88,6 +94,25 @@ std::array<double, 3> deviceOrigin(const SceneDesc& desc) {
     return origin;
 }
 
+// Narrows the camera to pixels [x0, x1) x [y0, y1) of its film: a screen window that is that part
+// of the full one, so rays, projections and importance (per pixel area) are the full film's.
+void cropCamera(cbk::Camera& camera, const std::array<int, 4>& bounds,
+                const SourceLocation& where) {
+    const auto [x0, x1, y0, y1] = bounds;
+    if (!(0 <= x0 && x0 < x1 && x1 <= camera.width && 0 <= y0 && y0 < y1 && y1 <= camera.height))
+        throw SceneError(where,
+                         fmt::format("pixel bounds {} {} {} {} are not inside the {}x{} film", x0,
+                                     x1, y0, y1, camera.width, camera.height));
+    const double w = camera.width, h = camera.height;
+    const double tanX = camera.tanHalfFovX, tanY = camera.tanHalfFovY;
+    camera.screenCenterX = float((double(x0 + x1) / w - 1.0) * tanX);
+    camera.screenCenterY = float((1.0 - double(y0 + y1) / h) * tanY);
+    camera.tanHalfFovX = float(tanX * double(x1 - x0) / w);
+    camera.tanHalfFovY = float(tanY * double(y1 - y0) / h);
+    camera.width = x1 - x0;
+    camera.height = y1 - y0;
+}
+
 cbk::Camera makeCamera(const SceneDesc& desc, const std::array<double, 3>& origin) {
     const FilmDesc& film = desc.film;
     SourceLocation where = desc.camera.where;
@@ -120,6 +145,7 @@ cbk::Camera makeCamera(const SceneDesc& desc, const std::array<double, 3>& origi
     camera.tanHalfFovY = float(aspect >= 1.0 ? tanHalf : tanHalf / aspect);
     camera.width = film.width;
     camera.height = film.height;
+    if (film.pixelBounds) cropCamera(camera, *film.pixelBounds, where);
     return camera;
 }
 
@@ -139,12 +165,33 @@ unsigned materialFeature(MaterialKind kind) {
 
 } // namespace
 
+std::array<int, 4> cropWindowPixels(int width, int height, const std::array<double, 4>& crop) {
+    const auto [x0, x1, y0, y1] = crop;
+    for (double f : crop)
+        if (!(f >= 0.0 && f <= 1.0))
+            throw std::invalid_argument(fmt::format(
+                "--cropwindow {} {} {} {}: each value must be in [0, 1]", x0, x1, y0, y1));
+    if (!(x0 < x1 && y0 < y1))
+        throw std::invalid_argument(
+            fmt::format("--cropwindow {} {} {} {}: must be x0 x1 y0 y1 with x0 < x1 and y0 < y1",
+                        x0, x1, y0, y1));
+    const std::array<int, 4> pixels = {int(std::ceil(width * x0)), int(std::ceil(width * x1)),
+                                       int(std::ceil(height * y0)), int(std::ceil(height * y1))};
+    if (pixels[0] >= pixels[1] || pixels[2] >= pixels[3])
+        throw std::invalid_argument(
+            fmt::format("--cropwindow {} {} {} {} holds no pixel of the {}x{} film", x0, x1, y0, y1,
+                        width, height));
+    return pixels;
+}
+
 DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
     DeviceScene scene;
     bool spectral =
         mode == ChannelMode::Spectral || (mode == ChannelMode::Auto && desc.usesSpectra);
     scene.channels = spectral ? kSpectralBins : 3;
-    scene.toRgb = channelsToRgbMatrix(scene.channels);
+    scene.toRgb =
+        filmMatrix(scene.channels, FilmColour{desc.film.whiteBalance,
+                                              desc.film.exposureTime * desc.film.iso / 100.0});
     // Camera-relative rendering: positions are made relative to the camera (or, for a camera
     // outside the scene, to the scene point nearest to it: deviceOrigin) in double, then rounded
     // to float, so precision is finest where the image needs it and a scene far from the world
@@ -209,7 +256,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
     auto addAreaLight = [&](int areaLight, float area) {
         const AreaLightDesc& al = desc.areaLights[size_t(areaLight)];
         int& entry = emissionEntry[size_t(areaLight)];
-        if (entry < 0) entry = spectra.add(al.radiance, al.scale);
+        if (entry < 0) entry = spectra.add(al.radiance, al.scale, true);
         cbk::Light light{};
         light.kind = CB_LIGHT_AREA;
         light.primitive = -1; // set once the BVH has placed the primitive
@@ -282,9 +329,21 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         cbk::Light light{};
         light.kind = CB_LIGHT_POINT;
         light.primitive = -1;
-        light.emission = spectra.add(pl.intensity, pl.scale);
+        light.emission = spectra.add(pl.intensity, pl.scale, true);
         toDevice(pl.position, light.position);
-        lightPower.push_back(spectra.average(light.emission) * 4.f * float(M_PI));
+        light.spotCosEnd = -2.f;
+        // A unit-intensity point light emits 4 pi; a spot 2 pi (1 - (cosStart + cosEnd) / 2)
+        // (pbrt-v4's SpotLight::Phi).
+        float solidAngle = 4.f * float(M_PI);
+        if (pl.spot) {
+            light.spotCosStart = pl.spotCosStart;
+            light.spotCosEnd = pl.spotCosEnd;
+            for (int a = 0; a < 3; ++a)
+                light.spotAxis[a] = float(pl.spotAxis[size_t(a)]);
+            solidAngle = 2.f * float(M_PI) * (1.f - 0.5f * (pl.spotCosStart + pl.spotCosEnd));
+            scene.features |= CB_FEATURE_SPOT_LIGHT;
+        }
+        lightPower.push_back(spectra.average(light.emission) * solidAngle);
         scene.lights.push_back(light);
         scene.features |= CB_FEATURE_POINT_LIGHT;
     }
@@ -357,6 +416,7 @@ std::string DeviceScene::featureNames() const {
     add(CB_FEATURE_AREA_LIGHT, "area-light");
     add(CB_FEATURE_POINT_LIGHT, "point-light");
     add(CB_FEATURE_SPHERES, "spheres");
+    add(CB_FEATURE_SPOT_LIGHT, "spot-light");
     names += channels == 16 ? " spectral-16" : " rgb";
     return names;
 }

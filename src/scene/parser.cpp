@@ -8,6 +8,7 @@
 #include "scene/ply.h"
 #include "scene/scene_desc.h"
 #include "scene/transform.h"
+#include "spectral/spectral.h"
 
 #include <cctype>
 #include <charconv>
@@ -17,8 +18,10 @@
 #include <fstream>
 #include <iostream>
 #include <limits>
+#include <map>
 #include <memory>
 #include <optional>
+#include <set>
 #include <sstream>
 #include <string_view>
 
@@ -333,6 +336,23 @@ class ParamList {
 
     const std::string& owner() const { return owner_; }
 
+    // Marks every parameter not read so far as used and returns their declarations: for
+    // directives whose other parameters cbdpt accepts without using them.
+    std::vector<std::string> takeRest() {
+        std::vector<std::string> rest;
+        for (Param& p : params_)
+            if (!p.used) {
+                p.used = true;
+                rest.push_back(p.decl());
+            }
+        return rest;
+    }
+
+    // Reads a parameter that cbdpt accepts and ignores; true if it was present.
+    bool ignore(const std::string& name, std::initializer_list<const char*> types) {
+        return lookup(name, types) != nullptr;
+    }
+
   private:
     const Param* lookup(const std::string& name, std::initializer_list<const char*> types) {
         for (Param& p : params_) {
@@ -399,6 +419,13 @@ struct SourceFile {
     std::string dir; // folder for relative paths ("" = current directory)
     fs::path key;    // canonical path, for recursive-include detection
 };
+
+// Refuses a file that is not text (an image, a mesh, any binary data), saying what it is.
+void requireText(const std::string& bytes, const SourceLocation& where, const std::string& path) {
+    const std::string what = describeNonTextFile(bytes);
+    if (!what.empty())
+        throw SceneError(where, "\"" + path + "\" is " + what + ", not a pbrt scene (text)");
+}
 
 std::string readWholeFile(const std::string& path, bool& ok) {
     std::ifstream f(path, std::ios::binary);
@@ -640,6 +667,9 @@ class Parser {
             requireWorld(t);
             if (stack_.empty())
                 throw SceneError(t.where, "AttributeEnd without matching AttributeBegin");
+            if (openObject_ && stack_.size() == openObject_->depth)
+                throw SceneError(t.where, "AttributeEnd would close ObjectBegin \"" +
+                                              openObject_->name + "\"; use ObjectEnd");
             state_ = stack_.back();
             stack_.pop_back();
         } else if (d == "Material") {
@@ -678,10 +708,39 @@ class Parser {
         } else if (d == "Shape") {
             requireWorld(t);
             shape(t);
-        } else if (d == "Include") {
+        } else if (d == "Include" || d == "Import") {
+            // pbrt-v4's Import is an Include whose file may be parsed in parallel; the meaning
+            // is the same for everything cbdpt reads.
             include(t);
-        } else if (d == "Import") {
-            throw SceneError(t.where, "Import is not supported by cbdpt; use Include");
+        } else if (d == "Sampler") {
+            sampler(t);
+        } else if (d == "Integrator") {
+            integrator(t);
+        } else if (d == "PixelFilter") {
+            pixelFilter(t);
+        } else if (d == "ColorSpace") {
+            const Token name = quoted(t, "a colour space name");
+            if (name.text != "srgb")
+                throw SceneError(name.where, "unsupported ColorSpace \"" + name.text +
+                                                 "\" (cbdpt supports \"srgb\")");
+        } else if (d == "Option") {
+            option(t);
+        } else if (d == "CoordinateSystem") {
+            const Token name = quoted(t, "a coordinate system name");
+            namedCoordinateSystems_[name.text] = state_.ctm;
+        } else if (d == "CoordSysTransform") {
+            const Token name = quoted(t, "a coordinate system name");
+            const auto it = namedCoordinateSystems_.find(name.text);
+            if (it == namedCoordinateSystems_.end())
+                throw SceneError(name.where, "unknown coordinate system \"" + name.text +
+                                                 "\" (define it with CoordinateSystem first)");
+            state_.ctm = it->second;
+        } else if (d == "ObjectBegin") {
+            objectBegin(t);
+        } else if (d == "ObjectEnd") {
+            objectEnd(t);
+        } else if (d == "ObjectInstance") {
+            objectInstance(t);
         } else if (d == "TransformBegin" || d == "TransformEnd") {
             throw SceneError(t.where,
                              d + " is not part of pbrt-v4; use AttributeBegin/AttributeEnd");
@@ -689,10 +748,8 @@ class Parser {
             throw SceneError(t.where, "WorldEnd is pbrt-v3 syntax and not part of pbrt-v4");
         } else {
             for (const char* known :
-                 {"Accelerator", "ActiveTransform", "Attribute", "ColorSpace", "CoordinateSystem",
-                  "CoordSysTransform", "Integrator", "MakeNamedMedium", "MediumInterface",
-                  "ObjectBegin", "ObjectEnd", "ObjectInstance", "Option", "PixelFilter", "Sampler",
-                  "Texture", "TransformTimes"})
+                 {"Accelerator", "ActiveTransform", "Attribute", "MakeNamedMedium",
+                  "MediumInterface", "Texture", "TransformTimes"})
                 if (d == known)
                     throw SceneError(t.where, "pbrt-v4 directive '" + d +
                                                   "' is not supported by cbdpt (see "
@@ -713,13 +770,206 @@ class Parser {
         CameraDesc& cam = scene_.camera;
         cam.where = t.where;
         cam.worldToCamera = state_.ctm.m;
+        // pbrt-v4 names the camera's space "camera" for CoordSysTransform.
+        if (const auto worldFromCamera = inverse(state_.ctm))
+            namedCoordinateSystems_["camera"] = *worldFromCamera;
         if (const Param* p = pl.peek("fov"); p) {
             const double fov = *pl.oneFloat("fov");
             if (!(fov > 0.0 && fov < 180.0))
                 throw SceneError(p->where, "\"float fov\" must be in (0, 180) degrees");
             cam.fovDegrees = static_cast<float>(fov);
         }
+        // The film's exposure time is the shutter interval (pbrt-v4's CameraBase).
+        const double open = pl.oneFloat("shutteropen").value_or(0.0);
+        const double close = pl.oneFloat("shutterclose").value_or(1.0);
+        if (!(close > open))
+            throw SceneError(t.where, "\"float shutterclose\" must be greater than "
+                                      "\"float shutteropen\"");
+        scene_.film.exposureTime = close - open;
+        if (const Param* p = pl.peek("lensradius"); p && *pl.oneFloat("lensradius") != 0.0)
+            throw SceneError(p->where, "a thin lens (\"float lensradius\" > 0) is not supported");
+        pl.ignore("focaldistance", {"float"});
         pl.finish();
+    }
+
+    // Reported once per kind on stderr and kept in SceneDesc::notes.
+    void note(const SourceLocation& where, const std::string& kind, const std::string& message) {
+        if (!notedKinds_.insert(kind).second) return;
+        const std::string line = where.file + ":" + std::to_string(where.line) + ": " + message;
+        std::cerr << "cbdpt: note: " << line << "\n";
+        scene_.notes.push_back(line);
+    }
+
+    static std::string joined(const std::vector<std::string>& v) {
+        std::string out;
+        for (const std::string& s : v)
+            out += (out.empty() ? "" : ", ") + s;
+        return out;
+    }
+
+    void sampler(const Token& t) {
+        requireOptions(t);
+        const Token type = quoted(t, "a sampler type");
+        ParamList pl = params("Sampler \"" + type.text + "\"");
+        SamplerDesc& s = scene_.sampler;
+        s.type = type.text;
+        s.where = t.where;
+        if (type.text == "stratified") {
+            // pbrt-v4's stratified sampler takes xsamples x ysamples per pixel (4 x 4).
+            const int nx = pl.oneInt("xsamples").value_or(4),
+                      ny = pl.oneInt("ysamples").value_or(4);
+            if (nx < 1 || ny < 1)
+                throw SceneError(t.where, "\"integer xsamples\" and \"ysamples\" must be >= 1");
+            s.pixelSamples = nx * ny;
+        } else if (const Param* p = pl.peek("pixelsamples")) {
+            s.pixelSamples = *pl.oneInt("pixelsamples");
+            if (s.pixelSamples < 1)
+                throw SceneError(p->where, "\"integer pixelsamples\" must be >= 1");
+        } else {
+            s.pixelSamples = 16; // pbrt-v4's default for every other sampler
+        }
+        const std::vector<std::string> rest = pl.takeRest();
+        note(t.where, "sampler",
+             "Sampler \"" + type.text +
+                 "\" is not used: each cbdpt method draws its own samples; " +
+                 std::to_string(s.pixelSamples) +
+                 " samples per pixel become the default estimate count" +
+                 (rest.empty() ? std::string() : " (ignored: " + joined(rest) + ")"));
+    }
+
+    void integrator(const Token& t) {
+        requireOptions(t);
+        const Token type = quoted(t, "an integrator type");
+        std::string method;
+        if (type.text == "path" || type.text == "volpath")
+            method = "pt"; // without participating media volpath is path
+        else if (type.text == "bdpt")
+            method = "bdpt";
+        else if (type.text == "mlt")
+            method = "mlt";
+        else
+            throw SceneError(type.where, "unsupported integrator \"" + type.text +
+                                             "\" (cbdpt supports \"path\", \"volpath\" without "
+                                             "media, \"bdpt\" and \"mlt\")");
+        ParamList pl = params("Integrator \"" + type.text + "\"");
+        IntegratorDesc& in = scene_.integrator;
+        in.type = method;
+        in.where = t.where;
+        if (const Param* p = pl.peek("maxdepth")) {
+            in.maxDepth = *pl.oneInt("maxdepth");
+            if (in.maxDepth < 0 || in.maxDepth > 1000)
+                throw SceneError(p->where, "\"integer maxdepth\" must be in [0, 1000]");
+        } else {
+            in.maxDepth = 5; // pbrt-v4's default for path, volpath, bdpt and mlt
+        }
+        const std::vector<std::string> rest = pl.takeRest();
+        if (!rest.empty())
+            note(t.where, "integrator", "Integrator parameters not used by cbdpt: " + joined(rest));
+    }
+
+    void pixelFilter(const Token& t) {
+        requireOptions(t);
+        const Token type = quoted(t, "a filter type");
+        ParamList pl = params("PixelFilter \"" + type.text + "\"");
+        if (type.text == "box") {
+            const Param* p = pl.peek("xradius");
+            const double rx = pl.oneFloat("xradius").value_or(0.5);
+            const double ry = pl.oneFloat("yradius").value_or(0.5);
+            pl.finish();
+            if (rx != 0.5 || ry != 0.5)
+                note(p ? p->where : t.where, "filter",
+                     "PixelFilter \"box\" with a radius other than 0.5 is rendered with radius 0.5 "
+                     "(one pixel): each pixel averages its own area only");
+            return;
+        }
+        const std::vector<std::string> rest = pl.takeRest();
+        note(t.where, "filter",
+             "PixelFilter \"" + type.text +
+                 "\" is rendered with the box filter of radius 0.5 (each pixel averages its own "
+                 "area; pbrt-v4's " +
+                 type.text +
+                 " filter also weights neighbouring pixels, so edges are sharper here)");
+    }
+
+    void option(const Token& t) {
+        ParamList pl = params("Option");
+        const std::vector<std::string> rest = pl.takeRest();
+        if (rest.size() != 1) throw SceneError(t.where, "Option expects exactly one parameter");
+        // None of pbrt-v4's options changes what cbdpt renders except through features it does
+        // not have (textures, displacement, pixel jitter control, the wavefront renderer).
+        note(t.where, "option:" + rest[0], "Option " + rest[0] + " has no effect in cbdpt");
+    }
+
+    void objectBegin(const Token& t) {
+        requireWorld(t);
+        const Token name = quoted(t, "an object name");
+        if (openObject_)
+            throw SceneError(t.where, "ObjectBegin inside the definition of \"" +
+                                          openObject_->name + "\" (nesting is not allowed)");
+        if (objects_.count(name.text))
+            throw SceneError(name.where, "object \"" + name.text + "\" is already defined");
+        stack_.push_back(state_); // ObjectBegin implies AttributeBegin, as in pbrt-v4
+        stack_.back().openedAt = t.where;
+        openObject_ =
+            OpenObject{name.text, scene_.meshes.size(), scene_.spheres.size(), stack_.size()};
+    }
+
+    void objectEnd(const Token& t) {
+        requireWorld(t);
+        if (!openObject_) throw SceneError(t.where, "ObjectEnd without ObjectBegin");
+        if (stack_.size() != openObject_->depth)
+            throw SceneError(t.where, "ObjectEnd inside an AttributeBegin block of the object");
+        ObjectDef& def = objects_[openObject_->name];
+        def.where = t.where;
+        for (size_t i = openObject_->firstMesh; i < scene_.meshes.size(); ++i)
+            def.meshes.push_back(std::move(scene_.meshes[i]));
+        for (size_t i = openObject_->firstSphere; i < scene_.spheres.size(); ++i)
+            def.spheres.push_back(scene_.spheres[i]);
+        scene_.meshes.resize(openObject_->firstMesh);
+        scene_.spheres.resize(openObject_->firstSphere);
+        bool hadLight = false;
+        for (auto& m : def.meshes)
+            hadLight |= std::exchange(m.areaLight, -1) >= 0;
+        for (auto& sp : def.spheres)
+            hadLight |= std::exchange(sp.areaLight, -1) >= 0;
+        if (hadLight)
+            note(t.where, "instance-light",
+                 "area lights inside object definitions do not emit (as in pbrt-v4)");
+        openObject_.reset();
+        state_ = stack_.back();
+        stack_.pop_back();
+    }
+
+    // Instances are flattened: each shape of the object is copied with the instance's CTM
+    // applied on top of the CTM it was defined with (pbrt-v4's renderFromInstance).
+    void objectInstance(const Token& t) {
+        requireWorld(t);
+        const Token name = quoted(t, "an object name");
+        if (openObject_) throw SceneError(t.where, "ObjectInstance inside an object definition");
+        const auto it = objects_.find(name.text);
+        if (it == objects_.end())
+            throw SceneError(name.where, "unknown object \"" + name.text + "\"");
+        requireAffine(t.where);
+        const Mat4& m = state_.ctm;
+        for (const TriangleMeshDesc& src : it->second.meshes) {
+            TriangleMeshDesc mesh = src;
+            for (auto& p : mesh.positions)
+                p = checkedPoint(m.point(p), t.where, "an instanced vertex position");
+            // A mirroring instance keeps each surface's side (its normal is transformed too).
+            if (m.det3() < 0.0)
+                for (auto& tri : mesh.triangles)
+                    std::swap(tri[1], tri[2]);
+            scene_.meshes.push_back(std::move(mesh));
+        }
+        for (const SphereDesc& src : it->second.spheres) {
+            const double scale = similarityScale(t.where);
+            SphereDesc sp = src;
+            sp.center = checkedPoint(m.point(src.center), t.where, "an instanced sphere centre");
+            sp.radius = static_cast<float>(src.radius * scale);
+            if (!(sp.radius > 0.f) || !std::isfinite(sp.radius))
+                throw SceneError(t.where, "instanced sphere radius is not a positive float");
+            scene_.spheres.push_back(sp);
+        }
     }
 
     void film(const Token& t) {
@@ -744,6 +994,35 @@ class Parser {
         if (const Param* p = pl.peek("filename"); p) {
             f.filename = *pl.oneString("filename");
             if (f.filename.empty()) throw SceneError(p->where, "empty \"string filename\"");
+        }
+        if (const Param* p = pl.peek("sensor")) {
+            const std::string sensor = *pl.oneString("sensor");
+            if (sensor != "cie1931")
+                throw SceneError(p->valueLoc(0),
+                                 "unsupported sensor \"" + sensor +
+                                     "\" (cbdpt supports \"cie1931\", the default)");
+        }
+        if (const Param* p = pl.peek("iso")) {
+            f.iso = *pl.oneFloat("iso");
+            if (!(f.iso > 0.0)) throw SceneError(p->where, "\"float iso\" must be > 0");
+        }
+        if (const Param* p = pl.peek("whitebalance")) {
+            f.whiteBalance = *pl.oneFloat("whitebalance");
+            if (f.whiteBalance != 0.0 && !(f.whiteBalance >= 1000.0 && f.whiteBalance <= 25000.0))
+                throw SceneError(p->where,
+                                 "\"float whitebalance\" must be 0 (none) or in [1000, 25000] K");
+        }
+        if (auto fp16 = pl.oneBool("savefp16")) {
+            f.saveFp16 = *fp16;
+            f.saveFp16Given = true;
+        }
+        if (const Param* p = pl.peek("maxcomponentvalue")) {
+            // pbrt-v4 clamps each sample's sensor RGB; cbdpt's estimates sum whole paths per
+            // pixel, so only the default (no clamp) has the same meaning.
+            const double v = *pl.oneFloat("maxcomponentvalue");
+            if (v < std::numeric_limits<float>::max())
+                throw SceneError(p->where, "\"float maxcomponentvalue\" (per-sample clamping) "
+                                           "is not supported; remove it to render unclamped");
         }
         pl.finish();
     }
@@ -855,11 +1134,29 @@ class Parser {
         AreaLightDesc a;
         a.where = t.where;
         if (auto l = pl.spectrum("L", SpectrumRole::Emission)) a.radiance = *l;
-        a.scale = static_cast<float>(scaleParam(pl));
+        a.scale = static_cast<float>(scaleParam(pl) / photometric(a.radiance, pl.peek("L")));
         if (auto two = pl.oneBool("twosided")) a.twoSided = *two;
+        if (const Param* p = pl.peek("power"); p && *pl.oneFloat("power") > 0.0)
+            // pbrt-v4 divides "power" by each shape's own area (each triangle of a mesh is a
+            // light of that power); cbdpt keeps one emission per AreaLightSource.
+            throw SceneError(p->where, "\"float power\" on an area light is not supported; "
+                                       "give \"scale\" instead");
         pl.finish();
         scene_.areaLights.push_back(std::move(a));
         state_.areaLight = static_cast<int>(scene_.areaLights.size()) - 1;
+    }
+
+    // pbrt-v4's SpectrumToPhotometric divisor: a spectrum's luminance integral; 1 for an RGB
+    // value, whose spectrum is taken as RGB times the illuminant at luminance 1 (see
+    // SpectraTable::add in device_scene.cpp).
+    static double photometric(const SpectrumValue& v, const Param* p) {
+        if (v.isRgb) return 1.0;
+        const double y = photometricIntegral(v.samples);
+        if (!(y > 0.0))
+            throw SceneError(p->where, "parameter " + p->decl() +
+                                           " has zero luminance between 360 and 830 nm; pbrt-v4 "
+                                           "divides light spectra by it");
+        return y;
     }
 
     static double scaleParam(ParamList& pl) {
@@ -872,19 +1169,55 @@ class Parser {
 
     void lightSource(const Token& t) {
         const Token type = quoted(t, "a light type");
-        if (type.text != "point")
+        const bool spot = type.text == "spot";
+        if (type.text != "point" && !spot)
             throw SceneError(type.where, "unsupported light \"" + type.text +
-                                             "\" (cbdpt supports \"point\" only)");
-        ParamList pl = params("LightSource \"point\"");
+                                             "\" (cbdpt supports \"point\" and \"spot\")");
+        ParamList pl = params("LightSource \"" + type.text + "\"");
         PointLightDesc l;
         l.where = t.where;
         if (auto i = pl.spectrum("I", SpectrumRole::Emission)) l.intensity = *i;
-        l.scale = static_cast<float>(scaleParam(pl));
-        std::array<double, 3> from{0, 0, 0};
-        if (const Param* p = pl.numeric("from", "point3", 3)) {
-            if (p->size() != 3) throw SceneError(p->where, "\"point3 from\" expects 3 values");
-            from = {p->numbers[0], p->numbers[1], p->numbers[2]};
+        double scale = scaleParam(pl) / photometric(l.intensity, pl.peek("I"));
+        std::array<double, 3> from{0, 0, 0}, to{0, 0, 1};
+        for (auto [name, value] : {std::pair{"from", &from}, std::pair{"to", &to}}) {
+            if (!spot && std::string(name) == "to") continue;
+            if (const Param* p = pl.numeric(name, "point3", 3)) {
+                if (p->size() != 3)
+                    throw SceneError(p->where,
+                                     "\"point3 " + std::string(name) + "\" expects 3 values");
+                *value = {p->numbers[0], p->numbers[1], p->numbers[2]};
+            }
         }
+        // pbrt-v4: "power" is the luminous power; a unit-scale point light emits 4 pi, a spot
+        // 2 pi (1 - (cosStart + cosEnd) / 2).
+        double solidAngle = 4.0 * M_PI;
+        if (spot) {
+            const double cone = pl.oneFloat("coneangle").value_or(30.0);
+            const double delta = pl.oneFloat("conedeltaangle").value_or(5.0);
+            if (!(cone > 0.0 && cone <= 180.0) || !(delta >= 0.0 && delta <= cone))
+                throw SceneError(t.where, "spot light: \"coneangle\" must be in (0, 180] and "
+                                          "\"conedeltaangle\" in [0, coneangle]");
+            l.spot = true;
+            l.spotCosEnd = static_cast<float>(std::cos(cone * M_PI / 180.0));
+            l.spotCosStart = static_cast<float>(std::cos((cone - delta) * M_PI / 180.0));
+            solidAngle = 2.0 * M_PI * (1.0 - 0.5 * (double(l.spotCosStart) + l.spotCosEnd));
+            // The cone's angles are measured in the light's space; only a similarity keeps them.
+            similarityScale(t.where);
+            const std::array<double, 3> d{to[0] - from[0], to[1] - from[1], to[2] - from[2]};
+            const Mat4& m = state_.ctm;
+            std::array<double, 3> axis{};
+            for (int r = 0; r < 3; ++r)
+                axis[r] = m(r, 0) * d[0] + m(r, 1) * d[1] + m(r, 2) * d[2];
+            const double len = std::sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]);
+            if (!(len > 0.0) || !std::isfinite(len))
+                throw SceneError(t.where, "spot light: \"from\" and \"to\" must differ");
+            for (double& c : axis)
+                c /= len;
+            l.spotAxis = axis;
+        }
+        if (const auto power = pl.oneFloat("power"); power && *power > 0.0)
+            scale *= *power / solidAngle;
+        l.scale = static_cast<float>(scale);
         pl.finish();
         requireAffine(t.where);
         const auto w = state_.ctm.point(from);
@@ -968,8 +1301,11 @@ class Parser {
                 for (size_t i = 0; i < nv; ++i)
                     normals[i] = {N->numbers[3 * i], N->numbers[3 * i + 1], N->numbers[3 * i + 2]};
             }
+            ignoreSurfaceParameterisation(pl, t.where);
             pl.finish();
             addMesh(t.where, pos, std::move(tris), normals);
+        } else if (type.text == "bilinearmesh") {
+            bilinearMesh(t);
         } else if (type.text == "plymesh") {
             ParamList pl = params("Shape \"plymesh\"");
             const Param* fp = pl.peek("filename");
@@ -993,13 +1329,87 @@ class Parser {
             addMesh(t.where, pos, std::move(ply.triangles), normals);
         } else {
             throw SceneError(type.where, "unsupported shape \"" + type.text +
-                                             "\" (cbdpt supports trianglemesh, plymesh, sphere)");
+                                             "\" (cbdpt supports trianglemesh, bilinearmesh "
+                                             "(planar patches), plymesh, sphere)");
         }
     }
 
-    void sphere(const SourceLocation& where, double radius) {
+    // "point2 uv" and "vector3 S" only feed textures and anisotropic shading frames, which
+    // cbdpt's untextured materials do not have.
+    void ignoreSurfaceParameterisation(ParamList& pl, const SourceLocation& where) {
+        const bool uv = pl.ignore("uv", {"point2"});
+        const bool tangents = pl.ignore("S", {"vector3"});
+        if (uv || tangents)
+            note(where, "uv",
+                 "\"point2 uv\" and \"vector3 S\" are ignored: cbdpt's materials "
+                 "are untextured and shade with geometric normals");
+    }
+
+    // pbrt-v4's bilinear patches (p00, p10, p01, p11). A planar patch is exactly the two triangles
+    // (p00, p10, p11) and (p00, p11, p01), whose winding normal is pbrt's cross(dpdu, dpdv); a
+    // curved one is not representable with triangles and is an error.
+    void bilinearMesh(const Token& t) {
+        ParamList pl = params("Shape \"bilinearmesh\"");
+        const Param* P = pl.numeric("P", "point3", 3);
+        if (!P) throw SceneError(t.where, "bilinearmesh needs \"point3 P\"");
+        const size_t nv = P->size() / 3;
+        std::vector<std::array<double, 3>> pos(nv);
+        for (size_t i = 0; i < nv; ++i)
+            pos[i] = {P->numbers[3 * i], P->numbers[3 * i + 1], P->numbers[3 * i + 2]};
+        std::vector<std::array<unsigned, 4>> patches;
+        if (const Param* I = pl.numeric("indices", "integer", 4)) {
+            patches.resize(I->size() / 4);
+            for (size_t i = 0; i < I->size(); ++i) {
+                const double v = I->numbers[i];
+                if (v < 0 || v >= static_cast<double>(nv))
+                    throw SceneError(I->valueLoc(i), "index " +
+                                                         std::to_string(static_cast<long long>(v)) +
+                                                         " out of range (the mesh has " +
+                                                         std::to_string(nv) + " vertices)");
+                patches[i / 4][i % 4] = static_cast<unsigned>(v);
+            }
+        } else {
+            if (nv != 4)
+                throw SceneError(t.where, "\"integer indices\" may only be omitted for a single "
+                                          "patch (exactly 4 vertices); got " +
+                                              std::to_string(nv));
+            patches.push_back({0u, 1u, 2u, 3u});
+        }
+        std::vector<std::array<double, 3>> normals;
+        if (const Param* N = pl.numeric("N", "normal", 3)) {
+            if (N->size() != P->size())
+                throw SceneError(N->where, "\"normal N\" needs one normal per vertex");
+            normals.resize(nv);
+            for (size_t i = 0; i < nv; ++i)
+                normals[i] = {N->numbers[3 * i], N->numbers[3 * i + 1], N->numbers[3 * i + 2]};
+        }
+        ignoreSurfaceParameterisation(pl, t.where);
+        pl.finish();
+        std::vector<std::array<unsigned, 3>> tris;
+        for (const auto& q : patches) {
+            const auto &p00 = pos[q[0]], &p10 = pos[q[1]], &p01 = pos[q[2]], &p11 = pos[q[3]];
+            // Planar when p11 lies in the plane of the other three (relative to the patch size).
+            const double a[3] = {p10[0] - p00[0], p10[1] - p00[1], p10[2] - p00[2]};
+            const double b[3] = {p01[0] - p00[0], p01[1] - p00[1], p01[2] - p00[2]};
+            const double c[3] = {p11[0] - p00[0], p11[1] - p00[1], p11[2] - p00[2]};
+            const double n[3] = {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
+                                 a[0] * b[1] - a[1] * b[0]};
+            const double volume = n[0] * c[0] + n[1] * c[1] + n[2] * c[2];
+            const double size = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]) *
+                                std::sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
+            if (std::fabs(volume) > 1e-6 * size)
+                throw SceneError(t.where, "a curved (non-planar) bilinear patch is not supported; "
+                                          "cbdpt renders planar patches only");
+            tris.push_back({q[0], q[1], q[3]});
+            tris.push_back({q[0], q[3], q[2]});
+        }
+        addMesh(t.where, pos, std::move(tris), normals);
+    }
+
+    // The CTM's scale factor; an error unless the CTM is a similarity (only those keep a sphere
+    // a sphere): A^T A must be s^2 I for the 3x3 block A.
+    double similarityScale(const SourceLocation& where) const {
         requireAffine(where);
-        // Only similarities keep a sphere a sphere: A^T A must be s^2 I for the 3x3 block A.
         const Mat4& m = state_.ctm;
         double g[3][3];
         for (int i = 0; i < 3; ++i)
@@ -1013,10 +1423,16 @@ class Parser {
         if (!similar)
             throw SceneError(where, "a sphere's transformation must be a similarity (rotation, "
                                     "uniform scale, translation); this CTM is not");
+        return std::sqrt(s2);
+    }
+
+    void sphere(const SourceLocation& where, double radius) {
+        const double scale = similarityScale(where);
+        const Mat4& m = state_.ctm;
         SphereDesc s;
         s.where = where;
         s.center = checkedPoint(m.point({0, 0, 0}), where, "sphere centre");
-        const double r = radius * std::sqrt(s2);
+        const double r = radius * scale;
         if (!(r <= std::numeric_limits<float>::max()))
             throw SceneError(where, "sphere radius is not finite after transformation");
         s.radius = static_cast<float>(r);
@@ -1150,6 +1566,7 @@ class Parser {
             bool ok = false;
             std::string text = readWholeFile(path, ok);
             if (!ok) throw SceneError(name.where, "cannot read included file \"" + path + "\"");
+            requireText(text, name.where, path);
             scene_.sourceFiles.push_back(path);
             files_.push_back(std::make_unique<SourceFile>(
                 SourceFile{Tokenizer(std::move(text), path), parentDir(path), key}));
@@ -1171,11 +1588,25 @@ class Parser {
     bool haveCamera_ = false;
     bool haveFilm_ = false;
     int defaultMaterial_ = -1;
+    std::set<std::string> notedKinds_;
+    std::map<std::string, Mat4> namedCoordinateSystems_;
+    struct ObjectDef {
+        std::vector<TriangleMeshDesc> meshes;
+        std::vector<SphereDesc> spheres;
+        SourceLocation where;
+    };
+    struct OpenObject {
+        std::string name;
+        size_t firstMesh = 0, firstSphere = 0, depth = 0;
+    };
+    std::map<std::string, ObjectDef> objects_;
+    std::optional<OpenObject> openObject_;
 };
 
 } // namespace
 
 SceneDesc parseSceneString(const std::string& text, const std::string& virtualPath) {
+    requireText(text, SourceLocation{virtualPath, 0, 0}, virtualPath);
     SceneDesc scene;
     scene.path = virtualPath;
     Parser(scene).run(text, virtualPath);

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <array>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -18,7 +19,15 @@ struct SourceLocation {
     std::string str() const; // "file:line:column"
 };
 
-// Thrown for every malformed input; what() is "file:line:column: message".
+// `text` with every byte that is not printable ASCII, a tab, a newline or part of a valid UTF-8
+// sequence written as \xNN, so that a message quoting a file never prints raw binary.
+std::string printableText(const std::string& text);
+
+// What a file is when its first bytes say it is not text ("an OpenEXR image", "a PLY mesh", "a
+// binary file"); empty when it looks like text.
+std::string describeNonTextFile(const std::string& bytes);
+
+// Thrown for every malformed input; what() is "file:line:column: message", made printable.
 class SceneError : public std::runtime_error {
   public:
     SceneError(const SourceLocation& where, const std::string& message);
@@ -44,14 +53,18 @@ struct MaterialDesc {
     std::string name; // the MakeNamedMaterial name, or "" for an anonymous Material
     MaterialKind kind = MaterialKind::Diffuse;
     SpectrumValue reflectance = SpectrumValue::constant(0.5f); // diffuse and conductor
-    float roughness = 0.f;       // conductor: as written in the file
-    bool remapRoughness = true;  // conductor: pbrt-v4's default maps roughness to alpha=sqrt(r)
-    float eta = 1.5f;            // dielectric
+    float roughness = 0.f;                                     // conductor: as written in the file
+    bool remapRoughness = true;     // conductor: pbrt-v4's default maps roughness to alpha=sqrt(r)
+    float eta = 1.5f;               // dielectric
     std::array<int, 2> mix{-1, -1}; // mix: indices into SceneDesc::materials
     float amount = 0.5f;            // mix: probability of choosing mix[1] (pbrt-v4 semantics)
     SourceLocation where;
 };
 
+// Light emission is the value as written times `scale`, which is pbrt-v4's: the file's "scale"
+// divided by the spectrum's photometric integral for a `spectrum` value (pbrt-v4's
+// SpectrumToPhotometric), times "power" over the unit-scale power where given. An RGB value
+// stands for RGB times the colour space's illuminant at luminance 1 (device_scene.cpp).
 struct AreaLightDesc {
     SpectrumValue radiance = SpectrumValue::constant(1.f); // "L"
     float scale = 1.f;
@@ -79,9 +92,13 @@ struct SphereDesc {
 };
 
 struct PointLightDesc {
-    std::array<double, 3> position{0.0, 0.0, 0.0}; // world space
+    std::array<double, 3> position{0.0, 0.0, 0.0};          // world space
     SpectrumValue intensity = SpectrumValue::constant(1.f); // "I"
     float scale = 1.f;
+    // LightSource "spot": intensity falls off from 1 at cos = spotCosStart to 0 at spotCosEnd.
+    bool spot = false;
+    std::array<double, 3> spotAxis{0.0, 0.0, 1.0}; // world space, unit
+    float spotCosStart = 1.f, spotCosEnd = 1.f;
     SourceLocation where;
 };
 
@@ -93,10 +110,34 @@ struct CameraDesc {
     SourceLocation where;
 };
 
+// pbrt-v4's "rgb" film with its "cie1931" sensor (docs/scene-format.md).
 struct FilmDesc {
     int width = 1280; // pbrt-v4 defaults
     int height = 720;
     std::string filename = "pbrt.exr";
+    double iso = 100.0;
+    double whiteBalance = 0.0; // kelvin; 0: no white balance (the cie1931 default)
+    double exposureTime = 1.0; // the camera's shutterclose - shutteropen
+    bool saveFp16 = true;      // pbrt-v4's default: half-float EXR
+    bool saveFp16Given = false;
+    // pbrt's pixel bounds x0, x1, y0, y1: only pixels [x0, x1) x [y0, y1) of the film are
+    // rendered, into an image of that size (cropWindowPixels in device_scene.h). Absent: the whole
+    // film.
+    std::optional<std::array<int, 4>> pixelBounds;
+};
+
+// pbrt-v4's Sampler and Integrator lines: cbdpt's defaults for the render (the command line
+// overrides them).
+struct SamplerDesc {
+    std::string type;     // "" when the file has no Sampler
+    int pixelSamples = 0; // 0 when not given
+    SourceLocation where;
+};
+
+struct IntegratorDesc {
+    std::string type;  // "" when the file has no Integrator; else "pt", "bdpt" or "mlt"
+    int maxDepth = -1; // pbrt-v4's "maxdepth" (bounces); -1 when not given
+    SourceLocation where;
 };
 
 struct SceneDesc {
@@ -106,12 +147,15 @@ struct SceneDesc {
     std::vector<std::string> sourceFiles;
     CameraDesc camera;
     FilmDesc film;
+    SamplerDesc sampler;
+    IntegratorDesc integrator;
+    std::vector<std::string> notes; // what was read but not used, each reported once on stderr
     std::vector<MaterialDesc> materials;
     std::vector<AreaLightDesc> areaLights;
     std::vector<TriangleMeshDesc> meshes;
     std::vector<SphereDesc> spheres;
     std::vector<PointLightDesc> pointLights;
-    bool usesSpectra = false;        // any parameter was given as `spectrum` (render spectrally)
+    bool usesSpectra = false; // any parameter was given as `spectrum` (render spectrally)
     long droppedDegenerateTriangles = 0; // zero-area triangles removed at load
 };
 

@@ -270,9 +270,8 @@ std::array<float, kSpectralBins> smoothestReflectance(const Vec3d& target) {
 } // namespace
 
 double evalPiecewiseLinear(const PiecewiseLinear& s, double nm) {
-    if (s.empty()) return 0.0;
-    if (nm <= s.front().first) return s.front().second;
-    if (nm >= s.back().first) return s.back().second;
+    if (s.empty() || nm < s.front().first || nm > s.back().first) return 0.0;
+    if (nm == s.back().first) return s.back().second;
     const auto it = std::upper_bound(s.begin(), s.end(), nm,
                                      [](double v, const auto& p) { return v < p.first; });
     const auto& p1 = *it;
@@ -284,10 +283,8 @@ double evalPiecewiseLinear(const PiecewiseLinear& s, double nm) {
 double integratePiecewiseLinear(const PiecewiseLinear& s, double a, double b) {
     if (s.empty() || !(b > a)) return 0.0;
     double sum = 0.0;
-    // Constant extrapolation on either side.
-    if (a < s.front().first) sum += (std::min<double>(b, s.front().first) - a) * s.front().second;
-    if (b > s.back().first) sum += (b - std::max<double>(a, s.back().first)) * s.back().second;
-    // The trapezoid rule is exact on each linear piece clipped to [a, b].
+    // Zero outside [first, last] (pbrt-v4). The trapezoid rule is exact on each linear piece
+    // clipped to [a, b].
     for (std::size_t k = 0; k + 1 < s.size(); ++k) {
         const double lo = std::max<double>(a, s[k].first), hi = std::min<double>(b, s[k + 1].first);
         if (hi > lo)
@@ -392,6 +389,150 @@ std::array<float, kSpectralBins> rgbToSpectrum(std::array<float, 3> rgb) {
     for (int i = 0; i < kSpectralBins; ++i)
         out[i] = k.cw * basis[White][i] + k.c2 * basis[k.secondary][i] + k.c1 * basis[k.primary][i];
     return out;
+}
+
+double photometricIntegral(const PiecewiseLinear& s) {
+    validate(s);
+    if (s.empty()) return 0.0;
+    // pbrt-v4 sums 1 nm samples over [Lambda_min, Lambda_max] = [360, 830]; the integral of the
+    // same piecewise-linear product differs from that sum by far less than the fit's error.
+    const double lo = std::max(360.0, double(s.front().first));
+    const double hi = std::min(830.0, double(s.back().first));
+    if (!(hi > lo)) return 0.0;
+    return integrateFine(
+        [&](double nm) { return evalPiecewiseLinear(s, nm) * cieXyz1931Fit(nm)[1]; }, lo, hi);
+}
+
+namespace {
+
+// Absolute CMF integral over each bin (nm units): the XYZ weight of a bin's mean value.
+const std::array<Vec3d, kSpectralBins>& binCmfIntegrals() {
+    static const std::array<Vec3d, kSpectralBins> w = [] {
+        std::array<Vec3d, kSpectralBins> out{};
+        for (int i = 0; i < kSpectralBins; ++i)
+            for (int c = 0; c < 3; ++c)
+                out[i][c] = integrateFine([c](double nm) { return cieXyz1931Fit(nm)[c]; },
+                                          binLambdaLow(i), binLambdaHigh(i));
+        return out;
+    }();
+    return w;
+}
+
+// Planck's law (relative spectral radiance; the scale cancels in a chromaticity).
+double planck(double nm, double kelvin) {
+    const double c = 299792458.0, h = 6.62606957e-34, kb = 1.3806488e-23;
+    const double l = nm * 1e-9;
+    return 2.0 * h * c * c / (std::pow(l, 5) * (std::exp(h * c / (l * kb * kelvin)) - 1.0));
+}
+
+// pbrt-v4's WhiteBalance (util/color.h): von Kries scaling in Bradford's cone space from the
+// source white's chromaticity to the target's.
+Mat3 whiteBalance(const std::array<double, 2>& src, const std::array<double, 2>& dst) {
+    const Mat3 bradford{
+        {{0.8951, 0.2664, -0.1614}, {-0.7502, 1.7135, 0.0367}, {0.0389, -0.0685, 1.0296}}};
+    const Vec3d s = mul(bradford, xyzFromChromaticity(src[0], src[1]));
+    const Vec3d d = mul(bradford, xyzFromChromaticity(dst[0], dst[1]));
+    Mat3 scale{};
+    for (int i = 0; i < 3; ++i)
+        scale[i][i] = d[i] / s[i];
+    return mul(inverse(bradford), mul(scale, bradford));
+}
+
+Mat3 filmXyzToRgb(const FilmColour& film) {
+    Mat3 m = xyzToLinearSrgb();
+    if (film.whiteBalanceKelvin > 0.0)
+        m = mul(m,
+                whiteBalance(whiteBalanceChromaticity(film.whiteBalanceKelvin), {0.3127, 0.3290}));
+    for (auto& row : m)
+        for (double& v : row)
+            v *= film.imagingRatio;
+    return m;
+}
+
+} // namespace
+
+std::array<double, 2> whiteBalanceChromaticity(double kelvin) {
+    const double cct = kelvin * 1.4388 / 1.4380;
+    if (cct < 4000.0) {
+        Vec3d xyz{};
+        for (int c = 0; c < 3; ++c)
+            xyz[c] = integrateFine(
+                [&](double nm) { return planck(nm, cct) * cieXyz1931Fit(nm)[c]; }, 360.0, 830.0);
+        const double sum = xyz[0] + xyz[1] + xyz[2];
+        return {xyz[0] / sum, xyz[1] / sum};
+    }
+    // CIE 15 daylight locus, as in pbrt-v4's Spectra::D.
+    const double x =
+        cct <= 7000.0
+            ? -4.607e9 / (cct * cct * cct) + 2.9678e6 / (cct * cct) + 0.09911e3 / cct + 0.244063
+            : -2.0064e9 / (cct * cct * cct) + 1.9018e6 / (cct * cct) + 0.24748e3 / cct + 0.23704;
+    return {x, -3.0 * x * x + 2.870 * x - 0.275};
+}
+
+std::vector<float> filmMatrix(int channels, const FilmColour& film) {
+    const Mat3 toRgb = filmXyzToRgb(film);
+    if (channels == 3) {
+        const Mat3 m = mul(toRgb, inverse(xyzToLinearSrgb()));
+        std::vector<float> out;
+        for (const auto& row : m)
+            for (double v : row)
+                out.push_back(static_cast<float>(v));
+        return out;
+    }
+    if (channels != kSpectralBins)
+        throw std::invalid_argument("filmMatrix: unsupported channel count " +
+                                    std::to_string(channels));
+    std::vector<float> out(3 * kSpectralBins);
+    for (int i = 0; i < kSpectralBins; ++i) {
+        const Vec3d rgb = mul(toRgb, binCmfIntegrals()[i]);
+        for (int c = 0; c < 3; ++c)
+            out[c * kSpectralBins + i] = static_cast<float>(rgb[c]);
+    }
+    return out;
+}
+
+std::array<float, 3> emissionToRgb(const PiecewiseLinear& s) {
+    const auto bins = binSpectrum(s);
+    Vec3d xyz{};
+    for (int i = 0; i < kSpectralBins; ++i)
+        for (int c = 0; c < 3; ++c)
+            xyz[c] += binCmfIntegrals()[i][c] * bins[i];
+    const Vec3d rgb = mul(xyzToLinearSrgb(), xyz);
+    return {static_cast<float>(rgb[0]), static_cast<float>(rgb[1]), static_cast<float>(rgb[2])};
+}
+
+const std::array<float, kSpectralBins>& whiteIlluminantBins() {
+    static const std::array<float, kSpectralBins> w = [] {
+        // Bin means of a + b t + c t^2, t = (nm - 550) / 150, chosen so that the film's XYZ is
+        // D65's white with Y = 1. Its values are positive (tested).
+        auto power = [](int i, int k) {
+            // Exact mean of t^k over bin i.
+            const double t0 = (binLambdaLow(i) - 550.0) / 150.0,
+                         t1 = (binLambdaHigh(i) - 550.0) / 150.0;
+            return (std::pow(t1, k + 1) - std::pow(t0, k + 1)) / ((k + 1) * (t1 - t0));
+        };
+        const Vec3d d65 = xyzFromChromaticity(0.3127, 0.3290);
+        std::vector<double> a(3 * 4, 0.0), coef;
+        for (int c = 0; c < 3; ++c) {
+            for (int k = 0; k < 3; ++k)
+                for (int i = 0; i < kSpectralBins; ++i)
+                    a[c * 4 + k] += binCmfIntegrals()[i][c] * power(i, k);
+            a[c * 4 + 3] = d65[c];
+        }
+        if (!solveDense(a, coef, 3)) throw std::logic_error("whiteIlluminantBins: singular");
+        std::array<float, kSpectralBins> out{};
+        for (int i = 0; i < kSpectralBins; ++i)
+            out[i] = static_cast<float>(coef[0] + coef[1] * power(i, 1) + coef[2] * power(i, 2));
+        return out;
+    }();
+    return w;
+}
+
+std::array<float, kSpectralBins> rgbIlluminantSpectrum(std::array<float, 3> rgb) {
+    std::array<float, kSpectralBins> s = rgbToSpectrum(rgb);
+    for (int i = 0; i < kSpectralBins; ++i)
+        s[i] *= whiteIlluminantBins()[i];
+    return s;
 }
 
 } // namespace cb

@@ -22,7 +22,7 @@ constexpr float binLambdaHigh(int i) {
 }
 
 // (wavelength in nm, value) pairs with strictly increasing wavelengths. Between samples the
-// spectrum is linear; beyond the first/last sample it is constant (pbrt's convention).
+// spectrum is linear; outside [first, last] it is zero (pbrt-v4's PiecewiseLinearSpectrum).
 using PiecewiseLinear = std::vector<std::pair<float, float>>;
 
 // Value of s at nm. An empty spectrum is zero everywhere.
@@ -66,5 +66,43 @@ std::array<float, kSpectralBins> rgbToSpectrum(std::array<float, 3> rgb);
 // The seven basis spectra used by rgbToSpectrum, in the order white, cyan, magenta, yellow, red,
 // green, blue (exposed for tests and docs).
 const std::array<std::array<float, kSpectralBins>, 7>& smitsBasis();
+
+// pbrt-v4's SpectrumToPhotometric for a spectrum given inline: the integral of s times y-bar over
+// pbrt's 360-830 nm (nm * value units; a flat spectrum of 1 gives about 106.9). pbrt-v4 divides
+// every light's L or I spectrum by it, so that the light's luminance is its "scale".
+double photometricIntegral(const PiecewiseLinear& s);
+
+// Colour settings of pbrt-v4's "rgb" film with its default "cie1931" sensor.
+struct FilmColour {
+    double whiteBalanceKelvin = 0.0; // "whitebalance": 0 = none (the cie1931 default)
+    double imagingRatio = 1.0;       // exposure time * "iso" / 100
+};
+
+// 3 x channels row-major matrix M with linear sRGB = M * channels, as pbrt-v4's RGB film
+// computes pixel values (film.h, PixelSensor::ToSensorRGB, RGBFilm): XYZ = integral of L times the
+// CMFs (absolute, no normalisation; for 16 channels each bin weighted by the CMF integral over
+// it), then the Bradford white balance from the CIE daylight illuminant of whiteBalanceKelvin
+// (Planckian below 4000 K) to D65 when given, then XYZ -> linear sRGB, times imagingRatio. For
+// 3 channels (RGB scenes) the same white balance and ratio act on linear sRGB.
+std::vector<float> filmMatrix(int channels, const FilmColour& film);
+
+// Film-space linear sRGB (no white balance) of an emission spectrum, binned as the renderer
+// does: the RGB-channel rendering of a spectral light, consistent with filmMatrix(16, {}).
+std::array<float, 3> emissionToRgb(const PiecewiseLinear& s);
+
+// 16 bins for an RGB emission value in a spectral scene. pbrt-v4 emits RGB as the RGB's smooth
+// spectrum times the colour space's illuminant (D65) normalised to luminance 1; cbdpt carries no
+// D65 table, so it multiplies rgbToSpectrum(rgb) by the smoothest quadratic-in-wavelength
+// spectrum whose film colour is D65's white at luminance 1: (1,1,1) renders as (1,1,1), as in
+// pbrt-v4.
+std::array<float, kSpectralBins> rgbIlluminantSpectrum(std::array<float, 3> rgb);
+
+// The illuminant used by rgbIlluminantSpectrum (rgb (1,1,1)).
+const std::array<float, kSpectralBins>& whiteIlluminantBins();
+
+// CIE 1931 xy chromaticity of the white a "whitebalance" temperature stands for, as pbrt-v4's
+// Spectra::D: the daylight locus from 4000 K (correlated colour temperature T * 1.4388 / 1.4380),
+// a Planckian radiator below.
+std::array<double, 2> whiteBalanceChromaticity(double kelvin);
 
 } // namespace cb

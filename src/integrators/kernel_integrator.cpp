@@ -1,0 +1,93 @@
+#include "integrators/kernel_integrator.h"
+
+#include <fmt/format.h>
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+
+namespace cb {
+
+KernelIntegrator::KernelIntegrator(std::string name, const IntegratorSettings& settings,
+                                   const DeviceScene& scene, ClRuntime& runtime)
+    : settings_(settings), scene_(scene), runtime_(runtime),
+      pixels_(size_t(scene.camera.width) * size_t(scene.camera.height)), buffers_(runtime, scene),
+      name_(std::move(name)), countRays_(std::getenv("CBDPT_RAY_STATS") != nullptr) {
+    int zero = 0;
+    auto& context = runtime.context();
+    nonFinite_ = cl::Buffer(context, CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, sizeof(int), &zero);
+    rays_ = cl::Buffer(context, CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, sizeof(int), &zero);
+}
+
+KernelIntegrator::~KernelIntegrator() {
+    if (countRays_ && rayTotal_ > 0 && kernelSeconds_ > 0.0)
+        fmt::print(stderr,
+                   "{}: {} rays (extension + shadow) in {:.3f} s of kernel time: {:.3g} "
+                   "rays/s\n",
+                   name_, rayTotal_, kernelSeconds_, double(rayTotal_) / kernelSeconds_);
+}
+
+void KernelIntegrator::buildProgram(const std::string& file, std::vector<std::string> defines) {
+    std::vector<std::string> all = scene_.kernelDefines();
+    all.insert(all.end(), defines.begin(), defines.end());
+    program_ = runtime_.buildProgram(file, all);
+    buildSeconds_ = runtime_.lastBuildSeconds();
+}
+
+std::vector<std::string> KernelIntegrator::vertexCapDefines() const {
+    return {fmt::format("CB_MAX_EYE_VERTICES={}", settings_.eyeVertices),
+            fmt::format("CB_MAX_LIGHT_VERTICES={}", settings_.lightVertices)};
+}
+
+void KernelIntegrator::addCounterArguments(KernelArguments& args) const {
+    args.add(nonFinite_).add(rays_).add(int(countRays_));
+}
+
+void KernelIntegrator::launch(cl::Kernel& kernel, const cl::NDRange& global,
+                              const cl::NDRange& local) {
+    auto& queue = runtime_.queue();
+    if (countRays_) {
+        std::uint32_t zero = 0;
+        queue.enqueueWriteBuffer(rays_, CL_TRUE, 0, sizeof(zero), &zero);
+    }
+    const auto start = std::chrono::steady_clock::now();
+    queue.enqueueNDRangeKernel(kernel, cl::NullRange, global, local);
+    queue.finish();
+    kernelSeconds_ +=
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+void KernelIntegrator::readCounters() {
+    auto& queue = runtime_.queue();
+    int nonFinite = 0;
+    queue.enqueueReadBuffer(nonFinite_, CL_TRUE, 0, sizeof(int), &nonFinite);
+    nonFiniteTotal_ = nonFinite;
+    if (countRays_) {
+        std::uint32_t rays = 0;
+        queue.enqueueReadBuffer(rays_, CL_TRUE, 0, sizeof(rays), &rays);
+        rayTotal_ += rays;
+    }
+}
+
+PixelKernelIntegrator::PixelKernelIntegrator(std::string name, const std::string& imageName,
+                                             const IntegratorSettings& settings,
+                                             const DeviceScene& scene, ClRuntime& runtime)
+    : KernelIntegrator(std::move(name), settings, scene, runtime),
+      image_(runtime.createBuffer(imageName + " image (width x height RGB)", CL_MEM_WRITE_ONLY,
+                                  imageBytes())) {}
+
+void PixelKernelIntegrator::renderEstimate(std::uint32_t estimate, std::vector<float>& rgb) {
+    beforeLaunch(estimate);
+    kernel_.setArg(estimateArgument_, estimate);
+    // One work-item per pixel, in square work-groups of tile x tile pixels.
+    const size_t tile = size_t(settings_.tileSize);
+    auto roundUp = [tile](int v) { return (size_t(v) + tile - 1) / tile * tile; };
+    launch(kernel_, cl::NDRange(roundUp(scene_.camera.width), roundUp(scene_.camera.height)),
+           cl::NDRange(tile, tile));
+    rgb.resize(3 * pixels_);
+    runtime_.queue().enqueueReadBuffer(image_, CL_TRUE, 0, imageBytes(), rgb.data());
+    readCounters();
+    afterReadBack(rgb);
+}
+
+} // namespace cb

@@ -1,0 +1,110 @@
+// The host side that every integrator shares, as pbrt-v4's integrators share a base class: the
+// scene's device buffers, the program built with the scene's kernel features, kernel arguments
+// set in the order the kernels declare them (kernels/cb_kernel.h), the counters of dropped
+// (non-finite) samples and of rays, timed launches and the ray report (CBDPT_RAY_STATS=1).
+// An integrator states only its kernel file, its defines, its own arguments and buffers, and
+// what it does around a launch.
+#pragma once
+
+#include "integrators/integrator.h"
+#include "integrators/scene_buffers.h"
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace cb {
+
+class KernelIntegrator : public Integrator {
+  public:
+    // Prints the ray report when CBDPT_RAY_STATS is set and the kernels counted rays.
+    ~KernelIntegrator() override;
+    long nonFiniteSamples() const override { return nonFiniteTotal_; }
+    double buildSeconds() const override { return buildSeconds_; }
+
+  protected:
+    // `name` prefixes the ray report ("bdpt: ... rays").
+    KernelIntegrator(std::string name, const IntegratorSettings& settings, const DeviceScene& scene,
+                     ClRuntime& runtime);
+
+    // Builds kernels/`file` with the scene's feature defines and `defines`.
+    void buildProgram(const std::string& file, std::vector<std::string> defines = {});
+    // CB_MAX_EYE_VERTICES and CB_MAX_LIGHT_VERTICES: the bidirectional kernels size their
+    // private vertex arrays by the caps, so each cap pair is its own build.
+    std::vector<std::string> vertexCapDefines() const;
+
+    // Sets the first arguments every integrator kernel takes (CB_INTEGRATOR_KERNEL_PARAMS): the
+    // scene, its spectrum-to-RGB matrix, the camera, the method's settings and the sampler.
+    template <typename MethodSettings>
+    KernelArguments integratorArguments(cl::Kernel& kernel, const MethodSettings& method) const {
+        KernelArguments args(kernel);
+        buffers_.addKernelArguments(args);
+        args.add(buffers_.toRgb).add(scene_.camera).add(method).add(samplerSettings(settings_));
+        return args;
+    }
+    // Sets the counters, a kernel's last arguments (CB_COUNTER_PARAMS).
+    void addCounterArguments(KernelArguments& args) const;
+
+    // Runs `kernel` over `global` work-items in groups of `local`, waits for it and adds its time
+    // to the kernel time of the ray report; the ray counter starts from zero.
+    void launch(cl::Kernel& kernel, const cl::NDRange& global, const cl::NDRange& local);
+    // Reads the counters after a launch: the dropped samples so far, and this launch's rays.
+    void readCounters();
+
+    size_t imageBytes() const { return 3 * sizeof(float) * pixels_; }
+
+    const IntegratorSettings settings_;
+    const DeviceScene& scene_;
+    ClRuntime& runtime_;
+    const size_t pixels_;
+    SceneBuffers buffers_;
+    cl::Program program_;
+
+  private:
+    std::string name_;
+    bool countRays_ = false;
+    cl::Buffer nonFinite_, rays_;
+    long nonFiniteTotal_ = 0;
+    long long rayTotal_ = 0;
+    double kernelSeconds_ = 0.0;
+    double buildSeconds_ = 0.0;
+};
+
+// An integrator whose kernel computes one pixel per work-item (pt, cpt, bdpt, cbdpt): each
+// estimate is one launch over square tiles of pixels into an RGB image that is read back.
+class PixelKernelIntegrator : public KernelIntegrator {
+  public:
+    void renderEstimate(std::uint32_t estimate, std::vector<float>& rgb) final;
+
+  protected:
+    // `imageName` names the image buffer in out-of-memory errors, e.g. "BDPT".
+    PixelKernelIntegrator(std::string name, const std::string& imageName,
+                          const IntegratorSettings& settings, const DeviceScene& scene,
+                          ClRuntime& runtime);
+
+    // Creates kernel `kernelName` of the built program and sets its arguments: the integrator's
+    // first ones, the estimate number, those `addMethodArguments(KernelArguments&)` adds, then
+    // the image and the counters.
+    template <typename MethodSettings, typename AddArguments>
+    void createKernel(const char* kernelName, const MethodSettings& method,
+                      AddArguments&& addMethodArguments) {
+        kernel_ = cl::Kernel(program_, kernelName);
+        KernelArguments args = integratorArguments(kernel_, method);
+        estimateArgument_ = args.next();
+        args.add(0u);
+        addMethodArguments(args);
+        args.add(image_);
+        addCounterArguments(args);
+    }
+
+    // Work before the launch of an estimate and on the image after it is read back.
+    virtual void beforeLaunch(std::uint32_t estimate) { (void)estimate; }
+    virtual void afterReadBack(std::vector<float>& rgb) { (void)rgb; }
+
+  private:
+    cl::Buffer image_;
+    cl::Kernel kernel_;
+    int estimateArgument_ = 0;
+};
+
+} // namespace cb

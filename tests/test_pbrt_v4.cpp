@@ -1,0 +1,377 @@
+// pbrt-v4 compatibility: the directives and parameters a pbrt-v4 file brings (Sampler,
+// Integrator, PixelFilter, ColorSpace, Option, Import, objects, named coordinate systems,
+// bilinear patches, film colour parameters) and pbrt-v4's light normalisation and film colour
+// (docs/pbrt-v4.md).
+#include <doctest/doctest.h>
+
+#include "scene/scene_desc.h"
+#include "spectral/spectral.h"
+#include "test_render_util.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <unistd.h>
+
+using cb::parseSceneString;
+using cb::SceneError;
+
+namespace {
+
+const std::string kOptions = "Camera \"perspective\"\n";
+const std::string kTri = "Shape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0]\n";
+
+std::string errorOf(const std::string& text) {
+    try {
+        parseSceneString(text, "t.pbrt");
+    } catch (const SceneError& e) {
+        return e.what();
+    }
+    return "";
+}
+
+bool contains(const std::string& s, const std::string& part) {
+    return s.find(part) != std::string::npos;
+}
+
+std::array<double, 3> normalOf(const cb::TriangleMeshDesc& m, size_t t) {
+    const auto& tri = m.triangles[t];
+    const auto &p0 = m.positions[tri[0]], &p1 = m.positions[tri[1]], &p2 = m.positions[tri[2]];
+    const double e1[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]};
+    const double e2[3] = {p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]};
+    return {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
+            e1[0] * e2[1] - e1[1] * e2[0]};
+}
+
+} // namespace
+
+TEST_CASE("pbrt-v4: Sampler pixelsamples is the default estimate count, reported once") {
+    auto s =
+        parseSceneString("Sampler \"zsobol\" \"integer pixelsamples\" 64 \"integer seed\" 3\n" +
+                             kOptions + "WorldBegin\n",
+                         "t.pbrt");
+    CHECK(s.sampler.type == "zsobol");
+    CHECK(s.sampler.pixelSamples == 64);
+    REQUIRE(s.notes.size() == 1);
+    CHECK(contains(s.notes[0], "not used"));
+    CHECK(contains(s.notes[0], "\"integer seed\""));
+    s = parseSceneString("Sampler \"stratified\" \"integer xsamples\" 2 \"integer ysamples\" 3\n"
+                         "WorldBegin\n",
+                         "t.pbrt");
+    CHECK(s.sampler.pixelSamples == 6);
+    s = parseSceneString("Sampler \"halton\"\nWorldBegin\n", "t.pbrt");
+    CHECK(s.sampler.pixelSamples == 16); // pbrt-v4's default
+    s = parseSceneString("WorldBegin\n", "t.pbrt");
+    CHECK(s.sampler.type.empty());
+    CHECK(s.sampler.pixelSamples == 0);
+    CHECK(contains(errorOf("WorldBegin\nSampler \"halton\"\n"), "only allowed before WorldBegin"));
+}
+
+TEST_CASE("pbrt-v4: Integrator chooses the method and maxdepth") {
+    auto s = parseSceneString("Integrator \"path\" \"integer maxdepth\" 3\nWorldBegin\n", "t.pbrt");
+    CHECK(s.integrator.type == "pt");
+    CHECK(s.integrator.maxDepth == 3);
+    s = parseSceneString("Integrator \"bdpt\"\nWorldBegin\n", "t.pbrt");
+    CHECK(s.integrator.type == "bdpt");
+    CHECK(s.integrator.maxDepth == 5); // pbrt-v4's default
+    s = parseSceneString("Integrator \"mlt\" \"float largestepprobability\" 0.5\nWorldBegin\n",
+                         "t.pbrt");
+    CHECK(s.integrator.type == "mlt");
+    REQUIRE(s.notes.size() == 1);
+    CHECK(contains(s.notes[0], "largestepprobability"));
+    s = parseSceneString("Integrator \"volpath\"\nWorldBegin\n", "t.pbrt");
+    CHECK(s.integrator.type == "pt");
+    const std::string e = errorOf("Integrator \"sppm\"\nWorldBegin\n");
+    CHECK(contains(e, "t.pbrt:1:12"));
+    CHECK(contains(e, "\"path\""));
+    CHECK(contains(e, "\"bdpt\""));
+    CHECK(contains(e, "\"mlt\""));
+    CHECK(
+        contains(errorOf("Integrator \"path\" \"integer maxdepth\" -1\nWorldBegin\n"), "maxdepth"));
+}
+
+TEST_CASE("pbrt-v4: PixelFilter, ColorSpace, Option") {
+    auto s = parseSceneString("PixelFilter \"box\"\nColorSpace \"srgb\"\nWorldBegin\n", "t.pbrt");
+    CHECK(s.notes.empty());
+    s = parseSceneString("PixelFilter \"box\" \"float xradius\" 0.5 \"float yradius\" 0.5\n"
+                         "WorldBegin\n",
+                         "t.pbrt");
+    CHECK(s.notes.empty());
+    s = parseSceneString("PixelFilter \"gaussian\" \"float sigma\" 0.5\nWorldBegin\n", "t.pbrt");
+    REQUIRE(s.notes.size() == 1);
+    CHECK(contains(s.notes[0], "box filter"));
+    s = parseSceneString("PixelFilter \"box\" \"float xradius\" 1\nWorldBegin\n", "t.pbrt");
+    REQUIRE(s.notes.size() == 1);
+    CHECK(contains(errorOf("ColorSpace \"aces2065-1\"\nWorldBegin\n"), "srgb"));
+    s = parseSceneString("Option \"bool disablepixeljitter\" true\n"
+                         "Option \"bool disablepixeljitter\" true\nWorldBegin\n",
+                         "t.pbrt");
+    CHECK(s.notes.size() == 1); // once per option
+    CHECK(contains(errorOf("Option \"bool a\" true \"bool b\" false\nWorldBegin\n"),
+                   "exactly one parameter"));
+}
+
+TEST_CASE("pbrt-v4: Import reads the file like Include") {
+    const auto dir =
+        std::filesystem::temp_directory_path() / ("cbdpt-import-" + std::to_string(::getpid()));
+    std::filesystem::create_directories(dir);
+    std::ofstream(dir / "part.pbrt") << kTri;
+    std::ofstream(dir / "main.pbrt") << "WorldBegin\nImport \"part.pbrt\"\n";
+    const auto s = cb::parseSceneFile((dir / "main.pbrt").string());
+    CHECK(s.meshes.size() == 1);
+    std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("pbrt-v4: uv and S on a mesh are ignored and reported once") {
+    const auto s = parseSceneString(
+        "WorldBegin\n"
+        "Shape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0] \"point2 uv\" [0 0 1 0 0 1]\n"
+        "Shape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0] \"vector3 S\" [1 0 0 1 0 0 1 0 "
+        "0]\n",
+        "t.pbrt");
+    CHECK(s.meshes.size() == 2);
+    REQUIRE(s.notes.size() == 1);
+    CHECK(contains(s.notes[0], "t.pbrt:2"));
+}
+
+TEST_CASE("pbrt-v4: planar bilinear patches become two triangles facing pbrt's normal") {
+    // p00, p10, p01, p11 of the unit square in z = 0: pbrt's normal cross(dpdu, dpdv) is +z.
+    auto s = parseSceneString("WorldBegin\nShape \"bilinearmesh\" \"point3 P\" "
+                              "[0 0 0  1 0 0  0 1 0  1 1 0]\n",
+                              "t.pbrt");
+    REQUIRE(s.meshes.size() == 1);
+    REQUIRE(s.meshes[0].triangles.size() == 2);
+    double area = 0.0;
+    for (size_t t = 0; t < 2; ++t) {
+        const auto n = normalOf(s.meshes[0], t);
+        CHECK(n[2] > 0.0);
+        area += 0.5 * n[2];
+    }
+    CHECK(area == doctest::Approx(1.0));
+    s = parseSceneString("WorldBegin\nReverseOrientation\nShape \"bilinearmesh\" \"point3 P\" "
+                         "[0 0 0  1 0 0  0 1 0  1 1 0]\n",
+                         "t.pbrt");
+    CHECK(normalOf(s.meshes[0], 0)[2] < 0.0);
+    CHECK(contains(errorOf("WorldBegin\nShape \"bilinearmesh\" \"point3 P\" "
+                           "[0 0 0  1 0 0  0 1 0  1 1 0.5]\n"),
+                   "non-planar"));
+    CHECK(contains(errorOf("WorldBegin\nShape \"bilinearmesh\" \"point3 P\" "
+                           "[0 0 0  1 0 0  0 1 0  1 1 0] \"integer indices\" [0 1 2]\n"),
+                   "multiple of 4"));
+}
+
+TEST_CASE("pbrt-v4: object instances are flattened with the instance transform") {
+    const auto s = parseSceneString("WorldBegin\n"
+                                    "ObjectBegin \"tri\"\n"
+                                    "  Translate 0 0 1\n" +
+                                        kTri +
+                                        "ObjectEnd\n"
+                                        "AttributeBegin\n  Translate 10 0 0\n"
+                                        "  ObjectInstance \"tri\"\nAttributeEnd\n"
+                                        "Scale -1 1 1\nObjectInstance \"tri\"\n",
+                                    "t.pbrt");
+    REQUIRE(s.meshes.size() == 2); // the definition itself is not drawn
+    CHECK(s.meshes[0].positions[1] == std::array<double, 3>{11, 0, 1});
+    CHECK(s.meshes[1].positions[1] == std::array<double, 3>{-1, 0, 1});
+    // Both face +z: the mirror keeps the surface's side, as pbrt-v4 transforms the normal.
+    CHECK(normalOf(s.meshes[0], 0)[2] > 0.0);
+    CHECK(normalOf(s.meshes[1], 0)[2] > 0.0);
+    CHECK(contains(errorOf("WorldBegin\nObjectInstance \"none\"\n"), "unknown object"));
+    CHECK(contains(errorOf("WorldBegin\nObjectBegin \"a\"\nObjectBegin \"b\"\n"), "nesting"));
+    CHECK(contains(errorOf("WorldBegin\nObjectBegin \"a\"\nAttributeEnd\n"), "ObjectEnd"));
+    // Area lights inside an object definition do not emit (pbrt-v4 warns and drops them).
+    const auto lit = parseSceneString("WorldBegin\nObjectBegin \"a\"\n"
+                                      "AreaLightSource \"diffuse\"\n" +
+                                          kTri + "ObjectEnd\nObjectInstance \"a\"\n",
+                                      "t.pbrt");
+    CHECK(lit.meshes[0].areaLight == -1);
+    CHECK(lit.notes.size() == 1);
+}
+
+TEST_CASE("pbrt-v4: CoordinateSystem and CoordSysTransform, camera included") {
+    auto s = parseSceneString("WorldBegin\nTranslate 5 0 0\nCoordinateSystem \"here\"\n"
+                              "Identity\nCoordSysTransform \"here\"\n" +
+                                  kTri,
+                              "t.pbrt");
+    CHECK(s.meshes[0].positions[1] == std::array<double, 3>{6, 0, 0});
+    // "camera" is the camera's frame: a point at its origin lands at the eye.
+    s = parseSceneString("LookAt 1 2 3  0 0 0  0 1 0\nCamera \"perspective\"\nWorldBegin\n"
+                         "CoordSysTransform \"camera\"\n"
+                         "Shape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0]\n",
+                         "t.pbrt");
+    for (int a = 0; a < 3; ++a)
+        CHECK(s.meshes[0].positions[0][a] == doctest::Approx(a + 1.0));
+    CHECK(contains(errorOf("WorldBegin\nCoordSysTransform \"nowhere\"\n"),
+                   "unknown coordinate system"));
+}
+
+TEST_CASE("pbrt-v4: rgb film colour parameters and the camera's shutter") {
+    auto s = parseSceneString("Camera \"perspective\" \"float shutteropen\" 0 "
+                              "\"float shutterclose\" 0.5\n"
+                              "Film \"rgb\" \"float iso\" 400 \"float whitebalance\" 5000 "
+                              "\"bool savefp16\" false \"string sensor\" \"cie1931\"\nWorldBegin\n",
+                              "t.pbrt");
+    CHECK(s.film.iso == 400.0);
+    CHECK(s.film.whiteBalance == 5000.0);
+    CHECK(s.film.exposureTime == 0.5);
+    CHECK_FALSE(s.film.saveFp16);
+    CHECK(s.film.saveFp16Given);
+    CHECK(contains(errorOf("Film \"rgb\" \"string sensor\" \"canon_eos_100d\"\nWorldBegin\n"),
+                   "unsupported sensor"));
+    CHECK(contains(errorOf("Film \"rgb\" \"float maxcomponentvalue\" 10\nWorldBegin\n"),
+                   "maxcomponentvalue"));
+    CHECK(contains(errorOf("Film \"rgb\" \"float iso\" 0\nWorldBegin\n"), "iso"));
+}
+
+TEST_CASE("pbrt-v4: light spectra are divided by their luminance integral") {
+    // pbrt-v4's CIE_Y_integral: the 1 nm sum of the CIE 1931 y-bar table over 360-830 nm, which
+    // is SpectrumToPhotometric of a flat spectrum of 1. The CMF fit gives it within 0.1%.
+    CHECK(cb::photometricIntegral({{360.f, 1.f}, {830.f, 1.f}}) ==
+          doctest::Approx(106.856895).epsilon(1e-3));
+    // Only the part inside the samples counts: pbrt-v4's inline spectra are zero outside.
+    CHECK(cb::photometricIntegral({{555.f, 1.f}, {556.f, 1.f}}) ==
+          doctest::Approx(1.0).epsilon(2e-3)); // y-bar is 1 at 555 nm
+    const auto s = parseSceneString("WorldBegin\n"
+                                    "AreaLightSource \"diffuse\" \"spectrum L\" [400 2 700 2] "
+                                    "\"float scale\" 3\n" +
+                                        kTri +
+                                        "LightSource \"point\" \"rgb I\" [1 1 1] "
+                                        "\"float power\" 100\n"
+                                        "LightSource \"point\" \"spectrum I\" [500 1 600 1]\n",
+                                    "t.pbrt");
+    const double flat400to700 = cb::photometricIntegral({{400.f, 1.f}, {700.f, 1.f}});
+    CHECK(s.areaLights[0].scale == doctest::Approx(3.0 / (2.0 * flat400to700)).epsilon(1e-6));
+    // "power" is luminous power; a unit point light emits 4 pi.
+    CHECK(s.pointLights[0].scale == doctest::Approx(100.0 / (4.0 * M_PI)).epsilon(1e-6));
+    CHECK(s.pointLights[1].scale ==
+          doctest::Approx(1.0 / cb::photometricIntegral({{500.f, 1.f}, {600.f, 1.f}})));
+    CHECK(
+        contains(errorOf("WorldBegin\nAreaLightSource \"diffuse\" \"spectrum L\" [300 1 350 1]\n"),
+                 "zero luminance"));
+}
+
+TEST_CASE("pbrt-v4: the thesis Cornell box keeps its luminance through the light's scale") {
+    const auto s = cb::parseSceneFile(std::string(CBDPT_SOURCE_DIR) + "/scenes/cornell-box.pbrt");
+    REQUIRE(s.areaLights.size() == 2);
+    // Before pbrt-v4's normalisation the spectrum was used as given and the film divided by
+    // y-bar's integral over 400-700 nm; "scale" is written so that the product is unchanged.
+    const double expected = 1.0 / cb::photometricIntegral({{400.f, 1.f}, {700.f, 1.f}});
+    for (const auto& l : s.areaLights)
+        CHECK(l.scale == doctest::Approx(expected).epsilon(1e-6));
+}
+
+TEST_CASE("pbrt-v4 film colour: XYZ to sRGB without adaptation, white balance, imaging ratio") {
+    const auto m = cb::filmMatrix(16, {});
+    // A flat spectrum of 1 has XYZ equal to the CMF integrals over 400-700 nm, which pbrt-v4's
+    // cie1931 sensor passes to sRGB without white balance: reddish, (1.205, 0.948, 0.909) times
+    // Y when X = Y = Z.
+    std::array<double, 3> flat{};
+    for (int c = 0; c < 3; ++c)
+        for (int i = 0; i < 16; ++i)
+            flat[c] += m[c * 16 + i];
+    const double y = cb::photometricIntegral({{400.f, 1.f}, {700.f, 1.f}});
+    CHECK(flat[0] / y == doctest::Approx(1.2048).epsilon(1e-2));
+    CHECK(flat[1] / y == doctest::Approx(0.9484).epsilon(1e-2));
+    CHECK(flat[2] / y == doctest::Approx(0.9087).epsilon(1e-2));
+    // The white illuminant of RGB emission renders as (1, 1, 1) and is positive.
+    for (int c = 0; c < 3; ++c) {
+        double v = 0.0;
+        for (int i = 0; i < 16; ++i)
+            v += m[c * 16 + i] * cb::whiteIlluminantBins()[i];
+        CHECK(v == doctest::Approx(1.0).epsilon(1e-5));
+    }
+    for (float w : cb::whiteIlluminantBins())
+        CHECK(w > 0.f);
+    // Imaging ratio: exposure time * ISO / 100 multiplies every pixel.
+    const auto m4 = cb::filmMatrix(16, {0.0, 4.0});
+    for (size_t i = 0; i < m.size(); ++i)
+        CHECK(m4[i] == doctest::Approx(4.0 * m[i]));
+    // pbrt-v4's D illuminant at 6500 K lies at D65's chromaticity to 1e-3, so balancing from it
+    // is nearly the identity; 3000 K (a Planckian source) makes a white light's red drop.
+    const auto xy = cb::whiteBalanceChromaticity(6500.0);
+    CHECK(xy[0] == doctest::Approx(0.3127).epsilon(3e-3));
+    CHECK(xy[1] == doctest::Approx(0.3290).epsilon(3e-3));
+    const auto rgb3000 = cb::filmMatrix(3, {3000.0, 1.0});
+    CHECK(rgb3000[0] < 0.9f);
+    CHECK(rgb3000[8] > 1.1f);
+    const auto identity = cb::filmMatrix(3, {});
+    for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c)
+            CHECK(identity[r * 3 + c] == doctest::Approx(r == c ? 1.0 : 0.0).epsilon(1e-6));
+}
+
+TEST_CASE("pbrt-v4 spot light: parameters, normalisation and power") {
+    const auto s =
+        parseSceneString("WorldBegin\nTranslate 1 2 3\n"
+                         "LightSource \"spot\" \"point3 from\" [0 0 0] \"point3 to\" [0 -2 0] "
+                         "\"float coneangle\" 40 \"float conedeltaangle\" 10 \"float power\" 3\n",
+                         "t.pbrt");
+    REQUIRE(s.pointLights.size() == 1);
+    const auto& l = s.pointLights[0];
+    CHECK(l.spot);
+    CHECK(l.position == std::array<double, 3>{1, 2, 3});
+    CHECK(l.spotAxis == std::array<double, 3>{0, -1, 0});
+    CHECK(l.spotCosEnd == doctest::Approx(std::cos(40.0 * M_PI / 180.0)));
+    CHECK(l.spotCosStart == doctest::Approx(std::cos(30.0 * M_PI / 180.0)));
+    // pbrt-v4's SpotLight::Create: k_e = 2 pi ((1 - cosStart) + (cosStart - cosEnd) / 2).
+    const double ke = 2.0 * M_PI *
+                      ((1.0 - std::cos(M_PI / 6.0)) +
+                       (std::cos(M_PI / 6.0) - std::cos(40.0 * M_PI / 180.0)) / 2.0);
+    CHECK(l.scale == doctest::Approx(3.0 / ke).epsilon(1e-5));
+    CHECK(contains(errorOf("WorldBegin\nLightSource \"spot\" \"float conedeltaangle\" 40\n"),
+                   "conedeltaangle"));
+    CHECK(contains(errorOf("WorldBegin\nScale 1 2 1\nLightSource \"spot\"\n"), "similarity"));
+    CHECK(contains(errorOf("WorldBegin\nLightSource \"distant\"\n"), "\"spot\""));
+}
+
+// A spot light 1 m above a diffuse plane, seen from straight above: each pixel's radiance is
+// (rho / pi) I S(cos theta) cos theta / d^2 with d = sqrt(1 + r^2), cos theta = 1 / d, and S
+// pbrt-v4's smoothstep falloff. The image mean is that averaged over the view, integrated here
+// on a fine grid; PT (next-event estimation) and BDPT (light subpaths leave the spot with its
+// falloff) must reproduce it.
+TEST_CASE("pbrt-v4 spot light: falloff on a diffuse plane against the analytic image mean") {
+    cb::ClRuntime runtime;
+    const double rho = 0.5, coneDeg = 30.0, deltaDeg = 10.0;
+    for (double fovDeg : {40.0, 90.0}) {
+        CAPTURE(fovDeg);
+        const std::string text =
+            "LookAt 0 2 0  0 0 0  0 0 1\nCamera \"perspective\" \"float fov\" " +
+            std::to_string(fovDeg) +
+            "\nFilm \"rgb\" \"integer xresolution\" 32 \"integer yresolution\" 32\nWorldBegin\n"
+            "LightSource \"spot\" \"point3 from\" [0 1 0] \"point3 to\" [0 0 0] "
+            "\"float coneangle\" 30 \"float conedeltaangle\" 10\n"
+            "Material \"diffuse\" \"rgb reflectance\" [0.5 0.5 0.5]\n"
+            "Shape \"bilinearmesh\" \"point3 P\" [-10 0 -10  10 0 -10  -10 0 10  10 0 10]\n";
+        const cb::DeviceScene scene = cb::buildDeviceScene(parseSceneString(text, "t.pbrt"));
+        CHECK(contains(scene.featureNames(), "spot-light"));
+        const double cosEnd = std::cos(coneDeg * M_PI / 180.0);
+        const double cosStart = std::cos((coneDeg - deltaDeg) * M_PI / 180.0);
+        const double halfWidth = 2.0 * std::tan(fovDeg * M_PI / 360.0);
+        const int n = 400;
+        double expected = 0.0;
+        for (int i = 0; i < n; ++i)
+            for (int j = 0; j < n; ++j) {
+                const double x = halfWidth * (2.0 * (i + 0.5) / n - 1.0);
+                const double y = halfWidth * (2.0 * (j + 0.5) / n - 1.0);
+                const double d = std::sqrt(1.0 + x * x + y * y), c = 1.0 / d;
+                const double t = std::clamp((c - cosEnd) / (cosStart - cosEnd), 0.0, 1.0);
+                expected += rho / M_PI * t * t * (3.0 - 2.0 * t) * c / (d * d);
+            }
+        expected /= double(n) * n;
+        for (const char* method : {"pt", "bdpt"}) {
+            CAPTURE(method);
+            cb::IntegratorSettings settings;
+            settings.name = method;
+            settings.eyeVertices = 3;
+            settings.lightVertices = 2;
+            settings.seed = 11;
+            const auto stats = cbtest::renderPooled(scene, runtime, settings, 16);
+            CAPTURE(expected);
+            CAPTURE(stats.mean);
+            CAPTURE(stats.standardError);
+            CHECK(std::fabs(stats.mean - expected) <= 3.5 * stats.standardError + 1e-4 * expected);
+        }
+    }
+}
