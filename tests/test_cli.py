@@ -66,6 +66,14 @@ with tempfile.TemporaryDirectory() as tmp:
     check(r.returncode == 0 and s["estimates"] == 2 and s["integrator"] == "bdpt" and
           s["eye_vertices"] == 3 and s["light_vertices"] == 3,
           f"the command line overrides the file; maxdepth 5 -> Nl = 3 ({s})")
+    # Without subpath caps, a bidirectional method takes pbrt-v4's convention: maxdepth 5 is the
+    # total-length cap N = 7 (Ne = 7, Nl = 6, strategies with s + t <= 7).
+    r = subprocess.run([cbdpt, "render", pbrt_scene, "--width", "8", "--height", "8", "--spp", "2",
+                        "--integrator", "bdpt", "-o", exr, "--png", png, "--stats", stats, "-q"],
+                       capture_output=True, text=True)
+    s = json.load(open(stats)) if r.returncode == 0 else {}
+    check(r.returncode == 0 and (s["max_vertices"], s["eye_vertices"], s["light_vertices"]) ==
+          (7, 7, 6), f"maxdepth 5 -> --max-vertices 7 for bdpt ({r.stderr} {s})")
 
     # Every integrator renders from the command line; MLT reports its chain statistics.
     for integrator, extra in (("bdpt", ["--light-vertices", "3"]), ("cbdpt", ["--light-vertices", "3"]),

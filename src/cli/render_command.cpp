@@ -236,8 +236,9 @@ void RenderJob::readSceneDescription() {
 
 // A pbrt-v4 file's Sampler and Integrator lines are defaults that the command line overrides:
 // pixelsamples -> --spp; the integrator -> --integrator; maxdepth d -> d + 2 path vertices (pbrt
-// counts bounces): --eye-vertices for PT, and Ne + Nl = d + 2 for the bidirectional methods,
-// whose caps together bound the path length.
+// counts bounces): --eye-vertices for PT, and for the bidirectional methods pbrt-v4's own
+// convention, the total-length cap --max-vertices d + 2 (unless a subpath cap is given: then the
+// other one makes Ne + Nl = d + 2).
 void RenderJob::applySceneDefaults() {
     if (!o_.sppGiven && desc_.sampler.pixelSamples > 0) o_.spp = desc_.sampler.pixelSamples;
     const cb::IntegratorDesc& in = desc_.integrator;
@@ -246,6 +247,8 @@ void RenderJob::applySceneDefaults() {
     const int vertices = in.maxDepth + 2;
     if (o_.integrator.name == "pt" || o_.integrator.name == "cpt") {
         if (!o_.eyeVerticesGiven) o_.integrator.eyeVertices = vertices;
+    } else if (!o_.eyeVerticesGiven && !o_.lightVerticesGiven) {
+        if (o_.integrator.maxPathVertices == 0) o_.integrator.maxPathVertices = vertices;
     } else {
         const int light = std::max(1, vertices / 2);
         if (!o_.lightVerticesGiven) o_.integrator.lightVertices = light;
