@@ -31,9 +31,9 @@ __kernel void renderBdpt(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings),
     int rays = 0;
     PathVertex light[CB_MAX_LIGHT_VERTICES];
     PathVertex eye[CB_MAX_EYE_VERTICES];
-    int nLight = bdptLightSubpath(&scene, bdptLightStream(seed, estimate, pixel),
+    int nLight = bdptLightSubpath(&scene, bdptLightStream(sampler, estimate, pixel),
                                   settings.lightVertices, light, &rays);
-    SampleStream eyeStream = sampleStreamStart(seed, estimate, pixel);
+    SampleStream eyeStream = samplerStream(sampler, estimate, pixel);
     float rasterX, rasterY;
     cameraJitteredRaster(eyeStream, x, y, &rasterX, &rasterY);
     int nEye = bdptEyeSubpath(&scene, &camera, rasterX, rasterY, true, eyeStream,
@@ -45,10 +45,13 @@ __kernel void renderBdpt(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings),
     for (int k = 0; k < CB_MAX_LIGHT_VERTICES; ++k)
         splatTarget[splatBase + (uint)k] = -1;
     for (int t = 1; t <= nEye; ++t) {
+        PathVertex nee[1]; /* s = 1's own light point for eye[t-1] */
+        bool haveNee = bdptNeeLightVertex(&scene, eyeStream, eye, t, nee);
         for (int s = 0; s <= nLight; ++s) {
+            if (s == 1 && !haveNee) continue;
             float rx = 0.0f, ry = 0.0f;
-            Spectrum c =
-                bdptConnect(&scene, &camera, light, s, eye, t, settings, 1.0f, &rx, &ry, &rays);
+            Spectrum c = bdptConnect(&scene, &camera, s == 1 ? nee : light, s, eye, t, settings,
+                                     1.0f, &rx, &ry, &rays);
             if (specIsBlack(c)) continue;
             if (!specIsFinite(c)) {
                 ++nonFinite;

@@ -76,20 +76,20 @@ typedef struct BdptSettings {
     int pad[2];
 } BdptSettings;
 
-/* Light subpath dimensions (its own stream, see bdptLightStream): 0 light choice, 1-2 point,
- * 3-4 direction, 5 side of a two-sided light; then CB_DIMS_PER_BOUNCE per bounce as for eye
- * paths (cb_rng.h slots). */
-#define CB_LIGHT_DIM_CHOICE 0u
-#define CB_LIGHT_DIM_POINT 1u
-#define CB_LIGHT_DIM_DIRECTION 3u
+/* Light subpath dimensions (its own stream, see bdptLightStream): 0-1 point, 2-3 direction,
+ * 4 light choice, 5 side of a two-sided light; then CB_DIMS_PER_BOUNCE per bounce as for eye
+ * paths (cb_rng.h slots). Pairs start at even dimensions (the Sobol sampler's 2D pairs). */
+#define CB_LIGHT_DIM_POINT 0u
+#define CB_LIGHT_DIM_DIRECTION 2u
+#define CB_LIGHT_DIM_CHOICE 4u
 #define CB_LIGHT_DIM_SIDE 5u
 #define CB_LIGHT_DIM_FIRST_BOUNCE 8u
 #define CB_LIGHT_STREAM_SALT 0x4c69676du
 
 /* The light subpath's stream: the eye stream's key salted, so that light and eye decisions never
  * share a dimension, and so that CBDPT can draw the light stream of an estimate on the host. */
-CB_FN SampleStream bdptLightStream(uint seed, uint estimate, uint stream) {
-    SampleStream s = sampleStreamStart(seed, estimate, stream);
+CB_FN SampleStream bdptLightStream(SamplerSettings sampler, uint estimate, uint stream) {
+    SampleStream s = samplerStream(sampler, estimate, stream);
     s.key = cbHashCombine(s.key, CB_LIGHT_STREAM_SALT);
     return s;
 }
@@ -318,7 +318,57 @@ CB_FN int bdptLightSubpath(const SceneView* scene, SampleStream stream, int maxV
                           light, 1, maxVertices, rays);
 }
 
+/* The light vertex of strategy s = 1 for eye vertex eye[t-1] (t >= 2): chosen as PT's
+ * next-event estimation chooses it from that vertex (lightSampleFrom: a sphere light by the cone
+ * it subtends), from the eye stream's light dimensions of that bounce, so that every eye vertex
+ * gets its own light point, as in pbrt-v4's BDPT. pdfFwd keeps the light subpath's origin
+ * density (the MIS recursion's convention, see bdptConeRatio) while beta divides by the density
+ * the point was really sampled with. False when no point was produced. */
+CB_FN bool bdptNeeLightVertex(const SceneView* scene, SampleStream eyeStream, const PathVertex* eye,
+                              int t, PathVertex* out) {
+    if (t < 2) return false;
+    int bounce = t - 2;
+    LightSample ls;
+    if (!lightSampleFrom(scene, pvP(&eye[t - 1]),
+                         sampleAt(eyeStream, bounceDimension(bounce, CB_SLOT_LIGHT_CHOICE)),
+                         sampleAt(eyeStream, bounceDimension(bounce, CB_SLOT_LIGHT_POINT)),
+                         sampleAt(eyeStream, bounceDimension(bounce, CB_SLOT_LIGHT_POINT + 1u)),
+                         &ls))
+        return false;
+    cbStore3(out->p, ls.p);
+    cbStore3(out->n, ls.n);
+    cbStore3(out->pError, ls.pError);
+    cbStore3(out->wo, vec3(0.0f, 0.0f, 0.0f));
+    out->type = ls.isDelta ? CB_VERTEX_POINT_LIGHT : CB_VERTEX_AREA_LIGHT;
+    out->material = -1;
+    out->light = ls.light;
+    out->delta = 0;
+    out->pdfFwd = ls.isDelta ? ls.pdfPick : lightPdfArea(scene, ls.light);
+    out->pdfRev = 0.0f;
+    out->pad0 = out->pad1 = 0.0f;
+    for (int i = 0; i < CB_PATH_VERTEX_PAD; ++i)
+        out->pad[i] = 0.0f;
+    out->beta = specConst(1.0f / (ls.pdfPick * ls.pdfArea));
+    return true;
+}
+
 /* ---- Strategies and MIS weights ------------------------------------------------------------ */
+
+/* Strategies s >= 2 start with the light subpath's point y0, sampled by area; s = 1 samples y0
+ * from y1 (bdptNeeLightVertex), by the cone for a sphere seen from outside. The ratio recursion
+ * below assumes one density for y0 in every strategy (the area one, stored in pdfFwd), so the
+ * s = 1 strategy's pdf is that times this ratio: the cone density converted to area at y0,
+ * |cos at y0| / dist^2, over the area density (the light choice cancels). 1 for other lights. */
+CB_FN real bdptConeRatio(const SceneView* scene, const PathVertex* y0, const PathVertex* y1) {
+    if (y0->type == CB_VERTEX_POINT_LIGHT || y0->light < 0) return 1.0f;
+    real conePdf = lightConePdf(scene, y0->light, pvP(y1));
+    if (!(conePdf > 0.0f)) return 1.0f;
+    Vec3 d = vsub(pvP(y1), pvP(y0));
+    real dist2 = vlength2(d);
+    if (!(dist2 > 0.0f)) return 1.0f;
+    real cosY0 = vabsdot(pvN(y0), d) / sqrt(dist2);
+    return conePdf * cosY0 / dist2 * scene->lights[y0->light].area;
+}
 
 /* Whether strategy (s,t) exists under the caps (see the header comment). */
 CB_FN bool bdptStrategyAllowed(int s, int t, int eyeVertices, int lightVertices) {
@@ -344,11 +394,14 @@ CB_FN real cbRemap0(real f) {
  * cameraCount scales the sampling rate of the t = 1 strategy (Veach's heuristics weigh
  * n_i p_i, eq. 9.13): 1 in BDPT and MLT, whose W*H light subpaths per estimate all splat; CBDPT
  * traces fewer light subpaths per estimate than there are pixels and passes their number / (W*H)
- * (docs/cbdpt.md). */
+ * (docs/cbdpt.md). coneRatio is bdptConeRatio of the full path's y0, y1. */
 CB_FN real bdptPowerWeight(const PathVertex* light, int s, const PathVertex* eye, int t,
                            real ptPdfRev, real ptMinusPdfRev, real qsPdfRev, real qsMinusPdfRev,
-                           BdptSettings settings, real cameraCount) {
+                           BdptSettings settings, real cameraCount, real coneRatio) {
     if (s + t == 2) return 1.0f; /* only (0,2) exists: (1,1) is excluded */
+    /* p_1 carries coneRatio (bdptConeRatio): ratios to s' = 1 gain it, ratios from s = 1 lose it.
+     */
+    real fromS = s == 1 ? 1.0f / coneRatio : 1.0f;
     real sumRi = 0.0f;
     real ri = 1.0f;
     for (int i = t - 1; i > 0; --i) {
@@ -358,8 +411,10 @@ CB_FN real bdptPowerWeight(const PathVertex* light, int s, const PathVertex* eye
         ri *= cbRemap0(rev) / cbRemap0(eye[i].pdfFwd);
         int deltaHere = i == t - 1 ? 0 : eye[i].delta;
         int deltaPrev = eye[i - 1].delta; /* i - 1 < t - 1 */
-        if (!deltaHere && !deltaPrev && !(sNew == 1 && i == 1))
-            sumRi += i == 1 ? ri * ri * (cameraCount * cameraCount) : ri * ri;
+        if (!deltaHere && !deltaPrev && !(sNew == 1 && i == 1)) {
+            real r = ri * fromS * (sNew == 1 ? coneRatio : 1.0f);
+            sumRi += i == 1 ? r * r * (cameraCount * cameraCount) : r * r;
+        }
     }
     ri = 1.0f;
     for (int i = s - 1; i >= 0; --i) {
@@ -373,8 +428,10 @@ CB_FN real bdptPowerWeight(const PathVertex* light, int s, const PathVertex* eye
             deltaPrev = i - 1 == s - 1 ? 0 : light[i - 1].delta;
         else
             deltaPrev = light[0].type == CB_VERTEX_POINT_LIGHT; /* s = 0 cannot hit it */
-        if (!deltaHere && !deltaPrev && !(i == 1 && tNew == 1))
-            sumRi += t == 1 ? ri * ri / (cameraCount * cameraCount) : ri * ri;
+        if (!deltaHere && !deltaPrev && !(i == 1 && tNew == 1)) {
+            real r = ri * fromS * (i == 1 ? coneRatio : 1.0f);
+            sumRi += t == 1 ? r * r / (cameraCount * cameraCount) : r * r;
+        }
     }
     return 1.0f / (1.0f + sumRi);
 }
@@ -436,8 +493,11 @@ CB_FN real bdptMisWeight(const SceneView* scene, const PathVertex* light, int s,
     if (settings.debugS >= 0) return 1.0f;
     if (settings.weights == CB_WEIGHTS_LAFORTUNE)
         return bdptLafortuneWeight(scene, light, s, eye, t, settings);
+    /* y0 and y1 of the full path, for the s = 1 strategy's light density. */
+    const PathVertex* y0 = s >= 1 ? &light[0] : &eye[t - 1];
+    const PathVertex* y1 = s >= 2 ? &light[1] : (s == 1 ? &eye[t - 1] : &eye[t - 2]);
     return bdptPowerWeight(light, s, eye, t, ptPdfRev, ptMinusPdfRev, qsPdfRev, qsMinusPdfRev,
-                           settings, cameraCount);
+                           settings, cameraCount, bdptConeRatio(scene, y0, y1));
 }
 
 /* ---- Connection ---------------------------------------------------------------------------- */

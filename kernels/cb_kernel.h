@@ -6,14 +6,16 @@
 #define CB_KERNEL_H
 
 #include "cb_camera.h"
+#include "cb_rng.h"
 #include "cb_types.h"
 
 #ifdef CB_KERNEL_SIDE
 /* The first parameters of every integrator kernel: the scene, its spectrum-to-RGB matrix, the
- * camera, the method's settings (a struct of type SettingsType) and the seed. */
+ * camera, the method's settings (a struct of type SettingsType) and the sampler (seed and kind,
+ * cb_rng.h). */
 #define CB_INTEGRATOR_KERNEL_PARAMS(SettingsType)                                                  \
     CB_SCENE_KERNEL_PARAMS, __global const float *toRgb, Camera camera, SettingsType settings,     \
-        uint seed
+        SamplerSettings sampler
 
 /* The last parameters: the count of samples dropped as NaN or infinite (cumulative over the
  * render) and of rays traced (per launch, added only when countRays is set, since one atomic per

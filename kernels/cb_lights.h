@@ -1,6 +1,7 @@
-/* cb_lights.h - choosing lights and points on them (METHOD.md: light by power, point uniformly
- * by area; point lights are deltas in position). Shared by next-event estimation in the
- * kernels and by light-subpath generation on the host. */
+/* cb_lights.h - choosing lights and points on them: light by power, point uniformly by area
+ * (light subpaths) or, for next-event estimation from outside a sphere light, uniformly in the
+ * cone the sphere subtends; point lights are deltas in position. Shared by next-event
+ * estimation in the kernels and by light-subpath generation on the host. */
 #ifndef CB_LIGHTS_H
 #define CB_LIGHTS_H
 
@@ -11,13 +12,14 @@
 CB_BEGIN_NAMESPACE
 
 typedef struct LightSample {
-    Vec3 p;       /* the point on the light */
-    Vec3 pError;  /* error bound of p, for spawnRayTo */
-    Vec3 n;       /* unit surface normal (front side); zero for point lights */
-    int light;    /* index of the chosen light */
-    int isDelta;  /* point light: position is a delta, no MIS against BSDF sampling */
-    real pdfPick; /* probability of having chosen this light */
-    real pdfArea; /* density of p on the light in area measure (1 for point lights) */
+    Vec3 p;             /* the point on the light */
+    Vec3 pError;        /* error bound of p, for spawnRayTo */
+    Vec3 n;             /* unit surface normal (front side); zero for point lights */
+    int light;          /* index of the chosen light */
+    int isDelta;        /* point light: position is a delta, no MIS against BSDF sampling */
+    real pdfPick;       /* probability of having chosen this light */
+    real pdfArea;       /* density of p on the light in area measure (1 for point lights) */
+    real pdfSolidAngle; /* lightSampleFrom on a sphere: the cone's solid-angle density; else 0 */
 } LightSample;
 
 /* Index of the light whose CDF interval contains u (binary search over Light.cdf). */
@@ -40,6 +42,7 @@ CB_FN void lightSamplePoint(const SceneView* scene, int lightIndex, real u0, rea
     CB_GLOBAL const Light* light = &scene->lights[lightIndex];
     out->light = lightIndex;
     out->pdfPick = light->pickProbability;
+    out->pdfSolidAngle = 0.0f;
 #if CB_HAS(CB_FEATURE_POINT_LIGHT)
     if (light->kind == CB_LIGHT_POINT) {
         out->p = vec3FromGlobalArray(light->position);
@@ -76,12 +79,111 @@ CB_FN void lightSamplePoint(const SceneView* scene, int lightIndex, real u0, rea
     out->n = vnormalize(vcross(vsub(p1, p0), vsub(p2, p0)));
 }
 
-/* Choose a light by power (uChoice), then a point on it (u0, u1). False if the scene has no
- * lights. */
+/* Choose a light by power (uChoice), then a point on it uniformly by area (u0, u1): the origin
+ * of a light subpath. False if the scene has no lights. */
 CB_FN bool lightSample(const SceneView* scene, real uChoice, real u0, real u1, LightSample* out) {
     if (scene->lightCount <= 0) return false;
     lightSamplePoint(scene, lightChoose(scene, uChoice), u0, u1, out);
     return out->pdfPick > 0.0f;
+}
+
+/* Below this sin^2(theta_max) the cone's 1 - cos(theta_max) is taken as sin^2/2 and theta from
+ * sin^2 directly, where 1 - cos would cancel in real (pbrt-v4, Sphere::Sample). */
+#define CB_CONE_SMALL_SIN2 0.00068523f
+
+/* Solid-angle density, light choice excluded, with which lightSampleFrom samples sphere light
+ * `lightIndex` as seen from `ref`: uniform over the cone the sphere subtends, 1 / (2 pi (1 -
+ * cos theta_max)) (Shirley et al. 1996, "Monte Carlo Techniques for Direct Lighting
+ * Calculations"; pbrt-v4 6.2.3). 0 when the light is sampled by area instead: not a sphere, or
+ * ref inside it. */
+CB_FN real lightConePdf(const SceneView* scene, int lightIndex, Vec3 ref) {
+#if CB_HAS(CB_FEATURE_SPHERES)
+    CB_GLOBAL const Light* light = &scene->lights[lightIndex];
+#if CB_HAS(CB_FEATURE_POINT_LIGHT)
+    if (light->kind == CB_LIGHT_POINT) return 0.0f;
+#endif
+    CB_GLOBAL const Primitive* prim = &scene->primitives[light->primitive];
+    if (prim->kind != CB_PRIM_SPHERE) return 0.0f;
+    real radius = prim->p1[0];
+    real dc2 = vlength2(vsub(ref, vec3FromGlobalArray(prim->p0)));
+    if (!(dc2 > radius * radius)) return 0.0f;
+    real sin2Max = radius * radius / dc2;
+    real oneMinusCosMax =
+        sin2Max < CB_CONE_SMALL_SIN2 ? 0.5f * sin2Max : 1.0f - cbSafeSqrt(1.0f - sin2Max);
+    return 1.0f / (2.0f * CB_PI * oneMinusCosMax);
+#else
+    (void)scene;
+    (void)lightIndex;
+    (void)ref;
+    return 0.0f;
+#endif
+}
+
+/* Next-event estimation from `ref`: a light by power, then a point on it. A sphere seen from
+ * outside is sampled uniformly in the cone it subtends, which only produces points of the cap
+ * that faces ref (uniform area sampling wastes the half facing away and samples the rest with
+ * density cos/r^2 in solid angle instead of uniformly): the direction at angle theta from the
+ * centre, then the point where that ray first meets the sphere, at angle alpha from the centre's
+ * axis (pbrt-v4 Sphere::Sample with a reference point). pdfArea is then the cone density
+ * converted to area at the point, and pdfSolidAngle the cone density itself; area sampling
+ * leaves pdfSolidAngle 0. False if the scene has no lights or the density vanishes. */
+CB_FN bool lightSampleFrom(const SceneView* scene, Vec3 ref, real uChoice, real u0, real u1,
+                           LightSample* out) {
+    if (scene->lightCount <= 0) return false;
+    int lightIndex = lightChoose(scene, uChoice);
+    real conePdf = lightConePdf(scene, lightIndex, ref);
+    out->pdfSolidAngle = conePdf;
+    if (!(conePdf > 0.0f)) {
+        lightSamplePoint(scene, lightIndex, u0, u1, out);
+        return out->pdfPick > 0.0f;
+    }
+    CB_GLOBAL const Light* light = &scene->lights[lightIndex];
+    CB_GLOBAL const Primitive* prim = &scene->primitives[light->primitive];
+    Vec3 center = vec3FromGlobalArray(prim->p0);
+    real radius = prim->p1[0];
+    Vec3 toRef = vsub(ref, center);
+    real dc = vlength(toRef);
+    real sinMax = radius / dc;
+    real sin2Max = sinMax * sinMax;
+    real cosMax = cbSafeSqrt(1.0f - sin2Max);
+    real cosTheta = (cosMax - 1.0f) * u0 + 1.0f;
+    real sin2Theta = 1.0f - cosTheta * cosTheta;
+    if (sin2Max < CB_CONE_SMALL_SIN2) {
+        sin2Theta = sin2Max * u0;
+        cosTheta = sqrt(1.0f - sin2Theta);
+    }
+    /* The angle at the centre between ref and the point: the law of sines on the triangle
+     * (ref, centre, point) with |ref - centre| = r / sinMax. */
+    real cosAlpha = sin2Theta / sinMax + cosTheta * cbSafeSqrt(1.0f - sin2Theta / sin2Max);
+    real sinAlpha = cbSafeSqrt(1.0f - cosAlpha * cosAlpha);
+    real phi = 2.0f * CB_PI * u1;
+    Vec3 dirLocal = vec3(sinAlpha * cos(phi), sinAlpha * sin(phi), cosAlpha);
+    Vec3 dir = frameToWorld(frameFromNormal(vscale(toRef, 1.0f / dc)), dirLocal);
+    out->light = lightIndex;
+    out->pdfPick = light->pickProbability;
+    out->isDelta = 0;
+    out->p = vmadd(center, dir, radius);
+    out->pError = vscale(vabs(out->p), cbGamma(5));
+    out->n = vscale(dir, prim->p1[1]);
+    Vec3 toLight = vsub(out->p, ref);
+    real dist2 = vlength2(toLight);
+    real cosLight = vabsdot(out->n, toLight) / sqrt(dist2);
+    out->pdfArea = conePdf * cosLight / dist2;
+    return out->pdfPick > 0.0f && out->pdfArea > 0.0f && isfinite(out->pdfArea);
+}
+
+/* Solid-angle density at `ref`, light choice included, with which lightSampleFrom produces the
+ * point p (normal n) of area light `lightIndex`: the cone's for spheres seen from outside, else
+ * the area density converted (Veach 1997, eq. 8.10). */
+CB_FN real lightPdfSolidAngleFrom(const SceneView* scene, int lightIndex, Vec3 ref, Vec3 p,
+                                  Vec3 n) {
+    CB_GLOBAL const Light* light = &scene->lights[lightIndex];
+    real conePdf = lightConePdf(scene, lightIndex, ref);
+    if (conePdf > 0.0f) return light->pickProbability * conePdf;
+    Vec3 d = vsub(p, ref);
+    real dist2 = vlength2(d);
+    real cosLight = vabsdot(n, d) / sqrt(dist2);
+    return light->pickProbability / light->area * dist2 / cosLight;
 }
 
 /* Radiance leaving an area light with front normal n in direction w (unit). One-sided lights

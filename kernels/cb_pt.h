@@ -37,7 +37,8 @@ CB_FN Spectrum ptRadiance(const SceneView* scene, Ray ray, SampleStream stream,
     Spectrum radiance = specZero();
     Spectrum throughput = specConst(1.0f);
     real previousPdfW = 0.0f;
-    int previousDelta = 1; /* the pinhole camera: emission seen directly takes full weight */
+    int previousDelta = 1;  /* the pinhole camera: emission seen directly takes full weight */
+    Vec3 previousP = ray.o; /* the vertex the ray left, where next-event estimation sampled */
 
     for (int vertex = 1; vertex < settings.eyeVertices; ++vertex) {
         Hit hit;
@@ -55,8 +56,8 @@ CB_FN Spectrum ptRadiance(const SceneView* scene, Ray ray, SampleStream stream,
             if (!specIsBlack(emitted)) {
                 real weight = 1.0f;
                 if (!previousDelta) {
-                    real cosLight = vabsdot(sp.ng, wo);
-                    real pdfLightW = lightPdfArea(scene, sp.light) * hit.t * hit.t / cosLight;
+                    real pdfLightW =
+                        lightPdfSolidAngleFrom(scene, sp.light, previousP, sp.p, sp.ng);
                     weight = powerHeuristic(previousPdfW, pdfLightW);
                 }
                 radiance = specAdd(radiance, specScale(specMul(throughput, emitted), weight));
@@ -73,7 +74,7 @@ CB_FN Spectrum ptRadiance(const SceneView* scene, Ray ray, SampleStream stream,
             real uChoice = sampleAt(stream, bounceDimension(bounce, CB_SLOT_LIGHT_CHOICE));
             real uLight0 = sampleAt(stream, bounceDimension(bounce, CB_SLOT_LIGHT_POINT));
             real uLight1 = sampleAt(stream, bounceDimension(bounce, CB_SLOT_LIGHT_POINT + 1u));
-            if (lightSample(scene, uChoice, uLight0, uLight1, &ls)) {
+            if (lightSampleFrom(scene, sp.p, uChoice, uLight0, uLight1, &ls)) {
                 Vec3 toLight = vsub(ls.p, sp.p);
                 real dist2 = vlength2(toLight);
                 Vec3 wi = vscale(toLight, 1.0f / sqrt(dist2));
@@ -85,7 +86,9 @@ CB_FN Spectrum ptRadiance(const SceneView* scene, Ray ray, SampleStream stream,
                 } else {
                     emitted = lightEmittedRadiance(scene, ls.light, ls.n, vneg(wi));
                     real cosLight = vabsdot(ls.n, wi);
-                    pdfLightW = ls.pdfPick * ls.pdfArea * dist2 / cosLight;
+                    pdfLightW = ls.pdfSolidAngle > 0.0f
+                                    ? ls.pdfPick * ls.pdfSolidAngle
+                                    : ls.pdfPick * ls.pdfArea * dist2 / cosLight;
                 }
                 if (!specIsBlack(emitted) && pdfLightW > 0.0f && isfinite(pdfLightW)) {
                     real pdfBsdfW, pdfRev;
@@ -115,6 +118,7 @@ CB_FN Spectrum ptRadiance(const SceneView* scene, Ray ray, SampleStream stream,
         throughput = specMul(throughput, specScale(bs.f, vabsdot(bs.wi, sp.ng) / bs.pdf));
         previousPdfW = bs.pdf;
         previousDelta = bs.isDelta;
+        previousP = sp.p;
 
         if (settings.rouletteVertex > 0 && vertex >= settings.rouletteVertex) {
             real survival = rouletteSurvival(throughput);
@@ -132,11 +136,11 @@ CB_FN Spectrum ptRadiance(const SceneView* scene, Ray ray, SampleStream stream,
  * (PT); streamTile == k > 0: the pixel at position (i, j) of its k x k tile uses vector (i, j)
  * of the estimate (CPT, METHOD.md). */
 CB_FN Vec3 ptPixelRgb(const SceneView* scene, CB_GLOBAL const real* toRgb, const Camera* camera,
-                      PathSettings settings, uint seed, uint estimate, int streamTile, int x,
-                      int y) {
+                      PathSettings settings, SamplerSettings sampler, uint estimate, int streamTile,
+                      int x, int y) {
     uint pixel = (uint)(y * camera->width + x);
     uint stream = streamTile > 0 ? (uint)((y % streamTile) * streamTile + (x % streamTile)) : pixel;
-    SampleStream samples = sampleStreamStart(seed, estimate, stream);
+    SampleStream samples = samplerStream(sampler, estimate, stream);
     real rasterX, rasterY;
     cameraJitteredRaster(samples, x, y, &rasterX, &rasterY);
     Ray ray = cameraGenerateRay(camera, rasterX, rasterY);

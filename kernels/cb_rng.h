@@ -35,19 +35,42 @@ CB_FN real cbUintToUnitFloat(uint bits) {
  * instead read an explicit table of primary samples, the state of a Metropolis chain in primary
  * sample space (Kelemen et al. 2002), so that the path code samples paths from mutated vectors
  * without knowing it. Without the macro the struct and every function are exactly as before. */
+/* The sampler behind a stream (--sampler): CB_SAMPLER_INDEPENDENT hashes (seed, estimate,
+ * stream, dimension) into independent uniform numbers; CB_SAMPLER_SOBOL makes the estimates of
+ * one stream a randomised low-discrepancy sequence (sobolSample below). Passed by value into the
+ * kernels, so 16 bytes. */
+#define CB_SAMPLER_INDEPENDENT 0
+#define CB_SAMPLER_SOBOL 1
+
+typedef struct SamplerSettings {
+    uint seed;
+    int kind; /* CB_SAMPLER_* */
+    int pad[2];
+} SamplerSettings;
+
+/* CB_PRIMARY_SAMPLES (defined only by kernels/mlt.cl before including this header): a stream may
+ * instead read an explicit table of primary samples, the state of a Metropolis chain in primary
+ * sample space (Kelemen et al. 2002), so that the path code samples paths from mutated vectors
+ * without knowing it. Without the macro the struct and every function are exactly as before. */
 typedef struct SampleStream {
-    uint key;       /* hash of (seed, estimate, stream) */
+    uint key;       /* independent: hash of (seed, estimate, stream); Sobol: of (seed, stream) */
     uint dimension; /* next dimension to read */
+    uint index;     /* Sobol: the estimate, the point's index in the sequence */
+    int sobol;      /* CB_SAMPLER_SOBOL: read sobolSample */
 #ifdef CB_PRIMARY_SAMPLES
     const real* primary; /* non-null: u[d] = primary[d] for d < primaryCount */
     uint primaryCount;
 #endif
 } SampleStream;
 
-CB_FN SampleStream sampleStreamStart(uint seed, uint estimate, uint stream) {
+CB_FN SampleStream samplerStream(SamplerSettings sampler, uint estimate, uint stream) {
     SampleStream s;
-    s.key = cbHashCombine(cbHashCombine(cbHash32(seed), estimate), stream);
+    s.sobol = sampler.kind == CB_SAMPLER_SOBOL;
+    /* The Sobol sequence runs over the estimates, so its key must not depend on them. */
+    uint keyedEstimate = s.sobol ? 0xffffffffu : estimate;
+    s.key = cbHashCombine(cbHashCombine(cbHash32(sampler.seed), keyedEstimate), stream);
     s.dimension = 0u;
+    s.index = estimate;
 #ifdef CB_PRIMARY_SAMPLES
     s.primary = 0;
     s.primaryCount = 0u;
@@ -55,11 +78,86 @@ CB_FN SampleStream sampleStreamStart(uint seed, uint estimate, uint stream) {
     return s;
 }
 
+/* The independent sampler's stream (MLT's chains and tests use it directly). */
+CB_FN SampleStream sampleStreamStart(uint seed, uint estimate, uint stream) {
+    SamplerSettings sampler;
+    sampler.seed = seed;
+    sampler.kind = CB_SAMPLER_INDEPENDENT;
+    sampler.pad[0] = sampler.pad[1] = 0;
+    return samplerStream(sampler, estimate, stream);
+}
+
+/* ---- Randomised Sobol points ------------------------------------------------------------ */
+
+CB_FN uint cbReverseBits(uint x) {
+    x = (x << 16) | (x >> 16);
+    x = ((x & 0x00ff00ffu) << 8) | ((x & 0xff00ff00u) >> 8);
+    x = ((x & 0x0f0f0f0fu) << 4) | ((x & 0xf0f0f0f0u) >> 4);
+    x = ((x & 0x33333333u) << 2) | ((x & 0xccccccccu) >> 2);
+    x = ((x & 0x55555555u) << 1) | ((x & 0xaaaaaaaau) >> 1);
+    return x;
+}
+
+/* Sobol's second dimension (primitive polynomial x + 1, m_1 = 1): direction numbers
+ * v_1 = 2^31, v_k = v_{k-1} xor (v_{k-1} >> 1); the point is the xor of v_k over the set bits
+ * k of the index. The first dimension is the van der Corput sequence, reverse(index). */
+CB_FN uint sobolSecondDimension(uint index) {
+    uint result = 0u;
+    uint v = 0x80000000u;
+    for (; index != 0u; index >>= 1) {
+        if (index & 1u) result ^= v;
+        v ^= v >> 1;
+    }
+    return result;
+}
+
+/* Owen scrambling (nested uniform digit permutation) of a 32-bit fraction given with its first
+ * digit in bit 0, by Laine and Karras' hash as Burley 2020 ("Practical Hash-based Owen
+ * Scrambling", JCGT 9(4)) gives it: every step changes a bit by the bits below it only, so
+ * each elementary interval goes to one elementary interval (nets stay nets), and adding the
+ * random seed first makes every single point exactly uniform. */
+CB_FN uint owenScrambleReversed(uint x, uint seed) {
+    x += seed;
+    x ^= x * 0x6c50b47cu;
+    x ^= x * 0xb82f1e52u;
+    x ^= x * 0xc7afe638u;
+    x ^= x * 0x8d22f6e6u;
+    return x;
+}
+
+/* A bijection of the estimate indices that maps [0, 2^k) onto itself for every k, so that the
+ * first 2^k estimates of every pair of dimensions are still the first 2^k Sobol points (a
+ * (0,k,2)-net once scrambled) whatever the total count: bit j is flipped by a hash of the bits
+ * above it (zero stays zero). Each pair of dimensions has its own, so that pairs are paired by a
+ * random permutation rather than index for index; the digit-by-digit dependence on the higher
+ * digits is Ahmed and Wonka's 2020 z-sampler idea (pbrt-v4's ZSobolSampler). */
+CB_FN uint sobolShuffleIndex(uint index, uint key) {
+    uint result = index;
+    for (uint bit = 0u; bit < 31u && (index >> (bit + 1u)) != 0u; ++bit)
+        result ^= (cbHashCombine(key ^ (bit * 0x9e3779b9u), index >> (bit + 1u)) & 1u) << bit;
+    return result;
+}
+
+/* Dimension d of estimate `index`: dimensions 2i and 2i+1 are the two-dimensional Sobol
+ * sequence, its index shuffled and each coordinate Owen-scrambled with keys of (stream key, i)
+ * (padding as in pbrt-v4's PaddedSobolSampler). Every estimate is uniform on the unit cube and
+ * different pairs are independent, so every estimator stays unbiased; over the estimates each
+ * pair is stratified as a scrambled (0,2)-sequence (Owen 1997: variance o(1/N) for smooth
+ * integrands, bounded by a constant times Monte Carlo's for square-integrable ones). */
+CB_FN uint sobolSample(uint key, uint index, uint dimension) {
+    uint pairKey = cbHashCombine(key, dimension >> 1);
+    uint shuffled = sobolShuffleIndex(index, pairKey);
+    uint reversed = (dimension & 1u) ? cbReverseBits(sobolSecondDimension(shuffled)) : shuffled;
+    uint seed = cbHashCombine(pairKey, 0x5eed0000u + (dimension & 1u));
+    return cbReverseBits(owenScrambleReversed(reversed, seed));
+}
+
 /* u[d] for an arbitrary dimension, without advancing. */
 CB_FN real sampleAt(SampleStream s, uint dimension) {
 #ifdef CB_PRIMARY_SAMPLES
     if (s.primary && dimension < s.primaryCount) return s.primary[dimension];
 #endif
+    if (s.sobol) return cbUintToUnitFloat(sobolSample(s.key, s.index, dimension));
     return cbUintToUnitFloat(cbHashCombine(s.key, dimension));
 }
 
@@ -71,15 +169,16 @@ CB_FN real sampleNext(SampleStream* s) {
 
 /* Fixed dimension layout: the same decision reads the same dimension in every pixel, which is
  * what makes shared vectors coherent. Dimensions 0-1 are the pixel jitter; then each eye
- * vertex (bounce) owns CB_DIMS_PER_BOUNCE consecutive dimensions. */
+ * vertex (bounce) owns CB_DIMS_PER_BOUNCE consecutive dimensions. Two-dimensional decisions start
+ * at even dimensions: the Sobol sampler stratifies the pairs (2i, 2i+1) jointly. */
 #define CB_DIM_PIXEL 0u
 #define CB_DIM_FIRST_BOUNCE 4u
 #define CB_DIMS_PER_BOUNCE 8u
 #define CB_SLOT_BSDF_DIRECTION 0u /* 2 dims */
 #define CB_SLOT_BSDF_LOBE 2u
 #define CB_SLOT_ROULETTE 3u
-#define CB_SLOT_LIGHT_CHOICE 4u
-#define CB_SLOT_LIGHT_POINT 5u /* 2 dims */
+#define CB_SLOT_LIGHT_POINT 4u /* 2 dims */
+#define CB_SLOT_LIGHT_CHOICE 6u
 
 CB_FN uint bounceDimension(int bounce, uint slot) {
     return CB_DIM_FIRST_BOUNCE + (uint)bounce * CB_DIMS_PER_BOUNCE + slot;

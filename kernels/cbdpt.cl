@@ -48,7 +48,7 @@ __kernel void renderCbdpt(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings),
 
     int rays = 0;
     PathVertex eye[CB_MAX_EYE_VERTICES];
-    SampleStream eyeStream = sampleStreamStart(seed, estimate, stream);
+    SampleStream eyeStream = samplerStream(sampler, estimate, stream);
     float rasterX, rasterY;
     cameraJitteredRaster(eyeStream, x, y, &rasterX, &rasterY);
     int nEye = bdptEyeSubpath(&scene, &camera, rasterX, rasterY, true, eyeStream,
@@ -57,10 +57,13 @@ __kernel void renderCbdpt(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings),
     Spectrum radiance = specZero();
     int nonFinite = 0;
     for (int t = 2; t <= nEye; ++t) {
+        PathVertex nee[1]; /* s = 1's own light point for eye[t-1] (shared u: coherent) */
+        bool haveNee = bdptNeeLightVertex(&scene, eyeStream, eye, t, nee);
         for (int s = 0; s <= nLight; ++s) {
+            if (s == 1 && !haveNee) continue;
             float rx = 0.0f, ry = 0.0f;
-            Spectrum c = bdptConnect(&scene, &camera, light, s, eye, t, settings, cameraCount, &rx,
-                                     &ry, &rays);
+            Spectrum c = bdptConnect(&scene, &camera, s == 1 ? nee : light, s, eye, t, settings,
+                                     cameraCount, &rx, &ry, &rays);
             if (specIsBlack(c)) continue;
             if (!specIsFinite(c)) {
                 ++nonFinite;

@@ -93,10 +93,13 @@ static void mltEvaluate(const SceneView* scene, const Camera* camera, __global c
 
     Spectrum radiance = specZero();
     for (int t = 1; t <= nEye; ++t) {
+        PathVertex nee[1]; /* s = 1's own light point for eye[t-1] */
+        bool haveNee = bdptNeeLightVertex(scene, eyeStream, eye, t, nee);
         for (int s = 0; s <= nLight; ++s) {
+            if (s == 1 && !haveNee) continue;
             float rx = 0.0f, ry = 0.0f;
-            Spectrum c =
-                bdptConnect(scene, camera, light, s, eye, t, settings, 1.0f, &rx, &ry, rays);
+            Spectrum c = bdptConnect(scene, camera, s == 1 ? nee : light, s, eye, t, settings, 1.0f,
+                                     &rx, &ry, rays);
             if (specIsBlack(c)) continue;
             if (!specIsFinite(c)) {
                 *nonFinite += 1;
@@ -154,7 +157,7 @@ __kernel void mltBootstrap(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings),
     if (i >= count) return;
     CB_SCENE_VIEW(scene);
     float u[CB_MLT_DIMS];
-    mltBootstrapVector(seed, first + i, u);
+    mltBootstrapVector(sampler.seed, first + i, u);
     MltSample sample;
     int rays = 0, nonFinite = 0;
     mltEvaluate(&scene, &camera, toRgb, settings, u, &sample, &rays, &nonFinite);
@@ -191,7 +194,7 @@ __kernel void mltSeedChains(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings),
     if (chain >= chains) return;
     CB_SCENE_VIEW(scene);
     float u[CB_MLT_DIMS];
-    mltBootstrapVector(seed, bootstrapIndex[chain], u);
+    mltBootstrapVector(sampler.seed, bootstrapIndex[chain], u);
     MltSample sample;
     int rays = 0, nonFinite = 0;
     mltEvaluate(&scene, &camera, toRgb, settings, u, &sample, &rays, &nonFinite);
@@ -258,7 +261,7 @@ __kernel void mltAdvance(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings),
     float sumLarge = 0.0f;
     float curWeight = 0.0f;
     int rays = 0, nonFinite = 0;
-    uint chainKey = cbHashCombine(cbHash32(seed ^ CB_MLT_MUTATION_SALT), chain);
+    uint chainKey = cbHashCombine(cbHash32(sampler.seed ^ CB_MLT_MUTATION_SALT), chain);
     for (int m = 0; m < mutations; ++m) {
         uint key = cbHashCombine(chainKey, firstStep + (uint)m);
         bool isLarge = mltUniform(key, 0u) < largeStepProbability;

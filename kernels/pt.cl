@@ -15,7 +15,7 @@ __kernel void renderPathTracing(CB_INTEGRATOR_KERNEL_PARAMS(PathSettings),
 
     CB_SCENE_VIEW(scene);
 
-    Vec3 rgb = ptPixelRgb(&scene, toRgb, &camera, settings, seed, estimate, streamTile, x, y);
+    Vec3 rgb = ptPixelRgb(&scene, toRgb, &camera, settings, sampler, estimate, streamTile, x, y);
     /* ptPixelRgb does not count its rays. */
     cbWritePixel(outRgb, CB_COUNTERS, (uint)(y * camera.width + x), rgb, 0, 0);
 }

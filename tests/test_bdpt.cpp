@@ -273,6 +273,23 @@ double oraclePdf(const cbk::SceneView& scene, const cbk::Camera& camera, const F
         const PathVertex& y0 = path.y[0];
         p *= y0.type == CB_VERTEX_POINT_LIGHT ? scene.lights[y0.light].pickProbability
                                               : cbk::lightPdfArea(&scene, y0.light);
+        // s = 1 samples a sphere light seen from outside uniformly in the cone it subtends from
+        // y1: 1 / (2 pi (1 - cos theta_max)) in solid angle, |cos y0| / d^2 to area.
+        const cbk::Light& light = scene.lights[y0.light];
+        const cbk::Primitive* prim =
+            y0.type == CB_VERTEX_POINT_LIGHT ? nullptr : &scene.primitives[light.primitive];
+        if (s == 1 && prim && prim->kind == CB_PRIM_SPHERE) {
+            Vec3 center = cbk::vec3(prim->p0[0], prim->p0[1], prim->p0[2]);
+            double r = prim->p1[0];
+            const PathVertex& y1 = path.y[1];
+            double dc2 = cbk::vlength2(cbk::vsub(cbk::pvP(&y1), center));
+            REQUIRE(dc2 > r * r); // y1 on the light itself cannot connect to it
+            double cone = 1.0 / (2.0 * M_PI * (1.0 - std::sqrt(1.0 - r * r / dc2)));
+            Vec3 d = cbk::vsub(cbk::pvP(&y1), cbk::pvP(&y0));
+            double dist2 = cbk::vlength2(d);
+            double cosY0 = std::fabs(cbk::vdot(cbk::pvN(&y0), d)) / std::sqrt(dist2);
+            p *= cone * cosY0 / dist2 * light.area; // replaces the area density 1/area
+        }
         for (int i = 0; i + 1 <= s - 1; ++i)
             p *= oracleStep(scene, camera, path, i, i + 1);
     }
@@ -377,8 +394,9 @@ FullPath joinPath(const std::vector<PathVertex>& light, int s, const std::vector
 } // namespace
 
 TEST_CASE("BDPT MIS weights equal the explicit-ratio oracle and sum to one") {
-    // A mix of diffuse, glossy and perfect-mirror surfaces, and an area or a point light.
-    for (int lightKind : {0, 1}) {
+    // A mix of diffuse, glossy and perfect-mirror surfaces, and an area quad, a point light or
+    // a sphere light (s = 1 samples it by the cone it subtends, s >= 2 by area).
+    for (int lightKind : {0, 1, 2}) {
         cb::SceneDesc desc = glossyMirrorScene(16, 0.0f);
         if (lightKind == 1) {
             desc.areaLights.clear();
@@ -386,6 +404,14 @@ TEST_CASE("BDPT MIS weights equal the explicit-ratio oracle and sum to one") {
             cb::PointLightDesc p;
             p.position = {0.2f, 0.7f, 0.2f};
             desc.pointLights.push_back(p);
+        } else if (lightKind == 2) {
+            desc.meshes.pop_back();
+            cb::SphereDesc sphere;
+            sphere.center = {0.2f, 0.6f, 0.3f};
+            sphere.radius = 0.15f;
+            sphere.material = 2;
+            sphere.areaLight = 0;
+            desc.spheres.push_back(sphere);
         }
         cb::DeviceScene scene = cb::buildDeviceScene(desc);
         cbk::SceneView view = hostView(scene);
@@ -406,8 +432,11 @@ TEST_CASE("BDPT MIS weights equal the explicit-ratio oracle and sum to one") {
                     std::vector<PathVertex> light(static_cast<size_t>(nl)),
                         eye(static_cast<size_t>(ne));
                     int rays = 0;
-                    int nLight = cbk::bdptLightSubpath(&view, cbk::bdptLightStream(3, 0, pixel), nl,
-                                                       light.data(), &rays);
+                    int nLight = cbk::bdptLightSubpath(
+                        &view,
+                        cbk::bdptLightStream(
+                            cbk::SamplerSettings{3, CB_SAMPLER_INDEPENDENT, {0, 0}}, 0, pixel),
+                        nl, light.data(), &rays);
                     cbk::SampleStream es = cbk::sampleStreamStart(3, 0, pixel);
                     float rx = float(pixel % 16) + cbk::sampleAt(es, 0);
                     float ry = float(pixel / 16) + cbk::sampleAt(es, 1);

@@ -204,7 +204,7 @@ with tempfile.TemporaryDirectory() as tmp:
              "path-tracing image (width x height RGB) needs 263.7 MiB"),
             ("mlt chains", ["--integrator", "mlt", "--chains", "1000000", "--eye-vertices", "16",
                             "--light-vertices", "16", "--width", "16", "--height", "16", "--spp", "1"],
-             "MLT chain states (chains x primary samples) needs 900.3 MiB")):
+             "MLT chain states (chains x primary samples) needs 930.8 MiB")):
         r = subprocess.run([cbdpt, "render", scene, "-o", os.path.join(tmp, "oom.exr"), "-q"] + args,
                            capture_output=True, text=True, env=limited)
         err = r.stderr.strip()

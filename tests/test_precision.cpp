@@ -305,6 +305,7 @@ TEST_CASE("float64 check: one PT estimate of the float kernel matches the double
             pixel.eyeVertices = settings.eyeVertices;
             pixel.rouletteVertex = settings.rouletteVertex;
             pixel.seed = settings.seed;
+            pixel.sampler = cb::samplerSettings(settings).kind;
             pixel.estimate = estimate;
             pixel.streamTile = integrator == "cpt" ? settings.coherenceTile : 0;
             std::vector<double> reference(rgb.size());

@@ -434,6 +434,7 @@ void RenderJob::openLog() {
             {"weights", o_.integrator.weights},
             {"coherence_tile", o_.integrator.coherenceTile},
             {"seed", o_.integrator.seed},
+            {"sampler", o_.integrator.sampler},
             {"width", scene_.camera.width},
             {"height", scene_.camera.height},
             {"channels", scene_.channels},
@@ -598,6 +599,7 @@ nlohmann::json RenderJob::statistics(const cb::RenderOutcome& outcome) const {
         {"weights", o_.integrator.weights},
         {"coherence_tile", o_.integrator.coherenceTile},
         {"seed", o_.integrator.seed},
+        {"sampler", o_.integrator.sampler},
         {"width", scene_.camera.width},
         {"height", scene_.camera.height},
         {"channels", scene_.channels},
@@ -720,6 +722,12 @@ void addMethodOptions(CLI::App& cmd, RenderOptions& o) {
         ->group(group);
     cmd.add_flag("--no-rr", o.noRoulette, "disable Russian roulette")->group(group);
     cmd.add_option("--seed", s.seed, "random seed")->capture_default_str()->group(group);
+    cmd.add_option("--sampler", s.sampler,
+                   "sobol | independent: the sample vectors (docs/sampling.md); mlt's chains "
+                   "choose their own")
+        ->check(CLI::IsMember({"sobol", "independent"}))
+        ->capture_default_str()
+        ->group(group);
     cmd.add_option("--coherence-tile", s.coherenceTile,
                    "cpt, cbdpt: k x k sample vectors per estimate (1: full coherence)")
         ->check(CLI::Range(1, 4096))

@@ -40,6 +40,7 @@ struct PtPixelSettings {
     int eyeVertices = 8;
     int rouletteVertex = 3; // <= 0: no Russian roulette
     std::uint32_t seed = 0;
+    int sampler = 1; // CB_SAMPLER_*: Sobol, as the integrators' default
     std::uint32_t estimate = 0;
     int streamTile = 0; // 0: PT; k > 0: CPT with k x k shared sample vectors
 };

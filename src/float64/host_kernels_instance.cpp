@@ -58,7 +58,10 @@ class Instance final : public HostKernels {
         cbk::PathSettings path{};
         path.eyeVertices = settings.eyeVertices;
         path.rouletteVertex = settings.rouletteVertex;
-        cbk::Vec3 rgb = cbk::ptPixelRgb(&view_, scene_.toRgb.data(), &camera_, path, settings.seed,
+        cbk::SamplerSettings sampler{};
+        sampler.seed = settings.seed;
+        sampler.kind = settings.sampler;
+        cbk::Vec3 rgb = cbk::ptPixelRgb(&view_, scene_.toRgb.data(), &camera_, path, sampler,
                                         settings.estimate, settings.streamTile, x, y);
         return {rgb.x, rgb.y, rgb.z};
     }

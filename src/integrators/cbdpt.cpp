@@ -38,6 +38,7 @@ class CbdptIntegrator final : public PixelKernelIntegrator {
         : PixelKernelIntegrator("cbdpt", "CBDPT", settings, scene, runtime) {
         const int k = settings.coherenceTile;
         light_.seed = settings.seed;
+        light_.sampler = samplerSettings(settings).kind;
         light_.eyeVertices = settings.eyeVertices;
         light_.lightVertices = settings.lightVertices;
         light_.maxPathVertices = settings.maxPathVertices;

@@ -21,6 +21,7 @@ struct DeviceScene;
 
 struct CbdptLightSettings {
     std::uint32_t seed = 0;
+    int sampler = 0;         // CB_SAMPLER_*, as the eye streams' (cb_rng.h)
     int eyeVertices = 4;     // Ne: the caps decide which strategies exist (MIS)
     int lightVertices = 4;   // Nl
     int maxPathVertices = 0; // N > 0: only strategies with s + t <= N (BdptSettings)

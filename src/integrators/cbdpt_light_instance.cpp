@@ -25,6 +25,9 @@ class LightTracer final : public CbdptLightTracer {
         bdpt_.maxPathVertices = settings.maxPathVertices;
         subpaths_ = settings.tileRows * settings.tileColumns;
         cameraCount_ = cbdptCameraCount(camera_.width, camera_.height, settings);
+        sampler_ = cbk::SamplerSettings{};
+        sampler_.seed = settings.seed;
+        sampler_.kind = settings.sampler;
         path_.resize(std::size_t(settings.lightVertices));
     }
 
@@ -56,9 +59,9 @@ class LightTracer final : public CbdptLightTracer {
                 for (auto& v : path_)
                     v = cbk::PathVertex{};
                 int rays = 0;
-                const int count = cbk::bdptLightSubpath(
-                    &view_, cbk::bdptLightStream(settings_.seed, estimate, stream), nl,
-                    path_.data(), &rays);
+                const int count =
+                    cbk::bdptLightSubpath(&view_, cbk::bdptLightStream(sampler_, estimate, stream),
+                                          nl, path_.data(), &rays);
                 out.counts[std::size_t(index)] = count;
                 std::memcpy(out.vertices.data() +
                                 std::size_t(index) * std::size_t(nl) * sizeof(cbk::PathVertex),
@@ -97,6 +100,7 @@ class LightTracer final : public CbdptLightTracer {
     const cbk::SceneView& view_;
     const cbk::Camera& camera_;
     cbk::BdptSettings bdpt_{};
+    cbk::SamplerSettings sampler_{};
     std::vector<cbk::PathVertex> path_;
     int subpaths_ = 1;
     float cameraCount_ = 1.0f;

@@ -6,6 +6,19 @@
 
 namespace cb {
 
+cbk::SamplerSettings samplerSettings(const IntegratorSettings& settings) {
+    cbk::SamplerSettings sampler{};
+    sampler.seed = settings.seed;
+    if (settings.sampler == "independent")
+        sampler.kind = CB_SAMPLER_INDEPENDENT;
+    else if (settings.sampler == "sobol")
+        sampler.kind = CB_SAMPLER_SOBOL;
+    else
+        throw std::invalid_argument(
+            fmt::format("unknown --sampler '{}' (independent or sobol)", settings.sampler));
+    return sampler;
+}
+
 IntegratorSettings withResolvedCaps(const IntegratorSettings& settings) {
     IntegratorSettings resolved = settings;
     if (settings.maxPathVertices > 0) {
@@ -44,6 +57,7 @@ std::unique_ptr<Integrator> makeIntegrator(const IntegratorSettings& requested,
     if (settings.weights != "power" && settings.weights != "lafortune")
         throw std::invalid_argument(
             fmt::format("unknown --weights '{}' (power or lafortune)", settings.weights));
+    (void)samplerSettings(settings); // validates the name; mlt's chains choose their own samples
     if (settings.name == "pt" || settings.name == "cpt")
         return makePathTracingIntegrator(settings, scene, runtime);
     // The bidirectional methods keep whole subpaths in each work-item's private memory.

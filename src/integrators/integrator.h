@@ -5,6 +5,8 @@
 #include "cl/cl_runtime.h"
 #include "scene/device_scene.h"
 
+#include "cb_rng.h"
+
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -27,6 +29,9 @@ struct IntegratorSettings {
     int debugT = -1;
     int rouletteVertex = 3; // Russian roulette from this vertex on; 0 disables it
     std::uint32_t seed = 0;
+    // sobol | independent: the sample vectors' sampler (cb_rng.h, docs/sampling.md); sobol
+    // measures best for every method; mlt's Markov chains choose their own samples
+    std::string sampler = "sobol";
     int coherenceTile = 1; // cpt, cbdpt: k x k distinct sample vectors per estimate
     int tileSize = 8;      // pixel tile (work-group) edge
     // mlt (docs/mlt.md): Kelemen et al. 2002 primary-sample-space MLT over BDPT.
@@ -46,6 +51,9 @@ class Integrator {
     // Seconds spent building OpenCL programs (not part of render time).
     virtual double buildSeconds() const = 0;
 };
+
+// The kernels' sampler settings: seed and kind (CB_SAMPLER_*), from a validated name.
+cbk::SamplerSettings samplerSettings(const IntegratorSettings& settings);
 
 // The settings with the total-length cap resolved into subpath caps: with maxPathVertices N > 0,
 // eyeVertices = N and lightVertices = N - 1 (each subpath as long as the cap allows); unchanged

@@ -34,12 +34,12 @@ class KernelIntegrator : public Integrator {
     std::vector<std::string> vertexCapDefines() const;
 
     // Sets the first arguments every integrator kernel takes (CB_INTEGRATOR_KERNEL_PARAMS): the
-    // scene, its spectrum-to-RGB matrix, the camera, the method's settings and the seed.
+    // scene, its spectrum-to-RGB matrix, the camera, the method's settings and the sampler.
     template <typename MethodSettings>
     KernelArguments integratorArguments(cl::Kernel& kernel, const MethodSettings& method) const {
         KernelArguments args(kernel);
         buffers_.addKernelArguments(args);
-        args.add(buffers_.toRgb).add(scene_.camera).add(method).add(settings_.seed);
+        args.add(buffers_.toRgb).add(scene_.camera).add(method).add(samplerSettings(settings_));
         return args;
     }
     // Sets the counters, a kernel's last arguments (CB_COUNTER_PARAMS).

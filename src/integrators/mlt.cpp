@@ -36,10 +36,11 @@ class MltIntegrator final : public KernelIntegrator {
   public:
     MltIntegrator(const IntegratorSettings& settings, const DeviceScene& scene, ClRuntime& runtime)
         : KernelIntegrator("mlt", settings, scene, runtime), bdpt_(bdptSettingsFor(settings)) {
-        // Dimensions the BDPT subpaths can read (cb_bdpt.h): eye bounce b uses
-        // 4 + 8b + {0,1,2} for b <= Ne-3; light bounce b uses 8 + 8b + {0,1,2} for b <= Nl-3.
+        // Dimensions the BDPT subpaths can read (cb_bdpt.h): eye bounce b uses 4 + 8b + {0,1,2}
+        // for b <= Ne-3 and the s = 1 light point 4 + 8b + {4,5,6} for b <= Ne-2; light bounce b
+        // uses 8 + 8b + {0,1,2} for b <= Nl-3.
         eyeDims_ = CB_DIM_FIRST_BOUNCE +
-                   CB_DIMS_PER_BOUNCE * unsigned(std::max(0, settings.eyeVertices - 2));
+                   CB_DIMS_PER_BOUNCE * unsigned(std::max(0, settings.eyeVertices - 1));
         lightDims_ = CB_LIGHT_DIM_FIRST_BOUNCE +
                      CB_DIMS_PER_BOUNCE * unsigned(std::max(0, settings.lightVertices - 2));
         dims_ = eyeDims_ + lightDims_;

@@ -75,6 +75,7 @@ RenderIdentity renderIdentity(const IntegratorSettings& settings, const SceneDes
                    {"coherence_tile", settings.coherenceTile},
                    {"tile", settings.tileSize},
                    {"seed", settings.seed},
+                   {"sampler", settings.sampler},
                    {"channels", scene.channels},
                    {"width", scene.camera.width},
                    {"height", scene.camera.height},
