@@ -1,4 +1,4 @@
-/* bdpt.cl - bidirectional path tracing (METHOD.md, BDPT). One work-item per pixel, work-groups
+/* bdpt.cl - bidirectional path tracing (docs/method.md, BDPT). One work-item per pixel, work-groups
  * are square pixel tiles: each work-item traces a light subpath and an eye subpath into private
  * arrays and combines every (s,t) allowed by the caps. Light-tracing (t = 1) contributions land
  * in other pixels: each work-item records its own (one slot per light vertex, target pixel and

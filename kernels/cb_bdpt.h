@@ -1,5 +1,5 @@
 /* cb_bdpt.h - bidirectional path vertices, subpath generation, connection and MIS weights
- * (METHOD.md, BDPT; Veach 1997 ch. 10; pbrt-v4's BDPT bookkeeping).
+ * (docs/method.md, BDPT; Veach 1997 ch. 10; pbrt-v4's BDPT bookkeeping).
  *
  * Written once for BDPT (kernels/bdpt.cl), CBDPT (one light subpath per estimate traced on the
  * host with these same functions as C++ in namespace cbk, then uploaded) and MLT.
@@ -436,7 +436,7 @@ CB_FN real bdptPowerWeight(const PathVertex* light, int s, const PathVertex* eye
     return 1.0f / (1.0f + sumRi);
 }
 
-/* Lafortune & Willems' weights as METHOD.md fixes the thesis's eqs. 2.8/3.4. Eye vertex j
+/* Lafortune & Willems' weights as docs/method.md fixes the thesis's eqs. 2.8/3.4. Eye vertex j
  * (j = 0 the camera) of the full path is eye[j] for j < t and light[k-1-j] otherwise; strategy
  * (s,t) connects at eye vertex j = t-1 (s = 0: the eye path itself reached the emitter). With
  * W_j the specularity of eye vertex j, raised to 1 where the connection at j is impossible

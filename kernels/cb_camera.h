@@ -22,7 +22,7 @@ CB_FN Ray cameraGenerateRay(const Camera* camera, real rasterX, real rasterY) {
 
 /* Where pixel (x, y)'s sample lands on the film: the pixel's corner plus the jitter read from
  * dimensions CB_DIM_PIXEL and CB_DIM_PIXEL + 1 of its sample stream (one sample per pixel,
- * box filter: METHOD.md). Shared vectors (CPT, CBDPT) share the jitter too. */
+ * box filter: docs/method.md). Shared vectors (CPT, CBDPT) share the jitter too. */
 CB_FN void cameraJitteredRaster(SampleStream stream, int x, int y, real* rasterX, real* rasterY) {
     *rasterX = (real)x + sampleAt(stream, CB_DIM_PIXEL);
     *rasterY = (real)y + sampleAt(stream, CB_DIM_PIXEL + 1u);

@@ -193,7 +193,7 @@ CB_FN Vec3 vfaceForward(Vec3 v, Vec3 toward) {
     return vdot(v, toward) < 0.0f ? vneg(v) : v;
 }
 
-/* Orthonormal frame around a unit normal, continuous in n (METHOD.md, coherence: neighbouring
+/* Orthonormal frame around a unit normal, continuous in n (docs/method.md, coherence: neighbouring
  * pixels with similar normals must get similar directions).
  *
  * Duff et al. 2017 ("Building an Orthonormal Basis, Revisited") is continuous except across

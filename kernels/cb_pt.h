@@ -1,4 +1,4 @@
-/* cb_pt.h - path tracing with next-event estimation and MIS (METHOD.md, PT).
+/* cb_pt.h - path tracing with next-event estimation and MIS (docs/method.md, PT).
  *
  * One function computes the radiance of one camera sample from an explicit sample stream, so
  * that PT (stream per pixel) and CPT (stream shared by the pixels of a coherence tile) are the
@@ -22,7 +22,7 @@ typedef struct PathSettings {
 } PathSettings;
 
 /* Survival probability of Russian roulette: the throughput's largest channel, never below 0.05
- * (METHOD.md), so that roulette cannot create unbounded weights. */
+ * (docs/method.md), so that roulette cannot create unbounded weights. */
 CB_FN real rouletteSurvival(Spectrum throughput) {
     return cbClamp(specMaxComponent(throughput), 0.05f, 1.0f);
 }
@@ -134,7 +134,7 @@ CB_FN Spectrum ptRadiance(const SceneView* scene, Ray ray, SampleStream stream,
  * renderPathTracing (pt.cl), shared so that the host's double-precision build (src/float64/)
  * computes exactly the same estimate. streamTile == 0: every pixel has its own sample vector
  * (PT); streamTile == k > 0: the pixel at position (i, j) of its k x k tile uses vector (i, j)
- * of the estimate (CPT, METHOD.md). */
+ * of the estimate (CPT, docs/method.md). */
 CB_FN Vec3 ptPixelRgb(const SceneView* scene, CB_GLOBAL const real* toRgb, const Camera* camera,
                       PathSettings settings, SamplerSettings sampler, uint estimate, int streamTile,
                       int x, int y) {

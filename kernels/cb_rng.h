@@ -1,6 +1,6 @@
 /* cb_rng.h - counter-based random numbers and the per-work-item sample vector.
  *
- * Every random decision reads dimension d of a sample vector u (METHOD.md, random numbers and
+ * Every random decision reads dimension d of a sample vector u (docs/method.md, random numbers and
  * coherence). u is a pure function of (seed, estimate, stream key, dimension), so no state is
  * carried between work-items or estimates: PT/BDPT key the stream by pixel, CPT/CBDPT by the
  * coherence tile, so that all pixels of a tile share u. */

@@ -2,7 +2,7 @@
  * distribution, and the power heuristic.
  *
  * Every warp is continuous in (u0, u1): CPT/CBDPT share one sample vector across a coherence
- * tile (METHOD.md, coherence), so nearby pixels must turn the same u into nearby directions.
+ * tile (docs/method.md, coherence), so nearby pixels must turn the same u into nearby directions.
  * Directions are in a local frame with z along the normal. */
 #ifndef CB_SAMPLING_H
 #define CB_SAMPLING_H

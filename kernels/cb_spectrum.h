@@ -1,6 +1,6 @@
 /* cb_spectrum.h - the per-path quantity carried by every integrator.
  *
- * CB_CHANNELS is a compile-time switch (METHOD.md, spectra): 3 for RGB scenes, 16 for spectral
+ * CB_CHANNELS is a compile-time switch (docs/method.md, spectra): 3 for RGB scenes, 16 for spectral
  * scenes (16 bins over 400-700 nm). Every path carries all channels, so spectral renders have no
  * colour noise. A fixed-size array lets PoCL unroll every loop. */
 #ifndef CB_SPECTRUM_H

@@ -74,7 +74,7 @@ typedef struct SurfacePoint {
 #define CB_MAT_MIX 3        /* mixture of two non-mix materials: second with probability amount */
 
 /* Feature bits: the scene's material kinds and light kinds, passed to the kernel build as
- * -DCB_FEATURES=... so that unused code is compiled out (MISSION.md, rule 3). */
+ * -DCB_FEATURES=... so that unused code is compiled out (each scene compiles only what it uses). */
 #define CB_FEATURE_DIFFUSE (1u << 0)
 #define CB_FEATURE_CONDUCTOR (1u << 1)
 #define CB_FEATURE_DIELECTRIC (1u << 2)
@@ -106,7 +106,7 @@ typedef struct Material {
 #define CB_LIGHT_POINT 1
 
 /* Area lights are one entry per emitting primitive (a triangle or a sphere), so that lights
- * can be chosen by power and points sampled uniformly by area (METHOD.md, BDPT). Point lights
+ * can be chosen by power and points sampled uniformly by area (docs/method.md, BDPT). Point lights
  * emit intensity `emission` uniformly in all directions; a spot light is a point light whose
  * intensity falls off with the angle to spotAxis (pbrt-v4's SpotLight::I). */
 typedef struct Light {

@@ -1,4 +1,4 @@
-/* cbdpt.cl - the combination kernel of coherent bidirectional path tracing (METHOD.md, CBDPT;
+/* cbdpt.cl - the combination kernel of coherent bidirectional path tracing (docs/method.md, CBDPT;
  * docs/cbdpt.md). The host has traced this estimate's light subpaths (one per coherence-tile
  * position) with the same cb_bdpt.h code and splats their camera connections (t = 1) itself.
  * Here each pixel traces its eye subpath from the sample vector it shares with every pixel at

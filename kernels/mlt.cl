@@ -1,11 +1,11 @@
 /* mlt.cl - primary-sample-space Metropolis light transport over BDPT (Kelemen et al. 2002;
- * METHOD.md, MLT).
+ * docs/method.md, MLT).
  *
  * A state is a vector u of primary samples in [0,1)^D: the eye stream's dimensions first
  * (CB_MLT_EYE_DIMS, BDPT's eye layout except that dims 0-1 place the sample anywhere on the
  * film instead of jittering inside one pixel), then the light stream's (CB_MLT_LIGHT_DIMS, BDPT's
  * light layout). Connections draw no random numbers, so the two streams are all there is, and a
- * mutation of one leaves the other's decisions where they were (STYLE.md: separate streams).
+ * mutation of one leaves the other's decisions where they were (separate random streams).
  * The path code (cb_bdpt.h) reads u through SampleStream's primary-sample table (cb_rng.h,
  * CB_PRIMARY_SAMPLES).
  *

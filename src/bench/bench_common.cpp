@@ -43,7 +43,7 @@ std::string findModel(const Options& o, const std::string& file) {
         while (std::getline(ss, d, ':'))
             if (!d.empty()) dirs.push_back(d);
     }
-    dirs.push_back(std::string(CBDPT_SOURCE_DIR) + "/../shared/models");
+    dirs.push_back("models"); // where scripts/get-models puts them
     for (const auto& d : dirs)
         if (fs::exists(fs::path(d) / file)) return (fs::path(d) / file).string();
     return "";

@@ -1,4 +1,4 @@
-// Image error metrics for error-against-time studies (issue 7): RMSE, relative MSE, mean
+// Image error metrics for error-against-time studies: RMSE, relative MSE, mean
 // absolute error against a reference, and the noise level a render reports about itself (the
 // per-pixel standard error from the spread across estimates).
 #pragma once

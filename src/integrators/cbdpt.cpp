@@ -1,4 +1,4 @@
-// CBDPT (METHOD.md, CBDPT; docs/cbdpt.md): per estimate the host traces the light subpaths
+// CBDPT (docs/method.md, CBDPT; docs/cbdpt.md): per estimate the host traces the light subpaths
 // (one per coherence-tile position, cbdpt_light.h) and splats their t = 1 connections; the
 // combination kernel (kernels/cbdpt.cl) gives every pixel a coherent eye subpath and connects
 // it to its tile position's light subpath with the BDPT weights.

@@ -82,7 +82,7 @@ RenderOutcome renderEstimates(Integrator& integrator, EstimateAccumulator& accum
                               const RenderLimits& limits, const std::atomic<bool>& stop,
                               const std::function<void(const RenderProgress&)>& onProgress = {});
 
-// Checkpoints (issue 7): moments during a render at which the caller evaluates the image so far.
+// Checkpoints: moments during a render at which the caller evaluates the image so far.
 // They fire after the estimate that reaches a listed estimate count, and after the first estimate
 // that ends at or past each multiple of everySeconds of render time; a last one fires when the
 // render ends (by count, time or Ctrl-C) unless one fired on that same estimate. The time the

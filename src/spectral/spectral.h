@@ -1,4 +1,4 @@
-// Host-side spectral utilities (METHOD.md, "Spectra, output"): binning of piecewise-linear
+// Host-side spectral utilities (docs/method.md, "Spectra, output"): binning of piecewise-linear
 // spectra into the renderer's 16 fixed bins over 400-700 nm, the bins -> linear sRGB matrix the
 // film applies, and the conversions between spectral and RGB parameters. See docs/spectral.md.
 #pragma once
