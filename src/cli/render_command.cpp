@@ -110,6 +110,8 @@ class RenderJob {
     void writeOutputs(const cb::RenderOutcome& outcome, const cb::EstimateAccumulator& image);
     void keepWork(const cb::EstimateAccumulator& image, const std::string& failure) const;
     nlohmann::json statistics(const cb::RenderOutcome& outcome) const;
+    // `fields` and the settings that identify the render, shared by the log header and --stats.
+    nlohmann::json withRenderSettings(nlohmann::json fields) const;
     cb::RenderRecord renderRecord(const cb::RenderOutcome& outcome) const;
 
     RenderOptions& o_;
@@ -421,23 +423,27 @@ void RenderJob::warmUp() {
     warmupSeconds_ = secondsSince(before);
 }
 
+nlohmann::json RenderJob::withRenderSettings(nlohmann::json fields) const {
+    fields.update(nlohmann::json{{"scene", o_.scene},
+                                 {"integrator", o_.integrator.name},
+                                 {"eye_vertices", o_.integrator.eyeVertices},
+                                 {"light_vertices", o_.integrator.lightVertices},
+                                 {"max_vertices", o_.integrator.maxPathVertices},
+                                 {"weights", o_.integrator.weights},
+                                 {"coherence_tile", o_.integrator.coherenceTile},
+                                 {"seed", o_.integrator.seed},
+                                 {"sampler", o_.integrator.sampler},
+                                 {"width", scene_.camera.width},
+                                 {"height", scene_.camera.height},
+                                 {"channels", scene_.channels}});
+    return fields;
+}
+
 void RenderJob::openLog() {
     if (o_.logPath.empty()) return;
     log_.emplace(
         o_.logPath,
-        nlohmann::json{
-            {"scene", o_.scene},
-            {"integrator", o_.integrator.name},
-            {"eye_vertices", o_.integrator.eyeVertices},
-            {"light_vertices", o_.integrator.lightVertices},
-            {"max_vertices", o_.integrator.maxPathVertices},
-            {"weights", o_.integrator.weights},
-            {"coherence_tile", o_.integrator.coherenceTile},
-            {"seed", o_.integrator.seed},
-            {"sampler", o_.integrator.sampler},
-            {"width", scene_.camera.width},
-            {"height", scene_.camera.height},
-            {"channels", scene_.channels},
+        withRenderSettings(nlohmann::json{
             {"device", runtime_->info().deviceName},
             {"scene_load_seconds", loadSeconds_},
             {"kernel_build_seconds", integrator_->buildSeconds()},
@@ -447,7 +453,7 @@ void RenderJob::openLog() {
             {"rel_mse_epsilon", cb::kRelMseEpsilon},
             {"seconds_note", "render wall seconds: estimates only, scene load, "
                              "kernel build, warm-up estimate and checkpoint evaluation excluded"},
-        });
+        }));
 }
 
 // Noise, error against the reference and checkpoint images; its time is reported apart.
@@ -590,19 +596,7 @@ nlohmann::json RenderJob::statistics(const cb::RenderOutcome& outcome) const {
     for (float e : error_.rgb)
         meanError += e;
     meanError /= double(std::max<size_t>(1, error_.rgb.size()));
-    nlohmann::json stats = {
-        {"scene", o_.scene},
-        {"integrator", o_.integrator.name},
-        {"eye_vertices", o_.integrator.eyeVertices},
-        {"light_vertices", o_.integrator.lightVertices},
-        {"max_vertices", o_.integrator.maxPathVertices},
-        {"weights", o_.integrator.weights},
-        {"coherence_tile", o_.integrator.coherenceTile},
-        {"seed", o_.integrator.seed},
-        {"sampler", o_.integrator.sampler},
-        {"width", scene_.camera.width},
-        {"height", scene_.camera.height},
-        {"channels", scene_.channels},
+    nlohmann::json stats = withRenderSettings({
         {"estimates", estimates_},
         {"estimate_ranges", estimateRanges_},
         {"processes", team_ ? team_->size() : 1},
@@ -621,7 +615,7 @@ nlohmann::json RenderJob::statistics(const cb::RenderOutcome& outcome) const {
         {"device", runtime_->info().deviceName},
         {"device_compute_units", runtime_->info().computeUnits},
         {"pixel_bounds", pixelBoundsJson()},
-    };
+    });
     if (o_.targetStandardError > 0.0) {
         stats["target_stderr"] = o_.targetStandardError;
         stats["reached_target_stderr"] = outcome.reachedTargetStandardError;
