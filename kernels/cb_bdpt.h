@@ -269,6 +269,26 @@ CB_FN int bdptEyeSubpath(const SceneView* scene, const Camera* camera, real rast
                           CB_DIM_FIRST_BOUNCE, eye, 1, maxVertices, rays);
 }
 
+/* The first vertex of a light subpath, on the light point `ls`: pdfFwd is the area density the
+ * MIS weights use for it, and beta = 1 / pdfFwd (callers with another sampling density set beta
+ * again). */
+CB_FN void bdptSetLightVertex(PathVertex* v, const LightSample* ls, real pdfFwd) {
+    cbStore3(v->p, ls->p);
+    cbStore3(v->n, ls->n);
+    cbStore3(v->pError, ls->pError);
+    cbStore3(v->wo, vec3(0.0f, 0.0f, 0.0f));
+    v->type = ls->isDelta ? CB_VERTEX_POINT_LIGHT : CB_VERTEX_AREA_LIGHT;
+    v->material = -1;
+    v->light = ls->light;
+    v->delta = 0;
+    v->pdfFwd = pdfFwd;
+    v->pdfRev = 0.0f;
+    v->pad0 = v->pad1 = 0.0f;
+    for (int i = 0; i < CB_PATH_VERTEX_PAD; ++i)
+        v->pad[i] = 0.0f;
+    v->beta = specConst(1.0f / pdfFwd);
+}
+
 /* Light subpath: a light by power, a point uniformly by area, a cosine-weighted direction in
  * the emitting hemisphere (two-sided lights: a side with probability 1/2), or a uniform
  * direction for point lights. Returns the vertex count (0 if the scene has no lights). */
@@ -281,20 +301,7 @@ CB_FN int bdptLightSubpath(const SceneView* scene, SampleStream stream, int maxV
                      sampleAt(stream, CB_LIGHT_DIM_POINT + 1u), &ls))
         return 0;
     PathVertex* v = &light[0];
-    cbStore3(v->p, ls.p);
-    cbStore3(v->n, ls.n);
-    cbStore3(v->pError, ls.pError);
-    cbStore3(v->wo, vec3(0.0f, 0.0f, 0.0f));
-    v->type = ls.isDelta ? CB_VERTEX_POINT_LIGHT : CB_VERTEX_AREA_LIGHT;
-    v->material = -1;
-    v->light = ls.light;
-    v->delta = 0;
-    v->pdfFwd = ls.pdfPick * ls.pdfArea;
-    v->pdfRev = 0.0f;
-    v->pad0 = v->pad1 = 0.0f;
-    for (int i = 0; i < CB_PATH_VERTEX_PAD; ++i)
-        v->pad[i] = 0.0f;
-    v->beta = specConst(1.0f / v->pdfFwd);
+    bdptSetLightVertex(v, &ls, ls.pdfPick * ls.pdfArea);
     if (maxVertices < 2) return 1;
 
     real u0 = sampleAt(stream, CB_LIGHT_DIM_DIRECTION);
@@ -335,19 +342,7 @@ CB_FN bool bdptNeeLightVertex(const SceneView* scene, SampleStream eyeStream, co
                          sampleAt(eyeStream, bounceDimension(bounce, CB_SLOT_LIGHT_POINT + 1u)),
                          &ls))
         return false;
-    cbStore3(out->p, ls.p);
-    cbStore3(out->n, ls.n);
-    cbStore3(out->pError, ls.pError);
-    cbStore3(out->wo, vec3(0.0f, 0.0f, 0.0f));
-    out->type = ls.isDelta ? CB_VERTEX_POINT_LIGHT : CB_VERTEX_AREA_LIGHT;
-    out->material = -1;
-    out->light = ls.light;
-    out->delta = 0;
-    out->pdfFwd = ls.isDelta ? ls.pdfPick : lightPdfArea(scene, ls.light);
-    out->pdfRev = 0.0f;
-    out->pad0 = out->pad1 = 0.0f;
-    for (int i = 0; i < CB_PATH_VERTEX_PAD; ++i)
-        out->pad[i] = 0.0f;
+    bdptSetLightVertex(out, &ls, ls.isDelta ? ls.pdfPick : lightPdfArea(scene, ls.light));
     out->beta = specConst(1.0f / (ls.pdfPick * ls.pdfArea));
     return true;
 }
