@@ -197,6 +197,23 @@ def write_exr(path, layers):
     os.replace(tmp, path)
 
 
+def rewrite_exr_half(path):
+    """Rewrites an EXR with every channel as 16-bit half floats, keeping its header (cbdpt's
+    render record): the references' storage. A half's relative rounding error is at most 2^-11
+    (RMS 2.8e-4), far below a reference's own noise (about 1% of its mean), and it halves the
+    committed size. Written to a temporary file, then renamed."""
+    OpenEXR = _openexr()
+    with OpenEXR.File(path, separate_channels=True) as f:
+        header = dict(f.header())
+        channels = {name: OpenEXR.Channel(np.ascontiguousarray(c.pixels, np.float16))
+                    for name, c in f.channels().items()}
+    header["compression"] = OpenEXR.ZIP_COMPRESSION
+    tmp = path + ".tmp.exr"
+    with OpenEXR.File(header, channels) as f:
+        f.write(tmp)
+    os.replace(tmp, path)
+
+
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 LOW_FREQUENCY = 0.1  # cycles per pixel: "low" below this
 
