@@ -4,6 +4,7 @@ reference metrics, `cbdpt compare`, and the scripts/experiment --quick -> script
 pipeline, on tiny Cornell box renders.
 
 Usage: test_checkpoints.py PATH/TO/cbdpt REPO_ROOT"""
+import importlib.machinery
 import json
 import math
 import os
@@ -232,6 +233,17 @@ with tempfile.TemporaryDirectory() as tmp:
     check(any(f.startswith("error-time-") for f in figs) and
           any(f.startswith("spectrum-") for f in figs) and
           "combine-spectrum-cornell-box-4p4.png" in figs, f"report figures {figs}")
+
+# Every reference an experiment unit measures against is one scripts/make-reference makes.
+loader = importlib.machinery.SourceFileLoader
+experiment = loader("experiment", os.path.join(root, "scripts", "experiment")).load_module()
+make_reference = loader("make_reference",
+                        os.path.join(root, "scripts", "make-reference")).load_module()
+needed = {cr.reference_path(u["scene"], u["config"], u["method"])
+          for u in experiment.plan(list(cr.SCENES), cr.ALL_METHODS, [1], ["time"], False)}
+made = {cr.reference_path(*r) for r in make_reference.planned_references(list(cr.SCENES))}
+check(needed == made, f"references needed {sorted(needed - made)} not made, "
+      f"made {sorted(made - needed)} not needed")
 
 print(f"{passed} passed, {len(failures)} failed")
 sys.exit(1 if failures else 0)
