@@ -239,8 +239,9 @@ loader = importlib.machinery.SourceFileLoader
 experiment = loader("experiment", os.path.join(root, "scripts", "experiment")).load_module()
 make_reference = loader("make_reference",
                         os.path.join(root, "scripts", "make-reference")).load_module()
-needed = {cr.reference_path(u["scene"], u["config"], u["method"])
-          for u in experiment.plan(list(cr.SCENES), cr.ALL_METHODS, [1], ["time"], False)}
+needed = {cr.reference_path(u["scene"], *experiment.reference_of(u)[::-1])
+          for u in experiment.plan(list(cr.SCENES), cr.ALL_METHODS, [1], ["time", "combine"],
+                                   False)}
 made = {cr.reference_path(*r) for r in make_reference.planned_references(list(cr.SCENES))}
 check(needed == made, f"references needed {sorted(needed - made)} not made, "
       f"made {sorted(made - needed)} not needed")
