@@ -232,16 +232,20 @@ def write_exr(path, layers):
     os.replace(tmp, path)
 
 
-def rewrite_exr_half(path):
-    """Rewrites an EXR with every channel as 16-bit half floats, keeping its header (cbdpt's
-    render record): the references' storage. A half's relative rounding error is at most 2^-11
-    (RMS 2.8e-4), far below a reference's own noise (about 1% of its mean), and it halves the
-    committed size. Written to a temporary file, then renamed."""
+def rewrite_exr_half(path, layers=("", "stderr")):
+    """Rewrites an EXR keeping only `layers` (R,G,B or LAYER.R/G/B; by default the image and its
+    standard error, what a reference is read for) as 16-bit half floats, with its header
+    (cbdpt's render record): the references' storage. A half's relative rounding error is at
+    most 2^-11 (RMS 2.8e-4), far below a reference's own noise (about 1% of its mean). Written
+    to a temporary file, then renamed."""
     OpenEXR = _openexr()
+    wanted = {(layer + "." if layer else "") + c for layer in layers for c in "RGB"}
     with OpenEXR.File(path, separate_channels=True) as f:
         header = dict(f.header())
         channels = {name: OpenEXR.Channel(np.ascontiguousarray(c.pixels, np.float16))
-                    for name, c in f.channels().items()}
+                    for name, c in f.channels().items() if name in wanted}
+    if len(channels) != len(wanted):
+        raise ValueError(f"{path}: expected channels {sorted(wanted)}, found {sorted(channels)}")
     header["compression"] = OpenEXR.ZIP_COMPRESSION
     tmp = path + ".tmp.exr"
     with OpenEXR.File(header, channels) as f:
