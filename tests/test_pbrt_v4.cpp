@@ -375,3 +375,119 @@ TEST_CASE("pbrt-v4 spot light: falloff on a diffuse plane against the analytic i
         }
     }
 }
+
+namespace {
+
+double meshArea(const cb::TriangleMeshDesc& m) {
+    double area = 0.0;
+    for (size_t t = 0; t < m.triangles.size(); ++t) {
+        const auto n = normalOf(m, t);
+        area += 0.5 * std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    }
+    return area;
+}
+
+} // namespace
+
+TEST_CASE("pbrt-v4 disk: tessellated with the disk's exact area, facing pbrt's normal") {
+    struct Case {
+        std::string params;
+        double radius, inner, phimaxDeg;
+    };
+    for (const Case& c : {Case{"", 1.0, 0.0, 360.0}, Case{"\"float radius\" 2.5", 2.5, 0.0, 360.0},
+                          Case{"\"float radius\" 2 \"float innerradius\" 0.5", 2.0, 0.5, 360.0},
+                          Case{"\"float radius\" 2 \"float phimax\" 90", 2.0, 0.0, 90.0},
+                          Case{"\"float radius\" 3 \"float innerradius\" 1 \"float phimax\" 200",
+                               3.0, 1.0, 200.0}}) {
+        CAPTURE(c.params);
+        for (const std::string transform :
+             {"", "Scale 2 2 2\n", "ReverseOrientation\n", "Scale -1 1 1\n", "Scale 1 1 -1\n"}) {
+            CAPTURE(transform);
+            const auto s =
+                parseSceneString("WorldBegin\n" + transform +
+                                     "Shape \"disk\" \"float height\" 0.5 " + c.params + "\n",
+                                 "t.pbrt");
+            REQUIRE(s.meshes.size() == 1);
+            const auto& m = s.meshes[0];
+            const double scale = transform == "Scale 2 2 2\n" ? 2.0 : 1.0;
+            // pbrt-v4's Disk::Area: phimax / 2 (radius^2 - innerradius^2).
+            const double area = c.phimaxDeg * M_PI / 360.0 *
+                                (c.radius * c.radius - c.inner * c.inner) * scale * scale;
+            CHECK(meshArea(m) == doctest::Approx(area).epsilon(1e-12));
+            // Object-space normal +z, flipped by ReverseOrientation XOR a mirroring CTM
+            // (Disk::InteractionFromIntersection), then transformed: a mirror in z keeps it +z
+            // in world space, a mirror in x leaves it -z.
+            const bool flipped =
+                transform == "ReverseOrientation\n" || transform == "Scale -1 1 1\n";
+            for (size_t t = 0; t < m.triangles.size(); ++t) {
+                const auto n = normalOf(m, t);
+                CHECK((flipped ? -n[2] : n[2]) > 0.0);
+            }
+            // Every vertex lies in the plane z = height, within the area-preserving ring radii.
+            const double zWorld = transform == "Scale 1 1 -1\n" ? -0.5 : 0.5 * scale;
+            for (const auto& p : m.positions) {
+                CHECK(p[2] == doctest::Approx(zWorld));
+                const double r = std::hypot(p[0], p[1]) / scale;
+                CHECK(r <= c.radius * 1.001);
+            }
+        }
+    }
+    CHECK(contains(errorOf("WorldBegin\nShape \"disk\" \"float radius\" 0\n"), "t.pbrt:2:"));
+    CHECK(contains(errorOf("WorldBegin\nShape \"disk\" \"float radius\" 0\n"), "radius"));
+    CHECK(contains(errorOf("WorldBegin\nShape \"disk\" \"float innerradius\" 1\n"), "innerradius"));
+    CHECK(contains(errorOf("WorldBegin\nShape \"disk\" \"float phimax\" 0\n"), "phimax"));
+    CHECK(contains(errorOf("WorldBegin\nShape \"disk\" \"float zmin\" 0\n"), "zmin"));
+}
+
+// A one-sided disk light (radius R, radiance L) at height h, facing a diffuse plane: a point of
+// the plane at horizontal distance d from the axis receives E = (pi L / 2) (1 - (h^2 + d^2 -
+// R^2) / sqrt((h^2 + d^2 + R^2)^2 - 4 R^2 d^2)) (the view factor of a parallel coaxial disk) and
+// reflects rho / pi E. The camera sits between the plane and the disk looking down; the image
+// mean is that averaged over its view, integrated on a fine grid. PT (next-event estimation on
+// the disk's triangles, MIS with BSDF sampling) and BDPT must reproduce it. The disk is black,
+// so that BDPT's longer paths (Ne + Nl vertices) add nothing.
+TEST_CASE("pbrt-v4 disk light: irradiance on a plane against the analytic image mean" *
+          doctest::test_suite("statistical")) {
+    cb::ClRuntime runtime;
+    const double rho = 0.5, radius = 0.5, h = 1.0, camY = 0.5, fovDeg = 90.0;
+    const std::string text =
+        "LookAt 0 0.5 0  0 0 0  0 0 1\nCamera \"perspective\" \"float fov\" 90\n"
+        "Film \"rgb\" \"integer xresolution\" 32 \"integer yresolution\" 32\nWorldBegin\n"
+        "AttributeBegin\nAreaLightSource \"diffuse\" \"rgb L\" [2 2 2]\n"
+        "Material \"diffuse\" \"rgb reflectance\" [0 0 0]\nTranslate 0 1 0\nRotate 90 1 0 0\nShape "
+        "\"disk\" \"float radius\" 0.5\nAttributeEnd\n"
+        "Material \"diffuse\" \"rgb reflectance\" [0.5 0.5 0.5]\n"
+        "Shape \"bilinearmesh\" \"point3 P\" [-10 0 -10  10 0 -10  -10 0 10  10 0 10]\n";
+    const cb::DeviceScene scene = cb::buildDeviceScene(parseSceneString(text, "t.pbrt"));
+    double lightArea = 0.0;
+    for (const auto& l : scene.lights)
+        lightArea += l.area;
+    CHECK(lightArea == doctest::Approx(M_PI * radius * radius).epsilon(1e-5));
+    const double halfWidth = camY * std::tan(fovDeg * M_PI / 360.0);
+    const int n = 400;
+    double expected = 0.0;
+    for (int i = 0; i < n; ++i)
+        for (int j = 0; j < n; ++j) {
+            const double x = halfWidth * (2.0 * (i + 0.5) / n - 1.0);
+            const double y = halfWidth * (2.0 * (j + 0.5) / n - 1.0);
+            const double d2 = x * x + y * y, r2 = radius * radius, h2 = h * h;
+            const double e =
+                M_PI * 2.0 / 2.0 *
+                (1.0 - (h2 + d2 - r2) / std::sqrt((h2 + d2 + r2) * (h2 + d2 + r2) - 4.0 * r2 * d2));
+            expected += rho / M_PI * e;
+        }
+    expected /= double(n) * n;
+    for (const std::string method : {"pt", "bdpt"}) {
+        CAPTURE(method);
+        cb::IntegratorSettings settings;
+        settings.name = method;
+        settings.eyeVertices = 3;
+        settings.lightVertices = 2;
+        settings.seed = 5;
+        const auto stats = cbtest::renderPooled(scene, runtime, settings, 16);
+        CAPTURE(expected);
+        CAPTURE(stats.mean);
+        CAPTURE(stats.standardError);
+        CHECK(std::fabs(stats.mean - expected) <= 3.5 * stats.standardError + 2e-4 * expected);
+    }
+}

@@ -1306,6 +1306,8 @@ class Parser {
             addMesh(t.where, pos, std::move(tris), normals);
         } else if (type.text == "bilinearmesh") {
             bilinearMesh(t);
+        } else if (type.text == "disk") {
+            disk(t);
         } else if (type.text == "plymesh") {
             ParamList pl = params("Shape \"plymesh\"");
             const Param* fp = pl.peek("filename");
@@ -1330,7 +1332,7 @@ class Parser {
         } else {
             throw SceneError(type.where, "unsupported shape \"" + type.text +
                                              "\" (cbdpt supports trianglemesh, bilinearmesh "
-                                             "(planar patches), plymesh, sphere)");
+                                             "(planar patches), plymesh, sphere, disk)");
         }
     }
 
@@ -1404,6 +1406,73 @@ class Parser {
             tris.push_back({q[0], q[3], q[2]});
         }
         addMesh(t.where, pos, std::move(tris), normals);
+    }
+
+    // Ring segments of a full disk; a partial one (phimax < 360) gets its share, at least 4.
+    static constexpr int kDiskSegments = 256;
+
+    // pbrt-v4's disk: the points (r cos phi, r sin phi, height) with innerradius <= r <= radius
+    // and 0 <= phi <= phimax, normal +z in object space, flipped when ReverseOrientation XOR the
+    // CTM swaps handedness (Disk::InteractionFromIntersection). Tessellated into a fan (or, with
+    // an inner radius, a ring of quads) whose ring radii are scaled by sqrt(dphi / sin dphi), so
+    // that the polygon's area is the disk's exactly: emitted power and every integral over the
+    // surface match; only the outline differs (by at most dphi^2 / 12 of the radius).
+    void disk(const Token& t) {
+        ParamList pl = params("Shape \"disk\"");
+        auto get = [&](const char* name, double fallback) {
+            const Param* p = pl.peek(name);
+            return std::pair{p ? *pl.oneFloat(name) : fallback, p};
+        };
+        const auto [height, hp] = get("height", 0.0);
+        const auto [radius, rp] = get("radius", 1.0);
+        const auto [inner, ip] = get("innerradius", 0.0);
+        const auto [phimax, pp] = get("phimax", 360.0);
+        (void)hp;
+        if (!(radius > 0.0)) throw SceneError(rp->where, "\"float radius\" must be > 0");
+        if (!(inner >= 0.0 && inner < radius))
+            throw SceneError(ip->where, "\"float innerradius\" must be in [0, radius)");
+        if (!(phimax > 0.0 && phimax <= 360.0))
+            throw SceneError(pp->where, "\"float phimax\" must be in (0, 360] degrees");
+        pl.finish();
+        const double phiMax = phimax * M_PI / 180.0;
+        const int segments = std::max(4, int(std::ceil(kDiskSegments * phimax / 360.0 - 1e-9)));
+        const double dphi = phiMax / segments;
+        const double k = std::sqrt(dphi / std::sin(dphi));
+        const bool full = phimax >= 360.0;
+        const int ringVertices = full ? segments : segments + 1;
+        std::vector<std::array<double, 3>> pos;
+        auto ring = [&](double r) {
+            for (int i = 0; i < ringVertices; ++i) {
+                const double phi = dphi * i;
+                pos.push_back({k * r * std::cos(phi), k * r * std::sin(phi), height});
+            }
+        };
+        std::vector<std::array<unsigned, 3>> tris;
+        // Object-space winding normal +z; a mirroring CTM reverses it once more than addMesh
+        // does for meshes (pbrt-v4 flips the disk's normal with transformSwapsHandedness).
+        const bool mirror = state_.ctm.det3() < 0.0;
+        auto triangle = [&](unsigned a, unsigned b, unsigned c) {
+            tris.push_back(mirror ? std::array<unsigned, 3>{a, c, b}
+                                  : std::array<unsigned, 3>{a, b, c});
+        };
+        auto next = [&](int i) { return unsigned(full ? (i + 1) % segments : i + 1); };
+        if (inner > 0.0) {
+            ring(radius);
+            ring(inner);
+            const unsigned innerBase = unsigned(ringVertices);
+            for (int i = 0; i < segments; ++i) {
+                const unsigned o0 = unsigned(i), o1 = next(i);
+                triangle(innerBase + o0, o0, o1);
+                triangle(innerBase + o0, o1, innerBase + o1);
+            }
+        } else {
+            ring(radius);
+            const unsigned centre = unsigned(pos.size());
+            pos.push_back({0.0, 0.0, height});
+            for (int i = 0; i < segments; ++i)
+                triangle(centre, unsigned(i), next(i));
+        }
+        addMesh(t.where, pos, std::move(tris), {});
     }
 
     // The CTM's scale factor; an error unless the CTM is a similarity (only those keep a sphere
