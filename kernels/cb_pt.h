@@ -81,8 +81,7 @@ CB_FN Spectrum ptRadiance(const SceneView* scene, Ray ray, SampleStream stream,
                 Spectrum emitted;
                 real pdfLightW;
                 if (ls.isDelta) {
-                    emitted = pointLightIntensity(scene, ls.light, vneg(wi));
-                    pdfLightW = ls.pdfPick * dist2; /* intensity I arrives as I / r^2 */
+                    emitted = deltaLightArriving(scene, &ls, wi, dist2, &pdfLightW);
                 } else {
                     emitted = lightEmittedRadiance(scene, ls.light, ls.n, vneg(wi));
                     real cosLight = vabsdot(ls.n, wi);

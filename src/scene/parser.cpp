@@ -1170,9 +1170,11 @@ class Parser {
     void lightSource(const Token& t) {
         const Token type = quoted(t, "a light type");
         const bool spot = type.text == "spot";
+        if (type.text == "distant") return distantLight(t);
         if (type.text != "point" && !spot)
-            throw SceneError(type.where, "unsupported light \"" + type.text +
-                                             "\" (cbdpt supports \"point\" and \"spot\")");
+            throw SceneError(type.where,
+                             "unsupported light \"" + type.text +
+                                 "\" (cbdpt supports \"point\", \"spot\" and \"distant\")");
         ParamList pl = params("LightSource \"" + type.text + "\"");
         PointLightDesc l;
         l.where = t.where;
@@ -1223,6 +1225,47 @@ class Parser {
         const auto w = state_.ctm.point(from);
         l.position = checkedPoint(w, t.where, "light position");
         scene_.pointLights.push_back(std::move(l));
+    }
+
+    // pbrt-v4's DistantLight::Create: L normalised to luminance 1, times scale, times
+    // "illuminance" where given (the illuminance on a surface facing the light); the light shines
+    // from the CTM applied to the vector from - to.
+    void distantLight(const Token& t) {
+        ParamList pl = params("LightSource \"distant\"");
+        DistantLightDesc l;
+        l.where = t.where;
+        if (auto v = pl.spectrum("L", SpectrumRole::Emission)) l.radiance = *v;
+        double scale = scaleParam(pl) / photometric(l.radiance, pl.peek("L"));
+        std::array<double, 3> from{0, 0, 0}, to{0, 0, 1};
+        for (auto [name, value] : {std::pair{"from", &from}, std::pair{"to", &to}}) {
+            if (const Param* p = pl.numeric(name, "point3", 3)) {
+                if (p->size() != 3)
+                    throw SceneError(p->where,
+                                     "\"point3 " + std::string(name) + "\" expects 3 values");
+                *value = {p->numbers[0], p->numbers[1], p->numbers[2]};
+            }
+        }
+        if (const Param* p = pl.peek("illuminance")) {
+            const double e = *pl.oneFloat("illuminance");
+            if (e < 0.0) throw SceneError(p->where, "\"float illuminance\" must be >= 0");
+            if (e > 0.0) scale *= e; // pbrt-v4 ignores values <= 0
+        }
+        l.scale = static_cast<float>(scale);
+        pl.finish();
+        requireAffine(t.where);
+        const std::array<double, 3> d{from[0] - to[0], from[1] - to[1], from[2] - to[2]};
+        const Mat4& m = state_.ctm;
+        std::array<double, 3> w{};
+        for (int r = 0; r < 3; ++r)
+            w[r] = m(r, 0) * d[0] + m(r, 1) * d[1] + m(r, 2) * d[2];
+        const double len = std::sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
+        if (!(len > 0.0) || !std::isfinite(len))
+            throw SceneError(t.where, "distant light: \"from\" and \"to\" must differ (and the "
+                                      "CTM must not collapse their difference)");
+        for (double& c : w)
+            c /= len;
+        l.direction = w;
+        scene_.distantLights.push_back(std::move(l));
     }
 
     void requireAffine(const SourceLocation& where) const {
