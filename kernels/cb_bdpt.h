@@ -44,6 +44,10 @@ CB_BEGIN_NAMESPACE
 /* light[0] of a distant light: a delta in direction, at a point beyond the scene's bounding
  * sphere (the ray's origin); area densities of the next vertex are planar ones times |cos|. */
 #define CB_VERTEX_DISTANT_LIGHT 4
+/* The infinite light: light[0] of its subpaths (beyond the bounding sphere, like a distant
+ * light's), or the last eye vertex of an eye subpath that escaped, whose pdfFwd stays the
+ * solid-angle density of the escaping direction (pbrt-v4's BDPT). */
+#define CB_VERTEX_INFINITE_LIGHT 5
 
 #define CB_WEIGHTS_POWER 0
 #define CB_WEIGHTS_LAFORTUNE 1
@@ -121,7 +125,7 @@ CB_FN bool pvIsDeltaLight(const PathVertex* v) {
 /* A light vertex standing for a direction rather than a point (pbrt-v4's IsInfiniteLight):
  * densities toward it stay solid-angle ones, and the distance to it is not a falloff. */
 CB_FN bool pvAtInfinity(const PathVertex* v) {
-    return v->type == CB_VERTEX_DISTANT_LIGHT;
+    return v->type == CB_VERTEX_DISTANT_LIGHT || v->type == CB_VERTEX_INFINITE_LIGHT;
 }
 
 /* |cos| between the vertex normal and unit direction w; 1 where no surface (point light). */
@@ -231,7 +235,28 @@ CB_FN int bdptRandomWalk(const SceneView* scene, Ray ray, Spectrum beta, real pd
         bool found = coherent ? sceneIntersectCoherent(scene, ray, CB_INFINITY, &hit)
                               : sceneIntersect(scene, ray, CB_INFINITY, &hit);
         coherent = false;
-        if (!found) break;
+        if (!found) {
+            /* An escaped eye ray ends on the infinite light, if the scene has one. */
+            int infinite = adjoint ? -1 : lightInfinite(scene);
+            if (infinite < 0) break;
+            PathVertex* v = &path[count];
+            cbStore3(v->p, vmadd(ray.o, ray.d, 2.0f * scene->lights[infinite].sceneRadius));
+            cbStore3(v->n, vneg(ray.d));
+            cbStore3(v->pError, vec3(0.0f, 0.0f, 0.0f));
+            cbStore3(v->wo, vneg(ray.d));
+            v->type = CB_VERTEX_INFINITE_LIGHT;
+            v->material = -1;
+            v->light = infinite;
+            v->delta = 0;
+            v->pdfFwd = pdfW;
+            v->pdfRev = 0.0f;
+            v->pad0 = v->pad1 = 0.0f;
+            for (int i = 0; i < CB_PATH_VERTEX_PAD; ++i)
+                v->pad[i] = 0.0f;
+            v->beta = beta;
+            ++count;
+            break;
+        }
         SurfacePoint sp = surfacePointFromHit(scene, ray, hit);
         PathVertex* v = &path[count];
         PathVertex* prev = &path[count - 1];
@@ -302,11 +327,8 @@ CB_FN void bdptSetLightVertex(const SceneView* scene, PathVertex* v, const Light
     cbStore3(v->pError, ls->pError);
     cbStore3(v->wo, vec3(0.0f, 0.0f, 0.0f));
     v->type = ls->isDelta ? CB_VERTEX_POINT_LIGHT : CB_VERTEX_AREA_LIGHT;
-#if CB_HAS(CB_FEATURE_DISTANT_LIGHT)
     if (scene->lights[ls->light].kind == CB_LIGHT_DISTANT) v->type = CB_VERTEX_DISTANT_LIGHT;
-#else
-    (void)scene;
-#endif
+    if (scene->lights[ls->light].kind == CB_LIGHT_INFINITE) v->type = CB_VERTEX_INFINITE_LIGHT;
     v->material = -1;
     v->light = ls->light;
     v->delta = 0;
@@ -336,6 +358,24 @@ CB_FN int bdptLightSubpath(const SceneView* scene, SampleStream stream, int maxV
     real u0 = sampleAt(stream, CB_LIGHT_DIM_DIRECTION);
     real u1 = sampleAt(stream, CB_LIGHT_DIM_DIRECTION + 1u);
     Vec3 w;
+    if (v->type == CB_VERTEX_INFINITE_LIGHT) {
+        /* A uniform direction, the origin on the beam's disk (pbrt-v4's
+         * UniformInfiniteLight::SampleLe). pdfFwd becomes the solid-angle density with which
+         * next-event estimation picks this direction, the MIS recursion's y0 for s = 0; light[1]
+         * gets the planar density times |cos|. */
+        CB_GLOBAL const Light* infinite = &scene->lights[ls.light];
+        w = sampleUniformSphere(u0, u1);
+        cbStore3(v->p, lightBeamOrigin(infinite, vneg(w), sampleAt(stream, CB_LIGHT_DIM_POINT),
+                                       sampleAt(stream, CB_LIGHT_DIM_POINT + 1u)));
+        cbStore3(v->n, w);
+        v->pdfFwd = ls.pdfPick * uniformSpherePdf();
+        Spectrum le = bdptLightEmission(scene, v, w);
+        Spectrum beta = specScale(le, 1.0f / (ls.pdfPick * ls.pdfArea * uniformSpherePdf()));
+        int count = bdptRandomWalk(scene, spawnRay(pvSurfacePoint(v), w), beta, 1.0f, 1, false,
+                                   stream, CB_LIGHT_DIM_FIRST_BOUNCE, light, 1, maxVertices, rays);
+        if (count > 1) light[1].pdfFwd = ls.pdfArea * pvAbsCos(&light[1], w);
+        return count;
+    }
     if (pvAtInfinity(v)) {
         /* Along the beam: the direction is a delta, so only the position's density counts. */
         w = vneg(vec3FromGlobalArray(scene->lights[ls.light].axis));
@@ -376,6 +416,7 @@ CB_FN bool bdptNeeLightVertex(const SceneView* scene, SampleStream eyeStream, co
                               int t, PathVertex* out) {
     if (t < 2) return false;
     int bounce = t - 2;
+    if (pvAtInfinity(&eye[t - 1])) return false; /* an escaped eye subpath: s = 0 only */
     LightSample ls;
     if (!lightSampleFrom(scene, pvP(&eye[t - 1]),
                          sampleAt(eyeStream, bounceDimension(bounce, CB_SLOT_LIGHT_CHOICE)),
@@ -383,7 +424,9 @@ CB_FN bool bdptNeeLightVertex(const SceneView* scene, SampleStream eyeStream, co
                          sampleAt(eyeStream, bounceDimension(bounce, CB_SLOT_LIGHT_POINT + 1u)),
                          &ls))
         return false;
-    bdptSetLightVertex(scene, out, &ls, ls.isDelta ? ls.pdfPick : lightPdfArea(scene, ls.light));
+    real pdfFwd = ls.isDelta ? ls.pdfPick : lightPdfArea(scene, ls.light);
+    if (scene->lights[ls.light].kind == CB_LIGHT_INFINITE) pdfFwd = ls.pdfPick * ls.pdfSolidAngle;
+    bdptSetLightVertex(scene, out, &ls, pdfFwd);
     out->beta = specConst(1.0f / (ls.pdfPick * ls.pdfArea));
     return true;
 }
@@ -561,6 +604,16 @@ CB_FN bool bdptConnectUnoccluded(const SceneView* scene, const Camera* camera,
     if (s == 0) {
         /* The eye subpath found an emitter. */
         const PathVertex* pt = &eye[t - 1];
+        if (pt->type == CB_VERTEX_INFINITE_LIGHT) {
+            /* It escaped to the infinite light: next-event estimation's direction density and
+             * the light subpath's planar one at eye[t-2] (pbrt-v4's PdfLightOrigin, PdfLight). */
+            CB_GLOBAL const Light* infinite = &scene->lights[pt->light];
+            out->contribution = specMul(pt->beta, specLoad(scene->spectra, infinite->emission));
+            out->ptPdfRev = infinite->pickProbability * uniformSpherePdf();
+            out->ptMinusPdfRev = bdptLightDirectionPdf(scene, pt, vec3FromArray(pt->wo)) *
+                                 pvAbsCos(&eye[t - 2], vec3FromArray(pt->wo));
+            return true;
+        }
         if (!pvOnSurface(pt) || pt->light < 0) return false;
         Vec3 wo = vec3FromArray(pt->wo);
         Spectrum le = lightEmittedRadiance(scene, pt->light, pvN(pt), wo);
@@ -605,7 +658,7 @@ CB_FN bool bdptConnectUnoccluded(const SceneView* scene, const Camera* camera,
         return true;
     }
     const PathVertex* pt = &eye[t - 1];
-    if (!materialHasNonDelta(scene, pt->material)) return false;
+    if (pvAtInfinity(pt) || !materialHasNonDelta(scene, pt->material)) return false;
     Vec3 d = vsub(pvP(qs), pvP(pt));
     real dist2 = vlength2(d);
     if (!(dist2 > 0.0f)) return false;

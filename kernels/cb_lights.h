@@ -37,6 +37,29 @@ CB_FN int lightChoose(const SceneView* scene, real u) {
     return lo;
 }
 
+/* The origin of a ray of a light at infinity seen in unit direction `toLight`: uniform (u0, u1)
+ * on the disk of the bounding sphere's radius R perpendicular to it, moved R toward the light,
+ * so that the ray starts outside the scene: density 1 / (pi R^2) per unit area across the beam
+ * (pbrt-v4's DistantLight and UniformInfiniteLight::SampleLe). */
+CB_FN Vec3 lightBeamOrigin(CB_GLOBAL const Light* light, Vec3 toLight, real u0, real u1) {
+    real radius = light->sceneRadius;
+    real dx, dy;
+    sampleConcentricDisk(u0, u1, &dx, &dy);
+    Vec3 onDisk = frameToWorld(frameFromNormal(toLight), vec3(dx * radius, dy * radius, 0.0f));
+    return vmadd(vadd(vec3FromGlobalArray(light->position), onDisk), toLight, radius);
+}
+
+/* The index of the scene's infinite light (always the last light), or -1. */
+CB_FN int lightInfinite(const SceneView* scene) {
+#if CB_HAS(CB_FEATURE_INFINITE_LIGHT)
+    if (scene->lightCount > 0 && scene->lights[scene->lightCount - 1].kind == CB_LIGHT_INFINITE)
+        return scene->lightCount - 1;
+#else
+    (void)scene;
+#endif
+    return -1;
+}
+
 /* Area of the emitting primitive, its uniform point and the point's error bound. */
 CB_FN void lightSamplePoint(const SceneView* scene, int lightIndex, real u0, real u1,
                             LightSample* out) {
@@ -56,20 +79,23 @@ CB_FN void lightSamplePoint(const SceneView* scene, int lightIndex, real u0, rea
 #endif
 #if CB_HAS(CB_FEATURE_DISTANT_LIGHT)
     if (light->kind == CB_LIGHT_DISTANT) {
-        /* The origin of a light subpath: uniform on the disk of the bounding sphere's radius R
-         * perpendicular to the light's direction, moved R toward the light so that the rays
-         * start outside the scene (pbrt-v4 DistantLight::SampleLe): density 1 / (pi R^2) per
-         * unit area across the beam. */
-        real radius = light->sceneRadius;
-        Vec3 axis = vec3FromGlobalArray(light->axis);
-        real dx, dy;
-        sampleConcentricDisk(u0, u1, &dx, &dy);
-        Vec3 onDisk = frameToWorld(frameFromNormal(axis), vec3(dx * radius, dy * radius, 0.0f));
-        out->p = vmadd(vadd(vec3FromGlobalArray(light->position), onDisk), axis, radius);
+        /* The origin of a light subpath, on the beam's disk. */
+        out->p = lightBeamOrigin(light, vec3FromGlobalArray(light->axis), u0, u1);
         out->pError = vec3(0.0f, 0.0f, 0.0f);
         out->n = vec3(0.0f, 0.0f, 0.0f);
         out->isDelta = 1;
-        out->pdfArea = 1.0f / (CB_PI * radius * radius);
+        out->pdfArea = 1.0f / (CB_PI * light->sceneRadius * light->sceneRadius);
+        return;
+    }
+#endif
+#if CB_HAS(CB_FEATURE_INFINITE_LIGHT)
+    if (light->kind == CB_LIGHT_INFINITE) {
+        /* The origin depends on the direction, which bdptLightSubpath samples and places it. */
+        out->p = vec3FromGlobalArray(light->position);
+        out->pError = vec3(0.0f, 0.0f, 0.0f);
+        out->n = vec3(0.0f, 0.0f, 0.0f);
+        out->isDelta = 0;
+        out->pdfArea = 1.0f / (CB_PI * light->sceneRadius * light->sceneRadius);
         return;
     }
 #endif
@@ -164,6 +190,23 @@ CB_FN bool lightSampleFrom(const SceneView* scene, Vec3 ref, real uChoice, real 
         return out->pdfPick > 0.0f;
     }
 #endif
+#if CB_HAS(CB_FEATURE_INFINITE_LIGHT)
+    if (scene->lights[lightIndex].kind == CB_LIGHT_INFINITE) {
+        /* A uniform direction, to a point beyond the bounding sphere: pdfSolidAngle is its
+         * density (pdfArea too, so that 1 / (pdfPick pdfArea) is the sample's weight). */
+        CB_GLOBAL const Light* infinite = &scene->lights[lightIndex];
+        Vec3 w = sampleUniformSphere(u0, u1);
+        out->light = lightIndex;
+        out->pdfPick = infinite->pickProbability;
+        out->pdfSolidAngle = uniformSpherePdf();
+        out->p = vmadd(ref, w, 2.0f * infinite->sceneRadius);
+        out->pError = vec3(0.0f, 0.0f, 0.0f);
+        out->n = vec3(0.0f, 0.0f, 0.0f);
+        out->isDelta = 0;
+        out->pdfArea = uniformSpherePdf();
+        return out->pdfPick > 0.0f;
+    }
+#endif
     real conePdf = lightConePdf(scene, lightIndex, ref);
     out->pdfSolidAngle = conePdf;
     if (!(conePdf > 0.0f)) {
@@ -223,6 +266,9 @@ CB_FN real lightPdfSolidAngleFrom(const SceneView* scene, int lightIndex, Vec3 r
  * emit only to the side n points to. */
 CB_FN Spectrum lightEmittedRadiance(const SceneView* scene, int lightIndex, Vec3 n, Vec3 w) {
     CB_GLOBAL const Light* light = &scene->lights[lightIndex];
+#if CB_HAS(CB_FEATURE_INFINITE_LIGHT)
+    if (light->kind == CB_LIGHT_INFINITE) return specLoad(scene->spectra, light->emission);
+#endif
     if (!light->twoSided && vdot(n, w) <= 0.0f) return specZero();
     return specLoad(scene->spectra, light->emission);
 }

@@ -605,17 +605,17 @@ TEST_CASE("pbrt-v4 distant light: a diffuse plane has radiance rho / pi E cos th
     }
 }
 
-// BDPT against PT where every strategy matters: a floor, a wall and a floating block between
-// them, lit by a slanted distant light (shadows, interreflection up to 5 vertices). The mean
-// over each cell of a 3 x 3 grid must agree within 4.5 combined standard errors.
-TEST_CASE("pbrt-v4 distant light: BDPT, CBDPT and MLT agree with PT per region" *
-          doctest::test_suite("statistical")) {
+namespace {
+
+// BDPT, CBDPT and MLT against PT where every strategy matters: a floor, a wall and a floating
+// block between them under `light` (shadows, interreflection up to 5 vertices). The mean over
+// each cell of a 3 x 3 grid must agree within 4.5 combined standard errors (spread over runs).
+void checkMethodsAgreeWithPt(const std::string& light) {
     cb::ClRuntime runtime;
     const std::string text =
         "LookAt 0 2 -3  0 0.3 0  0 1 0\nCamera \"perspective\" \"float fov\" 50\n"
-        "Film \"rgb\" \"integer xresolution\" 24 \"integer yresolution\" 24\nWorldBegin\n"
-        "LightSource \"distant\" \"point3 from\" [-1 2 -0.5] \"point3 to\" [0 0 0] "
-        "\"rgb L\" [3 3 3]\n"
+        "Film \"rgb\" \"integer xresolution\" 24 \"integer yresolution\" 24\nWorldBegin\n" +
+        light +
         "Material \"diffuse\" \"rgb reflectance\" [0.7 0.7 0.7]\n"
         "Shape \"bilinearmesh\" \"point3 P\" [-2 0 -2  2 0 -2  -2 0 2  2 0 2]\n"
         "Shape \"bilinearmesh\" \"point3 P\" [-2 0 1  2 0 1  -2 2 1  2 2 1]\n"
@@ -663,4 +663,91 @@ TEST_CASE("pbrt-v4 distant light: BDPT, CBDPT and MLT agree with PT per region" 
             CHECK(std::fabs(r.mean[c] - reference.mean[c]) <= 4.5 * se);
         }
     }
+}
+
+} // namespace
+
+TEST_CASE("pbrt-v4 distant light: BDPT, CBDPT and MLT agree with PT per region" *
+          doctest::test_suite("statistical")) {
+    checkMethodsAgreeWithPt("LightSource \"distant\" \"point3 from\" [-1 2 -0.5] "
+                            "\"point3 to\" [0 0 0] \"rgb L\" [3 3 3]\n");
+}
+
+TEST_CASE("pbrt-v4 infinite light: a constant L, its normalisation, and what is refused") {
+    auto s = parseSceneString("WorldBegin\nLightSource \"infinite\" \"rgb L\" [1 2 3] "
+                              "\"float scale\" 2\n",
+                              "t.pbrt");
+    REQUIRE(s.infiniteLights.size() == 1);
+    CHECK(s.infiniteLights[0].radiance.rgb == std::array<float, 3>{1, 2, 3});
+    CHECK(s.infiniteLights[0].scale == 2.f);
+    // "illuminance" E: pbrt-v4 scales a unit-luminance sky by E / pi (the upper hemisphere's
+    // cosine-weighted solid angle).
+    s = parseSceneString("WorldBegin\nLightSource \"infinite\" \"float illuminance\" 3\n",
+                         "t.pbrt");
+    CHECK(s.infiniteLights[0].scale == doctest::Approx(3.0 / M_PI));
+    s = parseSceneString("WorldBegin\nLightSource \"infinite\" \"spectrum L\" [400 2 700 2]\n",
+                         "t.pbrt");
+    CHECK(
+        s.infiniteLights[0].scale ==
+        doctest::Approx(1.0 / cb::photometricIntegral({{400.f, 2.f}, {700.f, 2.f}})).epsilon(1e-5));
+    const std::string image =
+        errorOf("WorldBegin\n\nLightSource \"infinite\" \"string filename\" \"sky.exr\"\n");
+    CHECK(contains(image, "t.pbrt:3:"));
+    CHECK(contains(image, "\"string filename\""));
+    CHECK(contains(image, "constant"));
+    CHECK(contains(image, "\"rgb L\""));
+    CHECK(contains(errorOf("WorldBegin\nLightSource \"infinite\" \"point3 portal\" [0 0 0 1 0 0 "
+                           "1 1 0 0 1 0]\n"),
+                   "portal"));
+    const std::string second =
+        errorOf("WorldBegin\nLightSource \"infinite\"\nLightSource \"infinite\"\n");
+    CHECK(contains(second, "t.pbrt:3:"));
+    CHECK(contains(second, "t.pbrt:2:"));
+    CHECK_THROWS_WITH_AS(
+        cb::buildDeviceScene(parseSceneString("WorldBegin\nLightSource \"infinite\"\n", "t.pbrt")),
+        doctest::Contains("t.pbrt:2:"), SceneError);
+}
+
+// An open scene: a diffuse plane under a constant sky of radiance L receives pi L from its
+// upper hemisphere and has radiance rho L everywhere. Every method must render that image mean
+// (escaped rays, next-event estimation's uniform directions, light subpaths from the beam's
+// disk, and their MIS weights).
+TEST_CASE("pbrt-v4 infinite light: a diffuse plane under a constant sky has radiance rho L, every "
+          "method" *
+          doctest::test_suite("statistical")) {
+    cb::ClRuntime runtime;
+    const double rho = 0.5, radiance = 0.8;
+    const std::string text =
+        "LookAt 0 1 0  0 0 0  0 0 1\nCamera \"perspective\" \"float fov\" 60\n"
+        "Film \"rgb\" \"integer xresolution\" 16 \"integer yresolution\" 16\nWorldBegin\n"
+        "LightSource \"infinite\" \"rgb L\" [0.8 0.8 0.8]\n"
+        "Material \"diffuse\" \"rgb reflectance\" [0.5 0.5 0.5]\n"
+        "Shape \"bilinearmesh\" \"point3 P\" [-10 0 -10  10 0 -10  -10 0 10  10 0 10]\n";
+    const cb::DeviceScene scene = cb::buildDeviceScene(parseSceneString(text, "t.pbrt"));
+    CHECK(contains(scene.featureNames(), "infinite-light"));
+    CHECK(!contains(scene.featureNames(), "area-light"));
+    const double expected = rho * radiance;
+    for (const std::string method : kMethods) {
+        CAPTURE(method);
+        const MethodMean m = methodMean(scene, runtime, methodSettings(method), 8, 4);
+        CAPTURE(expected);
+        CAPTURE(m.mean);
+        CAPTURE(m.se);
+        CHECK(std::fabs(m.mean - expected) <= 4.5 * m.se + 1e-4 * expected);
+        CHECK(m.nonFinite == 0);
+    }
+}
+
+TEST_CASE("pbrt-v4 infinite light: BDPT, CBDPT and MLT agree with PT per region" *
+          doctest::test_suite("statistical")) {
+    checkMethodsAgreeWithPt("LightSource \"infinite\" \"rgb L\" [0.5 0.5 0.5]\n");
+}
+
+TEST_CASE("pbrt-v4 infinite and distant light with an area light: BDPT agrees with PT" *
+          doctest::test_suite("statistical")) {
+    checkMethodsAgreeWithPt("LightSource \"infinite\" \"rgb L\" [0.3 0.3 0.3]\n"
+                            "LightSource \"distant\" \"point3 from\" [1 3 -1] \"rgb L\" [2 2 2]\n"
+                            "AttributeBegin\nAreaLightSource \"diffuse\" \"rgb L\" [4 4 4]\n"
+                            "Translate -0.5 1.5 0\nRotate 90 1 0 0\n"
+                            "Shape \"disk\" \"float radius\" 0.3\nAttributeEnd\n");
 }

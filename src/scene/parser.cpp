@@ -1171,10 +1171,12 @@ class Parser {
         const Token type = quoted(t, "a light type");
         const bool spot = type.text == "spot";
         if (type.text == "distant") return distantLight(t);
+        if (type.text == "infinite") return infiniteLight(t);
         if (type.text != "point" && !spot)
             throw SceneError(type.where,
                              "unsupported light \"" + type.text +
-                                 "\" (cbdpt supports \"point\", \"spot\" and \"distant\")");
+                                 "\" (cbdpt supports \"point\", \"spot\", \"distant\" and "
+                                 "\"infinite\" with a constant \"L\")");
         ParamList pl = params("LightSource \"" + type.text + "\"");
         PointLightDesc l;
         l.where = t.where;
@@ -1266,6 +1268,36 @@ class Parser {
             c /= len;
         l.direction = w;
         scene_.distantLights.push_back(std::move(l));
+    }
+
+    // pbrt-v4's UniformInfiniteLight (Light::Create, "infinite" without an image): L normalised
+    // to luminance 1, times scale, times illuminance / pi where given (the illuminance of the
+    // upper hemisphere on an upward-facing surface).
+    void infiniteLight(const Token& t) {
+        ParamList pl = params("LightSource \"infinite\"");
+        for (const char* name : {"filename", "portal"})
+            if (const Param* p = pl.peek(name))
+                throw SceneError(p->where,
+                                 "LightSource \"infinite\" with " + p->decl() +
+                                     " is not supported: cbdpt renders a constant environment "
+                                     "only, given as \"rgb L\" or \"spectrum L\" (with "
+                                     "\"float scale\" or \"float illuminance\")");
+        InfiniteLightDesc l;
+        l.where = t.where;
+        if (auto v = pl.spectrum("L", SpectrumRole::Emission)) l.radiance = *v;
+        double scale = scaleParam(pl) / photometric(l.radiance, pl.peek("L"));
+        if (const Param* p = pl.peek("illuminance")) {
+            const double e = *pl.oneFloat("illuminance");
+            if (e < 0.0) throw SceneError(p->where, "\"float illuminance\" must be >= 0");
+            if (e > 0.0) scale *= e / M_PI; // pbrt-v4 ignores values <= 0
+        }
+        l.scale = static_cast<float>(scale);
+        pl.finish();
+        if (!scene_.infiniteLights.empty())
+            throw SceneError(t.where, "a second LightSource \"infinite\": cbdpt supports one "
+                                      "(the first is at " +
+                                          scene_.infiniteLights[0].where.str() + ")");
+        scene_.infiniteLights.push_back(std::move(l));
     }
 
     void requireAffine(const SourceLocation& where) const {

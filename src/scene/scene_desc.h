@@ -111,6 +111,13 @@ struct DistantLightDesc {
     SourceLocation where;
 };
 
+// LightSource "infinite" with a constant L: radiance L * scale from every direction.
+struct InfiniteLightDesc {
+    SpectrumValue radiance = SpectrumValue::constant(1.f); // "L"
+    float scale = 1.f;
+    SourceLocation where;
+};
+
 struct CameraDesc {
     // World-to-camera transform (the CTM at the Camera directive), row-major 4x4, pbrt-v4's
     // left-handed camera space: +z forward, +y up, +x right in the image.
@@ -165,6 +172,7 @@ struct SceneDesc {
     std::vector<SphereDesc> spheres;
     std::vector<PointLightDesc> pointLights;
     std::vector<DistantLightDesc> distantLights;
+    std::vector<InfiniteLightDesc> infiniteLights; // at most one
     bool usesSpectra = false; // any parameter was given as `spectrum` (render spectrally)
     long droppedDegenerateTriangles = 0; // zero-area triangles removed at load
 };
