@@ -137,9 +137,39 @@ def reference_path(scene, config, method="pt"):
     return os.path.join(REFERENCES, f"{scene}-bdpt-{config.replace('+', 'p')}.exr")
 
 
+# The combination study (docs/combine.md, `cbdpt combine`): per scene, at its thesis caps,
+# PT and CBDPT share one time budget (`--split-budget`; PT's share from COMBINE_SHARES) and
+# their two renders are combined every pairwise way; COMBINE_ROBUST_RUNS CBDPT runs share the
+# budget and are combined robustly.
+COMBINE_SHARES = [0.25, 0.5, 0.75]
+COMBINE_DEFAULT_SHARE = 0.5  # `cbdpt combine --split-budget` without --shares: equal shares
+COMBINE_PAIR = ["mean", "inverse-variance", "inverse-variance-naive", "guided"]
+COMBINE_ROBUST = ["median", "reject", "mean"]
+COMBINE_ROBUST_RUNS = 4
+
+
+def combine_config(scene):
+    """The caps of a scene's combination units: its first per-subpath configuration Ne+Nl
+    (`--split-budget` gives PT Ne + Nl eye vertices, so both compute paths of that length)."""
+    ne, nl = SCENES[scene]["bidir"][0]
+    return f"{ne}+{nl}"
+
+
+def combine_unit_ids(scene, seeds, shares=None):
+    """The ids of a scene's combination units: one per seed and PT share, one robust per seed."""
+    config = combine_config(scene)
+    out = []
+    for seed in seeds:
+        out += [f"{scene}/{config}/combine/pt-cbdpt-share{s:g}-seed{seed}"
+                for s in (COMBINE_SHARES if shares is None else shares)]
+        out.append(f"{scene}/{config}/combine/cbdpt-x{COMBINE_ROBUST_RUNS}-seed{seed}")
+    return out
+
+
 def read_log(path):
     """A checkpoint log (CSV with '# key: value' header lines) -> (header dict, column dict of
-    numpy arrays; empty cells become NaN)."""
+    numpy arrays; empty cells become NaN; a column with text, such as an image's name, stays
+    an array of strings)."""
     header, lines = {}, []
     with open(path) as f:
         for line in f:
@@ -151,8 +181,13 @@ def read_log(path):
                 lines.append(line)
     rows = list(csv.reader(lines))
     names = rows[0]
-    columns = {n: np.array([float(r[i]) if r[i] != "" else math.nan for r in rows[1:]])
-               for i, n in enumerate(names)}
+    columns = {}
+    for i, n in enumerate(names):
+        cells = [r[i] for r in rows[1:]]
+        try:
+            columns[n] = np.array([float(c) if c != "" else math.nan for c in cells])
+        except ValueError:
+            columns[n] = np.array(cells)
     return header, columns
 
 
@@ -195,6 +230,53 @@ def write_exr(path, layers):
     with OpenEXR.File(header, channels) as f:
         f.write(tmp)
     os.replace(tmp, path)
+
+
+def rewrite_exr_half(path, layers=("", "stderr")):
+    """Rewrites an EXR keeping only `layers` (R,G,B or LAYER.R/G/B; by default the image and its
+    standard error, what a reference is read for) as 16-bit half floats, with its header
+    (cbdpt's render record): the references' storage. A half's relative rounding error is at
+    most 2^-11 (RMS 2.8e-4), far below a reference's own noise (about 1% of its mean). Written
+    to a temporary file, then renamed."""
+    OpenEXR = _openexr()
+    wanted = {(layer + "." if layer else "") + c for layer in layers for c in "RGB"}
+    with OpenEXR.File(path, separate_channels=True) as f:
+        header = dict(f.header())
+        channels = {name: OpenEXR.Channel(np.ascontiguousarray(c.pixels, np.float16))
+                    for name, c in f.channels().items() if name in wanted}
+    if len(channels) != len(wanted):
+        raise ValueError(f"{path}: expected channels {sorted(wanted)}, found {sorted(channels)}")
+    header["compression"] = OpenEXR.ZIP_COMPRESSION
+    tmp = path + ".tmp.exr"
+    with OpenEXR.File(header, channels) as f:
+        f.write(tmp)
+    os.replace(tmp, path)
+
+
+def read_pfm(path):
+    """HxWx3 float64 array of a colour PFM (pbrt-v4's float output), top row first."""
+    with open(path, "rb") as f:
+        if f.readline().strip() != b"PF":
+            raise ValueError(f"{path}: not a colour PFM")
+        width, height = map(int, f.readline().split())
+        scale = float(f.readline())
+        data = np.frombuffer(f.read(), "<f4" if scale < 0 else ">f4")
+    return data.reshape(height, width, 3)[::-1].astype(np.float64)
+
+
+def away_from_emitters(cbdpt, scene, size, margin, folder):
+    """True where a pixel is at least `margin` pixels (Chebyshev) from a directly seen emitter:
+    the pixels a 2-vertex path tracer finds lit (camera and emitter only)."""
+    out = os.path.join(folder, "emitters.exr")
+    subprocess.run([cbdpt, "render", scene, "--integrator", "pt", "--eye-vertices", "2",
+                    "--width", str(size[0]), "--height", str(size[1]), "--spp", "4", "--seed",
+                    "1", "-o", out, "-q"], check=True, env=environment())
+    lit = read_exr(out).astype(np.float64) @ LUMINANCE > 0
+    near = lit.copy()
+    for dy in range(-margin, margin + 1):
+        for dx in range(-margin, margin + 1):
+            near |= np.roll(np.roll(lit, dy, 0), dx, 1)
+    return ~near
 
 
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])

@@ -31,6 +31,11 @@ endif()
 add_test(NAME checkpoints COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_checkpoints.py $<TARGET_FILE:cbdpt> ${CMAKE_SOURCE_DIR})
 set_tests_properties(checkpoints PROPERTIES TIMEOUT 600)
 
+# scripts/report's combination section on synthetic units with known answers: the single
+# methods at equal CPU time, the goal reached, not reached, not measured.
+add_test(NAME report_combine COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_report_combine.py ${CMAKE_SOURCE_DIR})
+set_tests_properties(report_combine PROPERTIES TIMEOUT 600)
+
 # cbdpt combine (docs/combine.md): render records, halves, combinations, --split-budget, refusals.
 add_test(NAME combine_cli COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_combine_cli.py $<TARGET_FILE:cbdpt> ${CMAKE_SOURCE_DIR})
 set_tests_properties(combine_cli PROPERTIES TIMEOUT 600)
