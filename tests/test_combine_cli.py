@@ -122,8 +122,9 @@ with tempfile.TemporaryDirectory() as tmp:
                     "--height", "24", "--eye-vertices", "6", "--spp", "4", "--seed", "9", "-o",
                     other, "-q"], check=True)
     refused([pt1, other], ["different scenes"], "a scene file of the same name, other content")
-    refused([pt1, os.path.join(root, "scenes", "references", "cornell-box-v8.exr")],
-            ["no cbdpt render record"], "a file without a record")
+    bare = os.path.join(tmp, "bare.exr")  # an EXR of the right size without cbdpt's record
+    cr.write_exr(bare, {"": cr.read_exr(pt1), "stderr": cr.read_exr(pt1, "stderr")})
+    refused([pt1, bare], ["no cbdpt render record"], "a file without a record")
     refused([pt1], ["at least two"], "a single input")
     refused([pt1, pt2, "--how", "guided"], ["pattern-prone"], "guided without a CBDPT input")
     out = os.path.join(tmp, "blend.exr")
