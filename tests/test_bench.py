@@ -60,6 +60,20 @@ with tempfile.TemporaryDirectory() as tmp:
             check(row["agreement"] >= 0.9999, f"ours and Embree agree on >= 99.99% {row}")
         check(row.get("bvh_settings", "").startswith("SAH block "),
               f"the BVH's settings are recorded {row}")
+    for k in [("bounce1", "closest-hit"), ("bounce2", "closest-hit"), ("coh-shadow", "any-hit")]:
+        check(k in kinds, f"traverse covers one estimate's coherent rays {k}")
+    for row in rows:
+        if row["rays"] in ("bounce1", "bounce2"):
+            check(0.0 < row.get("active_fraction", 0.0) <= 1.0,
+                  f"bounce rays: some paths still active {row}")
+    if data["machine"].get("embree"):
+        # Embree's packet interface beside rtcIntersect1, on the same rays (same ours).
+        calls = {(row["mesh"], row["rays"]): row["embree_call"] for row in rows}
+        for mesh in {row["mesh"] for row in rows}:
+            for case, call in [("primary", "rtcIntersect1"), ("primary/8", "rtcIntersect8"),
+                               ("primary/16", "rtcIntersect16"), ("bounce2/8", "rtcIntersect8"),
+                               ("coh-shadow/16", "rtcOccluded16")]:
+                check(calls.get((mesh, case)) == call, f"{mesh} {case} compared with {call}")
     prim = [row for row in rows if row["rays"] == "primary"]
     check(all(0.05 < row["hit_fraction"] < 0.95 for row in prim),
           "primary rays see both the mesh and the background")

@@ -37,9 +37,10 @@ struct Options {
     int threads = 2;
     bool host = false;               // also time the host (g++) build of the traversal
     std::vector<std::string> meshes; // default per mode
-    // traverse: which ray sets to time (shadow rays start at the primary hits, so primary rays
-    // are traced for them either way).
-    std::vector<std::string> cases{"primary", "incoherent", "shadow", "incoh-any"};
+    // traverse: which ray sets to time (shadow rays and bounces start at the primary hits, so
+    // primary rays are traced for them either way).
+    std::vector<std::string> cases{"primary", "incoherent", "shadow",    "incoh-any",
+                                   "bounce1", "bounce2",    "coh-shadow"};
     std::string device;
     // Internal: measure one program build in this process (run by the build section).
     std::vector<std::string> childBuild;
@@ -82,6 +83,24 @@ std::vector<cbk::Ray> incoherentRays(const Box3& b, long count, unsigned seed);
 void shadowRays(const Box3& b, const std::vector<cbk::Ray>& primary,
                 const std::vector<cbk::Hit>& hits, unsigned seed, std::vector<cbk::Ray>& rays,
                 std::vector<float>& tMax);
+// The coherent rays of one CPT estimate, in which every pixel follows one shared sample
+// vector: each path of `rays` (inactive where tMax[i] <= 0, or null for all active) that hit
+// (`hits`, primitives indexing `prims`) scatters with the same cosine-distributed direction
+// sample (u0, u1) about its hit's geometric normal, turned to the side the ray came from; the
+// origin is moved off the surface by 1e-4 of the mesh size along that normal. Paths that ended
+// give inactive rays (tMax 0), so the set keeps the pixel order of `rays` (one per pixel).
+void coherentBounce(const Box3& b, const std::vector<cbk::Primitive>& prims,
+                    const std::vector<cbk::Ray>& rays, const std::vector<float>* tMax,
+                    const std::vector<cbk::Hit>& hits, float u0, float u1,
+                    std::vector<cbk::Ray>& out, std::vector<float>& outTMax);
+// CPT's shadow rays at the primary hits: all to one point of the square light above the mesh
+// (the estimate's shared light sample); pixels whose camera ray missed are inactive (tMax 0).
+void coherentShadowRays(const Box3& b, const std::vector<cbk::Ray>& primary,
+                        const std::vector<cbk::Hit>& hits, std::vector<cbk::Ray>& rays,
+                        std::vector<float>& tMax);
+// Embree's packets over rays in primaryRays' order (8x8 tiles, row by row): `width` ray
+// indices per packet, 2x4 pixel blocks for 8, 4x4 for 16.
+std::vector<int> tilePackets(size_t count, int width);
 // About a thousand of the camera rays, spread over the image: what the wide BVH's build
 // samples to choose its settings, as DeviceScene does with the scene's camera.
 std::vector<cbk::Ray> cameraSample(const std::vector<cbk::Ray>& primary);

@@ -74,12 +74,17 @@ void addOptions(CLI::App& app, Options& o) {
     app.add_flag("--host", o.host, "also time bench_bvh_binary.h compiled for the host");
     app.add_option("--meshes", o.meshes, "bunny, dragon, buddha, sphere-<n>[k|M]")->delimiter(',');
     app.add_option("--device", o.device, "OpenCL device P:D");
-    app.add_option("--cases", o.cases, "traverse: primary, incoherent, shadow, incoh-any")
+    app.add_option("--cases", o.cases,
+                   "traverse: primary, incoherent, shadow, incoh-any, and one CPT estimate's "
+                   "coherent rays: bounce1, bounce2 (its first and second bounces), coh-shadow "
+                   "(its shadow rays); primary and these also against Embree's packets")
         ->delimiter(',')
         ->check([](const std::string& s) {
-            for (const char* known : {"primary", "incoherent", "shadow", "incoh-any"})
+            for (const char* known : {"primary", "incoherent", "shadow", "incoh-any", "bounce1",
+                                      "bounce2", "coh-shadow"})
                 if (s == known) return std::string();
-            return "unknown ray case '" + s + "' (primary, incoherent, shadow, incoh-any)";
+            return "unknown ray case '" + s +
+                   "' (primary, incoherent, shadow, incoh-any, bounce1, bounce2, coh-shadow)";
         });
     app.add_option("--child-build", o.childBuild, "(internal)")->group("");
     app.add_option("--child-render", o.childRender, "(internal)")->group("");

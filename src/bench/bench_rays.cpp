@@ -1,6 +1,8 @@
 // cbdpt-bench: the rays the traverse and build sections trace (bench.h).
 #include "bench/bench.h"
 
+#include "cb_sampling.h"
+
 #include <algorithm>
 #include <cmath>
 #include <random>
@@ -87,6 +89,59 @@ void shadowRays(const Box3& b, const std::vector<Ray>& primary, const std::vecto
         rays[i] = Ray{o, cbk::vscale(d, 1.0f / len)};
         tMax[i] = len * (1.0f - 1e-4f);
     }
+}
+
+void coherentBounce(const Box3& b, const std::vector<cbk::Primitive>& prims,
+                    const std::vector<Ray>& rays, const std::vector<float>* tMax,
+                    const std::vector<cbk::Hit>& hits, float u0, float u1, std::vector<Ray>& out,
+                    std::vector<float>& outTMax) {
+    const float offset = 1e-4f * cbk::vlength(cbk::vsub(b.hi, b.lo));
+    const Vec3 local = cbk::sampleCosineHemisphere(u0, u1);
+    out.assign(rays.size(), Ray{cbk::vec3(0, 0, 0), cbk::vec3(0, 0, 1)});
+    outTMax.assign(rays.size(), 0.0f);
+    for (size_t i = 0; i < rays.size(); ++i) {
+        if ((tMax && !((*tMax)[i] > 0.0f)) || hits[i].primitive < 0) continue;
+        const cbk::Primitive& p = prims[size_t(hits[i].primitive)];
+        const Vec3 p0 = cbk::vec3(p.p0[0], p.p0[1], p.p0[2]);
+        Vec3 n = cbk::vnormalize(cbk::vcross(cbk::vsub(cbk::vec3(p.p1[0], p.p1[1], p.p1[2]), p0),
+                                             cbk::vsub(cbk::vec3(p.p2[0], p.p2[1], p.p2[2]), p0)));
+        if (cbk::vdot(n, rays[i].d) > 0.0f) n = cbk::vneg(n);
+        const Vec3 hit = cbk::vmadd(rays[i].o, rays[i].d, hits[i].t);
+        out[i] = Ray{cbk::vmadd(hit, n, offset),
+                     cbk::vnormalize(cbk::frameToWorld(cbk::frameFromNormal(n), local))};
+        outTMax[i] = CB_INFINITY;
+    }
+}
+
+void coherentShadowRays(const Box3& b, const std::vector<Ray>& primary,
+                        const std::vector<cbk::Hit>& hits, std::vector<Ray>& rays,
+                        std::vector<float>& tMax) {
+    Vec3 centre = cbk::vscale(cbk::vadd(b.lo, b.hi), 0.5f);
+    float size = cbk::vlength(cbk::vsub(b.hi, b.lo));
+    const Vec3 light = cbk::vadd(centre, cbk::vec3(0.21f * size, 0.8f * size, -0.13f * size));
+    rays.assign(primary.size(), primary.empty() ? Ray{} : primary[0]);
+    tMax.assign(primary.size(), 0.0f);
+    for (size_t i = 0; i < primary.size(); ++i) {
+        if (hits[i].primitive < 0) continue;
+        Vec3 o = cbk::vmadd(primary[i].o, primary[i].d, hits[i].t - 1e-4f * size);
+        Vec3 d = cbk::vsub(light, o);
+        float len = cbk::vlength(d);
+        rays[i] = Ray{o, cbk::vscale(d, 1.0f / len)};
+        tMax[i] = len * (1.0f - 1e-4f);
+    }
+}
+
+std::vector<int> tilePackets(size_t count, int width) {
+    const int rows = width == 8 ? 2 : 4, cols = width / rows;
+    std::vector<int> packets;
+    packets.reserve(count);
+    for (size_t tile = 0; tile + 64 <= count; tile += 64)
+        for (int y = 0; y < 8; y += rows)
+            for (int x = 0; x < 8; x += cols)
+                for (int dy = 0; dy < rows; ++dy)
+                    for (int dx = 0; dx < cols; ++dx)
+                        packets.push_back(int(tile) + (y + dy) * 8 + x + dx);
+    return packets;
 }
 
 std::vector<Ray> cameraSample(const std::vector<Ray>& primary) {

@@ -47,16 +47,20 @@ class ClTraversal {
     }
 
     // Returns the median seconds of `repeats` launches; hits from the last one.
-    double closest(const std::vector<Ray>& rays, bool coherent, int repeats,
-                   std::vector<cbk::Hit>& hits) {
+    // tMax[i] <= 0: an inactive ray, reported as a miss.
+    double closest(const std::vector<Ray>& rays, const std::vector<float>& tMax, bool coherent,
+                   int repeats, std::vector<cbk::Hit>& hits) {
         auto& ctx = rt_.context();
         cl::Buffer rayBuf(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, rays.size() * sizeof(Ray),
                           const_cast<Ray*>(rays.data()));
+        cl::Buffer tBuf(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, tMax.size() * sizeof(float),
+                        const_cast<float*>(tMax.data()));
         cl::Buffer hitBuf(ctx, CL_MEM_WRITE_ONLY, rays.size() * sizeof(cbk::Hit));
-        // Coherent rays go through the renderers' camera-ray traversal (wide BVH only).
+        // Coherent rays go through the renderers' coherent traversal (wide BVH only).
         cl::Kernel& kernel = coherent && !wide_.nodes.empty() ? closestCoherent_ : closest_;
         int arg = setBvhArgs(kernel);
         kernel.setArg(arg++, rayBuf);
+        kernel.setArg(arg++, tBuf);
         kernel.setArg(arg++, cl_uint(rays.size()));
         kernel.setArg(arg, hitBuf);
         double t = launch(kernel, rays.size(), repeats);
@@ -199,26 +203,51 @@ struct CaseResult {
 };
 
 CaseResult closestCase(ClTraversal& cl, const EmbreeBaseline* embree, const Bvh& bvh,
-                       const std::vector<Ray>& rays, bool coherent, int repeats, bool compare,
-                       std::vector<cbk::Hit>& hits) {
+                       const std::vector<Ray>& rays, const std::vector<float>& tMax, bool coherent,
+                       int repeats, bool compare, std::vector<cbk::Hit>& hits) {
     CaseResult r;
-    r.ours = cl.closest(rays, coherent, repeats, hits);
+    r.ours = cl.closest(rays, tMax, coherent, repeats, hits);
     r.n = rays.size();
     for (const auto& h : hits)
         r.hitCount += h.primitive >= 0;
     if (compare && embree) {
         std::vector<BaselineHit> ref;
         timeEmbree(
-            repeats, [&] { embree->intersect(rays, ref); }, r.theirs, r.theirsCpu);
+            repeats, [&] { embree->intersect(rays, ref, &tMax); }, r.theirs, r.theirsCpu);
         r.agree = closestAgreement(hits, bvh, ref);
     }
     return r;
 }
 
+// Embree's packet interface (rtcIntersect8/16, rtcOccluded8/16) on the rays of a case whose
+// ours were timed in `r`: `r` with Embree's times and agreement replaced.
+CaseResult packetCase(const CaseResult& r, const EmbreeBaseline& embree, const Bvh& bvh,
+                      const std::vector<Ray>& rays, const std::vector<float>& tMax,
+                      const std::vector<int>& packets, int width, bool anyHit,
+                      const std::vector<cbk::Hit>& hits, const std::vector<int>& occ, int repeats) {
+    CaseResult p = r;
+    if (anyHit) {
+        std::vector<int> ref;
+        timeEmbree(
+            repeats, [&] { embree.occludedPackets(rays, tMax, packets, width, ref); }, p.theirs,
+            p.theirsCpu);
+        size_t same = 0;
+        for (size_t i = 0; i < r.n; ++i)
+            same += occ[i] == ref[i];
+        p.agree = double(same) / double(r.n);
+    } else {
+        std::vector<BaselineHit> ref;
+        timeEmbree(
+            repeats, [&] { embree.intersectPackets(rays, &tMax, packets, width, ref); }, p.theirs,
+            p.theirsCpu);
+        p.agree = closestAgreement(hits, bvh, ref);
+    }
+    return p;
+}
+
 CaseResult anyHitCase(ClTraversal& cl, const EmbreeBaseline* embree, const std::vector<Ray>& rays,
-                      const std::vector<float>& tMax, int repeats) {
+                      const std::vector<float>& tMax, int repeats, std::vector<int>& occ) {
     CaseResult r;
-    std::vector<int> occ;
     r.ours = cl.occluded(rays, tMax, repeats, occ);
     r.n = rays.size();
     for (int v : occ)
@@ -246,8 +275,8 @@ struct TraverseInput {
 };
 
 // Prints the case's table line(s) and returns its JSON row.
-json caseRow(const TraverseInput& in, const char* name, bool anyHit, const CaseResult& r,
-             double cpuOurs, double host) {
+json caseRow(const TraverseInput& in, const std::string& name, bool anyHit, const CaseResult& r,
+             double cpuOurs, double host, const char* embreeCall = nullptr) {
     double oursM = double(r.n) / r.ours * 1e-6;
     double theirsM = r.theirs > 0 ? double(r.n) / r.theirs * 1e-6 : 0.0;
     double ratio = theirsM > 0 ? oursM / theirsM : 0.0;
@@ -278,6 +307,7 @@ json caseRow(const TraverseInput& in, const char* name, bool anyHit, const CaseR
         row["ratio"] = ratio;
         row["cpu_ratio"] = cpuRatio;
         row["agreement"] = r.agree;
+        row["embree_call"] = embreeCall ? embreeCall : anyHit ? "rtcOccluded1" : "rtcIntersect1";
     }
     return row;
 }
@@ -312,43 +342,99 @@ void traverseVariant(const Options& o, ClRuntime& rt, const BenchMesh& m,
     auto wanted = [&](const char* name) {
         return std::find(o.cases.begin(), o.cases.end(), name) != o.cases.end();
     };
-    std::vector<Ray> shadow;
-    std::vector<float> shadowT;
+    std::vector<Ray> shadow, cohShadow, bounce1, bounce2;
+    std::vector<float> shadowT, cohShadowT, bounce1T, bounce2T;
     const std::vector<float> infT(incoherent.size(), CB_INFINITY);
-    // Shadow rays need the primary hits first.
-    if (wanted("primary") || wanted("shadow")) {
+    const std::vector<float> primaryT(primary.size(), CB_INFINITY);
+    const std::vector<int> packets8 = tilePackets(primary.size(), 8);
+    const std::vector<int> packets16 = tilePackets(primary.size(), 16);
+    // The coherent sets (pixel order, one ray per pixel) also against Embree's packets of 2x4
+    // and 4x4 pixels, ours timed once: rows "<case>/8" and "<case>/16".
+    auto packetRows = [&](const std::string& name, const CaseResult& r, double cpuOurs,
+                          const std::vector<Ray>& rays, const std::vector<float>& tMax, bool anyHit,
+                          const std::vector<cbk::Hit>& hits, const std::vector<int>& occ) {
+        if (!embree) return;
+        for (int width : {8, 16}) {
+            CaseResult p =
+                packetCase(r, *embree, bvh, rays, tMax, width == 8 ? packets8 : packets16, width,
+                           anyHit, hits, occ, repeats);
+            const char* call = anyHit ? (width == 8 ? "rtcOccluded8" : "rtcOccluded16")
+                                      : (width == 8 ? "rtcIntersect8" : "rtcIntersect16");
+            out.push_back(
+                caseRow(in, name + "/" + std::to_string(width), anyHit, p, cpuOurs, 0.0, call));
+        }
+    };
+    // Shadow rays and bounces need the primary hits first.
+    if (wanted("primary") || wanted("shadow") || wanted("coh-shadow") || wanted("bounce1") ||
+        wanted("bounce2")) {
         std::vector<cbk::Hit> hits;
         CaseResult r =
-            closestCase(cl, embree, bvh, primary, true, repeats, wanted("primary"), hits);
-        shadowRays(meshBounds(m.mesh), primary, hits, 11u, shadow, shadowT);
+            closestCase(cl, embree, bvh, primary, primaryT, true, repeats, wanted("primary"), hits);
+        const double cpuOurs = cl.lastCpu;
+        const Box3 box = meshBounds(m.mesh);
+        shadowRays(box, primary, hits, 11u, shadow, shadowT);
+        coherentShadowRays(box, primary, hits, cohShadow, cohShadowT);
+        // One estimate's shared BSDF samples at the first and second bounces.
+        coherentBounce(box, bvh.primitives, primary, nullptr, hits, 0.31f, 0.62f, bounce1,
+                       bounce1T);
         if (wanted("primary")) {
             double host = o.host && variant == "ordered"
                               ? hostSeconds(bvh, primary, nullptr, o.threads, repeats)
                               : 0.0;
-            out.push_back(caseRow(in, "primary", false, r, cl.lastCpu, host));
+            out.push_back(caseRow(in, "primary", false, r, cpuOurs, host));
+            packetRows("primary", r, cpuOurs, primary, primaryT, false, hits, {});
         }
     }
     if (wanted("incoherent")) {
         std::vector<cbk::Hit> hits;
-        CaseResult r = closestCase(cl, embree, bvh, incoherent, false, repeats, true, hits);
+        CaseResult r = closestCase(cl, embree, bvh, incoherent, infT, false, repeats, true, hits);
         double host = o.host && variant == "ordered"
                           ? hostSeconds(bvh, incoherent, nullptr, o.threads, repeats)
                           : 0.0;
         out.push_back(caseRow(in, "incoherent", false, r, cl.lastCpu, host));
     }
+    // The bounces of one estimate: ours with the coherent traversal, and (row "<case>/inc")
+    // with the incoherent one against rtcIntersect1.
+    for (int bounce = 1; bounce <= 2; ++bounce) {
+        const std::string name = "bounce" + std::to_string(bounce);
+        if (!wanted(name.c_str()) && !(bounce == 1 && wanted("bounce2"))) continue;
+        const std::vector<Ray>& rays = bounce == 1 ? bounce1 : bounce2;
+        const std::vector<float>& tMax = bounce == 1 ? bounce1T : bounce2T;
+        std::vector<cbk::Hit> hits;
+        CaseResult r =
+            closestCase(cl, embree, bvh, rays, tMax, true, repeats, wanted(name.c_str()), hits);
+        const double cpuOurs = cl.lastCpu;
+        if (bounce == 1)
+            coherentBounce(meshBounds(m.mesh), bvh.primitives, bounce1, &bounce1T, hits, 0.77f,
+                           0.18f, bounce2, bounce2T);
+        if (!wanted(name.c_str())) continue;
+        out.push_back(caseRow(in, name, false, r, cpuOurs, 0.0));
+        out.back()["active_fraction"] =
+            double(std::count_if(tMax.begin(), tMax.end(), [](float t) { return t > 0.0f; })) /
+            double(tMax.size());
+        packetRows(name, r, cpuOurs, rays, tMax, false, hits, {});
+        std::vector<cbk::Hit> incHits;
+        CaseResult inc = closestCase(cl, embree, bvh, rays, tMax, false, repeats, true, incHits);
+        out.push_back(caseRow(in, name + "/inc", false, inc, cl.lastCpu, 0.0));
+    }
     struct AnyHit {
         const char* name;
         const std::vector<Ray>& rays;
         const std::vector<float>& tMax;
+        bool packets;
     };
-    for (const AnyHit& c :
-         {AnyHit{"shadow", shadow, shadowT}, AnyHit{"incoh-any", incoherent, infT}}) {
+    for (const AnyHit& c : {AnyHit{"shadow", shadow, shadowT, false},
+                            AnyHit{"coh-shadow", cohShadow, cohShadowT, true},
+                            AnyHit{"incoh-any", incoherent, infT, false}}) {
         if (!wanted(c.name)) continue;
-        CaseResult r = anyHitCase(cl, embree, c.rays, c.tMax, repeats);
+        std::vector<int> occ;
+        CaseResult r = anyHitCase(cl, embree, c.rays, c.tMax, repeats, occ);
+        const double cpuOurs = cl.lastCpu;
         double host = o.host && variant == "ordered"
                           ? hostSeconds(bvh, c.rays, &c.tMax, o.threads, repeats)
                           : 0.0;
-        out.push_back(caseRow(in, c.name, true, r, cl.lastCpu, host));
+        out.push_back(caseRow(in, c.name, true, r, cpuOurs, host));
+        if (c.packets) packetRows(c.name, r, cpuOurs, c.rays, c.tMax, true, {}, occ);
     }
 }
 

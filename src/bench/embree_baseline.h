@@ -26,11 +26,23 @@ class EmbreeBaseline {
 
     double buildSeconds() const { return buildSeconds_; }
     std::string version() const;
-    // rtcIntersect1 per ray, rays split into `threads` contiguous ranges on std::threads.
-    void intersect(const std::vector<cbk::Ray>& rays, std::vector<BaselineHit>& out) const;
-    // rtcOccluded1 with tfar = tMax[i].
+    // rtcIntersect1 per ray, in chunks on `threads` std::threads (parallelRayChunks). With
+    // tMax, tfar = tMax[i], and a ray with tMax[i] <= 0 is inactive (a path that ended): it
+    // is skipped and reported as a miss.
+    void intersect(const std::vector<cbk::Ray>& rays, std::vector<BaselineHit>& out,
+                   const std::vector<float>* tMax = nullptr) const;
+    // rtcOccluded1 with tfar = tMax[i]; tMax[i] <= 0 is inactive (not occluded).
     void occluded(const std::vector<cbk::Ray>& rays, const std::vector<float>& tMax,
                   std::vector<int>& out) const;
+    // The packet interface: rtcIntersect8/16 (width 8 or 16) on the packets of `packets`,
+    // `width` ray indices each (-1 for an empty lane), inactive rays as invalid lanes; chunks
+    // of packets on `threads` std::threads. Same results as intersect().
+    void intersectPackets(const std::vector<cbk::Ray>& rays, const std::vector<float>* tMax,
+                          const std::vector<int>& packets, int width,
+                          std::vector<BaselineHit>& out) const;
+    // rtcOccluded8/16 likewise.
+    void occludedPackets(const std::vector<cbk::Ray>& rays, const std::vector<float>& tMax,
+                         const std::vector<int>& packets, int width, std::vector<int>& out) const;
 
   private:
     struct Impl;

@@ -10,11 +10,11 @@
 
 __kernel void benchClosest(__global const struct BvhNode* nodes,
                            __global const Primitive* primitives, __global const Ray* rays,
-                           uint count, __global Hit* hits) {
+                           __global const float* tMax, uint count, __global Hit* hits) {
     uint i = (uint)get_global_id(0);
     if (i >= count) return;
-    Hit h;
-    bvhIntersect(nodes, primitives, rays[i], CB_INFINITY, &h);
+    Hit h = {CB_INFINITY, -1, 0.0f, 0.0f};
+    if (tMax[i] > 0.0f) bvhIntersect(nodes, primitives, rays[i], tMax[i], &h);
     hits[i] = h;
 }
 
@@ -26,29 +26,32 @@ __kernel void benchOccluded(__global const struct BvhNode* nodes,
     occluded[i] = bvhOccluded(nodes, primitives, rays[i], tMax[i]) ? 1 : 0;
 }
 
-/* The wide BVH (cb_bvh_wide.h, the renderers' traversal) on the same rays. */
+/* The wide BVH (cb_bvh_wide.h, the renderers' traversal) on the same rays. Closest hits take a
+ * tMax per ray: CB_INFINITY, or 0 for an inactive ray (a path that ended, reported as a
+ * miss), so that sets of coherent bounce rays keep one ray per pixel. */
 __kernel void benchClosestWide(__global const struct BvhNodeWide* nodes,
                                __global const TrianglePack* packs,
                                __global const Primitive* primitives, __global const Ray* rays,
-                               uint count, __global Hit* hits) {
+                               __global const float* tMax, uint count, __global Hit* hits) {
     uint i = (uint)get_global_id(0);
     if (i >= count) return;
-    Hit h;
-    bvhWideTraverse(nodes, packs, primitives, rays[i], CB_INFINITY, true, false, &h);
+    Hit h = {CB_INFINITY, -1, 0.0f, 0.0f};
+    if (tMax[i] > 0.0f) bvhWideTraverse(nodes, packs, primitives, rays[i], tMax[i], true, false, &h);
     hits[i] = h;
 }
 
-/* Primary rays in pixel order, traced as the renderers trace camera rays
+/* Rays in pixel order, traced as the renderers trace camera rays
  * (sceneIntersectCoherent). A kernel of its own: with both traversals inlined into one kernel,
  * the coherent one ran 10% slower than alone. */
 __kernel void benchClosestWideCoherent(__global const struct BvhNodeWide* nodes,
                                        __global const TrianglePack* packs,
                                        __global const Primitive* primitives,
-                                       __global const Ray* rays, uint count, __global Hit* hits) {
+                                       __global const Ray* rays, __global const float* tMax,
+                                       uint count, __global Hit* hits) {
     uint i = (uint)get_global_id(0);
     if (i >= count) return;
-    Hit h;
-    bvhWideTraverse(nodes, packs, primitives, rays[i], CB_INFINITY, true, true, &h);
+    Hit h = {CB_INFINITY, -1, 0.0f, 0.0f};
+    if (tMax[i] > 0.0f) bvhWideTraverse(nodes, packs, primitives, rays[i], tMax[i], true, true, &h);
     hits[i] = h;
 }
 
@@ -60,6 +63,8 @@ __kernel void benchOccludedWide(__global const struct BvhNodeWide* nodes,
     uint i = (uint)get_global_id(0);
     if (i >= count) return;
     Hit h;
-    occluded[i] =
-        bvhWideTraverse(nodes, packs, primitives, rays[i], tMax[i], false, true, &h) ? 1 : 0;
+    occluded[i] = tMax[i] > 0.0f &&
+                          bvhWideTraverse(nodes, packs, primitives, rays[i], tMax[i], false, true, &h)
+                      ? 1
+                      : 0;
 }
