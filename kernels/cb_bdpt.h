@@ -41,6 +41,13 @@ CB_BEGIN_NAMESPACE
 #define CB_VERTEX_AREA_LIGHT 1  /* light[0] on an area light */
 #define CB_VERTEX_POINT_LIGHT 2 /* light[0] of a point light: a delta in position */
 #define CB_VERTEX_SURFACE 3
+/* light[0] of a distant light: a delta in direction, at a point beyond the scene's bounding
+ * sphere (the ray's origin); area densities of the next vertex are planar ones times |cos|. */
+#define CB_VERTEX_DISTANT_LIGHT 4
+/* The infinite light: light[0] of its subpaths (beyond the bounding sphere, like a distant
+ * light's), or the last eye vertex of an eye subpath that escaped, whose pdfFwd stays the
+ * solid-angle density of the escaping direction (pbrt-v4's BDPT). */
+#define CB_VERTEX_INFINITE_LIGHT 5
 
 #define CB_WEIGHTS_POWER 0
 #define CB_WEIGHTS_LAFORTUNE 1
@@ -110,6 +117,17 @@ CB_FN bool pvOnSurface(const PathVertex* v) {
     return v->type == CB_VERTEX_SURFACE || v->type == CB_VERTEX_AREA_LIGHT;
 }
 
+/* A light vertex that no eye subpath can hit (s = 0 cannot produce it): point and distant. */
+CB_FN bool pvIsDeltaLight(const PathVertex* v) {
+    return v->type == CB_VERTEX_POINT_LIGHT || v->type == CB_VERTEX_DISTANT_LIGHT;
+}
+
+/* A light vertex standing for a direction rather than a point (pbrt-v4's IsInfiniteLight):
+ * densities toward it stay solid-angle ones, and the distance to it is not a falloff. */
+CB_FN bool pvAtInfinity(const PathVertex* v) {
+    return v->type == CB_VERTEX_DISTANT_LIGHT || v->type == CB_VERTEX_INFINITE_LIGHT;
+}
+
 /* |cos| between the vertex normal and unit direction w; 1 where no surface (point light). */
 CB_FN real pvAbsCos(const PathVertex* v, Vec3 w) {
     return pvOnSurface(v) ? vabsdot(pvN(v), w) : 1.0f;
@@ -118,6 +136,7 @@ CB_FN real pvAbsCos(const PathVertex* v, Vec3 w) {
 /* Solid-angle density at `from` of the direction to `to`, as an area density at `to`
  * (Veach 1997, eq. 8.10): times |cos| at `to` / distance^2. */
 CB_FN real pvConvertPdf(real pdfW, Vec3 from, const PathVertex* to) {
+    if (pvAtInfinity(to)) return pdfW;
     Vec3 d = vsub(pvP(to), from);
     real dist2 = vlength2(d);
     if (!(dist2 > 0.0f)) return 0.0f;
@@ -180,13 +199,21 @@ CB_FN PathVertex bdptCameraVertex(const Camera* camera) {
  * for area lights, intensity for point lights). */
 CB_FN Spectrum bdptLightEmission(const SceneView* scene, const PathVertex* v, Vec3 w) {
     if (v->type == CB_VERTEX_POINT_LIGHT) return pointLightIntensity(scene, v->light, w);
+    if (pvAtInfinity(v)) return specLoad(scene->spectra, scene->lights[v->light].emission);
     return lightEmittedRadiance(scene, v->light, pvN(v), w);
 }
 
 /* Solid-angle density with which bdptLightSubpath emits in unit direction w from light vertex v
- * (cosine-weighted per side; uniform sphere for point lights). */
+ * (cosine-weighted per side; uniform sphere for point lights). For a light at infinity, whose
+ * direction is given, the density of the ray's position across the beam instead, 1 / (pi R^2):
+ * times |cos| at the vertex the ray reaches, with no distance falloff, it is that vertex's area
+ * density (pbrt-v4's Vertex::PdfLight). */
 CB_FN real bdptLightDirectionPdf(const SceneView* scene, const PathVertex* v, Vec3 w) {
     if (v->type == CB_VERTEX_POINT_LIGHT) return uniformSpherePdf();
+    if (pvAtInfinity(v)) {
+        real radius = scene->lights[v->light].sceneRadius;
+        return 1.0f / (CB_PI * radius * radius);
+    }
     real c = vdot(pvN(v), w);
     if (scene->lights[v->light].twoSided) return 0.5f * fabs(c) * CB_INV_PI;
     return cosineHemispherePdf(c);
@@ -208,7 +235,28 @@ CB_FN int bdptRandomWalk(const SceneView* scene, Ray ray, Spectrum beta, real pd
         bool found = coherent ? sceneIntersectCoherent(scene, ray, CB_INFINITY, &hit)
                               : sceneIntersect(scene, ray, CB_INFINITY, &hit);
         coherent = false;
-        if (!found) break;
+        if (!found) {
+            /* An escaped eye ray ends on the infinite light, if the scene has one. */
+            int infinite = adjoint ? -1 : lightInfinite(scene);
+            if (infinite < 0) break;
+            PathVertex* v = &path[count];
+            cbStore3(v->p, vmadd(ray.o, ray.d, 2.0f * scene->lights[infinite].sceneRadius));
+            cbStore3(v->n, vneg(ray.d));
+            cbStore3(v->pError, vec3(0.0f, 0.0f, 0.0f));
+            cbStore3(v->wo, vneg(ray.d));
+            v->type = CB_VERTEX_INFINITE_LIGHT;
+            v->material = -1;
+            v->light = infinite;
+            v->delta = 0;
+            v->pdfFwd = pdfW;
+            v->pdfRev = 0.0f;
+            v->pad0 = v->pad1 = 0.0f;
+            for (int i = 0; i < CB_PATH_VERTEX_PAD; ++i)
+                v->pad[i] = 0.0f;
+            v->beta = beta;
+            ++count;
+            break;
+        }
         SurfacePoint sp = surfacePointFromHit(scene, ray, hit);
         PathVertex* v = &path[count];
         PathVertex* prev = &path[count - 1];
@@ -272,12 +320,15 @@ CB_FN int bdptEyeSubpath(const SceneView* scene, const Camera* camera, real rast
 /* The first vertex of a light subpath, on the light point `ls`: pdfFwd is the area density the
  * MIS weights use for it, and beta = 1 / pdfFwd (callers with another sampling density set beta
  * again). */
-CB_FN void bdptSetLightVertex(PathVertex* v, const LightSample* ls, real pdfFwd) {
+CB_FN void bdptSetLightVertex(const SceneView* scene, PathVertex* v, const LightSample* ls,
+                              real pdfFwd) {
     cbStore3(v->p, ls->p);
     cbStore3(v->n, ls->n);
     cbStore3(v->pError, ls->pError);
     cbStore3(v->wo, vec3(0.0f, 0.0f, 0.0f));
     v->type = ls->isDelta ? CB_VERTEX_POINT_LIGHT : CB_VERTEX_AREA_LIGHT;
+    if (scene->lights[ls->light].kind == CB_LIGHT_DISTANT) v->type = CB_VERTEX_DISTANT_LIGHT;
+    if (scene->lights[ls->light].kind == CB_LIGHT_INFINITE) v->type = CB_VERTEX_INFINITE_LIGHT;
     v->material = -1;
     v->light = ls->light;
     v->delta = 0;
@@ -301,12 +352,42 @@ CB_FN int bdptLightSubpath(const SceneView* scene, SampleStream stream, int maxV
                      sampleAt(stream, CB_LIGHT_DIM_POINT + 1u), &ls))
         return 0;
     PathVertex* v = &light[0];
-    bdptSetLightVertex(v, &ls, ls.pdfPick * ls.pdfArea);
+    bdptSetLightVertex(scene, v, &ls, ls.pdfPick * ls.pdfArea);
     if (maxVertices < 2) return 1;
 
     real u0 = sampleAt(stream, CB_LIGHT_DIM_DIRECTION);
     real u1 = sampleAt(stream, CB_LIGHT_DIM_DIRECTION + 1u);
     Vec3 w;
+    if (v->type == CB_VERTEX_INFINITE_LIGHT) {
+        /* A uniform direction, the origin on the beam's disk (pbrt-v4's
+         * UniformInfiniteLight::SampleLe). pdfFwd becomes the solid-angle density with which
+         * next-event estimation picks this direction, the MIS recursion's y0 for s = 0; light[1]
+         * gets the planar density times |cos|. */
+        CB_GLOBAL const Light* infinite = &scene->lights[ls.light];
+        w = sampleUniformSphere(u0, u1);
+        cbStore3(v->p, lightBeamOrigin(infinite, vneg(w), sampleAt(stream, CB_LIGHT_DIM_POINT),
+                                       sampleAt(stream, CB_LIGHT_DIM_POINT + 1u)));
+        cbStore3(v->n, w);
+        v->pdfFwd = ls.pdfPick * uniformSpherePdf();
+        Spectrum le = bdptLightEmission(scene, v, w);
+        Spectrum beta = specScale(le, 1.0f / (ls.pdfPick * ls.pdfArea * uniformSpherePdf()));
+        int count = bdptRandomWalk(scene, spawnRay(pvSurfacePoint(v), w), beta, 1.0f, 1, false,
+                                   stream, CB_LIGHT_DIM_FIRST_BOUNCE, light, 1, maxVertices, rays);
+        if (count > 1) light[1].pdfFwd = ls.pdfArea * pvAbsCos(&light[1], w);
+        return count;
+    }
+    if (pvAtInfinity(v)) {
+        /* Along the beam: the direction is a delta, so only the position's density counts. */
+        w = vneg(vec3FromGlobalArray(scene->lights[ls.light].axis));
+        Spectrum le = bdptLightEmission(scene, v, w);
+        if (specIsBlack(le)) return 1;
+        int count = bdptRandomWalk(scene, spawnRay(pvSurfacePoint(v), w),
+                                   specScale(le, 1.0f / v->pdfFwd), 1.0f, 1, false, stream,
+                                   CB_LIGHT_DIM_FIRST_BOUNCE, light, 1, maxVertices, rays);
+        /* light[1]'s area density: the planar one times |cos| there (pbrt-v4's BDPT). */
+        if (count > 1) light[1].pdfFwd = ls.pdfArea * pvAbsCos(&light[1], w);
+        return count;
+    }
     if (ls.isDelta) {
         w = sampleUniformSphere(u0, u1);
     } else {
@@ -335,6 +416,7 @@ CB_FN bool bdptNeeLightVertex(const SceneView* scene, SampleStream eyeStream, co
                               int t, PathVertex* out) {
     if (t < 2) return false;
     int bounce = t - 2;
+    if (pvAtInfinity(&eye[t - 1])) return false; /* an escaped eye subpath: s = 0 only */
     LightSample ls;
     if (!lightSampleFrom(scene, pvP(&eye[t - 1]),
                          sampleAt(eyeStream, bounceDimension(bounce, CB_SLOT_LIGHT_CHOICE)),
@@ -342,7 +424,9 @@ CB_FN bool bdptNeeLightVertex(const SceneView* scene, SampleStream eyeStream, co
                          sampleAt(eyeStream, bounceDimension(bounce, CB_SLOT_LIGHT_POINT + 1u)),
                          &ls))
         return false;
-    bdptSetLightVertex(out, &ls, ls.isDelta ? ls.pdfPick : lightPdfArea(scene, ls.light));
+    real pdfFwd = ls.isDelta ? ls.pdfPick : lightPdfArea(scene, ls.light);
+    if (scene->lights[ls.light].kind == CB_LIGHT_INFINITE) pdfFwd = ls.pdfPick * ls.pdfSolidAngle;
+    bdptSetLightVertex(scene, out, &ls, pdfFwd);
     out->beta = specConst(1.0f / (ls.pdfPick * ls.pdfArea));
     return true;
 }
@@ -355,7 +439,7 @@ CB_FN bool bdptNeeLightVertex(const SceneView* scene, SampleStream eyeStream, co
  * s = 1 strategy's pdf is that times this ratio: the cone density converted to area at y0,
  * |cos at y0| / dist^2, over the area density (the light choice cancels). 1 for other lights. */
 CB_FN real bdptConeRatio(const SceneView* scene, const PathVertex* y0, const PathVertex* y1) {
-    if (y0->type == CB_VERTEX_POINT_LIGHT || y0->light < 0) return 1.0f;
+    if (pvIsDeltaLight(y0) || y0->light < 0) return 1.0f;
     real conePdf = lightConePdf(scene, y0->light, pvP(y1));
     if (!(conePdf > 0.0f)) return 1.0f;
     Vec3 d = vsub(pvP(y1), pvP(y0));
@@ -422,7 +506,7 @@ CB_FN real bdptPowerWeight(const PathVertex* light, int s, const PathVertex* eye
         if (i > 0)
             deltaPrev = i - 1 == s - 1 ? 0 : light[i - 1].delta;
         else
-            deltaPrev = light[0].type == CB_VERTEX_POINT_LIGHT; /* s = 0 cannot hit it */
+            deltaPrev = pvIsDeltaLight(&light[0]); /* s = 0 cannot hit it */
         if (!deltaHere && !deltaPrev && !(i == 1 && tNew == 1)) {
             real r = ri * fromS * (i == 1 ? coneRatio : 1.0f);
             sumRi += t == 1 ? r * r / (cameraCount * cameraCount) : r * r;
@@ -471,7 +555,7 @@ CB_FN real bdptLafortuneWeight(const SceneView* scene, const PathVertex* light, 
     int tMin = k - settings.lightVertices > 2 ? k - settings.lightVertices : 2;
     int tMax = settings.eyeVertices < k ? settings.eyeVertices : k;
     const PathVertex* y0 = s > 0 ? &light[0] : &eye[t - 1];
-    if (y0->type == CB_VERTEX_POINT_LIGHT && tMax > k - 1) tMax = k - 1;
+    if (pvIsDeltaLight(y0) && tMax > k - 1) tMax = k - 1;
     if (t < tMin || t > tMax) return 0.0f;
     real prefix = 1.0f; /* W_{tMin-1} ... W_{t-2} */
     for (int j = tMin - 1; j <= t - 2; ++j)
@@ -520,6 +604,16 @@ CB_FN bool bdptConnectUnoccluded(const SceneView* scene, const Camera* camera,
     if (s == 0) {
         /* The eye subpath found an emitter. */
         const PathVertex* pt = &eye[t - 1];
+        if (pt->type == CB_VERTEX_INFINITE_LIGHT) {
+            /* It escaped to the infinite light: next-event estimation's direction density and
+             * the light subpath's planar one at eye[t-2] (pbrt-v4's PdfLightOrigin, PdfLight). */
+            CB_GLOBAL const Light* infinite = &scene->lights[pt->light];
+            out->contribution = specMul(pt->beta, specLoad(scene->spectra, infinite->emission));
+            out->ptPdfRev = infinite->pickProbability * uniformSpherePdf();
+            out->ptMinusPdfRev = bdptLightDirectionPdf(scene, pt, vec3FromArray(pt->wo)) *
+                                 pvAbsCos(&eye[t - 2], vec3FromArray(pt->wo));
+            return true;
+        }
         if (!pvOnSurface(pt) || pt->light < 0) return false;
         Vec3 wo = vec3FromArray(pt->wo);
         Spectrum le = lightEmittedRadiance(scene, pt->light, pvN(pt), wo);
@@ -564,7 +658,7 @@ CB_FN bool bdptConnectUnoccluded(const SceneView* scene, const Camera* camera,
         return true;
     }
     const PathVertex* pt = &eye[t - 1];
-    if (!materialHasNonDelta(scene, pt->material)) return false;
+    if (pvAtInfinity(pt) || !materialHasNonDelta(scene, pt->material)) return false;
     Vec3 d = vsub(pvP(qs), pvP(pt));
     real dist2 = vlength2(d);
     if (!(dist2 > 0.0f)) return false;
@@ -583,11 +677,13 @@ CB_FN bool bdptConnectUnoccluded(const SceneView* scene, const Camera* camera,
                        vneg(w), 1, &qsFwd, &qsRev);
     }
     if (specIsBlack(fQs)) return false;
-    real g = pvAbsCos(pt, w) * pvAbsCos(qs, w) / dist2;
+    /* A light at infinity has no distance falloff (its radiance arrives undiminished). */
+    real invDist2 = pvAtInfinity(qs) ? 1.0f : 1.0f / dist2;
+    real g = pvAbsCos(pt, w) * pvAbsCos(qs, w) * invDist2;
     out->contribution = specScale(specMul(specMul(qs->beta, fQs), specMul(fPt, pt->beta)), g);
-    out->ptPdfRev = qsFwd * pvAbsCos(pt, w) / dist2;
+    out->ptPdfRev = qsFwd * pvAbsCos(pt, w) * invDist2;
     out->ptMinusPdfRev = pvConvertPdf(ptRev, pvP(pt), &eye[t - 2]);
-    out->qsPdfRev = ptFwd * pvAbsCos(qs, w) / dist2;
+    out->qsPdfRev = ptFwd * pvAbsCos(qs, w) * invDist2;
     out->qsMinusPdfRev = s >= 2 ? pvConvertPdf(qsRev, pvP(qs), &light[s - 2]) : 0.0f;
     out->needsShadow = 1;
     return true;

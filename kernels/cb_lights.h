@@ -16,9 +16,10 @@ typedef struct LightSample {
     Vec3 pError;        /* error bound of p, for spawnRayTo */
     Vec3 n;             /* unit surface normal (front side); zero for point lights */
     int light;          /* index of the chosen light */
-    int isDelta;        /* point light: position is a delta, no MIS against BSDF sampling */
+    int isDelta;        /* point or distant light: a delta, no MIS against BSDF sampling */
     real pdfPick;       /* probability of having chosen this light */
-    real pdfArea;       /* density of p on the light in area measure (1 for point lights) */
+    real pdfArea;       /* density of p on the light in area measure (1 for point lights; */
+                        /* distant: 1 from a reference point, 1 / (pi R^2) on the disk) */
     real pdfSolidAngle; /* lightSampleFrom on a sphere: the cone's solid-angle density; else 0 */
 } LightSample;
 
@@ -36,6 +37,29 @@ CB_FN int lightChoose(const SceneView* scene, real u) {
     return lo;
 }
 
+/* The origin of a ray of a light at infinity seen in unit direction `toLight`: uniform (u0, u1)
+ * on the disk of the bounding sphere's radius R perpendicular to it, moved R toward the light,
+ * so that the ray starts outside the scene: density 1 / (pi R^2) per unit area across the beam
+ * (pbrt-v4's DistantLight and UniformInfiniteLight::SampleLe). */
+CB_FN Vec3 lightBeamOrigin(CB_GLOBAL const Light* light, Vec3 toLight, real u0, real u1) {
+    real radius = light->sceneRadius;
+    real dx, dy;
+    sampleConcentricDisk(u0, u1, &dx, &dy);
+    Vec3 onDisk = frameToWorld(frameFromNormal(toLight), vec3(dx * radius, dy * radius, 0.0f));
+    return vmadd(vadd(vec3FromGlobalArray(light->position), onDisk), toLight, radius);
+}
+
+/* The index of the scene's infinite light (always the last light), or -1. */
+CB_FN int lightInfinite(const SceneView* scene) {
+#if CB_HAS(CB_FEATURE_INFINITE_LIGHT)
+    if (scene->lightCount > 0 && scene->lights[scene->lightCount - 1].kind == CB_LIGHT_INFINITE)
+        return scene->lightCount - 1;
+#else
+    (void)scene;
+#endif
+    return -1;
+}
+
 /* Area of the emitting primitive, its uniform point and the point's error bound. */
 CB_FN void lightSamplePoint(const SceneView* scene, int lightIndex, real u0, real u1,
                             LightSample* out) {
@@ -50,6 +74,28 @@ CB_FN void lightSamplePoint(const SceneView* scene, int lightIndex, real u0, rea
         out->n = vec3(0.0f, 0.0f, 0.0f);
         out->isDelta = 1;
         out->pdfArea = 1.0f;
+        return;
+    }
+#endif
+#if CB_HAS(CB_FEATURE_DISTANT_LIGHT)
+    if (light->kind == CB_LIGHT_DISTANT) {
+        /* The origin of a light subpath, on the beam's disk. */
+        out->p = lightBeamOrigin(light, vec3FromGlobalArray(light->axis), u0, u1);
+        out->pError = vec3(0.0f, 0.0f, 0.0f);
+        out->n = vec3(0.0f, 0.0f, 0.0f);
+        out->isDelta = 1;
+        out->pdfArea = 1.0f / (CB_PI * light->sceneRadius * light->sceneRadius);
+        return;
+    }
+#endif
+#if CB_HAS(CB_FEATURE_INFINITE_LIGHT)
+    if (light->kind == CB_LIGHT_INFINITE) {
+        /* The origin depends on the direction, which bdptLightSubpath samples and places it. */
+        out->p = vec3FromGlobalArray(light->position);
+        out->pError = vec3(0.0f, 0.0f, 0.0f);
+        out->n = vec3(0.0f, 0.0f, 0.0f);
+        out->isDelta = 0;
+        out->pdfArea = 1.0f / (CB_PI * light->sceneRadius * light->sceneRadius);
         return;
     }
 #endif
@@ -99,9 +145,7 @@ CB_FN bool lightSample(const SceneView* scene, real uChoice, real u0, real u1, L
 CB_FN real lightConePdf(const SceneView* scene, int lightIndex, Vec3 ref) {
 #if CB_HAS(CB_FEATURE_SPHERES)
     CB_GLOBAL const Light* light = &scene->lights[lightIndex];
-#if CB_HAS(CB_FEATURE_POINT_LIGHT)
-    if (light->kind == CB_LIGHT_POINT) return 0.0f;
-#endif
+    if (light->kind != CB_LIGHT_AREA) return 0.0f;
     CB_GLOBAL const Primitive* prim = &scene->primitives[light->primitive];
     if (prim->kind != CB_PRIM_SPHERE) return 0.0f;
     real radius = prim->p1[0];
@@ -131,6 +175,38 @@ CB_FN bool lightSampleFrom(const SceneView* scene, Vec3 ref, real uChoice, real 
                            LightSample* out) {
     if (scene->lightCount <= 0) return false;
     int lightIndex = lightChoose(scene, uChoice);
+#if CB_HAS(CB_FEATURE_DISTANT_LIGHT)
+    if (scene->lights[lightIndex].kind == CB_LIGHT_DISTANT) {
+        /* The one direction, to a point beyond the bounding sphere (ref lies inside it). */
+        CB_GLOBAL const Light* distant = &scene->lights[lightIndex];
+        out->light = lightIndex;
+        out->pdfPick = distant->pickProbability;
+        out->pdfSolidAngle = 0.0f;
+        out->p = vmadd(ref, vec3FromGlobalArray(distant->axis), 2.0f * distant->sceneRadius);
+        out->pError = vec3(0.0f, 0.0f, 0.0f);
+        out->n = vec3(0.0f, 0.0f, 0.0f);
+        out->isDelta = 1;
+        out->pdfArea = 1.0f;
+        return out->pdfPick > 0.0f;
+    }
+#endif
+#if CB_HAS(CB_FEATURE_INFINITE_LIGHT)
+    if (scene->lights[lightIndex].kind == CB_LIGHT_INFINITE) {
+        /* A uniform direction, to a point beyond the bounding sphere: pdfSolidAngle is its
+         * density (pdfArea too, so that 1 / (pdfPick pdfArea) is the sample's weight). */
+        CB_GLOBAL const Light* infinite = &scene->lights[lightIndex];
+        Vec3 w = sampleUniformSphere(u0, u1);
+        out->light = lightIndex;
+        out->pdfPick = infinite->pickProbability;
+        out->pdfSolidAngle = uniformSpherePdf();
+        out->p = vmadd(ref, w, 2.0f * infinite->sceneRadius);
+        out->pError = vec3(0.0f, 0.0f, 0.0f);
+        out->n = vec3(0.0f, 0.0f, 0.0f);
+        out->isDelta = 0;
+        out->pdfArea = uniformSpherePdf();
+        return out->pdfPick > 0.0f;
+    }
+#endif
     real conePdf = lightConePdf(scene, lightIndex, ref);
     out->pdfSolidAngle = conePdf;
     if (!(conePdf > 0.0f)) {
@@ -190,6 +266,9 @@ CB_FN real lightPdfSolidAngleFrom(const SceneView* scene, int lightIndex, Vec3 r
  * emit only to the side n points to. */
 CB_FN Spectrum lightEmittedRadiance(const SceneView* scene, int lightIndex, Vec3 n, Vec3 w) {
     CB_GLOBAL const Light* light = &scene->lights[lightIndex];
+#if CB_HAS(CB_FEATURE_INFINITE_LIGHT)
+    if (light->kind == CB_LIGHT_INFINITE) return specLoad(scene->spectra, light->emission);
+#endif
     if (!light->twoSided && vdot(n, w) <= 0.0f) return specZero();
     return specLoad(scene->spectra, light->emission);
 }
@@ -201,7 +280,7 @@ CB_FN Spectrum pointLightIntensity(const SceneView* scene, int lightIndex, Vec3 
     Spectrum intensity = specLoad(scene->spectra, light->emission);
 #if CB_HAS(CB_FEATURE_SPOT_LIGHT)
     if (light->spotCosEnd >= -1.0f) {
-        real c = vdot(w, vec3FromGlobalArray(light->spotAxis));
+        real c = vdot(w, vec3FromGlobalArray(light->axis));
         real t = (c - light->spotCosEnd) / (light->spotCosStart - light->spotCosEnd);
         t = fmin(fmax(t, 0.0f), 1.0f);
         if (!(light->spotCosStart > light->spotCosEnd)) t = c < light->spotCosEnd ? 0.0f : 1.0f;
@@ -209,6 +288,22 @@ CB_FN Spectrum pointLightIntensity(const SceneView* scene, int lightIndex, Vec3 
     }
 #endif
     return intensity;
+}
+
+/* What delta light sample `ls` sends to the point it was sampled from, seen in unit direction
+ * wi (toward the light) at squared distance dist2, and *pdfW, the light choice expressed as a
+ * solid-angle density that divides it: a point light's intensity I arrives as I / r^2 (pdfW =
+ * pick r^2), a distant light's radiance L from one direction is irradiance L (pdfW = pick). */
+CB_FN Spectrum deltaLightArriving(const SceneView* scene, const LightSample* ls, Vec3 wi,
+                                  real dist2, real* pdfW) {
+#if CB_HAS(CB_FEATURE_DISTANT_LIGHT)
+    if (scene->lights[ls->light].kind == CB_LIGHT_DISTANT) {
+        *pdfW = ls->pdfPick;
+        return specLoad(scene->spectra, scene->lights[ls->light].emission);
+    }
+#endif
+    *pdfW = ls->pdfPick * dist2;
+    return pointLightIntensity(scene, ls->light, vneg(wi));
 }
 
 /* Probability density, in area measure and including the choice of light, with which

@@ -45,7 +45,22 @@ CB_FN Spectrum ptRadiance(const SceneView* scene, Ray ray, SampleStream stream,
         /* The camera ray: neighbouring pixels are neighbouring work-items. */
         bool found = vertex == 1 ? sceneIntersectCoherent(scene, ray, CB_INFINITY, &hit)
                                  : sceneIntersect(scene, ray, CB_INFINITY, &hit);
-        if (!found) break;
+        if (!found) {
+#if CB_HAS(CB_FEATURE_INFINITE_LIGHT)
+            /* The escaped ray sees the infinite light, weighed against next-event estimation's
+             * uniform directions. */
+            int infinite = lightInfinite(scene);
+            if (infinite >= 0) {
+                real weight = 1.0f;
+                if (!previousDelta)
+                    weight = powerHeuristic(previousPdfW, scene->lights[infinite].pickProbability *
+                                                              uniformSpherePdf());
+                Spectrum le = specLoad(scene->spectra, scene->lights[infinite].emission);
+                radiance = specAdd(radiance, specScale(specMul(throughput, le), weight));
+            }
+#endif
+            break;
+        }
         SurfacePoint sp = surfacePointFromHit(scene, ray, hit);
         Vec3 wo = vneg(ray.d);
         int bounce = vertex - 1;
@@ -81,8 +96,7 @@ CB_FN Spectrum ptRadiance(const SceneView* scene, Ray ray, SampleStream stream,
                 Spectrum emitted;
                 real pdfLightW;
                 if (ls.isDelta) {
-                    emitted = pointLightIntensity(scene, ls.light, vneg(wi));
-                    pdfLightW = ls.pdfPick * dist2; /* intensity I arrives as I / r^2 */
+                    emitted = deltaLightArriving(scene, &ls, wi, dist2, &pdfLightW);
                 } else {
                     emitted = lightEmittedRadiance(scene, ls.light, ls.n, vneg(wi));
                     real cosLight = vabsdot(ls.n, wi);

@@ -82,7 +82,9 @@ typedef struct SurfacePoint {
 #define CB_FEATURE_AREA_LIGHT (1u << 8)
 #define CB_FEATURE_POINT_LIGHT (1u << 9)
 #define CB_FEATURE_SPHERES (1u << 10)
-#define CB_FEATURE_SPOT_LIGHT (1u << 11) /* point lights with a cone (pbrt-v4's "spot") */
+#define CB_FEATURE_SPOT_LIGHT (1u << 11)     /* point lights with a cone (pbrt-v4's "spot") */
+#define CB_FEATURE_DISTANT_LIGHT (1u << 12)  /* pbrt-v4's "distant": a delta in direction */
+#define CB_FEATURE_INFINITE_LIGHT (1u << 13) /* pbrt-v4's "infinite" with a constant L */
 
 #ifndef CB_FEATURES
 #define CB_FEATURES 0xffffffffu
@@ -104,24 +106,32 @@ typedef struct Material {
 
 #define CB_LIGHT_AREA 0
 #define CB_LIGHT_POINT 1
+#define CB_LIGHT_DISTANT 2
+#define CB_LIGHT_INFINITE 3
 
 /* Area lights are one entry per emitting primitive (a triangle or a sphere), so that lights
  * can be chosen by power and points sampled uniformly by area (docs/method.md, BDPT). Point lights
  * emit intensity `emission` uniformly in all directions; a spot light is a point light whose
- * intensity falls off with the angle to spotAxis (pbrt-v4's SpotLight::I). */
+ * intensity falls off with the angle to `axis` (pbrt-v4's SpotLight::I). A distant light sends
+ * radiance `emission` from the single direction `axis`: irradiance `emission` on a surface
+ * facing it. Its light subpaths start on the disk of the scene's bounding sphere (position,
+ * sceneRadius) perpendicular to `axis`, outside the sphere (pbrt-v4's DistantLight::SampleLe).
+ * An infinite light sends radiance `emission` from every direction; a scene has at most one,
+ * and it is the last light, so that escaped rays find it at once. Its light subpaths start on
+ * the disk perpendicular to their direction (pbrt-v4's UniformInfiniteLight::SampleLe). */
 typedef struct Light {
     int kind;         /* CB_LIGHT_* */
     int primitive;    /* CB_LIGHT_AREA: the emitting primitive */
-    int emission;     /* index into the spectra table: radiance L (area) or intensity I (point) */
+    int emission;     /* index into the spectra table: radiance L (area, distant) or intensity I */
     int twoSided;     /* area lights: emit on both sides */
-    real position[3]; /* CB_LIGHT_POINT */
+    real position[3]; /* CB_LIGHT_POINT; distant, infinite: the scene's bounding sphere's centre */
     real area;        /* CB_LIGHT_AREA: surface area of the primitive */
     real pickProbability; /* probability of choosing this light (proportional to power) */
     real cdf;             /* sum of pickProbability over lights 0..this one (for binary search) */
-    real spotCosStart;    /* full intensity inside this cosine of the angle to spotAxis */
+    real spotCosStart;    /* full intensity inside this cosine of the angle to the axis */
     real spotCosEnd;      /* zero outside it; below -1: not a spot (uniform point light) */
-    real spotAxis[3];     /* unit direction of the cone's axis */
-    real pad;
+    real axis[3]; /* unit: a spot's cone axis; CB_LIGHT_DISTANT: the direction toward the light */
+    real sceneRadius; /* distant, infinite: the radius of the scene's bounding sphere */
 } Light;
 
 /* ---- Camera ------------------------------------------------------------------------------- */

@@ -352,14 +352,14 @@ TEST_CASE("parser: Include resolves relative to the including file and reports i
     CHECK(s.spheres[1].where.line == 4);
 
     // Errors inside an included file name that file.
-    writeFile(d / "parts/b.pbrt", "\n  Shape \"disk\"\n");
+    writeFile(d / "parts/b.pbrt", "\n  Shape \"cylinder\"\n");
     std::string e;
     try {
         cb::parseSceneFile((d / "main.pbrt").string());
     } catch (const cb::SceneError& err) {
         e = err.what();
     }
-    CHECK(e.rfind((d / "parts/b.pbrt").string() + ":2:9: unsupported shape \"disk\"", 0) == 0);
+    CHECK(e.rfind((d / "parts/b.pbrt").string() + ":2:9: unsupported shape \"cylinder\"", 0) == 0);
 
     // Recursion is detected.
     writeFile(d / "parts/b.pbrt", "Include \"../main.pbrt\"\n");
@@ -561,7 +561,7 @@ TEST_CASE("parser: spectrum parameter errors") {
 
 TEST_CASE("parser: unsupported types are rejected") {
     const std::string w = kWorld;
-    expectError(w + "Shape \"disk\"\n", "t.pbrt:2:7", "unsupported shape \"disk\"");
+    expectError(w + "Shape \"cylinder\"\n", "t.pbrt:2:7", "unsupported shape \"cylinder\"");
     expectError("Camera \"orthographic\"\n", "t.pbrt:1:8", "unsupported camera \"orthographic\"");
     expectError(w + "LightSource \"goniometric\"\n", "t.pbrt:2:13",
                 "unsupported light \"goniometric\"");

@@ -323,7 +323,7 @@ TEST_CASE("pbrt-v4 spot light: parameters, normalisation and power") {
     CHECK(contains(errorOf("WorldBegin\nLightSource \"spot\" \"float conedeltaangle\" 40\n"),
                    "conedeltaangle"));
     CHECK(contains(errorOf("WorldBegin\nScale 1 2 1\nLightSource \"spot\"\n"), "similarity"));
-    CHECK(contains(errorOf("WorldBegin\nLightSource \"distant\"\n"), "\"spot\""));
+    CHECK(contains(errorOf("WorldBegin\nLightSource \"goniometric\"\n"), "\"distant\""));
 }
 
 // A spot light 1 m above a diffuse plane, seen from straight above: each pixel's radiance is
@@ -374,4 +374,380 @@ TEST_CASE("pbrt-v4 spot light: falloff on a diffuse plane against the analytic i
             CHECK(std::fabs(stats.mean - expected) <= 3.5 * stats.standardError + 1e-4 * expected);
         }
     }
+}
+
+namespace {
+
+double meshArea(const cb::TriangleMeshDesc& m) {
+    double area = 0.0;
+    for (size_t t = 0; t < m.triangles.size(); ++t) {
+        const auto n = normalOf(m, t);
+        area += 0.5 * std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    }
+    return area;
+}
+
+} // namespace
+
+TEST_CASE("pbrt-v4 disk: tessellated with the disk's exact area, facing pbrt's normal") {
+    struct Case {
+        std::string params;
+        double radius, inner, phimaxDeg;
+    };
+    for (const Case& c : {Case{"", 1.0, 0.0, 360.0}, Case{"\"float radius\" 2.5", 2.5, 0.0, 360.0},
+                          Case{"\"float radius\" 2 \"float innerradius\" 0.5", 2.0, 0.5, 360.0},
+                          Case{"\"float radius\" 2 \"float phimax\" 90", 2.0, 0.0, 90.0},
+                          Case{"\"float radius\" 3 \"float innerradius\" 1 \"float phimax\" 200",
+                               3.0, 1.0, 200.0}}) {
+        CAPTURE(c.params);
+        for (const std::string transform :
+             {"", "Scale 2 2 2\n", "ReverseOrientation\n", "Scale -1 1 1\n", "Scale 1 1 -1\n"}) {
+            CAPTURE(transform);
+            const auto s =
+                parseSceneString("WorldBegin\n" + transform +
+                                     "Shape \"disk\" \"float height\" 0.5 " + c.params + "\n",
+                                 "t.pbrt");
+            REQUIRE(s.meshes.size() == 1);
+            const auto& m = s.meshes[0];
+            const double scale = transform == "Scale 2 2 2\n" ? 2.0 : 1.0;
+            // pbrt-v4's Disk::Area: phimax / 2 (radius^2 - innerradius^2).
+            const double area = c.phimaxDeg * M_PI / 360.0 *
+                                (c.radius * c.radius - c.inner * c.inner) * scale * scale;
+            CHECK(meshArea(m) == doctest::Approx(area).epsilon(1e-12));
+            // Object-space normal +z, flipped by ReverseOrientation XOR a mirroring CTM
+            // (Disk::InteractionFromIntersection), then transformed: a mirror in z keeps it +z
+            // in world space, a mirror in x leaves it -z.
+            const bool flipped =
+                transform == "ReverseOrientation\n" || transform == "Scale -1 1 1\n";
+            for (size_t t = 0; t < m.triangles.size(); ++t) {
+                const auto n = normalOf(m, t);
+                CHECK((flipped ? -n[2] : n[2]) > 0.0);
+            }
+            // Every vertex lies in the plane z = height, within the area-preserving ring radii.
+            const double zWorld = transform == "Scale 1 1 -1\n" ? -0.5 : 0.5 * scale;
+            for (const auto& p : m.positions) {
+                CHECK(p[2] == doctest::Approx(zWorld));
+                const double r = std::hypot(p[0], p[1]) / scale;
+                CHECK(r <= c.radius * 1.001);
+            }
+        }
+    }
+    CHECK(contains(errorOf("WorldBegin\nShape \"disk\" \"float radius\" 0\n"), "t.pbrt:2:"));
+    CHECK(contains(errorOf("WorldBegin\nShape \"disk\" \"float radius\" 0\n"), "radius"));
+    CHECK(contains(errorOf("WorldBegin\nShape \"disk\" \"float innerradius\" 1\n"), "innerradius"));
+    CHECK(contains(errorOf("WorldBegin\nShape \"disk\" \"float phimax\" 0\n"), "phimax"));
+    CHECK(contains(errorOf("WorldBegin\nShape \"disk\" \"float zmin\" 0\n"), "zmin"));
+}
+
+// A one-sided disk light (radius R, radiance L) at height h, facing a diffuse plane: a point of
+// the plane at horizontal distance d from the axis receives E = (pi L / 2) (1 - (h^2 + d^2 -
+// R^2) / sqrt((h^2 + d^2 + R^2)^2 - 4 R^2 d^2)) (the view factor of a parallel coaxial disk) and
+// reflects rho / pi E. The camera sits between the plane and the disk looking down; the image
+// mean is that averaged over its view, integrated on a fine grid. PT (next-event estimation on
+// the disk's triangles, MIS with BSDF sampling) and BDPT must reproduce it. The disk is black,
+// so that BDPT's longer paths (Ne + Nl vertices) add nothing.
+TEST_CASE("pbrt-v4 disk light: irradiance on a plane against the analytic image mean" *
+          doctest::test_suite("statistical")) {
+    cb::ClRuntime runtime;
+    const double rho = 0.5, radius = 0.5, h = 1.0, camY = 0.5, fovDeg = 90.0;
+    const std::string text =
+        "LookAt 0 0.5 0  0 0 0  0 0 1\nCamera \"perspective\" \"float fov\" 90\n"
+        "Film \"rgb\" \"integer xresolution\" 32 \"integer yresolution\" 32\nWorldBegin\n"
+        "AttributeBegin\nAreaLightSource \"diffuse\" \"rgb L\" [2 2 2]\n"
+        "Material \"diffuse\" \"rgb reflectance\" [0 0 0]\nTranslate 0 1 0\nRotate 90 1 0 0\nShape "
+        "\"disk\" \"float radius\" 0.5\nAttributeEnd\n"
+        "Material \"diffuse\" \"rgb reflectance\" [0.5 0.5 0.5]\n"
+        "Shape \"bilinearmesh\" \"point3 P\" [-10 0 -10  10 0 -10  -10 0 10  10 0 10]\n";
+    const cb::DeviceScene scene = cb::buildDeviceScene(parseSceneString(text, "t.pbrt"));
+    double lightArea = 0.0;
+    for (const auto& l : scene.lights)
+        lightArea += l.area;
+    CHECK(lightArea == doctest::Approx(M_PI * radius * radius).epsilon(1e-5));
+    const double halfWidth = camY * std::tan(fovDeg * M_PI / 360.0);
+    const int n = 400;
+    double expected = 0.0;
+    for (int i = 0; i < n; ++i)
+        for (int j = 0; j < n; ++j) {
+            const double x = halfWidth * (2.0 * (i + 0.5) / n - 1.0);
+            const double y = halfWidth * (2.0 * (j + 0.5) / n - 1.0);
+            const double d2 = x * x + y * y, r2 = radius * radius, h2 = h * h;
+            const double e =
+                M_PI * 2.0 / 2.0 *
+                (1.0 - (h2 + d2 - r2) / std::sqrt((h2 + d2 + r2) * (h2 + d2 + r2) - 4.0 * r2 * d2));
+            expected += rho / M_PI * e;
+        }
+    expected /= double(n) * n;
+    for (const std::string method : {"pt", "bdpt"}) {
+        CAPTURE(method);
+        cb::IntegratorSettings settings;
+        settings.name = method;
+        settings.eyeVertices = 3;
+        settings.lightVertices = 2;
+        settings.seed = 5;
+        const auto stats = cbtest::renderPooled(scene, runtime, settings, 16);
+        CAPTURE(expected);
+        CAPTURE(stats.mean);
+        CAPTURE(stats.standardError);
+        CHECK(std::fabs(stats.mean - expected) <= 3.5 * stats.standardError + 2e-4 * expected);
+    }
+}
+
+namespace {
+
+// Mean and standard error of the image mean over independent runs (seeds): the spread over
+// runs, so that methods whose pixels share samples (CPT, CBDPT) or chains (MLT) are judged
+// fairly.
+struct MethodMean {
+    double mean = 0.0, se = 0.0;
+    long nonFinite = 0;
+};
+
+MethodMean methodMean(const cb::DeviceScene& scene, cb::ClRuntime& runtime,
+                      cb::IntegratorSettings settings, int runs, int estimates) {
+    std::vector<std::vector<double>> means;
+    std::vector<float> rgb;
+    MethodMean out;
+    for (int r = 0; r < runs; ++r) {
+        settings.seed = 100u + std::uint32_t(r);
+        auto integrator = cb::makeIntegrator(settings, scene, runtime);
+        double sum = 0.0;
+        for (int e = 0; e < estimates; ++e) {
+            integrator->renderEstimate(std::uint32_t(e), rgb);
+            for (float v : rgb)
+                sum += v;
+        }
+        means.push_back({sum / double(rgb.size()) / estimates});
+        out.nonFinite += integrator->nonFiniteSamples();
+    }
+    const cbtest::RunStats s = cbtest::summarizeRuns(means);
+    out.mean = s.mean[0];
+    out.se = s.se[0];
+    return out;
+}
+
+cb::IntegratorSettings methodSettings(const std::string& name) {
+    cb::IntegratorSettings s;
+    s.name = name;
+    s.maxPathVertices = 4;
+    s.coherenceTile = 4;
+    s.mltChains = 64;
+    s.mltBootstrap = 4096;
+    return s;
+}
+
+const char* const kMethods[] = {"pt", "cpt", "bdpt", "cbdpt", "mlt"};
+
+} // namespace
+
+TEST_CASE("pbrt-v4 distant light: parameters, normalisation and direction") {
+    auto s =
+        parseSceneString("WorldBegin\nRotate 90 0 0 1\n"
+                         "LightSource \"distant\" \"point3 from\" [1 0 0] \"point3 to\" [0 0 0] "
+                         "\"rgb L\" [1 2 3] \"float scale\" 2\n",
+                         "t.pbrt");
+    REQUIRE(s.distantLights.size() == 1);
+    auto l = s.distantLights[0];
+    CHECK(l.direction[0] == doctest::Approx(0.0).epsilon(1e-12));
+    CHECK(l.direction[1] == doctest::Approx(1.0));
+    CHECK(l.radiance.rgb == std::array<float, 3>{1, 2, 3});
+    CHECK(l.scale == 2.f);
+    // pbrt-v4's defaults: from (0,0,0) to (0,0,1): the light shines toward +z.
+    s = parseSceneString("WorldBegin\nLightSource \"distant\" \"float illuminance\" 5 "
+                         "\"spectrum L\" [400 1 700 1]\n",
+                         "t.pbrt");
+    l = s.distantLights[0];
+    CHECK(l.direction == std::array<double, 3>{0, 0, -1});
+    // Spectrum divided by its luminance integral, times the illuminance.
+    CHECK(
+        l.scale ==
+        doctest::Approx(5.0 / cb::photometricIntegral({{400.f, 1.f}, {700.f, 1.f}})).epsilon(1e-5));
+    CHECK(contains(errorOf("WorldBegin\nLightSource \"distant\" \"point3 to\" [0 0 0]\n"),
+                   "t.pbrt:2:"));
+    CHECK(contains(errorOf("WorldBegin\nLightSource \"distant\" \"point3 to\" [0 0 0]\n"),
+                   "must differ"));
+    CHECK(contains(errorOf("WorldBegin\nLightSource \"distant\" \"float illuminance\" -1\n"),
+                   "illuminance"));
+    CHECK(contains(errorOf("WorldBegin\nLightSource \"distant\" \"float power\" 1\n"), "power"));
+    // Without geometry there is no bounding sphere for its light subpaths.
+    CHECK_THROWS_WITH_AS(
+        cb::buildDeviceScene(parseSceneString("WorldBegin\nLightSource \"distant\"\n", "t.pbrt")),
+        doctest::Contains("t.pbrt:2:"), SceneError);
+}
+
+// A diffuse plane lit by a distant light at angle theta from its normal has radiance
+// rho / pi E cos(theta) everywhere (E the light's irradiance on a surface facing it). Every
+// method must render that image mean; the light is compiled in only for scenes that have one.
+TEST_CASE("pbrt-v4 distant light: a diffuse plane has radiance rho / pi E cos theta, every method" *
+          doctest::test_suite("statistical")) {
+    cb::ClRuntime runtime;
+    const double rho = 0.5, thetaDeg = 60.0, irradiance = 2.0;
+    const double theta = thetaDeg * M_PI / 180.0;
+    const std::string text =
+        "LookAt 0 1 0  0 0 0  0 0 1\nCamera \"perspective\" \"float fov\" 60\n"
+        "Film \"rgb\" \"integer xresolution\" 16 \"integer yresolution\" 16\nWorldBegin\n"
+        "LightSource \"distant\" \"point3 from\" [" +
+        std::to_string(std::sin(theta)) + " " + std::to_string(std::cos(theta)) +
+        " 0] \"point3 to\" [0 0 0] \"float scale\" 2\n"
+        "Material \"diffuse\" \"rgb reflectance\" [0.5 0.5 0.5]\n"
+        "Shape \"bilinearmesh\" \"point3 P\" [-10 0 -10  10 0 -10  -10 0 10  10 0 10]\n";
+    const cb::DeviceScene scene = cb::buildDeviceScene(parseSceneString(text, "t.pbrt"));
+    CHECK(contains(scene.featureNames(), "distant-light"));
+    CHECK(!contains(scene.featureNames(), "point-light"));
+    const double expected = rho / M_PI * irradiance * std::cos(theta);
+    for (const std::string method : kMethods) {
+        CAPTURE(method);
+        const MethodMean m = methodMean(scene, runtime, methodSettings(method), 8, 4);
+        CAPTURE(expected);
+        CAPTURE(m.mean);
+        CAPTURE(m.se);
+        CHECK(std::fabs(m.mean - expected) <= 4.5 * m.se + 1e-4 * expected);
+        CHECK(m.nonFinite == 0);
+    }
+}
+
+namespace {
+
+// BDPT, CBDPT and MLT against PT where every strategy matters: a floor, a wall and a floating
+// block between them under `light` (shadows, interreflection up to 5 vertices). The mean over
+// each cell of a 3 x 3 grid must agree within 4.5 combined standard errors (spread over runs).
+void checkMethodsAgreeWithPt(const std::string& light) {
+    cb::ClRuntime runtime;
+    const std::string text =
+        "LookAt 0 2 -3  0 0.3 0  0 1 0\nCamera \"perspective\" \"float fov\" 50\n"
+        "Film \"rgb\" \"integer xresolution\" 24 \"integer yresolution\" 24\nWorldBegin\n" +
+        light +
+        "Material \"diffuse\" \"rgb reflectance\" [0.7 0.7 0.7]\n"
+        "Shape \"bilinearmesh\" \"point3 P\" [-2 0 -2  2 0 -2  -2 0 2  2 0 2]\n"
+        "Shape \"bilinearmesh\" \"point3 P\" [-2 0 1  2 0 1  -2 2 1  2 2 1]\n"
+        "AttributeBegin\nTranslate 0 0.6 0\nScale 0.4 0.3 0.4\n"
+        "Shape \"trianglemesh\" \"point3 P\" [-1 -1 -1  1 -1 -1  1 1 -1  -1 1 -1  -1 -1 1  1 -1 1 "
+        " 1 1 1  -1 1 1] \"integer indices\" [0 2 1  0 3 2  4 5 6  4 6 7  0 1 5  0 5 4  2 3 7 "
+        " 2 7 6  0 4 7  0 7 3  1 2 6  1 6 5]\nAttributeEnd\n";
+    const cb::DeviceScene scene = cb::buildDeviceScene(parseSceneString(text, "t.pbrt"));
+    const int w = scene.camera.width, h = scene.camera.height;
+    auto cells = [&](cb::IntegratorSettings settings, int runs, int estimates) {
+        std::vector<std::vector<double>> all;
+        std::vector<float> rgb;
+        for (int r = 0; r < runs; ++r) {
+            settings.seed = 500u + std::uint32_t(r);
+            auto integrator = cb::makeIntegrator(settings, scene, runtime);
+            std::vector<double> sum(9, 0.0);
+            for (int e = 0; e < estimates; ++e) {
+                integrator->renderEstimate(std::uint32_t(e), rgb);
+                for (int y = 0; y < h; ++y)
+                    for (int x = 0; x < w; ++x) {
+                        const size_t i = 3 * size_t(y * w + x);
+                        sum[size_t((3 * y / h) * 3 + 3 * x / w)] +=
+                            (rgb[i] + rgb[i + 1] + rgb[i + 2]) / 3.0 * 9.0 / (w * h) / estimates;
+                    }
+            }
+            all.push_back(sum);
+        }
+        return cbtest::summarizeRuns(all);
+    };
+    cb::IntegratorSettings pt = methodSettings("pt");
+    pt.maxPathVertices = 0;
+    pt.eyeVertices = 5;
+    const cbtest::RunStats reference = cells(pt, 8, 16);
+    for (const std::string method : {"bdpt", "cbdpt", "mlt"}) {
+        CAPTURE(method);
+        cb::IntegratorSettings s = methodSettings(method);
+        s.maxPathVertices = 5;
+        const cbtest::RunStats r = cells(s, 8, method == "mlt" ? 16 : 8);
+        for (size_t c = 0; c < 9; ++c) {
+            CAPTURE(c);
+            CAPTURE(r.mean[c]);
+            CAPTURE(reference.mean[c]);
+            const double se = std::sqrt(r.se[c] * r.se[c] + reference.se[c] * reference.se[c]);
+            CAPTURE(se);
+            CHECK(std::fabs(r.mean[c] - reference.mean[c]) <= 4.5 * se);
+        }
+    }
+}
+
+} // namespace
+
+TEST_CASE("pbrt-v4 distant light: BDPT, CBDPT and MLT agree with PT per region" *
+          doctest::test_suite("statistical")) {
+    checkMethodsAgreeWithPt("LightSource \"distant\" \"point3 from\" [-1 2 -0.5] "
+                            "\"point3 to\" [0 0 0] \"rgb L\" [3 3 3]\n");
+}
+
+TEST_CASE("pbrt-v4 infinite light: a constant L, its normalisation, and what is refused") {
+    auto s = parseSceneString("WorldBegin\nLightSource \"infinite\" \"rgb L\" [1 2 3] "
+                              "\"float scale\" 2\n",
+                              "t.pbrt");
+    REQUIRE(s.infiniteLights.size() == 1);
+    CHECK(s.infiniteLights[0].radiance.rgb == std::array<float, 3>{1, 2, 3});
+    CHECK(s.infiniteLights[0].scale == 2.f);
+    // "illuminance" E: pbrt-v4 scales a unit-luminance sky by E / pi (the upper hemisphere's
+    // cosine-weighted solid angle).
+    s = parseSceneString("WorldBegin\nLightSource \"infinite\" \"float illuminance\" 3\n",
+                         "t.pbrt");
+    CHECK(s.infiniteLights[0].scale == doctest::Approx(3.0 / M_PI));
+    s = parseSceneString("WorldBegin\nLightSource \"infinite\" \"spectrum L\" [400 2 700 2]\n",
+                         "t.pbrt");
+    CHECK(
+        s.infiniteLights[0].scale ==
+        doctest::Approx(1.0 / cb::photometricIntegral({{400.f, 2.f}, {700.f, 2.f}})).epsilon(1e-5));
+    const std::string image =
+        errorOf("WorldBegin\n\nLightSource \"infinite\" \"string filename\" \"sky.exr\"\n");
+    CHECK(contains(image, "t.pbrt:3:"));
+    CHECK(contains(image, "\"string filename\""));
+    CHECK(contains(image, "constant"));
+    CHECK(contains(image, "\"rgb L\""));
+    CHECK(contains(errorOf("WorldBegin\nLightSource \"infinite\" \"point3 portal\" [0 0 0 1 0 0 "
+                           "1 1 0 0 1 0]\n"),
+                   "portal"));
+    const std::string second =
+        errorOf("WorldBegin\nLightSource \"infinite\"\nLightSource \"infinite\"\n");
+    CHECK(contains(second, "t.pbrt:3:"));
+    CHECK(contains(second, "t.pbrt:2:"));
+    CHECK_THROWS_WITH_AS(
+        cb::buildDeviceScene(parseSceneString("WorldBegin\nLightSource \"infinite\"\n", "t.pbrt")),
+        doctest::Contains("t.pbrt:2:"), SceneError);
+}
+
+// An open scene: a diffuse plane under a constant sky of radiance L receives pi L from its
+// upper hemisphere and has radiance rho L everywhere. Every method must render that image mean
+// (escaped rays, next-event estimation's uniform directions, light subpaths from the beam's
+// disk, and their MIS weights).
+TEST_CASE("pbrt-v4 infinite light: a diffuse plane under a constant sky has radiance rho L, every "
+          "method" *
+          doctest::test_suite("statistical")) {
+    cb::ClRuntime runtime;
+    const double rho = 0.5, radiance = 0.8;
+    const std::string text =
+        "LookAt 0 1 0  0 0 0  0 0 1\nCamera \"perspective\" \"float fov\" 60\n"
+        "Film \"rgb\" \"integer xresolution\" 16 \"integer yresolution\" 16\nWorldBegin\n"
+        "LightSource \"infinite\" \"rgb L\" [0.8 0.8 0.8]\n"
+        "Material \"diffuse\" \"rgb reflectance\" [0.5 0.5 0.5]\n"
+        "Shape \"bilinearmesh\" \"point3 P\" [-10 0 -10  10 0 -10  -10 0 10  10 0 10]\n";
+    const cb::DeviceScene scene = cb::buildDeviceScene(parseSceneString(text, "t.pbrt"));
+    CHECK(contains(scene.featureNames(), "infinite-light"));
+    CHECK(!contains(scene.featureNames(), "area-light"));
+    const double expected = rho * radiance;
+    for (const std::string method : kMethods) {
+        CAPTURE(method);
+        const MethodMean m = methodMean(scene, runtime, methodSettings(method), 8, 4);
+        CAPTURE(expected);
+        CAPTURE(m.mean);
+        CAPTURE(m.se);
+        CHECK(std::fabs(m.mean - expected) <= 4.5 * m.se + 1e-4 * expected);
+        CHECK(m.nonFinite == 0);
+    }
+}
+
+TEST_CASE("pbrt-v4 infinite light: BDPT, CBDPT and MLT agree with PT per region" *
+          doctest::test_suite("statistical")) {
+    checkMethodsAgreeWithPt("LightSource \"infinite\" \"rgb L\" [0.5 0.5 0.5]\n");
+}
+
+TEST_CASE("pbrt-v4 infinite and distant light with an area light: BDPT agrees with PT" *
+          doctest::test_suite("statistical")) {
+    checkMethodsAgreeWithPt("LightSource \"infinite\" \"rgb L\" [0.3 0.3 0.3]\n"
+                            "LightSource \"distant\" \"point3 from\" [1 3 -1] \"rgb L\" [2 2 2]\n"
+                            "AttributeBegin\nAreaLightSource \"diffuse\" \"rgb L\" [4 4 4]\n"
+                            "Translate -0.5 1.5 0\nRotate 90 1 0 0\n"
+                            "Shape \"disk\" \"float radius\" 0.3\nAttributeEnd\n");
 }

@@ -43,9 +43,12 @@ void printScene(const std::string& scenePath) {
     fmt::print("  triangles        {}\n", scene.triangleCount);
     fmt::print("  vertices         {}\n", scene.vertexCount);
     fmt::print("  spheres          {}\n", scene.sphereCount);
-    fmt::print("  lights           {} ({} area-light primitives, {} point lights)\n",
-               scene.lights.size(), scene.lights.size() - desc.pointLights.size(),
-               desc.pointLights.size());
+    fmt::print("  lights           {} ({} area-light primitives, {} point lights, {} distant, {} "
+               "infinite)\n",
+               scene.lights.size(),
+               scene.lights.size() - desc.pointLights.size() - desc.distantLights.size() -
+                   desc.infiniteLights.size(),
+               desc.pointLights.size(), desc.distantLights.size(), desc.infiniteLights.size());
     fmt::print("  materials        {}\n", scene.materials.size());
     fmt::print("  bounding box     ({:.4g}, {:.4g}, {:.4g}) - ({:.4g}, {:.4g}, {:.4g})\n",
                scene.boundsMin[0], scene.boundsMin[1], scene.boundsMin[2], scene.boundsMax[0],

@@ -113,8 +113,8 @@ template <class Visit> void forEachField(cbk::Light& s, Visit&& visit) {
     visit(s.cdf);
     visit(s.spotCosStart);
     visit(s.spotCosEnd);
-    visit(s.spotAxis);
-    visit(s.pad);
+    visit(s.axis);
+    visit(s.sceneRadius);
 }
 template <class Visit> void forEachField(cbk::Camera& s, Visit&& visit) {
     visit(s.cameraToWorld);

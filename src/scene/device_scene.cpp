@@ -339,7 +339,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
             light.spotCosStart = pl.spotCosStart;
             light.spotCosEnd = pl.spotCosEnd;
             for (int a = 0; a < 3; ++a)
-                light.spotAxis[a] = float(pl.spotAxis[size_t(a)]);
+                light.axis[a] = float(pl.spotAxis[size_t(a)]);
             solidAngle = 2.f * float(M_PI) * (1.f - 0.5f * (pl.spotCosStart + pl.spotCosEnd));
             scene.features |= CB_FEATURE_SPOT_LIGHT;
         }
@@ -347,10 +347,55 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         scene.lights.push_back(light);
         scene.features |= CB_FEATURE_POINT_LIGHT;
     }
+    // Distant lights: their subpaths start on a disk of the bounding sphere of the geometry
+    // (pbrt-v4's sceneBounds.BoundingSphere), whose area also gives their power, pi R^2 L.
+    // A light at infinity (distant, infinite): kind, emission and the bounding sphere.
+    auto lightAtInfinity = [&](int kind, const SpectrumValue& radiance, float scale,
+                               const SourceLocation& where) {
+        if (!(lo[0] <= hi[0]))
+            throw SceneError(where, "a distant or infinite light needs geometry to light (the "
+                                    "scene has no shapes)");
+        std::array<double, 3> centre{};
+        double radius2 = 0.0;
+        for (size_t a = 0; a < 3; ++a) {
+            centre[a] = 0.5 * (lo[a] + hi[a]);
+            radius2 += (hi[a] - centre[a]) * (hi[a] - centre[a]);
+        }
+        cbk::Light light{};
+        light.kind = kind;
+        light.primitive = -1;
+        light.emission = spectra.add(radiance, scale, true);
+        toDevice(centre, light.position);
+        // Rounded up, so that the float sphere still holds the geometry; never 0 (a flat scene
+        // seen edge-on still needs a disk).
+        light.sceneRadius = std::nextafter(float(std::sqrt(radius2)), INFINITY);
+        if (!(light.sceneRadius > 0.f)) light.sceneRadius = 1e-6f;
+        return light;
+    };
+    for (const auto& dl : desc.distantLights) {
+        cbk::Light light = lightAtInfinity(CB_LIGHT_DISTANT, dl.radiance, dl.scale, dl.where);
+        for (size_t a = 0; a < 3; ++a)
+            light.axis[a] = float(dl.direction[a]);
+        lightPower.push_back(spectra.average(light.emission) * float(M_PI) * light.sceneRadius *
+                             light.sceneRadius);
+        scene.lights.push_back(light);
+        scene.features |= CB_FEATURE_DISTANT_LIGHT;
+    }
+    // The infinite light is the last light (the kernels find it there, cb_types.h); its power
+    // is pbrt-v4's UniformInfiniteLight::Phi, 4 pi^2 R^2 L.
+    if (desc.infiniteLights.size() > 1)
+        throw SceneError(desc.infiniteLights[1].where, "cbdpt supports one infinite light");
+    for (const auto& il : desc.infiniteLights) {
+        cbk::Light light = lightAtInfinity(CB_LIGHT_INFINITE, il.radiance, il.scale, il.where);
+        lightPower.push_back(spectra.average(light.emission) * 4.f * float(M_PI * M_PI) *
+                             light.sceneRadius * light.sceneRadius);
+        scene.lights.push_back(light);
+        scene.features |= CB_FEATURE_INFINITE_LIGHT;
+    }
     if (scene.lights.empty())
         throw SceneError(SourceLocation{desc.path, 0, 0},
                          "the scene has no lights (add an AreaLightSource before a Shape, or a "
-                         "LightSource \"point\")");
+                         "LightSource \"point\", \"spot\", \"distant\" or \"infinite\")");
     if (scene.triangleCount + scene.sphereCount > 0) {
         scene.boundsMin = lo;
         scene.boundsMax = hi;
@@ -417,6 +462,8 @@ std::string DeviceScene::featureNames() const {
     add(CB_FEATURE_POINT_LIGHT, "point-light");
     add(CB_FEATURE_SPHERES, "spheres");
     add(CB_FEATURE_SPOT_LIGHT, "spot-light");
+    add(CB_FEATURE_DISTANT_LIGHT, "distant-light");
+    add(CB_FEATURE_INFINITE_LIGHT, "infinite-light");
     names += channels == 16 ? " spectral-16" : " rgb";
     return names;
 }

@@ -1170,9 +1170,13 @@ class Parser {
     void lightSource(const Token& t) {
         const Token type = quoted(t, "a light type");
         const bool spot = type.text == "spot";
+        if (type.text == "distant") return distantLight(t);
+        if (type.text == "infinite") return infiniteLight(t);
         if (type.text != "point" && !spot)
-            throw SceneError(type.where, "unsupported light \"" + type.text +
-                                             "\" (cbdpt supports \"point\" and \"spot\")");
+            throw SceneError(type.where,
+                             "unsupported light \"" + type.text +
+                                 "\" (cbdpt supports \"point\", \"spot\", \"distant\" and "
+                                 "\"infinite\" with a constant \"L\")");
         ParamList pl = params("LightSource \"" + type.text + "\"");
         PointLightDesc l;
         l.where = t.where;
@@ -1223,6 +1227,77 @@ class Parser {
         const auto w = state_.ctm.point(from);
         l.position = checkedPoint(w, t.where, "light position");
         scene_.pointLights.push_back(std::move(l));
+    }
+
+    // pbrt-v4's DistantLight::Create: L normalised to luminance 1, times scale, times
+    // "illuminance" where given (the illuminance on a surface facing the light); the light shines
+    // from the CTM applied to the vector from - to.
+    void distantLight(const Token& t) {
+        ParamList pl = params("LightSource \"distant\"");
+        DistantLightDesc l;
+        l.where = t.where;
+        if (auto v = pl.spectrum("L", SpectrumRole::Emission)) l.radiance = *v;
+        double scale = scaleParam(pl) / photometric(l.radiance, pl.peek("L"));
+        std::array<double, 3> from{0, 0, 0}, to{0, 0, 1};
+        for (auto [name, value] : {std::pair{"from", &from}, std::pair{"to", &to}}) {
+            if (const Param* p = pl.numeric(name, "point3", 3)) {
+                if (p->size() != 3)
+                    throw SceneError(p->where,
+                                     "\"point3 " + std::string(name) + "\" expects 3 values");
+                *value = {p->numbers[0], p->numbers[1], p->numbers[2]};
+            }
+        }
+        if (const Param* p = pl.peek("illuminance")) {
+            const double e = *pl.oneFloat("illuminance");
+            if (e < 0.0) throw SceneError(p->where, "\"float illuminance\" must be >= 0");
+            if (e > 0.0) scale *= e; // pbrt-v4 ignores values <= 0
+        }
+        l.scale = static_cast<float>(scale);
+        pl.finish();
+        requireAffine(t.where);
+        const std::array<double, 3> d{from[0] - to[0], from[1] - to[1], from[2] - to[2]};
+        const Mat4& m = state_.ctm;
+        std::array<double, 3> w{};
+        for (int r = 0; r < 3; ++r)
+            w[r] = m(r, 0) * d[0] + m(r, 1) * d[1] + m(r, 2) * d[2];
+        const double len = std::sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
+        if (!(len > 0.0) || !std::isfinite(len))
+            throw SceneError(t.where, "distant light: \"from\" and \"to\" must differ (and the "
+                                      "CTM must not collapse their difference)");
+        for (double& c : w)
+            c /= len;
+        l.direction = w;
+        scene_.distantLights.push_back(std::move(l));
+    }
+
+    // pbrt-v4's UniformInfiniteLight (Light::Create, "infinite" without an image): L normalised
+    // to luminance 1, times scale, times illuminance / pi where given (the illuminance of the
+    // upper hemisphere on an upward-facing surface).
+    void infiniteLight(const Token& t) {
+        ParamList pl = params("LightSource \"infinite\"");
+        for (const char* name : {"filename", "portal"})
+            if (const Param* p = pl.peek(name))
+                throw SceneError(p->where,
+                                 "LightSource \"infinite\" with " + p->decl() +
+                                     " is not supported: cbdpt renders a constant environment "
+                                     "only, given as \"rgb L\" or \"spectrum L\" (with "
+                                     "\"float scale\" or \"float illuminance\")");
+        InfiniteLightDesc l;
+        l.where = t.where;
+        if (auto v = pl.spectrum("L", SpectrumRole::Emission)) l.radiance = *v;
+        double scale = scaleParam(pl) / photometric(l.radiance, pl.peek("L"));
+        if (const Param* p = pl.peek("illuminance")) {
+            const double e = *pl.oneFloat("illuminance");
+            if (e < 0.0) throw SceneError(p->where, "\"float illuminance\" must be >= 0");
+            if (e > 0.0) scale *= e / M_PI; // pbrt-v4 ignores values <= 0
+        }
+        l.scale = static_cast<float>(scale);
+        pl.finish();
+        if (!scene_.infiniteLights.empty())
+            throw SceneError(t.where, "a second LightSource \"infinite\": cbdpt supports one "
+                                      "(the first is at " +
+                                          scene_.infiniteLights[0].where.str() + ")");
+        scene_.infiniteLights.push_back(std::move(l));
     }
 
     void requireAffine(const SourceLocation& where) const {
@@ -1306,6 +1381,8 @@ class Parser {
             addMesh(t.where, pos, std::move(tris), normals);
         } else if (type.text == "bilinearmesh") {
             bilinearMesh(t);
+        } else if (type.text == "disk") {
+            disk(t);
         } else if (type.text == "plymesh") {
             ParamList pl = params("Shape \"plymesh\"");
             const Param* fp = pl.peek("filename");
@@ -1330,7 +1407,7 @@ class Parser {
         } else {
             throw SceneError(type.where, "unsupported shape \"" + type.text +
                                              "\" (cbdpt supports trianglemesh, bilinearmesh "
-                                             "(planar patches), plymesh, sphere)");
+                                             "(planar patches), plymesh, sphere, disk)");
         }
     }
 
@@ -1404,6 +1481,73 @@ class Parser {
             tris.push_back({q[0], q[3], q[2]});
         }
         addMesh(t.where, pos, std::move(tris), normals);
+    }
+
+    // Ring segments of a full disk; a partial one (phimax < 360) gets its share, at least 4.
+    static constexpr int kDiskSegments = 256;
+
+    // pbrt-v4's disk: the points (r cos phi, r sin phi, height) with innerradius <= r <= radius
+    // and 0 <= phi <= phimax, normal +z in object space, flipped when ReverseOrientation XOR the
+    // CTM swaps handedness (Disk::InteractionFromIntersection). Tessellated into a fan (or, with
+    // an inner radius, a ring of quads) whose ring radii are scaled by sqrt(dphi / sin dphi), so
+    // that the polygon's area is the disk's exactly: emitted power and every integral over the
+    // surface match; only the outline differs (by at most dphi^2 / 12 of the radius).
+    void disk(const Token& t) {
+        ParamList pl = params("Shape \"disk\"");
+        auto get = [&](const char* name, double fallback) {
+            const Param* p = pl.peek(name);
+            return std::pair{p ? *pl.oneFloat(name) : fallback, p};
+        };
+        const auto [height, hp] = get("height", 0.0);
+        const auto [radius, rp] = get("radius", 1.0);
+        const auto [inner, ip] = get("innerradius", 0.0);
+        const auto [phimax, pp] = get("phimax", 360.0);
+        (void)hp;
+        if (!(radius > 0.0)) throw SceneError(rp->where, "\"float radius\" must be > 0");
+        if (!(inner >= 0.0 && inner < radius))
+            throw SceneError(ip->where, "\"float innerradius\" must be in [0, radius)");
+        if (!(phimax > 0.0 && phimax <= 360.0))
+            throw SceneError(pp->where, "\"float phimax\" must be in (0, 360] degrees");
+        pl.finish();
+        const double phiMax = phimax * M_PI / 180.0;
+        const int segments = std::max(4, int(std::ceil(kDiskSegments * phimax / 360.0 - 1e-9)));
+        const double dphi = phiMax / segments;
+        const double k = std::sqrt(dphi / std::sin(dphi));
+        const bool full = phimax >= 360.0;
+        const int ringVertices = full ? segments : segments + 1;
+        std::vector<std::array<double, 3>> pos;
+        auto ring = [&](double r) {
+            for (int i = 0; i < ringVertices; ++i) {
+                const double phi = dphi * i;
+                pos.push_back({k * r * std::cos(phi), k * r * std::sin(phi), height});
+            }
+        };
+        std::vector<std::array<unsigned, 3>> tris;
+        // Object-space winding normal +z; a mirroring CTM reverses it once more than addMesh
+        // does for meshes (pbrt-v4 flips the disk's normal with transformSwapsHandedness).
+        const bool mirror = state_.ctm.det3() < 0.0;
+        auto triangle = [&](unsigned a, unsigned b, unsigned c) {
+            tris.push_back(mirror ? std::array<unsigned, 3>{a, c, b}
+                                  : std::array<unsigned, 3>{a, b, c});
+        };
+        auto next = [&](int i) { return unsigned(full ? (i + 1) % segments : i + 1); };
+        if (inner > 0.0) {
+            ring(radius);
+            ring(inner);
+            const unsigned innerBase = unsigned(ringVertices);
+            for (int i = 0; i < segments; ++i) {
+                const unsigned o0 = unsigned(i), o1 = next(i);
+                triangle(innerBase + o0, o0, o1);
+                triangle(innerBase + o0, o1, innerBase + o1);
+            }
+        } else {
+            ring(radius);
+            const unsigned centre = unsigned(pos.size());
+            pos.push_back({0.0, 0.0, height});
+            for (int i = 0; i < segments; ++i)
+                triangle(centre, unsigned(i), next(i));
+        }
+        addMesh(t.where, pos, std::move(tris), {});
     }
 
     // The CTM's scale factor; an error unless the CTM is a similarity (only those keep a sphere

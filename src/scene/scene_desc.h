@@ -102,6 +102,22 @@ struct PointLightDesc {
     SourceLocation where;
 };
 
+// LightSource "distant": radiance L * scale arriving from one direction (irradiance L * scale on
+// a surface facing it).
+struct DistantLightDesc {
+    std::array<double, 3> direction{0.0, 0.0, -1.0};       // world space, unit, toward the light
+    SpectrumValue radiance = SpectrumValue::constant(1.f); // "L"
+    float scale = 1.f;
+    SourceLocation where;
+};
+
+// LightSource "infinite" with a constant L: radiance L * scale from every direction.
+struct InfiniteLightDesc {
+    SpectrumValue radiance = SpectrumValue::constant(1.f); // "L"
+    float scale = 1.f;
+    SourceLocation where;
+};
+
 struct CameraDesc {
     // World-to-camera transform (the CTM at the Camera directive), row-major 4x4, pbrt-v4's
     // left-handed camera space: +z forward, +y up, +x right in the image.
@@ -155,6 +171,8 @@ struct SceneDesc {
     std::vector<TriangleMeshDesc> meshes;
     std::vector<SphereDesc> spheres;
     std::vector<PointLightDesc> pointLights;
+    std::vector<DistantLightDesc> distantLights;
+    std::vector<InfiniteLightDesc> infiniteLights; // at most one
     bool usesSpectra = false; // any parameter was given as `spectrum` (render spectrally)
     long droppedDegenerateTriangles = 0; // zero-area triangles removed at load
 };
