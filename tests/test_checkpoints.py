@@ -16,20 +16,10 @@ cbdpt, root = os.path.abspath(sys.argv[1]), os.path.abspath(sys.argv[2])
 scene = os.path.join(root, "scenes", "cornell-box.pbrt")
 sys.path.insert(0, os.path.join(root, "scripts"))
 import cbdpt_results as cr  # noqa: E402
+from checks import check, finish  # noqa: E402
 
-failures = []
-passed = 0
 COLUMNS = ["estimates", "seconds", "rmse", "rel_mse", "mae", "mean_stderr", "rms_stderr",
            "image_mean", "checkpoint_seconds", "cpu_seconds"]
-
-
-def check(condition, message):
-    global passed
-    if condition:
-        passed += 1
-    else:
-        failures.append(message)
-        print("FAIL:", message)
 
 
 def render(*args):
@@ -246,5 +236,4 @@ made = {cr.reference_path(*r) for r in make_reference.planned_references(list(cr
 check(needed == made, f"references needed {sorted(needed - made)} not made, "
       f"made {sorted(made - needed)} not needed")
 
-print(f"{passed} passed, {len(failures)} failed")
-sys.exit(1 if failures else 0)
+finish()

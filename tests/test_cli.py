@@ -14,9 +14,8 @@ import time
 cbdpt, root = sys.argv[1], sys.argv[2]
 sys.path.insert(0, os.path.join(root, "scripts"))
 import cbdpt_results as cr  # noqa: E402
+from checks import check, finish  # noqa: E402
 scene = os.path.join(root, "scenes", "cornell-box.pbrt")
-failures = []
-passed = 0
 
 
 def same_pixels(a, b):
@@ -24,15 +23,6 @@ def same_pixels(a, b):
     layers = ("", "stderr", "half0", "half0.stderr", "half1", "half1.stderr")
     return all(cr.read_exr(a, layer).tobytes() == cr.read_exr(b, layer).tobytes()
                for layer in layers)
-
-
-def check(condition, message):
-    global passed
-    if condition:
-        passed += 1
-    else:
-        failures.append(message)
-        print("FAIL:", message)
 
 
 with tempfile.TemporaryDirectory() as tmp:
@@ -364,5 +354,4 @@ with tempfile.TemporaryDirectory() as tmp:
     check(r.returncode != 0 and "garbage.pbrt:2:1" in r.stderr and "\\x1b" in r.stderr
           and printable(r.stderr), f"stray bytes are escaped in messages ({r.stderr.strip()})")
 
-print(f"{passed} passed, {len(failures)} failed")
-sys.exit(1 if failures else 0)
+finish()

@@ -15,19 +15,9 @@ import numpy as np
 cbdpt, root = sys.argv[1], sys.argv[2]
 sys.path.insert(0, os.path.join(root, "scripts"))
 import cbdpt_results as cr  # noqa: E402
+from checks import check, finish  # noqa: E402
 
 scene = os.path.join(root, "scenes", "cornell-box.pbrt")
-failures = []
-passed = 0
-
-
-def check(condition, message):
-    global passed
-    if condition:
-        passed += 1
-    else:
-        failures.append(message)
-        print("FAIL:", message)
 
 
 def render(out, *args):
@@ -155,5 +145,4 @@ with tempfile.TemporaryDirectory() as tmp:
                 "-o", out)
     check(r.returncode != 0 and "--shares" in r.stderr, f"bad shares refused ({r.stderr.strip()})")
 
-print(f"{passed} passed, {len(failures)} failed")
-sys.exit(1 if failures else 0)
+finish()

@@ -16,18 +16,8 @@ import tempfile
 root = os.path.abspath(sys.argv[1])
 sys.path.insert(0, os.path.join(root, "scripts"))
 import cbdpt_results as cr  # noqa: E402
+from checks import check, finish  # noqa: E402
 
-failures = []
-passed = 0
-
-
-def check(condition, message):
-    global passed
-    if condition:
-        passed += 1
-    else:
-        failures.append(message)
-        print("FAIL:", message)
 
 
 SEEDS = [1, 2, 3, 4]
@@ -161,5 +151,4 @@ with tempfile.TemporaryDirectory() as tmp:
     check("**Not measured yet: units missing**" in text and gone in text,
           "a missing unit is named and the goal not claimed")
 
-print(f"{passed} passed, {len(failures)} failed")
-sys.exit(1 if failures else 0)
+finish()

@@ -28,21 +28,11 @@ cbdpt = os.path.abspath(args.cbdpt)
 scene = os.path.join(args.root, "scenes", "cornell-box.pbrt")
 sys.path.insert(0, os.path.join(args.root, "scripts"))
 import cbdpt_results as cr  # noqa: E402
-failures = []
-passed = 0
+from checks import check, finish  # noqa: E402
 SIZE = ["--width", "16", "--height", "12"]
 METHODS = {"pt": ["--eye-vertices", "4"], "cpt": ["--eye-vertices", "4", "--coherence-tile", "2"],
            "bdpt": ["--eye-vertices", "3", "--light-vertices", "3"],
            "cbdpt": ["--eye-vertices", "3", "--light-vertices", "3"]}
-
-
-def check(condition, message):
-    global passed
-    if condition:
-        passed += 1
-    else:
-        failures.append(message)
-        print("FAIL:", message)
 
 
 def run(*a, prefix=(), **kw):
@@ -105,8 +95,7 @@ with tempfile.TemporaryDirectory() as tmp:
               f"--time under MPI ends on every rank and writes contiguous estimates ({r.stderr} "
               f"{stats})")
         check(os.path.exists(P("t.csv")), "rank 0 writes the checkpoint log")
-        print(f"{passed} passed, {len(failures)} failed")
-        sys.exit(1 if failures else 0)
+        finish()
 
     # Shards merged in any order equal one render of the union, bit for bit, per method.
     for method in METHODS:
@@ -234,5 +223,4 @@ with tempfile.TemporaryDirectory() as tmp:
         check(r.returncode == 0 and os.path.exists(P("rescued.exr")),
               f"the kept state gives the image ({r.stderr})")
 
-print(f"{passed} passed, {len(failures)} failed")
-sys.exit(1 if failures else 0)
+finish()
