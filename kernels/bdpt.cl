@@ -31,7 +31,8 @@ __kernel void renderBdpt(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings),
     int rays = 0;
     PathVertex light[CB_MAX_LIGHT_VERTICES];
     PathVertex eye[CB_MAX_EYE_VERTICES];
-    int nLight = bdptLightSubpath(&scene, bdptLightStream(sampler, estimate, pixel),
+    int nLight = bdptLightSubpath(&scene, bdptLightStream(sampler, estimate, pixel,
+                                                  (uint)(camera.width * camera.height)),
                                   settings.lightVertices, light, &rays);
     SampleStream eyeStream = samplerStream(sampler, estimate, pixel);
     float rasterX, rasterY;

@@ -93,10 +93,29 @@ typedef struct BdptSettings {
 #define CB_LIGHT_DIM_FIRST_BOUNCE 8u
 #define CB_LIGHT_STREAM_SALT 0x4c69676du
 
-/* The light subpath's stream: the eye stream's key salted, so that light and eye decisions never
- * share a dimension, and so that CBDPT can draw the light stream of an estimate on the host. */
-CB_FN SampleStream bdptLightStream(SamplerSettings sampler, uint estimate, uint stream) {
+/* The light subpath of `stream` (a pixel in BDPT, a coherence-tile position in CBDPT) of one
+ * estimate, out of `streamCount` per estimate. Its key never equals an eye stream's, so light and
+ * eye decisions never share a dimension, and CBDPT can draw the light stream of an estimate on
+ * the host. Light subpaths do not depend on the pixel that traces them, and every one of them
+ * splats into the whole image (t = 1), so with the Sobol sampler all the streams of an estimate
+ * are one block of a single image-wide sequence, index estimate * 2^b + stream (2^b >= the
+ * count): each estimate's subpaths are then a stratified net over the whole image rather than
+ * streamCount independent points, as pbrt-v4's ZSobolSampler stratifies across pixels. The
+ * index stays below 2^31; every 2^(31-b) estimates start a freshly scrambled sequence. */
+CB_FN SampleStream bdptLightStream(SamplerSettings sampler, uint estimate, uint stream,
+                                   uint streamCount) {
     SampleStream s = samplerStream(sampler, estimate, stream);
+    if (s.sobol) {
+        uint streamBits = 0u;
+        while (streamBits < 30u && (1u << streamBits) < streamCount)
+            ++streamBits;
+        const uint estimateBits = 31u - streamBits;
+        const uint epoch = estimate >> estimateBits;
+        s.key = cbHashCombine(cbHashCombine(cbHash32(sampler.seed), 0xfffffffeu - epoch),
+                              CB_LIGHT_STREAM_SALT);
+        s.index = ((estimate & ((1u << estimateBits) - 1u)) << streamBits) | stream;
+        return s;
+    }
     s.key = cbHashCombine(s.key, CB_LIGHT_STREAM_SALT);
     return s;
 }

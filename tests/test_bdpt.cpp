@@ -435,7 +435,7 @@ TEST_CASE("BDPT MIS weights equal the explicit-ratio oracle and sum to one") {
                     int nLight = cbk::bdptLightSubpath(
                         &view,
                         cbk::bdptLightStream(
-                            cbk::SamplerSettings{3, CB_SAMPLER_INDEPENDENT, {0, 0}}, 0, pixel),
+                            cbk::SamplerSettings{3, CB_SAMPLER_INDEPENDENT, {0, 0}}, 0, pixel, 256),
                         nl, light.data(), &rays);
                     cbk::SampleStream es = cbk::sampleStreamStart(3, 0, pixel);
                     float rx = float(pixel % 16) + cbk::sampleAt(es, 0);

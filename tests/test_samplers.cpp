@@ -8,6 +8,7 @@
 #include "integrators/integrator.h"
 #include "scene/device_scene.h"
 
+#include "cb_bdpt.h"
 #include "cb_camera.h"
 #include "cb_lights.h"
 #include "cb_rng.h"
@@ -174,6 +175,50 @@ TEST_CASE(
         for (int c : seen)
             CHECK(c == 1);
     }
+}
+
+TEST_CASE("Sobol sampler: one estimate's BDPT light subpaths are a net over the whole image") {
+    // Every light subpath splats into every pixel (t = 1), so the W*H subpaths of one estimate
+    // are one block of an image-wide sequence: with 2^k streams, each pair of their dimensions
+    // is a (0,k,2)-net; with fewer, no elementary interval of area 2^-k holds two of them.
+    for (uint seed : {1u, 7u})
+        for (uint estimate : {0u, 1u, 13u})
+            for (uint pair : {0u, 1u, 4u}) {
+                SamplerSettings sampler{seed, CB_SAMPLER_SOBOL, {0, 0}};
+                const int k = 10;
+                const uint n = 1u << k;
+                std::vector<double> x(n), y(n);
+                for (uint stream = 0; stream < n; ++stream) {
+                    SampleStream s = bdptLightStream(sampler, estimate, stream, n);
+                    x[stream] = double(sampleAt(s, 2 * pair));
+                    y[stream] = double(sampleAt(s, 2 * pair + 1));
+                }
+                CAPTURE(seed);
+                CAPTURE(estimate);
+                CAPTURE(pair);
+                CHECK(isNet(x, y, k));
+                // 1000 streams (not a power of two): a subset of the same net, at most one point
+                // per finest elementary interval.
+                std::vector<int> count(n, 0);
+                bool distinct = true;
+                for (uint stream = 0; stream < 1000u; ++stream) {
+                    SampleStream s = bdptLightStream(sampler, estimate, stream, 1000u);
+                    size_t cx = size_t(double(sampleAt(s, 2 * pair)) * 32.0);
+                    size_t cy = size_t(double(sampleAt(s, 2 * pair + 1)) * 32.0);
+                    distinct = distinct && ++count[cx * 32 + cy] == 1;
+                }
+                CHECK(distinct);
+            }
+    // Past 2^(31-b) estimates a new, independently scrambled sequence starts: the index stays
+    // within 31 bits and the key changes.
+    SamplerSettings sampler{3u, CB_SAMPLER_SOBOL, {0, 0}};
+    const uint streams = 1u << 22;
+    SampleStream last = bdptLightStream(sampler, (1u << 9) - 1u, streams - 1u, streams);
+    SampleStream next = bdptLightStream(sampler, 1u << 9, 0u, streams);
+    CHECK(last.index == 0x7fffffffu);
+    CHECK(next.index == 0u);
+    CHECK(next.key != last.key);
+    CHECK(next.key != samplerStream(sampler, 1u << 9, 0u).key);
 }
 
 TEST_CASE("Sobol sampler: every estimate is uniform, and dimension pairs are independent") {

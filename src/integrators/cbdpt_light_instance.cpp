@@ -59,9 +59,12 @@ class LightTracer final : public CbdptLightTracer {
                 for (auto& v : path_)
                     v = cbk::PathVertex{};
                 int rays = 0;
-                const int count =
-                    cbk::bdptLightSubpath(&view_, cbk::bdptLightStream(sampler_, estimate, stream),
-                                          nl, path_.data(), &rays);
+                const int count = cbk::bdptLightSubpath(
+                    &view_,
+                    cbk::bdptLightStream(
+                        sampler_, estimate, stream,
+                        std::uint32_t(settings_.coherenceTile * settings_.coherenceTile)),
+                    nl, path_.data(), &rays);
                 out.counts[std::size_t(index)] = count;
                 std::memcpy(out.vertices.data() +
                                 std::size_t(index) * std::size_t(nl) * sizeof(cbk::PathVertex),
