@@ -31,6 +31,27 @@ typedef struct PacketShared {
 /* Whether any active ray of the group is still traversing, as a bit above the lanes'. */
 #define CB_PACKET_ACTIVE (1u << CB_BVH_WIDE_LANES)
 
+/* The packs of one leaf child, first to first + count - 1: whether one was hit below *closest
+ * (then *closest and *hit are updated; an any-hit query returns at the first). Out of line:
+ * PoCL turns every PHI node of a kernel with barriers into a per-work-item context array,
+ * these loops' as well (164 more arrays when inlined). */
+CB_FN __attribute__((noinline)) bool packetLeaf(CB_GLOBAL const TrianglePack* packs,
+                                                CB_GLOBAL const Primitive* prims, Ray ray,
+                                                TriangleRay sheared, uint first, uint count,
+                                                bool closestHit, real* closest, Hit* hit) {
+    bool found = false;
+    for (uint p = first; p < first + count; ++p) {
+        Hit h;
+        if (intersectPack(packs + p, prims, ray, sheared, *closest, closestHit, &h)) {
+            *hit = h;
+            *closest = h.t;
+            found = true;
+            if (!closestHit) break;
+        }
+    }
+    return found;
+}
+
 /* Closest hit (closestHit) or any hit with t in (0, tMax) for the work-item's ray, traced with
  * its group. `active` false: a ray with nothing to trace (an ended path, padding); it still
  * takes part in every barrier. Returns whether the ray hit; *hit as bvhWideTraverse's. */
@@ -128,20 +149,11 @@ CB_FN __attribute__((always_inline)) bool packetTraverse(CB_GLOBAL const BvhNode
                 continue;
             }
             /* Only the rays whose own box test kept the leaf test its packs. */
-            if (((bits >> k) & 1u) != 0u) {
-                const uint first = node->child[k];
-                for (uint p = first; p < first + count; ++p) {
-                    Hit h;
-                    if (intersectPack(packs + p, prims, ray, sheared, closest, closestHit, &h)) {
-                        *hit = h;
-                        closest = h.t;
-                        found = true;
-                        if (!closestHit) {
-                            active = false;
-                            break;
-                        }
-                    }
-                }
+            if (((bits >> k) & 1u) != 0u &&
+                packetLeaf(packs, prims, ray, sheared, node->child[k], count, closestHit, &closest,
+                           hit)) {
+                found = true;
+                if (!closestHit) active = false;
             }
             if (more) {
                 fromLane = k;
