@@ -253,6 +253,28 @@ def rewrite_exr_half(path, layers=("", "stderr")):
     os.replace(tmp, path)
 
 
+def reference_error(reference, runs):
+    """The reference's own mean squared error, measured from K >= 2 independent runs of its
+    integral (arrays like `reference`; each run has its own seed, so its own randomisation).
+
+    Independent errors add: MSE(run_k, ref) = e_k^2 + e_ref^2 and MSE(run_j, run_k) = e_j^2 +
+    e_k^2, so e_ref^2 = mean_k MSE(run_k, ref) - mean_{j<k} MSE(run_j, run_k) / 2. The reference's
+    stderr layer (the spread of its estimates) cannot give this under the Sobol sampler: its
+    estimates are correlated, and their spread overstates the error of their mean.
+    Returns dict(runs, reference_mse, reference_rms_error, runs_mse), MSE over pixels and
+    channels as `cbdpt compare` computes RMSE; reference_mse may come out below 0 by noise."""
+    if len(runs) < 2:
+        raise ValueError(f"measuring a reference's error needs 2 or more runs, got {len(runs)}")
+    ref = np.asarray(reference, float)
+    to_ref = [float(np.mean((np.asarray(r, float) - ref) ** 2)) for r in runs]
+    pairs = [float(np.mean((np.asarray(runs[j], float) - np.asarray(runs[k], float)) ** 2))
+             for j in range(len(runs)) for k in range(j + 1, len(runs))]
+    runs_mse = float(np.mean(pairs)) / 2
+    ref_mse = float(np.mean(to_ref)) - runs_mse
+    return dict(runs=len(runs), reference_mse=ref_mse,
+                reference_rms_error=math.sqrt(max(ref_mse, 0.0)), runs_mse=runs_mse)
+
+
 def read_pfm(path):
     """HxWx3 float64 array of a colour PFM (pbrt-v4's float output), top row first."""
     with open(path, "rb") as f:

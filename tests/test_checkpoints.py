@@ -16,6 +16,7 @@ cbdpt, root = os.path.abspath(sys.argv[1]), os.path.abspath(sys.argv[2])
 scene = os.path.join(root, "scenes", "cornell-box.pbrt")
 sys.path.insert(0, os.path.join(root, "scripts"))
 import cbdpt_results as cr  # noqa: E402
+import numpy as np  # noqa: E402
 from checks import check, finish  # noqa: E402
 
 COLUMNS = ["estimates", "seconds", "rmse", "rel_mse", "mae", "mean_stderr", "rms_stderr",
@@ -184,6 +185,12 @@ with tempfile.TemporaryDirectory() as tmp:
     for uid, started in before.items():
         rec = json.load(open(os.path.join(units, uid + ".json")))
         check(rec["started"] == started, f"{uid} was not run again")
+    # With two seeds done, the reference's own error is measured from them, per method.
+    path = os.path.join(units, "cornell-box", "n8", "pt", "reference-error.json")
+    m = json.load(open(path)) if os.path.exists(path) else {}
+    check(m.get("runs") == 2 and sorted(m.get("seeds", [])) == [1, 2] and
+          math.isfinite(m.get("reference_mse", math.nan)) and m.get("runs_mse", 0) > 0,
+          f"reference error measured from the PT seeds ({m})")
     # The report aggregates what exists and lists what is missing (seeds 3 and 4 here).
     doc = P("results.md")
     r = subprocess.run([sys.executable, os.path.join(root, "scripts", "report"), "--units", units,
@@ -196,7 +203,7 @@ with tempfile.TemporaryDirectory() as tmp:
                    "total-length cap N = 8", "## Combining pattern-prone and noisy renders",
                    "### The goal", "Not measured yet: units missing",
                    "cornell-box/4+4/combine/pt-cbdpt-share0.75-seed1",
-                   "### PT's share of the split budget"):
+                   "### PT's share of the split budget", "measured from 2 PT seeds"):
         check(needle in text, f"report has '{needle}'")
     # The combination tables hold numbers: median [min–max] cells for the single methods at the
     # combined images' CPU seconds, each combination and each share; the goal is evaluated.
@@ -223,6 +230,24 @@ with tempfile.TemporaryDirectory() as tmp:
     check(any(f.startswith("error-time-") for f in figs) and
           any(f.startswith("spectrum-") for f in figs) and
           "combine-spectrum-cornell-box-4p4.png" in figs, f"report figures {figs}")
+
+# cr.reference_error recovers a reference's error from independent runs: truth + white noise of
+# known sigma. 4 runs of 3x128x128 values: the estimate of sigma_ref^2 has a relative standard
+# error of 1.3% (200 seeds tried), so 10% is over 7 standard errors.
+rng = np.random.default_rng(5)
+truth = rng.uniform(0.1, 1.0, (128, 128, 3))
+sigma_ref, sigma_runs = 0.02, [0.03, 0.03, 0.04, 0.05]
+m = cr.reference_error(truth + rng.normal(0, sigma_ref, truth.shape),
+                       [truth + rng.normal(0, s, truth.shape) for s in sigma_runs])
+check(abs(m["reference_mse"] / sigma_ref ** 2 - 1) < 0.1 and m["runs"] == 4,
+      f"reference error recovered: {m['reference_rms_error']:.4g} for sigma {sigma_ref}")
+check(abs(m["runs_mse"] / np.mean(np.square(sigma_runs)) - 1) < 0.1,
+      f"runs' own MSE recovered: {m['runs_mse']:.4g}")
+try:
+    cr.reference_error(truth, [truth])
+    check(False, "one run is refused")
+except ValueError as e:
+    check("2 or more runs" in str(e), f"one run is refused ({e})")
 
 # Every reference an experiment unit measures against is one scripts/make-reference makes.
 loader = importlib.machinery.SourceFileLoader
