@@ -52,13 +52,13 @@ void addOptions(CLI::App& app, Options& o) {
     app.add_option("--sections", o.sections, "traverse build render scaling")->delimiter(',');
     app.add_option("--traversal", o.traversal,
                    "comma-separated: ordered | skip (binary BVH) | wide (4- or 8-wide, the "
-                   "renderers' BVH); "
-                   "both = ordered,skip")
+                   "renderers' BVH) | packet (the wide BVH traversed by work-groups of 64 rays "
+                   "together, a prototype); both = ordered,skip")
         ->check([](const std::string& v) {
             if (v == "both") return std::string();
             for (const auto& s : splitCommas(v))
-                if (s != "ordered" && s != "skip" && s != "wide")
-                    return "unknown traversal '" + s + "' (ordered, skip, wide, both)";
+                if (s != "ordered" && s != "skip" && s != "wide" && s != "packet")
+                    return "unknown traversal '" + s + "' (ordered, skip, wide, packet, both)";
             return std::string();
         });
     app.add_option("--repeats", o.repeats, "timed repeats per measurement");

@@ -26,16 +26,25 @@ namespace {
 
 class ClTraversal {
   public:
-    // variant: ordered | skip (binary BVH) | wide (cb_bvh_wide.h, what the renderers use)
+    // variant: ordered | skip (binary BVH) | wide (cb_bvh_wide.h, what the renderers use) |
+    // packet (the wide BVH, work-group-wide traversal of bench_bvh_packet.h, for every ray set;
+    // its kernels require work-groups of 64, whatever localSize says)
     ClTraversal(ClRuntime& rt, const Bvh& bvh, const std::string& variant, int localSize)
-        : rt_(rt), localSize_(localSize) {
+        : rt_(rt), localSize_(variant == "packet" ? kPacketSize : localSize) {
         std::vector<std::string> defines = {"CB_CHANNELS=3", "CB_FEATURES=0x101u"};
         if (variant == "skip") defines.push_back("CB_BVH_SKIP_ORDER=1");
         program_ = rt.buildProgram("bench_traverse.cl", defines);
-        const bool wide = variant == "wide";
-        closest_ = cl::Kernel(program_, wide ? "benchClosestWide" : "benchClosest");
-        occluded_ = cl::Kernel(program_, wide ? "benchOccludedWide" : "benchOccluded");
-        if (wide) closestCoherent_ = cl::Kernel(program_, "benchClosestWideCoherent");
+        const bool packet = variant == "packet";
+        const bool wide = variant == "wide" || packet;
+        if (packet) {
+            closest_ = cl::Kernel(program_, "benchClosestWidePacket");
+            closestCoherent_ = closest_;
+            occluded_ = cl::Kernel(program_, "benchOccludedWidePacket");
+        } else {
+            closest_ = cl::Kernel(program_, wide ? "benchClosestWide" : "benchClosest");
+            occluded_ = cl::Kernel(program_, wide ? "benchOccludedWide" : "benchOccluded");
+            if (wide) closestCoherent_ = cl::Kernel(program_, "benchClosestWideCoherent");
+        }
         if (wide) {
             wide_ = collapseBvhWide(bvh);
             nodes_ = uploadArray(rt, "bench wide BVH nodes", wide_.nodes);
@@ -90,6 +99,8 @@ class ClTraversal {
     }
 
   private:
+    static constexpr int kPacketSize = 64; // CB_PACKET_SIZE of bench_bvh_packet.h
+
     // The BVH arguments: nodes, [packs,] primitives. Returns the next argument index.
     int setBvhArgs(cl::Kernel& k) {
         int arg = 0;
@@ -316,7 +327,7 @@ json caseRow(const TraverseInput& in, const std::string& name, bool anyHit, cons
 Bvh variantBvh(const Options& o, const std::string& variant,
                const std::vector<cbk::Primitive>& prims, const std::vector<Ray>& primary,
                std::string& settings) {
-    if (variant == "wide" && o.sahBlock <= 0) {
+    if ((variant == "wide" || variant == "packet") && o.sahBlock <= 0) {
         // As the renderers build it (DeviceScene): the candidate cheapest for a sample of the
         // camera rays and their bounces.
         WideBvhChoice choice = buildWideBvhForRays(prims, cameraSample(primary));

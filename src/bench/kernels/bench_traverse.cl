@@ -4,8 +4,10 @@
  * the BVH traversal and the primitive tests. benchClosest/benchOccluded run the binary BVH's
  * traversals of bench_bvh_binary.h (-DCB_BVH_SKIP_ORDER: its unordered preorder closest-hit
  * loop), kept for comparison; the *Wide kernels run cb_bvh_wide.h, the traversal the renderers
- * use. */
+ * use; the *Packet kernels run the work-group-wide prototype of bench_bvh_packet.h (work-groups
+ * of CB_PACKET_SIZE, an 8x8 tile of rays each). */
 #include "bench_bvh_binary.h"
+#include "bench_bvh_packet.h"
 #include "cb_bvh_wide.h"
 
 __kernel void benchClosest(__global const struct BvhNode* nodes,
@@ -67,4 +69,36 @@ __kernel void benchOccludedWide(__global const struct BvhNodeWide* nodes,
                           bvhWideTraverse(nodes, packs, primitives, rays[i], tMax[i], false, true, &h)
                       ? 1
                       : 0;
+}
+
+/* The packet traversal (bench_bvh_packet.h): every work-item reaches its barriers, so the rays
+ * past `count` (padding) take part as inactive rays. */
+__kernel __attribute__((reqd_work_group_size(CB_PACKET_SIZE, 1, 1))) void benchClosestWidePacket(
+    __global const struct BvhNodeWide* nodes, __global const TrianglePack* packs,
+    __global const Primitive* primitives, __global const Ray* rays, __global const float* tMax,
+    uint count, __global Hit* hits) {
+    __local PacketShared shared;
+    uint i = (uint)get_global_id(0);
+    bool inside = i < count;
+    Ray ray = rays[inside ? i : 0u];
+    float t = inside ? tMax[i] : 0.0f;
+    Hit h;
+    packetTraverse(nodes, packs, primitives, ray, t > 0.0f ? t : CB_INFINITY, t > 0.0f, true,
+                   &shared, &h);
+    if (inside) hits[i] = h;
+}
+
+__kernel __attribute__((reqd_work_group_size(CB_PACKET_SIZE, 1, 1))) void benchOccludedWidePacket(
+    __global const struct BvhNodeWide* nodes, __global const TrianglePack* packs,
+    __global const Primitive* primitives, __global const Ray* rays, __global const float* tMax,
+    uint count, __global int* occluded) {
+    __local PacketShared shared;
+    uint i = (uint)get_global_id(0);
+    bool inside = i < count;
+    Ray ray = rays[inside ? i : 0u];
+    float t = inside ? tMax[i] : 0.0f;
+    Hit h;
+    bool hit = packetTraverse(nodes, packs, primitives, ray, t > 0.0f ? t : CB_INFINITY, t > 0.0f,
+                              false, &shared, &h);
+    if (inside) occluded[i] = hit ? 1 : 0;
 }

@@ -1,0 +1,63 @@
+#!/usr/bin/env python3
+"""The work-group-wide (packet) traversal prototype of cbdpt-bench (`--traversal packet`,
+src/bench/kernels/bench_bvh_packet.h) finds the same hits as the renderers' traversal
+(`--traversal wide`) and as Embree, on every ray set of the traverse section: coherent ones
+(primary, one estimate's bounces and shadow rays) and incoherent ones, closest and any hit.
+Every ray's answer is compared with Embree's (agreement 1 = all rays; a closest hit counts as
+agreeing when it is the same triangle or one at the same distance, a shared edge), and the
+number of hits with the wide traversal's on the same rays.
+
+Usage: test_bench_packet.py PATH/TO/cbdpt-bench"""
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+
+import stanford_models
+from checks import check, finish
+
+parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+parser.add_argument("bench", help="the cbdpt-bench executable")
+args = parser.parse_args()
+
+if stanford_models.model_dir() is None:
+    if stanford_models.required():
+        print("FAIL: CBDPT_REQUIRE_MODELS=1 but " + stanford_models.missing_message())
+        sys.exit(1)
+    print("cbdpt-skip: " + stanford_models.missing_message())
+    sys.exit(0)
+
+CASES = ["primary", "bounce1", "bounce2", "coh-shadow", "shadow", "incoherent"]
+with tempfile.TemporaryDirectory() as tmp:
+    out = os.path.join(tmp, "bench.json")
+    # 4104 rays: the images are 64x64 (primaryRays rounds to tiles), the incoherent set is not a
+    # multiple of the work-group size, so padding work-items are exercised too.
+    r = subprocess.run([args.bench, "--sections", "traverse", "--traversal", "wide,packet",
+                        "--meshes", "bunny", "--rays", "4104", "--repeats", "1",
+                        "--cases", ",".join(CASES), "--json", out],
+                       capture_output=True, text=True, timeout=900)
+    check(r.returncode == 0, f"cbdpt-bench exits 0 (got {r.returncode}: {r.stderr})")
+    data = json.load(open(out)) if r.returncode == 0 else {}
+
+rows = data.get("traverse", [])
+embree = data.get("machine", {}).get("embree", False)
+by_key = {(row["mesh"], row["order"], row["rays"]): row for row in rows}
+for mesh in ("bunny",):
+    for case in CASES:
+        packet = by_key.get((mesh, "packet", case))
+        wide = by_key.get((mesh, "wide", case))
+        check(packet is not None and wide is not None, f"{mesh} {case}: both traversals ran")
+        if packet is None or wide is None:
+            continue
+        check(packet["count"] == wide["count"] and packet["hit_fraction"] == wide["hit_fraction"],
+              f"{mesh} {case}: packet and wide hit the same number of rays "
+              f"({packet['hit_fraction']} vs {wide['hit_fraction']})")
+        if embree:
+            check(packet["agreement"] == 1.0,
+                  f"{mesh} {case}: packet traversal agrees with Embree on every ray "
+                  f"({packet['agreement']})")
+if not embree:
+    print("note: cbdpt-bench built without Embree: compared with the wide traversal only")
+finish()
