@@ -130,6 +130,11 @@ with tempfile.TemporaryDirectory() as tmp:
     units = P("units")
     experiment = [sys.executable, os.path.join(root, "scripts", "experiment"), "--quick",
                   "--cbdpt", cbdpt, "--units", units, "--methods", "pt", "cbdpt"]
+    # --configs keeps only the configurations named.
+    r = subprocess.run(experiment + ["--list", "--configs", "n8"], capture_output=True, text=True)
+    listed = [line.split()[1] for line in r.stdout.splitlines() if line.startswith("  ")]
+    check(r.returncode == 0 and listed and all("/n8/" in uid for uid in listed),
+          f"--configs n8 lists only n8 units ({listed})")
     r = subprocess.run(experiment + ["--seeds", "1"], capture_output=True, text=True)
     check(r.returncode == 0, f"experiment --quick exits 0 ({r.stdout[-500:]} {r.stderr[-500:]})")
     records = {}
