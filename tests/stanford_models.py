@@ -22,3 +22,15 @@ def required():
 
 def missing_message():
     return HOW.format(os.environ.get("CBDPT_MODEL_PATH", ""))
+
+
+def skip_without_models():
+    """Exit the test unless the models are found: as skipped ("cbdpt-skip:", the
+    SKIP_REGULAR_EXPRESSION of tests/tests.cmake), or as failed where they are required."""
+    if model_dir() is not None:
+        return
+    if required():
+        print("FAIL: CBDPT_REQUIRE_MODELS=1 but " + missing_message())
+        raise SystemExit(1)
+    print("cbdpt-skip: " + missing_message())
+    raise SystemExit(0)

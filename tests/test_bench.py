@@ -18,12 +18,7 @@ failures = []
 
 # The quick run traces the bunny and renders the dragon scene. Without the models the test is
 # skipped ("cbdpt-skip:", SKIP_REGULAR_EXPRESSION in tests/tests.cmake), except in CI.
-if stanford_models.model_dir() is None:
-    if stanford_models.required():
-        print("FAIL: CBDPT_REQUIRE_MODELS=1 but " + stanford_models.missing_message())
-        sys.exit(1)
-    print("cbdpt-skip: " + stanford_models.missing_message())
-    sys.exit(0)
+stanford_models.skip_without_models()
 
 
 def check(condition, message):

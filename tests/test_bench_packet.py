@@ -12,7 +12,6 @@ import argparse
 import json
 import os
 import subprocess
-import sys
 import tempfile
 
 import stanford_models
@@ -22,12 +21,7 @@ parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
 parser.add_argument("bench", help="the cbdpt-bench executable")
 args = parser.parse_args()
 
-if stanford_models.model_dir() is None:
-    if stanford_models.required():
-        print("FAIL: CBDPT_REQUIRE_MODELS=1 but " + stanford_models.missing_message())
-        sys.exit(1)
-    print("cbdpt-skip: " + stanford_models.missing_message())
-    sys.exit(0)
+stanford_models.skip_without_models()
 
 CASES = ["primary", "bounce1", "bounce2", "coh-shadow", "shadow", "incoherent"]
 with tempfile.TemporaryDirectory() as tmp:

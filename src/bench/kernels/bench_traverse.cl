@@ -72,20 +72,29 @@ __kernel void benchOccludedWide(__global const struct BvhNodeWide* nodes,
 }
 
 /* The packet traversal (bench_bvh_packet.h): every work-item reaches its barriers, so the rays
- * past `count` (padding) take part as inactive rays. */
+ * past `count` (padding) take part as inactive rays. Returns whether the work-item's ray hit. */
+__attribute__((always_inline)) bool benchPacketRay(__global const struct BvhNodeWide* nodes,
+                                                   __global const TrianglePack* packs,
+                                                   __global const Primitive* primitives,
+                                                   __global const Ray* rays,
+                                                   __global const float* tMax, uint count,
+                                                   bool closestHit, __local PacketShared* shared,
+                                                   Hit* h) {
+    uint i = (uint)get_global_id(0);
+    bool inside = i < count;
+    float t = inside ? tMax[i] : 0.0f;
+    return packetTraverse(nodes, packs, primitives, rays[inside ? i : 0u],
+                          t > 0.0f ? t : CB_INFINITY, t > 0.0f, closestHit, shared, h);
+}
+
 __kernel __attribute__((reqd_work_group_size(CB_PACKET_SIZE, 1, 1))) void benchClosestWidePacket(
     __global const struct BvhNodeWide* nodes, __global const TrianglePack* packs,
     __global const Primitive* primitives, __global const Ray* rays, __global const float* tMax,
     uint count, __global Hit* hits) {
     __local PacketShared shared;
-    uint i = (uint)get_global_id(0);
-    bool inside = i < count;
-    Ray ray = rays[inside ? i : 0u];
-    float t = inside ? tMax[i] : 0.0f;
     Hit h;
-    packetTraverse(nodes, packs, primitives, ray, t > 0.0f ? t : CB_INFINITY, t > 0.0f, true,
-                   &shared, &h);
-    if (inside) hits[i] = h;
+    benchPacketRay(nodes, packs, primitives, rays, tMax, count, true, &shared, &h);
+    if (get_global_id(0) < count) hits[get_global_id(0)] = h;
 }
 
 __kernel __attribute__((reqd_work_group_size(CB_PACKET_SIZE, 1, 1))) void benchOccludedWidePacket(
@@ -93,12 +102,7 @@ __kernel __attribute__((reqd_work_group_size(CB_PACKET_SIZE, 1, 1))) void benchO
     __global const Primitive* primitives, __global const Ray* rays, __global const float* tMax,
     uint count, __global int* occluded) {
     __local PacketShared shared;
-    uint i = (uint)get_global_id(0);
-    bool inside = i < count;
-    Ray ray = rays[inside ? i : 0u];
-    float t = inside ? tMax[i] : 0.0f;
     Hit h;
-    bool hit = packetTraverse(nodes, packs, primitives, ray, t > 0.0f ? t : CB_INFINITY, t > 0.0f,
-                              false, &shared, &h);
-    if (inside) occluded[i] = hit ? 1 : 0;
+    bool hit = benchPacketRay(nodes, packs, primitives, rays, tMax, count, false, &shared, &h);
+    if (get_global_id(0) < count) occluded[get_global_id(0)] = hit ? 1 : 0;
 }
