@@ -340,6 +340,21 @@ with tempfile.TemporaryDirectory() as tmp:
                   f"{integrator} crop {name} half matches the full film's pixels ({a} vs {b}, "
                   f"standard error {se})")
 
+    # Kernel diagnosis (docs/gpu.md): extra build options reach the compiler and the build log is
+    # printed; CBDPT_KERNEL_DIR replaces an embedded kernel file by the folder's copy.
+    env = dict(os.environ, CBDPT_KERNEL_OPTIONS="-DCB_DIAGNOSIS_PROBE=1", CBDPT_KERNEL_LOG="1")
+    r = run("render", scene, "-o", out, *small, env=env)
+    check(r.returncode == 0 and "OpenCL build log of pt.cl" in r.stderr
+          and "-DCB_DIAGNOSIS_PROBE=1" in r.stderr,
+          f"CBDPT_KERNEL_OPTIONS and CBDPT_KERNEL_LOG ({r.stderr.strip()[:300]})")
+    kernel_dir = os.path.join(tmp, "kernels")
+    os.makedirs(kernel_dir, exist_ok=True)
+    with open(os.path.join(kernel_dir, "pt.cl"), "w") as f:
+        f.write('#error "pt.cl from CBDPT_KERNEL_DIR"\n')
+    r = run("render", scene, "-o", out, *small, env=dict(os.environ, CBDPT_KERNEL_DIR=kernel_dir))
+    check(r.returncode != 0 and "pt.cl from CBDPT_KERNEL_DIR" in r.stderr,
+          f"CBDPT_KERNEL_DIR replaces pt.cl ({r.stderr.strip()[:300]})")
+
     # A file that is not a scene is named for what it is, and no message prints raw bytes.
     r = run("info", out)
     check(r.returncode != 0 and "is an OpenEXR image, not a pbrt scene" in r.stderr

@@ -55,18 +55,20 @@ TEST_CASE("device memory: the OpenCL runtime checks its buffers and counts the l
         cl::Buffer b = runtime.createBuffer("test buffer", CL_MEM_READ_WRITE, 1 << 20);
         CHECK(runtime.liveBufferBytes() == before + (1 << 20));
     }
-    CHECK(runtime.liveBufferBytes() == before);
+    // The count drops in the buffer's destructor callback, which OpenCL lets an implementation run
+    // later: PoCL's CPU device runs it at once, NVIDIA's driver on an H100 did not (docs/gpu.md).
+    if (runtime.info().cpu) CHECK(runtime.liveBufferBytes() == before);
     // One byte past the device's largest allocation: refused before OpenCL is asked.
     const size_t tooLarge = size_t(runtime.info().maxAllocationBytes) + 1;
     CHECK_THROWS_WITH_AS(runtime.createBuffer("test buffer", CL_MEM_READ_WRITE, tooLarge),
                          doctest::Contains("test buffer needs"), cb::ClError);
-    CHECK(runtime.liveBufferBytes() == before);
+    if (runtime.info().cpu) CHECK(runtime.liveBufferBytes() == before);
 }
 
 TEST_CASE("device memory: read-only copies hold the data, small and huge-page ones alike, and "
           "are counted and released") {
     cb::ClRuntime runtime;
-    CHECK(runtime.info().cpu); // PoCL's CPU device: large copies take the huge-page path
+    // On a CPU device (PoCL) copies of kHugePageBytes and more take the huge-page path.
     const unsigned long long before = runtime.liveBufferBytes();
     // Below and above kHugePageBytes, and a size that is not a multiple of it.
     for (size_t count : {size_t(1000), cb::ClRuntime::kHugePageBytes / 4 * 3 + 12345}) {
@@ -86,7 +88,8 @@ TEST_CASE("device memory: read-only copies hold the data, small and huge-page on
             runtime.queue().enqueueReadBuffer(b, CL_TRUE, 0, bytes, back.data());
             CHECK(back[0] != data[0]);
         }
-        CHECK(runtime.liveBufferBytes() == before);
+        // Destructor callbacks may run later on other devices (see above).
+        if (runtime.info().cpu) CHECK(runtime.liveBufferBytes() == before);
     }
 }
 

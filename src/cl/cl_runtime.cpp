@@ -6,6 +6,8 @@
 #include <cstdlib>
 #include <cstring>
 #include <fmt/format.h>
+#include <fstream>
+#include <map>
 #include <set>
 #include <sstream>
 #include <sys/mman.h>
@@ -295,8 +297,24 @@ ClRuntime::ClRuntime(const std::string& selector) {
     }
 }
 
+// The embedded kernel sources, each replaced by the file of the same name in the folder
+// CBDPT_KERNEL_DIR when set: kernels edited without rebuilding, e.g. to find where a device faults.
+static std::map<std::string, std::string> kernelSources() {
+    auto sources = embeddedKernelSources();
+    const char* dir = std::getenv("CBDPT_KERNEL_DIR");
+    if (!dir || !*dir) return sources;
+    for (auto& [name, text] : sources) {
+        std::ifstream in(std::string(dir) + "/" + name, std::ios::binary);
+        if (!in) continue;
+        std::ostringstream body;
+        body << in.rdbuf();
+        text = fmt::format("#line 1 \"{}\"\n{}", name, body.str());
+    }
+    return sources;
+}
+
 std::string assembleKernelSource(const std::string& mainFile) {
-    const auto& sources = embeddedKernelSources();
+    const auto sources = kernelSources();
     std::set<std::string> included;
     std::string out;
     // Recursive inliner; each embedded source already starts with `#line 1 "name"`.
@@ -338,6 +356,10 @@ cl::Program ClRuntime::buildProgram(const std::string& mainFile,
     std::string options = "-cl-std=CL1.2";
     for (const auto& d : defines)
         options += " -D" + d;
+    // Vendor options for diagnosis or tuning, e.g. NVIDIA's -cl-nv-verbose (registers and stack
+    // per kernel, printed with CBDPT_KERNEL_LOG=1).
+    if (const char* extra = std::getenv("CBDPT_KERNEL_OPTIONS"); extra && *extra)
+        options += std::string(" ") + extra;
     auto start = std::chrono::steady_clock::now();
     cl::Program program(context_, source);
     try {
@@ -354,6 +376,9 @@ cl::Program ClRuntime::buildProgram(const std::string& mainFile,
     }
     lastBuildSeconds_ =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    if (const char* log = std::getenv("CBDPT_KERNEL_LOG"); log && std::strcmp(log, "1") == 0)
+        fmt::print(stderr, "OpenCL build log of {} ({}):\n{}\n", mainFile, options,
+                   program.getBuildInfo<CL_PROGRAM_BUILD_LOG>(device_));
     return program;
 }
 

@@ -18,16 +18,21 @@
 
 namespace {
 
-// OpenCL reports failures by status; name it, and say what to do when memory ran out.
+// OpenCL reports failures by status; name it, and say what to do when memory ran out or a
+// kernel faulted (NVIDIA's driver reports a faulting kernel at the next call that waits for it).
 void printOpenClError(const cl::Error& e) {
     const bool outOfMemory = e.err() == CL_MEM_OBJECT_ALLOCATION_FAILURE ||
                              e.err() == CL_OUT_OF_RESOURCES || e.err() == CL_OUT_OF_HOST_MEMORY ||
                              e.err() == CL_INVALID_BUFFER_SIZE;
-    fmt::print(stderr, "cbdpt: error: OpenCL call {} failed with {}{}\n", e.what(),
+    const bool faulted = e.err() == CL_OUT_OF_RESOURCES || e.err() == CL_INVALID_COMMAND_QUEUE;
+    fmt::print(stderr, "cbdpt: error: OpenCL call {} failed with {}{}{}\n", e.what(),
                cb::clStatusName(e.err()),
                outOfMemory ? ": the device ran out of memory (try a smaller --width/--height "
                              "or lower vertex caps)"
-                           : "");
+                           : "",
+               faulted ? "; on a GPU a kernel that faulted is reported so too (NVIDIA: "
+                         "CBDPT_KERNEL_OPTIONS=-cl-opt-disable, see docs/gpu.md)"
+                       : "");
 }
 
 // `cbdpt --version`: the version, the git revision the build was configured from, and the
