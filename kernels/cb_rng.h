@@ -127,15 +127,20 @@ CB_FN uint owenScrambleReversed(uint x, uint seed) {
 
 /* A bijection of the estimate indices that maps [0, 2^k) onto itself for every k, so that the
  * first 2^k estimates of every pair of dimensions are still the first 2^k Sobol points (a
- * (0,k,2)-net once scrambled) whatever the total count: bit j is flipped by a hash of the bits
- * above it (zero stays zero). Each pair of dimensions has its own, so that pairs are paired by a
- * random permutation rather than index for index; the digit-by-digit dependence on the higher
- * digits is Ahmed and Wonka's 2020 z-sampler idea (pbrt-v4's ZSobolSampler). */
+ * (0,k,2)-net once scrambled) whatever the total count: each bit below the highest set bit is
+ * flipped by a function of the bits above it, the highest set bit and the zeros above it stay.
+ * Each pair of dimensions has its own, so that pairs are paired by a random permutation rather
+ * than index for index (pbrt-v4's PaddedSobolSampler). The flips are Laine and Karras' hash on
+ * the reversed index, as Burley 2020 shuffles Sobol indices (nested_uniform_scramble), with the
+ * leading zeros and the highest set bit restored: constant work per sample. (A hash per bit, as
+ * pbrt-v4's ZSobolSampler draws a permutation per base-4 digit, cost 31% of PT's kernel
+ * instructions at 2^11 estimates and more for BDPT's image-wide light streams, docs/sampling.md.) */
 CB_FN uint sobolShuffleIndex(uint index, uint key) {
-    uint result = index;
-    for (uint bit = 0u; bit < 31u && (index >> (bit + 1u)) != 0u; ++bit)
-        result ^= (cbHashCombine(key ^ (bit * 0x9e3779b9u), index >> (bit + 1u)) & 1u) << bit;
-    return result;
+    uint reversed = cbReverseBits(index);
+    uint highest = reversed & (0u - reversed); /* the highest set bit of index, reversed */
+    uint kept = highest | (highest - 1u);      /* it and the zeros above it (all bits if 0) */
+    uint scrambled = owenScrambleReversed(reversed, cbHashCombine(key, 0x5f1e0000u));
+    return cbReverseBits((scrambled & ~kept) | (reversed & kept));
 }
 
 /* Dimension d of estimate `index`: dimensions 2i and 2i+1 are the two-dimensional Sobol

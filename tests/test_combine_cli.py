@@ -145,4 +145,27 @@ with tempfile.TemporaryDirectory() as tmp:
                 "-o", out)
     check(r.returncode != 0 and "--shares" in r.stderr, f"bad shares refused ({r.stderr.strip()})")
 
+    # --max-vertices: every method under the total-length cap N (PT's integral), recorded in the
+    # parts' headers; per-subpath caps of another total are refused against them.
+    capped = os.path.join(tmp, "capped")
+    r = combine("--split-budget", "1", "--methods", "pt,cbdpt", "--max-vertices", "5",
+                "--width", "24", "--height", "24", scene, "-o", out, "--keep-inputs", capped)
+    check(r.returncode == 0, f"--split-budget --max-vertices runs ({r.stderr.strip()})")
+    if r.returncode == 0:
+        p0 = cr.read_exr_attributes(os.path.join(capped, "0-pt.exr"))
+        p1 = cr.read_exr_attributes(os.path.join(capped, "1-cbdpt.exr"))
+        check(p0["cbdpt_max_vertices"] == 5 and p1["cbdpt_max_vertices"] == 5
+              and p1["cbdpt_eye_vertices"] == 5 and p1["cbdpt_light_vertices"] == 4,
+              f"the total cap reaches both methods ({p0}, {p1})")
+        other = os.path.join(tmp, "cb-3p3.exr")
+        render(other, "--integrator", "cbdpt", "--eye-vertices", "3", "--light-vertices", "3",
+               "--spp", "2", "--seed", "9")
+        r = combine(os.path.join(capped, "0-pt.exr"), other, "-o", out)
+        check(r.returncode != 0 and "vertex caps" in r.stderr and "N=5" in r.stderr,
+              f"N=5 against 3+3 refused, naming both ({r.stderr.strip()})")
+    r = combine("--split-budget", "1", "--methods", "pt,cbdpt", "--max-vertices", "5",
+                "--eye-vertices", "3", scene, "-o", out)
+    check(r.returncode != 0 and "--max-vertices" in r.stderr,
+          f"--max-vertices with --eye-vertices refused ({r.stderr.strip()})")
+
 finish()

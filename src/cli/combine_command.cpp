@@ -39,6 +39,7 @@ struct CombineOptions {
     std::string shares;
     int eyeVertices = 4;
     int lightVertices = 4;
+    int maxVertices = 0;
     std::uint32_t seed = 1;
     int width = 0;
     int height = 0;
@@ -62,6 +63,7 @@ nlohmann::json recordJson(const RenderRecord& r, const std::string& path) {
             {"method", r.method},
             {"eye_vertices", r.eyeVertices},
             {"light_vertices", r.lightVertices},
+            {"max_vertices", r.maxVertices},
             {"seed", r.seed},
             {"estimates", r.estimates},
             {"render_seconds", r.renderSeconds},
@@ -88,6 +90,11 @@ std::vector<CombineInput> renderInputs(const CombineOptions& o, nlohmann::json& 
         const bool unidirectional = s.name == "pt" || s.name == "cpt";
         s.eyeVertices = unidirectional ? o.eyeVertices + o.lightVertices : o.eyeVertices;
         s.lightVertices = o.lightVertices;
+        if (o.maxVertices > 0) { // the total-length cap: PT's integral for every method
+            s.maxPathVertices = o.maxVertices;
+            s.eyeVertices = o.maxVertices;
+            s.lightVertices = std::max(1, o.maxVertices - 1);
+        }
         // Distinct seeds: the methods' random numbers must be independent.
         s.seed = o.seed + std::uint32_t(i);
         split.methods.push_back(s);
@@ -157,6 +164,7 @@ int runCombine(CombineOptions& o) {
     record.method = "combine:" + combinationName(o.settings.how);
     // A combination computes the inputs' image: its cap, as eye vertices alone.
     record.eyeVertices = pathVertexCap(first);
+    record.maxVertices = first.maxVertices;
     record.channels = first.channels;
     record.sceneFile = first.sceneFile;
     record.sceneHash = first.sceneHash;
@@ -227,9 +235,16 @@ Command addCombineCommand(CLI::App& app) {
     cmd->add_option("--methods", o.methods, "--split-budget: methods, e.g. pt,cbdpt");
     cmd->add_option("--shares", o.shares,
                     "--split-budget: fractions of the budget per method (default: equal)");
-    cmd->add_option("--eye-vertices", o.eyeVertices,
-                    "--split-budget: Ne of the bidirectional methods (PT, CPT: Ne + Nl)");
-    cmd->add_option("--light-vertices", o.lightVertices, "--split-budget: Nl");
+    auto* eye =
+        cmd->add_option("--eye-vertices", o.eyeVertices,
+                        "--split-budget: Ne of the bidirectional methods (PT, CPT: Ne + Nl)");
+    auto* light = cmd->add_option("--light-vertices", o.lightVertices, "--split-budget: Nl");
+    cmd->add_option("--max-vertices", o.maxVertices,
+                    "--split-budget: N, a cap on the whole path instead of Ne and Nl (every "
+                    "strategy with s + t <= N: PT's integral for every method)")
+        ->check(CLI::Range(2, 1024))
+        ->excludes(eye)
+        ->excludes(light);
     cmd->add_option("--seed", o.seed, "--split-budget: seed of the first method (+1 per method)");
     cmd->add_option("--width", o.width, "--split-budget: override the film width");
     cmd->add_option("--height", o.height, "--split-budget: override the film height");

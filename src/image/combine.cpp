@@ -15,11 +15,14 @@ const char* kHalfLayers[2] = {"half0", "half1"};
 const char* kHalfErrorLayers[2] = {"half0.stderr", "half1.stderr"};
 
 std::string describe(const CombineInput& in) {
-    return fmt::format("{} ({}, Ne={}{}, seed {}, {} estimates)", in.path, in.record.method,
-                       in.record.eyeVertices,
-                       isPatternProne(in.record.method) || in.record.method == "bdpt"
-                           ? fmt::format(" Nl={}", in.record.lightVertices)
-                           : "",
+    const std::string caps =
+        in.record.maxVertices > 0
+            ? fmt::format("N={}", in.record.maxVertices)
+            : fmt::format("Ne={}{}", in.record.eyeVertices,
+                          isPatternProne(in.record.method) || in.record.method == "bdpt"
+                              ? fmt::format(" Nl={}", in.record.lightVertices)
+                              : "");
+    return fmt::format("{} ({}, {}, seed {}, {} estimates)", in.path, in.record.method, caps,
                        in.record.seed, in.record.estimates);
 }
 
@@ -103,6 +106,7 @@ double median(std::vector<double>& xs) {
 } // namespace
 
 int pathVertexCap(const RenderRecord& r) {
+    if (r.maxVertices > 0) return r.maxVertices;
     if (r.method == "pt" || r.method == "cpt") return r.eyeVertices;
     return r.eyeVertices + r.lightVertices;
 }
@@ -176,7 +180,7 @@ void requireCombinable(const std::vector<CombineInput>& inputs) {
         if (pathVertexCap(ra) != pathVertexCap(rb))
             throw refuse(fmt::format(
                 "differ in vertex caps (paths of up to {} vs {} vertices), so they compute "
-                "different images; use PT Ne = bidirectional Ne + Nl",
+                "different images; use PT Ne = bidirectional Ne + Nl, or one --max-vertices",
                 pathVertexCap(ra), pathVertexCap(rb)));
         for (size_t j = 0; j < i; ++j) {
             const RenderRecord& rj = inputs[j].record;

@@ -31,9 +31,10 @@ CombineInput readCombineInput(const std::string& path);
 CombineInput combineInputFromAccumulator(const EstimateAccumulator& accumulator,
                                          const RenderRecord& record, const std::string& name);
 
-// Longest path, in vertices (camera and light included), a render's method computes: Ne for
-// PT and CPT, Ne + Nl for the bidirectional methods. Renders of one scene with one such cap
-// estimate the same image.
+// Longest path, in vertices (camera and light included), a render's method computes: N under
+// --max-vertices N, else Ne for PT and CPT and Ne + Nl for the bidirectional methods. Renders
+// of one scene with one such cap estimate the same image where no delta vertex needs a
+// connection (docs/bdpt.md, "Which paths each method computes").
 int pathVertexCap(const RenderRecord& record);
 
 // True for methods whose error is spatially structured (the pixels of an estimate share random

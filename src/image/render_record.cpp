@@ -29,6 +29,7 @@ ExrAttributes toExrAttributes(const RenderRecord& r) {
     if (!r.inputs.empty()) a.strings["cbdpt_inputs"] = r.inputs;
     a.ints["cbdpt_eye_vertices"] = r.eyeVertices;
     a.ints["cbdpt_light_vertices"] = r.lightVertices;
+    a.ints["cbdpt_max_vertices"] = r.maxVertices;
     a.ints["cbdpt_coherence_tile"] = r.coherenceTile;
     a.ints["cbdpt_roulette_vertex"] = r.rouletteVertex;
     // The 32-bit seed in a signed int attribute, bit for bit.
@@ -76,6 +77,8 @@ RenderRecord renderRecordFromExr(const ExrAttributes& a, const std::string& path
     r.inputs = str("cbdpt_inputs");
     r.eyeVertices = integer("cbdpt_eye_vertices");
     r.lightVertices = integer("cbdpt_light_vertices");
+    // Absent from files written before the total-length cap was recorded: the caps alone.
+    if (auto m = a.ints.find("cbdpt_max_vertices"); m != a.ints.end()) r.maxVertices = m->second;
     r.coherenceTile = integer("cbdpt_coherence_tile");
     r.rouletteVertex = integer("cbdpt_roulette_vertex");
     r.seed = std::uint32_t(integer("cbdpt_seed"));
@@ -103,6 +106,7 @@ RenderRecord renderRecordFromIdentity(const RenderIdentity& identity) {
     r.method = s.value("integrator", "");
     r.eyeVertices = s.value("eye_vertices", 0);
     r.lightVertices = s.value("light_vertices", 0);
+    r.maxVertices = s.value("max_vertices", 0);
     r.weights = s.value("weights", "");
     r.coherenceTile = s.value("coherence_tile", 0);
     r.rouletteVertex = s.value("roulette_vertex", 0);

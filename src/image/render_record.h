@@ -15,6 +15,7 @@ struct RenderRecord {
     std::string method; // pt | cpt | bdpt | cbdpt | mlt, or "combine:HOW" for a combination
     int eyeVertices = 0;
     int lightVertices = 0;
+    int maxVertices = 0; // --max-vertices N: every strategy with s + t <= N; 0: the caps alone
     std::string weights;
     int coherenceTile = 0;
     int rouletteVertex = 0;

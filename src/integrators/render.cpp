@@ -295,6 +295,7 @@ RenderRecord makeRenderRecord(const IntegratorSettings& settings, const std::str
     r.method = settings.name;
     r.eyeVertices = settings.eyeVertices;
     r.lightVertices = settings.lightVertices;
+    r.maxVertices = settings.maxPathVertices;
     r.weights = settings.weights;
     r.coherenceTile = settings.coherenceTile;
     r.rouletteVertex = settings.rouletteVertex;
