@@ -42,6 +42,10 @@ set_tests_properties(report_combine PROPERTIES TIMEOUT 600)
 # cbdpt combine (docs/combine.md): render records, halves, combinations, --split-budget, refusals.
 add_test(NAME combine_cli COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_combine_cli.py $<TARGET_FILE:cbdpt> ${CMAKE_SOURCE_DIR})
 set_tests_properties(combine_cli PROPERTIES TIMEOUT 600)
+# scripts/gpu-check (docs/gpu.md) on the CPU device: every method rendered in its own process,
+# the doctest cases one process each.
+add_test(NAME gpu_check COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_gpu_check.py $<TARGET_FILE:cbdpt> $<TARGET_FILE:cbdpt_tests> ${CMAKE_SOURCE_DIR})
+set_tests_properties(gpu_check PROPERTIES TIMEOUT 600 SKIP_REGULAR_EXPRESSION "cbdpt-skip:")
 # Renders that scale and survive: shards merged bit for bit (PT, CPT, BDPT, CBDPT), SIGKILL and
 # --resume from the periodic state, output checks and kept work, corrupted states refused.
 add_test(NAME scale COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_scale.py $<TARGET_FILE:cbdpt> ${CMAKE_SOURCE_DIR})
