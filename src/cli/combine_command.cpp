@@ -9,6 +9,7 @@
 #include "image/combine.h"
 #include "image/image.h"
 #include "image/render_record.h"
+#include "integrators/integrator.h"
 #include "integrators/split_budget.h"
 #include "scene/device_scene.h"
 #include "scene/scene_desc.h"
@@ -90,11 +91,10 @@ std::vector<CombineInput> renderInputs(const CombineOptions& o, nlohmann::json& 
         const bool unidirectional = s.name == "pt" || s.name == "cpt";
         s.eyeVertices = unidirectional ? o.eyeVertices + o.lightVertices : o.eyeVertices;
         s.lightVertices = o.lightVertices;
-        if (o.maxVertices > 0) { // the total-length cap: PT's integral for every method
-            s.maxPathVertices = o.maxVertices;
-            s.eyeVertices = o.maxVertices;
-            s.lightVertices = std::max(1, o.maxVertices - 1);
-        }
+        // The total-length cap, PT's integral for every method; its records state the subpath
+        // caps it resolves to, as `cbdpt render` does.
+        s.maxPathVertices = o.maxVertices;
+        s = withResolvedCaps(s);
         // Distinct seeds: the methods' random numbers must be independent.
         s.seed = o.seed + std::uint32_t(i);
         split.methods.push_back(s);
