@@ -137,31 +137,39 @@ def reference_path(scene, config, method="pt"):
     return os.path.join(REFERENCES, f"{scene}-bdpt-{config.replace('+', 'p')}.exr")
 
 
-# The combination study (docs/combine.md, `cbdpt combine`): per scene, at its thesis caps,
-# PT and CBDPT share one time budget (`--split-budget`; PT's share from COMBINE_SHARES) and
+# The combination study (docs/combine.md, `cbdpt combine`): per scene, under one of two caps,
+# PT and CBDPT share one time budget (`--split-budget`; PT's share from the caps' shares) and
 # their two renders are combined every pairwise way; COMBINE_ROBUST_RUNS CBDPT runs share the
-# budget and are combined robustly.
-COMBINE_SHARES = [0.25, 0.5, 0.75]
+# budget and are combined robustly. "subpath": the thesis's caps Ne+Nl; "total": the total
+# path-length cap N = Ne + Nl (`--max-vertices`), under which CBDPT computes PT's integral and
+# has no (2,2)-only fireflies (docs/bdpt.md). Share 0.75 was never the best under "subpath".
+COMBINE_CAPS = ["subpath", "total"]
+COMBINE_SHARES = {"subpath": [0.25, 0.5, 0.75], "total": [0.25, 0.5]}
 COMBINE_DEFAULT_SHARE = 0.5  # `cbdpt combine --split-budget` without --shares: equal shares
 COMBINE_PAIR = ["mean", "inverse-variance", "inverse-variance-naive", "guided"]
 COMBINE_ROBUST = ["median", "reject", "mean"]
 COMBINE_ROBUST_RUNS = 4
 
 
-def combine_config(scene):
-    """The caps of a scene's combination units: its first per-subpath configuration Ne+Nl
-    (`--split-budget` gives PT Ne + Nl eye vertices, so both compute paths of that length)."""
+def combine_config(scene, caps="subpath"):
+    """The configuration of a scene's combination units: its first per-subpath configuration
+    Ne+Nl ("subpath"; `--split-budget` gives PT Ne + Nl vertices, so both compute paths of that
+    length) or the total cap nN with N = Ne + Nl ("total")."""
     ne, nl = SCENES[scene]["bidir"][0]
-    return f"{ne}+{nl}"
+    return f"{ne}+{nl}" if caps == "subpath" else f"n{ne + nl}"
 
 
-def combine_unit_ids(scene, seeds, shares=None):
+def combine_caps_of(config):
+    return "total" if config.startswith("n") else "subpath"
+
+
+def combine_unit_ids(scene, seeds, shares=None, caps="subpath"):
     """The ids of a scene's combination units: one per seed and PT share, one robust per seed."""
-    config = combine_config(scene)
+    config = combine_config(scene, caps)
     out = []
     for seed in seeds:
         out += [f"{scene}/{config}/combine/pt-cbdpt-share{s:g}-seed{seed}"
-                for s in (COMBINE_SHARES if shares is None else shares)]
+                for s in (COMBINE_SHARES[caps] if shares is None else shares)]
         out.append(f"{scene}/{config}/combine/cbdpt-x{COMBINE_ROBUST_RUNS}-seed{seed}")
     return out
 

@@ -143,9 +143,8 @@ with tempfile.TemporaryDirectory() as tmp:
             if name.endswith(".json"):
                 rec = json.load(open(os.path.join(dirpath, name)))
                 records[rec["id"]] = rec
-    combine_ids = {"cornell-box/4+4/combine/pt-cbdpt-share0.25-seed1",
-                   "cornell-box/4+4/combine/pt-cbdpt-share0.5-seed1",
-                   "cornell-box/4+4/combine/cbdpt-x4-seed1"}
+    combine_ids = {f"cornell-box/{config}/combine/{name}-seed1" for config in ("4+4", "n8")
+                   for name in ("pt-cbdpt-share0.25", "pt-cbdpt-share0.5", "cbdpt-x4")}
     check({"cornell-box/n8/pt/time-seed1", "cornell-box/4+4/cbdpt/time-seed1",
            "cornell-box/n8/cbdpt/thesis-seed1"} | combine_ids <= set(records),
           f"units written ({sorted(records)})")
