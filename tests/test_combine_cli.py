@@ -10,11 +10,10 @@ import subprocess
 import sys
 import tempfile
 
-import numpy as np
-
 cbdpt, root = sys.argv[1], sys.argv[2]
 sys.path.insert(0, os.path.join(root, "scripts"))
-import cbdpt_results as cr  # noqa: E402
+import cbdpt_results as cr  # noqa: E402  (re-executes under the scripts' .venv/ first)
+import numpy as np  # noqa: E402
 from checks import check, finish  # noqa: E402
 
 scene = os.path.join(root, "scenes", "cornell-box.pbrt")
