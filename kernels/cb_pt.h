@@ -148,13 +148,15 @@ CB_FN Spectrum ptRadiance(const SceneView* scene, Ray ray, SampleStream stream,
  * renderPathTracing (pt.cl), shared so that the host's double-precision build (src/float64/)
  * computes exactly the same estimate. streamTile == 0: every pixel has its own sample vector
  * (PT); streamTile == k > 0: the pixel at position (i, j) of its k x k tile uses vector (i, j)
- * of the estimate (CPT, docs/method.md). */
+ * of the estimate (CPT, docs/method.md), read from sharedSamples when the host drew the k x k
+ * vectors' first sharedDimensions values there (0: none). */
 CB_FN Vec3 ptPixelRgb(const SceneView* scene, CB_GLOBAL const real* toRgb, const Camera* camera,
                       PathSettings settings, SamplerSettings sampler, uint estimate, int streamTile,
-                      int x, int y) {
+                      CB_GLOBAL const float* sharedSamples, uint sharedDimensions, int x, int y) {
     uint pixel = (uint)(y * camera->width + x);
     uint stream = streamTile > 0 ? (uint)((y % streamTile) * streamTile + (x % streamTile)) : pixel;
-    SampleStream samples = samplerStream(sampler, estimate, stream);
+    SampleStream samples =
+        samplerStreamShared(sampler, estimate, stream, sharedSamples, sharedDimensions);
     real rasterX, rasterY;
     cameraJitteredRaster(samples, x, y, &rasterX, &rasterY);
     Ray ray = cameraGenerateRay(camera, rasterX, rasterY);

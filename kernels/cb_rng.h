@@ -57,6 +57,11 @@ typedef struct SampleStream {
     uint dimension; /* next dimension to read */
     uint index;     /* Sobol: the estimate, the point's index in the sequence */
     int sobol;      /* CB_SAMPLER_SOBOL: read sobolSample */
+    /* The coherent methods' shared vector, drawn once per estimate by the host (CPT, CBDPT:
+     * every pixel at one tile position reads the same u, so no pixel need draw it): u[d] =
+     * shared[d] for d < sharedCount, the same values sampleAt would compute. */
+    CB_GLOBAL const float* shared;
+    uint sharedCount;
 #ifdef CB_PRIMARY_SAMPLES
     const real* primary; /* non-null: u[d] = primary[d] for d < primaryCount */
     uint primaryCount;
@@ -71,6 +76,8 @@ CB_FN SampleStream samplerStream(SamplerSettings sampler, uint estimate, uint st
     s.key = cbHashCombine(cbHashCombine(cbHash32(sampler.seed), keyedEstimate), stream);
     s.dimension = 0u;
     s.index = estimate;
+    s.shared = 0;
+    s.sharedCount = 0u;
 #ifdef CB_PRIMARY_SAMPLES
     s.primary = 0;
     s.primaryCount = 0u;
@@ -162,6 +169,7 @@ CB_FN real sampleAt(SampleStream s, uint dimension) {
 #ifdef CB_PRIMARY_SAMPLES
     if (s.primary && dimension < s.primaryCount) return s.primary[dimension];
 #endif
+    if (dimension < s.sharedCount) return s.shared[dimension];
     if (s.sobol) return cbUintToUnitFloat(sobolSample(s.key, s.index, dimension));
     return cbUintToUnitFloat(cbHashCombine(s.key, dimension));
 }
@@ -187,6 +195,24 @@ CB_FN real sampleNext(SampleStream* s) {
 
 CB_FN uint bounceDimension(int bounce, uint slot) {
     return CB_DIM_FIRST_BOUNCE + (uint)bounce * CB_DIMS_PER_BOUNCE + slot;
+}
+
+/* How many dimensions an eye path of at most eyeVertices vertices reads (PT's and BDPT's eye
+ * subpaths alike): the jitter and CB_DIMS_PER_BOUNCE for each of its eyeVertices - 1 bounces. */
+CB_FN uint eyeStreamDimensions(int eyeVertices) {
+    return bounceDimension(eyeVertices > 1 ? eyeVertices - 1 : 0, 0u);
+}
+
+/* Stream `stream` of an estimate whose shared vectors (streams x dimensions values, stream by
+ * stream) the host drew into `table` (dimensions = 0: none, every value is computed). */
+CB_FN SampleStream samplerStreamShared(SamplerSettings sampler, uint estimate, uint stream,
+                                       CB_GLOBAL const float* table, uint dimensions) {
+    SampleStream s = samplerStream(sampler, estimate, stream);
+    if (dimensions > 0u) {
+        s.shared = table + (size_t)stream * dimensions;
+        s.sharedCount = dimensions;
+    }
+    return s;
 }
 
 CB_END_NAMESPACE

@@ -18,7 +18,8 @@
  * that position's index (y mod k) * k + (x mod k), as in pt.cl, and its light subpath is number
  * (y mod k) * tileColumns + (x mod k) of lightVertices (tileColumns = min(k, width)), each
  * subpath owning lightVertexStride slots. cameraCount = (light subpaths) / (W*H): the t = 1
- * strategy's sampling rate relative to BDPT's, for the power heuristic (docs/cbdpt.md). */
+ * strategy's sampling rate relative to BDPT's, for the power heuristic (docs/cbdpt.md). The host
+ * drew the eye streams' first sharedDimensions values into sharedSamples (0: none). */
 __kernel void renderCbdpt(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings),
                           uint estimate,
                           int streamTile,
@@ -27,6 +28,8 @@ __kernel void renderCbdpt(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings),
                           __global const int* lightCounts,
                           int lightVertexStride,
                           float cameraCount,
+                          __global const float* sharedSamples,
+                          uint sharedDimensions,
                           __global float* outRgb,
                           CB_COUNTER_PARAMS) {
     int x = (int)get_global_id(0);
@@ -48,7 +51,8 @@ __kernel void renderCbdpt(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings),
 
     int rays = 0;
     PathVertex eye[CB_MAX_EYE_VERTICES];
-    SampleStream eyeStream = samplerStream(sampler, estimate, stream);
+    SampleStream eyeStream =
+        samplerStreamShared(sampler, estimate, stream, sharedSamples, sharedDimensions);
     float rasterX, rasterY;
     cameraJitteredRaster(eyeStream, x, y, &rasterX, &rasterY);
     int nEye = bdptEyeSubpath(&scene, &camera, rasterX, rasterY, true, eyeStream,

@@ -8,6 +8,7 @@
 #include "scene/scene_desc.h"
 
 #include <cmath>
+#include <cstdlib>
 #include <doctest/doctest.h>
 #include <stdexcept>
 #include <string>
@@ -338,6 +339,54 @@ TEST_CASE("CBDPT estimates: one seed reproduces bit for bit, another seed differ
         s.coherenceTile = k;
         checkSeedsReproduceAndDiffer(scene, s);
     }
+}
+
+// ---- Shared sample vectors drawn by the host -----------------------------------------------
+
+TEST_CASE("CPT and CBDPT with the host's shared vectors: the kernels' own images, bit for bit") {
+    // The host draws each estimate's k x k shared vectors once (PixelKernelIntegrator); the
+    // kernels then read them instead of drawing them per pixel. Same values, same images: every
+    // value is an exact float either way. Both samplers; k = 4 at 32x32 is 16 vectors for 1024
+    // pixels; k = 8 would be 64, too few pixels each (kPixelsPerSharedStream), so the kernel
+    // draws them.
+    cb::SceneDesc desc = cb::parseSceneFile(scenePath("cornell-box.pbrt"));
+    desc.film.width = desc.film.height = 32;
+    cb::DeviceScene scene = cb::buildDeviceScene(desc, cb::ChannelMode::Rgb);
+    for (std::string method : {"pt", "cpt", "cbdpt"})
+        for (std::string sampler : {"sobol", "independent"})
+            for (int k : {1, 4, 8}) {
+                CAPTURE(method);
+                CAPTURE(sampler);
+                CAPTURE(k);
+                cb::IntegratorSettings s;
+                s.name = method;
+                s.eyeVertices = 4;
+                s.lightVertices = 3;
+                s.sampler = sampler;
+                s.coherenceTile = k;
+                s.seed = 5;
+                auto shared = cb::makeIntegrator(s, scene, runtime());
+                setenv("CBDPT_SHARED_SAMPLES", "0", 1);
+                auto own = cb::makeIntegrator(s, scene, runtime());
+                unsetenv("CBDPT_SHARED_SAMPLES");
+                const bool tabled = method != "pt" && k * k * 64 <= 32 * 32;
+                CHECK(shared->hostSampleStreams() == (tabled ? std::uint32_t(k * k) : 0u));
+                CHECK(own->hostSampleStreams() == 0u);
+                std::vector<float> a, b;
+                double sum = 0;
+                size_t differing = 0;
+                for (std::uint32_t e = 0; e < 3; ++e) {
+                    shared->renderEstimate(e + 40, a);
+                    own->renderEstimate(e + 40, b);
+                    REQUIRE(a.size() == b.size());
+                    for (size_t i = 0; i < a.size(); ++i) {
+                        sum += a[i];
+                        differing += a[i] != b[i];
+                    }
+                }
+                CHECK(sum > 0.0);
+                CHECK(differing == 0);
+            }
 }
 
 TEST_CASE("CBDPT rejects --strategy (a BDPT debug mode)") {

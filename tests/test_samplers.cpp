@@ -221,6 +221,32 @@ TEST_CASE("Sobol sampler: one estimate's BDPT light subpaths are a net over the 
     CHECK(next.key != samplerStream(sampler, 1u << 9, 0u).key);
 }
 
+TEST_CASE("a stream with a shared table reads it below its dimension count, draws past it") {
+    // samplerStreamShared: stream 2 of a table of 3 streams x 5 dimensions reads values 10-14;
+    // from dimension 5 on, and without a table, the stream's own values.
+    std::vector<float> table(15);
+    for (size_t i = 0; i < table.size(); ++i)
+        table[i] = 0.01f * float(i);
+    for (int kind : {CB_SAMPLER_SOBOL, CB_SAMPLER_INDEPENDENT}) {
+        CAPTURE(kind);
+        SamplerSettings sampler{9u, kind, {0, 0}};
+        SampleStream plain = samplerStream(sampler, 17u, 2u);
+        SampleStream shared = samplerStreamShared(sampler, 17u, 2u, table.data(), 5u);
+        SampleStream none = samplerStreamShared(sampler, 17u, 2u, table.data(), 0u);
+        for (uint d = 0; d < 12u; ++d) {
+            CAPTURE(d);
+            CHECK(sampleAt(shared, d) == (d < 5u ? table[10 + d] : sampleAt(plain, d)));
+            CHECK(sampleAt(none, d) == sampleAt(plain, d));
+        }
+    }
+    // The table covers every dimension an eye path of Ne vertices reads: the jitter and the
+    // Ne - 1 bounces' slots, the last of which (the light choice) comes at Ne = 8 at
+    // bounceDimension(6, CB_SLOT_LIGHT_CHOICE) = 58.
+    CHECK(eyeStreamDimensions(8) == 60u);
+    CHECK(bounceDimension(6, CB_SLOT_LIGHT_CHOICE) < eyeStreamDimensions(8));
+    CHECK(eyeStreamDimensions(1) == CB_DIM_FIRST_BOUNCE);
+}
+
 TEST_CASE("Sobol sampler: every estimate is uniform, and dimension pairs are independent") {
     // Over random keys (seeds, streams), a fixed estimate's values of one dimension and of two
     // dimensions from different pairs: 16 x 16 cells, uniform expected.

@@ -608,6 +608,7 @@ nlohmann::json RenderJob::statistics(const cb::RenderOutcome& outcome) const {
         {"first_estimate_seconds", outcome.firstEstimateSeconds},
         {"seconds_per_estimate", outcome.secondsPerEstimate()},
         {"kernel_build_seconds", integrator_->buildSeconds()},
+        {"host_sample_streams", integrator_->hostSampleStreams()},
         {"scene_load_seconds", loadSeconds_},
         {"non_finite_samples", outcome.nonFiniteSamples},
         {"mean_standard_error", meanError},

@@ -62,7 +62,7 @@ class Instance final : public HostKernels {
         sampler.seed = settings.seed;
         sampler.kind = settings.sampler;
         cbk::Vec3 rgb = cbk::ptPixelRgb(&view_, scene_.toRgb.data(), &camera_, path, sampler,
-                                        settings.estimate, settings.streamTile, x, y);
+                                        settings.estimate, settings.streamTile, nullptr, 0u, x, y);
         return {rgb.x, rgb.y, rgb.z};
     }
 

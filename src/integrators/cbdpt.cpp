@@ -59,6 +59,7 @@ class CbdptIntegrator final : public PixelKernelIntegrator {
             args.add(k).add(light_.tileColumns).add(lightVertices_).add(lightCounts_);
             args.add(settings.lightVertices);
             args.add(cbdptCameraCount(scene.camera.width, scene.camera.height, light_));
+            addSharedSampleArguments(args, std::uint32_t(k) * std::uint32_t(k));
         });
     }
 

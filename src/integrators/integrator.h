@@ -50,6 +50,9 @@ class Integrator {
     virtual long nonFiniteSamples() const = 0;
     // Seconds spent building OpenCL programs (not part of render time).
     virtual double buildSeconds() const = 0;
+    // CPT and CBDPT: how many shared sample vectors the host draws per estimate for the
+    // kernel (0: the kernel draws every value itself).
+    virtual std::uint32_t hostSampleStreams() const { return 0; }
 };
 
 // The kernels' sampler settings: seed and kind (CB_SAMPLER_*), from a validated name.

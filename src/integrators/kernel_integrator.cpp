@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <string>
 
 namespace cb {
 
@@ -76,8 +77,38 @@ PixelKernelIntegrator::PixelKernelIntegrator(std::string name, const std::string
       image_(runtime.createBuffer(imageName + " image (width x height RGB)", CL_MEM_WRITE_ONLY,
                                   imageBytes())) {}
 
+void PixelKernelIntegrator::addSharedSampleArguments(KernelArguments& args, std::uint32_t streams) {
+    const char* env = std::getenv("CBDPT_SHARED_SAMPLES");
+    const bool disabled = env && std::string(env) == "0";
+    if (streams > 0 && !disabled && size_t(streams) * kPixelsPerSharedStream <= pixels_) {
+        sharedStreams_ = streams;
+        sharedDimensions_ = cbk::eyeStreamDimensions(settings_.eyeVertices);
+        sharedSamples_.resize(size_t(sharedStreams_) * sharedDimensions_);
+    } else {
+        sharedStreams_ = sharedDimensions_ = 0;
+        sharedSamples_.assign(1, 0.0f); // OpenCL has no empty buffers; the kernel reads none
+    }
+    sharedSampleBuffer_ =
+        runtime_.createBuffer("shared sample vectors (streams x dimensions)", CL_MEM_READ_ONLY,
+                              sizeof(float) * sharedSamples_.size());
+    args.add(sharedSampleBuffer_).add(sharedDimensions_);
+}
+
 void PixelKernelIntegrator::renderEstimate(std::uint32_t estimate, std::vector<float>& rgb) {
     beforeLaunch(estimate);
+    if (sharedStreams_ > 0) {
+        // The same values samplerStream's sampleAt computes in the kernel, bit for bit.
+        const cbk::SamplerSettings sampler = samplerSettings(settings_);
+        for (std::uint32_t stream = 0; stream < sharedStreams_; ++stream) {
+            const cbk::SampleStream s = cbk::samplerStream(sampler, estimate, stream);
+            float* out = sharedSamples_.data() + size_t(stream) * sharedDimensions_;
+            for (std::uint32_t d = 0; d < sharedDimensions_; ++d)
+                out[d] = float(cbk::sampleAt(s, d));
+        }
+        runtime_.queue().enqueueWriteBuffer(sharedSampleBuffer_, CL_FALSE, 0,
+                                            sizeof(float) * sharedSamples_.size(),
+                                            sharedSamples_.data());
+    }
     kernel_.setArg(estimateArgument_, estimate);
     // One work-item per pixel, in square work-groups of tile x tile pixels.
     const size_t tile = size_t(settings_.tileSize);

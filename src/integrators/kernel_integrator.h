@@ -75,6 +75,7 @@ class KernelIntegrator : public Integrator {
 class PixelKernelIntegrator : public KernelIntegrator {
   public:
     void renderEstimate(std::uint32_t estimate, std::vector<float>& rgb) final;
+    std::uint32_t hostSampleStreams() const override { return sharedStreams_; }
 
   protected:
     // `imageName` names the image buffer in out-of-memory errors, e.g. "BDPT".
@@ -101,7 +102,19 @@ class PixelKernelIntegrator : public KernelIntegrator {
     virtual void beforeLaunch(std::uint32_t estimate) { (void)estimate; }
     virtual void afterReadBack(std::vector<float>& rgb) { (void)rgb; }
 
+    // Adds the two arguments of the coherent methods' shared sample vectors (kernels/cb_rng.h,
+    // samplerStreamShared): a buffer and its dimensions per stream. With `streams` > 0 the host
+    // draws each estimate's `streams` eye streams (keys 0 .. streams - 1), their first
+    // eyeStreamDimensions(Ne) values, before each launch, since every pixel at one tile
+    // position would draw the same; with 0 (PT), or where each vector would serve fewer than
+    // kPixelsPerSharedStream pixels, or under CBDPT_SHARED_SAMPLES=0, the kernel draws them.
+    void addSharedSampleArguments(KernelArguments& args, std::uint32_t streams);
+    static constexpr size_t kPixelsPerSharedStream = 64;
+
   private:
+    std::uint32_t sharedStreams_ = 0, sharedDimensions_ = 0;
+    std::vector<float> sharedSamples_;
+    cl::Buffer sharedSampleBuffer_;
     cl::Buffer image_;
     cl::Kernel kernel_;
     int estimateArgument_ = 0;

@@ -18,8 +18,11 @@ class PathTracingIntegrator final : public PixelKernelIntegrator {
         path.rouletteVertex = settings.rouletteVertex;
         // The sample-vector tile: 0 for PT (every pixel its own), k for CPT's k x k.
         const int streamTile = settings.name == "cpt" ? settings.coherenceTile : 0;
-        createKernel("renderPathTracing", path,
-                     [&](KernelArguments& args) { args.add(streamTile); });
+        const std::uint32_t sharedStreams = std::uint32_t(streamTile * streamTile);
+        createKernel("renderPathTracing", path, [&](KernelArguments& args) {
+            args.add(streamTile);
+            addSharedSampleArguments(args, sharedStreams);
+        });
     }
 };
 
