@@ -34,6 +34,10 @@ endif()
 add_test(NAME checkpoints COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_checkpoints.py $<TARGET_FILE:cbdpt> ${CMAKE_SOURCE_DIR})
 set_tests_properties(checkpoints PROPERTIES TIMEOUT 600)
 
+# scripts/interleave-render, the render timings of docs/performance.md: one tiny round.
+add_test(NAME interleave_render COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_interleave_render.py $<TARGET_FILE:cbdpt> ${CMAKE_SOURCE_DIR})
+set_tests_properties(interleave_render PROPERTIES TIMEOUT 600)
+
 # scripts/report's combination section on synthetic units with known answers: the single
 # methods at equal CPU time, the goal reached, not reached, not measured.
 add_test(NAME report_combine COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_report_combine.py ${CMAKE_SOURCE_DIR})
