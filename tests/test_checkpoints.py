@@ -189,6 +189,20 @@ with tempfile.TemporaryDirectory() as tmp:
     for uid, started in before.items():
         rec = json.load(open(os.path.join(units, uid + ".json")))
         check(rec["started"] == started, f"{uid} was not run again")
+    # --same-revision redoes the units another revision ran, and only those.
+    moved = "cornell-box/n8/pt/time-seed1"
+    path = os.path.join(units, moved + ".json")
+    rec = json.load(open(path))
+    json.dump(dict(rec, revision="0000000"), open(path, "w"))
+    listing = experiment + ["--seeds", "1", "2", "--kinds", "time", "--list"]
+    todo = {}
+    for extra in ([], ["--same-revision"]):
+        r = subprocess.run(listing + extra, capture_output=True, text=True)
+        todo[bool(extra)] = [line.split()[1] for line in r.stdout.splitlines()
+                             if line.startswith("  todo")]
+    check(todo == {False: [], True: [moved]},
+          f"--same-revision lists only the unit of another revision as to do ({todo})")
+    json.dump(rec, open(path, "w"))
     # With two seeds done, the reference's own error is measured from them, per method.
     path = os.path.join(units, "cornell-box", "n8", "pt", "reference-error.json")
     m = json.load(open(path)) if os.path.exists(path) else {}
