@@ -232,8 +232,8 @@ CB_FN bool lightSampleFrom(const SceneView* scene, Vec3 ref, real uChoice, real 
      * (ref, centre, point) with |ref - centre| = r / sinMax. */
     real cosAlpha = sin2Theta / sinMax + cosTheta * cbSafeSqrt(1.0f - sin2Theta / sin2Max);
     real sinAlpha = cbSafeSqrt(1.0f - cosAlpha * cosAlpha);
-    real phi = 2.0f * CB_PI * u1;
-    Vec3 dirLocal = vec3(sinAlpha * cos(phi), sinAlpha * sin(phi), cosAlpha);
+    real phiOverPi = 2.0f * u1;
+    Vec3 dirLocal = vec3(sinAlpha * cbCosPi(phiOverPi), sinAlpha * cbSinPi(phiOverPi), cosAlpha);
     Vec3 dir = frameToWorld(frameFromNormal(vscale(toRef, 1.0f / dc)), dirLocal);
     out->light = lightIndex;
     out->pdfPick = light->pickProbability;

@@ -24,16 +24,16 @@ CB_FN void sampleConcentricDisk(real u0, real u1, real* x, real* y) {
         *y = 0.0f;
         return;
     }
-    real r, phi;
+    real r, phiOverPi;
     if (fabs(a) > fabs(b)) {
         r = a;
-        phi = (CB_PI * 0.25f) * (b / a);
+        phiOverPi = 0.25f * (b / a);
     } else {
         r = b;
-        phi = CB_PI * 0.5f - (CB_PI * 0.25f) * (a / b);
+        phiOverPi = 0.5f - 0.25f * (a / b);
     }
-    *x = r * cos(phi);
-    *y = r * sin(phi);
+    *x = r * cbCosPi(phiOverPi);
+    *y = r * cbSinPi(phiOverPi);
 }
 
 /* Malley's method: project the uniform disk up onto the hemisphere, which gives density
@@ -51,8 +51,8 @@ CB_FN real cosineHemispherePdf(real cosTheta) {
 CB_FN Vec3 sampleUniformSphere(real u0, real u1) {
     real z = 1.0f - 2.0f * u0;
     real r = cbSafeSqrt(1.0f - z * z);
-    real phi = 2.0f * CB_PI * u1;
-    return vec3(r * cos(phi), r * sin(phi), z);
+    real phiOverPi = 2.0f * u1;
+    return vec3(r * cbCosPi(phiOverPi), r * cbSinPi(phiOverPi), z);
 }
 CB_FN real uniformSpherePdf(void) {
     return CB_INV_4PI;
@@ -61,8 +61,8 @@ CB_FN real uniformSpherePdf(void) {
 CB_FN Vec3 sampleUniformHemisphere(real u0, real u1) {
     real z = u0;
     real r = cbSafeSqrt(1.0f - z * z);
-    real phi = 2.0f * CB_PI * u1;
-    return vec3(r * cos(phi), r * sin(phi), z);
+    real phiOverPi = 2.0f * u1;
+    return vec3(r * cbCosPi(phiOverPi), r * cbSinPi(phiOverPi), z);
 }
 CB_FN real uniformHemispherePdf(void) {
     return CB_INV_2PI;
