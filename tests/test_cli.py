@@ -258,6 +258,13 @@ with tempfile.TemporaryDirectory() as tmp:
     r = run("--version")
     check(r.returncode == 0 and r.stdout.startswith("cbdpt ") and "(git " in r.stdout
           and "OpenCL platform: " in r.stdout, f"--version ({r.stdout.strip()} {r.stderr})")
+    # The revision is the checkout's at build time (scripts/git_revision.cmake), not at
+    # configure time: a build after a commit names that commit.
+    head = subprocess.run(["git", "-C", root, "describe", "--always", "--abbrev=12"],
+                          capture_output=True, text=True)
+    if head.returncode == 0 and head.stdout.strip():
+        check(f"(git {head.stdout.strip()}" in r.stdout,
+              f"--version names the checkout's revision {head.stdout.strip()} ({r.stdout.strip()})")
 
     # Devices: the default is PoCL's CPU device; --device and info --device choose one.
     r = run("info", "--device", "0:0")

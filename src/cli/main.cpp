@@ -5,6 +5,7 @@
 // `Command addNameCommand(CLI::App& app)` (declared in cli/commands.h): it adds its subcommand
 // and options to the app and returns a function that runs it. To add a command, write that
 // file and add its add function to the list below; main only parses and dispatches.
+#include "cbdpt_git_revision.h" // CBDPT_GIT_REVISION, written at every build
 #include "cl/cl_runtime.h"
 #include "cli/commands.h"
 #include "scene/scene_desc.h"
