@@ -2,6 +2,8 @@
 scripts/bias-check: the thesis's per-scene settings, locating the cbdpt binary, reading
 checkpoint logs, and EXR input/output through the OpenEXR bindings."""
 import csv
+import functools
+import hashlib
 import math
 import os
 import shutil
@@ -135,6 +137,26 @@ def reference_path(scene, config, method="pt"):
         total = config[1:] if config.startswith("n") else sum(map(int, config.split("+")))
         return os.path.join(REFERENCES, f"{scene}-v{total}.exr")
     return os.path.join(REFERENCES, f"{scene}-bdpt-{config.replace('+', 'p')}.exr")
+
+
+@functools.lru_cache(maxsize=None)
+def _sha256(path, size, mtime_ns):
+    digest = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def file_sha256(path):
+    """Hex SHA-256 of a file's bytes, None when it does not exist. Time and combine units record
+    their reference's, so that a unit measured against a reference since grown (whose own error,
+    the curves' floor, was larger) counts as not done and runs again."""
+    try:
+        st = os.stat(path)
+    except OSError:
+        return None
+    return _sha256(os.path.abspath(path), st.st_size, st.st_mtime_ns)
 
 
 # The combination study (docs/combine.md, `cbdpt combine`): per scene, under one of two caps,

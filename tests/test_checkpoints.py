@@ -203,6 +203,29 @@ with tempfile.TemporaryDirectory() as tmp:
     check(todo == {False: [], True: [moved]},
           f"--same-revision lists only the unit of another revision as to do ({todo})")
     json.dump(rec, open(path, "w"))
+    # A grown reference: the units measured against it are to do again, the others are not,
+    # and --reference-errors measures the new file's error (its SHA-256 recorded).
+    reference = os.path.join(os.path.dirname(units), "images", "reference-pt-n8.exr")
+    errors_json = os.path.join(units, "cornell-box", "n8", "pt", "reference-error.json")
+    original = open(reference, "rb").read()
+    cr.write_exr(reference, {"": cr.read_exr(reference) * 1.001,
+                             "stderr": cr.read_exr(reference, "stderr")})
+    r = subprocess.run(listing, capture_output=True, text=True)
+    todo = [line.split()[1] for line in r.stdout.splitlines() if line.startswith("  todo")]
+    check(todo == ["cornell-box/n8/pt/time-seed1", "cornell-box/n8/pt/time-seed2"],
+          f"a changed reference makes its units, and only those, to do ({todo})")
+    for content in (None, original):
+        if content:
+            open(reference, "wb").write(content)
+        r = subprocess.run(experiment + ["--seeds", "1", "2", "--reference-errors"],
+                           capture_output=True, text=True)
+        m = json.load(open(errors_json)) if os.path.exists(errors_json) else {}
+        check(r.returncode == 0 and "[1/" not in r.stdout and
+              m.get("reference_sha256") == cr.file_sha256(reference),
+              f"--reference-errors measures the reference as it is, running no unit ({m})")
+    # The report lists a unit measured against another version of its reference.
+    stale = os.path.join(units, "cornell-box", "n8", "cbdpt", "time-seed2.json")
+    json.dump(dict(json.load(open(stale)), reference_sha256="0" * 64), open(stale, "w"))
     # With two seeds done, the reference's own error is measured from them, per method.
     path = os.path.join(units, "cornell-box", "n8", "pt", "reference-error.json")
     m = json.load(open(path)) if os.path.exists(path) else {}
@@ -221,7 +244,8 @@ with tempfile.TemporaryDirectory() as tmp:
                    "total-length cap N = 8", "## Combining pattern-prone and noisy renders",
                    "### The goal", "Not measured yet: units missing",
                    "cornell-box/4+4/combine/pt-cbdpt-share0.75-seed1",
-                   "### PT's share of the split budget", "measured from 2 PT seeds"):
+                   "### PT's share of the split budget", "measured from 2 PT seeds",
+                   "earlier version of their reference (1;", "cornell-box/n8/cbdpt/time-seed2"):
         check(needle in text, f"report has '{needle}'")
     # The combination tables hold numbers: median [min–max] cells for the single methods at the
     # combined images' CPU seconds, each combination and each share; the goal is evaluated.
