@@ -113,7 +113,8 @@ CB_FN SampleStream bdptLightStream(SamplerSettings sampler, uint estimate, uint 
         const uint epoch = estimate >> estimateBits;
         s.key = cbHashCombine(cbHashCombine(cbHash32(sampler.seed), 0xfffffffeu - epoch),
                               CB_LIGHT_STREAM_SALT);
-        s.index = ((estimate & ((1u << estimateBits) - 1u)) << streamBits) | stream;
+        s.reversedIndex =
+            cbReverseBits(((estimate & ((1u << estimateBits) - 1u)) << streamBits) | stream);
         return s;
     }
     s.key = cbHashCombine(s.key, CB_LIGHT_STREAM_SALT);
@@ -298,9 +299,11 @@ CB_FN int bdptRandomWalk(const SceneView* scene, Ray ray, Spectrum beta, real pd
 
         uint base = firstBounceDim + (uint)(count - 2) * CB_DIMS_PER_BOUNCE;
         BsdfSample bs;
-        real u0 = sampleAt(stream, base + CB_SLOT_BSDF_DIRECTION);
-        real u1 = sampleAt(stream, base + CB_SLOT_BSDF_DIRECTION + 1u);
-        real uLobe = sampleAt(stream, base + CB_SLOT_BSDF_LOBE);
+        real u0, u1;
+        sampleAt2(stream, base + CB_SLOT_BSDF_DIRECTION, &u0, &u1);
+        real uLobe = bsdfReadsLobeSample(scene, sp.material)
+                         ? sampleAt(stream, base + CB_SLOT_BSDF_LOBE)
+                         : 0.0f;
         if (!bsdfSample(scene, sp.material, frameFromNormal(sp.ng), vneg(ray.d), u0, u1, uLobe,
                         adjoint, &bs))
             break;
@@ -366,16 +369,16 @@ CB_FN int bdptLightSubpath(const SceneView* scene, SampleStream stream, int maxV
                            PathVertex* light, int* rays) {
     LightSample ls;
     if (maxVertices < 1) return 0;
-    if (!lightSample(scene, sampleAt(stream, CB_LIGHT_DIM_CHOICE),
-                     sampleAt(stream, CB_LIGHT_DIM_POINT),
-                     sampleAt(stream, CB_LIGHT_DIM_POINT + 1u), &ls))
-        return 0;
+    real uPoint0, uPoint1;
+    sampleAt2(stream, CB_LIGHT_DIM_POINT, &uPoint0, &uPoint1);
+    real uChoice = scene->lightCount > 1 ? sampleAt(stream, CB_LIGHT_DIM_CHOICE) : 0.0f;
+    if (!lightSample(scene, uChoice, uPoint0, uPoint1, &ls)) return 0;
     PathVertex* v = &light[0];
     bdptSetLightVertex(scene, v, &ls, ls.pdfPick * ls.pdfArea);
     if (maxVertices < 2) return 1;
 
-    real u0 = sampleAt(stream, CB_LIGHT_DIM_DIRECTION);
-    real u1 = sampleAt(stream, CB_LIGHT_DIM_DIRECTION + 1u);
+    real u0, u1;
+    sampleAt2(stream, CB_LIGHT_DIM_DIRECTION, &u0, &u1);
     Vec3 w;
     if (v->type == CB_VERTEX_INFINITE_LIGHT) {
         /* A uniform direction, the origin on the beam's disk (pbrt-v4's
@@ -384,8 +387,7 @@ CB_FN int bdptLightSubpath(const SceneView* scene, SampleStream stream, int maxV
          * gets the planar density times |cos|. */
         CB_GLOBAL const Light* infinite = &scene->lights[ls.light];
         w = sampleUniformSphere(u0, u1);
-        cbStore3(v->p, lightBeamOrigin(infinite, vneg(w), sampleAt(stream, CB_LIGHT_DIM_POINT),
-                                       sampleAt(stream, CB_LIGHT_DIM_POINT + 1u)));
+        cbStore3(v->p, lightBeamOrigin(infinite, vneg(w), uPoint0, uPoint1));
         cbStore3(v->n, w);
         v->pdfFwd = ls.pdfPick * uniformSpherePdf();
         Spectrum le = bdptLightEmission(scene, v, w);
@@ -437,12 +439,12 @@ CB_FN bool bdptNeeLightVertex(const SceneView* scene, SampleStream eyeStream, co
     int bounce = t - 2;
     if (pvAtInfinity(&eye[t - 1])) return false; /* an escaped eye subpath: s = 0 only */
     LightSample ls;
-    if (!lightSampleFrom(scene, pvP(&eye[t - 1]),
-                         sampleAt(eyeStream, bounceDimension(bounce, CB_SLOT_LIGHT_CHOICE)),
-                         sampleAt(eyeStream, bounceDimension(bounce, CB_SLOT_LIGHT_POINT)),
-                         sampleAt(eyeStream, bounceDimension(bounce, CB_SLOT_LIGHT_POINT + 1u)),
-                         &ls))
-        return false;
+    real uPoint0, uPoint1;
+    sampleAt2(eyeStream, bounceDimension(bounce, CB_SLOT_LIGHT_POINT), &uPoint0, &uPoint1);
+    real uChoice = scene->lightCount > 1
+                       ? sampleAt(eyeStream, bounceDimension(bounce, CB_SLOT_LIGHT_CHOICE))
+                       : 0.0f; /* one light: lightChoose reads no number */
+    if (!lightSampleFrom(scene, pvP(&eye[t - 1]), uChoice, uPoint0, uPoint1, &ls)) return false;
     real pdfFwd = ls.isDelta ? ls.pdfPick : lightPdfArea(scene, ls.light);
     if (scene->lights[ls.light].kind == CB_LIGHT_INFINITE) pdfFwd = ls.pdfPick * ls.pdfSolidAngle;
     bdptSetLightVertex(scene, out, &ls, pdfFwd);

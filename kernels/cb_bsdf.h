@@ -305,6 +305,21 @@ CB_FN bool materialHasNonDelta(const SceneView* scene, int material) {
     return !cbLobeIsDeltaOnly(m);
 }
 
+/* Whether bsdfSample reads its uLobe, which only chooses between lobes (a mix's components, a
+ * dielectric's reflection and transmission): otherwise the caller need not draw it. A scene
+ * compiled without those materials reads none. */
+CB_FN bool bsdfReadsLobeSample(const SceneView* scene, int material) {
+    int kind = scene->materials[material].kind;
+    (void)kind;
+#if CB_HAS(CB_FEATURE_MIX)
+    if (kind == CB_MAT_MIX) return true;
+#endif
+#if CB_HAS(CB_FEATURE_DIELECTRIC)
+    if (kind == CB_MAT_DIELECTRIC) return true;
+#endif
+    return false;
+}
+
 CB_FN real materialSpecularity(const SceneView* scene, int material) {
     Material m = scene->materials[material];
 #if CB_HAS(CB_FEATURE_MIX)

@@ -24,8 +24,10 @@ CB_FN Ray cameraGenerateRay(const Camera* camera, real rasterX, real rasterY) {
  * dimensions CB_DIM_PIXEL and CB_DIM_PIXEL + 1 of its sample stream (one sample per pixel,
  * box filter: docs/method.md). Shared vectors (CPT, CBDPT) share the jitter too. */
 CB_FN void cameraJitteredRaster(SampleStream stream, int x, int y, real* rasterX, real* rasterY) {
-    *rasterX = (real)x + sampleAt(stream, CB_DIM_PIXEL);
-    *rasterY = (real)y + sampleAt(stream, CB_DIM_PIXEL + 1u);
+    real jitterX, jitterY;
+    sampleAt2(stream, CB_DIM_PIXEL, &jitterX, &jitterY);
+    *rasterX = (real)x + jitterX;
+    *rasterY = (real)y + jitterY;
 }
 
 /* Raster position of a world point, if it lies in front of the camera and inside the image. */

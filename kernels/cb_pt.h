@@ -86,9 +86,12 @@ CB_FN Spectrum ptRadiance(const SceneView* scene, Ray ray, SampleStream stream,
         /* Next-event estimation: one light point, one shadow ray. */
         if (materialHasNonDelta(scene, sp.material)) {
             LightSample ls;
-            real uChoice = sampleAt(stream, bounceDimension(bounce, CB_SLOT_LIGHT_CHOICE));
-            real uLight0 = sampleAt(stream, bounceDimension(bounce, CB_SLOT_LIGHT_POINT));
-            real uLight1 = sampleAt(stream, bounceDimension(bounce, CB_SLOT_LIGHT_POINT + 1u));
+            /* With one light lightChoose reads no number, so none is drawn. */
+            real uChoice = scene->lightCount > 1
+                               ? sampleAt(stream, bounceDimension(bounce, CB_SLOT_LIGHT_CHOICE))
+                               : 0.0f;
+            real uLight0, uLight1;
+            sampleAt2(stream, bounceDimension(bounce, CB_SLOT_LIGHT_POINT), &uLight0, &uLight1);
             if (lightSampleFrom(scene, sp.p, uChoice, uLight0, uLight1, &ls)) {
                 Vec3 toLight = vsub(ls.p, sp.p);
                 real dist2 = vlength2(toLight);
@@ -124,9 +127,11 @@ CB_FN Spectrum ptRadiance(const SceneView* scene, Ray ray, SampleStream stream,
 
         /* Continue the path by sampling the BSDF. */
         BsdfSample bs;
-        real u0 = sampleAt(stream, bounceDimension(bounce, CB_SLOT_BSDF_DIRECTION));
-        real u1 = sampleAt(stream, bounceDimension(bounce, CB_SLOT_BSDF_DIRECTION + 1u));
-        real uLobe = sampleAt(stream, bounceDimension(bounce, CB_SLOT_BSDF_LOBE));
+        real u0, u1;
+        sampleAt2(stream, bounceDimension(bounce, CB_SLOT_BSDF_DIRECTION), &u0, &u1);
+        real uLobe = bsdfReadsLobeSample(scene, sp.material)
+                         ? sampleAt(stream, bounceDimension(bounce, CB_SLOT_BSDF_LOBE))
+                         : 0.0f;
         if (!bsdfSample(scene, sp.material, frame, wo, u0, u1, uLobe, 0, &bs)) break;
         if (bs.pdf <= 0.0f || specIsBlack(bs.f)) break;
         throughput = specMul(throughput, specScale(bs.f, vabsdot(bs.wi, sp.ng) / bs.pdf));

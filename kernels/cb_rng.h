@@ -26,6 +26,15 @@ CB_FN uint cbHashCombine(uint seed, uint value) {
     return cbHash32(seed ^ (value + 0x9e3779b9u + (seed << 6) + (seed >> 2)));
 }
 
+CB_FN uint cbReverseBits(uint x) {
+    x = (x << 16) | (x >> 16);
+    x = ((x & 0x00ff00ffu) << 8) | ((x & 0xff00ff00u) >> 8);
+    x = ((x & 0x0f0f0f0fu) << 4) | ((x & 0xf0f0f0f0u) >> 4);
+    x = ((x & 0x33333333u) << 2) | ((x & 0xccccccccu) >> 2);
+    x = ((x & 0x55555555u) << 1) | ((x & 0xaaaaaaaau) >> 1);
+    return x;
+}
+
 /* Map 32 random bits to [0,1) with 24 bits of mantissa: never returns 1. */
 CB_FN real cbUintToUnitFloat(uint bits) {
     return (real)(bits >> 8) * (1.0f / 16777216.0f);
@@ -55,8 +64,10 @@ typedef struct SamplerSettings {
 typedef struct SampleStream {
     uint key;       /* independent: hash of (seed, estimate, stream); Sobol: of (seed, stream) */
     uint dimension; /* next dimension to read */
-    uint index;     /* Sobol: the estimate, the point's index in the sequence */
-    int sobol;      /* CB_SAMPLER_SOBOL: read sobolSample */
+    /* Sobol: the point's index in the sequence (the estimate), its bits reversed: every pair
+     * of dimensions shuffles it in that form (sobolShuffleReversed), so it is reversed once. */
+    uint reversedIndex;
+    int sobol; /* CB_SAMPLER_SOBOL: read sobolSample */
     /* The coherent methods' shared vector, drawn once per estimate by the host (CPT, CBDPT:
      * every pixel at one tile position reads the same u, so no pixel need draw it): u[d] =
      * shared[d] for d < sharedCount, the same values sampleAt would compute. */
@@ -75,7 +86,7 @@ CB_FN SampleStream samplerStream(SamplerSettings sampler, uint estimate, uint st
     uint keyedEstimate = s.sobol ? 0xffffffffu : estimate;
     s.key = cbHashCombine(cbHashCombine(cbHash32(sampler.seed), keyedEstimate), stream);
     s.dimension = 0u;
-    s.index = estimate;
+    s.reversedIndex = cbReverseBits(estimate);
     s.shared = 0;
     s.sharedCount = 0u;
 #ifdef CB_PRIMARY_SAMPLES
@@ -96,26 +107,19 @@ CB_FN SampleStream sampleStreamStart(uint seed, uint estimate, uint stream) {
 
 /* ---- Randomised Sobol points ------------------------------------------------------------ */
 
-CB_FN uint cbReverseBits(uint x) {
-    x = (x << 16) | (x >> 16);
-    x = ((x & 0x00ff00ffu) << 8) | ((x & 0xff00ff00u) >> 8);
-    x = ((x & 0x0f0f0f0fu) << 4) | ((x & 0xf0f0f0f0u) >> 4);
-    x = ((x & 0x33333333u) << 2) | ((x & 0xccccccccu) >> 2);
-    x = ((x & 0x55555555u) << 1) | ((x & 0xaaaaaaaau) >> 1);
-    return x;
-}
-
-/* Sobol's second dimension (primitive polynomial x + 1, m_1 = 1): direction numbers
- * v_1 = 2^31, v_k = v_{k-1} xor (v_{k-1} >> 1); the point is the xor of v_k over the set bits
- * k of the index. The first dimension is the van der Corput sequence, reverse(index). */
-CB_FN uint sobolSecondDimension(uint index) {
-    uint result = 0u;
-    uint v = 0x80000000u;
-    for (; index != 0u; index >>= 1) {
-        if (index & 1u) result ^= v;
-        v ^= v >> 1;
-    }
-    return result;
+/* Sobol's second dimension (primitive polynomial x + 1, m_1 = 1), its digits reversed (first
+ * digit in bit 0). Its direction numbers v_1 = 2^31, v_k = v_{k-1} xor (v_{k-1} >> 1) are, so
+ * reversed, the rows of Pascal's triangle mod 2: digit j of the point is the xor of the index's
+ * bits k with C(k, j) odd, that is with j's bits a subset of k's (Lucas' theorem). That sum over
+ * supersets takes one shift, mask and xor per bit of the 5-bit position, with no loop over the
+ * index's bits. The first dimension is the van der Corput sequence: reversed, the index itself. */
+CB_FN uint sobolSecondDimensionReversed(uint index) {
+    index ^= (index >> 1) & 0x55555555u;
+    index ^= (index >> 2) & 0x33333333u;
+    index ^= (index >> 4) & 0x0f0f0f0fu;
+    index ^= (index >> 8) & 0x00ff00ffu;
+    index ^= (index >> 16) & 0x0000ffffu;
+    return index;
 }
 
 /* Owen scrambling (nested uniform digit permutation) of a 32-bit fraction given with its first
@@ -141,27 +145,37 @@ CB_FN uint owenScrambleReversed(uint x, uint seed) {
  * the reversed index, as Burley 2020 shuffles Sobol indices (nested_uniform_scramble), with the
  * leading zeros and the highest set bit restored: constant work per sample. (A hash per bit, as
  * pbrt-v4's ZSobolSampler draws a permutation per base-4 digit, cost 31% of PT's kernel
- * instructions at 2^11 estimates and more for BDPT's image-wide light streams, docs/sampling.md.) */
-CB_FN uint sobolShuffleIndex(uint index, uint key) {
-    uint reversed = cbReverseBits(index);
+ * instructions at 2^11 estimates, more for BDPT's image-wide light streams: docs/sampling.md.)
+ * Given and returned with its bits reversed, the form in which it is scrambled. */
+CB_FN uint sobolShuffleReversed(uint reversed, uint key) {
     uint highest = reversed & (0u - reversed); /* the highest set bit of index, reversed */
     uint kept = highest | (highest - 1u);      /* it and the zeros above it (all bits if 0) */
     uint scrambled = owenScrambleReversed(reversed, cbHashCombine(key, 0x5f1e0000u));
-    return cbReverseBits((scrambled & ~kept) | (reversed & kept));
+    return (scrambled & ~kept) | (reversed & kept);
 }
 
-/* Dimension d of estimate `index`: dimensions 2i and 2i+1 are the two-dimensional Sobol
- * sequence, its index shuffled and each coordinate Owen-scrambled with keys of (stream key, i)
- * (padding as in pbrt-v4's PaddedSobolSampler). Every estimate is uniform on the unit cube and
- * different pairs are independent, so every estimator stays unbiased; over the estimates each
- * pair is stratified as a scrambled (0,2)-sequence (Owen 1997: variance o(1/N) for smooth
- * integrands, bounded by a constant times Monte Carlo's for square-integrable ones). */
-CB_FN uint sobolSample(uint key, uint index, uint dimension) {
+CB_FN uint sobolShuffleIndex(uint index, uint key) {
+    return cbReverseBits(sobolShuffleReversed(cbReverseBits(index), key));
+}
+
+/* Dimensions 2i and 2i+1 are the two-dimensional Sobol sequence, its index shuffled and each
+ * coordinate Owen-scrambled with keys of (stream key, i) (padding as in pbrt-v4's
+ * PaddedSobolSampler). Every estimate is uniform on the unit cube and different pairs are
+ * independent, so every estimator stays unbiased; over the estimates each pair is stratified as
+ * a scrambled (0,2)-sequence (Owen 1997: variance o(1/N) for smooth integrands, bounded by a
+ * constant times Monte Carlo's for square-integrable ones). `coordinate` 0 or 1 of pair i,
+ * given the pair's key and shuffled index. */
+CB_FN uint sobolPairCoordinate(uint pairKey, uint shuffled, uint coordinate) {
+    uint point = coordinate ? sobolSecondDimensionReversed(shuffled) : shuffled;
+    return cbReverseBits(
+        owenScrambleReversed(point, cbHashCombine(pairKey, 0x5eed0000u + coordinate)));
+}
+
+/* Dimension d of the estimate whose index, bits reversed, is reversedIndex. */
+CB_FN uint sobolSample(uint key, uint reversedIndex, uint dimension) {
     uint pairKey = cbHashCombine(key, dimension >> 1);
-    uint shuffled = sobolShuffleIndex(index, pairKey);
-    uint reversed = (dimension & 1u) ? cbReverseBits(sobolSecondDimension(shuffled)) : shuffled;
-    uint seed = cbHashCombine(pairKey, 0x5eed0000u + (dimension & 1u));
-    return cbReverseBits(owenScrambleReversed(reversed, seed));
+    uint shuffled = cbReverseBits(sobolShuffleReversed(reversedIndex, pairKey));
+    return sobolPairCoordinate(pairKey, shuffled, dimension & 1u);
 }
 
 /* u[d] for an arbitrary dimension, without advancing. */
@@ -170,8 +184,33 @@ CB_FN real sampleAt(SampleStream s, uint dimension) {
     if (s.primary && dimension < s.primaryCount) return s.primary[dimension];
 #endif
     if (dimension < s.sharedCount) return s.shared[dimension];
-    if (s.sobol) return cbUintToUnitFloat(sobolSample(s.key, s.index, dimension));
+    if (s.sobol) return cbUintToUnitFloat(sobolSample(s.key, s.reversedIndex, dimension));
     return cbUintToUnitFloat(cbHashCombine(s.key, dimension));
+}
+
+/* u[d] and u[d + 1] for an even d, a two-dimensional decision: the same values as two sampleAt
+ * calls, the Sobol pair's key and shuffled index computed once for both. */
+CB_FN void sampleAt2(SampleStream s, uint dimension, real* u0, real* u1) {
+#ifndef CB_PRIMARY_SAMPLES
+    if (dimension + 1u < s.sharedCount) { /* the coherent methods' eye paths */
+        *u0 = s.shared[dimension];
+        *u1 = s.shared[dimension + 1u];
+        return;
+    }
+#endif
+    bool table = dimension < s.sharedCount;
+#ifdef CB_PRIMARY_SAMPLES
+    table = table || (s.primary && dimension < s.primaryCount);
+#endif
+    if (s.sobol && !table && (dimension & 1u) == 0u) {
+        uint pairKey = cbHashCombine(s.key, dimension >> 1);
+        uint shuffled = cbReverseBits(sobolShuffleReversed(s.reversedIndex, pairKey));
+        *u0 = cbUintToUnitFloat(sobolPairCoordinate(pairKey, shuffled, 0u));
+        *u1 = cbUintToUnitFloat(sobolPairCoordinate(pairKey, shuffled, 1u));
+        return;
+    }
+    *u0 = sampleAt(s, dimension);
+    *u1 = sampleAt(s, dimension + 1u);
 }
 
 CB_FN real sampleNext(SampleStream* s) {
