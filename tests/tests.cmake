@@ -42,6 +42,10 @@ set_tests_properties(interleave_render PROPERTIES TIMEOUT 600)
 # methods at equal CPU time, the goal reached, not reached, not measured.
 add_test(NAME report_combine COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_report_combine.py ${CMAKE_SOURCE_DIR})
 set_tests_properties(report_combine PROPERTIES TIMEOUT 600)
+# scripts/report's answers to the thesis's claims on synthetic units with known cost and error
+# ratios: bands apart and overlapping, each claim's count of where it holds.
+add_test(NAME report_claims COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_report_claims.py ${CMAKE_SOURCE_DIR})
+set_tests_properties(report_claims PROPERTIES TIMEOUT 600)
 
 # cbdpt combine (docs/combine.md): render records, halves, combinations, --split-budget, refusals.
 add_test(NAME combine_cli COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_combine_cli.py $<TARGET_FILE:cbdpt> ${CMAKE_SOURCE_DIR})
