@@ -22,7 +22,7 @@ with tempfile.TemporaryDirectory() as out:
     check(r.returncode == 0, f"gpu-check exits 0 ({r.stderr.strip()[-500:]})")
     summary = json.load(open(os.path.join(out, "summary.json")))
     renders = summary["renders"]
-    check(len(renders) == 7 and all(row["rc"] == 0 and row["estimates"] >= 1 for row in renders)
+    check(len(renders) == 10 and all(row["rc"] == 0 and row["estimates"] >= 1 for row in renders)
           and {row["method"] for row in renders} == {"pt", "cpt", "bdpt", "cbdpt", "mlt"},
           f"every method rendered and was timed ({renders})")
     counts = summary["test_cases"]
