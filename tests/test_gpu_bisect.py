@@ -15,7 +15,7 @@ from checks import check, finish  # noqa: E402
 with tempfile.TemporaryDirectory() as out:
     r = subprocess.run([sys.executable, os.path.join(root, "scripts", "gpu-bisect"), "--out", out,
                         "--run", "--cbdpt", cbdpt, "--device", "cpu", "--size", "8",
-                        "--only", "base,nocopy,connect-general-a", "--integrators", "bdpt"],
+                        "--only", "base,settings-copy,connect-general-a", "--integrators", "bdpt"],
                        capture_output=True, text=True)
     check(r.returncode == 0, f"gpu-bisect exits 0 ({r.stderr.strip()[-400:]})")
     lines = [line for line in r.stdout.splitlines() if " rc=" in line]
@@ -23,7 +23,7 @@ with tempfile.TemporaryDirectory() as out:
           f"the three variants chosen rendered ({r.stdout.strip()[-600:]})")
     check(len([d for d in os.listdir(out) if os.path.isdir(os.path.join(out, d))]) >= 15,
           f"every variant was written ({sorted(os.listdir(out))})")
-    c = subprocess.run([cbdpt, "compare", os.path.join(out, "nocopy-bdpt.exr"),
+    c = subprocess.run([cbdpt, "compare", os.path.join(out, "settings-copy-bdpt.exr"),
                         os.path.join(out, "base-bdpt.exr"), "--json"], capture_output=True,
                        text=True)
     check(c.returncode == 0 and json.loads(c.stdout)["mae"] == 0.0,
