@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
-"""The work-group-wide (packet) traversal prototype of cbdpt-bench (`--traversal packet`,
-src/bench/kernels/bench_bvh_packet.h) finds the same hits as the renderers' traversal
+"""The packet traversal prototypes of cbdpt-bench, work-group-wide (`--traversal packet`,
+src/bench/kernels/bench_bvh_packet.h) and eight rays per work-item (`--traversal ray8`,
+src/bench/kernels/bench_bvh_ray8.h), find the same hits as the renderers' traversal
 (`--traversal wide`) and as Embree, on every ray set of the traverse section: coherent ones
 (primary, one estimate's bounces and shadow rays) and incoherent ones, closest and any hit.
 Every ray's answer is compared with Embree's (agreement 1 = all rays; a closest hit counts as
@@ -27,8 +28,9 @@ CASES = ["primary", "bounce1", "bounce2", "coh-shadow", "shadow", "incoherent"]
 with tempfile.TemporaryDirectory() as tmp:
     out = os.path.join(tmp, "bench.json")
     # 4104 rays: the images are 64x64 (primaryRays rounds to tiles), the incoherent set is not a
-    # multiple of the work-group size, so padding work-items are exercised too.
-    r = subprocess.run([args.bench, "--sections", "traverse", "--traversal", "wide,packet",
+    # multiple of the work-group size or of 64, so padding work-items and ray8's padded last
+    # packet are exercised too.
+    r = subprocess.run([args.bench, "--sections", "traverse", "--traversal", "wide,packet,ray8",
                         "--meshes", "bunny", "--rays", "4104", "--repeats", "1",
                         "--cases", ",".join(CASES), "--json", out],
                        capture_output=True, text=True, timeout=900)
@@ -39,19 +41,22 @@ rows = data.get("traverse", [])
 embree = data.get("machine", {}).get("embree", False)
 by_key = {(row["mesh"], row["order"], row["rays"]): row for row in rows}
 for mesh in ("bunny",):
-    for case in CASES:
-        packet = by_key.get((mesh, "packet", case))
-        wide = by_key.get((mesh, "wide", case))
-        check(packet is not None and wide is not None, f"{mesh} {case}: both traversals ran")
-        if packet is None or wide is None:
-            continue
-        check(packet["count"] == wide["count"] and packet["hit_fraction"] == wide["hit_fraction"],
-              f"{mesh} {case}: packet and wide hit the same number of rays "
-              f"({packet['hit_fraction']} vs {wide['hit_fraction']})")
-        if embree:
-            check(packet["agreement"] == 1.0,
-                  f"{mesh} {case}: packet traversal agrees with Embree on every ray "
-                  f"({packet['agreement']})")
+    for variant in ("packet", "ray8"):
+        for case in CASES:
+            packet = by_key.get((mesh, variant, case))
+            wide = by_key.get((mesh, "wide", case))
+            check(packet is not None and wide is not None,
+                  f"{mesh} {case}: {variant} and wide traversals ran")
+            if packet is None or wide is None:
+                continue
+            check(packet["count"] == wide["count"] and
+                  packet["hit_fraction"] == wide["hit_fraction"],
+                  f"{mesh} {case}: {variant} and wide hit the same number of rays "
+                  f"({packet['hit_fraction']} vs {wide['hit_fraction']})")
+            if embree:
+                check(packet["agreement"] == 1.0,
+                      f"{mesh} {case}: {variant} traversal agrees with Embree on every ray "
+                      f"({packet['agreement']})")
 if not embree:
     print("note: cbdpt-bench built without Embree: compared with the wide traversal only")
 finish()

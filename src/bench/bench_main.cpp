@@ -50,15 +50,18 @@ void addOptions(CLI::App& app, Options& o) {
     app.add_option("--json", o.json, "write all results to this JSON file");
     app.add_option("--models", o.models, "folder with bunny.ply and dragon.ply");
     app.add_option("--sections", o.sections, "traverse build render scaling")->delimiter(',');
-    app.add_option("--traversal", o.traversal,
-                   "comma-separated: ordered | skip (binary BVH) | wide (4- or 8-wide, the "
-                   "renderers' BVH) | packet (the wide BVH traversed by work-groups of 64 rays "
-                   "together, a prototype); both = ordered,skip")
+    app.add_option(
+           "--traversal", o.traversal,
+           "comma-separated: ordered | skip (binary BVH) | wide (4- or 8-wide, the "
+           "renderers' BVH) | packet (the wide BVH traversed by work-groups of 64 rays "
+           "together, a prototype) | ray8 (the wide BVH, packets of 2x4 rays per work-item, a "
+           "prototype); both = ordered,skip")
         ->check([](const std::string& v) {
             if (v == "both") return std::string();
             for (const auto& s : splitCommas(v))
-                if (s != "ordered" && s != "skip" && s != "wide" && s != "packet")
-                    return "unknown traversal '" + s + "' (ordered, skip, wide, packet, both)";
+                if (s != "ordered" && s != "skip" && s != "wide" && s != "packet" && s != "ray8")
+                    return "unknown traversal '" + s +
+                           "' (ordered, skip, wide, packet, ray8, both)";
             return std::string();
         });
     app.add_option("--repeats", o.repeats, "timed repeats per measurement");

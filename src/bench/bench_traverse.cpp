@@ -28,15 +28,21 @@ class ClTraversal {
   public:
     // variant: ordered | skip (binary BVH) | wide (cb_bvh_wide.h, what the renderers use) |
     // packet (the wide BVH, work-group-wide traversal of bench_bvh_packet.h, for every ray set;
-    // its kernels require work-groups of 64, whatever localSize says)
+    // its kernels require work-groups of 64, whatever localSize says) | ray8 (the wide BVH,
+    // packets of 2x4 rays per work-item, bench_bvh_ray8.h)
     ClTraversal(ClRuntime& rt, const Bvh& bvh, const std::string& variant, int localSize)
         : rt_(rt), localSize_(variant == "packet" ? kPacketSize : localSize) {
         std::vector<std::string> defines = {"CB_CHANNELS=3", "CB_FEATURES=0x101u"};
         if (variant == "skip") defines.push_back("CB_BVH_SKIP_ORDER=1");
         program_ = rt.buildProgram("bench_traverse.cl", defines);
         const bool packet = variant == "packet";
-        const bool wide = variant == "wide" || packet;
-        if (packet) {
+        ray8_ = variant == "ray8";
+        const bool wide = variant == "wide" || packet || ray8_;
+        if (ray8_) {
+            closest_ = cl::Kernel(program_, "benchClosestWideRay8");
+            closestCoherent_ = closest_;
+            occluded_ = cl::Kernel(program_, "benchOccludedWideRay8");
+        } else if (packet) {
             closest_ = cl::Kernel(program_, "benchClosestWidePacket");
             closestCoherent_ = closest_;
             occluded_ = cl::Kernel(program_, "benchOccludedWidePacket");
@@ -70,9 +76,10 @@ class ClTraversal {
         int arg = setBvhArgs(kernel);
         kernel.setArg(arg++, rayBuf);
         kernel.setArg(arg++, tBuf);
-        kernel.setArg(arg++, cl_uint(rays.size()));
+        cl::Buffer packetBuf;
+        const size_t items = setCountArgs(kernel, arg, rays.size(), packetBuf);
         kernel.setArg(arg, hitBuf);
-        double t = launch(kernel, rays.size(), repeats);
+        double t = launch(kernel, items, repeats);
         hits.resize(rays.size());
         rt_.queue().enqueueReadBuffer(hitBuf, CL_TRUE, 0, hits.size() * sizeof(cbk::Hit),
                                       hits.data());
@@ -90,9 +97,10 @@ class ClTraversal {
         int arg = setBvhArgs(occluded_);
         occluded_.setArg(arg++, rayBuf);
         occluded_.setArg(arg++, tBuf);
-        occluded_.setArg(arg++, cl_uint(rays.size()));
+        cl::Buffer packetBuf;
+        const size_t items = setCountArgs(occluded_, arg, rays.size(), packetBuf);
         occluded_.setArg(arg, outBuf);
-        double t = launch(occluded_, rays.size(), repeats);
+        double t = launch(occluded_, items, repeats);
         out.resize(rays.size());
         rt_.queue().enqueueReadBuffer(outBuf, CL_TRUE, 0, out.size() * sizeof(int), out.data());
         return t;
@@ -108,6 +116,26 @@ class ClTraversal {
         if (!wide_.nodes.empty()) k.setArg(arg++, packs_);
         k.setArg(arg++, prims_);
         return arg;
+    }
+
+    // The ray count, or for ray8 the packets' ray indices (2x4 tiles of the 8x8 tiles, the rays
+    // after the last whole tile in order, -1 padding the last packet) and their count. Returns
+    // the work-items to launch; `arg` is advanced.
+    size_t setCountArgs(cl::Kernel& k, int& arg, size_t rayCount, cl::Buffer& packetBuf) {
+        if (!ray8_) {
+            k.setArg(arg++, cl_uint(rayCount));
+            return rayCount;
+        }
+        std::vector<int> packets = tilePackets(rayCount, 8);
+        for (size_t i = rayCount / 64 * 64; i < rayCount; ++i)
+            packets.push_back(int(i));
+        while (packets.size() % 8 != 0)
+            packets.push_back(-1);
+        packetBuf = cl::Buffer(rt_.context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
+                               packets.size() * sizeof(int), packets.data());
+        k.setArg(arg++, packetBuf);
+        k.setArg(arg++, cl_uint(packets.size() / 8));
+        return packets.size() / 8;
     }
 
     double launch(cl::Kernel& k, size_t n, int repeats) {
@@ -136,6 +164,7 @@ class ClTraversal {
 
     ClRuntime& rt_;
     int localSize_;
+    bool ray8_ = false;
     cl::Program program_;
     cl::Kernel closest_, closestCoherent_, occluded_;
     cl::Buffer nodes_, packs_, prims_;
@@ -327,7 +356,7 @@ json caseRow(const TraverseInput& in, const std::string& name, bool anyHit, cons
 Bvh variantBvh(const Options& o, const std::string& variant,
                const std::vector<cbk::Primitive>& prims, const std::vector<Ray>& primary,
                std::string& settings) {
-    if ((variant == "wide" || variant == "packet") && o.sahBlock <= 0) {
+    if ((variant == "wide" || variant == "packet" || variant == "ray8") && o.sahBlock <= 0) {
         // As the renderers build it (DeviceScene): the candidate cheapest for a sample of the
         // camera rays and their bounces.
         WideBvhChoice choice = buildWideBvhForRays(prims, cameraSample(primary));

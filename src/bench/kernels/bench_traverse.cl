@@ -5,9 +5,11 @@
  * traversals of bench_bvh_binary.h (-DCB_BVH_SKIP_ORDER: its unordered preorder closest-hit
  * loop), kept for comparison; the *Wide kernels run cb_bvh_wide.h, the traversal the renderers
  * use; the *Packet kernels run the work-group-wide prototype of bench_bvh_packet.h (work-groups
- * of CB_PACKET_SIZE, an 8x8 tile of rays each). */
+ * of CB_PACKET_SIZE, an 8x8 tile of rays each); the *Ray8 kernels the packets of eight rays per
+ * work-item of bench_bvh_ray8.h. */
 #include "bench_bvh_binary.h"
 #include "bench_bvh_packet.h"
+#include "bench_bvh_ray8.h"
 #include "cb_bvh_wide.h"
 
 __kernel void benchClosest(__global const struct BvhNode* nodes,
@@ -38,7 +40,8 @@ __kernel void benchClosestWide(__global const struct BvhNodeWide* nodes,
     uint i = (uint)get_global_id(0);
     if (i >= count) return;
     Hit h = {CB_INFINITY, -1, 0.0f, 0.0f};
-    if (tMax[i] > 0.0f) bvhWideTraverse(nodes, packs, primitives, rays[i], tMax[i], true, false, &h);
+    if (tMax[i] > 0.0f)
+        bvhWideTraverse(nodes, packs, primitives, rays[i], tMax[i], true, false, &h);
     hits[i] = h;
 }
 
@@ -65,21 +68,19 @@ __kernel void benchOccludedWide(__global const struct BvhNodeWide* nodes,
     uint i = (uint)get_global_id(0);
     if (i >= count) return;
     Hit h;
-    occluded[i] = tMax[i] > 0.0f &&
-                          bvhWideTraverse(nodes, packs, primitives, rays[i], tMax[i], false, true, &h)
+    occluded[i] = tMax[i] > 0.0f && bvhWideTraverse(nodes, packs, primitives, rays[i], tMax[i],
+                                                    false, true, &h)
                       ? 1
                       : 0;
 }
 
 /* The packet traversal (bench_bvh_packet.h): every work-item reaches its barriers, so the rays
  * past `count` (padding) take part as inactive rays. Returns whether the work-item's ray hit. */
-__attribute__((always_inline)) bool benchPacketRay(__global const struct BvhNodeWide* nodes,
-                                                   __global const TrianglePack* packs,
-                                                   __global const Primitive* primitives,
-                                                   __global const Ray* rays,
-                                                   __global const float* tMax, uint count,
-                                                   bool closestHit, __local PacketShared* shared,
-                                                   Hit* h) {
+__attribute__((always_inline)) bool
+benchPacketRay(__global const struct BvhNodeWide* nodes, __global const TrianglePack* packs,
+               __global const Primitive* primitives, __global const Ray* rays,
+               __global const float* tMax, uint count, bool closestHit,
+               __local PacketShared* shared, Hit* h) {
     uint i = (uint)get_global_id(0);
     bool inside = i < count;
     float t = inside ? tMax[i] : 0.0f;
@@ -87,22 +88,71 @@ __attribute__((always_inline)) bool benchPacketRay(__global const struct BvhNode
                           t > 0.0f ? t : CB_INFINITY, t > 0.0f, closestHit, shared, h);
 }
 
-__kernel __attribute__((reqd_work_group_size(CB_PACKET_SIZE, 1, 1))) void benchClosestWidePacket(
-    __global const struct BvhNodeWide* nodes, __global const TrianglePack* packs,
-    __global const Primitive* primitives, __global const Ray* rays, __global const float* tMax,
-    uint count, __global Hit* hits) {
+__kernel __attribute__((reqd_work_group_size(CB_PACKET_SIZE, 1, 1))) void
+benchClosestWidePacket(__global const struct BvhNodeWide* nodes, __global const TrianglePack* packs,
+                       __global const Primitive* primitives, __global const Ray* rays,
+                       __global const float* tMax, uint count, __global Hit* hits) {
     __local PacketShared shared;
     Hit h;
     benchPacketRay(nodes, packs, primitives, rays, tMax, count, true, &shared, &h);
     if (get_global_id(0) < count) hits[get_global_id(0)] = h;
 }
 
-__kernel __attribute__((reqd_work_group_size(CB_PACKET_SIZE, 1, 1))) void benchOccludedWidePacket(
-    __global const struct BvhNodeWide* nodes, __global const TrianglePack* packs,
-    __global const Primitive* primitives, __global const Ray* rays, __global const float* tMax,
-    uint count, __global int* occluded) {
+__kernel __attribute__((reqd_work_group_size(CB_PACKET_SIZE, 1, 1))) void
+benchOccludedWidePacket(__global const struct BvhNodeWide* nodes,
+                        __global const TrianglePack* packs, __global const Primitive* primitives,
+                        __global const Ray* rays, __global const float* tMax, uint count,
+                        __global int* occluded) {
     __local PacketShared shared;
     Hit h;
     bool hit = benchPacketRay(nodes, packs, primitives, rays, tMax, count, false, &shared, &h);
     if (get_global_id(0) < count) occluded[get_global_id(0)] = hit ? 1 : 0;
+}
+
+/* Packets of eight rays, one per work-item (bench_bvh_ray8.h): packets[8p .. 8p+7] are the
+ * rays of packet p (a 2x4 tile of pixels, as the bench gives Embree's rtcIntersect8; -1 pads
+ * the last packet). */
+__kernel void benchClosestWideRay8(__global const struct BvhNodeWide* nodes,
+                                   __global const TrianglePack* packs,
+                                   __global const Primitive* primitives, __global const Ray* rays,
+                                   __global const float* tMax, __global const int* packets,
+                                   uint packetCount, __global Hit* hits) {
+    uint p = (uint)get_global_id(0);
+    if (p >= packetCount) return;
+    const int8 index = vload8(p, packets);
+    float8 t, b1, b2;
+    int8 prim;
+    ray8Traverse(nodes, packs, primitives, rays, tMax, index, true, &t, &prim, &b1, &b2);
+#define CB_RAY8_STORE(L)                                                                           \
+    {                                                                                              \
+        Hit h = {t.L, prim.L, b1.L, b2.L};                                                         \
+        if (index.L >= 0) hits[index.L] = h;                                                       \
+    }
+    CB_RAY8_STORE(s0)
+    CB_RAY8_STORE(s1) CB_RAY8_STORE(s2) CB_RAY8_STORE(s3) CB_RAY8_STORE(s4) CB_RAY8_STORE(s5)
+        CB_RAY8_STORE(s6) CB_RAY8_STORE(s7)
+#undef CB_RAY8_STORE
+}
+
+__kernel void benchOccludedWideRay8(__global const struct BvhNodeWide* nodes,
+                                    __global const TrianglePack* packs,
+                                    __global const Primitive* primitives, __global const Ray* rays,
+                                    __global const float* tMax, __global const int* packets,
+                                    uint packetCount, __global int* occluded) {
+    uint p = (uint)get_global_id(0);
+    if (p >= packetCount) return;
+    const int8 index = vload8(p, packets);
+    float8 t, b1, b2;
+    int8 prim;
+    const int8 hit =
+        ray8Traverse(nodes, packs, primitives, rays, tMax, index, false, &t, &prim, &b1, &b2);
+    const int8 out = select((int8)(0), (int8)(1), hit);
+    if (index.s0 >= 0) occluded[index.s0] = out.s0;
+    if (index.s1 >= 0) occluded[index.s1] = out.s1;
+    if (index.s2 >= 0) occluded[index.s2] = out.s2;
+    if (index.s3 >= 0) occluded[index.s3] = out.s3;
+    if (index.s4 >= 0) occluded[index.s4] = out.s4;
+    if (index.s5 >= 0) occluded[index.s5] = out.s5;
+    if (index.s6 >= 0) occluded[index.s6] = out.s6;
+    if (index.s7 >= 0) occluded[index.s7] = out.s7;
 }
