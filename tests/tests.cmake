@@ -25,9 +25,12 @@ set_tests_properties(meshes_reproducible PROPERTIES
 if(TARGET cbdpt-bench)
   add_test(NAME bench_quick COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_bench.py $<TARGET_FILE:cbdpt-bench>)
   set_tests_properties(bench_quick PROPERTIES TIMEOUT 900 SKIP_REGULAR_EXPRESSION "cbdpt-skip:")
-  # The work-group-wide traversal prototype finds the wide traversal's and Embree's hits.
+  # The packet traversal prototypes find the wide traversal's and Embree's hits.
   add_test(NAME bench_packet COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_bench_packet.py $<TARGET_FILE:cbdpt-bench>)
   set_tests_properties(bench_packet PROPERTIES TIMEOUT 900 SKIP_REGULAR_EXPRESSION "cbdpt-skip:")
+  # scripts/interleave-traverse runs each entry's traversal and lists its rows.
+  add_test(NAME interleave_traverse COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_interleave_traverse.py $<TARGET_FILE:cbdpt-bench> ${CMAKE_SOURCE_DIR})
+  set_tests_properties(interleave_traverse PROPERTIES TIMEOUT 600 SKIP_REGULAR_EXPRESSION "cbdpt-skip:")
 endif()
 
 # Error against time: checkpoints, logs, compare, experiment --quick -> report.

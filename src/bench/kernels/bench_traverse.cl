@@ -109,6 +109,12 @@ benchOccludedWidePacket(__global const struct BvhNodeWide* nodes,
     if (get_global_id(0) < count) occluded[get_global_id(0)] = hit ? 1 : 0;
 }
 
+/* One ray's hit, unless the ray is padding (index < 0). */
+CB_FN void benchStoreHit(__global Hit* hits, int index, float t, int prim, float b1, float b2) {
+    Hit h = {t, prim, b1, b2};
+    if (index >= 0) hits[index] = h;
+}
+
 /* Packets of eight rays, one per work-item (bench_bvh_ray8.h): packets[8p .. 8p+7] are the
  * rays of packet p (a 2x4 tile of pixels, as the bench gives Embree's rtcIntersect8; -1 pads
  * the last packet). */
@@ -123,15 +129,14 @@ __kernel void benchClosestWideRay8(__global const struct BvhNodeWide* nodes,
     float8 t, b1, b2;
     int8 prim;
     ray8Traverse(nodes, packs, primitives, rays, tMax, index, true, &t, &prim, &b1, &b2);
-#define CB_RAY8_STORE(L)                                                                           \
-    {                                                                                              \
-        Hit h = {t.L, prim.L, b1.L, b2.L};                                                         \
-        if (index.L >= 0) hits[index.L] = h;                                                       \
-    }
-    CB_RAY8_STORE(s0)
-    CB_RAY8_STORE(s1) CB_RAY8_STORE(s2) CB_RAY8_STORE(s3) CB_RAY8_STORE(s4) CB_RAY8_STORE(s5)
-        CB_RAY8_STORE(s6) CB_RAY8_STORE(s7)
-#undef CB_RAY8_STORE
+    benchStoreHit(hits, index.s0, t.s0, prim.s0, b1.s0, b2.s0);
+    benchStoreHit(hits, index.s1, t.s1, prim.s1, b1.s1, b2.s1);
+    benchStoreHit(hits, index.s2, t.s2, prim.s2, b1.s2, b2.s2);
+    benchStoreHit(hits, index.s3, t.s3, prim.s3, b1.s3, b2.s3);
+    benchStoreHit(hits, index.s4, t.s4, prim.s4, b1.s4, b2.s4);
+    benchStoreHit(hits, index.s5, t.s5, prim.s5, b1.s5, b2.s5);
+    benchStoreHit(hits, index.s6, t.s6, prim.s6, b1.s6, b2.s6);
+    benchStoreHit(hits, index.s7, t.s7, prim.s7, b1.s7, b2.s7);
 }
 
 __kernel void benchOccludedWideRay8(__global const struct BvhNodeWide* nodes,
