@@ -16,7 +16,7 @@
 #ifndef BENCH_BVH_PACKET_H
 #define BENCH_BVH_PACKET_H
 
-#include "cb_bvh_wide.h"
+#include "bench_bvh_group.h"
 
 /* The work-group size the packet kernels require: one 8x8 tile. */
 #define CB_PACKET_SIZE 64
@@ -123,35 +123,18 @@ CB_FN __attribute__((always_inline)) bool packetTraverse(CB_GLOBAL const BvhNode
         slot = slot == 2u ? 0u : slot + 1u;
         if (group == 0u) break; /* every ray done (any hit) */
 
-        /* The representative ray's keys: the group's order of this node's children. */
-        BvhWideReal repTn, repFar;
-        bvhWideBoxes(node, rep.invNear, rep.addNear, rep.invFar, rep.addFar, CB_INFINITY, &repTn,
-                     &repFar);
-        const BvhWideInt keys = bvhWideKeys(repTn);
-        const BvhWideKey after = fromLane >= 0 ? bvhWideKeyOf(keys, fromLane) : bvhWideKeyNone();
-        const BvhWideInt cand =
-            (((BvhWideInt)((int)group) & ((BvhWideInt)(1) << CB_BVHW_LANE_INDICES)) != 0) &
-            (keys > after);
-        const uint candBits = bvhWideBits(cand);
-        if (candBits != 0u) {
-            const int k = bvhWideMinAll(select((BvhWideInt)(INT_MAX), keys, cand)) &
-                          (CB_BVH_WIDE_LANES - 1);
-            const bool more = (candBits & (candBits - 1u)) != 0u;
+        /* The next child in the representative ray's order. */
+        bool more;
+        const int k = bvhGroupNext(node, rep, group & ~CB_PACKET_ACTIVE, fromLane, &more);
+        if (k >= 0) {
             const uint count = bvhWideCount(node, k);
             if (count == 0u) {
-                if (depth < 64) {
-                    ulong bit = (ulong)1 << depth;
-                    trail = more ? (trail | bit) : (trail & ~bit);
-                }
-                fromLane = -1;
-                cur = bvhWideInteriorChild(node, k);
-                ++depth;
+                bvhGroupDescend(node, k, more, &cur, &fromLane, &depth, &trail);
                 continue;
             }
             /* Only the rays whose own box test kept the leaf test its packs. */
-            if (((bits >> k) & 1u) != 0u &&
-                packetLeaf(packs, prims, ray, sheared, node->child[k], count, closestHit, &closest,
-                           hit)) {
+            if (((bits >> k) & 1u) != 0u && packetLeaf(packs, prims, ray, sheared, node->child[k],
+                                                       count, closestHit, &closest, hit)) {
                 found = true;
                 if (!closestHit) active = false;
             }
@@ -160,21 +143,7 @@ CB_FN __attribute__((always_inline)) bool packetTraverse(CB_GLOBAL const BvhNode
                 continue;
             }
         }
-        /* Up to the nearest ancestor that may have children left (bvhWideTraverse). */
-        if (depth <= 64) {
-            ulong below = depth == 64 ? trail : (trail & (((ulong)1 << depth) - (ulong)1));
-            if (below == 0) break;
-        }
-        for (;;) {
-            if (cur == 0u) {
-                over = true;
-                break;
-            }
-            fromLane = (int)nodes[cur].lane;
-            cur = nodes[cur].parent;
-            --depth;
-            if (depth >= 64 || ((trail >> depth) & 1u) != 0u) break;
-        }
+        over = !bvhGroupClimb(nodes, trail, &cur, &fromLane, &depth);
     }
     return found;
 }

@@ -20,7 +20,7 @@
 #ifndef BENCH_BVH_RAY8_H
 #define BENCH_BVH_RAY8_H
 
-#include "cb_bvh_wide.h"
+#include "bench_bvh_group.h"
 
 /* Rays per packet: float8 lanes, a 2x4 tile of pixels (Embree's rtcIntersect8 packet). */
 #define CB_RAY8_SIZE 8
@@ -28,16 +28,14 @@
 
 CB_DEFINE_WIDE_SLAB_LANES(float8, 8)
 
-/* Lane j of v (j not a constant): a select and a sum, not a private array (PoCL gives every
- * private array a copy per work-item). The other lanes add +0. */
-CB_FN float ray8LaneReal(float8 v, int j) {
-    float8 m = select((float8)(0.0f), v, CB_RAY8_LANES == (int8)(j));
-    float4 a = m.lo + m.hi;
-    float2 b = a.lo + a.hi;
-    return b.x + b.y;
-}
+/* Lane j of v (j not a constant): a select and an OR across the lanes, not a private array
+ * (PoCL gives every private array a copy per work-item); exact, the other lanes' bits being
+ * zeros, and folded to a lane extract where j is a constant. */
 CB_FN int ray8LaneInt(int8 v, int j) {
     return bvhWideOrAll(select((int8)(0), v, CB_RAY8_LANES == (int8)(j)));
+}
+CB_FN float ray8LaneReal(float8 v, int j) {
+    return as_float(ray8LaneInt(as_int8(v), j));
 }
 
 /* The sum of the lanes where mask is set (the representative ray). */
@@ -306,34 +304,12 @@ ray8Traverse(CB_GLOBAL const BvhNodeWide* nodes, CB_GLOBAL const TrianglePack* p
             if (((presentBits >> c) & 1u) == 0u) continue;
             if (bvhWideBits(ray8Box(node, c, &s, closest)) != 0u) group |= 1u << c;
         }
-        /* The next child: coming down to a node that one child's box is entered in, that child;
-         * otherwise the order of the representative ray's keys. */
-        uint candBits = group;
-        int k = 31 - (int)clz(group);
-        if (group != 0u && (fromLane >= 0 || (group & (group - 1u)) != 0u)) {
-            BvhWideReal repTn, repFar;
-            bvhWideBoxes(node, rep.invNear, rep.addNear, rep.invFar, rep.addFar, CB_INFINITY,
-                         &repTn, &repFar);
-            const BvhWideInt keys = bvhWideKeys(repTn);
-            const BvhWideKey after =
-                fromLane >= 0 ? bvhWideKeyOf(keys, fromLane) : bvhWideKeyNone();
-            const BvhWideInt cand =
-                (((BvhWideInt)((int)group) & ((BvhWideInt)(1) << CB_BVHW_LANE_INDICES)) != 0) &
-                (keys > after);
-            candBits = bvhWideBits(cand);
-            k = bvhWideMinAll(select((BvhWideInt)(INT_MAX), keys, cand)) & (CB_BVH_WIDE_LANES - 1);
-        }
-        if (candBits != 0u) {
-            const bool more = (candBits & (candBits - 1u)) != 0u;
+        bool more;
+        const int k = bvhGroupNext(node, rep, group, fromLane, &more);
+        if (k >= 0) {
             const uint count = bvhWideCount(node, k);
             if (count == 0u) {
-                if (depth < 64) {
-                    ulong bit = (ulong)1 << depth;
-                    trail = more ? (trail | bit) : (trail & ~bit);
-                }
-                fromLane = -1;
-                cur = bvhWideInteriorChild(node, k);
-                ++depth;
+                bvhGroupDescend(node, k, more, &cur, &fromLane, &depth, &trail);
                 continue;
             }
             /* The leaf's packs, for the rays whose own box test keeps it. */
@@ -346,23 +322,7 @@ ray8Traverse(CB_GLOBAL const BvhNodeWide* nodes, CB_GLOBAL const TrianglePack* p
                 continue;
             }
         }
-        /* Up to the nearest ancestor that may have children left (bvhWideTraverse). */
-        if (depth <= 64) {
-            ulong below = depth == 64 ? trail : (trail & (((ulong)1 << depth) - (ulong)1));
-            if (below == 0) break;
-        }
-        bool over = false;
-        for (;;) {
-            if (cur == 0u) {
-                over = true;
-                break;
-            }
-            fromLane = (int)nodes[cur].lane;
-            cur = nodes[cur].parent;
-            --depth;
-            if (depth >= 64 || ((trail >> depth) & 1u) != 0u) break;
-        }
-        if (over) break;
+        if (!bvhGroupClimb(nodes, trail, &cur, &fromLane, &depth)) break;
     }
     if (closestHit) *hitT = select(tMax, closest, found);
     return found;

@@ -109,34 +109,49 @@ benchOccludedWidePacket(__global const struct BvhNodeWide* nodes,
     if (get_global_id(0) < count) occluded[get_global_id(0)] = hit ? 1 : 0;
 }
 
-/* One ray's hit, unless the ray is padding (index < 0). */
-CB_FN void benchStoreHit(__global Hit* hits, int index, float t, int prim, float b1, float b2) {
-    Hit h = {t, prim, b1, b2};
-    if (index >= 0) hits[index] = h;
-}
-
 /* Packets of eight rays, one per work-item (bench_bvh_ray8.h): packets[8p .. 8p+7] are the
  * rays of packet p (a 2x4 tile of pixels, as the bench gives Embree's rtcIntersect8; -1 pads
- * the last packet). */
-__kernel void benchClosestWideRay8(__global const struct BvhNodeWide* nodes,
-                                   __global const TrianglePack* packs,
-                                   __global const Primitive* primitives, __global const Ray* rays,
-                                   __global const float* tMax, __global const int* packets,
-                                   uint packetCount, __global Hit* hits) {
+ * the last packet). Closest hits into hits, or any hits into occluded (1 or 0). */
+CB_FN __attribute__((always_inline)) void
+benchRay8(__global const struct BvhNodeWide* nodes, __global const TrianglePack* packs,
+          __global const Primitive* primitives, __global const Ray* rays,
+          __global const float* tMax, __global const int* packets, uint packetCount,
+          bool closestHit, __global Hit* hits, __global int* occluded) {
     uint p = (uint)get_global_id(0);
     if (p >= packetCount) return;
     const int8 index = vload8(p, packets);
     float8 t, b1, b2;
     int8 prim;
-    ray8Traverse(nodes, packs, primitives, rays, tMax, index, true, &t, &prim, &b1, &b2);
-    benchStoreHit(hits, index.s0, t.s0, prim.s0, b1.s0, b2.s0);
-    benchStoreHit(hits, index.s1, t.s1, prim.s1, b1.s1, b2.s1);
-    benchStoreHit(hits, index.s2, t.s2, prim.s2, b1.s2, b2.s2);
-    benchStoreHit(hits, index.s3, t.s3, prim.s3, b1.s3, b2.s3);
-    benchStoreHit(hits, index.s4, t.s4, prim.s4, b1.s4, b2.s4);
-    benchStoreHit(hits, index.s5, t.s5, prim.s5, b1.s5, b2.s5);
-    benchStoreHit(hits, index.s6, t.s6, prim.s6, b1.s6, b2.s6);
-    benchStoreHit(hits, index.s7, t.s7, prim.s7, b1.s7, b2.s7);
+    const int8 hit =
+        ray8Traverse(nodes, packs, primitives, rays, tMax, index, closestHit, &t, &prim, &b1, &b2);
+    /* Lane by lane, each a constant (a loop over lane numbers kept 6% more instructions). */
+#define CB_RAY8_OUT(L)                                                                             \
+    do {                                                                                           \
+        if (index.L < 0) break;                                                                    \
+        if (closestHit) {                                                                          \
+            Hit h = {t.L, prim.L, b1.L, b2.L};                                                     \
+            hits[index.L] = h;                                                                     \
+        } else {                                                                                   \
+            occluded[index.L] = hit.L != 0 ? 1 : 0;                                                \
+        }                                                                                          \
+    } while (0)
+    CB_RAY8_OUT(s0);
+    CB_RAY8_OUT(s1);
+    CB_RAY8_OUT(s2);
+    CB_RAY8_OUT(s3);
+    CB_RAY8_OUT(s4);
+    CB_RAY8_OUT(s5);
+    CB_RAY8_OUT(s6);
+    CB_RAY8_OUT(s7);
+#undef CB_RAY8_OUT
+}
+
+__kernel void benchClosestWideRay8(__global const struct BvhNodeWide* nodes,
+                                   __global const TrianglePack* packs,
+                                   __global const Primitive* primitives, __global const Ray* rays,
+                                   __global const float* tMax, __global const int* packets,
+                                   uint packetCount, __global Hit* hits) {
+    benchRay8(nodes, packs, primitives, rays, tMax, packets, packetCount, true, hits, 0);
 }
 
 __kernel void benchOccludedWideRay8(__global const struct BvhNodeWide* nodes,
@@ -144,20 +159,5 @@ __kernel void benchOccludedWideRay8(__global const struct BvhNodeWide* nodes,
                                     __global const Primitive* primitives, __global const Ray* rays,
                                     __global const float* tMax, __global const int* packets,
                                     uint packetCount, __global int* occluded) {
-    uint p = (uint)get_global_id(0);
-    if (p >= packetCount) return;
-    const int8 index = vload8(p, packets);
-    float8 t, b1, b2;
-    int8 prim;
-    const int8 hit =
-        ray8Traverse(nodes, packs, primitives, rays, tMax, index, false, &t, &prim, &b1, &b2);
-    const int8 out = select((int8)(0), (int8)(1), hit);
-    if (index.s0 >= 0) occluded[index.s0] = out.s0;
-    if (index.s1 >= 0) occluded[index.s1] = out.s1;
-    if (index.s2 >= 0) occluded[index.s2] = out.s2;
-    if (index.s3 >= 0) occluded[index.s3] = out.s3;
-    if (index.s4 >= 0) occluded[index.s4] = out.s4;
-    if (index.s5 >= 0) occluded[index.s5] = out.s5;
-    if (index.s6 >= 0) occluded[index.s6] = out.s6;
-    if (index.s7 >= 0) occluded[index.s7] = out.s7;
+    benchRay8(nodes, packs, primitives, rays, tMax, packets, packetCount, false, 0, occluded);
 }
