@@ -3,7 +3,8 @@
 src/bench/kernels/bench_bvh_packet.h) and eight rays per work-item (`--traversal ray8`,
 src/bench/kernels/bench_bvh_ray8.h), find the same hits as the renderers' traversal
 (`--traversal wide`) and as Embree, on every ray set of the traverse section: coherent ones
-(primary, one estimate's bounces and shadow rays) and incoherent ones, closest and any hit.
+(primary, one estimate's bounces and shadow rays) and incoherent ones, closest and any hit, on
+the bunny alone and standing in a room (walls behind and beside it: bounces start inside).
 Every ray's answer is compared with Embree's (agreement 1 = all rays; a closest hit counts as
 agreeing when it is the same triangle or one at the same distance, a shared edge), and the
 number of hits with the wide traversal's on the same rays.
@@ -31,7 +32,7 @@ with tempfile.TemporaryDirectory() as tmp:
     # multiple of the work-group size or of 64, so padding work-items and ray8's padded last
     # packet are exercised too.
     r = subprocess.run([args.bench, "--sections", "traverse", "--traversal", "wide,packet,ray8",
-                        "--meshes", "bunny", "--rays", "4104", "--repeats", "1",
+                        "--meshes", "bunny,bunny-room", "--rays", "4104", "--repeats", "1",
                         "--cases", ",".join(CASES), "--json", out],
                        capture_output=True, text=True, timeout=900)
     check(r.returncode == 0, f"cbdpt-bench exits 0 (got {r.returncode}: {r.stderr})")
@@ -40,7 +41,7 @@ with tempfile.TemporaryDirectory() as tmp:
 rows = data.get("traverse", [])
 embree = data.get("machine", {}).get("embree", False)
 by_key = {(row["mesh"], row["order"], row["rays"]): row for row in rows}
-for mesh in ("bunny",):
+for mesh in ("bunny", "bunny-room"):
     for variant in ("packet", "ray8"):
         for case in CASES:
             packet = by_key.get((mesh, variant, case))

@@ -55,7 +55,11 @@ std::vector<BenchMesh> loadMeshes(const Options& o) {
         names = o.quick ? std::vector<std::string>{"bunny", "sphere-10k"}
                         : std::vector<std::string>{"bunny", "dragon", "sphere-1M"};
     std::vector<BenchMesh> out;
-    for (const auto& n : names) {
+    for (const auto& name : names) {
+        // NAME-room: the mesh NAME in a room (withRoom).
+        const bool room = name.size() > 5 && name.compare(name.size() - 5, 5, "-room") == 0;
+        const std::string n = room ? name.substr(0, name.size() - 5) : name;
+        const size_t before = out.size();
         if (n.rfind("sphere-", 0) == 0) {
             std::string s = n.substr(7);
             double scale = 1.0;
@@ -65,16 +69,14 @@ std::vector<BenchMesh> loadMeshes(const Options& o) {
             }
             long tris = long(std::stod(s) * scale);
             const float c[3] = {0.0f, 0.0f, 0.0f};
-            out.push_back({n, displacedSphere(tris, c, 1.0f)});
-            continue;
-        }
-        std::string path = findModel(o, n + ".ply");
-        if (path.empty()) {
+            out.push_back({name, displacedSphere(tris, c, 1.0f)});
+        } else if (std::string path = findModel(o, n + ".ply"); !path.empty()) {
+            out.push_back({name, readPly(path)});
+        } else {
             fmt::print(stderr,
                        "warning: {}.ply not found (--models or CBDPT_MODEL_PATH); skipped\n", n);
-            continue;
         }
-        out.push_back({n, readPly(path)});
+        if (room && out.size() > before) out.back().mesh = withRoom(std::move(out.back().mesh));
     }
     return out;
 }

@@ -75,7 +75,10 @@ void addOptions(CLI::App& app, Options& o) {
     app.add_option("--rays", o.rays, "rays per traversal case");
     app.add_option("--threads", o.threads, "Embree (and --host) threads");
     app.add_flag("--host", o.host, "also time bench_bvh_binary.h compiled for the host");
-    app.add_option("--meshes", o.meshes, "bunny, dragon, buddha, sphere-<n>[k|M]")->delimiter(',');
+    app.add_option(
+           "--meshes", o.meshes,
+           "bunny, dragon, buddha, sphere-<n>[k|M]; NAME-room: NAME standing in an open room")
+        ->delimiter(',');
     app.add_option("--device", o.device, "OpenCL device P:D");
     app.add_option("--cases", o.cases,
                    "traverse: primary, incoherent, shadow, incoh-any, and one CPT estimate's "

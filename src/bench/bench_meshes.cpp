@@ -1,5 +1,7 @@
 #include "bench/bench_meshes.h"
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -42,6 +44,36 @@ PlyMesh displacedSphere(long triangles, const float centre[3], float radius) {
     for (int j = 0; j < segments; ++j)
         m.triangles.push_back({south, v(rings - 1, j), v(rings - 1, j + 1)});
     return m;
+}
+
+PlyMesh withRoom(PlyMesh mesh) {
+    std::array<float, 3> lo = {INFINITY, INFINITY, INFINITY},
+                         hi = {-INFINITY, -INFINITY, -INFINITY};
+    for (const auto& p : mesh.positions)
+        for (int a = 0; a < 3; ++a) {
+            lo[a] = std::min(lo[a], p[a]);
+            hi[a] = std::max(hi[a], p[a]);
+        }
+    float half = 0.0f;
+    for (int a = 0; a < 3; ++a)
+        half = std::max(half, 0.5f * (hi[a] - lo[a]));
+    const float cx = 0.5f * (lo[0] + hi[0]), cz = 0.5f * (lo[2] + hi[2]);
+    const float x0 = cx - 1.5f * half, x1 = cx + 1.5f * half;
+    const float z0 = cz - 1.5f * half, z1 = cz + 1.5f * half;
+    const float y0 = lo[1] - 0.01f * half, y1 = y0 + 3.0f * half;
+    // A quad a-b-c-d (in order around it) as two triangles.
+    auto quad = [&](std::array<float, 3> a, std::array<float, 3> b, std::array<float, 3> c,
+                    std::array<float, 3> d) {
+        const unsigned first = unsigned(mesh.positions.size());
+        mesh.positions.insert(mesh.positions.end(), {a, b, c, d});
+        mesh.triangles.push_back({first, first + 1, first + 2});
+        mesh.triangles.push_back({first, first + 2, first + 3});
+    };
+    quad({x0, y0, z0}, {x1, y0, z0}, {x1, y0, z1}, {x0, y0, z1}); // floor
+    quad({x0, y0, z0}, {x0, y1, z0}, {x1, y1, z0}, {x1, y0, z0}); // back wall
+    quad({x0, y0, z0}, {x0, y0, z1}, {x0, y1, z1}, {x0, y1, z0}); // left wall
+    quad({x1, y0, z0}, {x1, y1, z0}, {x1, y1, z1}, {x1, y0, z1}); // right wall
+    return mesh;
 }
 
 std::vector<cbk::Primitive> meshPrimitives(const PlyMesh& mesh) {
