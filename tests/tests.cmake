@@ -47,6 +47,8 @@ add_test(NAME report_combine COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_repo
 set_tests_properties(report_combine PROPERTIES TIMEOUT 600)
 # scripts/report's answers to the thesis's claims on synthetic units with known cost and error
 # ratios: bands apart and overlapping, each claim's count of where it holds.
+# scripts/equal-time-pbrt --regions finds known per-cell variances (no pbrt-v4 needed).
+add_test(NAME equal_time_regions COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_equal_time_regions.py ${CMAKE_SOURCE_DIR})
 add_test(NAME report_claims COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_report_claims.py ${CMAKE_SOURCE_DIR})
 set_tests_properties(report_claims PROPERTIES TIMEOUT 600)
 
