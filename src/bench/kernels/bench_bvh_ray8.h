@@ -122,11 +122,11 @@ CB_FN void ray8Record(int j, Hit h, bool closestHit, float8* closest, int8* foun
     *hitB2 = select(*hitB2, (float8)(h.b2), at);
 }
 
-/* A leaf's packs first .. first + count - 1 against the rays of `mask`. With a shared largest
- * axis each triangle is tested against the eight rays at once: intersectPackSimd's arithmetic
- * with the roles of lanes turned (a lane per ray, not per triangle), lanes that would take its
- * double-precision path decided one by one by intersectPrimitiveSheared, as it decides them.
- * Otherwise (and for packs of other primitives) ray by ray with intersectPack. Triangles are
+/* A leaf's packs first .. first + count - 1 against the rays of rayBits (bit j: lane j). With a
+ * shared largest axis each triangle is tested against the eight rays at once: intersectPackSimd's
+ * arithmetic with the roles of lanes turned (a lane per ray, not per triangle), lanes that would
+ * take its double-precision path decided one by one by intersectPrimitiveSheared, as it decides
+ * them. Otherwise (and for packs of other primitives) ray by ray with intersectPack. Triangles are
  * taken in order, each against the closest hit so far, so the nearest hit wins and the first
  * triangle among equal distances, as in intersectPack. A ray that is done (an any-hit query that
  * hit) gets closest -1 and takes no further part. */
