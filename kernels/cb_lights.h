@@ -171,10 +171,8 @@ CB_FN real lightConePdf(const SceneView* scene, int lightIndex, Vec3 ref) {
  * axis (pbrt-v4 Sphere::Sample with a reference point). pdfArea is then the cone density
  * converted to area at the point, and pdfSolidAngle the cone density itself; area sampling
  * leaves pdfSolidAngle 0. False if the scene has no lights or the density vanishes. */
-CB_FN bool lightSampleFrom(const SceneView* scene, Vec3 ref, real uChoice, real u0, real u1,
-                           LightSample* out) {
-    if (scene->lightCount <= 0) return false;
-    int lightIndex = lightChoose(scene, uChoice);
+CB_FN bool lightSampleFromIndex(const SceneView* scene, Vec3 ref, int lightIndex, real u0, real u1,
+                                LightSample* out) {
 #if CB_HAS(CB_FEATURE_DISTANT_LIGHT)
     if (scene->lights[lightIndex].kind == CB_LIGHT_DISTANT) {
         /* The one direction, to a point beyond the bounding sphere (ref lies inside it). */
@@ -248,6 +246,36 @@ CB_FN bool lightSampleFrom(const SceneView* scene, Vec3 ref, real uChoice, real 
     return out->pdfPick > 0.0f && out->pdfArea > 0.0f && isfinite(out->pdfArea);
 }
 
+CB_FN bool lightSampleFrom(const SceneView* scene, Vec3 ref, real uChoice, real u0, real u1,
+                           LightSample* out) {
+    if (scene->lightCount <= 0) return false;
+    return lightSampleFromIndex(scene, ref, lightChoose(scene, uChoice), u0, u1, out);
+}
+
+/* ---- Prototype: the light chosen by its importance at the shading point ------------------
+ * With at most CB_LIGHT_IMPORTANCE_MAX lights, all of them area (triangle, sphere) or point
+ * lights, next-event estimation from `ref` may choose light i with probability proportional to
+ * its power over the squared distance (at least its area, or its radius squared), and 0 where
+ * a one-sided triangle faces away from ref (it cannot light ref there; pbrt-v4's light BVH
+ * bounds the same quantities). Otherwise, by power. */
+#define CB_LIGHT_IMPORTANCE_MAX 8
+
+/* Light i's importance at ref; negative when it has none (distant, infinite lights). */
+CB_FN real lightImportanceAt(const SceneView* scene, int i, Vec3 ref) {
+    CB_GLOBAL const Light* light = &scene->lights[i];
+    real power = light->pickProbability;
+    if (light->kind == CB_LIGHT_POINT) {
+        real d2 = vlength2(vsub(ref, vec3FromGlobalArray(light->position)));
+        return power / fmax(d2, 1e-20f);
+    }
+    if (light->kind != CB_LIGHT_AREA) return -1.0f;
+    /* The host put the centre in position, a triangle's front normal in axis (zero for a
+     * sphere) and the squared distance's floor in sceneRadius. */
+    Vec3 toRef = vsub(ref, vec3FromGlobalArray(light->position));
+    if (!light->twoSided && vdot(toRef, vec3FromGlobalArray(light->axis)) < 0.0f) return 0.0f;
+    return power / fmax(vlength2(toRef), light->sceneRadius);
+}
+
 /* Solid-angle density at `ref`, light choice included, with which lightSampleFrom produces the
  * point p (normal n) of area light `lightIndex`: the cone's for spheres seen from outside, else
  * the area density converted (Veach 1997, eq. 8.10). */
@@ -260,6 +288,50 @@ CB_FN real lightPdfSolidAngleFrom(const SceneView* scene, int lightIndex, Vec3 r
     real dist2 = vlength2(d);
     real cosLight = vabsdot(n, d) / sqrt(dist2);
     return light->pickProbability / light->area * dist2 / cosLight;
+}
+
+/* lightSampleFrom with the light chosen by importance at ref, in one pass over the lights
+ * (weighted reservoir sampling with uChoice rescaled at each step: light i is kept with
+ * probability w_i / sum). *sum: the importances' sum at ref, for lightPdfSolidAngleFromAt from
+ * the same point; negative when the lights are chosen by power. */
+CB_FN bool lightSampleFromAt(const SceneView* scene, Vec3 ref, real uChoice, real u0, real u1,
+                             LightSample* out, real* sum) {
+    *sum = -1.0f;
+    if (scene->lightCount <= 0) return false;
+    if (scene->lightCount > CB_LIGHT_IMPORTANCE_MAX)
+        return lightSampleFrom(scene, ref, uChoice, u0, u1, out);
+    real total = 0.0f, chosenWeight = 0.0f, u = uChoice;
+    int chosen = -1;
+    for (int i = 0; i < scene->lightCount; ++i) {
+        real w = lightImportanceAt(scene, i, ref);
+        if (w < 0.0f) return lightSampleFrom(scene, ref, uChoice, u0, u1, out);
+        if (!(w > 0.0f)) continue;
+        total += w;
+        real keep = w / total;
+        if (u < keep) {
+            chosen = i;
+            chosenWeight = w;
+            u = u / keep;
+        } else {
+            u = (u - keep) / (1.0f - keep);
+        }
+    }
+    *sum = total;
+    if (chosen < 0) return false;
+    bool ok = lightSampleFromIndex(scene, ref, chosen, u0, u1, out);
+    out->pdfPick = chosenWeight / total;
+    return ok && out->pdfPick > 0.0f;
+}
+
+/* lightPdfSolidAngleFrom for a light chosen by importance at ref, whose importances sum to
+ * `sum` there (lightSampleFromAt; negative: by power). */
+CB_FN real lightPdfSolidAngleFromAt(const SceneView* scene, int lightIndex, Vec3 ref, Vec3 p,
+                                    Vec3 n, real sum) {
+    real power = scene->lights[lightIndex].pickProbability;
+    real pdf = lightPdfSolidAngleFrom(scene, lightIndex, ref, p, n);
+    if (sum < 0.0f) return pdf;
+    if (!(sum > 0.0f) || !(power > 0.0f)) return 0.0f;
+    return pdf / power * (lightImportanceAt(scene, lightIndex, ref) / sum);
 }
 
 /* Radiance leaving an area light with front normal n in direction w (unit). One-sided lights

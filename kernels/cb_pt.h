@@ -39,6 +39,7 @@ CB_FN Spectrum ptRadiance(const SceneView* scene, Ray ray, SampleStream stream,
     real previousPdfW = 0.0f;
     int previousDelta = 1;  /* the pinhole camera: emission seen directly takes full weight */
     Vec3 previousP = ray.o; /* the vertex the ray left, where next-event estimation sampled */
+    real previousLightSum = -1.0f; /* the lights' importances there (lightSampleFromAt) */
 
     for (int vertex = 1; vertex < settings.eyeVertices; ++vertex) {
         Hit hit;
@@ -71,8 +72,8 @@ CB_FN Spectrum ptRadiance(const SceneView* scene, Ray ray, SampleStream stream,
             if (!specIsBlack(emitted)) {
                 real weight = 1.0f;
                 if (!previousDelta) {
-                    real pdfLightW =
-                        lightPdfSolidAngleFrom(scene, sp.light, previousP, sp.p, sp.ng);
+                    real pdfLightW = lightPdfSolidAngleFromAt(scene, sp.light, previousP, sp.p,
+                                                              sp.ng, previousLightSum);
                     weight = powerHeuristic(previousPdfW, pdfLightW);
                 }
                 radiance = specAdd(radiance, specScale(specMul(throughput, emitted), weight));
@@ -84,6 +85,7 @@ CB_FN Spectrum ptRadiance(const SceneView* scene, Ray ray, SampleStream stream,
         Frame frame = frameFromNormal(sp.ng);
 
         /* Next-event estimation: one light point, one shadow ray. */
+        real lightSum = -1.0f;
         if (materialHasNonDelta(scene, sp.material)) {
             LightSample ls;
             /* With one light lightChoose reads no number, so none is drawn. */
@@ -92,7 +94,7 @@ CB_FN Spectrum ptRadiance(const SceneView* scene, Ray ray, SampleStream stream,
                                : 0.0f;
             real uLight0, uLight1;
             sampleAt2(stream, bounceDimension(bounce, CB_SLOT_LIGHT_POINT), &uLight0, &uLight1);
-            if (lightSampleFrom(scene, sp.p, uChoice, uLight0, uLight1, &ls)) {
+            if (lightSampleFromAt(scene, sp.p, uChoice, uLight0, uLight1, &ls, &lightSum)) {
                 Vec3 toLight = vsub(ls.p, sp.p);
                 real dist2 = vlength2(toLight);
                 Vec3 wi = vscale(toLight, 1.0f / sqrt(dist2));
@@ -138,6 +140,7 @@ CB_FN Spectrum ptRadiance(const SceneView* scene, Ray ray, SampleStream stream,
         previousPdfW = bs.pdf;
         previousDelta = bs.isDelta;
         previousP = sp.p;
+        previousLightSum = lightSum;
 
         if (settings.rouletteVertex > 0 && vertex >= settings.rouletteVertex) {
             real survival = rouletteSurvival(throughput);

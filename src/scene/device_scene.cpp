@@ -440,6 +440,31 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
     for (size_t i = 0; i < scene.lights.size(); ++i)
         if (scene.lights[i].kind == CB_LIGHT_AREA && scene.lights[i].primitive < 0)
             throw std::logic_error("area light lost its primitive in the BVH build");
+    // Prototype (lightImportanceAt): an area light's centre in `position`, a triangle's
+    // (unnormalised) front normal in `axis` (zero for a sphere), and the floor of the squared
+    // distance in `sceneRadius` (its area, or the sphere's radius squared).
+    for (auto& light : scene.lights) {
+        if (light.kind != CB_LIGHT_AREA) continue;
+        const cbk::Primitive& prim = scene.bvh.primitives[size_t(light.primitive)];
+        if (prim.kind == CB_PRIM_SPHERE) {
+            for (int a = 0; a < 3; ++a) {
+                light.position[a] = prim.p0[a];
+                light.axis[a] = 0.0f;
+            }
+            light.sceneRadius = prim.p1[0] * prim.p1[0];
+            continue;
+        }
+        const float e1[3] = {prim.p1[0] - prim.p0[0], prim.p1[1] - prim.p0[1],
+                             prim.p1[2] - prim.p0[2]};
+        const float e2[3] = {prim.p2[0] - prim.p0[0], prim.p2[1] - prim.p0[1],
+                             prim.p2[2] - prim.p0[2]};
+        light.axis[0] = e1[1] * e2[2] - e1[2] * e2[1];
+        light.axis[1] = e1[2] * e2[0] - e1[0] * e2[2];
+        light.axis[2] = e1[0] * e2[1] - e1[1] * e2[0];
+        for (int a = 0; a < 3; ++a)
+            light.position[a] = (prim.p0[a] + prim.p1[a] + prim.p2[a]) / 3.0f;
+        light.sceneRadius = light.area;
+    }
     return scene;
 }
 
