@@ -444,7 +444,9 @@ CB_FN bool bdptNeeLightVertex(const SceneView* scene, SampleStream eyeStream, co
     real uChoice = scene->lightCount > 1
                        ? sampleAt(eyeStream, bounceDimension(bounce, CB_SLOT_LIGHT_CHOICE))
                        : 0.0f; /* one light: lightChoose reads no number */
-    if (!lightSampleFrom(scene, pvP(&eye[t - 1]), uChoice, uPoint0, uPoint1, &ls)) return false;
+    real importanceSum;
+    if (!lightSampleFromAt(scene, pvP(&eye[t - 1]), uChoice, uPoint0, uPoint1, &ls, &importanceSum))
+        return false;
     real pdfFwd = ls.isDelta ? ls.pdfPick : lightPdfArea(scene, ls.light);
     if (scene->lights[ls.light].kind == CB_LIGHT_INFINITE) pdfFwd = ls.pdfPick * ls.pdfSolidAngle;
     bdptSetLightVertex(scene, out, &ls, pdfFwd);
@@ -460,14 +462,18 @@ CB_FN bool bdptNeeLightVertex(const SceneView* scene, SampleStream eyeStream, co
  * s = 1 strategy's pdf is that times this ratio: the cone density converted to area at y0,
  * |cos at y0| / dist^2, over the area density (the light choice cancels). 1 for other lights. */
 CB_FN real bdptConeRatio(const SceneView* scene, const PathVertex* y0, const PathVertex* y1) {
-    if (pvIsDeltaLight(y0) || y0->light < 0) return 1.0f;
+    if (y0->light < 0) return 1.0f;
+    /* Prototype: s = 1 chooses the light by importance at y1 (lightSampleFromAt), the light
+     * subpaths by power. */
+    real pick = lightPickRatioAt(scene, y0->light, pvP(y1));
+    if (pvIsDeltaLight(y0)) return pick;
     real conePdf = lightConePdf(scene, y0->light, pvP(y1));
-    if (!(conePdf > 0.0f)) return 1.0f;
+    if (!(conePdf > 0.0f)) return pick;
     Vec3 d = vsub(pvP(y1), pvP(y0));
     real dist2 = vlength2(d);
-    if (!(dist2 > 0.0f)) return 1.0f;
+    if (!(dist2 > 0.0f)) return pick;
     real cosY0 = vabsdot(pvN(y0), d) / sqrt(dist2);
-    return conePdf * cosY0 / dist2 * scene->lights[y0->light].area;
+    return pick * conePdf * cosY0 / dist2 * scene->lights[y0->light].area;
 }
 
 /* Whether strategy (s,t) exists under the caps (see the header comment). */

@@ -323,6 +323,21 @@ CB_FN bool lightSampleFromAt(const SceneView* scene, Vec3 ref, real uChoice, rea
     return ok && out->pdfPick > 0.0f;
 }
 
+/* The probability that lightSampleFromAt at ref chooses light i, over the probability of
+ * choosing it by power: 1 where the lights are chosen by power. */
+CB_FN real lightPickRatioAt(const SceneView* scene, int i, Vec3 ref) {
+    if (scene->lightCount > CB_LIGHT_IMPORTANCE_MAX) return 1.0f;
+    real sum = 0.0f;
+    for (int j = 0; j < scene->lightCount; ++j) {
+        real w = lightImportanceAt(scene, j, ref);
+        if (w < 0.0f) return 1.0f;
+        sum += w;
+    }
+    real power = scene->lights[i].pickProbability;
+    if (!(sum > 0.0f) || !(power > 0.0f)) return 0.0f;
+    return lightImportanceAt(scene, i, ref) / sum / power;
+}
+
 /* lightPdfSolidAngleFrom for a light chosen by importance at ref, whose importances sum to
  * `sum` there (lightSampleFromAt; negative: by power). */
 CB_FN real lightPdfSolidAngleFromAt(const SceneView* scene, int lightIndex, Vec3 ref, Vec3 p,
