@@ -3,10 +3,12 @@
 recovers known variances. Synthetic seeds: cbdpt's pixels have variance 4 in the top-left cell
 of a 2 x 2 grid and 1 elsewhere, pbrt-v4's 2 everywhere, pbrt-v4 takes 1.5x the CPU seconds:
 ratios 0.75 in that cell and 3 elsewhere, within 10% (about 12 standard errors of the
-estimates from 64 seeds x 1024 pixels per cell); a cell outside the mask has none."""
+estimates from 64 seeds x 1024 pixels per cell); a cell outside the mask has none. And
+--pbrt-lightsampler with --integrator bdpt is refused, with the reason."""
 import importlib.machinery
 import importlib.util
 import os
+import subprocess
 import sys
 
 root = sys.argv[1]
@@ -47,4 +49,12 @@ for i in range(2):
 mask[32:, 32:] = False
 grid = module.region_ratios(ours, theirs, mask, 2)
 check(grid[1][1] is None and grid[0][0] is not None, f"a cell outside the mask has no ratio: {grid}")
+
+# pbrt-v4's bdpt integrator has no light sampler to choose: refused before anything renders.
+r = subprocess.run([sys.executable, path, "--pbrt", "/nonexistent/pbrt", "--integrator", "bdpt",
+                    "--pbrt-lightsampler", "power", os.path.join(root, "scenes", "cornell-box.pbrt")],
+                   capture_output=True, text=True, timeout=60)
+check(r.returncode == 2 and "always chooses lights by power" in r.stderr,
+      f"--pbrt-lightsampler with bdpt is refused with the reason (exit {r.returncode}: "
+      f"{r.stderr.strip()[-200:]})")
 finish()
