@@ -48,11 +48,13 @@ for i in range(2):
               f"cell ({i}, {j}): ratio {grid[i][j]:.3f}, expected {expected[i][j]}")
 mask[32:, 32:] = False
 grid = module.region_ratios(ours, theirs, mask, 2)
-check(grid[1][1] is None and grid[0][0] is not None, f"a cell outside the mask has no ratio: {grid}")
+check(grid[1][1] is None and grid[0][0] is not None,
+      f"a cell outside the mask has no ratio: {grid}")
 
 # pbrt-v4's bdpt integrator has no light sampler to choose: refused before anything renders.
+scene = os.path.join(root, "scenes", "cornell-box.pbrt")
 r = subprocess.run([sys.executable, path, "--pbrt", "/nonexistent/pbrt", "--integrator", "bdpt",
-                    "--pbrt-lightsampler", "power", os.path.join(root, "scenes", "cornell-box.pbrt")],
+                    "--pbrt-lightsampler", "power", scene],
                    capture_output=True, text=True, timeout=60)
 check(r.returncode == 2 and "always chooses lights by power" in r.stderr,
       f"--pbrt-lightsampler with bdpt is refused with the reason (exit {r.returncode}: "
