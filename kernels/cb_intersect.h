@@ -311,66 +311,74 @@ CB_FN bool cbAnyLane(int4 mask) {
 #define CB_PACK_HIT 1
 #define CB_PACK_PICK 2
 
-/* The SIMD part of intersectPack on a triangle pack: intersectTriangleSheared's float
- * arithmetic on all four lanes at once (one SSE instruction per step under PoCL). The two
- * cases where that test turns to double precision, a zero edge function and a hit within its
- * own error bound of t = 0, are rare: such lanes come back in *slow, to be decided one by one.
- * CB_PACK_MISS: no lane can be hit; CB_PACK_HIT: an any-hit query is answered; CB_PACK_PICK:
- * *t (+inf where no hit), *b1, *b2 per lane, and *slow, for intersectPack to choose from. */
+/* intersectTriangleSheared's float arithmetic on vector lanes T (masks M), written once for
+ * intersectPackSimd (four triangles of a pack against one ray: shear and tMax S = real) and for
+ * cbdpt-bench's packets (one triangle against several rays: S = T). p*: the vertices translated
+ * to the ray origin in the ray's permuted axes, not yet sheared; live: the lanes that take part.
+ * The two cases where the test turns to double precision, a zero edge function and a hit within
+ * its own error bound of t = 0, are rare: such lanes come back in *slow, to be decided one by
+ * one. CB_PACK_MISS: no lane can be hit; CB_PACK_HIT: !closestHit and a lane is hit; CB_PACK_PICK:
+ * *t (+inf where no hit), *b1, *b2 per lane, and *slow, to choose from.
+ *
+ * The sign of a nonzero float edge function is exact (the two products round monotonically), so
+ * intersectTriangleSheared's double-precision re-evaluation of a zero one can decide that lane,
+ * never flip the others: a lane with edge functions of both strict signs is outside either way.
+ * The cheap test goes first, as most lanes are misses. */
+#define CB_DEFINE_TRIANGLE_LANES(T, M, S, SUFFIX, ANY)                                             \
+    CB_FN int cbTriangleLanes##SUFFIX(T p0x, T p0y, T p0z, T p1x, T p1y, T p1z, T p2x, T p2y,      \
+                                      T p2z, S sx, S sy, S sz, S tMax, M live, bool closestHit,    \
+                                      T* t, T* b1, T* b2, M* slow) {                               \
+        p0x += sx * p0z;                                                                           \
+        p0y += sy * p0z;                                                                           \
+        p1x += sx * p1z;                                                                           \
+        p1y += sy * p1z;                                                                           \
+        p2x += sx * p2z;                                                                           \
+        p2y += sy * p2z;                                                                           \
+        T e0 = cbEdgeFunction##SUFFIX(p1x, p1y, p2x, p2y);                                         \
+        T e1 = cbEdgeFunction##SUFFIX(p2x, p2y, p0x, p0y);                                         \
+        T e2 = cbEdgeFunction##SUFFIX(p0x, p0y, p1x, p1y);                                         \
+        T eMin = min(e0, min(e1, e2)), eMax = max(e0, max(e1, e2));                                \
+        M candidate = ((eMin >= 0.0f) | (eMax <= 0.0f)) & live;                                    \
+        if (!ANY(candidate)) return CB_PACK_MISS;                                                  \
+        *slow = candidate & ((e0 == 0.0f) | (e1 == 0.0f) | (e2 == 0.0f));                          \
+        candidate &= ~*slow;                                                                       \
+        T det = e0 + e1 + e2;                                                                      \
+        p0z *= sz;                                                                                 \
+        p1z *= sz;                                                                                 \
+        p2z *= sz;                                                                                 \
+        T tScaled = e0 * p0z + e1 * p1z + e2 * p2z;                                                \
+        T tMaxDet = tMax * det;                                                                    \
+        candidate &= ((det < 0.0f) & (tScaled < 0.0f) & (tScaled > tMaxDet)) |                     \
+                     ((det > 0.0f) & (tScaled > 0.0f) & (tScaled < tMaxDet));                      \
+        T invDet = 1.0f / det;                                                                     \
+        T tHit = tScaled * invDet;                                                                 \
+        candidate &= tHit < tMax;                                                                  \
+        if (!ANY(candidate | *slow)) return CB_PACK_MISS;                                          \
+        T deltaT = cbTriangleTError##SUFFIX(p0x, p1x, p2x, p0y, p1y, p2y, p0z, p1z, p2z, e0, e1,   \
+                                            e2, invDet);                                           \
+        M nearZero = tHit <= deltaT;                                                               \
+        *slow |= candidate & nearZero;                                                             \
+        M exact = candidate & ~nearZero;                                                           \
+        if (!closestHit && ANY(exact)) return CB_PACK_HIT;                                         \
+        *t = select((T)(INFINITY), tHit, exact);                                                   \
+        *b1 = e1 * invDet;                                                                         \
+        *b2 = e2 * invDet;                                                                         \
+        return CB_PACK_PICK;                                                                       \
+    }
+CB_DEFINE_TRIANGLE_LANES(float4, int4, real, 4, cbAnyLane)
+
+/* The SIMD part of intersectPack on a triangle pack: cbTriangleLanes4 on its four triangles
+ * (one SSE instruction per step under PoCL), see there. */
 CB_FN int intersectPackSimd(CB_GLOBAL const TrianglePack* pack, TriangleRay sheared, real tMax,
                             bool closestHit, float4* t, float4* b1, float4* b2, int4* slow) {
     int kx = sheared.kx, ky = sheared.ky, kz = sheared.kz;
-    float4 p0x = vload4(0, pack->v[0][kx]) - sheared.ox;
-    float4 p0y = vload4(0, pack->v[0][ky]) - sheared.oy;
-    float4 p0z = vload4(0, pack->v[0][kz]) - sheared.oz;
-    float4 p1x = vload4(0, pack->v[1][kx]) - sheared.ox;
-    float4 p1y = vload4(0, pack->v[1][ky]) - sheared.oy;
-    float4 p1z = vload4(0, pack->v[1][kz]) - sheared.oz;
-    float4 p2x = vload4(0, pack->v[2][kx]) - sheared.ox;
-    float4 p2y = vload4(0, pack->v[2][ky]) - sheared.oy;
-    float4 p2z = vload4(0, pack->v[2][kz]) - sheared.oz;
-    p0x += sheared.sx * p0z;
-    p0y += sheared.sy * p0z;
-    p1x += sheared.sx * p1z;
-    p1y += sheared.sy * p1z;
-    p2x += sheared.sx * p2z;
-    p2y += sheared.sy * p2z;
-    float4 e0 = cbEdgeFunction4(p1x, p1y, p2x, p2y);
-    float4 e1 = cbEdgeFunction4(p2x, p2y, p0x, p0y);
-    float4 e2 = cbEdgeFunction4(p0x, p0y, p1x, p1y);
-
-    /* The sign of a nonzero float edge function is exact (the two products round
-     * monotonically), so intersectTriangleSheared's double-precision re-evaluation of a zero
-     * one can decide that lane, never flip the others: a lane with edge functions of both strict
-     * signs is outside either way. The cheap test goes first, as most lanes are misses. */
-    float4 eMin = min(e0, min(e1, e2)), eMax = max(e0, max(e1, e2));
-    int4 candidate = (eMin >= 0.0f) | (eMax <= 0.0f);
-    if (!cbAnyLane(candidate)) return CB_PACK_MISS;
-    *slow = candidate & ((e0 == 0.0f) | (e1 == 0.0f) | (e2 == 0.0f));
-    candidate &= ~*slow;
-
-    float4 det = e0 + e1 + e2;
-    p0z *= sheared.sz;
-    p1z *= sheared.sz;
-    p2z *= sheared.sz;
-    float4 tScaled = e0 * p0z + e1 * p1z + e2 * p2z;
-    float4 tMaxDet = tMax * det;
-    candidate &= ((det < 0.0f) & (tScaled < 0.0f) & (tScaled > tMaxDet)) |
-                 ((det > 0.0f) & (tScaled > 0.0f) & (tScaled < tMaxDet));
-    float4 invDet = 1.0f / det;
-    float4 tHit = tScaled * invDet;
-    candidate &= tHit < tMax;
-    if (!cbAnyLane(candidate | *slow)) return CB_PACK_MISS;
-    float4 deltaT =
-        cbTriangleTError4(p0x, p1x, p2x, p0y, p1y, p2y, p0z, p1z, p2z, e0, e1, e2, invDet);
-    int4 nearZero = tHit <= deltaT;
-    *slow |= candidate & nearZero;
-    int4 exact = candidate & ~nearZero;
-    if (!closestHit && cbAnyLane(exact)) return CB_PACK_HIT;
-    *t = select((float4)(INFINITY), tHit, exact);
-    *b1 = e1 * invDet;
-    *b2 = e2 * invDet;
-    return CB_PACK_PICK;
+    return cbTriangleLanes4(
+        vload4(0, pack->v[0][kx]) - sheared.ox, vload4(0, pack->v[0][ky]) - sheared.oy,
+        vload4(0, pack->v[0][kz]) - sheared.oz, vload4(0, pack->v[1][kx]) - sheared.ox,
+        vload4(0, pack->v[1][ky]) - sheared.oy, vload4(0, pack->v[1][kz]) - sheared.oz,
+        vload4(0, pack->v[2][kx]) - sheared.ox, vload4(0, pack->v[2][ky]) - sheared.oy,
+        vload4(0, pack->v[2][kz]) - sheared.oz, sheared.sx, sheared.sy, sheared.sz, tMax,
+        (int4)(-1), closestHit, t, b1, b2, slow);
 }
 
 /* The value of the one lane of v that `lane` (lanes 0 or -1) selects, exactly (bits ORed with

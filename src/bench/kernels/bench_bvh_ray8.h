@@ -13,7 +13,7 @@
  * integer keys, which depend only on the node and that ray. The set of children any ray still
  * hits only shrinks as the closest hits get closer, so the trail stays exact and every child is
  * visited at most once. A leaf's triangles are tested the other way round from the single-ray
- * traversal's packs: one triangle against the eight rays (intersectPackSimd's arithmetic with a
+ * traversal's packs: one triangle against the eight rays (cbTriangleLanes of cb_intersect.h with a
  * lane per ray), for the rays whose own box test kept the leaf. Each ray gets the single-ray
  * traversal's answer, up to which of two hits within rounding of each other is kept (the
  * triangles of a pack are tested one after the other, against the closest hit so far). */
@@ -109,6 +109,11 @@ CB_FN float8 ray8Component(float8 x, float8 y, float8 z, int k) {
  * it): the edge functions must be exactly antisymmetric for the test to stay watertight. */
 #pragma OPENCL FP_CONTRACT OFF
 CB_DEFINE_TRIANGLE_ARITHMETIC(float8, 8)
+CB_FN bool ray8AnyLane(int8 mask) {
+    return bvhWideOrAll(mask) != 0;
+}
+/* cbTriangleLanes8: the pack test of cb_intersect.h with a lane per ray. */
+CB_DEFINE_TRIANGLE_LANES(float8, int8, float8, 8, ray8AnyLane)
 
 /* The hits of ray j (one lane) recorded in the packet's lanes. */
 CB_FN void ray8Record(int j, Hit h, bool closestHit, float8* closest, int8* found, int8* hitPrim,
@@ -123,13 +128,14 @@ CB_FN void ray8Record(int j, Hit h, bool closestHit, float8* closest, int8* foun
 }
 
 /* A leaf's packs first .. first + count - 1 against the rays of rayBits (bit j: lane j). With a
- * shared largest axis each triangle is tested against the eight rays at once: intersectPackSimd's
- * arithmetic with the roles of lanes turned (a lane per ray, not per triangle), lanes that would
- * take its double-precision path decided one by one by intersectPrimitiveSheared, as it decides
- * them. Otherwise (and for packs of other primitives) ray by ray with intersectPack. Triangles are
- * taken in order, each against the closest hit so far, so the nearest hit wins and the first
- * triangle among equal distances, as in intersectPack. A ray that is done (an any-hit query that
- * hit) gets closest -1 and takes no further part. */
+ * shared largest axis each triangle is tested against the eight rays at once: the pack test's
+ * arithmetic (cbTriangleLanes8) with the roles of lanes turned (a lane per ray, not per
+ * triangle), lanes that would take its double-precision path decided one by one by
+ * intersectPrimitiveSheared, as intersectPack decides them. Otherwise (and for packs of other
+ * primitives) ray by ray with intersectPack. Triangles are taken in order, each against the closest
+ * hit so far, so the nearest hit wins and the first triangle among equal distances, as in
+ * intersectPack. A ray that is done (an any-hit query that hit) gets closest -1 and takes no
+ * further part. */
 CB_FN __attribute__((always_inline)) void
 ray8Leaf(CB_GLOBAL const TrianglePack* packs, CB_GLOBAL const Primitive* prims,
          CB_GLOBAL const Ray* rays, int8 index, uint first, uint count, uint rayBits,
@@ -155,49 +161,26 @@ ray8Leaf(CB_GLOBAL const TrianglePack* packs, CB_GLOBAL const Primitive* prims,
         const int kx = sh->kx, ky = sh->ky, kz = sh->kz;
         for (int l = 0; l < pack->count; ++l) {
             const int8 live = mask & (*closest >= (float8)(0.0f));
-            float8 p0z = (float8)(pack->v[0][kz][l]) - sh->oz;
-            float8 p1z = (float8)(pack->v[1][kz][l]) - sh->oz;
-            float8 p2z = (float8)(pack->v[2][kz][l]) - sh->oz;
-            float8 p0x = ((float8)(pack->v[0][kx][l]) - sh->ox) + sh->sx * p0z;
-            float8 p0y = ((float8)(pack->v[0][ky][l]) - sh->oy) + sh->sy * p0z;
-            float8 p1x = ((float8)(pack->v[1][kx][l]) - sh->ox) + sh->sx * p1z;
-            float8 p1y = ((float8)(pack->v[1][ky][l]) - sh->oy) + sh->sy * p1z;
-            float8 p2x = ((float8)(pack->v[2][kx][l]) - sh->ox) + sh->sx * p2z;
-            float8 p2y = ((float8)(pack->v[2][ky][l]) - sh->oy) + sh->sy * p2z;
-            float8 e0 = cbEdgeFunction8(p1x, p1y, p2x, p2y);
-            float8 e1 = cbEdgeFunction8(p2x, p2y, p0x, p0y);
-            float8 e2 = cbEdgeFunction8(p0x, p0y, p1x, p1y);
-            float8 eMin = min(e0, min(e1, e2)), eMax = max(e0, max(e1, e2));
-            int8 candidate = ((eMin >= 0.0f) | (eMax <= 0.0f)) & live;
-            if (bvhWideBits(candidate) == 0u) continue;
-            int8 slow = candidate & ((e0 == 0.0f) | (e1 == 0.0f) | (e2 == 0.0f));
-            candidate &= ~slow;
-            float8 det = e0 + e1 + e2;
-            p0z *= sh->sz;
-            p1z *= sh->sz;
-            p2z *= sh->sz;
-            float8 tScaled = e0 * p0z + e1 * p1z + e2 * p2z;
-            float8 tMaxDet = *closest * det;
-            candidate &= ((det < 0.0f) & (tScaled < 0.0f) & (tScaled > tMaxDet)) |
-                         ((det > 0.0f) & (tScaled > 0.0f) & (tScaled < tMaxDet));
-            float8 invDet = 1.0f / det;
-            float8 tHit = tScaled * invDet;
-            candidate &= tHit < *closest;
-            if (bvhWideBits(candidate) != 0u) {
-                float8 deltaT = cbTriangleTError8(p0x, p1x, p2x, p0y, p1y, p2y, p0z, p1z, p2z, e0,
-                                                  e1, e2, invDet);
-                int8 nearZero = tHit <= deltaT;
-                slow |= candidate & nearZero;
-                int8 exact = candidate & ~nearZero;
-                *found |= exact;
-                if (closestHit) {
-                    *closest = select(*closest, tHit, exact);
-                    *hitPrim = select(*hitPrim, (int8)(pack->prim[l]), exact);
-                    *hitB1 = select(*hitB1, e1 * invDet, exact);
-                    *hitB2 = select(*hitB2, e2 * invDet, exact);
-                } else {
-                    *closest = select(*closest, (float8)(-1.0f), exact);
-                }
+            float8 t, b1, b2;
+            int8 slow;
+            /* Every lane its own answer (closestHit true: no return at the first hit). */
+            if (cbTriangleLanes8(
+                    (float8)(pack->v[0][kx][l]) - sh->ox, (float8)(pack->v[0][ky][l]) - sh->oy,
+                    (float8)(pack->v[0][kz][l]) - sh->oz, (float8)(pack->v[1][kx][l]) - sh->ox,
+                    (float8)(pack->v[1][ky][l]) - sh->oy, (float8)(pack->v[1][kz][l]) - sh->oz,
+                    (float8)(pack->v[2][kx][l]) - sh->ox, (float8)(pack->v[2][ky][l]) - sh->oy,
+                    (float8)(pack->v[2][kz][l]) - sh->oz, sh->sx, sh->sy, sh->sz, *closest, live,
+                    true, &t, &b1, &b2, &slow) == CB_PACK_MISS)
+                continue;
+            const int8 exact = t < (float8)(INFINITY);
+            *found |= exact;
+            if (closestHit) {
+                *closest = select(*closest, t, exact);
+                *hitPrim = select(*hitPrim, (int8)(pack->prim[l]), exact);
+                *hitB1 = select(*hitB1, b1, exact);
+                *hitB2 = select(*hitB2, b2, exact);
+            } else {
+                *closest = select(*closest, (float8)(-1.0f), exact);
             }
             uint slowBits = bvhWideBits(slow);
             while (slowBits != 0u) {
