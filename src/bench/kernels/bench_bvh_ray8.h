@@ -295,7 +295,9 @@ ray8Traverse(CB_GLOBAL const BvhNodeWide* nodes, CB_GLOBAL const TrianglePack* p
                 bvhGroupDescend(node, k, more, &cur, &fromLane, &depth, &trail);
                 continue;
             }
-            /* The leaf's packs, for the rays whose own box test keeps it. */
+            /* The leaf's packs, for the rays whose own box test keeps it: that child's test
+             * again (one of the node's eight), rather than the eight masks of the loop above
+             * kept in a private array, which PoCL would copy per work-item. */
             const uint rayBits = bvhWideBits(ray8Box(node, k, &s, closest));
             ray8Leaf(packs, prims, rays, index, node->child[k], count, rayBits, &sh, closestHit,
                      &closest, &found, hitPrim, hitB1, hitB2);
