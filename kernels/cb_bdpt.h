@@ -241,10 +241,81 @@ CB_FN real bdptLightDirectionPdf(const SceneView* scene, const PathVertex* v, Ve
 
 /* ---- Subpath generation -------------------------------------------------------------------- */
 
+/* One step of a subpath's random walk: the vertex that *ray (leaving prev, path vertex
+ * count - 1, with solid-angle density *pdfW and throughput *beta) found (found, hit), or on an
+ * escape the infinite light, written to *v (vertex count); then, unless the subpath has
+ * maxVertices vertices, the scattering there: prev->pdfRev, the next *ray, *beta and *pdfW.
+ * Bounce b (the vertex path[b+1] scattering) reads dimensions firstBounceDim + b *
+ * CB_DIMS_PER_BOUNCE + slot. Returns 0 when no vertex was added, 1 when *v was added and the
+ * walk ends, 2 when it goes on with *ray. */
+CB_FN int bdptWalkStep(const SceneView* scene, bool found, Hit hit, Ray* ray, Spectrum* beta,
+                       real* pdfW, int adjoint, SampleStream stream, uint firstBounceDim,
+                       PathVertex* prev, PathVertex* v, int count, int maxVertices) {
+    if (!found) {
+        /* An escaped eye ray ends on the infinite light, if the scene has one. */
+        int infinite = adjoint ? -1 : lightInfinite(scene);
+        if (infinite < 0) return 0;
+        cbStore3(v->p, vmadd(ray->o, ray->d, 2.0f * scene->lights[infinite].sceneRadius));
+        cbStore3(v->n, vneg(ray->d));
+        cbStore3(v->pError, vec3(0.0f, 0.0f, 0.0f));
+        cbStore3(v->wo, vneg(ray->d));
+        v->type = CB_VERTEX_INFINITE_LIGHT;
+        v->material = -1;
+        v->light = infinite;
+        v->delta = 0;
+        v->pdfFwd = *pdfW;
+        v->pdfRev = 0.0f;
+        v->pad0 = v->pad1 = 0.0f;
+        for (int i = 0; i < CB_PATH_VERTEX_PAD; ++i)
+            v->pad[i] = 0.0f;
+        v->beta = *beta;
+        return 1;
+    }
+    SurfacePoint sp = surfacePointFromHit(scene, *ray, hit);
+    cbStore3(v->p, sp.p);
+    cbStore3(v->n, sp.ng);
+    cbStore3(v->pError, sp.pError);
+    cbStore3(v->wo, vneg(ray->d));
+    v->type = CB_VERTEX_SURFACE;
+    v->material = sp.material;
+    v->light = sp.light;
+    v->delta = 0;
+    v->pdfRev = 0.0f;
+    v->pad0 = v->pad1 = 0.0f;
+    for (int i = 0; i < CB_PATH_VERTEX_PAD; ++i)
+        v->pad[i] = 0.0f;
+    v->beta = *beta;
+    v->pdfFwd = pvConvertPdf(*pdfW, pvP(prev), v);
+    ++count;
+    if (count >= maxVertices) return 1;
+
+    uint base = firstBounceDim + (uint)(count - 2) * CB_DIMS_PER_BOUNCE;
+    BsdfSample bs;
+    real u0, u1;
+    sampleAt2(stream, base + CB_SLOT_BSDF_DIRECTION, &u0, &u1);
+    real uLobe =
+        bsdfReadsLobeSample(scene, sp.material) ? sampleAt(stream, base + CB_SLOT_BSDF_LOBE) : 0.0f;
+    if (!bsdfSample(scene, sp.material, frameFromNormal(sp.ng), vneg(ray->d), u0, u1, uLobe,
+                    adjoint, &bs))
+        return 1;
+    if (!(bs.pdf > 0.0f) || specIsBlack(bs.f)) return 1;
+    *beta = specMul(*beta, specScale(bs.f, vabsdot(bs.wi, sp.ng) / bs.pdf));
+    real pdfFwdW = bs.pdf;
+    real pdfRevW = bs.pdfRev;
+    if (bs.isDelta) {
+        v->delta = 1;
+        pdfFwdW = 0.0f;
+        pdfRevW = 0.0f;
+    }
+    prev->pdfRev = pvConvertPdf(pdfRevW, sp.p, prev);
+    *pdfW = pdfFwdW;
+    *ray = spawnRay(sp, bs.wi);
+    return 2;
+}
+
 /* Continue a subpath whose last vertex path[count-1] emitted `ray` with solid-angle density
  * pdfW, until maxVertices vertices exist or the path escapes / is absorbed (no Russian
- * roulette: the caps bound the length). Bounce b (the vertex path[b+1] scattering) reads
- * dimensions firstBounceDim + b * CB_DIMS_PER_BOUNCE + slot. Returns the vertex count. */
+ * roulette: the caps bound the length), one bdptWalkStep per ray. Returns the vertex count. */
 CB_FN int bdptRandomWalk(const SceneView* scene, Ray ray, Spectrum beta, real pdfW, int adjoint,
                          bool coherentFirstRay, SampleStream stream, uint firstBounceDim,
                          PathVertex* path, int count, int maxVertices, int* rays) {
@@ -255,70 +326,10 @@ CB_FN int bdptRandomWalk(const SceneView* scene, Ray ray, Spectrum beta, real pd
         bool found = coherent ? sceneIntersectCoherent(scene, ray, CB_INFINITY, &hit)
                               : sceneIntersect(scene, ray, CB_INFINITY, &hit);
         coherent = false;
-        if (!found) {
-            /* An escaped eye ray ends on the infinite light, if the scene has one. */
-            int infinite = adjoint ? -1 : lightInfinite(scene);
-            if (infinite < 0) break;
-            PathVertex* v = &path[count];
-            cbStore3(v->p, vmadd(ray.o, ray.d, 2.0f * scene->lights[infinite].sceneRadius));
-            cbStore3(v->n, vneg(ray.d));
-            cbStore3(v->pError, vec3(0.0f, 0.0f, 0.0f));
-            cbStore3(v->wo, vneg(ray.d));
-            v->type = CB_VERTEX_INFINITE_LIGHT;
-            v->material = -1;
-            v->light = infinite;
-            v->delta = 0;
-            v->pdfFwd = pdfW;
-            v->pdfRev = 0.0f;
-            v->pad0 = v->pad1 = 0.0f;
-            for (int i = 0; i < CB_PATH_VERTEX_PAD; ++i)
-                v->pad[i] = 0.0f;
-            v->beta = beta;
-            ++count;
-            break;
-        }
-        SurfacePoint sp = surfacePointFromHit(scene, ray, hit);
-        PathVertex* v = &path[count];
-        PathVertex* prev = &path[count - 1];
-        cbStore3(v->p, sp.p);
-        cbStore3(v->n, sp.ng);
-        cbStore3(v->pError, sp.pError);
-        cbStore3(v->wo, vneg(ray.d));
-        v->type = CB_VERTEX_SURFACE;
-        v->material = sp.material;
-        v->light = sp.light;
-        v->delta = 0;
-        v->pdfRev = 0.0f;
-        v->pad0 = v->pad1 = 0.0f;
-        for (int i = 0; i < CB_PATH_VERTEX_PAD; ++i)
-            v->pad[i] = 0.0f;
-        v->beta = beta;
-        v->pdfFwd = pvConvertPdf(pdfW, pvP(prev), v);
-        ++count;
-        if (count >= maxVertices) break;
-
-        uint base = firstBounceDim + (uint)(count - 2) * CB_DIMS_PER_BOUNCE;
-        BsdfSample bs;
-        real u0, u1;
-        sampleAt2(stream, base + CB_SLOT_BSDF_DIRECTION, &u0, &u1);
-        real uLobe = bsdfReadsLobeSample(scene, sp.material)
-                         ? sampleAt(stream, base + CB_SLOT_BSDF_LOBE)
-                         : 0.0f;
-        if (!bsdfSample(scene, sp.material, frameFromNormal(sp.ng), vneg(ray.d), u0, u1, uLobe,
-                        adjoint, &bs))
-            break;
-        if (!(bs.pdf > 0.0f) || specIsBlack(bs.f)) break;
-        beta = specMul(beta, specScale(bs.f, vabsdot(bs.wi, sp.ng) / bs.pdf));
-        real pdfFwdW = bs.pdf;
-        real pdfRevW = bs.pdfRev;
-        if (bs.isDelta) {
-            v->delta = 1;
-            pdfFwdW = 0.0f;
-            pdfRevW = 0.0f;
-        }
-        prev->pdfRev = pvConvertPdf(pdfRevW, sp.p, prev);
-        pdfW = pdfFwdW;
-        ray = spawnRay(sp, bs.wi);
+        int step = bdptWalkStep(scene, found, hit, &ray, &beta, &pdfW, adjoint, stream,
+                                firstBounceDim, &path[count - 1], &path[count], count, maxVertices);
+        if (step > 0) ++count;
+        if (step < 2) break;
     }
     return count;
 }
@@ -326,15 +337,25 @@ CB_FN int bdptRandomWalk(const SceneView* scene, Ray ray, Spectrum beta, real pd
 /* Eye subpath through raster position (rasterX, rasterY). Eye bounces read the same dimensions
  * as PT's (cb_rng.h), so eye[v] scatters with bounceDimension(v - 1, slot). `pixelOrder`: the
  * work-group's work-items are neighbouring pixels, so the camera rays are traced with
- * sceneIntersectCoherent (MLT's chains jump anywhere on the image and pass false). */
+ * sceneIntersectCoherent (MLT's chains jump anywhere on the image and pass false). bdptEyeStart:
+ * its camera vertex into eye[0] and its first ray, with that ray's direction density. */
+CB_FN Ray bdptEyeStart(const Camera* camera, real rasterX, real rasterY, PathVertex* eye,
+                       real* pdfDir) {
+    eye[0] = bdptCameraVertex(camera);
+    Ray ray = cameraGenerateRay(camera, rasterX, rasterY);
+    cameraImportance(camera, ray.d, pdfDir);
+    return ray;
+}
+
 CB_FN int bdptEyeSubpath(const SceneView* scene, const Camera* camera, real rasterX, real rasterY,
                          bool pixelOrder, SampleStream stream, int maxVertices, PathVertex* eye,
                          int* rays) {
-    eye[0] = bdptCameraVertex(camera);
-    if (maxVertices < 2) return 1;
-    Ray ray = cameraGenerateRay(camera, rasterX, rasterY);
+    if (maxVertices < 2) {
+        eye[0] = bdptCameraVertex(camera);
+        return 1;
+    }
     real pdfDir;
-    cameraImportance(camera, ray.d, &pdfDir);
+    Ray ray = bdptEyeStart(camera, rasterX, rasterY, eye, &pdfDir);
     return bdptRandomWalk(scene, ray, specConst(1.0f), pdfDir, 0, pixelOrder, stream,
                           CB_DIM_FIRST_BOUNCE, eye, 1, maxVertices, rays);
 }
@@ -710,22 +731,56 @@ CB_FN bool bdptConnectUnoccluded(const SceneView* scene, const Camera* camera,
     return true;
 }
 
+/* The shadow ray of the segment between the connection's two vertices, free up to *tMax. */
+CB_FN Ray bdptConnectionRay(const Camera* camera, const PathVertex* light, int s,
+                            const PathVertex* eye, int t, real* tMax) {
+    const PathVertex* qs = &light[s - 1];
+    if (t == 1) {
+        Vec3 cam = affineTransformPoint(camera->cameraToWorld, vec3(0.0f, 0.0f, 0.0f));
+        return spawnRayTo(pvSurfacePoint(qs), cam, vec3(0.0f, 0.0f, 0.0f), vec3(0.0f, 0.0f, 0.0f),
+                          tMax);
+    }
+    const PathVertex* pt = &eye[t - 1];
+    SurfacePoint target = pvSurfacePoint(qs);
+    return spawnRayTo(pvSurfacePoint(pt), target.p, target.pError, target.ng, tMax);
+}
+
 /* Whether the segment between the connection's two vertices is free (one shadow ray). */
 CB_FN bool bdptConnectionVisible(const SceneView* scene, const Camera* camera,
                                  const PathVertex* light, int s, const PathVertex* eye, int t) {
-    const PathVertex* qs = &light[s - 1];
     real tMax;
-    Ray r;
-    if (t == 1) {
-        Vec3 cam = affineTransformPoint(camera->cameraToWorld, vec3(0.0f, 0.0f, 0.0f));
-        r = spawnRayTo(pvSurfacePoint(qs), cam, vec3(0.0f, 0.0f, 0.0f), vec3(0.0f, 0.0f, 0.0f),
-                       &tMax);
-    } else {
-        const PathVertex* pt = &eye[t - 1];
-        SurfacePoint target = pvSurfacePoint(qs);
-        r = spawnRayTo(pvSurfacePoint(pt), target.p, target.pError, target.ng, &tMax);
-    }
+    Ray r = bdptConnectionRay(camera, light, s, eye, t, &tMax);
     return !sceneOccluded(scene, r, tMax);
+}
+
+/* The weighted (or, in debug mode, unweighted) contribution of strategy (s,t) as if its
+ * segment were free, into *weighted, and whether the strategy applies here; when it needs a
+ * shadow ray, *needsShadow is set and the ray is *shadow, free up to *shadowTMax (*rays counts
+ * it). bdptConnect traces the ray at once; CBDPT's packets (cbdpt.cl) trace a tile's together. */
+CB_FN bool bdptConnectDeferred(const SceneView* scene, const Camera* camera,
+                               const PathVertex* light, int s, const PathVertex* eye, int t,
+                               BdptSettings settings, real cameraCount, real* rasterX,
+                               real* rasterY, Spectrum* weighted, int* needsShadow, Ray* shadow,
+                               real* shadowTMax, int* rays) {
+    BdptConnection c;
+    *needsShadow = 0;
+    if (!bdptStrategyExists(s, t, settings)) return false;
+    if (settings.debugS >= 0 && (s != settings.debugS || t != settings.debugT)) return false;
+    if (settings.debugS < 0 && settings.weights == CB_WEIGHTS_LAFORTUNE && t == 1)
+        return false; /* weight 0: skip the shadow ray */
+    if (!bdptConnectUnoccluded(scene, camera, light, s, eye, t, &c)) return false;
+    real weight = bdptMisWeight(scene, light, s, eye, t, c.ptPdfRev, c.ptMinusPdfRev, c.qsPdfRev,
+                                c.qsMinusPdfRev, settings, cameraCount);
+    if (!(weight > 0.0f)) return false;
+    if (c.needsShadow) {
+        *rays += 1;
+        *needsShadow = 1;
+        *shadow = bdptConnectionRay(camera, light, s, eye, t, shadowTMax);
+    }
+    *rasterX = c.rasterX;
+    *rasterY = c.rasterY;
+    *weighted = specScale(c.contribution, weight);
+    return true;
 }
 
 /* Weighted (or, in debug mode, unweighted) contribution of strategy (s,t), visibility included;
@@ -733,22 +788,18 @@ CB_FN bool bdptConnectionVisible(const SceneView* scene, const Camera* camera,
 CB_FN Spectrum bdptConnect(const SceneView* scene, const Camera* camera, const PathVertex* light,
                            int s, const PathVertex* eye, int t, BdptSettings settings,
                            real cameraCount, real* rasterX, real* rasterY, int* rays) {
-    BdptConnection c;
-    if (!bdptStrategyExists(s, t, settings)) return specZero();
-    if (settings.debugS >= 0 && (s != settings.debugS || t != settings.debugT)) return specZero();
-    if (settings.debugS < 0 && settings.weights == CB_WEIGHTS_LAFORTUNE && t == 1)
-        return specZero(); /* weight 0: skip the shadow ray */
-    if (!bdptConnectUnoccluded(scene, camera, light, s, eye, t, &c)) return specZero();
-    real weight = bdptMisWeight(scene, light, s, eye, t, c.ptPdfRev, c.ptMinusPdfRev, c.qsPdfRev,
-                                c.qsMinusPdfRev, settings, cameraCount);
-    if (!(weight > 0.0f)) return specZero();
-    if (c.needsShadow) {
-        *rays += 1;
-        if (!bdptConnectionVisible(scene, camera, light, s, eye, t)) return specZero();
-    }
-    *rasterX = c.rasterX;
-    *rasterY = c.rasterY;
-    return specScale(c.contribution, weight);
+    Spectrum weighted;
+    int needsShadow;
+    Ray shadow;
+    real shadowTMax = 0.0f;
+    real rx = 0.0f, ry = 0.0f;
+    if (!bdptConnectDeferred(scene, camera, light, s, eye, t, settings, cameraCount, &rx, &ry,
+                             &weighted, &needsShadow, &shadow, &shadowTMax, rays))
+        return specZero();
+    if (needsShadow && sceneOccluded(scene, shadow, shadowTMax)) return specZero();
+    *rasterX = rx;
+    *rasterY = ry;
+    return weighted;
 }
 
 CB_END_NAMESPACE

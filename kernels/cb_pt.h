@@ -27,144 +27,203 @@ CB_FN real rouletteSurvival(Spectrum throughput) {
     return cbClamp(specMaxComponent(throughput), 0.05f, 1.0f);
 }
 
-/* Radiance arriving at the camera along `ray`, estimated with paths of at most
- * settings.eyeVertices vertices. Vertex 0 is the camera; the vertex found by the k-th ray is
- * x_k. Emission found at x_k closes a path of k+1 vertices, next-event estimation at x_k
- * closes one of k+2 vertices, so both strategies exist exactly when k+2 <= Ne and are then
- * combined with the power heuristic (Veach 1997, ch. 9). */
-CB_FN Spectrum ptRadiance(const SceneView* scene, Ray ray, SampleStream stream,
-                          PathSettings settings) {
-    Spectrum radiance = specZero();
-    Spectrum throughput = specConst(1.0f);
-    real previousPdfW = 0.0f;
-    int previousDelta = 1;  /* the pinhole camera: emission seen directly takes full weight */
-    Vec3 previousP = ray.o; /* the vertex the ray left, where next-event estimation sampled */
+/* One path of ptRadiance between its rays: what it has gathered, its throughput and what
+ * multiple importance sampling needs of the vertex the next ray leaves. ptRadiance keeps it in
+ * registers; CPT's packets (pt.cl, renderCoherentPathTracing) keep it in a global buffer while
+ * the tile's rays are traced, so it holds only 4-byte members: CB_PT_PATH_BYTES is its size, for
+ * the host's buffer. */
+typedef struct PtPath {
+    Spectrum radiance;
+    Spectrum throughput;
+    Spectrum shadowTerm; /* next-event estimation's term, counted if its shadow ray is clear */
+    Vec3 previousP;      /* the vertex the ray left, where next-event estimation sampled */
+    real previousPdfW;
+    int previousDelta;
+    int vertex;        /* the vertex the next ray finds */
+    int shadowPending; /* a shadow ray for shadowTerm waits */
+} PtPath;
+#define CB_PT_PATH_BYTES(channels) (4 * (3 * (channels) + 7))
 
-    for (int vertex = 1; vertex < settings.eyeVertices; ++vertex) {
-        Hit hit;
-        /* The camera ray: neighbouring pixels are neighbouring work-items. */
-        bool found = vertex == 1 ? sceneIntersectCoherent(scene, ray, CB_INFINITY, &hit)
-                                 : sceneIntersect(scene, ray, CB_INFINITY, &hit);
-        if (!found) {
+CB_FN PtPath ptPathBegin(void) {
+    PtPath path;
+    path.radiance = specZero();
+    path.throughput = specConst(1.0f);
+    path.shadowTerm = specZero();
+    path.previousP = vec3(0.0f, 0.0f, 0.0f); /* read only after a non-delta bounce sets it */
+    path.previousPdfW = 0.0f;
+    path.previousDelta = 1; /* the pinhole camera: emission seen directly takes full weight */
+    path.vertex = 1;
+    path.shadowPending = 0;
+    return path;
+}
+
+/* The vertex x_k that *ray found (found, hit) or the escape: emission seen there, next-event
+ * estimation's shadow ray (*shadow, *shadowTMax, path->shadowPending; the caller traces it and
+ * calls ptPathShadow) and the next ray into *ray. Vertex 0 is the camera; the vertex found by the
+ * k-th ray is x_k. Emission found at x_k closes a path of k+1 vertices, next-event estimation at
+ * x_k closes one of k+2 vertices, so both strategies exist exactly when k+2 <= Ne and are then
+ * combined with the power heuristic (Veach 1997, ch. 9). Returns whether the path goes on. */
+CB_FN bool ptPathVertex(const SceneView* scene, PtPath* path, Ray* ray, bool found, Hit hit,
+                        SampleStream stream, PathSettings settings, Ray* shadow, real* shadowTMax) {
+    path->shadowPending = 0;
+    if (!found) {
 #if CB_HAS(CB_FEATURE_INFINITE_LIGHT)
-            /* The escaped ray sees the infinite light, weighed against next-event estimation's
-             * uniform directions. */
-            int infinite = lightInfinite(scene);
-            if (infinite >= 0) {
-                real weight = 1.0f;
-                if (!previousDelta)
-                    weight = powerHeuristic(previousPdfW, scene->lights[infinite].pickProbability *
-                                                              uniformSpherePdf());
-                Spectrum le = specLoad(scene->spectra, scene->lights[infinite].emission);
-                radiance = specAdd(radiance, specScale(specMul(throughput, le), weight));
-            }
-#endif
-            break;
+        /* The escaped ray sees the infinite light, weighed against next-event estimation's
+         * uniform directions. */
+        int infinite = lightInfinite(scene);
+        if (infinite >= 0) {
+            real weight = 1.0f;
+            if (!path->previousDelta)
+                weight =
+                    powerHeuristic(path->previousPdfW,
+                                   scene->lights[infinite].pickProbability * uniformSpherePdf());
+            Spectrum le = specLoad(scene->spectra, scene->lights[infinite].emission);
+            path->radiance =
+                specAdd(path->radiance, specScale(specMul(path->throughput, le), weight));
         }
-        SurfacePoint sp = surfacePointFromHit(scene, ray, hit);
-        Vec3 wo = vneg(ray.d);
-        int bounce = vertex - 1;
+#endif
+        return false;
+    }
+    SurfacePoint sp = surfacePointFromHit(scene, *ray, hit);
+    Vec3 wo = vneg(ray->d);
+    int vertex = path->vertex;
+    int bounce = vertex - 1;
 
 #if CB_HAS(CB_FEATURE_AREA_LIGHT)
-        if (sp.light >= 0) {
-            Spectrum emitted = lightEmittedRadiance(scene, sp.light, sp.ng, wo);
-            if (!specIsBlack(emitted)) {
-                real weight = 1.0f;
-                if (!previousDelta) {
-                    real pdfLightW =
-                        lightPdfSolidAngleFrom(scene, sp.light, previousP, sp.p, sp.ng);
-                    weight = powerHeuristic(previousPdfW, pdfLightW);
-                }
-                radiance = specAdd(radiance, specScale(specMul(throughput, emitted), weight));
+    if (sp.light >= 0) {
+        Spectrum emitted = lightEmittedRadiance(scene, sp.light, sp.ng, wo);
+        if (!specIsBlack(emitted)) {
+            real weight = 1.0f;
+            if (!path->previousDelta) {
+                real pdfLightW =
+                    lightPdfSolidAngleFrom(scene, sp.light, path->previousP, sp.p, sp.ng);
+                weight = powerHeuristic(path->previousPdfW, pdfLightW);
             }
+            path->radiance =
+                specAdd(path->radiance, specScale(specMul(path->throughput, emitted), weight));
         }
-#endif
-        if (vertex + 1 >= settings.eyeVertices) break;
-
-        Frame frame = frameFromNormal(sp.ng);
-
-        /* Next-event estimation: one light point, one shadow ray. */
-        if (materialHasNonDelta(scene, sp.material)) {
-            LightSample ls;
-            /* With one light lightChoose reads no number, so none is drawn. */
-            real uChoice = scene->lightCount > 1
-                               ? sampleAt(stream, bounceDimension(bounce, CB_SLOT_LIGHT_CHOICE))
-                               : 0.0f;
-            real uLight0, uLight1;
-            sampleAt2(stream, bounceDimension(bounce, CB_SLOT_LIGHT_POINT), &uLight0, &uLight1);
-            if (lightSampleFrom(scene, sp.p, uChoice, uLight0, uLight1, &ls)) {
-                Vec3 toLight = vsub(ls.p, sp.p);
-                real dist2 = vlength2(toLight);
-                Vec3 wi = vscale(toLight, 1.0f / sqrt(dist2));
-                Spectrum emitted;
-                real pdfLightW;
-                if (ls.isDelta) {
-                    emitted = deltaLightArriving(scene, &ls, wi, dist2, &pdfLightW);
-                } else {
-                    emitted = lightEmittedRadiance(scene, ls.light, ls.n, vneg(wi));
-                    real cosLight = vabsdot(ls.n, wi);
-                    pdfLightW = ls.pdfSolidAngle > 0.0f
-                                    ? ls.pdfPick * ls.pdfSolidAngle
-                                    : ls.pdfPick * ls.pdfArea * dist2 / cosLight;
-                }
-                if (!specIsBlack(emitted) && pdfLightW > 0.0f && isfinite(pdfLightW)) {
-                    real pdfBsdfW, pdfRev;
-                    Spectrum f = bsdfEval(scene, sp.material, frame, wo, wi, 0, &pdfBsdfW, &pdfRev);
-                    if (!specIsBlack(f)) {
-                        real tMax;
-                        Ray shadow = spawnRayTo(sp, ls.p, ls.pError, ls.n, &tMax);
-                        if (!sceneOccluded(scene, shadow, tMax)) {
-                            real weight = ls.isDelta ? 1.0f : powerHeuristic(pdfLightW, pdfBsdfW);
-                            real factor = vabsdot(wi, sp.ng) * weight / pdfLightW;
-                            radiance = specAdd(
-                                radiance,
-                                specScale(specMul(specMul(throughput, f), emitted), factor));
-                        }
-                    }
-                }
-            }
-        }
-
-        /* Continue the path by sampling the BSDF. */
-        BsdfSample bs;
-        real u0, u1;
-        sampleAt2(stream, bounceDimension(bounce, CB_SLOT_BSDF_DIRECTION), &u0, &u1);
-        real uLobe = bsdfReadsLobeSample(scene, sp.material)
-                         ? sampleAt(stream, bounceDimension(bounce, CB_SLOT_BSDF_LOBE))
-                         : 0.0f;
-        if (!bsdfSample(scene, sp.material, frame, wo, u0, u1, uLobe, 0, &bs)) break;
-        if (bs.pdf <= 0.0f || specIsBlack(bs.f)) break;
-        throughput = specMul(throughput, specScale(bs.f, vabsdot(bs.wi, sp.ng) / bs.pdf));
-        previousPdfW = bs.pdf;
-        previousDelta = bs.isDelta;
-        previousP = sp.p;
-
-        if (settings.rouletteVertex > 0 && vertex >= settings.rouletteVertex) {
-            real survival = rouletteSurvival(throughput);
-            if (sampleAt(stream, bounceDimension(bounce, CB_SLOT_ROULETTE)) >= survival) break;
-            throughput = specScale(throughput, 1.0f / survival);
-        }
-        ray = spawnRay(sp, bs.wi);
     }
-    return radiance;
+#endif
+    if (vertex + 1 >= settings.eyeVertices) return false;
+
+    Frame frame = frameFromNormal(sp.ng);
+
+    /* Next-event estimation: one light point, one shadow ray. */
+    if (materialHasNonDelta(scene, sp.material)) {
+        LightSample ls;
+        /* With one light lightChoose reads no number, so none is drawn. */
+        real uChoice = scene->lightCount > 1
+                           ? sampleAt(stream, bounceDimension(bounce, CB_SLOT_LIGHT_CHOICE))
+                           : 0.0f;
+        real uLight0, uLight1;
+        sampleAt2(stream, bounceDimension(bounce, CB_SLOT_LIGHT_POINT), &uLight0, &uLight1);
+        if (lightSampleFrom(scene, sp.p, uChoice, uLight0, uLight1, &ls)) {
+            Vec3 toLight = vsub(ls.p, sp.p);
+            real dist2 = vlength2(toLight);
+            Vec3 wi = vscale(toLight, 1.0f / sqrt(dist2));
+            Spectrum emitted;
+            real pdfLightW;
+            if (ls.isDelta) {
+                emitted = deltaLightArriving(scene, &ls, wi, dist2, &pdfLightW);
+            } else {
+                emitted = lightEmittedRadiance(scene, ls.light, ls.n, vneg(wi));
+                real cosLight = vabsdot(ls.n, wi);
+                pdfLightW = ls.pdfSolidAngle > 0.0f ? ls.pdfPick * ls.pdfSolidAngle
+                                                    : ls.pdfPick * ls.pdfArea * dist2 / cosLight;
+            }
+            if (!specIsBlack(emitted) && pdfLightW > 0.0f && isfinite(pdfLightW)) {
+                real pdfBsdfW, pdfRev;
+                Spectrum f = bsdfEval(scene, sp.material, frame, wo, wi, 0, &pdfBsdfW, &pdfRev);
+                if (!specIsBlack(f)) {
+                    *shadow = spawnRayTo(sp, ls.p, ls.pError, ls.n, shadowTMax);
+                    real weight = ls.isDelta ? 1.0f : powerHeuristic(pdfLightW, pdfBsdfW);
+                    real factor = vabsdot(wi, sp.ng) * weight / pdfLightW;
+                    path->shadowTerm =
+                        specScale(specMul(specMul(path->throughput, f), emitted), factor);
+                    path->shadowPending = 1;
+                }
+            }
+        }
+    }
+
+    /* Continue the path by sampling the BSDF. */
+    BsdfSample bs;
+    real u0, u1;
+    sampleAt2(stream, bounceDimension(bounce, CB_SLOT_BSDF_DIRECTION), &u0, &u1);
+    real uLobe = bsdfReadsLobeSample(scene, sp.material)
+                     ? sampleAt(stream, bounceDimension(bounce, CB_SLOT_BSDF_LOBE))
+                     : 0.0f;
+    if (!bsdfSample(scene, sp.material, frame, wo, u0, u1, uLobe, 0, &bs)) return false;
+    if (bs.pdf <= 0.0f || specIsBlack(bs.f)) return false;
+    path->throughput = specMul(path->throughput, specScale(bs.f, vabsdot(bs.wi, sp.ng) / bs.pdf));
+    path->previousPdfW = bs.pdf;
+    path->previousDelta = bs.isDelta;
+    path->previousP = sp.p;
+
+    if (settings.rouletteVertex > 0 && vertex >= settings.rouletteVertex) {
+        real survival = rouletteSurvival(path->throughput);
+        if (sampleAt(stream, bounceDimension(bounce, CB_SLOT_ROULETTE)) >= survival) return false;
+        path->throughput = specScale(path->throughput, 1.0f / survival);
+    }
+    *ray = spawnRay(sp, bs.wi);
+    path->vertex = vertex + 1;
+    return true;
+}
+
+/* The answer of ptPathVertex's shadow ray: its term counts when nothing blocks it. */
+CB_FN void ptPathShadow(PtPath* path, bool occluded) {
+    if (path->shadowPending && !occluded)
+        path->radiance = specAdd(path->radiance, path->shadowTerm);
+    path->shadowPending = 0;
+}
+
+/* Radiance arriving at the camera along `ray`, estimated with paths of at most
+ * settings.eyeVertices vertices (ptPathVertex), every ray traced as soon as it is made. */
+CB_FN Spectrum ptRadiance(const SceneView* scene, Ray ray, SampleStream stream,
+                          PathSettings settings) {
+    PtPath path = ptPathBegin();
+    bool more = settings.eyeVertices > 1;
+    while (more) {
+        Hit hit;
+        /* The camera ray: neighbouring pixels are neighbouring work-items. */
+        bool found = path.vertex == 1 ? sceneIntersectCoherent(scene, ray, CB_INFINITY, &hit)
+                                      : sceneIntersect(scene, ray, CB_INFINITY, &hit);
+        Ray shadow;
+        real shadowTMax = 0.0f;
+        more = ptPathVertex(scene, &path, &ray, found, hit, stream, settings, &shadow, &shadowTMax);
+        if (path.shadowPending) ptPathShadow(&path, sceneOccluded(scene, shadow, shadowTMax));
+    }
+    return path.radiance;
+}
+
+/* The sample stream of pixel (x, y). streamTile == 0: every pixel has its own sample vector
+ * (PT); streamTile == k > 0: the pixel at position (i, j) of its k x k tile uses vector (i, j)
+ * of the estimate (CPT, docs/method.md), read from sharedSamples when the host drew the k x k
+ * vectors' first sharedDimensions values there (0: none). */
+CB_FN SampleStream ptPixelStream(SamplerSettings sampler, uint estimate, int streamTile,
+                                 CB_GLOBAL const float* sharedSamples, uint sharedDimensions,
+                                 int width, int x, int y) {
+    uint pixel = (uint)(y * width + x);
+    uint stream = streamTile > 0 ? (uint)((y % streamTile) * streamTile + (x % streamTile)) : pixel;
+    return samplerStreamShared(sampler, estimate, stream, sharedSamples, sharedDimensions);
+}
+
+/* The camera ray of pixel (x, y), jittered by the pixel's sample stream. */
+CB_FN Ray ptCameraRay(const Camera* camera, SampleStream samples, int x, int y) {
+    real rasterX, rasterY;
+    cameraJitteredRaster(samples, x, y, &rasterX, &rasterY);
+    return cameraGenerateRay(camera, rasterX, rasterY);
 }
 
 /* One PT/CPT sample of pixel (x, y) in linear sRGB: the whole work of one work-item of
  * renderPathTracing (pt.cl), shared so that the host's double-precision build (src/float64/)
- * computes exactly the same estimate. streamTile == 0: every pixel has its own sample vector
- * (PT); streamTile == k > 0: the pixel at position (i, j) of its k x k tile uses vector (i, j)
- * of the estimate (CPT, docs/method.md), read from sharedSamples when the host drew the k x k
- * vectors' first sharedDimensions values there (0: none). */
+ * computes exactly the same estimate. */
 CB_FN Vec3 ptPixelRgb(const SceneView* scene, CB_GLOBAL const real* toRgb, const Camera* camera,
                       PathSettings settings, SamplerSettings sampler, uint estimate, int streamTile,
                       CB_GLOBAL const float* sharedSamples, uint sharedDimensions, int x, int y) {
-    uint pixel = (uint)(y * camera->width + x);
-    uint stream = streamTile > 0 ? (uint)((y % streamTile) * streamTile + (x % streamTile)) : pixel;
-    SampleStream samples =
-        samplerStreamShared(sampler, estimate, stream, sharedSamples, sharedDimensions);
-    real rasterX, rasterY;
-    cameraJitteredRaster(samples, x, y, &rasterX, &rasterY);
-    Ray ray = cameraGenerateRay(camera, rasterX, rasterY);
+    SampleStream samples = ptPixelStream(sampler, estimate, streamTile, sharedSamples,
+                                         sharedDimensions, camera->width, x, y);
+    Ray ray = ptCameraRay(camera, samples, x, y);
     return specToRgb(ptRadiance(scene, ray, samples, settings), toRgb);
 }
 

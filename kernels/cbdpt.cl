@@ -20,39 +20,61 @@
  * subpath owning lightVertexStride slots. cameraCount = (light subpaths) / (W*H): the t = 1
  * strategy's sampling rate relative to BDPT's, for the power heuristic (docs/cbdpt.md). The host
  * drew the eye streams' first sharedDimensions values into sharedSamples (0: none). */
-__kernel void renderCbdpt(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings),
-                          uint estimate,
-                          int streamTile,
-                          int tileColumns,
-                          __global const PathVertex* lightVertices,
-                          __global const int* lightCounts,
-                          int lightVertexStride,
-                          float cameraCount,
-                          __global const float* sharedSamples,
-                          uint sharedDimensions,
-                          __global float* outRgb,
-                          CB_COUNTER_PARAMS) {
+#define CB_CBDPT_PARAMS                                                                            \
+    CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings), uint estimate, int streamTile, int tileColumns,     \
+        __global const PathVertex *lightVertices, __global const int *lightCounts,                 \
+        int lightVertexStride, float cameraCount, __global const float *sharedSamples,             \
+        uint sharedDimensions
+
+/* Pixel (x, y)'s light subpath, copied into light (cb_bdpt.h reads vertices through private
+ * pointers; Nl is a handful), its vertex count into nLight, and its eye stream into eyeStream. */
+#define CB_CBDPT_PIXEL_LIGHT(x, y, light, nLight, eyeStream)                                       \
+    do {                                                                                           \
+        const int ti = (y) % streamTile, tj = (x) % streamTile;                                    \
+        const int subpath = ti * tileColumns + tj;                                                 \
+        nLight = lightCounts[subpath];                                                             \
+        for (int i = 0; i < nLight; ++i)                                                           \
+            light[i] = lightVertices[subpath * lightVertexStride + i];                             \
+        eyeStream = samplerStreamShared(sampler, estimate, (uint)(ti * streamTile + tj),           \
+                                        sharedSamples, sharedDimensions);                          \
+    } while (0)
+
+/* The strategies t = 2 .. nEye, s = 0 .. nLight of a pixel in order, each through
+ * CB_CBDPT_STRATEGY(t, s, lightOrNee), which the kernel defines. */
+#define CB_CBDPT_STRATEGIES(eye, nEye, light, nLight, eyeStream)                                   \
+    for (int t = 2; t <= nEye; ++t) {                                                              \
+        PathVertex nee[1]; /* s = 1's own light point for eye[t-1] (shared u: coherent) */         \
+        bool haveNee = bdptNeeLightVertex(&scene, eyeStream, eye, t, nee);                         \
+        for (int s = 0; s <= nLight; ++s) {                                                        \
+            if (s == 1 && !haveNee) continue;                                                      \
+            CB_CBDPT_STRATEGY(t, s, s == 1 ? nee : light);                                         \
+        }                                                                                          \
+    }
+
+/* A strategy's contribution counts unless it is black; a non-finite one is dropped and counted. */
+#define CB_CBDPT_ADD(radiance, c, nonFinite)                                                       \
+    do {                                                                                           \
+        if (specIsBlack(c)) break;                                                                 \
+        if (!specIsFinite(c)) {                                                                    \
+            ++nonFinite;                                                                           \
+            break;                                                                                 \
+        }                                                                                          \
+        radiance = specAdd(radiance, c);                                                           \
+    } while (0)
+
+__kernel void renderCbdpt(CB_CBDPT_PARAMS, __global float* outRgb, CB_COUNTER_PARAMS) {
     int x = (int)get_global_id(0);
     int y = (int)get_global_id(1);
     if (x >= camera.width || y >= camera.height) return;
 
     CB_SCENE_VIEW(scene);
 
-    int ti = y % streamTile;
-    int tj = x % streamTile;
-    uint stream = (uint)(ti * streamTile + tj);
-    int subpath = ti * tileColumns + tj;
-
-    /* cb_bdpt.h reads light vertices through private pointers; Nl is a handful. */
-    PathVertex light[CB_MAX_LIGHT_VERTICES];
-    int nLight = lightCounts[subpath];
-    for (int i = 0; i < nLight; ++i)
-        light[i] = lightVertices[subpath * lightVertexStride + i];
-
     int rays = 0;
+    PathVertex light[CB_MAX_LIGHT_VERTICES];
+    int nLight;
+    SampleStream eyeStream;
+    CB_CBDPT_PIXEL_LIGHT(x, y, light, nLight, eyeStream);
     PathVertex eye[CB_MAX_EYE_VERTICES];
-    SampleStream eyeStream =
-        samplerStreamShared(sampler, estimate, stream, sharedSamples, sharedDimensions);
     float rasterX, rasterY;
     cameraJitteredRaster(eyeStream, x, y, &rasterX, &rasterY);
     int nEye = bdptEyeSubpath(&scene, &camera, rasterX, rasterY, true, eyeStream,
@@ -60,22 +82,15 @@ __kernel void renderCbdpt(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings),
 
     Spectrum radiance = specZero();
     int nonFinite = 0;
-    for (int t = 2; t <= nEye; ++t) {
-        PathVertex nee[1]; /* s = 1's own light point for eye[t-1] (shared u: coherent) */
-        bool haveNee = bdptNeeLightVertex(&scene, eyeStream, eye, t, nee);
-        for (int s = 0; s <= nLight; ++s) {
-            if (s == 1 && !haveNee) continue;
-            float rx = 0.0f, ry = 0.0f;
-            Spectrum c = bdptConnect(&scene, &camera, s == 1 ? nee : light, s, eye, t, settings,
-                                     cameraCount, &rx, &ry, &rays);
-            if (specIsBlack(c)) continue;
-            if (!specIsFinite(c)) {
-                ++nonFinite;
-                continue;
-            }
-            radiance = specAdd(radiance, c);
-        }
-    }
+#define CB_CBDPT_STRATEGY(t, s, lightOrNee)                                                        \
+    do {                                                                                           \
+        float rx = 0.0f, ry = 0.0f;                                                                \
+        Spectrum c = bdptConnect(&scene, &camera, lightOrNee, s, eye, t, settings, cameraCount,    \
+                                 &rx, &ry, &rays);                                                 \
+        CB_CBDPT_ADD(radiance, c, nonFinite);                                                      \
+    } while (0)
+    CB_CBDPT_STRATEGIES(eye, nEye, light, nLight, eyeStream)
+#undef CB_CBDPT_STRATEGY
     cbWritePixel(outRgb, CB_COUNTERS, (uint)(y * camera.width + x), specToRgb(radiance, toRgb),
                  nonFinite, rays);
 }

@@ -5,13 +5,9 @@
 
 /* streamTile: 0 for PT, k > 0 for CPT with k x k shared sample vectors (ptPixelRgb), whose
  * first sharedDimensions values the host drew into sharedSamples (0: the kernel draws them). */
-__kernel void renderPathTracing(CB_INTEGRATOR_KERNEL_PARAMS(PathSettings),
-                                uint estimate,
-                                int streamTile,
-                                __global const float* sharedSamples,
-                                uint sharedDimensions,
-                                __global float* outRgb,
-                                CB_COUNTER_PARAMS) {
+__kernel void renderPathTracing(CB_INTEGRATOR_KERNEL_PARAMS(PathSettings), uint estimate,
+                                int streamTile, __global const float* sharedSamples,
+                                uint sharedDimensions, __global float* outRgb, CB_COUNTER_PARAMS) {
     int x = (int)get_global_id(0);
     int y = (int)get_global_id(1);
     if (x >= camera.width || y >= camera.height) return;
@@ -22,4 +18,89 @@ __kernel void renderPathTracing(CB_INTEGRATOR_KERNEL_PARAMS(PathSettings),
                           sharedSamples, sharedDimensions, x, y);
     /* ptPixelRgb does not count its rays. */
     cbWritePixel(outRgb, CB_COUNTERS, (uint)(y * camera.width + x), rgb, 0, 0);
+}
+
+/* CPT with its coherent rays traced as packets: one work-item renders a tile of `tile` x `tile`
+ * pixels, advancing their paths one vertex at a time together (ptPathVertex, ptPathShadow, as in
+ * ptRadiance), and between the steps traces the rays of all of them, every pixel's k-th ray drawn
+ * from one shared sample vector, in packets of 4 x 2 neighbouring pixels (cb_bvh_ray8.h) rather
+ * than one by one. Paths, rays and answers wait in global scratch buffers, tile * tile entries
+ * per work-item, which stay in the cache while the work-item runs (tMax 0: no ray). The
+ * work-item loops over its pixels itself, without barriers: a work-item per pixel with barriers
+ * around the packets rendered wrong images under PoCL 3.1 even with the packets' answers
+ * replaced by each work-item's own traversal. `tile` must be a multiple of 4. */
+#include "cb_bvh_ray8.h"
+
+/* The host sizes the path buffer by CB_PT_PATH_BYTES (cb_pt.h): a compile error if it is not
+ * PtPath's size. */
+typedef char cbPtPathBytesCheck[sizeof(PtPath) == CB_PT_PATH_BYTES(CB_CHANNELS) ? 1 : -1];
+
+__kernel void renderCoherentPathTracing(CB_INTEGRATOR_KERNEL_PARAMS(PathSettings), uint estimate,
+                                        int streamTile, __global const float* sharedSamples,
+                                        uint sharedDimensions, int tile, __global PtPath* paths,
+                                        __global Ray* rays, __global float* tMaxes,
+                                        __global Hit* hits, __global Ray* shadowRays,
+                                        __global float* shadowTMaxes, __global int* occluded,
+                                        __global float* outRgb, CB_COUNTER_PARAMS) {
+    CB_RAY8_TILE_ITEM(tile, camera.width, camera.height);
+    const int pixels = tile * tile, packets = pixels / 8;
+    const int base = (tileY * tilesX + tileX) * pixels;
+    CB_SCENE_VIEW(scene);
+#define CB_CPT_PIXEL(p, x, y, inside)                                                              \
+    const int x = tileX * tile + (p) % tile, y = tileY * tile + (p) / tile;                        \
+    const bool inside = x < camera.width && y < camera.height
+#define CB_CPT_SAMPLES(x, y)                                                                       \
+    ptPixelStream(sampler, estimate, streamTile, sharedSamples, sharedDimensions, camera.width, x, \
+                  y)
+    for (int p = 0; p < pixels; ++p) {
+        CB_CPT_PIXEL(p, x, y, inside);
+        rays[base + p] = ptCameraRay(&camera, CB_CPT_SAMPLES(x, y), x, y);
+        tMaxes[base + p] = inside && settings.eyeVertices > 1 ? CB_INFINITY : 0.0f;
+        paths[base + p] = ptPathBegin();
+    }
+    for (int vertex = 1; vertex < settings.eyeVertices; ++vertex) {
+        for (int q = 0; q < packets; ++q)
+            ray8Trace(nodes, packs, primitives, rays, tMaxes, ray8TilePacket(base, tile, q), true,
+                      hits, 0);
+        for (int p = 0; p < pixels; ++p) {
+            const int i = base + p;
+            shadowTMaxes[i] = 0.0f;
+            if (!(tMaxes[i] > 0.0f)) continue;
+            CB_CPT_PIXEL(p, x, y, inside);
+            (void)inside;
+            PtPath path = paths[i];
+            Ray ray = rays[i], shadow;
+            real shadowTMax = 0.0f;
+            const Hit hit = hits[i];
+            const bool more = ptPathVertex(&scene, &path, &ray, hit.primitive >= 0, hit,
+                                           CB_CPT_SAMPLES(x, y), settings, &shadow, &shadowTMax);
+            rays[i] = ray;
+            tMaxes[i] = more ? CB_INFINITY : 0.0f;
+            if (path.shadowPending) {
+                shadowRays[i] = shadow;
+                shadowTMaxes[i] = shadowTMax;
+            }
+            paths[i] = path;
+        }
+        /* The last vertex makes no shadow ray (it would close a path of Ne + 1 vertices). */
+        if (vertex + 1 >= settings.eyeVertices) break;
+        for (int q = 0; q < packets; ++q)
+            ray8Trace(nodes, packs, primitives, shadowRays, shadowTMaxes,
+                      ray8TilePacket(base, tile, q), false, 0, occluded);
+        for (int p = 0; p < pixels; ++p) {
+            const int i = base + p;
+            if (!paths[i].shadowPending) continue;
+            PtPath path = paths[i];
+            ptPathShadow(&path, occluded[i] != 0);
+            paths[i] = path;
+        }
+    }
+    for (int p = 0; p < pixels; ++p) {
+        CB_CPT_PIXEL(p, x, y, inside);
+        if (inside)
+            cbWritePixel(outRgb, CB_COUNTERS, (uint)(y * camera.width + x),
+                         specToRgb(paths[base + p].radiance, toRgb), 0, 0);
+    }
+#undef CB_CPT_PIXEL
+#undef CB_CPT_SAMPLES
 }

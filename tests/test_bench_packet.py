@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """The packet traversal prototypes of cbdpt-bench, work-group-wide (`--traversal packet`,
 src/bench/kernels/bench_bvh_packet.h) and eight rays per work-item (`--traversal ray8`,
-src/bench/kernels/bench_bvh_ray8.h), find the same hits as the renderers' traversal
+src/bench/kernels/cb_bvh_ray8.h), find the same hits as the renderers' traversal
 (`--traversal wide`) and as Embree, on every ray set of the traverse section: coherent ones
 (primary, one estimate's bounces and shadow rays) and incoherent ones, closest and any hit, on
 the bunny alone and standing in a room (walls behind and beside it: bounces start inside).

@@ -1124,5 +1124,5 @@ TEST_CASE("bvh: render programs hold no binary-BVH traversal") {
             CHECK_FALSE(mentions(program, name));
         }
     }
-    CHECK(programs == 4); // pt.cl, bdpt.cl, cbdpt.cl, mlt.cl
+    CHECK(programs == 5); // pt.cl, bdpt.cl, cbdpt.cl, cbdpt_packets.cl, mlt.cl
 }

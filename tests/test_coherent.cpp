@@ -10,8 +10,10 @@
 #include <cmath>
 #include <cstdlib>
 #include <doctest/doctest.h>
+#include <memory>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace {
@@ -23,6 +25,37 @@ std::string scenePath(const char* name) {
 cb::ClRuntime& runtime() {
     static cb::ClRuntime r;
     return r;
+}
+
+// The integrator of `settings` built with environment variable `name` set to "0" (a switch of
+// KernelIntegrator's: CBDPT_SHARED_SAMPLES, CBDPT_PACKETS).
+std::unique_ptr<cb::Integrator> makeIntegratorWithout(const char* name,
+                                                      const cb::IntegratorSettings& settings,
+                                                      const cb::DeviceScene& scene) {
+    setenv(name, "0", 1);
+    auto integrator = cb::makeIntegrator(settings, scene, runtime());
+    unsetenv(name);
+    return integrator;
+}
+
+// Renders `estimates` estimates with both integrators and calls compare(a, b) on each pair of
+// pixel values; returns the sums of a's and of b's values.
+template <typename Compare>
+std::pair<double, double> renderBoth(cb::Integrator& first, cb::Integrator& second, int estimates,
+                                     Compare&& compare) {
+    std::vector<float> a, b;
+    double sumA = 0, sumB = 0;
+    for (std::uint32_t e = 0; e < std::uint32_t(estimates); ++e) {
+        first.renderEstimate(e, a);
+        second.renderEstimate(e, b);
+        REQUIRE(a.size() == b.size());
+        for (size_t i = 0; i < a.size(); ++i) {
+            sumA += a[i];
+            sumB += b[i];
+            compare(a[i], b[i]);
+        }
+    }
+    return {sumA, sumB};
 }
 
 // Per-estimate means of each cell of a grid x grid partition of the image (channel average).
@@ -232,26 +265,18 @@ TEST_CASE("CBDPT with one vector per pixel is BDPT: same subpaths, t = 1 splats 
             c.coherenceTile = 16;
             auto bdpt = cb::makeIntegrator(s, scene, runtime());
             auto cbdpt = cb::makeIntegrator(c, scene, runtime());
-            std::vector<float> a, b;
-            double sumA = 0, sumB = 0;
             size_t far = 0;
-            for (std::uint32_t e = 0; e < 4; ++e) {
-                bdpt->renderEstimate(e, a);
-                cbdpt->renderEstimate(e, b);
-                REQUIRE(a.size() == b.size());
-                for (size_t i = 0; i < a.size(); ++i) {
-                    sumA += a[i];
-                    sumB += b[i];
-                    far += std::fabs(a[i] - b[i]) > 1e-3 * (1.0 + std::fabs(a[i]));
-                }
-            }
+            const auto [sumA, sumB] = renderBoth(*bdpt, *cbdpt, 4, [&](float x, float y) {
+                far += std::fabs(x - y) > 1e-3 * (1.0 + std::fabs(x));
+            });
+            const size_t values = 3 * size_t(scene.camera.width) * size_t(scene.camera.height);
             CAPTURE(sumA);
             CAPTURE(sumB);
             CAPTURE(far);
             CHECK(sumA > 0.0);
             // A path may rarely diverge where host and device round differently at an edge
             // (observed: no pixel differs by more than 1e-3, sums agree to float precision).
-            CHECK(far <= a.size() / 100);
+            CHECK(far <= values / 100);
             CHECK(std::fabs(sumA - sumB) < 1e-3 * sumA);
             CHECK(cbdpt->nonFiniteSamples() == 0);
         }
@@ -366,9 +391,7 @@ TEST_CASE("CPT and CBDPT with the host's shared vectors: the kernels' own images
                 s.coherenceTile = k;
                 s.seed = 5;
                 auto shared = cb::makeIntegrator(s, scene, runtime());
-                setenv("CBDPT_SHARED_SAMPLES", "0", 1);
-                auto own = cb::makeIntegrator(s, scene, runtime());
-                unsetenv("CBDPT_SHARED_SAMPLES");
+                auto own = makeIntegratorWithout("CBDPT_SHARED_SAMPLES", s, scene);
                 const bool tabled = method != "pt" && k * k * 64 <= 32 * 32;
                 CHECK(shared->hostSampleStreams() == (tabled ? std::uint32_t(k * k) : 0u));
                 CHECK(own->hostSampleStreams() == 0u);
@@ -387,6 +410,52 @@ TEST_CASE("CPT and CBDPT with the host's shared vectors: the kernels' own images
                 CHECK(sum > 0.0);
                 CHECK(differing == 0);
             }
+}
+
+// ---- CPT's packets ---------------------------------------------------------------------------
+
+TEST_CASE("CPT and CBDPT traced as packets: the per-pixel kernels' images") {
+    // renderCoherentPathTracing (pt.cl) and renderCoherentBdpt (cbdpt.cl) run the per-pixel
+    // kernels' code a tile at a time, tracing rays in packets of 4 x 2 pixels; each ray gets the
+    // per-pixel traversal's hit up to which of two hits within rounding is kept, so images agree
+    // bit for bit but for such ties. Tiles of 4, 8 and 16 pixels (12 is not a whole number of
+    // packets: the per-pixel kernels), a film that is not a whole number of tiles, RGB and
+    // spectral (the scratch entries' sizes), CPT with roulette on and off, CBDPT under its
+    // per-subpath caps and under a total cap (--max-vertices).
+    cb::SceneDesc desc = cb::parseSceneFile(scenePath("cornell-box.pbrt"));
+    desc.film.width = 37;
+    desc.film.height = 29;
+    for (cb::ChannelMode mode : {cb::ChannelMode::Rgb, cb::ChannelMode::Spectral}) {
+        cb::DeviceScene scene = cb::buildDeviceScene(desc, mode);
+        for (std::string method : {"cpt", "cbdpt"})
+            for (int tile : {4, 8, 12, 16})
+                for (int variant : {0, 1}) {
+                    CAPTURE(mode == cb::ChannelMode::Rgb);
+                    CAPTURE(method);
+                    CAPTURE(tile);
+                    CAPTURE(variant);
+                    cb::IntegratorSettings s;
+                    s.name = method;
+                    s.eyeVertices = method == "cpt" ? 6 : 4;
+                    s.lightVertices = 3;
+                    if (method == "cpt") s.rouletteVertex = variant ? 3 : 0;
+                    if (method == "cbdpt" && variant) s.maxPathVertices = 5; // Ne 5, Nl 4
+                    s.tileSize = tile;
+                    s.seed = 9;
+                    auto packets = cb::makeIntegrator(s, scene, runtime());
+                    auto pixels = makeIntegratorWithout("CBDPT_PACKETS", s, scene);
+                    size_t differing = 0, values = 0;
+                    const auto [sumA, sumB] =
+                        renderBoth(*packets, *pixels, 4, [&](float x, float y) {
+                            differing += x != y;
+                            ++values;
+                        });
+                    CHECK(sumB > 0.0);
+                    CHECK(differing <= values / 500);
+                    CHECK(std::abs(sumA - sumB) <= 1e-4 * sumB);
+                    CHECK(packets->nonFiniteSamples() == pixels->nonFiniteSamples());
+                }
+    }
 }
 
 TEST_CASE("CBDPT rejects --strategy (a BDPT debug mode)") {

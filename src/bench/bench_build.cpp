@@ -85,7 +85,7 @@ json programBuildRows(const Options& o) {
         std::vector<std::string> defines;
     };
     std::vector<Prog> progs;
-    for (const char* f : {"pt.cl", "bdpt.cl", "cbdpt.cl", "mlt.cl"}) {
+    for (const char* f : {"pt.cl", "bdpt.cl", "cbdpt.cl", "cbdpt_packets.cl", "mlt.cl"}) {
         try {
             assembleKernelSource(f);
         } catch (const std::exception&) {

@@ -29,7 +29,7 @@ class ClTraversal {
     // variant: ordered | skip (binary BVH) | wide (cb_bvh_wide.h, what the renderers use) |
     // packet (the wide BVH, work-group-wide traversal of bench_bvh_packet.h, for every ray set;
     // its kernels require work-groups of 64, whatever localSize says) | ray8 (the wide BVH,
-    // packets of 2x4 rays per work-item, bench_bvh_ray8.h)
+    // packets of 2x4 rays per work-item, cb_bvh_ray8.h)
     ClTraversal(ClRuntime& rt, const Bvh& bvh, const std::string& variant, int localSize)
         : rt_(rt), localSize_(variant == "packet" ? kPacketSize : localSize) {
         std::vector<std::string> defines = {"CB_CHANNELS=3", "CB_FEATURES=0x101u"};

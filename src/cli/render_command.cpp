@@ -747,7 +747,9 @@ void addMethodOptions(CLI::App& cmd, RenderOptions& o) {
         ->check(CLI::Range(0L, 1L << 31))
         ->capture_default_str()
         ->group(group);
-    cmd.add_option("--tile", s.tileSize, "pixel tile (work-group) edge")
+    cmd.add_option("--tile", s.tileSize,
+                   "pixel tile edge: a work-group of the per-pixel kernels; on a CPU, a "
+                   "work-item of CPT's and CBDPT's packets when a multiple of 4")
         ->check(CLI::Range(1, 32))
         ->capture_default_str()
         ->group(group);

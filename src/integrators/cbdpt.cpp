@@ -49,18 +49,57 @@ class CbdptIntegrator final : public PixelKernelIntegrator {
         tracer_ = makeCbdptLightTracer(scene, light_);
         subpaths_ = size_t(light_.tileRows) * size_t(light_.tileColumns);
 
-        buildProgram("cbdpt.cl", vertexCapDefines());
         vertexBufferBytes_ = subpaths_ * size_t(settings.lightVertices) * tracer_->vertexBytes();
         lightVertices_ = runtime.createBuffer(
             "CBDPT light subpaths (coherence tile^2 x --light-vertices vertices)", CL_MEM_READ_ONLY,
             vertexBufferBytes_);
         lightCounts_ = cl::Buffer(runtime.context(), CL_MEM_READ_ONLY, sizeof(int) * subpaths_);
-        createKernel("renderCbdpt", bdptSettingsFor(settings), [&](KernelArguments& args) {
-            args.add(k).add(light_.tileColumns).add(lightVertices_).add(lightCounts_);
-            args.add(settings.lightVertices);
-            args.add(cbdptCameraCount(scene.camera.width, scene.camera.height, light_));
-            addSharedSampleArguments(args, std::uint32_t(k) * std::uint32_t(k));
-        });
+        const bool packets = packetsWanted();
+        buildProgram(packets ? "cbdpt_packets.cl" : "cbdpt.cl", vertexCapDefines());
+        if (packets) {
+            // Per work-item (cbdpt_packets.cl), tile * tile scratch entries for the eye walks
+            // (times Ne for their vertices) and for each strategy (t, s), t = 2 .. Ne,
+            // s = 0 .. Nl.
+            const size_t pixels = tileCount() * size_t(settings.tileSize * settings.tileSize);
+            const size_t strategies =
+                size_t(settings.eyeVertices - 1) * size_t(settings.lightVertices + 1);
+            auto scratch = [&](const char* what, size_t entries, size_t bytes) {
+                return runtime.createBuffer(fmt::format("CBDPT packet {} ({} per pixel x {} bytes)",
+                                                        what, entries / pixels, bytes),
+                                            CL_MEM_READ_WRITE, entries * bytes);
+            };
+            eyes_ = scratch("eye vertices", pixels * size_t(settings.eyeVertices),
+                            tracer_->vertexBytes());
+            walks_ = scratch("eye walks", pixels, 4 * (size_t(scene.channels) + 2));
+            rays_ = scratch("eye rays", pixels, sizeof(cbk::Ray));
+            tMaxes_ = scratch("eye ray ends", pixels, sizeof(float));
+            hits_ = scratch("eye hits", pixels, sizeof(cbk::Hit));
+            terms_ = scratch("contributions", pixels * strategies,
+                             sizeof(float) * size_t(scene.channels));
+            shadowRays_ = scratch("shadow rays", pixels * strategies, sizeof(cbk::Ray));
+            shadowTMaxes_ = scratch("shadow ray ends", pixels * strategies, sizeof(float));
+            occluded_ = scratch("occlusion", pixels * strategies, sizeof(int));
+        }
+        createKernel(packets ? "renderCoherentBdpt" : "renderCbdpt", bdptSettingsFor(settings),
+                     [&](KernelArguments& args) {
+                         args.add(k).add(light_.tileColumns).add(lightVertices_).add(lightCounts_);
+                         args.add(settings.lightVertices);
+                         args.add(
+                             cbdptCameraCount(scene.camera.width, scene.camera.height, light_));
+                         addSharedSampleArguments(args, std::uint32_t(k) * std::uint32_t(k));
+                         if (packets)
+                             args.add(settings.tileSize)
+                                 .add(eyes_)
+                                 .add(walks_)
+                                 .add(rays_)
+                                 .add(tMaxes_)
+                                 .add(hits_)
+                                 .add(terms_)
+                                 .add(shadowRays_)
+                                 .add(shadowTMaxes_)
+                                 .add(occluded_);
+                     });
+        if (packets) launchPerTile();
     }
 
     ~CbdptIntegrator() override {
@@ -99,6 +138,8 @@ class CbdptIntegrator final : public PixelKernelIntegrator {
     std::unique_ptr<CbdptLightTracer> tracer_;
     CbdptLightPass pass_;
     cl::Buffer lightVertices_, lightCounts_;
+    // The packets' scratch (cbdpt_packets.cl).
+    cl::Buffer eyes_, walks_, rays_, tMaxes_, hits_, terms_, shadowRays_, shadowTMaxes_, occluded_;
     size_t subpaths_ = 1, vertexBufferBytes_ = 0;
     long hostNonFinite_ = 0;
     long long hostRays_ = 0;

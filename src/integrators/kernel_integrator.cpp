@@ -110,15 +110,29 @@ void PixelKernelIntegrator::renderEstimate(std::uint32_t estimate, std::vector<f
                                             sharedSamples_.data());
     }
     kernel_.setArg(estimateArgument_, estimate);
-    // One work-item per pixel, in square work-groups of tile x tile pixels.
     const size_t tile = size_t(settings_.tileSize);
-    auto roundUp = [tile](int v) { return (size_t(v) + tile - 1) / tile * tile; };
-    launch(kernel_, cl::NDRange(roundUp(scene_.camera.width), roundUp(scene_.camera.height)),
-           cl::NDRange(tile, tile));
+    const size_t across = (size_t(scene_.camera.width) + tile - 1) / tile;
+    const size_t down = (size_t(scene_.camera.height) + tile - 1) / tile;
+    if (perTile_)
+        launch(kernel_, cl::NDRange(across, down), cl::NDRange(1, 1));
+    else // a work-item per pixel, in square work-groups of tile x tile pixels
+        launch(kernel_, cl::NDRange(across * tile, down * tile), cl::NDRange(tile, tile));
     rgb.resize(3 * pixels_);
     runtime_.queue().enqueueReadBuffer(image_, CL_TRUE, 0, imageBytes(), rgb.data());
     readCounters();
     afterReadBack(rgb);
+}
+
+bool PixelKernelIntegrator::packetsWanted() const {
+    const char* env = std::getenv("CBDPT_PACKETS");
+    return runtime_.info().cpu && settings_.tileSize % 4 == 0 && settings_.coherenceTile == 1 &&
+           !(env && std::string(env) == "0");
+}
+
+size_t PixelKernelIntegrator::tileCount() const {
+    const size_t tile = size_t(settings_.tileSize);
+    return ((size_t(scene_.camera.width) + tile - 1) / tile) *
+           ((size_t(scene_.camera.height) + tile - 1) / tile);
 }
 
 } // namespace cb

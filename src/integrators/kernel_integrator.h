@@ -100,6 +100,20 @@ class PixelKernelIntegrator : public KernelIntegrator {
 
     // Work before the launch of an estimate and on the image after it is read back.
     virtual void beforeLaunch(std::uint32_t estimate) { (void)estimate; }
+    // The coherent methods' packets (kernels/pt.cl renderCoherentPathTracing, cbdpt.cl
+    // renderCoherentBdpt: a work-item per tile of pixels, tracing their rays in packets of 4 x 2):
+    // wanted on CPU devices with one shared vector per estimate (--coherence-tile 1) unless
+    // CBDPT_PACKETS=0 (to measure what they buy) or the tile is not a whole number of packets.
+    // A GPU needs a work-item per pixel to fill its cores; with k x k vectors neighbouring
+    // pixels follow different vectors, and packets of them were slower (docs/performance.md).
+    bool packetsWanted() const;
+    // Launches a work-item per tile of tileSize x tileSize pixels, each its own work-group, from
+    // now on, instead of a work-item per pixel: larger groups only add PoCL's per-work-item
+    // copies of private values (a group of 128 x 32, PoCL's choice for 512 x 512 pixels in tiles
+    // of 4, overflowed its thread's stack).
+    void launchPerTile() { perTile_ = true; }
+    // How many tiles cover the image.
+    size_t tileCount() const;
     virtual void afterReadBack(std::vector<float>& rgb) { (void)rgb; }
 
     // Adds the two arguments of the coherent methods' shared sample vectors (kernels/cb_rng.h,
@@ -118,6 +132,7 @@ class PixelKernelIntegrator : public KernelIntegrator {
     cl::Buffer image_;
     cl::Kernel kernel_;
     int estimateArgument_ = 0;
+    bool perTile_ = false;
 };
 
 } // namespace cb

@@ -1,29 +1,73 @@
-// PT and CPT: one kernel (kernels/pt.cl); CPT differs only in who shares the sample vector.
+// PT and CPT (kernels/pt.cl): one path code; CPT differs in who shares the sample vector, and
+// traces its coherent rays as packets.
 #include "integrators/kernel_integrator.h"
 
 #include "cb_pt.h"
+
+#include <fmt/format.h>
+
+#include <cstdlib>
+#include <string>
 
 namespace cb {
 
 namespace {
 
+static_assert(sizeof(cbk::PtPath) == CB_PT_PATH_BYTES(CB_CHANNELS),
+              "CB_PT_PATH_BYTES is PtPath's size");
+
+cbk::PathSettings pathSettingsFor(const IntegratorSettings& settings) {
+    cbk::PathSettings path{};
+    path.eyeVertices = settings.eyeVertices;
+    path.rouletteVertex = settings.rouletteVertex;
+    return path;
+}
+
+// PT and CPT. CPT's coherent rays are traced as packets (pt.cl, renderCoherentPathTracing)
+// when packetsWanted().
 class PathTracingIntegrator final : public PixelKernelIntegrator {
   public:
     PathTracingIntegrator(const IntegratorSettings& settings, const DeviceScene& scene,
                           ClRuntime& runtime)
         : PixelKernelIntegrator(settings.name, "path-tracing", settings, scene, runtime) {
         buildProgram("pt.cl");
-        cbk::PathSettings path{};
-        path.eyeVertices = settings.eyeVertices;
-        path.rouletteVertex = settings.rouletteVertex;
         // The sample-vector tile: 0 for PT (every pixel its own), k for CPT's k x k.
         const int streamTile = settings.name == "cpt" ? settings.coherenceTile : 0;
         const std::uint32_t sharedStreams = std::uint32_t(streamTile * streamTile);
-        createKernel("renderPathTracing", path, [&](KernelArguments& args) {
-            args.add(streamTile);
-            addSharedSampleArguments(args, sharedStreams);
-        });
+        if (settings.name != "cpt" || !packetsWanted()) {
+            createKernel("renderPathTracing", pathSettingsFor(settings),
+                         [&](KernelArguments& args) {
+                             args.add(streamTile);
+                             addSharedSampleArguments(args, sharedStreams);
+                         });
+            return;
+        }
+        // tile * tile scratch entries per work-item, a work-item per tile.
+        const size_t entries = tileCount() * size_t(settings.tileSize * settings.tileSize);
+        auto scratch = [&](const char* what, size_t bytes) {
+            return runtime.createBuffer(
+                fmt::format("CPT packet {} (pixels x {} bytes)", what, bytes), CL_MEM_READ_WRITE,
+                entries * bytes);
+        };
+        paths_ = scratch("paths", CB_PT_PATH_BYTES(scene.channels));
+        rays_ = scratch("rays", sizeof(cbk::Ray));
+        tMaxes_ = scratch("ray ends", sizeof(float));
+        hits_ = scratch("hits", sizeof(cbk::Hit));
+        shadowRays_ = scratch("shadow rays", sizeof(cbk::Ray));
+        shadowTMaxes_ = scratch("shadow ray ends", sizeof(float));
+        occluded_ = scratch("occlusion", sizeof(int));
+        createKernel("renderCoherentPathTracing", pathSettingsFor(settings),
+                     [&](KernelArguments& args) {
+                         args.add(streamTile);
+                         addSharedSampleArguments(args, sharedStreams);
+                         args.add(settings.tileSize).add(paths_).add(rays_).add(tMaxes_);
+                         args.add(hits_).add(shadowRays_).add(shadowTMaxes_).add(occluded_);
+                     });
+        launchPerTile();
     }
+
+  private:
+    cl::Buffer paths_, rays_, tMaxes_, hits_, shadowRays_, shadowTMaxes_, occluded_;
 };
 
 } // namespace

@@ -16,7 +16,7 @@
 #ifndef BENCH_BVH_PACKET_H
 #define BENCH_BVH_PACKET_H
 
-#include "bench_bvh_group.h"
+#include "cb_bvh_group.h"
 
 /* The work-group size the packet kernels require: one 8x8 tile. */
 #define CB_PACKET_SIZE 64

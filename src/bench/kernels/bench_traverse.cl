@@ -6,10 +6,10 @@
  * loop), kept for comparison; the *Wide kernels run cb_bvh_wide.h, the traversal the renderers
  * use; the *Packet kernels run the work-group-wide prototype of bench_bvh_packet.h (work-groups
  * of CB_PACKET_SIZE, an 8x8 tile of rays each); the *Ray8 kernels the packets of eight rays per
- * work-item of bench_bvh_ray8.h. */
+ * work-item of cb_bvh_ray8.h. */
 #include "bench_bvh_binary.h"
 #include "bench_bvh_packet.h"
-#include "bench_bvh_ray8.h"
+#include "cb_bvh_ray8.h"
 #include "cb_bvh_wide.h"
 
 __kernel void benchClosest(__global const struct BvhNode* nodes,
@@ -109,7 +109,7 @@ benchOccludedWidePacket(__global const struct BvhNodeWide* nodes,
     if (get_global_id(0) < count) occluded[get_global_id(0)] = hit ? 1 : 0;
 }
 
-/* Packets of eight rays, one per work-item (bench_bvh_ray8.h): packets[8p .. 8p+7] are the
+/* Packets of eight rays, one per work-item (cb_bvh_ray8.h): packets[8p .. 8p+7] are the
  * rays of packet p (a 2x4 tile of pixels, as the bench gives Embree's rtcIntersect8; -1 pads
  * the last packet). Closest hits into hits, or any hits into occluded (1 or 0). */
 CB_FN __attribute__((always_inline)) void
@@ -119,31 +119,7 @@ benchRay8(__global const struct BvhNodeWide* nodes, __global const TrianglePack*
           bool closestHit, __global Hit* hits, __global int* occluded) {
     uint p = (uint)get_global_id(0);
     if (p >= packetCount) return;
-    const int8 index = vload8(p, packets);
-    float8 t, b1, b2;
-    int8 prim;
-    const int8 hit =
-        ray8Traverse(nodes, packs, primitives, rays, tMax, index, closestHit, &t, &prim, &b1, &b2);
-    /* Lane by lane, each a constant (a loop over lane numbers kept 6% more instructions). */
-#define CB_RAY8_OUT(L)                                                                             \
-    do {                                                                                           \
-        if (index.L < 0) break;                                                                    \
-        if (closestHit) {                                                                          \
-            Hit h = {t.L, prim.L, b1.L, b2.L};                                                     \
-            hits[index.L] = h;                                                                     \
-        } else {                                                                                   \
-            occluded[index.L] = hit.L != 0 ? 1 : 0;                                                \
-        }                                                                                          \
-    } while (0)
-    CB_RAY8_OUT(s0);
-    CB_RAY8_OUT(s1);
-    CB_RAY8_OUT(s2);
-    CB_RAY8_OUT(s3);
-    CB_RAY8_OUT(s4);
-    CB_RAY8_OUT(s5);
-    CB_RAY8_OUT(s6);
-    CB_RAY8_OUT(s7);
-#undef CB_RAY8_OUT
+    ray8Trace(nodes, packs, primitives, rays, tMax, vload8(p, packets), closestHit, hits, occluded);
 }
 
 __kernel void benchClosestWideRay8(__global const struct BvhNodeWide* nodes,

@@ -1,10 +1,10 @@
-/* bench_bvh_ray8.h - packets of eight rays, each packet traced by one work-item through the wide
- * BVH (cb_bvh_wide.h): a prototype for cbdpt-bench (`--traversal ray8`), not used by the
- * renderers.
+/* cb_bvh_ray8.h - packets of eight rays, each packet traced by one work-item through the wide
+ * BVH (cb_bvh_wide.h): how CPT's wavefront (pt.cl) traces its coherent rays, and cbdpt-bench's
+ * `--traversal ray8`. Kernel code only (float8 lanes).
  *
- * The work-group-wide packet of bench_bvh_packet.h paid for its shared node sequence with a
- * barrier per node visit, across which PoCL stores and reloads every live value. Here one
- * work-item holds a 2x4 tile of rays in float8 registers (Embree's rtcIntersect8 layout:
+ * The work-group-wide packet of src/bench/kernels/bench_bvh_packet.h paid for its shared node
+ * sequence with a barrier per node visit, across which PoCL stores and reloads every live value.
+ * Here one work-item holds a 2x4 tile of rays in float8 registers (Embree's rtcIntersect8 layout:
  * structure of arrays, a ray per lane) and walks one node sequence for all of them, without
  * barriers: per node it tests each child's box against the eight rays at once, and enters a
  * child when any live ray hits it within its own closest hit. Still without a stack, as
@@ -17,10 +17,11 @@
  * lane per ray), for the rays whose own box test kept the leaf. Each ray gets the single-ray
  * traversal's answer, up to which of two hits within rounding of each other is kept (the
  * triangles of a pack are tested one after the other, against the closest hit so far). */
-#ifndef BENCH_BVH_RAY8_H
-#define BENCH_BVH_RAY8_H
+#ifndef CB_BVH_RAY8_H
+#define CB_BVH_RAY8_H
+#ifdef CB_KERNEL_SIDE
 
-#include "bench_bvh_group.h"
+#include "cb_bvh_group.h"
 
 /* Rays per packet: float8 lanes, a 2x4 tile of pixels (Embree's rtcIntersect8 packet). */
 #define CB_RAY8_SIZE 8
@@ -188,7 +189,8 @@ ray8Leaf(CB_GLOBAL const TrianglePack* packs, CB_GLOBAL const Primitive* prims,
                 slowBits &= slowBits - 1u;
                 const Ray ray = rays[ray8LaneInt(index, j)];
                 const real rayClosest = ray8LaneReal(*closest, j);
-                Hit h = {rayClosest, -1, 0.0f, 0.0f};
+                /* intersectPrimitiveSheared leaves the primitive to its caller. */
+                Hit h = {rayClosest, pack->prim[l], 0.0f, 0.0f};
                 if (intersectPrimitiveSheared(prims + pack->prim[l], ray, triangleRayOf(ray),
                                               rayClosest, &h))
                     ray8Record(j, h, closestHit, closest, found, hitPrim, hitB1, hitB2);
@@ -313,4 +315,53 @@ ray8Traverse(CB_GLOBAL const BvhNodeWide* nodes, CB_GLOBAL const TrianglePack* p
     return found;
 }
 
-#endif /* BENCH_BVH_RAY8_H */
+/* ray8Traverse of the rays rays[index.s0 .. index.s7], each answer stored at its ray's index:
+ * closest hits into hits (primitive -1: none), or any hits into occluded (1 or 0). */
+CB_FN __attribute__((always_inline)) void
+ray8Trace(CB_GLOBAL const BvhNodeWide* nodes, CB_GLOBAL const TrianglePack* packs,
+          CB_GLOBAL const Primitive* prims, CB_GLOBAL const Ray* rays,
+          CB_GLOBAL const float* tMaxes, int8 index, bool closestHit, CB_GLOBAL Hit* hits,
+          CB_GLOBAL int* occluded) {
+    float8 t, b1, b2;
+    int8 prim;
+    const int8 hit =
+        ray8Traverse(nodes, packs, prims, rays, tMaxes, index, closestHit, &t, &prim, &b1, &b2);
+    /* Lane by lane, each a constant (a loop over lane numbers kept 6% more instructions). */
+#define CB_RAY8_OUT(L)                                                                             \
+    do {                                                                                           \
+        if (index.L < 0) break;                                                                    \
+        if (closestHit) {                                                                          \
+            Hit h = {t.L, prim.L, b1.L, b2.L};                                                     \
+            hits[index.L] = h;                                                                     \
+        } else {                                                                                   \
+            occluded[index.L] = hit.L != 0 ? 1 : 0;                                                \
+        }                                                                                          \
+    } while (0)
+    CB_RAY8_OUT(s0);
+    CB_RAY8_OUT(s1);
+    CB_RAY8_OUT(s2);
+    CB_RAY8_OUT(s3);
+    CB_RAY8_OUT(s4);
+    CB_RAY8_OUT(s5);
+    CB_RAY8_OUT(s6);
+    CB_RAY8_OUT(s7);
+#undef CB_RAY8_OUT
+}
+
+/* The first lines of a kernel whose work-item renders a tile of `tile` x `tile` pixels: its
+ * tile (tileX, tileY), tilesX across the image; work-items past the image return. */
+#define CB_RAY8_TILE_ITEM(tile, width, height)                                                     \
+    const int tileX = (int)get_global_id(0), tileY = (int)get_global_id(1);                        \
+    const int tilesX = ((width) + (tile)-1) / (tile);                                              \
+    if (tileX >= tilesX || tileY * (tile) >= (height)) return
+
+/* The packets of a tile of `tile` x `tile` pixels stored row by row from index `base` (tile a
+ * multiple of 4): packet q's 4 x 2 pixels' indices, rows of 4 packets' width. */
+CB_FN int8 ray8TilePacket(int base, int tile, int q) {
+    const int packetsX = tile / 4;
+    const int x = 4 * (q % packetsX), y = 2 * (q / packetsX);
+    return (int8)(base + y * tile + x) + (int8)(0, 1, 2, 3, tile, tile + 1, tile + 2, tile + 3);
+}
+
+#endif /* CB_KERNEL_SIDE */
+#endif /* CB_BVH_RAY8_H */

@@ -1,11 +1,12 @@
-/* bench_bvh_group.h - what the bench's two packet traversals share (bench_bvh_packet.h: a
- * work-group of rays; bench_bvh_ray8.h: eight rays per work-item): one stackless walk of the
+/* cb_bvh_group.h - what the two packet traversals share (cb_bvh_ray8.h: eight rays per
+ * work-item, CPT's wavefront; src/bench/kernels/bench_bvh_packet.h: a work-group of rays, a bench
+ * prototype): one stackless walk of the
  * wide BVH (cb_bvh_wide.h) for a group of rays. The group enters a node's child when any of its
  * rays enters the child's box; the children are visited in the order of one representative
  * ray's keys, which depend only on the node and that ray, so returning to a node finds the same
  * order and the trail of cb_bvh_wide.h stays exact. */
-#ifndef BENCH_BVH_GROUP_H
-#define BENCH_BVH_GROUP_H
+#ifndef CB_BVH_GROUP_H
+#define CB_BVH_GROUP_H
 
 #include "cb_bvh_wide.h"
 
@@ -66,4 +67,4 @@ CB_FN __attribute__((always_inline)) bool bvhGroupClimb(CB_GLOBAL const BvhNodeW
     }
 }
 
-#endif /* BENCH_BVH_GROUP_H */
+#endif /* CB_BVH_GROUP_H */

@@ -1,0 +1,153 @@
+/* cbdpt_packets.cl - CBDPT with its coherent rays traced as packets, on CPU devices (GPUs run
+ * the per-pixel renderCbdpt of cbdpt.cl, whose code this shares).
+ *
+ * One work-item renders a tile of `tile` x `tile` pixels. Their eye subpaths advance one vertex
+ * at a time together (bdptWalkStep, as bdptRandomWalk), each round's rays, every pixel's k-th
+ * drawn from one shared sample vector, traced in packets of 4 x 2 neighbouring pixels
+ * (cb_bvh_ray8.h). Then each pixel's strategies are renderCbdpt's, but each shadow ray waits
+ * (bdptConnectDeferred) with its weighted contribution; the shadow rays of each strategy (t, s),
+ * all aimed at the estimate's same few light vertices from neighbouring eye vertices, are traced
+ * in packets, and each pixel adds its strategies in renderCbdpt's order. Everything waits in
+ * global scratch buffers, per work-item tile * tile entries (times Ne eye vertices, or times the
+ * (Ne - 1) (Nl + 1) strategies), which stay in the cache while the work-item runs; tMax 0: no
+ * ray. `tile` must be a multiple of 4. */
+#include "cbdpt.cl"
+/* After cbdpt.cl, whose headers define what it needs (CB_HAS). */
+#include "cb_bvh_ray8.h"
+
+/* An eye subpath's walk between its rays: bdptRandomWalk's beta, pdfW and vertex count. The host
+ * sizes its buffer by CB_CBDPT_WALK_BYTES. */
+typedef struct CbdptWalk {
+    Spectrum beta;
+    real pdfW;
+    int count;
+} CbdptWalk;
+#define CB_CBDPT_WALK_BYTES(channels) (4 * ((channels) + 2))
+typedef char cbCbdptWalkBytesCheck[sizeof(CbdptWalk) == CB_CBDPT_WALK_BYTES(CB_CHANNELS) ? 1 : -1];
+
+__kernel void renderCoherentBdpt(CB_CBDPT_PARAMS, int tile, __global PathVertex* eyes,
+                                 __global CbdptWalk* walks, __global Ray* rays,
+                                 __global float* tMaxes, __global Hit* hits,
+                                 __global Spectrum* terms, __global Ray* shadowRays,
+                                 __global float* shadowTMaxes, __global int* occluded,
+                                 __global float* outRgb, CB_COUNTER_PARAMS) {
+    CB_RAY8_TILE_ITEM(tile, camera.width, camera.height);
+    CB_SCENE_VIEW(scene);
+    const int pixels = tile * tile, packets = pixels / 8;
+    const int tileIndex = tileY * tilesX + tileX;
+    const int maxEye = settings.eyeVertices;
+    int tracedRays = 0;
+#define CB_CBDPT_PIXEL(p, x, y)                                                                    \
+    const int x = tileX * tile + (p) % tile, y = tileY * tile + (p) / tile
+#define CB_CBDPT_INSIDE(x, y) ((x) < camera.width && (y) < camera.height)
+
+    /* The eye subpaths: pixel p's walk and ray at tileIndex * pixels + p, its vertices from
+     * (tileIndex * pixels + p) * Ne. */
+    const int walkBase = tileIndex * pixels;
+    for (int p = 0; p < pixels; ++p) {
+        CB_CBDPT_PIXEL(p, x, y);
+        const int i = walkBase + p;
+        const SampleStream eyeStream = samplerStreamShared(
+            sampler, estimate, (uint)((y % streamTile) * streamTile + x % streamTile),
+            sharedSamples, sharedDimensions);
+        float rasterX, rasterY;
+        cameraJitteredRaster(eyeStream, x, y, &rasterX, &rasterY);
+        PathVertex eye0[1];
+        real pdfDir;
+        rays[i] = bdptEyeStart(&camera, rasterX, rasterY, eye0, &pdfDir);
+        eyes[i * maxEye] = eye0[0];
+        CbdptWalk walk;
+        walk.beta = specConst(1.0f);
+        walk.pdfW = pdfDir;
+        walk.count = 1;
+        walks[i] = walk;
+        tMaxes[i] = CB_CBDPT_INSIDE(x, y) && maxEye >= 2 ? CB_INFINITY : 0.0f;
+    }
+    for (int vertex = 1; vertex < maxEye; ++vertex) {
+        for (int q = 0; q < packets; ++q)
+            ray8Trace(nodes, packs, primitives, rays, tMaxes, ray8TilePacket(walkBase, tile, q),
+                      true, hits, 0);
+        for (int p = 0; p < pixels; ++p) {
+            const int i = walkBase + p;
+            if (!(tMaxes[i] > 0.0f)) continue;
+            CB_CBDPT_PIXEL(p, x, y);
+            ++tracedRays;
+            const SampleStream eyeStream = samplerStreamShared(
+                sampler, estimate, (uint)((y % streamTile) * streamTile + x % streamTile),
+                sharedSamples, sharedDimensions);
+            CbdptWalk walk = walks[i];
+            PathVertex prev = eyes[i * maxEye + walk.count - 1], v;
+            Ray ray = rays[i];
+            const Hit hit = hits[i];
+            const int step =
+                bdptWalkStep(&scene, hit.primitive >= 0, hit, &ray, &walk.beta, &walk.pdfW, 0,
+                             eyeStream, CB_DIM_FIRST_BOUNCE, &prev, &v, walk.count, maxEye);
+            if (step > 0) {
+                eyes[i * maxEye + walk.count - 1] = prev;
+                eyes[i * maxEye + walk.count] = v;
+                ++walk.count;
+            }
+            walks[i] = walk;
+            rays[i] = ray;
+            tMaxes[i] = step == 2 ? CB_INFINITY : 0.0f;
+        }
+    }
+
+    /* The strategies: entry (strategy m, pixel p) at base + m * pixels + p. */
+    const int lightSlots = settings.lightVertices + 1; /* s = 0 .. Nl */
+    const int strategies = (maxEye - 1) * lightSlots;
+    const int base = tileIndex * strategies * pixels;
+    for (int p = 0; p < pixels; ++p) {
+        CB_CBDPT_PIXEL(p, x, y);
+        for (int m = 0; m < strategies; ++m)
+            shadowTMaxes[base + m * pixels + p] = -1.0f; /* < 0: no contribution */
+        if (!CB_CBDPT_INSIDE(x, y)) continue;
+        PathVertex light[CB_MAX_LIGHT_VERTICES];
+        int nLight;
+        SampleStream eyeStream;
+        CB_CBDPT_PIXEL_LIGHT(x, y, light, nLight, eyeStream);
+        PathVertex eye[CB_MAX_EYE_VERTICES];
+        const int nEye = walks[walkBase + p].count;
+        for (int k = 0; k < nEye; ++k)
+            eye[k] = eyes[(walkBase + p) * maxEye + k];
+#define CB_CBDPT_STRATEGY(t, s, lightOrNee)                                                        \
+    do {                                                                                           \
+        const int i = base + ((t - 2) * lightSlots + s) * pixels + p;                              \
+        float rx = 0.0f, ry = 0.0f;                                                                \
+        Spectrum c;                                                                                \
+        int needsShadow;                                                                           \
+        Ray shadow;                                                                                \
+        real shadowTMax = 0.0f;                                                                    \
+        if (!bdptConnectDeferred(&scene, &camera, lightOrNee, s, eye, t, settings, cameraCount,    \
+                                 &rx, &ry, &c, &needsShadow, &shadow, &shadowTMax, &tracedRays))   \
+            break;                                                                                 \
+        terms[i] = c;                                                                              \
+        /* 0: no shadow ray (ray8Trace skips it: never occluded). */                               \
+        shadowTMaxes[i] = needsShadow ? fmax(shadowTMax, 0.0f) : 0.0f;                             \
+        if (needsShadow) shadowRays[i] = shadow;                                                   \
+    } while (0)
+        CB_CBDPT_STRATEGIES(eye, nEye, light, nLight, eyeStream)
+#undef CB_CBDPT_STRATEGY
+    }
+    for (int m = 0; m < strategies; ++m)
+        for (int q = 0; q < packets; ++q)
+            ray8Trace(nodes, packs, primitives, shadowRays, shadowTMaxes,
+                      ray8TilePacket(base + m * pixels, tile, q), false, 0, occluded);
+    for (int p = 0; p < pixels; ++p) {
+        CB_CBDPT_PIXEL(p, x, y);
+        if (!CB_CBDPT_INSIDE(x, y)) continue;
+        Spectrum radiance = specZero();
+        int nonFinite = 0;
+        for (int m = 0; m < strategies; ++m) {
+            const int i = base + m * pixels + p;
+            if (shadowTMaxes[i] < 0.0f || occluded[i]) continue;
+            Spectrum c = terms[i];
+            CB_CBDPT_ADD(radiance, c, nonFinite);
+        }
+        /* The tile's rays, counted once (countRays: CBDPT_RAY_STATS). */
+        cbWritePixel(outRgb, CB_COUNTERS, (uint)(y * camera.width + x), specToRgb(radiance, toRgb),
+                     nonFinite, p == 0 ? tracedRays : 0);
+    }
+#undef CB_CBDPT_PIXEL
+#undef CB_CBDPT_INSIDE
+}
