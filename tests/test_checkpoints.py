@@ -203,6 +203,25 @@ with tempfile.TemporaryDirectory() as tmp:
     check(todo == {False: [], True: [moved]},
           f"--same-revision lists only the unit of another revision as to do ({todo})")
     json.dump(rec, open(path, "w"))
+    # A unit interrupted mid-render (here its render kills the experiment) leaves the unit's log
+    # and record as they were: the render logs to a part file, which replaces the log only
+    # when the unit is done.
+    killer = P("cbdpt-killed-mid-unit")
+    with open(killer, "w") as f:
+        f.write('#!/bin/sh\n[ "$1" = --version ] && { echo "cbdpt 0.1 (git 0000000)"; exit 0; }\n'
+                f'case " $* " in *" --log "*) ;; *) exec "{os.path.abspath(cbdpt)}" "$@" ;; esac\n'
+                'for a; do [ "$prev" = --log ] && echo partial > "$a"; prev=$a; done\n'
+                'kill -9 $PPID; sleep 1; exit 1\n')
+    os.chmod(killer, 0o755)
+    log = os.path.join(units, moved + ".csv")
+    kept = (open(log).read(), open(path).read())
+    r = subprocess.run([sys.executable, os.path.join(root, "scripts", "experiment"), "--quick",
+                        "--cbdpt", killer, "--units", units, "--methods", "pt", "--seeds", "1",
+                        "--kinds", "time", "--configs", "n8", "--same-revision"],
+                       capture_output=True, text=True)
+    check(r.returncode != 0 and "[1/" in r.stdout and (open(log).read(), open(path).read()) == kept,
+          f"an interrupted unit leaves its log and record as they were ({r.returncode} "
+          f"{r.stdout[-300:]} {r.stderr[-300:]})")
     # A grown reference: the units measured against it are to do again, the others are not,
     # and --reference-errors measures the new file's error (its SHA-256 recorded).
     reference = os.path.join(os.path.dirname(units), "images", "reference-pt-n8.exr")
