@@ -26,6 +26,7 @@ __kernel void renderBdpt(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings),
     if (x >= camera.width || y >= camera.height) return;
 
     CB_SCENE_VIEW(scene);
+    BdptSettings settingsCopy = bdptSettingsCopy(settings);
 
     uint pixel = (uint)(y * camera.width + x);
     int rays = 0;
@@ -33,12 +34,12 @@ __kernel void renderBdpt(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings),
     PathVertex eye[CB_MAX_EYE_VERTICES];
     int nLight = bdptLightSubpath(&scene, bdptLightStream(sampler, estimate, pixel,
                                                   (uint)(camera.width * camera.height)),
-                                  settings.lightVertices, light, &rays);
+                                  settingsCopy.lightVertices, light, &rays);
     SampleStream eyeStream = samplerStream(sampler, estimate, pixel);
     float rasterX, rasterY;
     cameraJitteredRaster(eyeStream, x, y, &rasterX, &rasterY);
     int nEye = bdptEyeSubpath(&scene, &camera, rasterX, rasterY, true, eyeStream,
-                              settings.eyeVertices, eye, &rays);
+                              settingsCopy.eyeVertices, eye, &rays);
 
     Spectrum radiance = specZero();
     int nonFinite = 0;
@@ -51,7 +52,7 @@ __kernel void renderBdpt(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings),
         for (int s = 0; s <= nLight; ++s) {
             if (s == 1 && !haveNee) continue;
             float rx = 0.0f, ry = 0.0f;
-            Spectrum c = bdptConnect(&scene, &camera, s == 1 ? nee : light, s, eye, t, settings,
+            Spectrum c = bdptConnect(&scene, &camera, s == 1 ? nee : light, s, eye, t, settingsCopy,
                                      1.0f, &rx, &ry, &rays);
             if (specIsBlack(c)) continue;
             if (!specIsFinite(c)) {

@@ -83,6 +83,22 @@ typedef struct BdptSettings {
     int pad[2];
 } BdptSettings;
 
+/* Kernels work on a private, field-by-field copy of their by-value settings: NVIDIA's OpenCL
+ * compiler (driver 580, CUDA 13.0) otherwise read the argument through a pointer to the parameter
+ * taken as a local-memory address, and the bidirectional kernels faulted (docs/gpu.md). */
+CB_FN BdptSettings bdptSettingsCopy(BdptSettings in) {
+    BdptSettings out;
+    out.eyeVertices = in.eyeVertices;
+    out.lightVertices = in.lightVertices;
+    out.weights = in.weights;
+    out.debugS = in.debugS;
+    out.debugT = in.debugT;
+    out.maxPathVertices = in.maxPathVertices;
+    out.pad[0] = in.pad[0];
+    out.pad[1] = in.pad[1];
+    return out;
+}
+
 /* Light subpath dimensions (its own stream, see bdptLightStream): 0-1 point, 2-3 direction,
  * 4 light choice, 5 side of a two-sided light; then CB_DIMS_PER_BOUNCE per bounce as for eye
  * paths (cb_rng.h slots). Pairs start at even dimensions (the Sobol sampler's 2D pairs). */

@@ -68,6 +68,7 @@ __kernel void renderCbdpt(CB_CBDPT_PARAMS, __global float* outRgb, CB_COUNTER_PA
     if (x >= camera.width || y >= camera.height) return;
 
     CB_SCENE_VIEW(scene);
+    BdptSettings settingsCopy = bdptSettingsCopy(settings);
 
     int rays = 0;
     PathVertex light[CB_MAX_LIGHT_VERTICES];
@@ -78,15 +79,15 @@ __kernel void renderCbdpt(CB_CBDPT_PARAMS, __global float* outRgb, CB_COUNTER_PA
     float rasterX, rasterY;
     cameraJitteredRaster(eyeStream, x, y, &rasterX, &rasterY);
     int nEye = bdptEyeSubpath(&scene, &camera, rasterX, rasterY, true, eyeStream,
-                              settings.eyeVertices, eye, &rays);
+                              settingsCopy.eyeVertices, eye, &rays);
 
     Spectrum radiance = specZero();
     int nonFinite = 0;
 #define CB_CBDPT_STRATEGY(t, s, lightOrNee)                                                        \
     do {                                                                                           \
         float rx = 0.0f, ry = 0.0f;                                                                \
-        Spectrum c = bdptConnect(&scene, &camera, lightOrNee, s, eye, t, settings, cameraCount,    \
-                                 &rx, &ry, &rays);                                                 \
+        Spectrum c = bdptConnect(&scene, &camera, lightOrNee, s, eye, t, settingsCopy,             \
+                                 cameraCount, &rx, &ry, &rays);                                    \
         CB_CBDPT_ADD(radiance, c, nonFinite);                                                      \
     } while (0)
     CB_CBDPT_STRATEGIES(eye, nEye, light, nLight, eyeStream)

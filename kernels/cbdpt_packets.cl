@@ -33,9 +33,10 @@ __kernel void renderCoherentBdpt(CB_CBDPT_PARAMS, int tile, __global PathVertex*
                                  __global float* outRgb, CB_COUNTER_PARAMS) {
     CB_RAY8_TILE_ITEM(tile, camera.width, camera.height);
     CB_SCENE_VIEW(scene);
+    BdptSettings settingsCopy = bdptSettingsCopy(settings);
     const int pixels = tile * tile, packets = pixels / 8;
     const int tileIndex = tileY * tilesX + tileX;
-    const int maxEye = settings.eyeVertices;
+    const int maxEye = settingsCopy.eyeVertices;
     int tracedRays = 0;
 #define CB_CBDPT_PIXEL(p, x, y)                                                                    \
     const int x = tileX * tile + (p) % tile, y = tileY * tile + (p) / tile
@@ -94,7 +95,7 @@ __kernel void renderCoherentBdpt(CB_CBDPT_PARAMS, int tile, __global PathVertex*
     }
 
     /* The strategies: entry (strategy m, pixel p) at base + m * pixels + p. */
-    const int lightSlots = settings.lightVertices + 1; /* s = 0 .. Nl */
+    const int lightSlots = settingsCopy.lightVertices + 1; /* s = 0 .. Nl */
     const int strategies = (maxEye - 1) * lightSlots;
     const int base = tileIndex * strategies * pixels;
     for (int p = 0; p < pixels; ++p) {
@@ -118,8 +119,9 @@ __kernel void renderCoherentBdpt(CB_CBDPT_PARAMS, int tile, __global PathVertex*
         int needsShadow;                                                                           \
         Ray shadow;                                                                                \
         real shadowTMax = 0.0f;                                                                    \
-        if (!bdptConnectDeferred(&scene, &camera, lightOrNee, s, eye, t, settings, cameraCount,    \
-                                 &rx, &ry, &c, &needsShadow, &shadow, &shadowTMax, &tracedRays))   \
+        if (!bdptConnectDeferred(&scene, &camera, lightOrNee, s, eye, t, settingsCopy,             \
+                                 cameraCount, &rx, &ry, &c, &needsShadow, &shadow, &shadowTMax,    \
+                                 &tracedRays))                                                     \
             break;                                                                                 \
         terms[i] = c;                                                                              \
         /* 0: no shadow ray (ray8Trace skips it: never occluded). */                               \

@@ -156,11 +156,12 @@ __kernel void mltBootstrap(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings),
     uint i = (uint)get_global_id(0);
     if (i >= count) return;
     CB_SCENE_VIEW(scene);
+    BdptSettings settingsCopy = bdptSettingsCopy(settings);
     float u[CB_MLT_DIMS];
     mltBootstrapVector(sampler.seed, first + i, u);
     MltSample sample;
     int rays = 0, nonFinite = 0;
-    mltEvaluate(&scene, &camera, toRgb, settings, u, &sample, &rays, &nonFinite);
+    mltEvaluate(&scene, &camera, toRgb, settingsCopy, u, &sample, &rays, &nonFinite);
     luminance[i] = sample.luminance;
     cbAddCounts(CB_COUNTERS, nonFinite, rays);
 }
@@ -193,11 +194,12 @@ __kernel void mltSeedChains(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings),
     uint chain = (uint)get_global_id(0);
     if (chain >= chains) return;
     CB_SCENE_VIEW(scene);
+    BdptSettings settingsCopy = bdptSettingsCopy(settings);
     float u[CB_MLT_DIMS];
     mltBootstrapVector(sampler.seed, bootstrapIndex[chain], u);
     MltSample sample;
     int rays = 0, nonFinite = 0;
-    mltEvaluate(&scene, &camera, toRgb, settings, u, &sample, &rays, &nonFinite);
+    mltEvaluate(&scene, &camera, toRgb, settingsCopy, u, &sample, &rays, &nonFinite);
     mltStoreState(state, chainLum, splatCount, splatPixel, splatRgb, chain, u, &sample);
 }
 
@@ -240,6 +242,7 @@ __kernel void mltAdvance(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings),
     uint chain = (uint)get_global_id(0);
     if (chain >= chains) return;
     CB_SCENE_VIEW(scene);
+    BdptSettings settingsCopy = bdptSettingsCopy(settings);
 
     float bufferA[CB_MLT_DIMS], bufferB[CB_MLT_DIMS];
     float* cur = bufferA;
@@ -277,7 +280,8 @@ __kernel void mltAdvance(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings),
                 prop[d] = x < 1.0f ? x : 0.0f; /* rounding of x - 1 + 1 */
             }
         }
-        mltEvaluate(&scene, &camera, toRgb, settings, prop, &propSample, &rays, &nonFinite);
+        mltEvaluate(&scene, &camera, toRgb, settingsCopy, prop, &propSample, &rays,
+                    &nonFinite);
         if (isLarge) {
             large += 1u;
             sumLarge += propSample.luminance;

@@ -17,7 +17,7 @@ skip_without_models()  # the dragon's renders need them
 with tempfile.TemporaryDirectory() as out:
     r = subprocess.run([sys.executable, os.path.join(root, "scripts", "gpu-check"), "--cbdpt",
                         cbdpt, "--tests", tests, "--device", "cpu", "--size", "16", "--spp", "2",
-                        "--seconds", "1", "--test-seconds", "3", "--out", out],
+                        "--seconds", "1", "--test-seconds", "3", "--jobs", "2", "--out", out],
                        capture_output=True, text=True)
     check(r.returncode == 0, f"gpu-check exits 0 ({r.stderr.strip()[-500:]})")
     summary = json.load(open(os.path.join(out, "summary.json")))

@@ -59,10 +59,6 @@ set_tests_properties(combine_cli PROPERTIES TIMEOUT 600)
 # the doctest cases one process each.
 add_test(NAME gpu_check COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_gpu_check.py $<TARGET_FILE:cbdpt> $<TARGET_FILE:cbdpt_tests> ${CMAKE_SOURCE_DIR})
 set_tests_properties(gpu_check PROPERTIES TIMEOUT 600 SKIP_REGULAR_EXPRESSION "cbdpt-skip:")
-# scripts/gpu-bisect on the CPU device: the variants' anchors exist, they build, a fix keeps the
-# pixels, a cut changes them.
-add_test(NAME gpu_bisect COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_gpu_bisect.py $<TARGET_FILE:cbdpt> ${CMAKE_SOURCE_DIR})
-set_tests_properties(gpu_bisect PROPERTIES TIMEOUT 600)
 # Renders that scale and survive: shards merged bit for bit (PT, CPT, BDPT, CBDPT), SIGKILL and
 # --resume from the periodic state, output checks and kept work, corrupted states refused.
 add_test(NAME scale COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_scale.py $<TARGET_FILE:cbdpt> ${CMAKE_SOURCE_DIR})
