@@ -57,28 +57,20 @@ class CbdptIntegrator final : public PixelKernelIntegrator {
         const bool packets = packetsWanted();
         buildProgram(packets ? "cbdpt_packets.cl" : "cbdpt.cl", vertexCapDefines());
         if (packets) {
-            // Per work-item (cbdpt_packets.cl), tile * tile scratch entries for the eye walks
-            // (times Ne for their vertices) and for each strategy (t, s), t = 2 .. Ne,
-            // s = 0 .. Nl.
-            const size_t pixels = tileCount() * size_t(settings.tileSize * settings.tileSize);
-            const size_t strategies =
-                size_t(settings.eyeVertices - 1) * size_t(settings.lightVertices + 1);
-            auto scratch = [&](const char* what, size_t entries, size_t bytes) {
-                return runtime.createBuffer(fmt::format("CBDPT packet {} ({} per pixel x {} bytes)",
-                                                        what, entries / pixels, bytes),
-                                            CL_MEM_READ_WRITE, entries * bytes);
-            };
-            eyes_ = scratch("eye vertices", pixels * size_t(settings.eyeVertices),
-                            tracer_->vertexBytes());
-            walks_ = scratch("eye walks", pixels, 4 * (size_t(scene.channels) + 2));
-            rays_ = scratch("eye rays", pixels, sizeof(cbk::Ray));
-            tMaxes_ = scratch("eye ray ends", pixels, sizeof(float));
-            hits_ = scratch("eye hits", pixels, sizeof(cbk::Hit));
-            terms_ = scratch("contributions", pixels * strategies,
-                             sizeof(float) * size_t(scene.channels));
-            shadowRays_ = scratch("shadow rays", pixels * strategies, sizeof(cbk::Ray));
-            shadowTMaxes_ = scratch("shadow ray ends", pixels * strategies, sizeof(float));
-            occluded_ = scratch("occlusion", pixels * strategies, sizeof(int));
+            // Per pixel (cbdpt_packets.cl): its eye walk (Ne vertices) and one entry for each
+            // strategy (t, s), t = 2 .. Ne, s = 0 .. Nl.
+            const size_t eyeVertices = size_t(settings.eyeVertices);
+            const size_t strategies = (eyeVertices - 1) * size_t(settings.lightVertices + 1);
+            eyes_ = packetScratch("eye vertices", eyeVertices, tracer_->vertexBytes());
+            walks_ = packetScratch("eye walks", 1, 4 * (size_t(scene.channels) + 2));
+            rays_ = packetScratch("eye rays", 1, sizeof(cbk::Ray));
+            tMaxes_ = packetScratch("eye ray ends", 1, sizeof(float));
+            hits_ = packetScratch("eye hits", 1, sizeof(cbk::Hit));
+            terms_ =
+                packetScratch("contributions", strategies, sizeof(float) * size_t(scene.channels));
+            shadowRays_ = packetScratch("shadow rays", strategies, sizeof(cbk::Ray));
+            shadowTMaxes_ = packetScratch("shadow ray ends", strategies, sizeof(float));
+            occluded_ = packetScratch("occlusion", strategies, sizeof(int));
         }
         createKernel(packets ? "renderCoherentBdpt" : "renderCbdpt", bdptSettingsFor(settings),
                      [&](KernelArguments& args) {

@@ -2,9 +2,12 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <iterator>
 #include <string>
 
 namespace cb {
@@ -75,7 +78,10 @@ PixelKernelIntegrator::PixelKernelIntegrator(std::string name, const std::string
                                              const DeviceScene& scene, ClRuntime& runtime)
     : KernelIntegrator(std::move(name), settings, scene, runtime),
       image_(runtime.createBuffer(imageName + " image (width x height RGB)", CL_MEM_WRITE_ONLY,
-                                  imageBytes())) {}
+                                  imageBytes())) {
+    std::transform(settings_.name.begin(), settings_.name.end(), std::back_inserter(label_),
+                   [](unsigned char c) { return char(std::toupper(c)); });
+}
 
 void PixelKernelIntegrator::addSharedSampleArguments(KernelArguments& args, std::uint32_t streams) {
     const char* env = std::getenv("CBDPT_SHARED_SAMPLES");
@@ -129,10 +135,13 @@ bool PixelKernelIntegrator::packetsWanted() const {
            !(env && std::string(env) == "0");
 }
 
-size_t PixelKernelIntegrator::tileCount() const {
+cl::Buffer PixelKernelIntegrator::packetScratch(const char* what, size_t perPixel, size_t bytes) {
     const size_t tile = size_t(settings_.tileSize);
-    return ((size_t(scene_.camera.width) + tile - 1) / tile) *
-           ((size_t(scene_.camera.height) + tile - 1) / tile);
+    const size_t tiles = ((size_t(scene_.camera.width) + tile - 1) / tile) *
+                         ((size_t(scene_.camera.height) + tile - 1) / tile);
+    return runtime_.createBuffer(
+        fmt::format("{} packet {} ({} per pixel x {} bytes)", label_, what, perPixel, bytes),
+        CL_MEM_READ_WRITE, tiles * tile * tile * perPixel * bytes);
 }
 
 } // namespace cb

@@ -112,8 +112,9 @@ class PixelKernelIntegrator : public KernelIntegrator {
     // copies of private values (a group of 128 x 32, PoCL's choice for 512 x 512 pixels in tiles
     // of 4, overflowed its thread's stack).
     void launchPerTile() { perTile_ = true; }
-    // How many tiles cover the image.
-    size_t tileCount() const;
+    // A scratch buffer of the packets' kernels: `perPixel` entries of `bytes` each for every
+    // pixel of every tile (a work-item works in its tile's slice); named in out-of-memory errors.
+    cl::Buffer packetScratch(const char* what, size_t perPixel, size_t bytes);
     virtual void afterReadBack(std::vector<float>& rgb) { (void)rgb; }
 
     // Adds the two arguments of the coherent methods' shared sample vectors (kernels/cb_rng.h,
@@ -133,6 +134,7 @@ class PixelKernelIntegrator : public KernelIntegrator {
     cl::Kernel kernel_;
     int estimateArgument_ = 0;
     bool perTile_ = false;
+    std::string label_; // the method, e.g. "CPT", in buffer names
 };
 
 } // namespace cb

@@ -42,20 +42,14 @@ class PathTracingIntegrator final : public PixelKernelIntegrator {
                          });
             return;
         }
-        // tile * tile scratch entries per work-item, a work-item per tile.
-        const size_t entries = tileCount() * size_t(settings.tileSize * settings.tileSize);
-        auto scratch = [&](const char* what, size_t bytes) {
-            return runtime.createBuffer(
-                fmt::format("CPT packet {} (pixels x {} bytes)", what, bytes), CL_MEM_READ_WRITE,
-                entries * bytes);
-        };
-        paths_ = scratch("paths", CB_PT_PATH_BYTES(scene.channels));
-        rays_ = scratch("rays", sizeof(cbk::Ray));
-        tMaxes_ = scratch("ray ends", sizeof(float));
-        hits_ = scratch("hits", sizeof(cbk::Hit));
-        shadowRays_ = scratch("shadow rays", sizeof(cbk::Ray));
-        shadowTMaxes_ = scratch("shadow ray ends", sizeof(float));
-        occluded_ = scratch("occlusion", sizeof(int));
+        // A work-item per tile of pixels, one entry per pixel.
+        paths_ = packetScratch("paths", 1, CB_PT_PATH_BYTES(scene.channels));
+        rays_ = packetScratch("rays", 1, sizeof(cbk::Ray));
+        tMaxes_ = packetScratch("ray ends", 1, sizeof(float));
+        hits_ = packetScratch("hits", 1, sizeof(cbk::Hit));
+        shadowRays_ = packetScratch("shadow rays", 1, sizeof(cbk::Ray));
+        shadowTMaxes_ = packetScratch("shadow ray ends", 1, sizeof(float));
+        occluded_ = packetScratch("occlusion", 1, sizeof(int));
         createKernel("renderCoherentPathTracing", pathSettingsFor(settings),
                      [&](KernelArguments& args) {
                          args.add(streamTile);
