@@ -202,6 +202,20 @@ with tempfile.TemporaryDirectory() as tmp:
                              if line.startswith("  todo")]
     check(todo == {False: [], True: [moved]},
           f"--same-revision lists only the unit of another revision as to do ({todo})")
+    # ... and the units another CPU model ran: equal-time curves must share a machine.
+    other = "cornell-box/n8/pt/time-seed2"
+    other_path = os.path.join(units, other + ".json")
+    other_rec = json.load(open(other_path))
+    json.dump(dict(rec, machine=dict(rec["machine"], cpu="another CPU")), open(path, "w"))
+    json.dump(dict(other_rec, machine=dict(other_rec["machine"], cpu="another CPU")),
+              open(other_path, "w"))
+    for extra in ([], ["--same-revision"]):
+        r = subprocess.run(listing + extra, capture_output=True, text=True)
+        todo[bool(extra)] = [line.split()[1] for line in r.stdout.splitlines()
+                             if line.startswith("  todo")]
+    check(todo == {False: [], True: [moved, other]},
+          f"--same-revision lists the units another CPU ran as to do ({todo})")
+    json.dump(other_rec, open(other_path, "w"))
     json.dump(rec, open(path, "w"))
     # A unit interrupted mid-render (here its render kills the experiment) leaves the unit's log
     # and record as they were: the render logs to a part file, which replaces the log only

@@ -143,20 +143,25 @@ with tempfile.TemporaryDirectory() as tmp:
     check("| mean (share 0.5) | 0 | 0 | 0 | 0 of 7 |" in text, "the plain mean on none")
     check("| buddha | guided | 0.1 | 0.1 | 0.1 | 0.25 |" in text, "the share table")
 
-    # The table of which binary ran which units: one row per (revision, kind, method) naming
-    # exactly the scene/configurations of those units, from the units' JSON.
+    # The table of which binary ran which units: one row per (revision, CPU, kind, method)
+    # naming exactly the scene/configurations of those units, from the units' JSON.
     full = open(os.path.join(tmp, "results.md")).read()
     where = {}
     for dirpath, _, files in os.walk(units):
         for name in files:
             if name.endswith(".json"):
                 u = json.load(open(os.path.join(dirpath, name)))
-                where.setdefault((u["kind"], u["method"]), set()).add(
+                where.setdefault((u["machine"]["cpu"], u["kind"], u["method"]), set()).add(
                     f"{u['scene']}/{u['config']}")
-    expected = f"| test | time | PT | {', '.join(sorted(where[('time', 'pt')]))} |"
-    check(len(where[("time", "pt")]) == len(scenes) and expected in full,  # PT: N only
+    pt_time = [key for key in where if key[1:] == ("time", "pt")]
+    cpu = pt_time[0][0] if len(pt_time) == 1 else None
+    pt_where = ", ".join(sorted(where.get((cpu, "time", "pt"), [])))
+    expected = f"| test | {cpu} | time | PT | {pt_where} |"
+    check(cpu is not None and len(where[(cpu, "time", "pt")]) == len(scenes)
+          and expected in full,  # PT: N only
           f"revision table row for PT's time units ({expected})")
-    check(full.count("| test | ") == len(where), f"one revision row per (kind, method) ({where})")
+    check(full.count("| test | ") == len(where),
+          f"one revision row per (CPU, kind, method) ({where})")
 
     # Three scenes (the goal then asks for 3 of 3; fewer units keep the test short), guided
     # better on all, but a bias of 0.02 (twice the reference's floor) on one: not reached.
