@@ -59,6 +59,9 @@ set_tests_properties(combine_cli PROPERTIES TIMEOUT 600)
 # the doctest cases one process each.
 add_test(NAME gpu_check COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_gpu_check.py $<TARGET_FILE:cbdpt> $<TARGET_FILE:cbdpt_tests> ${CMAKE_SOURCE_DIR})
 set_tests_properties(gpu_check PROPERTIES TIMEOUT 600 SKIP_REGULAR_EXPRESSION "cbdpt-skip:")
+# scripts/gpu-bundle: what the GPU check needs on a machine without build tools.
+add_test(NAME gpu_bundle COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_gpu_bundle.py $<TARGET_FILE:cbdpt> ${CMAKE_SOURCE_DIR})
+set_tests_properties(gpu_bundle PROPERTIES TIMEOUT 120)
 # Renders that scale and survive: shards merged bit for bit (PT, CPT, BDPT, CBDPT), SIGKILL and
 # --resume from the periodic state, output checks and kept work, corrupted states refused.
 add_test(NAME scale COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_scale.py $<TARGET_FILE:cbdpt> ${CMAKE_SOURCE_DIR})
