@@ -98,6 +98,8 @@ CB_FN BdptSettings bdptSettingsCopy(BdptSettings in) {
     out.pad[1] = in.pad[1];
     return out;
 }
+/* The copy names every field: a new one must be added to it (and this size). */
+typedef char cbBdptSettingsCopyCheck[sizeof(BdptSettings) == 8 * sizeof(int) ? 1 : -1];
 
 /* Light subpath dimensions (its own stream, see bdptLightStream): 0-1 point, 2-3 direction,
  * 4 light choice, 5 side of a two-sided light; then CB_DIMS_PER_BOUNCE per bounce as for eye
