@@ -348,12 +348,13 @@ ray8Trace(CB_GLOBAL const BvhNodeWide* nodes, CB_GLOBAL const TrianglePack* pack
 #undef CB_RAY8_OUT
 }
 
-/* The first lines of a kernel whose work-item renders a tile of `tile` x `tile` pixels: its
- * tile (tileX, tileY), tilesX across the image; work-items past the image return. */
-#define CB_RAY8_TILE_ITEM(tile, width, height)                                                     \
+/* The first lines of a kernel whose work-item renders a tile of `tile` x `tile` pixels `stride`
+ * apart (packetTilesAcross, cb_rng.h): its tile (tileX, tileY), tilesX across the image;
+ * work-items past the image's tiles return. */
+#define CB_RAY8_TILE_ITEM(tile, stride, width, height)                                             \
     const int tileX = (int)get_global_id(0), tileY = (int)get_global_id(1);                        \
-    const int tilesX = ((width) + (tile)-1) / (tile);                                              \
-    if (tileX >= tilesX || tileY * (tile) >= (height)) return
+    const int tilesX = packetTilesAcross(width, tile, stride);                                     \
+    if (tileX >= tilesX || tileY >= packetTilesAcross(height, tile, stride)) return
 
 /* The packets of a tile of `tile` x `tile` pixels stored row by row from index `base` (tile a
  * multiple of 4): packet q's 4 x 2 pixels' indices, rows of 4 packets' width. */

@@ -254,6 +254,19 @@ CB_FN SampleStream samplerStreamShared(SamplerSettings sampler, uint estimate, u
     return s;
 }
 
+/* The packets' tiles (pt.cl renderCoherentPathTracing, cbdpt_packets.cl): a work-item renders
+ * tile x tile pixels `stride` apart, stride the coherence tile k, so that all its pixels sit at
+ * one position of their k x k tiles and follow one shared sample vector (neighbours would
+ * follow k^2 different ones). Along an axis of `extent` pixels, blocks of k * tile pixels hold
+ * k tiles each; tile t's i-th column (or row) is pixel packetTilePixel(t, i, ...). k = 1: plain
+ * tiles of neighbouring pixels. */
+CB_FN int packetTilesAcross(int extent, int tile, int stride) {
+    return (extent + stride * tile - 1) / (stride * tile) * stride;
+}
+CB_FN int packetTilePixel(int t, int i, int tile, int stride) {
+    return t / stride * stride * tile + t % stride + stride * i;
+}
+
 CB_END_NAMESPACE
 
 #endif /* CB_RNG_H */

@@ -1,16 +1,17 @@
 /* cbdpt_packets.cl - CBDPT with its coherent rays traced as packets, on CPU devices (GPUs run
  * the per-pixel renderCbdpt of cbdpt.cl, whose code this shares).
  *
- * One work-item renders a tile of `tile` x `tile` pixels. Their eye subpaths advance one vertex
- * at a time together (bdptWalkStep, as bdptRandomWalk), each round's rays, every pixel's k-th
- * drawn from one shared sample vector, traced in packets of 4 x 2 neighbouring pixels
- * (cb_bvh_ray8.h). Then each pixel's strategies are renderCbdpt's, but each shadow ray waits
- * (bdptConnectDeferred) with its weighted contribution; the shadow rays of each strategy (t, s),
- * all aimed at the estimate's same few light vertices from neighbouring eye vertices, are traced
- * in packets, and each pixel adds its strategies in renderCbdpt's order. Everything waits in
- * global scratch buffers, per work-item tile * tile entries (times Ne eye vertices, or times the
- * (Ne - 1) (Nl + 1) strategies), which stay in the cache while the work-item runs; tMax 0: no
- * ray. `tile` must be a multiple of 4. */
+ * One work-item renders a tile of `tile` x `tile` pixels that follow one shared sample vector
+ * (neighbours, or k apart with --coherence-tile k: packetTilePixel, cb_rng.h). Their eye
+ * subpaths advance one vertex at a time together (bdptWalkStep, as bdptRandomWalk), each
+ * round's rays traced in packets of 4 x 2 of its pixels (cb_bvh_ray8.h). Then each pixel's
+ * strategies are renderCbdpt's, but each shadow ray waits (bdptConnectDeferred) with its
+ * weighted contribution; the shadow rays of each strategy (t, s), all aimed at the estimate's
+ * same few light vertices from nearby eye vertices, are traced in packets, and each pixel adds
+ * its strategies in renderCbdpt's order. Everything waits in global scratch buffers, per
+ * work-item tile * tile entries (times Ne eye vertices, or times the (Ne - 1) (Nl + 1)
+ * strategies), which stay in the cache while the work-item runs; tMax 0: no ray. `tile` must be
+ * a multiple of 4. */
 #include "cbdpt.cl"
 /* After cbdpt.cl, whose headers define what it needs (CB_HAS). */
 #include "cb_bvh_ray8.h"
@@ -31,7 +32,7 @@ __kernel void renderCoherentBdpt(CB_CBDPT_PARAMS, int tile, __global PathVertex*
                                  __global Spectrum* terms, __global Ray* shadowRays,
                                  __global float* shadowTMaxes, __global int* occluded,
                                  __global float* outRgb, CB_COUNTER_PARAMS) {
-    CB_RAY8_TILE_ITEM(tile, camera.width, camera.height);
+    CB_RAY8_TILE_ITEM(tile, streamTile, camera.width, camera.height);
     CB_SCENE_VIEW(scene);
     BdptSettings settingsCopy = bdptSettingsCopy(settings);
     const int pixels = tile * tile, packets = pixels / 8;
@@ -39,7 +40,8 @@ __kernel void renderCoherentBdpt(CB_CBDPT_PARAMS, int tile, __global PathVertex*
     const int maxEye = settingsCopy.eyeVertices;
     int tracedRays = 0;
 #define CB_CBDPT_PIXEL(p, x, y)                                                                    \
-    const int x = tileX * tile + (p) % tile, y = tileY * tile + (p) / tile
+    const int x = packetTilePixel(tileX, (p) % tile, tile, streamTile),                            \
+              y = packetTilePixel(tileY, (p) / tile, tile, streamTile)
 #define CB_CBDPT_INSIDE(x, y) ((x) < camera.width && (y) < camera.height)
 
     /* The eye subpaths: pixel p's walk and ray at tileIndex * pixels + p, its vertices from

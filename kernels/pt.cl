@@ -21,14 +21,15 @@ __kernel void renderPathTracing(CB_INTEGRATOR_KERNEL_PARAMS(PathSettings), uint 
 }
 
 /* CPT with its coherent rays traced as packets: one work-item renders a tile of `tile` x `tile`
- * pixels, advancing their paths one vertex at a time together (ptPathVertex, ptPathShadow, as in
- * ptRadiance), and between the steps traces the rays of all of them, every pixel's k-th ray drawn
- * from one shared sample vector, in packets of 4 x 2 neighbouring pixels (cb_bvh_ray8.h) rather
- * than one by one. Paths, rays and answers wait in global scratch buffers, tile * tile entries
- * per work-item, which stay in the cache while the work-item runs (tMax 0: no ray). The
- * work-item loops over its pixels itself, without barriers: a work-item per pixel with barriers
- * around the packets rendered wrong images under PoCL 3.1 even with the packets' answers
- * replaced by each work-item's own traversal. `tile` must be a multiple of 4. */
+ * pixels that follow one shared sample vector (neighbours, or k apart with --coherence-tile k:
+ * packetTilePixel, cb_rng.h), advancing their paths one vertex at a time together
+ * (ptPathVertex, ptPathShadow, as in ptRadiance), and between the steps traces their rays in
+ * packets of 4 x 2 of its pixels (cb_bvh_ray8.h) rather than one by one. Paths, rays and
+ * answers wait in global scratch buffers, tile * tile entries per work-item, which stay in the
+ * cache while the work-item runs (tMax 0: no ray). The work-item loops over its pixels itself,
+ * without barriers: a work-item per pixel with barriers around the packets rendered wrong
+ * images under PoCL 3.1 even with the packets' answers replaced by each work-item's own
+ * traversal. `tile` must be a multiple of 4. */
 #include "cb_bvh_ray8.h"
 
 /* The host sizes the path buffer by CB_PT_PATH_BYTES (cb_pt.h): a compile error if it is not
@@ -42,12 +43,13 @@ __kernel void renderCoherentPathTracing(CB_INTEGRATOR_KERNEL_PARAMS(PathSettings
                                         __global Hit* hits, __global Ray* shadowRays,
                                         __global float* shadowTMaxes, __global int* occluded,
                                         __global float* outRgb, CB_COUNTER_PARAMS) {
-    CB_RAY8_TILE_ITEM(tile, camera.width, camera.height);
+    CB_RAY8_TILE_ITEM(tile, streamTile, camera.width, camera.height);
     const int pixels = tile * tile, packets = pixels / 8;
     const int base = (tileY * tilesX + tileX) * pixels;
     CB_SCENE_VIEW(scene);
 #define CB_CPT_PIXEL(p, x, y, inside)                                                              \
-    const int x = tileX * tile + (p) % tile, y = tileY * tile + (p) / tile;                        \
+    const int x = packetTilePixel(tileX, (p) % tile, tile, streamTile);                            \
+    const int y = packetTilePixel(tileY, (p) / tile, tile, streamTile);                            \
     const bool inside = x < camera.width && y < camera.height
 #define CB_CPT_SAMPLES(x, y)                                                                       \
     ptPixelStream(sampler, estimate, streamTile, sharedSamples, sharedDimensions, camera.width, x, \

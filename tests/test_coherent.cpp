@@ -4,6 +4,7 @@
 // samples, since pixels within one coherent estimate are correlated.
 #include "test_render_util.h"
 
+#include "integrators/kernel_integrator.h"
 #include "scene/device_scene.h"
 #include "scene/scene_desc.h"
 
@@ -421,40 +422,57 @@ TEST_CASE("CPT and CBDPT traced as packets: the per-pixel kernels' images") {
     // bit for bit but for such ties. Tiles of 4, 8 and 16 pixels (12 is not a whole number of
     // packets: the per-pixel kernels), a film that is not a whole number of tiles, RGB and
     // spectral (the scratch entries' sizes), CPT with roulette on and off, CBDPT under its
-    // per-subpath caps and under a total cap (--max-vertices).
+    // per-subpath caps and under a total cap (--max-vertices); with --coherence-tile 2 and 3 the
+    // packets' pixels are 2 and 3 apart (packetTilePixel), the tiles' blocks overhanging the film.
     cb::SceneDesc desc = cb::parseSceneFile(scenePath("cornell-box.pbrt"));
     desc.film.width = 37;
     desc.film.height = 29;
     for (cb::ChannelMode mode : {cb::ChannelMode::Rgb, cb::ChannelMode::Spectral}) {
         cb::DeviceScene scene = cb::buildDeviceScene(desc, mode);
         for (std::string method : {"cpt", "cbdpt"})
-            for (int tile : {4, 8, 12, 16})
-                for (int variant : {0, 1}) {
-                    CAPTURE(mode == cb::ChannelMode::Rgb);
-                    CAPTURE(method);
-                    CAPTURE(tile);
-                    CAPTURE(variant);
-                    cb::IntegratorSettings s;
-                    s.name = method;
-                    s.eyeVertices = method == "cpt" ? 6 : 4;
-                    s.lightVertices = 3;
-                    if (method == "cpt") s.rouletteVertex = variant ? 3 : 0;
-                    if (method == "cbdpt" && variant) s.maxPathVertices = 5; // Ne 5, Nl 4
-                    s.tileSize = tile;
-                    s.seed = 9;
-                    auto packets = cb::makeIntegrator(s, scene, runtime());
-                    auto pixels = makeIntegratorWithout("CBDPT_PACKETS", s, scene);
-                    size_t differing = 0, values = 0;
-                    const auto [sumA, sumB] =
-                        renderBoth(*packets, *pixels, 4, [&](float x, float y) {
-                            differing += x != y;
-                            ++values;
-                        });
-                    CHECK(sumB > 0.0);
-                    CHECK(differing <= values / 500);
-                    CHECK(std::abs(sumA - sumB) <= 1e-4 * sumB);
-                    CHECK(packets->nonFiniteSamples() == pixels->nonFiniteSamples());
-                }
+            for (int k : {1, 2, 3})
+                for (int tile : {4, 8, 12, 16})
+                    for (int variant : {0, 1}) {
+                        if (k > 1 && (tile > 8 || variant != k - 2)) continue;
+                        CAPTURE(mode == cb::ChannelMode::Rgb);
+                        CAPTURE(method);
+                        CAPTURE(k);
+                        CAPTURE(tile);
+                        CAPTURE(variant);
+                        cb::IntegratorSettings s;
+                        s.name = method;
+                        s.eyeVertices = method == "cpt" ? 6 : 4;
+                        s.lightVertices = 3;
+                        if (method == "cpt") s.rouletteVertex = variant ? 3 : 0;
+                        if (method == "cbdpt" && variant) s.maxPathVertices = 5; // Ne 5, Nl 4
+                        s.coherenceTile = k;
+                        s.tileSize = tile;
+                        s.seed = 9;
+                        auto packets = cb::makeIntegrator(s, scene, runtime());
+                        auto pixels = makeIntegratorWithout("CBDPT_PACKETS", s, scene);
+                        CHECK(packets->tracesPackets() == (tile % 4 == 0));
+                        CHECK(!pixels->tracesPackets());
+                        size_t differing = 0, values = 0;
+                        const auto [sumA, sumB] =
+                            renderBoth(*packets, *pixels, 4, [&](float x, float y) {
+                                differing += x != y;
+                                ++values;
+                            });
+                        CHECK(sumB > 0.0);
+                        CHECK(differing <= values / 500);
+                        CHECK(std::abs(sumA - sumB) <= 1e-4 * sumB);
+                        CHECK(packets->nonFiniteSamples() == pixels->nonFiniteSamples());
+                    }
+        // Above the largest coherence tile whose packets pay, the per-pixel kernels run.
+        for (std::string method : {"cpt", "cbdpt"}) {
+            cb::IntegratorSettings s;
+            s.name = method;
+            s.eyeVertices = s.lightVertices = 3;
+            s.coherenceTile = cb::PixelKernelIntegrator::kMaxPacketCoherenceTile;
+            CHECK(cb::makeIntegrator(s, scene, runtime())->tracesPackets());
+            ++s.coherenceTile;
+            CHECK(!cb::makeIntegrator(s, scene, runtime())->tracesPackets());
+        }
     }
 }
 

@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
-"""scripts/interleave-render (docs/performance.md): one tiny round of PT and CPT, with and
-without the host's shared sample vectors, gives every run a positive time, one CSV row per
-run, and CPT's ratio to PT; malformed entries are refused with the entry named. No timing
-assertions.
+"""scripts/interleave-render (docs/performance.md): one tiny round of PT and CPT (coherence
+tile 2), with and without the host's shared sample vectors, gives every run a positive time,
+one CSV row per run, and CPT's ratio to PT; malformed entries are refused with the entry named.
+No timing assertions.
 
 Usage: test_interleave_render.py PATH/TO/cbdpt SOURCE_DIR"""
 import csv
@@ -25,7 +25,8 @@ def check(condition, message):
 with tempfile.TemporaryDirectory() as tmp:
     table = os.path.join(tmp, "runs.csv")
     r = subprocess.run([sys.executable, script, "-r", "1", "--scenes", "cornell-box",
-                        "--methods", "pt", "cpt", "--size", "16", "--estimates", "2", "--csv",
+                        "--methods", "pt", "cpt", "--size", "16", "--estimates", "2",
+                        "--coherence-tile", "2", "--csv",
                         table, f"now={cbdpt}", f"own={cbdpt}:CBDPT_SHARED_SAMPLES=0"],
                        capture_output=True, text=True, timeout=600)
     check(r.returncode == 0, f"a round runs (exit {r.returncode}: {r.stderr})")
@@ -36,6 +37,7 @@ with tempfile.TemporaryDirectory() as tmp:
         cpt = [line for line in r.stdout.splitlines() if line.startswith("cornell-box  cpt")]
         check(len(cpt) == 2 and all("/pt " in line for line in cpt),
               f"CPT's ratio to PT per entry: {cpt}")
+        check("coherence tile 2" in r.stdout, f"the coherence tile stated: {r.stdout}")
 
     for entry, expected in [("nobinary", "is not NAME=CBDPT"),
                             ("x=/no/such/cbdpt", "no binary at /no/such/cbdpt"),

@@ -609,6 +609,7 @@ nlohmann::json RenderJob::statistics(const cb::RenderOutcome& outcome) const {
         {"seconds_per_estimate", outcome.secondsPerEstimate()},
         {"kernel_build_seconds", integrator_->buildSeconds()},
         {"host_sample_streams", integrator_->hostSampleStreams()},
+        {"packets", integrator_->tracesPackets()},
         {"scene_load_seconds", loadSeconds_},
         {"non_finite_samples", outcome.nonFiniteSamples},
         {"mean_standard_error", meanError},

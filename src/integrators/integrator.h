@@ -53,6 +53,9 @@ class Integrator {
     // CPT and CBDPT: how many shared sample vectors the host draws per estimate for the
     // kernel (0: the kernel draws every value itself).
     virtual std::uint32_t hostSampleStreams() const { return 0; }
+    // CPT and CBDPT: whether the kernel traces the eye paths' rays as packets (a work-item per
+    // tile of pixels that share one sample vector) rather than a work-item per pixel.
+    virtual bool tracesPackets() const { return false; }
 };
 
 // The kernels' sampler settings: seed and kind (CB_SAMPLER_*), from a validated name.

@@ -117,12 +117,14 @@ void PixelKernelIntegrator::renderEstimate(std::uint32_t estimate, std::vector<f
     }
     kernel_.setArg(estimateArgument_, estimate);
     const size_t tile = size_t(settings_.tileSize);
-    const size_t across = (size_t(scene_.camera.width) + tile - 1) / tile;
-    const size_t down = (size_t(scene_.camera.height) + tile - 1) / tile;
-    if (perTile_)
+    if (perTile_) {
+        const auto [across, down] = packetTiles();
         launch(kernel_, cl::NDRange(across, down), cl::NDRange(1, 1));
-    else // a work-item per pixel, in square work-groups of tile x tile pixels
+    } else { // a work-item per pixel, in square work-groups of tile x tile pixels
+        const size_t across = (size_t(scene_.camera.width) + tile - 1) / tile;
+        const size_t down = (size_t(scene_.camera.height) + tile - 1) / tile;
         launch(kernel_, cl::NDRange(across * tile, down * tile), cl::NDRange(tile, tile));
+    }
     rgb.resize(3 * pixels_);
     runtime_.queue().enqueueReadBuffer(image_, CL_TRUE, 0, imageBytes(), rgb.data());
     readCounters();
@@ -131,14 +133,20 @@ void PixelKernelIntegrator::renderEstimate(std::uint32_t estimate, std::vector<f
 
 bool PixelKernelIntegrator::packetsWanted() const {
     const char* env = std::getenv("CBDPT_PACKETS");
-    return runtime_.info().cpu && settings_.tileSize % 4 == 0 && settings_.coherenceTile == 1 &&
-           !(env && std::string(env) == "0");
+    return runtime_.info().cpu && settings_.tileSize % 4 == 0 &&
+           settings_.coherenceTile <= kMaxPacketCoherenceTile && !(env && std::string(env) == "0");
+}
+
+std::pair<size_t, size_t> PixelKernelIntegrator::packetTiles() const {
+    const int tile = settings_.tileSize, stride = settings_.coherenceTile;
+    return {size_t(cbk::packetTilesAcross(scene_.camera.width, tile, stride)),
+            size_t(cbk::packetTilesAcross(scene_.camera.height, tile, stride))};
 }
 
 cl::Buffer PixelKernelIntegrator::packetScratch(const char* what, size_t perPixel, size_t bytes) {
     const size_t tile = size_t(settings_.tileSize);
-    const size_t tiles = ((size_t(scene_.camera.width) + tile - 1) / tile) *
-                         ((size_t(scene_.camera.height) + tile - 1) / tile);
+    const auto [across, down] = packetTiles();
+    const size_t tiles = across * down;
     return runtime_.createBuffer(
         fmt::format("{} packet {} ({} per pixel x {} bytes)", label_, what, perPixel, bytes),
         CL_MEM_READ_WRITE, tiles * tile * tile * perPixel * bytes);

@@ -11,6 +11,7 @@
 
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace cb {
@@ -76,6 +77,11 @@ class PixelKernelIntegrator : public KernelIntegrator {
   public:
     void renderEstimate(std::uint32_t estimate, std::vector<float>& rgb) final;
     std::uint32_t hostSampleStreams() const override { return sharedStreams_; }
+    bool tracesPackets() const override { return perTile_; }
+    // With --coherence-tile k a packet's pixels are k apart: at k = 8 its rays had spread too
+    // far to pay on the dragon (CPT 0.94x PT against the per-pixel kernel's 0.87x, 256x256;
+    // k <= 4 paid everywhere: docs/performance.md). Larger k also overhang the film more.
+    static constexpr int kMaxPacketCoherenceTile = 4;
 
   protected:
     // `imageName` names the image buffer in out-of-memory errors, e.g. "BDPT".
@@ -100,18 +106,19 @@ class PixelKernelIntegrator : public KernelIntegrator {
 
     // Work before the launch of an estimate and on the image after it is read back.
     virtual void beforeLaunch(std::uint32_t estimate) { (void)estimate; }
-    // The coherent methods' packets (kernels/pt.cl renderCoherentPathTracing, cbdpt.cl
-    // renderCoherentBdpt: a work-item per tile of pixels, tracing their rays in packets of 4 x 2):
-    // wanted on CPU devices with one shared vector per estimate (--coherence-tile 1) unless
-    // CBDPT_PACKETS=0 (to measure what they buy) or the tile is not a whole number of packets.
-    // A GPU needs a work-item per pixel to fill its cores; with k x k vectors neighbouring
-    // pixels follow different vectors, and packets of them were slower (docs/performance.md).
+    // The coherent methods' packets (kernels/pt.cl renderCoherentPathTracing, cbdpt_packets.cl
+    // renderCoherentBdpt: a work-item per tile of pixels that share one sample vector, tracing
+    // their rays in packets of 4 x 2): wanted on CPU devices unless CBDPT_PACKETS=0 (to measure
+    // what they buy), the tile is not a whole number of packets, or --coherence-tile is above
+    // kMaxPacketCoherenceTile. A GPU needs a work-item per pixel to fill its cores.
     bool packetsWanted() const;
-    // Launches a work-item per tile of tileSize x tileSize pixels, each its own work-group, from
-    // now on, instead of a work-item per pixel: larger groups only add PoCL's per-work-item
-    // copies of private values (a group of 128 x 32, PoCL's choice for 512 x 512 pixels in tiles
-    // of 4, overflowed its thread's stack).
+    // Launches a work-item per tile of tileSize x tileSize pixels coherenceTile apart
+    // (packetTiles()), each its own work-group, from now on, instead of a work-item per pixel:
+    // larger groups only add PoCL's per-work-item copies of private values (a group of 128 x 32,
+    // PoCL's choice for 512 x 512 pixels in tiles of 4, overflowed its thread's stack).
     void launchPerTile() { perTile_ = true; }
+    // The packets' tiles across and down the image (kernels/cb_rng.h, packetTilesAcross).
+    std::pair<size_t, size_t> packetTiles() const;
     // A scratch buffer of the packets' kernels: `perPixel` entries of `bytes` each for every
     // pixel of every tile (a work-item works in its tile's slice); named in out-of-memory errors.
     cl::Buffer packetScratch(const char* what, size_t perPixel, size_t bytes);
