@@ -93,17 +93,38 @@ CB_FN __attribute__((always_inline)) int8 ray8Box(CB_GLOBAL const BvhNodeWide* n
     return tn <= far;
 }
 
-/* The watertight test's per-ray set-up (TriangleRay) for the eight rays at once, when their
- * directions share the largest axis (uniformAxis): the permutation is then one for all. */
+/* The watertight test's per-ray set-up (TriangleRay) for the eight rays at once: each lane its
+ * ray's permutation (kx8, ky8, kz8); when the live rays' directions share the largest axis
+ * (uniformAxis) the permutation is one for all (kx, ky, kz), and a vertex's coordinates are
+ * picked once for the eight rays rather than lane by lane. */
 typedef struct Ray8Sheared {
     bool uniformAxis;
     int kx, ky, kz;
+    int8 kx8, ky8, kz8;
     float8 sx, sy, sz, ox, oy, oz;
 } Ray8Sheared;
 
-/* Lane by lane: x, y or z by the axis k (0, 1, 2), as vcomponent. */
-CB_FN float8 ray8Component(float8 x, float8 y, float8 z, int k) {
-    return k == 0 ? x : (k == 1 ? y : z);
+/* Lane by lane: x, y or z by that lane's axis k (0, 1, 2), as vcomponent. */
+CB_FN float8 ray8Component(float8 x, float8 y, float8 z, int8 k) {
+    return select(select(z, y, k == (int8)(1)), x, k == (int8)(0));
+}
+
+/* Vertex i of a pack's triangle l in the eight rays' permuted frames, relative to their
+ * origins. */
+CB_FN __attribute__((always_inline)) void ray8Vertex(CB_GLOBAL const TrianglePack* pack, int i,
+                                                     int l, const Ray8Sheared* sh, float8* px,
+                                                     float8* py, float8* pz) {
+    if (sh->uniformAxis) {
+        *px = (float8)(pack->v[i][sh->kx][l]) - sh->ox;
+        *py = (float8)(pack->v[i][sh->ky][l]) - sh->oy;
+        *pz = (float8)(pack->v[i][sh->kz][l]) - sh->oz;
+    } else {
+        const float8 x = (float8)(pack->v[i][0][l]), y = (float8)(pack->v[i][1][l]),
+                     z = (float8)(pack->v[i][2][l]);
+        *px = ray8Component(x, y, z, sh->kx8) - sh->ox;
+        *py = ray8Component(x, y, z, sh->ky8) - sh->oy;
+        *pz = ray8Component(x, y, z, sh->kz8) - sh->oz;
+    }
 }
 
 /* No fused multiply-adds in the triangle test, as in cb_intersect.h (whose pragma ends with
@@ -128,15 +149,16 @@ CB_FN void ray8Record(int j, Hit h, bool closestHit, float8* closest, int8* foun
     *hitB2 = select(*hitB2, (float8)(h.b2), at);
 }
 
-/* A leaf's packs first .. first + count - 1 against the rays of rayBits (bit j: lane j). With a
- * shared largest axis each triangle is tested against the eight rays at once: the pack test's
- * arithmetic (cbTriangleLanes8) with the roles of lanes turned (a lane per ray, not per
- * triangle), lanes that would take its double-precision path decided one by one by
- * intersectPrimitiveSheared, as intersectPack decides them. Otherwise (and for packs of other
- * primitives) ray by ray with intersectPack. Triangles are taken in order, each against the closest
- * hit so far, so the nearest hit wins and the first triangle among equal distances, as in
- * intersectPack. A ray that is done (an any-hit query that hit) gets closest -1 and takes no
- * further part. */
+/* A leaf's packs first .. first + count - 1 against the rays of rayBits (bit j: lane j). Each
+ * triangle is tested against the eight rays at once, each in its own permuted frame
+ * (ray8Vertex): the pack test's arithmetic (cbTriangleLanes8) with the roles of lanes turned (a
+ * lane per ray, not per triangle), lanes that would take its double-precision path decided one
+ * by one by intersectPrimitiveSheared, as intersectPack decides them. Packs of other primitives
+ * go ray by ray through intersectPack, and so do any-hit queries whose rays' largest axes
+ * differ: there each ray's own pack test, which stops at its first hit, was faster. Triangles are
+ * taken in order, each against the closest hit so far, so the nearest hit wins and the first
+ * triangle among equal distances, as in intersectPack. A ray that is done (an any-hit query that
+ * hit) gets closest -1 and takes no further part. */
 CB_FN __attribute__((always_inline)) void
 ray8Leaf(CB_GLOBAL const TrianglePack* packs, CB_GLOBAL const Primitive* prims,
          CB_GLOBAL const Ray* rays, int8 index, uint first, uint count, uint rayBits,
@@ -147,7 +169,7 @@ ray8Leaf(CB_GLOBAL const TrianglePack* packs, CB_GLOBAL const Primitive* prims,
         CB_GLOBAL const TrianglePack* pack = packs + p;
         uint bits = rayBits & bvhWideBits(*closest >= (float8)(0.0f));
         if (bits == 0u) return;
-        if (!sh->uniformAxis || pack->scalar) {
+        if (pack->scalar || (!sh->uniformAxis && !closestHit)) {
             while (bits != 0u) {
                 const int j = 31 - (int)clz(bits & (0u - bits));
                 bits &= bits - 1u;
@@ -159,19 +181,16 @@ ray8Leaf(CB_GLOBAL const TrianglePack* packs, CB_GLOBAL const Primitive* prims,
             }
             continue;
         }
-        const int kx = sh->kx, ky = sh->ky, kz = sh->kz;
         for (int l = 0; l < pack->count; ++l) {
             const int8 live = mask & (*closest >= (float8)(0.0f));
-            float8 t, b1, b2;
+            float8 t, b1, b2, p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z;
             int8 slow;
+            ray8Vertex(pack, 0, l, sh, &p0x, &p0y, &p0z);
+            ray8Vertex(pack, 1, l, sh, &p1x, &p1y, &p1z);
+            ray8Vertex(pack, 2, l, sh, &p2x, &p2y, &p2z);
             /* Every lane its own answer (closestHit true: no return at the first hit). */
-            if (cbTriangleLanes8(
-                    (float8)(pack->v[0][kx][l]) - sh->ox, (float8)(pack->v[0][ky][l]) - sh->oy,
-                    (float8)(pack->v[0][kz][l]) - sh->oz, (float8)(pack->v[1][kx][l]) - sh->ox,
-                    (float8)(pack->v[1][ky][l]) - sh->oy, (float8)(pack->v[1][kz][l]) - sh->oz,
-                    (float8)(pack->v[2][kx][l]) - sh->ox, (float8)(pack->v[2][ky][l]) - sh->oy,
-                    (float8)(pack->v[2][kz][l]) - sh->oz, sh->sx, sh->sy, sh->sz, *closest, live,
-                    true, &t, &b1, &b2, &slow) == CB_PACK_MISS)
+            if (cbTriangleLanes8(p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z, sh->sx, sh->sy,
+                                 sh->sz, *closest, live, true, &t, &b1, &b2, &slow) == CB_PACK_MISS)
                 continue;
             const int8 exact = t < (float8)(INFINITY);
             *found |= exact;
@@ -260,13 +279,15 @@ ray8Traverse(CB_GLOBAL const BvhNodeWide* nodes, CB_GLOBAL const TrianglePack* p
         sh.uniformAxis = (bvhWideBits(k8 == (int8)(sh.kz)) & live) == live;
         sh.kx = sh.kz == 2 ? 0 : sh.kz + 1;
         sh.ky = sh.kx == 2 ? 0 : sh.kx + 1;
-        const float8 pdz = ray8Component(dx, dy, dz, sh.kz);
-        sh.sz = 1.0f / pdz;
-        sh.sx = -ray8Component(dx, dy, dz, sh.kx) * sh.sz;
-        sh.sy = -ray8Component(dx, dy, dz, sh.ky) * sh.sz;
-        sh.ox = ray8Component(ox, oy, oz, sh.kx);
-        sh.oy = ray8Component(ox, oy, oz, sh.ky);
-        sh.oz = ray8Component(ox, oy, oz, sh.kz);
+        sh.kz8 = k8;
+        sh.kx8 = select(k8 + (int8)(1), (int8)(0), k8 == (int8)(2));
+        sh.ky8 = select(sh.kx8 + (int8)(1), (int8)(0), sh.kx8 == (int8)(2));
+        sh.sz = 1.0f / ray8Component(dx, dy, dz, sh.kz8);
+        sh.sx = -ray8Component(dx, dy, dz, sh.kx8) * sh.sz;
+        sh.sy = -ray8Component(dx, dy, dz, sh.ky8) * sh.sz;
+        sh.ox = ray8Component(ox, oy, oz, sh.kx8);
+        sh.oy = ray8Component(ox, oy, oz, sh.ky8);
+        sh.oz = ray8Component(ox, oy, oz, sh.kz8);
     }
 
     /* The representative ray: the mean origin and direction of the active rays. */
