@@ -1,7 +1,7 @@
 /* bdpt.cl - bidirectional path tracing (docs/method.md, BDPT). One work-item per pixel, work-groups
- * are square pixel tiles: each work-item traces a light subpath and an eye subpath into private
+ * are square pixel tiles: each pixel traces a light subpath and an eye subpath into private
  * arrays and combines every (s,t) allowed by the caps. Light-tracing (t = 1) contributions land
- * in other pixels: each work-item records its own (one slot per light vertex, target pixel and
+ * in other pixels: each pixel records its own (one slot per light vertex, target pixel and
  * RGB) and the host adds them in pixel order, so an estimate is the same bits however the
  * work-items were scheduled (atomic float adds would sum in a different order each run). */
 #include "cb_bdpt.h"
@@ -14,32 +14,23 @@
 #define CB_MAX_LIGHT_VERTICES 8
 #endif
 
-
-__kernel void renderBdpt(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings),
-                         uint estimate,
-                         __global int* splatTarget,
-                         __global float* splatRgb,
-                         __global float* outRgb,
-                         CB_COUNTER_PARAMS) {
-    int x = (int)get_global_id(0);
-    int y = (int)get_global_id(1);
-    if (x >= camera.width || y >= camera.height) return;
-
-    CB_SCENE_VIEW(scene);
-    BdptSettings settingsCopy = bdptSettingsCopy(settings);
-
-    uint pixel = (uint)(y * camera.width + x);
+/* Pixel (x, y)'s estimate: its light and eye subpaths and every strategy between them. */
+static void bdptRenderPixel(const SceneView* scene, const Camera* camera, BdptSettings settings,
+                            SamplerSettings sampler, uint estimate, __global const float* toRgb,
+                            __global int* splatTarget, __global float* splatRgb,
+                            __global float* outRgb, CB_COUNTER_PARAMS, int x, int y) {
+    uint pixel = (uint)(y * camera->width + x);
     int rays = 0;
     PathVertex light[CB_MAX_LIGHT_VERTICES];
     PathVertex eye[CB_MAX_EYE_VERTICES];
-    int nLight = bdptLightSubpath(&scene, bdptLightStream(sampler, estimate, pixel,
-                                                  (uint)(camera.width * camera.height)),
-                                  settingsCopy.lightVertices, light, &rays);
+    int nLight = bdptLightSubpath(
+        scene, bdptLightStream(sampler, estimate, pixel, (uint)(camera->width * camera->height)),
+        settings.lightVertices, light, &rays);
     SampleStream eyeStream = samplerStream(sampler, estimate, pixel);
     float rasterX, rasterY;
     cameraJitteredRaster(eyeStream, x, y, &rasterX, &rasterY);
-    int nEye = bdptEyeSubpath(&scene, &camera, rasterX, rasterY, true, eyeStream,
-                              settingsCopy.eyeVertices, eye, &rays);
+    int nEye = bdptEyeSubpath(scene, camera, rasterX, rasterY, true, eyeStream,
+                              settings.eyeVertices, eye, &rays);
 
     Spectrum radiance = specZero();
     int nonFinite = 0;
@@ -48,12 +39,12 @@ __kernel void renderBdpt(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings),
         splatTarget[splatBase + (uint)k] = -1;
     for (int t = 1; t <= nEye; ++t) {
         PathVertex nee[1]; /* s = 1's own light point for eye[t-1] */
-        bool haveNee = bdptNeeLightVertex(&scene, eyeStream, eye, t, nee);
+        bool haveNee = bdptNeeLightVertex(scene, eyeStream, eye, t, nee);
         for (int s = 0; s <= nLight; ++s) {
             if (s == 1 && !haveNee) continue;
             float rx = 0.0f, ry = 0.0f;
-            Spectrum c = bdptConnect(&scene, &camera, s == 1 ? nee : light, s, eye, t, settingsCopy,
-                                     1.0f, &rx, &ry, &rays);
+            Spectrum c = bdptConnect(scene, camera, s == 1 ? nee : light, s, eye, t, settings, 1.0f,
+                                     &rx, &ry, &rays);
             if (specIsBlack(c)) continue;
             if (!specIsFinite(c)) {
                 ++nonFinite;
@@ -61,11 +52,11 @@ __kernel void renderBdpt(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings),
             }
             if (t == 1) {
                 Vec3 rgb = specToRgb(c, toRgb);
-                int px = min((int)rx, camera.width - 1);
-                int py = min((int)ry, camera.height - 1);
+                int px = min((int)rx, camera->width - 1);
+                int py = min((int)ry, camera->height - 1);
                 /* s >= 1 when t = 1: slot s - 1 of this pixel's light vertices. */
                 const uint slot = splatBase + (uint)(s - 1);
-                splatTarget[slot] = py * camera.width + px;
+                splatTarget[slot] = py * camera->width + px;
                 splatRgb[3 * slot + 0] = rgb.x;
                 splatRgb[3 * slot + 1] = rgb.y;
                 splatRgb[3 * slot + 2] = rgb.z;
@@ -75,4 +66,15 @@ __kernel void renderBdpt(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings),
         }
     }
     cbWritePixel(outRgb, CB_COUNTERS, pixel, specToRgb(radiance, toRgb), nonFinite, rays);
+}
+
+__kernel void renderBdpt(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings), uint estimate,
+                         __global int* splatTarget, __global float* splatRgb,
+                         __global float* outRgb, CB_COUNTER_PARAMS) {
+    int x = (int)get_global_id(0);
+    int y = (int)get_global_id(1);
+    if (x >= camera.width || y >= camera.height) return;
+    CB_SCENE_VIEW(scene);
+    bdptRenderPixel(&scene, &camera, bdptSettingsCopy(settings), sampler, estimate, toRgb,
+                    splatTarget, splatRgb, outRgb, CB_COUNTERS, x, y);
 }
