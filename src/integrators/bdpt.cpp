@@ -43,6 +43,12 @@ class BdptIntegrator final : public PixelKernelIntegrator {
         for (size_t slot = 0; slot < splatSlots_; ++slot) {
             const int target = splatTargetHost_[slot];
             if (target < 0) continue;
+            // A device that skipped a pixel leaves its slots unset: refuse, not write past rgb.
+            if (size_t(target) >= pixels_)
+                throw std::runtime_error(fmt::format(
+                    "BDPT: the kernel's light-tracing splat slot {} targets pixel {}, outside "
+                    "the image's {} pixels (a device fault)",
+                    slot, target, pixels_));
             for (size_t c = 0; c < 3; ++c)
                 rgb[3 * size_t(target) + c] += splatHost_[3 * slot + c];
         }
