@@ -117,14 +117,11 @@ void PixelKernelIntegrator::renderEstimate(std::uint32_t estimate, std::vector<f
     }
     kernel_.setArg(estimateArgument_, estimate);
     const size_t tile = size_t(settings_.tileSize);
-    if (perTile_) {
-        const auto [across, down] = packetTiles();
+    const auto [across, down] = tiles(perTile_ ? settings_.coherenceTile : 1);
+    if (perTile_)
         launch(kernel_, cl::NDRange(across, down), cl::NDRange(1, 1));
-    } else { // a work-item per pixel, in square work-groups of tile x tile pixels
-        const size_t across = (size_t(scene_.camera.width) + tile - 1) / tile;
-        const size_t down = (size_t(scene_.camera.height) + tile - 1) / tile;
+    else // a work-item per pixel, in square work-groups of tile x tile pixels
         launch(kernel_, cl::NDRange(across * tile, down * tile), cl::NDRange(tile, tile));
-    }
     rgb.resize(3 * pixels_);
     runtime_.queue().enqueueReadBuffer(image_, CL_TRUE, 0, imageBytes(), rgb.data());
     readCounters();
@@ -137,19 +134,18 @@ bool PixelKernelIntegrator::packetsWanted() const {
            settings_.coherenceTile <= kMaxPacketCoherenceTile && !(env && std::string(env) == "0");
 }
 
-std::pair<size_t, size_t> PixelKernelIntegrator::packetTiles() const {
-    const int tile = settings_.tileSize, stride = settings_.coherenceTile;
+std::pair<size_t, size_t> PixelKernelIntegrator::tiles(int stride) const {
+    const int tile = settings_.tileSize;
     return {size_t(cbk::packetTilesAcross(scene_.camera.width, tile, stride)),
             size_t(cbk::packetTilesAcross(scene_.camera.height, tile, stride))};
 }
 
 cl::Buffer PixelKernelIntegrator::packetScratch(const char* what, size_t perPixel, size_t bytes) {
     const size_t tile = size_t(settings_.tileSize);
-    const auto [across, down] = packetTiles();
-    const size_t tiles = across * down;
+    const auto [across, down] = tiles(settings_.coherenceTile);
     return runtime_.createBuffer(
         fmt::format("{} packet {} ({} per pixel x {} bytes)", label_, what, perPixel, bytes),
-        CL_MEM_READ_WRITE, tiles * tile * tile * perPixel * bytes);
+        CL_MEM_READ_WRITE, across * down * tile * tile * perPixel * bytes);
 }
 
 } // namespace cb

@@ -113,12 +113,14 @@ class PixelKernelIntegrator : public KernelIntegrator {
     // kMaxPacketCoherenceTile. A GPU needs a work-item per pixel to fill its cores.
     bool packetsWanted() const;
     // Launches a work-item per tile of tileSize x tileSize pixels coherenceTile apart
-    // (packetTiles()), each its own work-group, from now on, instead of a work-item per pixel:
+    // (tiles()), each its own work-group, from now on, instead of a work-item per pixel:
     // larger groups only add PoCL's per-work-item copies of private values (a group of 128 x 32,
     // PoCL's choice for 512 x 512 pixels in tiles of 4, overflowed its thread's stack).
     void launchPerTile() { perTile_ = true; }
-    // The packets' tiles across and down the image (kernels/cb_rng.h, packetTilesAcross).
-    std::pair<size_t, size_t> packetTiles() const;
+    // Tiles of tileSize x tileSize pixels `stride` apart across and down the image
+    // (kernels/cb_rng.h, packetTilesAcross): the packets' with stride coherenceTile, the
+    // per-pixel kernels' work-groups with stride 1.
+    std::pair<size_t, size_t> tiles(int stride) const;
     // A scratch buffer of the packets' kernels: `perPixel` entries of `bytes` each for every
     // pixel of every tile (a work-item works in its tile's slice); named in out-of-memory errors.
     cl::Buffer packetScratch(const char* what, size_t perPixel, size_t bytes);
