@@ -71,29 +71,45 @@ CB_FN real specAverage(Spectrum a) {
         sum += a.c[i];
     return sum * (1.0f / (real)CB_CHANNELS);
 }
+/* The two tests below reduce over every channel without an early exit, so that the compiler
+ * turns them into a vector compare: with an early exit they ran channel by channel. */
 CB_FN bool specIsBlack(Spectrum a) {
+    bool nonZero = false;
     for (int i = 0; i < CB_CHANNELS; ++i)
-        if (a.c[i] != 0.0f) return false;
-    return true;
+        nonZero |= a.c[i] != 0.0f;
+    return !nonZero;
 }
 CB_FN bool specIsFinite(Spectrum a) {
+    bool finite = true;
     for (int i = 0; i < CB_CHANNELS; ++i)
-        if (!isfinite(a.c[i])) return false;
-    return true;
+        finite &= isfinite(a.c[i]) != 0;
+    return finite;
+}
+
+/* sum_i row[i] * c[i] in CB_SUM_LANES interleaved partial sums (channel i in lane i mod
+ * CB_SUM_LANES), an order the compiler can vectorise; one running sum it must keep in channel
+ * order, one channel at a time (3% of CBDPT's time with 16 channels). */
+#define CB_SUM_LANES (CB_CHANNELS < 8 ? CB_CHANNELS : 8)
+
+CB_FN real specDot(Spectrum a, CB_GLOBAL const real* row) {
+    real lanes[CB_SUM_LANES];
+    for (int i = 0; i < CB_SUM_LANES; ++i)
+        lanes[i] = row[i] * a.c[i];
+    for (int i = CB_SUM_LANES; i < CB_CHANNELS; ++i)
+        lanes[i % CB_SUM_LANES] += row[i] * a.c[i];
+    real sum = 0.0f;
+    for (int i = 0; i < CB_SUM_LANES; ++i)
+        sum += lanes[i];
+    return sum;
 }
 
 /* Linear sRGB from the channels: rgb[k] = sum_i toRgb[k*CB_CHANNELS + i] * c[i]. The host
  * computes the 3 x CB_CHANNELS matrix (identity for RGB scenes, binned CIE 1931 matching
- * functions then XYZ->sRGB for spectral ones) in src/spectral. */
+ * functions then XYZ->sRGB for spectral ones) in src/spectral. Three separate sums: an array of
+ * three read back as a vector stalled store forwarding. */
 CB_FN Vec3 specToRgb(Spectrum a, CB_GLOBAL const real* toRgb) {
-    real rgb[3];
-    for (int k = 0; k < 3; ++k) {
-        real sum = 0.0f;
-        for (int i = 0; i < CB_CHANNELS; ++i)
-            sum += toRgb[k * CB_CHANNELS + i] * a.c[i];
-        rgb[k] = sum;
-    }
-    return vec3(rgb[0], rgb[1], rgb[2]);
+    return vec3(specDot(a, toRgb), specDot(a, toRgb + CB_CHANNELS),
+                specDot(a, toRgb + 2 * CB_CHANNELS));
 }
 
 CB_END_NAMESPACE
