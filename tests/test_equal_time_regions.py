@@ -3,8 +3,10 @@
 recovers known variances. Synthetic seeds: cbdpt's pixels have variance 4 in the top-left cell
 of a 2 x 2 grid and 1 elsewhere, pbrt-v4's 2 everywhere, pbrt-v4 takes 1.5x the CPU seconds:
 ratios 0.75 in that cell and 3 elsewhere, within 10% (about 12 standard errors of the
-estimates from 64 seeds x 1024 pixels per cell); a cell outside the mask has none. And
---pbrt-lightsampler with --integrator bdpt is refused, with the reason."""
+estimates from 64 seeds x 1024 pixels per cell); a cell outside the mask has none. The
+equal-time sample counts, zsobol's powers of two included. And --pbrt-lightsampler with
+--integrator bdpt, and a zsobol --pbrt-spp that is not a power of two, are refused, with the
+reason."""
 import importlib.machinery
 import importlib.util
 import os
@@ -51,6 +53,21 @@ grid = module.region_ratios(ours, theirs, mask, 2)
 check(grid[1][1] is None and grid[0][0] is not None,
       f"a cell outside the mask has no ratio: {grid}")
 
+# Equal-time counts. pbrt-v4's zsobol renders 2^floor(log2 spp): asked for 7 it renders 4 (in
+# half the time a count of 7 would take, measured), for 10 it renders 8.
+check([module.pbrt_renders("zsobol", n) for n in (1, 7, 8, 10, 16)] == [1, 4, 8, 8, 16] and
+      module.pbrt_renders("independent", 7) == 7, "pbrt-v4's rendered counts")
+# cbdpt 0.25 s per sample, pbrt-v4 1.1 s: 32 of cbdpt's take the time of 7.3 of pbrt-v4's; zsobol
+# gets the nearest power of two, 8, and cbdpt the 35 samples of its 8.8 s; other samplers get 7
+# for cbdpt's 32.
+check(module.equal_time_counts("zsobol", 32, 0.25, 1.1) == (35, 8),
+      f"zsobol's equal-time counts: {module.equal_time_counts('zsobol', 32, 0.25, 1.1)}")
+check(module.equal_time_counts("independent", 32, 0.25, 1.1) == (32, 7),
+      f"independent's: {module.equal_time_counts('independent', 32, 0.25, 1.1)}")
+# 5.5 of pbrt-v4's (2^2.46) go to 4, not 8: nearest in log scale.
+check(module.equal_time_counts("zsobol", 22, 0.25, 1.0) == (16, 4),
+      f"zsobol, nearest in log scale: {module.equal_time_counts('zsobol', 22, 0.25, 1.0)}")
+
 # pbrt-v4's bdpt integrator has no light sampler to choose: refused before anything renders.
 scene = os.path.join(root, "scenes", "cornell-box.pbrt")
 r = subprocess.run([sys.executable, path, "--pbrt", "/nonexistent/pbrt", "--integrator", "bdpt",
@@ -59,4 +76,9 @@ r = subprocess.run([sys.executable, path, "--pbrt", "/nonexistent/pbrt", "--inte
 check(r.returncode == 2 and "always chooses lights by power" in r.stderr,
       f"--pbrt-lightsampler with bdpt is refused with the reason (exit {r.returncode}: "
       f"{r.stderr.strip()[-200:]})")
+# A zsobol count pbrt-v4 would round down is refused, naming what it would render.
+r = subprocess.run([sys.executable, path, "--pbrt", "/nonexistent/pbrt", "--pbrt-spp", "10",
+                    scene], capture_output=True, text=True, timeout=60)
+check(r.returncode == 2 and "renders 8" in r.stderr,
+      f"--pbrt-spp 10 with zsobol is refused (exit {r.returncode}: {r.stderr.strip()[-200:]})")
 finish()
