@@ -62,14 +62,18 @@
         radiance = specAdd(radiance, c);                                                           \
     } while (0)
 
-__kernel void renderCbdpt(CB_CBDPT_PARAMS, __global float* outRgb, CB_COUNTER_PARAMS) {
-    int x = (int)get_global_id(0);
-    int y = (int)get_global_id(1);
-    if (x >= camera.width || y >= camera.height) return;
-
-    CB_SCENE_VIEW(scene);
-    BdptSettings settingsCopy = bdptSettingsCopy(settings);
-
+/* Pixel (x, y)'s estimate: its eye subpath and every strategy with its tile position's light
+ * subpath. A function renderCbdpt calls rather than the kernel's body, as bdptRenderPixel in
+ * bdpt.cl: PoCL keeps the values a kernel body holds across its work-item loop as per-work-item
+ * arrays, which a called function's locals are not. The parameters carry the names the
+ * CB_CBDPT_* macros read. */
+static __attribute__((noinline)) void
+cbdptRenderPixel(SceneView scene, const Camera* camera, BdptSettings settingsCopy,
+                 SamplerSettings sampler, uint estimate, int streamTile, int tileColumns,
+                 __global const PathVertex* lightVertices, __global const int* lightCounts,
+                 int lightVertexStride, float cameraCount, __global const float* sharedSamples,
+                 uint sharedDimensions, __global const float* toRgb, __global float* outRgb,
+                 CB_COUNTER_PARAMS, int x, int y) {
     int rays = 0;
     PathVertex light[CB_MAX_LIGHT_VERTICES];
     int nLight;
@@ -78,7 +82,7 @@ __kernel void renderCbdpt(CB_CBDPT_PARAMS, __global float* outRgb, CB_COUNTER_PA
     PathVertex eye[CB_MAX_EYE_VERTICES];
     float rasterX, rasterY;
     cameraJitteredRaster(eyeStream, x, y, &rasterX, &rasterY);
-    int nEye = bdptEyeSubpath(&scene, &camera, rasterX, rasterY, true, eyeStream,
+    int nEye = bdptEyeSubpath(&scene, camera, rasterX, rasterY, true, eyeStream,
                               settingsCopy.eyeVertices, eye, &rays);
 
     Spectrum radiance = specZero();
@@ -86,12 +90,22 @@ __kernel void renderCbdpt(CB_CBDPT_PARAMS, __global float* outRgb, CB_COUNTER_PA
 #define CB_CBDPT_STRATEGY(t, s, lightOrNee)                                                        \
     do {                                                                                           \
         float rx = 0.0f, ry = 0.0f;                                                                \
-        Spectrum c = bdptConnect(&scene, &camera, lightOrNee, s, eye, t, settingsCopy,             \
-                                 cameraCount, &rx, &ry, &rays);                                    \
+        Spectrum c = bdptConnect(&scene, camera, lightOrNee, s, eye, t, settingsCopy, cameraCount, \
+                                 &rx, &ry, &rays);                                                 \
         CB_CBDPT_ADD(radiance, c, nonFinite);                                                      \
     } while (0)
     CB_CBDPT_STRATEGIES(eye, nEye, light, nLight, eyeStream)
 #undef CB_CBDPT_STRATEGY
-    cbWritePixel(outRgb, CB_COUNTERS, (uint)(y * camera.width + x), specToRgb(radiance, toRgb),
+    cbWritePixel(outRgb, CB_COUNTERS, (uint)(y * camera->width + x), specToRgb(radiance, toRgb),
                  nonFinite, rays);
+}
+
+__kernel void renderCbdpt(CB_CBDPT_PARAMS, __global float* outRgb, CB_COUNTER_PARAMS) {
+    int x = (int)get_global_id(0);
+    int y = (int)get_global_id(1);
+    if (x >= camera.width || y >= camera.height) return;
+    CB_SCENE_VIEW(scene);
+    cbdptRenderPixel(scene, &camera, bdptSettingsCopy(settings), sampler, estimate, streamTile,
+                     tileColumns, lightVertices, lightCounts, lightVertexStride, cameraCount,
+                     sharedSamples, sharedDimensions, toRgb, outRgb, CB_COUNTERS, x, y);
 }
