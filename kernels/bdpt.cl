@@ -14,11 +14,15 @@
 #define CB_MAX_LIGHT_VERTICES 8
 #endif
 
-/* Pixel (x, y)'s estimate: its light and eye subpaths and every strategy between them. */
-static void bdptRenderPixel(const SceneView* scene, const Camera* camera, BdptSettings settings,
-                            SamplerSettings sampler, uint estimate, __global const float* toRgb,
-                            __global int* splatTarget, __global float* splatRgb,
-                            __global float* outRgb, CB_COUNTER_PARAMS, int x, int y) {
+/* Pixel (x, y)'s estimate: its light and eye subpaths and every strategy between them. It works
+ * on a field-by-field copy of its by-value settings, as the kernels do of theirs (docs/gpu.md:
+ * NVIDIA's compiler misread a by-value struct whose address the connection code kept). */
+static void bdptRenderPixel(const SceneView* scene, const Camera* camera,
+                            BdptSettings settingsArgument, SamplerSettings sampler, uint estimate,
+                            __global const float* toRgb, __global int* splatTarget,
+                            __global float* splatRgb, __global float* outRgb, CB_COUNTER_PARAMS,
+                            int x, int y) {
+    const BdptSettings settings = bdptSettingsCopy(settingsArgument);
     uint pixel = (uint)(y * camera->width + x);
     int rays = 0;
     PathVertex light[CB_MAX_LIGHT_VERTICES];

@@ -66,14 +66,16 @@
  * subpath. A function renderCbdpt calls rather than the kernel's body, as bdptRenderPixel in
  * bdpt.cl: PoCL keeps the values a kernel body holds across its work-item loop as per-work-item
  * arrays, which a called function's locals are not. The parameters carry the names the
- * CB_CBDPT_* macros read. */
+ * CB_CBDPT_* macros read; the scene and settings are private copies, as in bdptRenderPixel. */
 static __attribute__((noinline)) void
-cbdptRenderPixel(SceneView scene, const Camera* camera, BdptSettings settingsCopy,
+cbdptRenderPixel(const SceneView* sceneView, const Camera* camera, BdptSettings settingsArgument,
                  SamplerSettings sampler, uint estimate, int streamTile, int tileColumns,
                  __global const PathVertex* lightVertices, __global const int* lightCounts,
                  int lightVertexStride, float cameraCount, __global const float* sharedSamples,
                  uint sharedDimensions, __global const float* toRgb, __global float* outRgb,
                  CB_COUNTER_PARAMS, int x, int y) {
+    const SceneView scene = *sceneView;
+    const BdptSettings settingsCopy = bdptSettingsCopy(settingsArgument);
     int rays = 0;
     PathVertex light[CB_MAX_LIGHT_VERTICES];
     int nLight;
@@ -105,7 +107,7 @@ __kernel void renderCbdpt(CB_CBDPT_PARAMS, __global float* outRgb, CB_COUNTER_PA
     int y = (int)get_global_id(1);
     if (x >= camera.width || y >= camera.height) return;
     CB_SCENE_VIEW(scene);
-    cbdptRenderPixel(scene, &camera, bdptSettingsCopy(settings), sampler, estimate, streamTile,
+    cbdptRenderPixel(&scene, &camera, bdptSettingsCopy(settings), sampler, estimate, streamTile,
                      tileColumns, lightVertices, lightCounts, lightVertexStride, cameraCount,
                      sharedSamples, sharedDimensions, toRgb, outRgb, CB_COUNTERS, x, y);
 }
