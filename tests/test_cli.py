@@ -242,6 +242,14 @@ with tempfile.TemporaryDirectory() as tmp:
         check(r.returncode != 0 and args[0] in r.stderr and not os.path.exists(out),
               f"render {' '.join(args)} is refused naming the option ({r.returncode}: "
               f"{r.stderr.strip()})")
+    # An output path that starts with '-' is an option that took a file name's place
+    # (`--stats -q`): refused before rendering, naming it, with nothing written.
+    r = subprocess.run([cbdpt, "render", scene, "-o", out, "--spp", "1", "--width", "16",
+                        "--height", "16", "--stats", "-q"], capture_output=True, text=True,
+                       cwd=tmp)
+    check(r.returncode != 0 and "--stats" in r.stderr and "./-q" in r.stderr
+          and not os.path.exists(os.path.join(tmp, "-q")) and not os.path.exists(out),
+          f"--stats -q is refused ({r.returncode}: {r.stderr.strip()})")
     r = run("render", scene, "-o", out, "--integrator", "foo")
     check("pt" in r.stderr and "cbdpt" in r.stderr and "mlt" in r.stderr,
           f"an unknown integrator lists the known ones ({r.stderr.strip()})")

@@ -47,6 +47,12 @@ void commitTemporary(const std::string& temporary, const std::string& path) {
 
 void requireWritable(const std::string& path, const std::string& what) {
     namespace fs = std::filesystem;
+    // `--stats -q` gives --stats the path "-q": an option that took a file name's place.
+    if (!path.empty() && path[0] == '-')
+        throw std::runtime_error(fmt::format(
+            "cannot write {} {}: a path that starts with '-' is probably an option that took the "
+            "file name's place; write ./{} for a file of that name",
+            what, path, path));
     const fs::path p(path);
     std::error_code ec;
     if (fs::is_directory(p, ec))
