@@ -255,6 +255,8 @@ with tempfile.TemporaryDirectory() as tmp:
           f"an unknown integrator lists the known ones ({r.stderr.strip()})")
     r = run("compare", out, out, "--diff-scale", "0")
     check(r.returncode != 0 and "--diff-scale" in r.stderr, f"compare --diff-scale 0 ({r.stderr})")
+    r = run("compare", out, out, "--diff-png", "-x")
+    check(r.returncode != 0 and "--diff-png" in r.stderr, f"compare --diff-png -x ({r.stderr})")
 
     # --outfile is -o; --help shows defaults and examples; --version names version, revision
     # and platform.

@@ -143,6 +143,13 @@ with tempfile.TemporaryDirectory() as tmp:
     r = combine("--split-budget", "1", "--methods", "pt,cbdpt", "--shares", "0.4,0.4", scene,
                 "-o", out)
     check(r.returncode != 0 and "--shares" in r.stderr, f"bad shares refused ({r.stderr.strip()})")
+    # Outputs that cannot be written are refused before the budget's renders, naming them.
+    for args, name in ((["-o", os.path.join(tmp, "missing", "x.exr")], "(-o)"),
+                       (["-o", out, "--stats", "-q"], "(--stats)")):
+        r = combine("--split-budget", "1", "--methods", "pt,cbdpt", "--width", "8", "--height",
+                    "8", scene, *args)
+        check(r.returncode != 0 and name in r.stderr and "estimates" not in r.stderr,
+              f"combine {' '.join(args)} is refused before rendering ({r.stderr.strip()})")
 
     # --max-vertices: every method under the total-length cap N (PT's integral), recorded in the
     # parts' headers; per-subpath caps of another total are refused against them.

@@ -145,6 +145,12 @@ int runCombine(CombineOptions& o) {
     o.settings.how = parseCombination(o.how);
     if (std::filesystem::path(o.output).extension() != ".exr")
         throw std::invalid_argument(fmt::format("output '{}' must end in .exr", o.output));
+    const std::string png =
+        o.png.empty() ? std::filesystem::path(o.output).replace_extension(".png").string() : o.png;
+    // Before --split-budget's renders, not after them.
+    requireWritable(o.output, "the combined image (-o)");
+    requireWritable(png, "the PNG (--png)");
+    if (!o.statsPath.empty()) requireWritable(o.statsPath, "the statistics (--stats)");
     nlohmann::json stats;
     std::vector<CombineInput> inputs;
     if (o.budget > 0.0) {
@@ -181,8 +187,6 @@ int runCombine(CombineOptions& o) {
     std::vector<ExrLayer> layers{{"", &result.image}};
     if (!result.standardError.rgb.empty()) layers.push_back({"stderr", &result.standardError});
     writeExr(o.output, layers, toExrAttributes(record));
-    const std::string png =
-        o.png.empty() ? std::filesystem::path(o.output).replace_extension(".png").string() : o.png;
     writePng(png, result.image);
 
     stats["combination"] = combinationName(o.settings.how);

@@ -60,6 +60,7 @@ void printCompareText(const CompareOptions& o, const cb::RgbImage& image, const 
 }
 
 int runCompare(const CompareOptions& o) {
+    if (!o.diffPng.empty()) cb::requireWritable(o.diffPng, "the difference map (--diff-png)");
     cb::RgbImage image = cb::readExr(o.image);
     cb::RgbImage reference = cb::readExr(o.reference);
     cb::requireSameSize(image, reference,
