@@ -14,27 +14,27 @@
 #define CB_MAX_LIGHT_VERTICES 8
 #endif
 
-/* Pixel (x, y)'s estimate: its light and eye subpaths and every strategy between them. It works
- * on a field-by-field copy of its by-value settings, as the kernels do of theirs (docs/gpu.md:
- * NVIDIA's compiler misread a by-value struct whose address the connection code kept). */
+/* Pixel (x, y)'s estimate: its light and eye subpaths and every strategy between them. The
+ * settings come through a pointer to the kernel's field-by-field private copy, never as a
+ * by-value struct (docs/gpu.md: NVIDIA's compiler misread one whose address the connection code
+ * kept). */
 static void bdptRenderPixel(const SceneView* scene, const Camera* camera,
-                            BdptSettings settingsArgument, SamplerSettings sampler, uint estimate,
+                            const BdptSettings* settings, SamplerSettings sampler, uint estimate,
                             __global const float* toRgb, __global int* splatTarget,
                             __global float* splatRgb, __global float* outRgb, CB_COUNTER_PARAMS,
                             int x, int y) {
-    const BdptSettings settings = bdptSettingsCopy(settingsArgument);
     uint pixel = (uint)(y * camera->width + x);
     int rays = 0;
     PathVertex light[CB_MAX_LIGHT_VERTICES];
     PathVertex eye[CB_MAX_EYE_VERTICES];
     int nLight = bdptLightSubpath(
         scene, bdptLightStream(sampler, estimate, pixel, (uint)(camera->width * camera->height)),
-        settings.lightVertices, light, &rays);
+        settings->lightVertices, light, &rays);
     SampleStream eyeStream = samplerStream(sampler, estimate, pixel);
     float rasterX, rasterY;
     cameraJitteredRaster(eyeStream, x, y, &rasterX, &rasterY);
     int nEye = bdptEyeSubpath(scene, camera, rasterX, rasterY, true, eyeStream,
-                              settings.eyeVertices, eye, &rays);
+                              settings->eyeVertices, eye, &rays);
 
     Spectrum radiance = specZero();
     int nonFinite = 0;
@@ -47,8 +47,8 @@ static void bdptRenderPixel(const SceneView* scene, const Camera* camera,
         for (int s = 0; s <= nLight; ++s) {
             if (s == 1 && !haveNee) continue;
             float rx = 0.0f, ry = 0.0f;
-            Spectrum c = bdptConnect(scene, camera, s == 1 ? nee : light, s, eye, t, settings, 1.0f,
-                                     &rx, &ry, &rays);
+            Spectrum c = bdptConnect(scene, camera, s == 1 ? nee : light, s, eye, t, *settings,
+                                     1.0f, &rx, &ry, &rays);
             if (specIsBlack(c)) continue;
             if (!specIsFinite(c)) {
                 ++nonFinite;
@@ -79,6 +79,7 @@ __kernel void renderBdpt(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings), uint estimat
     int y = (int)get_global_id(1);
     if (x >= camera.width || y >= camera.height) return;
     CB_SCENE_VIEW(scene);
-    bdptRenderPixel(&scene, &camera, bdptSettingsCopy(settings), sampler, estimate, toRgb,
-                    splatTarget, splatRgb, outRgb, CB_COUNTERS, x, y);
+    const BdptSettings settingsCopy = bdptSettingsCopy(settings);
+    bdptRenderPixel(&scene, &camera, &settingsCopy, sampler, estimate, toRgb, splatTarget, splatRgb,
+                    outRgb, CB_COUNTERS, x, y);
 }

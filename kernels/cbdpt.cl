@@ -39,12 +39,12 @@
                                         sharedSamples, sharedDimensions);                          \
     } while (0)
 
-/* The strategies t = 2 .. nEye, s = 0 .. nLight of a pixel in order, each through
- * CB_CBDPT_STRATEGY(t, s, lightOrNee), which the kernel defines. */
-#define CB_CBDPT_STRATEGIES(eye, nEye, light, nLight, eyeStream)                                   \
+/* The strategies t = 2 .. nEye, s = 0 .. nLight of a pixel in order (scene: a SceneView
+ * pointer), each through CB_CBDPT_STRATEGY(t, s, lightOrNee), which the kernel defines. */
+#define CB_CBDPT_STRATEGIES(scene, eye, nEye, light, nLight, eyeStream)                            \
     for (int t = 2; t <= nEye; ++t) {                                                              \
         PathVertex nee[1]; /* s = 1's own light point for eye[t-1] (shared u: coherent) */         \
-        bool haveNee = bdptNeeLightVertex(&scene, eyeStream, eye, t, nee);                         \
+        bool haveNee = bdptNeeLightVertex(scene, eyeStream, eye, t, nee);                          \
         for (int s = 0; s <= nLight; ++s) {                                                        \
             if (s == 1 && !haveNee) continue;                                                      \
             CB_CBDPT_STRATEGY(t, s, s == 1 ? nee : light);                                         \
@@ -66,16 +66,15 @@
  * subpath. A function renderCbdpt calls rather than the kernel's body, as bdptRenderPixel in
  * bdpt.cl: PoCL keeps the values a kernel body holds across its work-item loop as per-work-item
  * arrays, which a called function's locals are not. The parameters carry the names the
- * CB_CBDPT_* macros read; the scene and settings are private copies, as in bdptRenderPixel. */
+ * CB_CBDPT_* macros read; the settings come through a pointer to the kernel's private copy, as
+ * in bdptRenderPixel. */
 static __attribute__((noinline)) void
-cbdptRenderPixel(const SceneView* sceneView, const Camera* camera, BdptSettings settingsArgument,
+cbdptRenderPixel(const SceneView* scene, const Camera* camera, const BdptSettings* settings,
                  SamplerSettings sampler, uint estimate, int streamTile, int tileColumns,
                  __global const PathVertex* lightVertices, __global const int* lightCounts,
                  int lightVertexStride, float cameraCount, __global const float* sharedSamples,
                  uint sharedDimensions, __global const float* toRgb, __global float* outRgb,
                  CB_COUNTER_PARAMS, int x, int y) {
-    const SceneView scene = *sceneView;
-    const BdptSettings settingsCopy = bdptSettingsCopy(settingsArgument);
     int rays = 0;
     PathVertex light[CB_MAX_LIGHT_VERTICES];
     int nLight;
@@ -84,19 +83,19 @@ cbdptRenderPixel(const SceneView* sceneView, const Camera* camera, BdptSettings 
     PathVertex eye[CB_MAX_EYE_VERTICES];
     float rasterX, rasterY;
     cameraJitteredRaster(eyeStream, x, y, &rasterX, &rasterY);
-    int nEye = bdptEyeSubpath(&scene, camera, rasterX, rasterY, true, eyeStream,
-                              settingsCopy.eyeVertices, eye, &rays);
+    int nEye = bdptEyeSubpath(scene, camera, rasterX, rasterY, true, eyeStream,
+                              settings->eyeVertices, eye, &rays);
 
     Spectrum radiance = specZero();
     int nonFinite = 0;
 #define CB_CBDPT_STRATEGY(t, s, lightOrNee)                                                        \
     do {                                                                                           \
         float rx = 0.0f, ry = 0.0f;                                                                \
-        Spectrum c = bdptConnect(&scene, camera, lightOrNee, s, eye, t, settingsCopy, cameraCount, \
+        Spectrum c = bdptConnect(scene, camera, lightOrNee, s, eye, t, *settings, cameraCount,     \
                                  &rx, &ry, &rays);                                                 \
         CB_CBDPT_ADD(radiance, c, nonFinite);                                                      \
     } while (0)
-    CB_CBDPT_STRATEGIES(eye, nEye, light, nLight, eyeStream)
+    CB_CBDPT_STRATEGIES(scene, eye, nEye, light, nLight, eyeStream)
 #undef CB_CBDPT_STRATEGY
     cbWritePixel(outRgb, CB_COUNTERS, (uint)(y * camera->width + x), specToRgb(radiance, toRgb),
                  nonFinite, rays);
@@ -107,7 +106,8 @@ __kernel void renderCbdpt(CB_CBDPT_PARAMS, __global float* outRgb, CB_COUNTER_PA
     int y = (int)get_global_id(1);
     if (x >= camera.width || y >= camera.height) return;
     CB_SCENE_VIEW(scene);
-    cbdptRenderPixel(&scene, &camera, bdptSettingsCopy(settings), sampler, estimate, streamTile,
-                     tileColumns, lightVertices, lightCounts, lightVertexStride, cameraCount,
-                     sharedSamples, sharedDimensions, toRgb, outRgb, CB_COUNTERS, x, y);
+    const BdptSettings settingsCopy = bdptSettingsCopy(settings);
+    cbdptRenderPixel(&scene, &camera, &settingsCopy, sampler, estimate, streamTile, tileColumns,
+                     lightVertices, lightCounts, lightVertexStride, cameraCount, sharedSamples,
+                     sharedDimensions, toRgb, outRgb, CB_COUNTERS, x, y);
 }

@@ -130,7 +130,7 @@ __kernel void renderCoherentBdpt(CB_CBDPT_PARAMS, int tile, __global PathVertex*
         shadowTMaxes[i] = needsShadow ? fmax(shadowTMax, 0.0f) : 0.0f;                             \
         if (needsShadow) shadowRays[i] = shadow;                                                   \
     } while (0)
-        CB_CBDPT_STRATEGIES(eye, nEye, light, nLight, eyeStream)
+        CB_CBDPT_STRATEGIES(&scene, eye, nEye, light, nLight, eyeStream)
 #undef CB_CBDPT_STRATEGY
     }
     for (int m = 0; m < strategies; ++m)
