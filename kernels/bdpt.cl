@@ -15,12 +15,12 @@
 #endif
 
 /* Pixel (x, y)'s estimate: its light and eye subpaths and every strategy between them. The
- * settings come through a pointer to the kernel's field-by-field private copy, never as a
- * by-value struct (docs/gpu.md: NVIDIA's compiler misread one whose address the connection code
- * kept). */
+ * settings and the sampler come through pointers to the kernel's field-by-field private copies,
+ * never as by-value structs (docs/gpu.md: NVIDIA's compiler misread such an argument once this
+ * function was inlined). */
 static void bdptRenderPixel(const SceneView* scene, const Camera* camera,
-                            const BdptSettings* settings, SamplerSettings sampler, uint estimate,
-                            __global const float* toRgb, __global int* splatTarget,
+                            const BdptSettings* settings, const SamplerSettings* sampler,
+                            uint estimate, __global const float* toRgb, __global int* splatTarget,
                             __global float* splatRgb, __global float* outRgb, CB_COUNTER_PARAMS,
                             int x, int y) {
     uint pixel = (uint)(y * camera->width + x);
@@ -28,9 +28,9 @@ static void bdptRenderPixel(const SceneView* scene, const Camera* camera,
     PathVertex light[CB_MAX_LIGHT_VERTICES];
     PathVertex eye[CB_MAX_EYE_VERTICES];
     int nLight = bdptLightSubpath(
-        scene, bdptLightStream(sampler, estimate, pixel, (uint)(camera->width * camera->height)),
+        scene, bdptLightStream(*sampler, estimate, pixel, (uint)(camera->width * camera->height)),
         settings->lightVertices, light, &rays);
-    SampleStream eyeStream = samplerStream(sampler, estimate, pixel);
+    SampleStream eyeStream = samplerStream(*sampler, estimate, pixel);
     float rasterX, rasterY;
     cameraJitteredRaster(eyeStream, x, y, &rasterX, &rasterY);
     int nEye = bdptEyeSubpath(scene, camera, rasterX, rasterY, true, eyeStream,
@@ -80,6 +80,7 @@ __kernel void renderBdpt(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings), uint estimat
     if (x >= camera.width || y >= camera.height) return;
     CB_SCENE_VIEW(scene);
     const BdptSettings settingsCopy = bdptSettingsCopy(settings);
-    bdptRenderPixel(&scene, &camera, &settingsCopy, sampler, estimate, toRgb, splatTarget, splatRgb,
-                    outRgb, CB_COUNTERS, x, y);
+    const SamplerSettings samplerCopy = samplerSettingsCopy(sampler);
+    bdptRenderPixel(&scene, &camera, &settingsCopy, &samplerCopy, estimate, toRgb, splatTarget,
+                    splatRgb, outRgb, CB_COUNTERS, x, y);
 }

@@ -57,6 +57,20 @@ typedef struct SamplerSettings {
     int pad[2];
 } SamplerSettings;
 
+/* Kernels hand their sampler to functions as a private, field-by-field copy: NVIDIA's OpenCL
+ * compiler (driver 580) read a by-value kernel argument passed on to an inlined function through
+ * the parameter's address taken as a local-memory one, and the kernel faulted (docs/gpu.md). */
+CB_FN SamplerSettings samplerSettingsCopy(SamplerSettings in) {
+    SamplerSettings out;
+    out.seed = in.seed;
+    out.kind = in.kind;
+    out.pad[0] = in.pad[0];
+    out.pad[1] = in.pad[1];
+    return out;
+}
+/* The copy names every field: a new one must be added to it (and this size). */
+typedef char cbSamplerSettingsCopyCheck[sizeof(SamplerSettings) == 4 * sizeof(int) ? 1 : -1];
+
 /* CB_PRIMARY_SAMPLES (defined only by kernels/mlt.cl before including this header): a stream may
  * instead read an explicit table of primary samples, the state of a Metropolis chain in primary
  * sample space (Kelemen et al. 2002), so that the path code samples paths from mutated vectors

@@ -27,15 +27,16 @@
         uint sharedDimensions
 
 /* Pixel (x, y)'s light subpath, copied into light (cb_bdpt.h reads vertices through private
- * pointers; Nl is a handful), its vertex count into nLight, and its eye stream into eyeStream. */
-#define CB_CBDPT_PIXEL_LIGHT(x, y, light, nLight, eyeStream)                                       \
+ * pointers; Nl is a handful), its vertex count into nLight, and its eye stream into eyeStream
+ * (sampler: a pointer to the kernel's private copy of its sampler settings). */
+#define CB_CBDPT_PIXEL_LIGHT(sampler, x, y, light, nLight, eyeStream)                              \
     do {                                                                                           \
         const int ti = (y) % streamTile, tj = (x) % streamTile;                                    \
         const int subpath = ti * tileColumns + tj;                                                 \
         nLight = lightCounts[subpath];                                                             \
         for (int i = 0; i < nLight; ++i)                                                           \
             light[i] = lightVertices[subpath * lightVertexStride + i];                             \
-        eyeStream = samplerStreamShared(sampler, estimate, (uint)(ti * streamTile + tj),           \
+        eyeStream = samplerStreamShared(*(sampler), estimate, (uint)(ti * streamTile + tj),        \
                                         sharedSamples, sharedDimensions);                          \
     } while (0)
 
@@ -66,11 +67,11 @@
  * subpath. A function renderCbdpt calls rather than the kernel's body, as bdptRenderPixel in
  * bdpt.cl: PoCL keeps the values a kernel body holds across its work-item loop as per-work-item
  * arrays, which a called function's locals are not. The parameters carry the names the
- * CB_CBDPT_* macros read; the settings come through a pointer to the kernel's private copy, as
- * in bdptRenderPixel. */
+ * CB_CBDPT_* macros read; the settings and the sampler come through pointers to the kernel's
+ * private copies, as in bdptRenderPixel. */
 static __attribute__((noinline)) void
 cbdptRenderPixel(const SceneView* scene, const Camera* camera, const BdptSettings* settings,
-                 SamplerSettings sampler, uint estimate, int streamTile, int tileColumns,
+                 const SamplerSettings* sampler, uint estimate, int streamTile, int tileColumns,
                  __global const PathVertex* lightVertices, __global const int* lightCounts,
                  int lightVertexStride, float cameraCount, __global const float* sharedSamples,
                  uint sharedDimensions, __global const float* toRgb, __global float* outRgb,
@@ -79,7 +80,7 @@ cbdptRenderPixel(const SceneView* scene, const Camera* camera, const BdptSetting
     PathVertex light[CB_MAX_LIGHT_VERTICES];
     int nLight;
     SampleStream eyeStream;
-    CB_CBDPT_PIXEL_LIGHT(x, y, light, nLight, eyeStream);
+    CB_CBDPT_PIXEL_LIGHT(sampler, x, y, light, nLight, eyeStream);
     PathVertex eye[CB_MAX_EYE_VERTICES];
     float rasterX, rasterY;
     cameraJitteredRaster(eyeStream, x, y, &rasterX, &rasterY);
@@ -107,7 +108,8 @@ __kernel void renderCbdpt(CB_CBDPT_PARAMS, __global float* outRgb, CB_COUNTER_PA
     if (x >= camera.width || y >= camera.height) return;
     CB_SCENE_VIEW(scene);
     const BdptSettings settingsCopy = bdptSettingsCopy(settings);
-    cbdptRenderPixel(&scene, &camera, &settingsCopy, sampler, estimate, streamTile, tileColumns,
-                     lightVertices, lightCounts, lightVertexStride, cameraCount, sharedSamples,
-                     sharedDimensions, toRgb, outRgb, CB_COUNTERS, x, y);
+    const SamplerSettings samplerCopy = samplerSettingsCopy(sampler);
+    cbdptRenderPixel(&scene, &camera, &settingsCopy, &samplerCopy, estimate, streamTile,
+                     tileColumns, lightVertices, lightCounts, lightVertexStride, cameraCount,
+                     sharedSamples, sharedDimensions, toRgb, outRgb, CB_COUNTERS, x, y);
 }

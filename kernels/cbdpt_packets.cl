@@ -35,6 +35,7 @@ __kernel void renderCoherentBdpt(CB_CBDPT_PARAMS, int tile, __global PathVertex*
     CB_RAY8_TILE_ITEM(tile, streamTile, camera.width, camera.height);
     CB_SCENE_VIEW(scene);
     BdptSettings settingsCopy = bdptSettingsCopy(settings);
+    const SamplerSettings samplerCopy = samplerSettingsCopy(sampler);
     const int pixels = tile * tile, packets = pixels / 8;
     const int tileIndex = tileY * tilesX + tileX;
     const int maxEye = settingsCopy.eyeVertices;
@@ -51,7 +52,7 @@ __kernel void renderCoherentBdpt(CB_CBDPT_PARAMS, int tile, __global PathVertex*
         CB_CBDPT_PIXEL(p, x, y);
         const int i = walkBase + p;
         const SampleStream eyeStream = samplerStreamShared(
-            sampler, estimate, (uint)((y % streamTile) * streamTile + x % streamTile),
+            samplerCopy, estimate, (uint)((y % streamTile) * streamTile + x % streamTile),
             sharedSamples, sharedDimensions);
         float rasterX, rasterY;
         cameraJitteredRaster(eyeStream, x, y, &rasterX, &rasterY);
@@ -76,7 +77,7 @@ __kernel void renderCoherentBdpt(CB_CBDPT_PARAMS, int tile, __global PathVertex*
             CB_CBDPT_PIXEL(p, x, y);
             ++tracedRays;
             const SampleStream eyeStream = samplerStreamShared(
-                sampler, estimate, (uint)((y % streamTile) * streamTile + x % streamTile),
+                samplerCopy, estimate, (uint)((y % streamTile) * streamTile + x % streamTile),
                 sharedSamples, sharedDimensions);
             CbdptWalk walk = walks[i];
             PathVertex prev = eyes[i * maxEye + walk.count - 1], v;
@@ -108,7 +109,7 @@ __kernel void renderCoherentBdpt(CB_CBDPT_PARAMS, int tile, __global PathVertex*
         PathVertex light[CB_MAX_LIGHT_VERTICES];
         int nLight;
         SampleStream eyeStream;
-        CB_CBDPT_PIXEL_LIGHT(x, y, light, nLight, eyeStream);
+        CB_CBDPT_PIXEL_LIGHT(&samplerCopy, x, y, light, nLight, eyeStream);
         PathVertex eye[CB_MAX_EYE_VERTICES];
         const int nEye = walks[walkBase + p].count;
         for (int k = 0; k < nEye; ++k)

@@ -13,8 +13,9 @@ __kernel void renderPathTracing(CB_INTEGRATOR_KERNEL_PARAMS(PathSettings), uint 
     if (x >= camera.width || y >= camera.height) return;
 
     CB_SCENE_VIEW(scene);
-
-    Vec3 rgb = ptPixelRgb(&scene, toRgb, &camera, settings, sampler, estimate, streamTile,
+    /* The sampler as a private copy (cb_rng.h, docs/gpu.md). */
+    const SamplerSettings samplerCopy = samplerSettingsCopy(sampler);
+    Vec3 rgb = ptPixelRgb(&scene, toRgb, &camera, settings, samplerCopy, estimate, streamTile,
                           sharedSamples, sharedDimensions, x, y);
     /* ptPixelRgb does not count its rays. */
     cbWritePixel(outRgb, CB_COUNTERS, (uint)(y * camera.width + x), rgb, 0, 0);
@@ -47,13 +48,14 @@ __kernel void renderCoherentPathTracing(CB_INTEGRATOR_KERNEL_PARAMS(PathSettings
     const int pixels = tile * tile, packets = pixels / 8;
     const int base = (tileY * tilesX + tileX) * pixels;
     CB_SCENE_VIEW(scene);
+    const SamplerSettings samplerCopy = samplerSettingsCopy(sampler);
 #define CB_CPT_PIXEL(p, x, y, inside)                                                              \
     const int x = packetTilePixel(tileX, (p) % tile, tile, streamTile);                            \
     const int y = packetTilePixel(tileY, (p) / tile, tile, streamTile);                            \
     const bool inside = x < camera.width && y < camera.height
 #define CB_CPT_SAMPLES(x, y)                                                                       \
-    ptPixelStream(sampler, estimate, streamTile, sharedSamples, sharedDimensions, camera.width, x, \
-                  y)
+    ptPixelStream(samplerCopy, estimate, streamTile, sharedSamples, sharedDimensions,              \
+                  camera.width, x, y)
     for (int p = 0; p < pixels; ++p) {
         CB_CPT_PIXEL(p, x, y, inside);
         rays[base + p] = ptCameraRay(&camera, CB_CPT_SAMPLES(x, y), x, y);
