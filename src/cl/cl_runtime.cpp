@@ -350,6 +350,23 @@ std::string assembleKernelSource(const std::string& mainFile) {
     return out;
 }
 
+// The device's binary of a built program (NVIDIA: PTX text), for reading what its compiler made
+// of a kernel: DIR/<file>-<n>.bin, n counting this process's builds of that file.
+static void writeProgramBinary(const cl::Program& program, const std::string& dir,
+                               const std::string& mainFile) {
+    static std::map<std::string, int> builds;
+    const auto binaries = program.getInfo<CL_PROGRAM_BINARIES>();
+    if (binaries.empty()) return;
+    const std::string path = fmt::format("{}/{}-{}.bin", dir, mainFile, builds[mainFile]++);
+    std::ofstream out(path, std::ios::binary);
+    out.write(reinterpret_cast<const char*>(binaries.front().data()),
+              std::streamsize(binaries.front().size()));
+    if (!out)
+        throw ClError(fmt::format("CBDPT_KERNEL_BINARY_DIR: cannot write '{}' (expected a "
+                                  "writable folder)",
+                                  path));
+}
+
 cl::Program ClRuntime::buildProgram(const std::string& mainFile,
                                     const std::vector<std::string>& defines) {
     std::string source = assembleKernelSource(mainFile);
@@ -379,6 +396,8 @@ cl::Program ClRuntime::buildProgram(const std::string& mainFile,
     if (const char* log = std::getenv("CBDPT_KERNEL_LOG"); log && std::strcmp(log, "1") == 0)
         fmt::print(stderr, "OpenCL build log of {} ({}):\n{}\n", mainFile, options,
                    program.getBuildInfo<CL_PROGRAM_BUILD_LOG>(device_));
+    if (const char* dir = std::getenv("CBDPT_KERNEL_BINARY_DIR"); dir && *dir)
+        writeProgramBinary(program, dir, mainFile);
     return program;
 }
 
