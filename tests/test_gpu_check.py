@@ -41,6 +41,20 @@ with tempfile.TemporaryDirectory() as out:
           and sum(counts.values()) == len(lines) > 100,
           f"the test cases were listed, and those run passed ({counts}, {len(lines)} lines)")
 
+# A baseline that fails is reported per render, and the check goes on to the test cases.
+with tempfile.TemporaryDirectory() as out:
+    r = subprocess.run([sys.executable, os.path.join(root, "scripts", "gpu-check"), "--cbdpt",
+                        cbdpt, "--tests", tests, "--device", "cpu", "--size", "8", "--spp", "1",
+                        "--seconds", "1", "--test-seconds", "1", "--jobs", "2", "--out", out,
+                        "--baseline", "/bin/false", "--rounds", "2", "--baseline-spp", "1"],
+                       capture_output=True, text=True)
+    summary = json.load(open(os.path.join(out, "summary.json")))
+    timing = summary["timing_against_baseline"]
+    check(r.returncode == 0 and len(timing) == 10
+          and all("/bin/false" in t.get("error", "") for t in timing.values())
+          and os.path.exists(os.path.join(out, "cases.txt")),
+          f"a failing baseline is named per render and the check goes on ({timing})")
+
 # CBDPT_KERNEL_BINARY_DIR keeps a render's program binaries (PoCL's hold no PTX), and names the
 # folder when it cannot write there.
 with tempfile.TemporaryDirectory() as folder:
