@@ -75,12 +75,8 @@ static void bdptRenderPixel(const SceneView* scene, const Camera* camera,
 __kernel void renderBdpt(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings), uint estimate,
                          __global int* splatTarget, __global float* splatRgb,
                          __global float* outRgb, CB_COUNTER_PARAMS) {
-    int x = (int)get_global_id(0);
-    int y = (int)get_global_id(1);
-    if (x >= camera.width || y >= camera.height) return;
-    CB_SCENE_VIEW(scene);
+    CB_PIXEL_KERNEL_BEGIN(x, y, scene);
     const BdptSettings settingsCopy = bdptSettingsCopy(settings);
-    const SamplerSettings samplerCopy = samplerSettingsCopy(sampler);
     bdptRenderPixel(&scene, &camera, &settingsCopy, &samplerCopy, estimate, toRgb, splatTarget,
                     splatRgb, outRgb, CB_COUNTERS, x, y);
 }

@@ -17,6 +17,17 @@
     CB_SCENE_KERNEL_PARAMS, __global const float *toRgb, Camera camera, SettingsType settings,     \
         SamplerSettings sampler
 
+/* A per-pixel kernel's first lines: its pixel (x, y), leaving when it is outside the film, the
+ * scene view, and samplerCopy, the private field-by-field copy of the sampler argument that the
+ * kernel hands on: NVIDIA's compiler misread the by-value argument passed to an inlined function
+ * (docs/gpu.md). */
+#define CB_PIXEL_KERNEL_BEGIN(x, y, scene)                                                         \
+    const int x = (int)get_global_id(0);                                                           \
+    const int y = (int)get_global_id(1);                                                           \
+    if (x >= camera.width || y >= camera.height) return;                                           \
+    CB_SCENE_VIEW(scene);                                                                          \
+    const SamplerSettings samplerCopy = samplerSettingsCopy(sampler)
+
 /* The last parameters: the count of samples dropped as NaN or infinite (cumulative over the
  * render) and of rays traced (per launch, added only when countRays is set, since one atomic per
  * work-item on one counter contends between threads). */

@@ -103,12 +103,8 @@ cbdptRenderPixel(const SceneView* scene, const Camera* camera, const BdptSetting
 }
 
 __kernel void renderCbdpt(CB_CBDPT_PARAMS, __global float* outRgb, CB_COUNTER_PARAMS) {
-    int x = (int)get_global_id(0);
-    int y = (int)get_global_id(1);
-    if (x >= camera.width || y >= camera.height) return;
-    CB_SCENE_VIEW(scene);
+    CB_PIXEL_KERNEL_BEGIN(x, y, scene);
     const BdptSettings settingsCopy = bdptSettingsCopy(settings);
-    const SamplerSettings samplerCopy = samplerSettingsCopy(sampler);
     cbdptRenderPixel(&scene, &camera, &settingsCopy, &samplerCopy, estimate, streamTile,
                      tileColumns, lightVertices, lightCounts, lightVertexStride, cameraCount,
                      sharedSamples, sharedDimensions, toRgb, outRgb, CB_COUNTERS, x, y);

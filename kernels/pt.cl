@@ -8,13 +8,7 @@
 __kernel void renderPathTracing(CB_INTEGRATOR_KERNEL_PARAMS(PathSettings), uint estimate,
                                 int streamTile, __global const float* sharedSamples,
                                 uint sharedDimensions, __global float* outRgb, CB_COUNTER_PARAMS) {
-    int x = (int)get_global_id(0);
-    int y = (int)get_global_id(1);
-    if (x >= camera.width || y >= camera.height) return;
-
-    CB_SCENE_VIEW(scene);
-    /* The sampler as a private copy (cb_rng.h, docs/gpu.md). */
-    const SamplerSettings samplerCopy = samplerSettingsCopy(sampler);
+    CB_PIXEL_KERNEL_BEGIN(x, y, scene);
     Vec3 rgb = ptPixelRgb(&scene, toRgb, &camera, settings, samplerCopy, estimate, streamTile,
                           sharedSamples, sharedDimensions, x, y);
     /* ptPixelRgb does not count its rays. */
