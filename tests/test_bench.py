@@ -38,7 +38,7 @@ with tempfile.TemporaryDirectory() as tmp:
     check(r.returncode == 0, f"cbdpt-bench --quick exits 0 (got {r.returncode}: {r.stderr})")
     check("== traverse" in r.stdout and "== render" in r.stdout, "tables printed")
     data = json.load(open(out))
-    for section in ("machine", "traverse", "build", "render", "scaling"):
+    for section in ("machine", "traverse", "build", "render", "scaling", "accumulate"):
         check(section in data, f"section '{section}' present")
 
     rows = data.get("traverse", [])
@@ -101,6 +101,12 @@ with tempfile.TemporaryDirectory() as tmp:
     for key in ("triangles", "resolution", "estimates"):
         check(len(sc.get(key, [])) >= 2, f"scaling.{key} has points")
     check(0.0 <= sc.get("estimates_fit", {}).get("r2", -1) <= 1.0, "estimates fit R^2")
+
+    acc = data.get("accumulate", [])
+    check({row["halves"] for row in acc} == {False, True}, "accumulate with and without halves")
+    for row in acc:
+        check(positive(row["cpu_seconds_per_estimate"]) and positive(row["cpu_ns_per_value"]),
+              f"accumulation timing {row}")
 
 print(f"{'FAILED' if failures else 'passed'}: {len(failures)} failure(s)")
 sys.exit(1 if failures else 0)

@@ -1,5 +1,5 @@
-# cbdpt-bench: traversal, build, render and scaling benchmarks, one source per section. Embree 3
-# is an optional baseline: without it the traversal table has our numbers only.
+# cbdpt-bench: traversal, build, render, scaling and accumulation benchmarks, one source per
+# section. Embree 3 is an optional baseline: without it the traversal table has our numbers only.
 find_package(embree 3 QUIET)
 add_executable(cbdpt-bench
   ${CMAKE_SOURCE_DIR}/src/bench/bench_main.cpp
@@ -9,6 +9,7 @@ add_executable(cbdpt-bench
   ${CMAKE_SOURCE_DIR}/src/bench/bench_build.cpp
   ${CMAKE_SOURCE_DIR}/src/bench/bench_render.cpp
   ${CMAKE_SOURCE_DIR}/src/bench/bench_scaling.cpp
+  ${CMAKE_SOURCE_DIR}/src/bench/bench_accumulate.cpp
   ${CMAKE_SOURCE_DIR}/src/bench/bench_meshes.cpp
   ${CMAKE_SOURCE_DIR}/src/bench/embree_baseline.cpp)
 target_link_libraries(cbdpt-bench PRIVATE cbdpt_core CLI11::CLI11)

@@ -1,6 +1,7 @@
 // cbdpt-bench's common parts: the options, timing helpers, the test meshes and rays, and the
 // sections (one file each: bench_traverse.cpp, bench_build.cpp, bench_render.cpp,
-// bench_scaling.cpp), each returning its part of the JSON that bench_main.cpp writes.
+// bench_scaling.cpp, bench_accumulate.cpp), each returning its part of the JSON that bench_main.cpp
+// writes.
 #pragma once
 
 #include "bench/bench_meshes.h"
@@ -27,7 +28,7 @@ struct Options {
     bool quick = false;
     std::string json;
     std::string models;
-    std::vector<std::string> sections{"traverse", "build", "render", "scaling"};
+    std::vector<std::string> sections{"traverse", "build", "render", "scaling", "accumulate"};
     std::string traversal = "wide,ordered"; // comma-separated ordered, skip, wide; or both
     int repeats = 0;                        // 0: 5 (2 in --quick)
     int localSize = 64;                     // 0: let PoCL choose
@@ -123,6 +124,7 @@ json runTraverse(const Options& o, ClRuntime& rt);
 json runBuild(const Options& o);
 json runRender(const Options& o);
 json runScaling(const Options& o, ClRuntime& rt);
+json runAccumulate(const Options& o);
 // Child processes: build one program (--child-build), time one integrator (--child-render).
 int childBuild(const Options& o);
 int childRender(const Options& o);

@@ -2,7 +2,8 @@
 //
 // Sections, one file each: traverse (our OpenCL traversal against Embree 3 on the same rays),
 // build (BVH and PoCL program build times, cold and warm cache), render (time per estimate of
-// every integrator), scaling (time per estimate against triangles, resolution, estimates). Each
+// every integrator), scaling (time per estimate against triangles, resolution, estimates),
+// accumulate (the host's exact sums of one estimate's image). Each
 // prints a table; this file parses the options and writes everything to --json. All timings are
 // medians of repeats.
 #include "bench/bench.h"
@@ -49,7 +50,8 @@ void addOptions(CLI::App& app, Options& o) {
     app.add_flag("--quick", o.quick, "small sizes and few repeats (CI)");
     app.add_option("--json", o.json, "write all results to this JSON file");
     app.add_option("--models", o.models, "folder with bunny.ply and dragon.ply");
-    app.add_option("--sections", o.sections, "traverse build render scaling")->delimiter(',');
+    app.add_option("--sections", o.sections, "traverse build render scaling accumulate")
+        ->delimiter(',');
     app.add_option(
            "--traversal", o.traversal,
            "comma-separated: ordered | skip (binary BVH) | wide (4- or 8-wide, the "
@@ -98,7 +100,7 @@ void addOptions(CLI::App& app, Options& o) {
 
 int run(int argc, char** argv) {
     Options o;
-    CLI::App app{"cbdpt-bench: traversal, build, render and scaling benchmarks"};
+    CLI::App app{"cbdpt-bench: traversal, build, render, scaling and accumulation benchmarks"};
     addOptions(app, o);
     CLI11_PARSE(app, argc, argv);
     if (!o.childBuild.empty()) return childBuild(o);
@@ -136,6 +138,7 @@ int run(int argc, char** argv) {
     if (want("build")) result["build"] = runBuild(o), save();
     if (want("render")) result["render"] = runRender(o), save();
     if (want("scaling")) result["scaling"] = runScaling(o, rt), save();
+    if (want("accumulate")) result["accumulate"] = runAccumulate(o), save();
     save();
     return 0;
 }
