@@ -335,6 +335,8 @@ TEST_CASE("combine: the render record and halves round-trip through EXR and the 
     restored.trackHalves();
     cb::resumeRenderState(state, identity, restored);
     REQUIRE(restored.tracksHalves());
+    CHECK(restored.sums() == acc.sums());
+    CHECK(restored.squares() == acc.squares());
     CHECK(restored.oddSums() == acc.oddSums());
     CHECK(restored.oddSquares() == acc.oddSquares());
     for (int h = 0; h < 2; ++h)
@@ -354,12 +356,29 @@ TEST_CASE("combine: the render record and halves round-trip through EXR and the 
     CHECK(first.sums() == acc.sums());
     CHECK(first.oddSums() == acc.oddSums());
     CHECK(first.oddSquares() == acc.oddSquares());
-    // A merge with estimates that have no halves cannot keep them.
-    cb::EstimateAccumulator plain(4, 3);
+    // A merge with estimates that have no halves cannot keep them, but keeps every sum: the
+    // same bits as the six estimates added to an accumulator without halves.
+    cb::EstimateAccumulator plain(4, 3), whole(4, 3);
     plain.add(7, estimate.data());
+    for (std::uint64_t e = 0; e < 5; ++e) {
+        for (size_t i = 0; i < estimate.size(); ++i)
+            estimate[i] = float(e * e) + 0.1f * float(i);
+        whole.add(e, estimate.data());
+    }
+    whole.add(7, estimate.data());
     first.merge(plain);
     CHECK_FALSE(first.tracksHalves());
     CHECK(first.estimates() == 6);
+    CHECK(first.sums() == whole.sums());
+    CHECK(first.squares() == whole.squares());
+    CHECK(first.oddSums().empty());
+    // And the other way round: halves merged into an accumulator without them.
+    cb::EstimateAccumulator plainFirst(4, 3);
+    plainFirst.add(7, estimate.data());
+    plainFirst.merge(acc);
+    CHECK_FALSE(plainFirst.tracksHalves());
+    CHECK(plainFirst.sums() == whole.sums());
+    CHECK(plainFirst.squares() == whole.squares());
     std::filesystem::remove_all(dir);
 }
 

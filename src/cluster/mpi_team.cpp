@@ -102,19 +102,17 @@ class MpiTeam final : public RenderTeam {
             total_ = EstimateAccumulator(local.width(), local.height());
             if (local.tracksHalves()) total_.trackHalves();
         }
-        const int count = int(local.sums().size());
-        check(MPI_Reduce(local.sums().data(), root ? total_.sums().data() : nullptr, count,
-                         sampleType_, sampleOp_, 0, MPI_COMM_WORLD),
-              "MPI_Reduce");
-        check(MPI_Reduce(local.squares().data(), root ? total_.squares().data() : nullptr, count,
-                         squareType_, squareOp_, 0, MPI_COMM_WORLD),
-              "MPI_Reduce");
-        if (local.tracksHalves()) { // every rank runs the same command, so all or none do
-            check(MPI_Reduce(local.oddSums().data(), root ? total_.oddSums().data() : nullptr,
-                             count, sampleType_, sampleOp_, 0, MPI_COMM_WORLD),
+        // The accumulators' parts (halves apart when tracked), each summed over the ranks:
+        // every rank runs the same command, so all track halves or none do.
+        const int count = int(local.values());
+        for (int part = 0; part < (local.tracksHalves() ? 2 : 1); ++part) {
+            check(MPI_Reduce(local.partSums(part).data(),
+                             root ? total_.partSums(part).data() : nullptr, count, sampleType_,
+                             sampleOp_, 0, MPI_COMM_WORLD),
                   "MPI_Reduce");
-            check(MPI_Reduce(local.oddSquares().data(), root ? total_.oddSquares().data() : nullptr,
-                             count, squareType_, squareOp_, 0, MPI_COMM_WORLD),
+            check(MPI_Reduce(local.partSquares(part).data(),
+                             root ? total_.partSquares(part).data() : nullptr, count, squareType_,
+                             squareOp_, 0, MPI_COMM_WORLD),
                   "MPI_Reduce");
         }
         long dropped = local.droppedSamples(), totalDropped = 0;

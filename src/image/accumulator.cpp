@@ -288,12 +288,15 @@ EstimateSet::Range parseEstimateRange(const std::string& text, const std::string
     return {a, b};
 }
 
-EstimateAccumulator::EstimateAccumulator(int width, int height)
-    : width_(width), height_(height), sums_(size_t(3) * size_t(width) * size_t(height)),
-      squares_(sums_.size()) {}
+EstimateAccumulator::EstimateAccumulator(int width, int height) : width_(width), height_(height) {
+    partSums_[0].resize(size_t(3) * size_t(width) * size_t(height));
+    partSquares_[0].resize(partSums_[0].size());
+}
 
-template <bool AddOdd>
+template <int Part>
 long EstimateAccumulator::addValues(size_t begin, size_t end, const float* rgb) {
+    std::vector<SampleSum>& sums = partSums_[Part];
+    std::vector<SquareSum>& squares = partSquares_[Part];
     long dropped = 0;
     for (size_t i = begin; i < end; ++i) {
         const double x = rgb[i];
@@ -301,13 +304,8 @@ long EstimateAccumulator::addValues(size_t begin, size_t end, const float* rgb) 
             ++dropped;
             continue;
         }
-        const double square = x * x; // exact: a float's square fits a double
-        sums_[i].addScaled(x);
-        squares_[i].addScaled(square);
-        if constexpr (AddOdd) {
-            oddSums_[i].addScaled(x);
-            oddSquares_[i].addScaled(square);
-        }
+        sums[i].addScaled(x);
+        squares[i].addScaled(x * x); // exact: a float's square fits a double
     }
     return dropped;
 }
@@ -316,13 +314,13 @@ void EstimateAccumulator::add(std::uint64_t index, const float* rgb) {
     if (indices_.contains(index))
         throw std::invalid_argument(
             fmt::format("estimate {} is already in the accumulated image", index));
-    const bool addOdd = tracksHalves_ && (index % 2) == 1;
+    const bool odd = tracksHalves_ && (index % 2) == 1;
     auto addPart = [&](size_t begin, size_t end, long& dropped) {
-        dropped = addOdd ? addValues<true>(begin, end, rgb) : addValues<false>(begin, end, rgb);
+        dropped = odd ? addValues<1>(begin, end, rgb) : addValues<0>(begin, end, rgb);
     };
     // Adding to wide integers is memory bound: large images are split among the cores (idle
     // while the host accumulates between kernel launches).
-    const size_t values = sums_.size();
+    const size_t values = this->values();
     const size_t parts = values < (size_t(1) << 16)
                              ? 1
                              : std::clamp<size_t>(std::thread::hardware_concurrency(), 1, 8);
@@ -372,52 +370,110 @@ double varianceOf(const SampleSum& sum, const SquareSum& squares, long n) {
     return std::ldexp(magnitudeToDouble(diff), -2 * kFixedPointFractionBits) / (nd * (nd - 1.0));
 }
 
-RgbImage meanImage(int width, int height, long n, const std::vector<SampleSum>& sums) {
+// The mean and standard-error images of n estimates whose sums of value i are sumAt(i) and
+// squareAt(i).
+template <typename SumAt> RgbImage meanImage(int width, int height, long n, const SumAt& sumAt) {
     RgbImage out(width, height);
-    for (size_t i = 0; i < sums.size(); ++i)
-        out.rgb[i] = float(meanOf(sums[i], n));
+    for (size_t i = 0; i < out.rgb.size(); ++i)
+        out.rgb[i] = float(meanOf(sumAt(i), n));
     return out;
 }
 
-RgbImage standardErrorImage(int width, int height, long n, const std::vector<SampleSum>& sums,
-                            const std::vector<SquareSum>& squares) {
+template <typename SumAt, typename SquareAt>
+RgbImage standardErrorImage(int width, int height, long n, const SumAt& sumAt,
+                            const SquareAt& squareAt) {
     RgbImage out(width, height);
     if (n < 2) return out;
-    for (size_t i = 0; i < sums.size(); ++i)
-        out.rgb[i] = float(std::sqrt(varianceOf(sums[i], squares[i], n) / double(n)));
+    for (size_t i = 0; i < out.rgb.size(); ++i)
+        out.rgb[i] = float(std::sqrt(varianceOf(sumAt(i), squareAt(i), n) / double(n)));
     return out;
 }
 
 } // namespace
 
+SampleSum EstimateAccumulator::sumAt(size_t i) const {
+    SampleSum sum = partSums_[0][i];
+    if (tracksHalves_) sum.add(partSums_[1][i]);
+    return sum;
+}
+
+SquareSum EstimateAccumulator::squareAt(size_t i) const {
+    SquareSum square = partSquares_[0][i];
+    if (tracksHalves_) square.add(partSquares_[1][i]);
+    return square;
+}
+
+std::vector<SampleSum> EstimateAccumulator::sums() const {
+    std::vector<SampleSum> out(values());
+    for (size_t i = 0; i < out.size(); ++i)
+        out[i] = sumAt(i);
+    return out;
+}
+
+std::vector<SquareSum> EstimateAccumulator::squares() const {
+    std::vector<SquareSum> out(values());
+    for (size_t i = 0; i < out.size(); ++i)
+        out[i] = squareAt(i);
+    return out;
+}
+
+void EstimateAccumulator::setSums(const std::vector<SampleSum>& sums,
+                                  const std::vector<SquareSum>& squares,
+                                  const std::vector<SampleSum>& oddSums,
+                                  const std::vector<SquareSum>& oddSquares) {
+    const size_t odd = tracksHalves_ ? values() : 0;
+    if (sums.size() != values() || squares.size() != values() || oddSums.size() != odd ||
+        oddSquares.size() != odd)
+        throw std::invalid_argument(fmt::format(
+            "EstimateAccumulator::setSums: {}, {}, {} and {} sums for {} values ({} halves)",
+            sums.size(), squares.size(), oddSums.size(), oddSquares.size(), values(),
+            tracksHalves_ ? "with" : "without"));
+    partSums_[0] = sums;
+    partSquares_[0] = squares;
+    if (!tracksHalves_) return;
+    partSums_[1] = oddSums;
+    partSquares_[1] = oddSquares;
+    for (size_t i = 0; i < odd; ++i) {
+        partSums_[0][i].subtract(oddSums[i]);
+        partSquares_[0][i].subtract(oddSquares[i]);
+    }
+}
+
 double EstimateAccumulator::meanAt(size_t i) const {
-    return meanOf(sums_[i], estimates());
+    return meanOf(sumAt(i), estimates());
 }
 
 double EstimateAccumulator::varianceAt(size_t i) const {
-    return varianceOf(sums_[i], squares_[i], estimates());
+    return varianceOf(sumAt(i), squareAt(i), estimates());
 }
 
 RgbImage EstimateAccumulator::mean() const {
-    return meanImage(width_, height_, estimates(), sums_);
+    return meanImage(width_, height_, estimates(), [&](size_t i) { return sumAt(i); });
 }
 
 RgbImage EstimateAccumulator::standardError() const {
-    return standardErrorImage(width_, height_, estimates(), sums_, squares_);
+    return standardErrorImage(
+        width_, height_, estimates(), [&](size_t i) { return sumAt(i); },
+        [&](size_t i) { return squareAt(i); });
 }
 
 void EstimateAccumulator::trackHalves() {
     if (estimates() != 0)
         throw std::logic_error("EstimateAccumulator::trackHalves after estimates were added");
     tracksHalves_ = true;
-    oddSums_.assign(sums_.size(), SampleSum{});
-    oddSquares_.assign(squares_.size(), SquareSum{});
+    partSums_[1].assign(values(), SampleSum{});
+    partSquares_[1].assign(values(), SquareSum{});
 }
 
 void EstimateAccumulator::dropHalves() {
+    if (tracksHalves_)
+        for (size_t i = 0; i < values(); ++i) {
+            partSums_[0][i].add(partSums_[1][i]);
+            partSquares_[0][i].add(partSquares_[1][i]);
+        }
     tracksHalves_ = false;
-    oddSums_ = {};
-    oddSquares_ = {};
+    partSums_[1] = {};
+    partSquares_[1] = {};
 }
 
 long EstimateAccumulator::halfEstimates(int half) const {
@@ -426,25 +482,18 @@ long EstimateAccumulator::halfEstimates(int half) const {
 
 RgbImage EstimateAccumulator::halfMean(int half) const {
     if (!tracksHalves_) throw std::logic_error("EstimateAccumulator::halfMean: no halves kept");
-    if (half == 1) return meanImage(width_, height_, halfEstimates(1), oddSums_);
-    std::vector<SampleSum> even = sums_;
-    for (size_t i = 0; i < even.size(); ++i)
-        even[i].subtract(oddSums_[i]);
-    return meanImage(width_, height_, halfEstimates(0), even);
+    const std::vector<SampleSum>& sums = partSums_[size_t(half)];
+    return meanImage(width_, height_, halfEstimates(half), [&](size_t i) { return sums[i]; });
 }
 
 RgbImage EstimateAccumulator::halfStandardError(int half) const {
     if (!tracksHalves_)
         throw std::logic_error("EstimateAccumulator::halfStandardError: no halves kept");
-    if (half == 1)
-        return standardErrorImage(width_, height_, halfEstimates(1), oddSums_, oddSquares_);
-    std::vector<SampleSum> even = sums_;
-    std::vector<SquareSum> evenSquares = squares_;
-    for (size_t i = 0; i < even.size(); ++i) {
-        even[i].subtract(oddSums_[i]);
-        evenSquares[i].subtract(oddSquares_[i]);
-    }
-    return standardErrorImage(width_, height_, halfEstimates(0), even, evenSquares);
+    const std::vector<SampleSum>& sums = partSums_[size_t(half)];
+    const std::vector<SquareSum>& squares = partSquares_[size_t(half)];
+    return standardErrorImage(
+        width_, height_, halfEstimates(half), [&](size_t i) { return sums[i]; },
+        [&](size_t i) { return squares[i]; });
 }
 
 void EstimateAccumulator::merge(const EstimateAccumulator& other) {
@@ -455,18 +504,20 @@ void EstimateAccumulator::merge(const EstimateAccumulator& other) {
         throw std::invalid_argument(
             fmt::format("the estimate sets overlap ({} and {}): an estimate would be counted twice",
                         indices_.toString(), other.indices_.toString()));
-    for (size_t i = 0; i < sums_.size(); ++i) {
-        sums_[i].add(other.sums_[i]);
-        squares_[i].add(other.squares_[i]);
-    }
     // The halves survive only if both sides kept them.
-    if (tracksHalves_ && other.tracksHalves_)
-        for (size_t i = 0; i < oddSums_.size(); ++i) {
-            oddSums_[i].add(other.oddSums_[i]);
-            oddSquares_[i].add(other.oddSquares_[i]);
-        }
-    else
+    if (tracksHalves_ && other.tracksHalves_) {
+        for (size_t part = 0; part < 2; ++part)
+            for (size_t i = 0; i < values(); ++i) {
+                partSums_[part][i].add(other.partSums_[part][i]);
+                partSquares_[part][i].add(other.partSquares_[part][i]);
+            }
+    } else {
         dropHalves();
+        for (size_t i = 0; i < values(); ++i) {
+            partSums_[0][i].add(other.sumAt(i));
+            partSquares_[0][i].add(other.squareAt(i));
+        }
+    }
     indices_.unite(other.indices_);
     dropped_ += other.dropped_;
 }

@@ -96,42 +96,52 @@ class EstimateAccumulator {
     // Adds another accumulator's estimates; throws std::invalid_argument when the sizes differ
     // or the two hold a common estimate (sums of sums, never means of means).
     void merge(const EstimateAccumulator& other);
-    // Raw state, for saved states and reductions across processes.
-    std::vector<SampleSum>& sums() { return sums_; }
-    std::vector<SquareSum>& squares() { return squares_; }
-    const std::vector<SampleSum>& sums() const { return sums_; }
-    const std::vector<SquareSum>& squares() const { return squares_; }
+    // How many values (3 per pixel).
+    size_t values() const { return partSums_[0].size(); }
+    // The exact sums of value i and of its squares over every estimate held.
+    SampleSum sumAt(size_t i) const;
+    SquareSum squareAt(size_t i) const;
+    // The same for every value, as saved states store them.
+    std::vector<SampleSum> sums() const;
+    std::vector<SquareSum> squares() const;
     void setIndices(EstimateSet indices) { indices_ = std::move(indices); }
     void setDroppedSamples(long dropped) { dropped_ = dropped; }
 
     // Two disjoint halves of the estimates by index parity: half 0 holds the even indices,
     // half 1 the odd ones. They are independent, so the statistics of one can weight the values
-    // of the other without bias (image/combine.h). Kept as the odd indices' own sums beside
-    // the full ones (half 0 = full - odd), added in the same pass; exact like the full sums,
-    // so shards and merges keep them. Call trackHalves before the first estimate.
+    // of the other without bias (image/combine.h). Exact like the full sums, so shards and
+    // merges keep them. Call trackHalves before the first estimate.
     void trackHalves();
     bool tracksHalves() const { return tracksHalves_; }
-    // Stops tracking (a merge with an accumulator that has no halves).
+    // Stops tracking (a merge with an accumulator that has no halves); the full sums stay.
     void dropHalves();
     long halfEstimates(int half) const;
     RgbImage halfMean(int half) const;
     RgbImage halfStandardError(int half) const;
-    // Raw sums of the odd indices (empty unless tracked).
-    std::vector<SampleSum>& oddSums() { return oddSums_; }
-    std::vector<SquareSum>& oddSquares() { return oddSquares_; }
-    const std::vector<SampleSum>& oddSums() const { return oddSums_; }
-    const std::vector<SquareSum>& oddSquares() const { return oddSquares_; }
+    // The odd indices' sums (empty unless tracked).
+    const std::vector<SampleSum>& oddSums() const { return partSums_[1]; }
+    const std::vector<SquareSum>& oddSquares() const { return partSquares_[1]; }
+    // Sets the raw state as saved states store it: the full sums and, when halves are tracked,
+    // the odd indices' (else empty); throws std::invalid_argument on a size that does not fit.
+    void setSums(const std::vector<SampleSum>& sums, const std::vector<SquareSum>& squares,
+                 const std::vector<SampleSum>& oddSums, const std::vector<SquareSum>& oddSquares);
+
+    // The stored parts, for reductions across processes: part 1 holds the odd indices' sums
+    // when halves are tracked (else it is empty), part 0 the other estimates'. Each estimate
+    // is added to one part only, so an odd one costs no more than an even one.
+    std::vector<SampleSum>& partSums(int part) { return partSums_[size_t(part)]; }
+    std::vector<SquareSum>& partSquares(int part) { return partSquares_[size_t(part)]; }
+    const std::vector<SampleSum>& partSums(int part) const { return partSums_[size_t(part)]; }
+    const std::vector<SquareSum>& partSquares(int part) const { return partSquares_[size_t(part)]; }
 
   private:
-    template <bool AddOdd> long addValues(size_t begin, size_t end, const float* rgb);
+    template <int Part> long addValues(size_t begin, size_t end, const float* rgb);
     int width_, height_;
     EstimateSet indices_;
     long dropped_ = 0;
-    std::vector<SampleSum> sums_;
-    std::vector<SquareSum> squares_;
     bool tracksHalves_ = false;
-    std::vector<SampleSum> oddSums_;
-    std::vector<SquareSum> oddSquares_;
+    std::array<std::vector<SampleSum>, 2> partSums_;
+    std::array<std::vector<SquareSum>, 2> partSquares_;
 };
 
 } // namespace cb

@@ -83,7 +83,7 @@ double meanValue(const RgbImage& image) {
 
 NoiseEstimate estimateNoise(const EstimateAccumulator& accumulator) {
     NoiseEstimate out;
-    const size_t values = accumulator.sums().size();
+    const size_t values = accumulator.values();
     if (values == 0) return out;
     double meanSum = 0.0;
     for (size_t i = 0; i < values; ++i)

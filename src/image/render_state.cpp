@@ -128,7 +128,7 @@ std::string encodeRenderState(const RenderIdentity& identity,
                                    {"sample_sum_words", SampleSum{}.word.size()},
                                    {"square_sum_words", SquareSum{}.word.size()}};
     const std::string headerText = header.dump();
-    const size_t values = accumulator.sums().size();
+    const size_t values = accumulator.values();
     std::string out;
     const size_t arrays = accumulator.tracksHalves() ? 2 : 1;
     out.reserve(kMagicBytes + 4 + 8 + headerText.size() + 8 + arrays * values * 56 + 8);
@@ -138,11 +138,11 @@ std::string encodeRenderState(const RenderIdentity& identity,
     putU64(out, headerText.size());
     out += headerText;
     putU64(out, values);
-    for (const auto& s : accumulator.sums())
-        for (auto w : s.word)
+    for (size_t i = 0; i < values; ++i)
+        for (auto w : accumulator.sumAt(i).word)
             putU64(out, w);
-    for (const auto& s : accumulator.squares())
-        for (auto w : s.word)
+    for (size_t i = 0; i < values; ++i)
+        for (auto w : accumulator.squareAt(i).word)
             putU64(out, w);
     for (const auto& s : accumulator.oddSums())
         for (auto w : s.word)
@@ -243,26 +243,24 @@ RenderState decodeRenderState(const std::string& bytes, const std::string& path)
     } catch (const std::invalid_argument& e) {
         throw fail(e.what());
     }
-    for (auto& s : state.accumulator.sums())
-        for (auto& w : s.word) {
-            w = getU64(bytes, pos);
-            pos += 8;
-        }
-    for (auto& s : state.accumulator.squares())
-        for (auto& w : s.word) {
-            w = getU64(bytes, pos);
-            pos += 8;
-        }
-    for (auto& s : state.accumulator.oddSums())
-        for (auto& w : s.word) {
-            w = getU64(bytes, pos);
-            pos += 8;
-        }
-    for (auto& s : state.accumulator.oddSquares())
-        for (auto& w : s.word) {
-            w = getU64(bytes, pos);
-            pos += 8;
-        }
+    // The file holds the full sums and the odd indices' (the layout before the accumulator
+    // kept its halves apart, so older states load unchanged).
+    auto read = [&](auto& sums, size_t count) {
+        sums.resize(count);
+        for (auto& s : sums)
+            for (auto& w : s.word) {
+                w = getU64(bytes, pos);
+                pos += 8;
+            }
+    };
+    const size_t odd = state.accumulator.tracksHalves() ? values : 0;
+    std::vector<SampleSum> sums, oddSums;
+    std::vector<SquareSum> squares, oddSquares;
+    read(sums, values);
+    read(squares, values);
+    read(oddSums, odd);
+    read(oddSquares, odd);
+    state.accumulator.setSums(sums, squares, oddSums, oddSquares);
     return state;
 }
 
