@@ -417,10 +417,9 @@ std::vector<SquareSum> EstimateAccumulator::squares() const {
     return out;
 }
 
-void EstimateAccumulator::setSums(const std::vector<SampleSum>& sums,
-                                  const std::vector<SquareSum>& squares,
-                                  const std::vector<SampleSum>& oddSums,
-                                  const std::vector<SquareSum>& oddSquares) {
+void EstimateAccumulator::setSums(std::vector<SampleSum> sums, std::vector<SquareSum> squares,
+                                  std::vector<SampleSum> oddSums,
+                                  std::vector<SquareSum> oddSquares) {
     const size_t odd = tracksHalves_ ? values() : 0;
     if (sums.size() != values() || squares.size() != values() || oddSums.size() != odd ||
         oddSquares.size() != odd)
@@ -428,15 +427,13 @@ void EstimateAccumulator::setSums(const std::vector<SampleSum>& sums,
             "EstimateAccumulator::setSums: {}, {}, {} and {} sums for {} values ({} halves)",
             sums.size(), squares.size(), oddSums.size(), oddSquares.size(), values(),
             tracksHalves_ ? "with" : "without"));
-    partSums_[0] = sums;
-    partSquares_[0] = squares;
-    if (!tracksHalves_) return;
-    partSums_[1] = oddSums;
-    partSquares_[1] = oddSquares;
+    // Part 0 holds the even indices' sums when halves are tracked: the full ones less the odd.
     for (size_t i = 0; i < odd; ++i) {
-        partSums_[0][i].subtract(oddSums[i]);
-        partSquares_[0][i].subtract(oddSquares[i]);
+        sums[i].subtract(oddSums[i]);
+        squares[i].subtract(oddSquares[i]);
     }
+    partSums_ = {std::move(sums), std::move(oddSums)};
+    partSquares_ = {std::move(squares), std::move(oddSquares)};
 }
 
 double EstimateAccumulator::meanAt(size_t i) const {

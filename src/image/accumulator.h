@@ -123,8 +123,8 @@ class EstimateAccumulator {
     const std::vector<SquareSum>& oddSquares() const { return partSquares_[1]; }
     // Sets the raw state as saved states store it: the full sums and, when halves are tracked,
     // the odd indices' (else empty); throws std::invalid_argument on a size that does not fit.
-    void setSums(const std::vector<SampleSum>& sums, const std::vector<SquareSum>& squares,
-                 const std::vector<SampleSum>& oddSums, const std::vector<SquareSum>& oddSquares);
+    void setSums(std::vector<SampleSum> sums, std::vector<SquareSum> squares,
+                 std::vector<SampleSum> oddSums, std::vector<SquareSum> oddSquares);
 
     // The stored parts, for reductions across processes: part 1 holds the odd indices' sums
     // when halves are tracked (else it is empty), part 0 the other estimates'. Each estimate

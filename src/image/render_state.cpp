@@ -8,6 +8,7 @@
 #include <fstream>
 #include <iterator>
 #include <stdexcept>
+#include <utility>
 
 namespace cb {
 
@@ -260,7 +261,8 @@ RenderState decodeRenderState(const std::string& bytes, const std::string& path)
     read(squares, values);
     read(oddSums, odd);
     read(oddSquares, odd);
-    state.accumulator.setSums(sums, squares, oddSums, oddSquares);
+    state.accumulator.setSums(std::move(sums), std::move(squares), std::move(oddSums),
+                              std::move(oddSquares));
     return state;
 }
 
