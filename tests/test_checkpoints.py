@@ -265,6 +265,15 @@ with tempfile.TemporaryDirectory() as tmp:
     check(m.get("runs") == 2 and sorted(m.get("seeds", [])) == [1, 2] and
           math.isfinite(m.get("reference_mse", math.nan)) and m.get("runs_mse", 0) > 0,
           f"reference error measured from the PT seeds ({m})")
+    # A measurement of the same reference from more runs (earlier sittings' images gone) is kept.
+    json.dump(dict(m, runs=3, seeds=[1, 2, 3], reference_mse=1.0), open(path, "w"))
+    r = subprocess.run(experiment + ["--seeds", "1", "2", "--reference-errors"],
+                       capture_output=True, text=True)
+    kept = json.load(open(path))
+    check(r.returncode == 0 and kept["runs"] == 3 and kept["reference_mse"] == 1.0 and
+          "kept the RMS error measured from 3 pt runs" in r.stdout,
+          f"a measurement from more runs is not replaced by one from fewer ({r.stdout[-400:]})")
+    json.dump(m, open(path, "w"))
     # The report aggregates what exists and lists what is missing (seeds 3 and 4 here).
     doc = P("results.md")
     r = subprocess.run([sys.executable, os.path.join(root, "scripts", "report"), "--units", units,
