@@ -1,10 +1,9 @@
-/* cb_bvh_group.h - what the two packet traversals share (cb_bvh_ray8.h: eight rays per
- * work-item, CPT's wavefront; src/bench/kernels/bench_bvh_packet.h: a work-group of rays, a bench
- * prototype): one stackless walk of the
- * wide BVH (cb_bvh_wide.h) for a group of rays. The group enters a node's child when any of its
- * rays enters the child's box; the children are visited in the order of one representative
- * ray's keys, which depend only on the node and that ray, so returning to a node finds the same
- * order and the trail of cb_bvh_wide.h stays exact. */
+/* cb_bvh_group.h - what the two packet traversals share (cb_bvh_ray_packet.h: 8 or 16 rays
+ * per work-item, CPT's and CBDPT's packets; src/bench/kernels/bench_bvh_packet.h: a work-group of
+ * rays, a bench prototype): one stackless walk of the wide BVH (cb_bvh_wide.h) for a group of rays.
+ * The group enters a node's child when any of its rays enters the child's box; the children are
+ * visited in the order of one representative ray's keys, which depend only on the node and that
+ * ray, so returning to a node finds the same order and the trail of cb_bvh_wide.h stays exact. */
 #ifndef CB_BVH_GROUP_H
 #define CB_BVH_GROUP_H
 

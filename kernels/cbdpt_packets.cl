@@ -4,8 +4,8 @@
  * One work-item renders a tile of `tile` x `tile` pixels that follow one shared sample vector
  * (neighbours, or k apart with --coherence-tile k: packetTilePixel, cb_rng.h). Their eye
  * subpaths advance one vertex at a time together (bdptWalkStep, as bdptRandomWalk), each
- * round's rays traced in packets of 4 x 2 of its pixels (cb_bvh_ray8.h). Then each pixel's
- * strategies are renderCbdpt's, but each shadow ray waits (bdptConnectDeferred) with its
+ * round's rays traced in packets of 4 x 2 or 4 x 4 of its pixels (cb_bvh_ray_packet.h). Then each
+ * pixel's strategies are renderCbdpt's, but each shadow ray waits (bdptConnectDeferred) with its
  * weighted contribution; the shadow rays of each strategy (t, s), all aimed at the estimate's
  * same few light vertices from nearby eye vertices, are traced in packets, and each pixel adds
  * its strategies in renderCbdpt's order. Everything waits in global scratch buffers, per
@@ -14,7 +14,7 @@
  * a multiple of 4. */
 #include "cbdpt.cl"
 /* After cbdpt.cl, whose headers define what it needs (CB_HAS). */
-#include "cb_bvh_ray8.h"
+#include "cb_bvh_ray_packet.h"
 
 /* An eye subpath's walk between its rays: bdptRandomWalk's beta, pdfW and vertex count. The host
  * sizes its buffer by CB_CBDPT_WALK_BYTES. */
@@ -32,11 +32,11 @@ __kernel void renderCoherentBdpt(CB_CBDPT_PARAMS, int tile, __global PathVertex*
                                  __global Spectrum* terms, __global Ray* shadowRays,
                                  __global float* shadowTMaxes, __global int* occluded,
                                  __global float* outRgb, CB_COUNTER_PARAMS) {
-    CB_RAY8_TILE_ITEM(tile, streamTile, camera.width, camera.height);
+    CB_RAY_PACKET_TILE_ITEM(tile, streamTile, camera.width, camera.height);
     CB_SCENE_VIEW(scene);
     BdptSettings settingsCopy = bdptSettingsCopy(settings);
     const SamplerSettings samplerCopy = samplerSettingsCopy(sampler);
-    const int pixels = tile * tile, packets = pixels / 8;
+    const int pixels = tile * tile, packets = pixels / CB_RAY_PACKET;
     const int tileIndex = tileY * tilesX + tileX;
     const int maxEye = settingsCopy.eyeVertices;
     int tracedRays = 0;
@@ -69,8 +69,8 @@ __kernel void renderCoherentBdpt(CB_CBDPT_PARAMS, int tile, __global PathVertex*
     }
     for (int vertex = 1; vertex < maxEye; ++vertex) {
         for (int q = 0; q < packets; ++q)
-            ray8Trace(nodes, packs, primitives, rays, tMaxes, ray8TilePacket(walkBase, tile, q),
-                      true, hits, 0);
+            rayPacketTrace(nodes, packs, primitives, rays, tMaxes,
+                           rayPacketOfTile(walkBase, tile, q), true, hits, 0);
         for (int p = 0; p < pixels; ++p) {
             const int i = walkBase + p;
             if (!(tMaxes[i] > 0.0f)) continue;
@@ -127,7 +127,7 @@ __kernel void renderCoherentBdpt(CB_CBDPT_PARAMS, int tile, __global PathVertex*
                                  &tracedRays))                                                     \
             break;                                                                                 \
         terms[i] = c;                                                                              \
-        /* 0: no shadow ray (ray8Trace skips it: never occluded). */                               \
+        /* 0: no shadow ray (rayPacketTrace skips it: never occluded). */                          \
         shadowTMaxes[i] = needsShadow ? fmax(shadowTMax, 0.0f) : 0.0f;                             \
         if (needsShadow) shadowRays[i] = shadow;                                                   \
     } while (0)
@@ -136,8 +136,8 @@ __kernel void renderCoherentBdpt(CB_CBDPT_PARAMS, int tile, __global PathVertex*
     }
     for (int m = 0; m < strategies; ++m)
         for (int q = 0; q < packets; ++q)
-            ray8Trace(nodes, packs, primitives, shadowRays, shadowTMaxes,
-                      ray8TilePacket(base + m * pixels, tile, q), false, 0, occluded);
+            rayPacketTrace(nodes, packs, primitives, shadowRays, shadowTMaxes,
+                           rayPacketOfTile(base + m * pixels, tile, q), false, 0, occluded);
     for (int p = 0; p < pixels; ++p) {
         CB_CBDPT_PIXEL(p, x, y);
         if (!CB_CBDPT_INSIDE(x, y)) continue;

@@ -19,13 +19,13 @@ __kernel void renderPathTracing(CB_INTEGRATOR_KERNEL_PARAMS(PathSettings), uint 
  * pixels that follow one shared sample vector (neighbours, or k apart with --coherence-tile k:
  * packetTilePixel, cb_rng.h), advancing their paths one vertex at a time together
  * (ptPathVertex, ptPathShadow, as in ptRadiance), and between the steps traces their rays in
- * packets of 4 x 2 of its pixels (cb_bvh_ray8.h) rather than one by one. Paths, rays and
- * answers wait in global scratch buffers, tile * tile entries per work-item, which stay in the
+ * packets of 4 x 2 or 4 x 4 of its pixels (cb_bvh_ray_packet.h) rather than one by one. Paths, rays
+ * and answers wait in global scratch buffers, tile * tile entries per work-item, which stay in the
  * cache while the work-item runs (tMax 0: no ray). The work-item loops over its pixels itself,
  * without barriers: a work-item per pixel with barriers around the packets rendered wrong
  * images under PoCL 3.1 even with the packets' answers replaced by each work-item's own
  * traversal. `tile` must be a multiple of 4. */
-#include "cb_bvh_ray8.h"
+#include "cb_bvh_ray_packet.h"
 
 /* The host sizes the path buffer by CB_PT_PATH_BYTES (cb_pt.h): a compile error if it is not
  * PtPath's size. */
@@ -38,8 +38,8 @@ __kernel void renderCoherentPathTracing(CB_INTEGRATOR_KERNEL_PARAMS(PathSettings
                                         __global Hit* hits, __global Ray* shadowRays,
                                         __global float* shadowTMaxes, __global int* occluded,
                                         __global float* outRgb, CB_COUNTER_PARAMS) {
-    CB_RAY8_TILE_ITEM(tile, streamTile, camera.width, camera.height);
-    const int pixels = tile * tile, packets = pixels / 8;
+    CB_RAY_PACKET_TILE_ITEM(tile, streamTile, camera.width, camera.height);
+    const int pixels = tile * tile, packets = pixels / CB_RAY_PACKET;
     const int base = (tileY * tilesX + tileX) * pixels;
     CB_SCENE_VIEW(scene);
     const SamplerSettings samplerCopy = samplerSettingsCopy(sampler);
@@ -58,8 +58,8 @@ __kernel void renderCoherentPathTracing(CB_INTEGRATOR_KERNEL_PARAMS(PathSettings
     }
     for (int vertex = 1; vertex < settings.eyeVertices; ++vertex) {
         for (int q = 0; q < packets; ++q)
-            ray8Trace(nodes, packs, primitives, rays, tMaxes, ray8TilePacket(base, tile, q), true,
-                      hits, 0);
+            rayPacketTrace(nodes, packs, primitives, rays, tMaxes, rayPacketOfTile(base, tile, q),
+                           true, hits, 0);
         for (int p = 0; p < pixels; ++p) {
             const int i = base + p;
             shadowTMaxes[i] = 0.0f;
@@ -83,8 +83,8 @@ __kernel void renderCoherentPathTracing(CB_INTEGRATOR_KERNEL_PARAMS(PathSettings
         /* The last vertex makes no shadow ray (it would close a path of Ne + 1 vertices). */
         if (vertex + 1 >= settings.eyeVertices) break;
         for (int q = 0; q < packets; ++q)
-            ray8Trace(nodes, packs, primitives, shadowRays, shadowTMaxes,
-                      ray8TilePacket(base, tile, q), false, 0, occluded);
+            rayPacketTrace(nodes, packs, primitives, shadowRays, shadowTMaxes,
+                           rayPacketOfTile(base, tile, q), false, 0, occluded);
         for (int p = 0; p < pixels; ++p) {
             const int i = base + p;
             if (!paths[i].shadowPending) continue;

@@ -1,13 +1,13 @@
 #!/usr/bin/env python3
-"""The packet traversal prototypes of cbdpt-bench, work-group-wide (`--traversal packet`,
-src/bench/kernels/bench_bvh_packet.h) and eight rays per work-item (`--traversal ray8`,
-src/bench/kernels/cb_bvh_ray8.h), find the same hits as the renderers' traversal
-(`--traversal wide`) and as Embree, on every ray set of the traverse section: coherent ones
-(primary, one estimate's bounces and shadow rays) and incoherent ones, closest and any hit, on
-the bunny alone and standing in a room (walls behind and beside it: bounces start inside).
-Every ray's answer is compared with Embree's (agreement 1 = all rays; a closest hit counts as
-agreeing when it is the same triangle or one at the same distance, a shared edge), and the
-number of hits with the wide traversal's on the same rays.
+"""The packet traversals of cbdpt-bench, work-group-wide (`--traversal packet`, a prototype,
+src/bench/kernels/bench_bvh_packet.h) and 8 or 16 rays per work-item (`--traversal ray8`,
+`ray16`, kernels/cb_bvh_ray_packet.h, CPT's and CBDPT's packets), find the same hits as the
+renderers' single-ray traversal (`--traversal wide`) and as Embree, on every ray set of the
+traverse section: coherent ones (primary, one estimate's bounces and shadow rays) and
+incoherent ones, closest and any hit, on the bunny alone and standing in a room (walls behind
+and beside it: bounces start inside). Every ray's answer is compared with Embree's (agreement
+1 = all rays; a closest hit counts as agreeing when it is the same triangle or one at the same
+distance, a shared edge), and the number of hits with the wide traversal's on the same rays.
 
 Usage: test_bench_packet.py PATH/TO/cbdpt-bench"""
 import argparse
@@ -29,9 +29,10 @@ CASES = ["primary", "bounce1", "bounce2", "coh-shadow", "shadow", "incoherent"]
 with tempfile.TemporaryDirectory() as tmp:
     out = os.path.join(tmp, "bench.json")
     # 4104 rays: the images are 64x64 (primaryRays rounds to tiles), the incoherent set is not a
-    # multiple of the work-group size or of 64, so padding work-items and ray8's padded last
-    # packet are exercised too.
-    r = subprocess.run([args.bench, "--sections", "traverse", "--traversal", "wide,packet,ray8",
+    # multiple of the work-group size or of 64, so padding work-items and the ray packets'
+    # padded last packet are exercised too.
+    r = subprocess.run([args.bench, "--sections", "traverse", "--traversal",
+                        "wide,packet,ray8,ray16",
                         "--meshes", "bunny,bunny-room", "--rays", "4104", "--repeats", "1",
                         "--cases", ",".join(CASES), "--json", out],
                        capture_output=True, text=True, timeout=900)
@@ -42,7 +43,7 @@ rows = data.get("traverse", [])
 embree = data.get("machine", {}).get("embree", False)
 by_key = {(row["mesh"], row["order"], row["rays"]): row for row in rows}
 for mesh in ("bunny", "bunny-room"):
-    for variant in ("packet", "ray8"):
+    for variant in ("packet", "ray8", "ray16"):
         for case in CASES:
             packet = by_key.get((mesh, variant, case))
             wide = by_key.get((mesh, "wide", case))

@@ -28,15 +28,24 @@ cb::ClRuntime& runtime() {
     return r;
 }
 
-// The integrator of `settings` built with environment variable `name` set to "0" (a switch of
-// KernelIntegrator's: CBDPT_SHARED_SAMPLES, CBDPT_PACKETS).
+// The integrator of `settings` built with environment variable `name` set to `value` (a
+// setting of KernelIntegrator's: CBDPT_SHARED_SAMPLES, CBDPT_PACKETS, CBDPT_RAY_PACKET).
+std::unique_ptr<cb::Integrator> makeIntegratorWith(const char* name, const char* value,
+                                                   const cb::IntegratorSettings& settings,
+                                                   const cb::DeviceScene& scene) {
+    setenv(name, value, 1);
+    struct Unset {
+        const char* name;
+        ~Unset() { unsetenv(name); }
+    } unset{name};
+    return cb::makeIntegrator(settings, scene, runtime());
+}
+
+// The same with the switch `name` off ("0").
 std::unique_ptr<cb::Integrator> makeIntegratorWithout(const char* name,
                                                       const cb::IntegratorSettings& settings,
                                                       const cb::DeviceScene& scene) {
-    setenv(name, "0", 1);
-    auto integrator = cb::makeIntegrator(settings, scene, runtime());
-    unsetenv(name);
-    return integrator;
+    return makeIntegratorWith(name, "0", settings, scene);
 }
 
 // Renders `estimates` estimates with both integrators and calls compare(a, b) on each pair of
@@ -417,9 +426,10 @@ TEST_CASE("CPT and CBDPT with the host's shared vectors: the kernels' own images
 
 TEST_CASE("CPT and CBDPT traced as packets: the per-pixel kernels' images") {
     // renderCoherentPathTracing (pt.cl) and renderCoherentBdpt (cbdpt.cl) run the per-pixel
-    // kernels' code a tile at a time, tracing rays in packets of 4 x 2 pixels; each ray gets the
-    // per-pixel traversal's hit up to which of two hits within rounding is kept, so images agree
-    // bit for bit but for such ties. Tiles of 4, 8 and 16 pixels (12 is not a whole number of
+    // kernels' code a tile at a time, tracing rays in packets of 4 x 2 or 4 x 4 pixels (8 or 16
+    // rays, CBDPT_RAY_PACKET; both widths here); each ray gets the per-pixel traversal's hit up
+    // to which of two hits within rounding is kept, so images agree bit for bit but for such
+    // ties. Tiles of 4, 8 and 16 pixels (12 is not a whole number of
     // packets: the per-pixel kernels), a film that is not a whole number of tiles, RGB and
     // spectral (the scratch entries' sizes), CPT with roulette on and off, CBDPT under its
     // per-subpath caps and under a total cap (--max-vertices); with --coherence-tile 2 and 3 the
@@ -453,28 +463,45 @@ TEST_CASE("CPT and CBDPT traced as packets: the per-pixel kernels' images") {
                         s.coherenceTile = k;
                         s.tileSize = tile;
                         s.seed = 9;
-                        auto packets = cb::makeIntegrator(s, scene, runtime());
                         auto pixels = makeIntegratorWithout("CBDPT_PACKETS", s, scene);
-                        CHECK(packets->tracesPackets() == (packetsDevice && tile % 4 == 0));
                         CHECK(!pixels->tracesPackets());
-                        size_t differing = 0, values = 0;
-                        const auto [sumA, sumB] =
-                            renderBoth(*packets, *pixels, 4, [&](float x, float y) {
-                                differing += x != y;
-                                ++values;
-                            });
-                        CHECK(sumB > 0.0);
-                        CHECK(differing <= values / 500);
-                        CHECK(std::abs(sumA - sumB) <= 1e-4 * sumB);
-                        CHECK(packets->nonFiniteSamples() == pixels->nonFiniteSamples());
+                        for (const char* width : {"8", "16"}) {
+                            CAPTURE(width);
+                            auto packets = makeIntegratorWith("CBDPT_RAY_PACKET", width, s, scene);
+                            CHECK(packets->tracesPackets() == (packetsDevice && tile % 4 == 0));
+                            CHECK(packets->rayPacketRays() ==
+                                  (packets->tracesPackets() ? std::atoi(width) : 0));
+                            size_t differing = 0, values = 0;
+                            const auto [sumA, sumB] =
+                                renderBoth(*packets, *pixels, 4, [&](float x, float y) {
+                                    differing += x != y;
+                                    ++values;
+                                });
+                            CHECK(sumB > 0.0);
+                            CHECK(differing <= values / 500);
+                            CHECK(std::abs(sumA - sumB) <= 1e-4 * sumB);
+                            CHECK(packets->nonFiniteSamples() == pixels->nonFiniteSamples());
+                        }
                     }
+        // A packet width other than 8 or 16 is refused, naming the variable and the value.
+        if (packetsDevice) {
+            cb::IntegratorSettings s;
+            s.name = "cpt";
+            s.eyeVertices = 3;
+            CHECK_THROWS_WITH_AS(makeIntegratorWith("CBDPT_RAY_PACKET", "12", s, scene),
+                                 doctest::Contains("CBDPT_RAY_PACKET='12'"), std::invalid_argument);
+        }
         // Above the largest coherence tile whose packets pay, the per-pixel kernels run.
         for (std::string method : {"cpt", "cbdpt"}) {
             cb::IntegratorSettings s;
             s.name = method;
             s.eyeVertices = s.lightVertices = 3;
             s.coherenceTile = cb::PixelKernelIntegrator::kMaxPacketCoherenceTile;
-            CHECK(cb::makeIntegrator(s, scene, runtime())->tracesPackets() == packetsDevice);
+            const auto chosen = cb::makeIntegrator(s, scene, runtime());
+            CHECK(chosen->tracesPackets() == packetsDevice);
+            // Unforced, the width follows the device's native float vectors.
+            const int native = runtime().info().nativeFloatWidth >= 16 ? 16 : 8;
+            CHECK(chosen->rayPacketRays() == (packetsDevice ? native : 0));
             ++s.coherenceTile;
             CHECK(!cb::makeIntegrator(s, scene, runtime())->tracesPackets());
         }

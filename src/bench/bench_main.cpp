@@ -56,14 +56,15 @@ void addOptions(CLI::App& app, Options& o) {
            "--traversal", o.traversal,
            "comma-separated: ordered | skip (binary BVH) | wide (4- or 8-wide, the "
            "renderers' BVH) | packet (the wide BVH traversed by work-groups of 64 rays "
-           "together, a prototype) | ray8 (the wide BVH, packets of 2x4 rays per work-item, a "
-           "prototype); both = ordered,skip")
+           "together, a prototype) | ray8, ray16 (the wide BVH, packets of 2x4 or 4x4 rays per "
+           "work-item, as CPT and CBDPT trace); both = ordered,skip")
         ->check([](const std::string& v) {
             if (v == "both") return std::string();
             for (const auto& s : splitCommas(v))
-                if (s != "ordered" && s != "skip" && s != "wide" && s != "packet" && s != "ray8")
+                if (s != "ordered" && s != "skip" && s != "wide" && s != "packet" && s != "ray8" &&
+                    s != "ray16")
                     return "unknown traversal '" + s +
-                           "' (ordered, skip, wide, packet, ray8, both)";
+                           "' (ordered, skip, wide, packet, ray8, ray16, both)";
             return std::string();
         });
     app.add_option("--repeats", o.repeats, "timed repeats per measurement");

@@ -28,20 +28,21 @@ class ClTraversal {
   public:
     // variant: ordered | skip (binary BVH) | wide (cb_bvh_wide.h, what the renderers use) |
     // packet (the wide BVH, work-group-wide traversal of bench_bvh_packet.h, for every ray set;
-    // its kernels require work-groups of 64, whatever localSize says) | ray8 (the wide BVH,
-    // packets of 2x4 rays per work-item, cb_bvh_ray8.h)
+    // its kernels require work-groups of 64, whatever localSize says) | ray8, ray16 (the wide
+    // BVH, packets of 2x4 or 4x4 rays per work-item, cb_bvh_ray_packet.h)
     ClTraversal(ClRuntime& rt, const Bvh& bvh, const std::string& variant, int localSize)
         : rt_(rt), localSize_(variant == "packet" ? kPacketSize : localSize) {
         std::vector<std::string> defines = {"CB_CHANNELS=3", "CB_FEATURES=0x101u"};
         if (variant == "skip") defines.push_back("CB_BVH_SKIP_ORDER=1");
+        packetRays_ = variant == "ray8" ? 8 : variant == "ray16" ? 16 : 0;
+        if (packetRays_ > 0) defines.push_back(fmt::format("CB_RAY_PACKET={}", packetRays_));
         program_ = rt.buildProgram("bench_traverse.cl", defines);
         const bool packet = variant == "packet";
-        ray8_ = variant == "ray8";
-        const bool wide = variant == "wide" || packet || ray8_;
-        if (ray8_) {
-            closest_ = cl::Kernel(program_, "benchClosestWideRay8");
+        const bool wide = variant == "wide" || packet || packetRays_ > 0;
+        if (packetRays_ > 0) {
+            closest_ = cl::Kernel(program_, "benchClosestWideRays");
             closestCoherent_ = closest_;
-            occluded_ = cl::Kernel(program_, "benchOccludedWideRay8");
+            occluded_ = cl::Kernel(program_, "benchOccludedWideRays");
         } else if (packet) {
             closest_ = cl::Kernel(program_, "benchClosestWidePacket");
             closestCoherent_ = closest_;
@@ -118,24 +119,25 @@ class ClTraversal {
         return arg;
     }
 
-    // The ray count, or for ray8 the packets' ray indices (2x4 tiles of the 8x8 tiles, the rays
-    // after the last whole tile in order, -1 padding the last packet) and their count. Returns
-    // the work-items to launch; `arg` is advanced.
+    // The ray count, or for ray8 and ray16 the packets' ray indices (2x4 or 4x4 tiles of the 8x8
+    // tiles, the rays after the last whole tile in order, -1 padding the last packet) and their
+    // count. Returns the work-items to launch; `arg` is advanced.
     size_t setCountArgs(cl::Kernel& k, int& arg, size_t rayCount, cl::Buffer& packetBuf) {
-        if (!ray8_) {
+        if (packetRays_ == 0) {
             k.setArg(arg++, cl_uint(rayCount));
             return rayCount;
         }
-        std::vector<int> packets = tilePackets(rayCount, 8);
+        const size_t n = size_t(packetRays_);
+        std::vector<int> packets = tilePackets(rayCount, packetRays_);
         for (size_t i = rayCount / 64 * 64; i < rayCount; ++i)
             packets.push_back(int(i));
-        while (packets.size() % 8 != 0)
+        while (packets.size() % n != 0)
             packets.push_back(-1);
         packetBuf = cl::Buffer(rt_.context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
                                packets.size() * sizeof(int), packets.data());
         k.setArg(arg++, packetBuf);
-        k.setArg(arg++, cl_uint(packets.size() / 8));
-        return packets.size() / 8;
+        k.setArg(arg++, cl_uint(packets.size() / n));
+        return packets.size() / n;
     }
 
     double launch(cl::Kernel& k, size_t n, int repeats) {
@@ -164,7 +166,7 @@ class ClTraversal {
 
     ClRuntime& rt_;
     int localSize_;
-    bool ray8_ = false;
+    int packetRays_ = 0; // rays per work-item: 8 or 16 for ray8 and ray16, else 0
     cl::Program program_;
     cl::Kernel closest_, closestCoherent_, occluded_;
     cl::Buffer nodes_, packs_, prims_;
@@ -356,7 +358,8 @@ json caseRow(const TraverseInput& in, const std::string& name, bool anyHit, cons
 Bvh variantBvh(const Options& o, const std::string& variant,
                const std::vector<cbk::Primitive>& prims, const std::vector<Ray>& primary,
                std::string& settings) {
-    if ((variant == "wide" || variant == "packet" || variant == "ray8") && o.sahBlock <= 0) {
+    if ((variant == "wide" || variant == "packet" || variant == "ray8" || variant == "ray16") &&
+        o.sahBlock <= 0) {
         // As the renderers build it (DeviceScene): the candidate cheapest for a sample of the
         // camera rays and their bounces.
         WideBvhChoice choice = buildWideBvhForRays(prims, cameraSample(primary));

@@ -112,6 +112,7 @@ ClDeviceInfo describe(int platformIndex, int deviceIndex, const cl::Platform& pl
     const auto type = device.getInfo<CL_DEVICE_TYPE>();
     info.cpu = (type & CL_DEVICE_TYPE_CPU) != 0;
     info.gpu = (type & CL_DEVICE_TYPE_GPU) != 0;
+    info.nativeFloatWidth = device.getInfo<CL_DEVICE_NATIVE_VECTOR_WIDTH_FLOAT>();
     return info;
 }
 

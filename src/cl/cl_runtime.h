@@ -41,8 +41,11 @@ struct ClDeviceInfo {
     unsigned computeUnits = 0;
     unsigned long long globalMemoryBytes = 0;
     unsigned long long maxAllocationBytes = 0;
-    bool cpu = false;  // CL_DEVICE_TYPE_CPU: it reads host memory in place
-    bool gpu = false;  // CL_DEVICE_TYPE_GPU
+    bool cpu = false; // CL_DEVICE_TYPE_CPU: it reads host memory in place
+    bool gpu = false; // CL_DEVICE_TYPE_GPU
+    // CL_DEVICE_NATIVE_VECTOR_WIDTH_FLOAT: floats per native vector register (PoCL: 16 with
+    // AVX-512, 8 with AVX2), which sizes the coherent methods' ray packets.
+    unsigned nativeFloatWidth = 0;
     bool pocl() const; // the Portable Computing Language platform
 };
 

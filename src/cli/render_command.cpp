@@ -610,6 +610,7 @@ nlohmann::json RenderJob::statistics(const cb::RenderOutcome& outcome) const {
         {"kernel_build_seconds", integrator_->buildSeconds()},
         {"host_sample_streams", integrator_->hostSampleStreams()},
         {"packets", integrator_->tracesPackets()},
+        {"ray_packet_rays", integrator_->rayPacketRays()},
         {"scene_load_seconds", loadSeconds_},
         {"non_finite_samples", outcome.nonFiniteSamples},
         {"mean_standard_error", meanError},

@@ -55,7 +55,12 @@ class CbdptIntegrator final : public PixelKernelIntegrator {
             vertexBufferBytes_);
         lightCounts_ = cl::Buffer(runtime.context(), CL_MEM_READ_ONLY, sizeof(int) * subpaths_);
         const bool packets = packetsWanted();
-        buildProgram(packets ? "cbdpt_packets.cl" : "cbdpt.cl", vertexCapDefines());
+        std::vector<std::string> defines = vertexCapDefines();
+        if (packets) {
+            const std::vector<std::string> packetDefines = rayPacketDefines();
+            defines.insert(defines.end(), packetDefines.begin(), packetDefines.end());
+        }
+        buildProgram(packets ? "cbdpt_packets.cl" : "cbdpt.cl", defines);
         if (packets) {
             // Per pixel (cbdpt_packets.cl): its eye walk (Ne vertices) and one entry for each
             // strategy (t, s), t = 2 .. Ne, s = 0 .. Nl.

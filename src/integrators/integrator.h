@@ -56,6 +56,8 @@ class Integrator {
     // CPT and CBDPT: whether the kernel traces the eye paths' rays as packets (a work-item per
     // tile of pixels that share one sample vector) rather than a work-item per pixel.
     virtual bool tracesPackets() const { return false; }
+    // Rays per packet when tracesPackets() (8 or 16), else 0.
+    virtual int rayPacketRays() const { return 0; }
 };
 
 // The kernels' sampler settings: seed and kind (CB_SAMPLER_*), from a validated name.

@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <iterator>
+#include <stdexcept>
 #include <string>
 
 namespace cb {
@@ -132,6 +133,21 @@ bool PixelKernelIntegrator::packetsWanted() const {
     const char* env = std::getenv("CBDPT_PACKETS");
     return runtime_.info().cpu && settings_.tileSize % 4 == 0 &&
            settings_.coherenceTile <= kMaxPacketCoherenceTile && !(env && std::string(env) == "0");
+}
+
+std::vector<std::string> PixelKernelIntegrator::rayPacketDefines() {
+    int width = runtime_.info().nativeFloatWidth >= 16 ? 16 : 8;
+    if (const char* env = std::getenv("CBDPT_RAY_PACKET"); env && *env) {
+        const std::string forced = env;
+        if (forced != "8" && forced != "16")
+            throw std::invalid_argument(fmt::format(
+                "CBDPT_RAY_PACKET='{}': expected 8 or 16 rays per packet (unset it to let the "
+                "device choose: {})",
+                forced, width));
+        width = std::stoi(forced);
+    }
+    rayPacketRays_ = width;
+    return {fmt::format("CB_RAY_PACKET={}", width)};
 }
 
 std::pair<size_t, size_t> PixelKernelIntegrator::tiles(int stride) const {

@@ -78,6 +78,7 @@ class PixelKernelIntegrator : public KernelIntegrator {
     void renderEstimate(std::uint32_t estimate, std::vector<float>& rgb) final;
     std::uint32_t hostSampleStreams() const override { return sharedStreams_; }
     bool tracesPackets() const override { return perTile_; }
+    int rayPacketRays() const override { return perTile_ ? rayPacketRays_ : 0; }
     // With --coherence-tile k a packet's pixels are k apart: at k = 8 its rays had spread too
     // far to pay on the dragon (CPT 0.94x PT against the per-pixel kernel's 0.87x, 256x256;
     // k <= 4 paid everywhere: docs/performance.md). Larger k also overhang the film more.
@@ -108,10 +109,15 @@ class PixelKernelIntegrator : public KernelIntegrator {
     virtual void beforeLaunch(std::uint32_t estimate) { (void)estimate; }
     // The coherent methods' packets (kernels/pt.cl renderCoherentPathTracing, cbdpt_packets.cl
     // renderCoherentBdpt: a work-item per tile of pixels that share one sample vector, tracing
-    // their rays in packets of 4 x 2): wanted on CPU devices unless CBDPT_PACKETS=0 (to measure
-    // what they buy), the tile is not a whole number of packets, or --coherence-tile is above
-    // kMaxPacketCoherenceTile. A GPU needs a work-item per pixel to fill its cores.
+    // their rays in packets of 4 x 2 or 4 x 4): wanted on CPU devices unless CBDPT_PACKETS=0 (to
+    // measure what they buy), the tile is not a whole number of packets, or --coherence-tile is
+    // above kMaxPacketCoherenceTile. A GPU needs a work-item per pixel to fill its cores.
     bool packetsWanted() const;
+    // The packets' program defines: CB_RAY_PACKET, the rays per packet (cb_bvh_ray_packet.h),
+    // 16 where the device's native float vectors hold 16 lanes (AVX-512 under PoCL: CPT
+    // 0.93-0.94x, CBDPT 0.90-0.98x the time with packets of 8, docs/performance.md), else 8.
+    // CBDPT_RAY_PACKET=8 or 16 forces a width (to measure one against the other).
+    std::vector<std::string> rayPacketDefines();
     // Launches a work-item per tile of tileSize x tileSize pixels coherenceTile apart
     // (tiles()), each its own work-group, from now on, instead of a work-item per pixel:
     // larger groups only add PoCL's per-work-item copies of private values (a group of 128 x 32,
@@ -143,7 +149,8 @@ class PixelKernelIntegrator : public KernelIntegrator {
     cl::Kernel kernel_;
     int estimateArgument_ = 0;
     bool perTile_ = false;
-    std::string label_; // the method, e.g. "CPT", in buffer names
+    int rayPacketRays_ = 0; // rayPacketDefines()'s choice
+    std::string label_;     // the method, e.g. "CPT", in buffer names
 };
 
 } // namespace cb

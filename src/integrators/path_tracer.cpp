@@ -30,11 +30,12 @@ class PathTracingIntegrator final : public PixelKernelIntegrator {
     PathTracingIntegrator(const IntegratorSettings& settings, const DeviceScene& scene,
                           ClRuntime& runtime)
         : PixelKernelIntegrator(settings.name, "path-tracing", settings, scene, runtime) {
-        buildProgram("pt.cl");
+        const bool packets = settings.name == "cpt" && packetsWanted();
+        buildProgram("pt.cl", packets ? rayPacketDefines() : std::vector<std::string>{});
         // The sample-vector tile: 0 for PT (every pixel its own), k for CPT's k x k.
         const int streamTile = settings.name == "cpt" ? settings.coherenceTile : 0;
         const std::uint32_t sharedStreams = std::uint32_t(streamTile * streamTile);
-        if (settings.name != "cpt" || !packetsWanted()) {
+        if (!packets) {
             createKernel("renderPathTracing", pathSettingsFor(settings),
                          [&](KernelArguments& args) {
                              args.add(streamTile);

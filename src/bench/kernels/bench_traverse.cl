@@ -5,11 +5,11 @@
  * traversals of bench_bvh_binary.h (-DCB_BVH_SKIP_ORDER: its unordered preorder closest-hit
  * loop), kept for comparison; the *Wide kernels run cb_bvh_wide.h, the traversal the renderers
  * use; the *Packet kernels run the work-group-wide prototype of bench_bvh_packet.h (work-groups
- * of CB_PACKET_SIZE, an 8x8 tile of rays each); the *Ray8 kernels the packets of eight rays per
- * work-item of cb_bvh_ray8.h. */
+ * of CB_PACKET_SIZE, an 8x8 tile of rays each); the *Rays kernels the packets of CB_RAY_PACKET
+ * rays per work-item of cb_bvh_ray_packet.h (the bench builds this file once per width). */
 #include "bench_bvh_binary.h"
 #include "bench_bvh_packet.h"
-#include "cb_bvh_ray8.h"
+#include "cb_bvh_ray_packet.h"
 #include "cb_bvh_wide.h"
 
 __kernel void benchClosest(__global const struct BvhNode* nodes,
@@ -109,31 +109,33 @@ benchOccludedWidePacket(__global const struct BvhNodeWide* nodes,
     if (get_global_id(0) < count) occluded[get_global_id(0)] = hit ? 1 : 0;
 }
 
-/* Packets of eight rays, one per work-item (cb_bvh_ray8.h): packets[8p .. 8p+7] are the
- * rays of packet p (a 2x4 tile of pixels, as the bench gives Embree's rtcIntersect8; -1 pads
- * the last packet). Closest hits into hits, or any hits into occluded (1 or 0). */
+/* Packets of CB_RAY_PACKET rays, one per work-item (cb_bvh_ray_packet.h): packets[np .. np+n-1]
+ * are the rays of packet p (a 2x4 or 4x4 tile of pixels, as the bench gives Embree's
+ * rtcIntersect8 and rtcIntersect16; -1 pads the last packet). Closest hits into hits, or any hits
+ * into occluded (1 or 0). */
 CB_FN __attribute__((always_inline)) void
-benchRay8(__global const struct BvhNodeWide* nodes, __global const TrianglePack* packs,
+benchRays(__global const struct BvhNodeWide* nodes, __global const TrianglePack* packs,
           __global const Primitive* primitives, __global const Ray* rays,
           __global const float* tMax, __global const int* packets, uint packetCount,
           bool closestHit, __global Hit* hits, __global int* occluded) {
     uint p = (uint)get_global_id(0);
     if (p >= packetCount) return;
-    ray8Trace(nodes, packs, primitives, rays, tMax, vload8(p, packets), closestHit, hits, occluded);
+    rayPacketTrace(nodes, packs, primitives, rays, tMax, CB_RAY_PACKET_LOAD(p, packets), closestHit,
+                   hits, occluded);
 }
 
-__kernel void benchClosestWideRay8(__global const struct BvhNodeWide* nodes,
+__kernel void benchClosestWideRays(__global const struct BvhNodeWide* nodes,
                                    __global const TrianglePack* packs,
                                    __global const Primitive* primitives, __global const Ray* rays,
                                    __global const float* tMax, __global const int* packets,
                                    uint packetCount, __global Hit* hits) {
-    benchRay8(nodes, packs, primitives, rays, tMax, packets, packetCount, true, hits, 0);
+    benchRays(nodes, packs, primitives, rays, tMax, packets, packetCount, true, hits, 0);
 }
 
-__kernel void benchOccludedWideRay8(__global const struct BvhNodeWide* nodes,
+__kernel void benchOccludedWideRays(__global const struct BvhNodeWide* nodes,
                                     __global const TrianglePack* packs,
                                     __global const Primitive* primitives, __global const Ray* rays,
                                     __global const float* tMax, __global const int* packets,
                                     uint packetCount, __global int* occluded) {
-    benchRay8(nodes, packs, primitives, rays, tMax, packets, packetCount, false, 0, occluded);
+    benchRays(nodes, packs, primitives, rays, tMax, packets, packetCount, false, 0, occluded);
 }
