@@ -32,15 +32,23 @@
 #define CB_RAY_PACKET 8
 #endif
 
+/* The sum of eight lanes, pairwise. */
+CB_FN float rayPacketSum8(float8 v) {
+    const float4 a = v.lo + v.hi;
+    const float2 b = a.lo + a.hi;
+    return b.x + b.y;
+}
+
 /* What differs between the widths: the lane types, their lane numbers, a packet's gather of
- * its rays' fields and its lanes as bits (bvhWideBits per eight lanes). */
+ * field f of its rays a[index.s0], a[index.s1], ... and its lanes as bits (bvhWideBits per eight
+ * lanes). */
 #if CB_RAY_PACKET == 16
 typedef float16 RayPacketReal;
 typedef int16 RayPacketInt;
 #define CB_RAY_PACKET_LANES ((RayPacketInt)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15))
 #define CB_RAY_PACKET_LOAD(p, a) vload16(p, a)
 #define CB_RAY_PACKET_AS_INT(v) as_int16(v)
-#define CB_RAY_PACKET_GATHER(a, f)                                                                 \
+#define CB_RAY_PACKET_GATHER(a, index, f)                                                          \
     (RayPacketReal)(a[index.s0] f, a[index.s1] f, a[index.s2] f, a[index.s3] f, a[index.s4] f,     \
                     a[index.s5] f, a[index.s6] f, a[index.s7] f, a[index.s8] f, a[index.s9] f,     \
                     a[index.sa] f, a[index.sb] f, a[index.sc] f, a[index.sd] f, a[index.se] f,     \
@@ -54,10 +62,7 @@ CB_FN int rayPacketOrAll(RayPacketInt v) {
 /* The sum of the lanes where mask is set (the representative ray). */
 CB_FN float rayPacketSum(RayPacketReal v, RayPacketInt mask) {
     const RayPacketReal m = select((RayPacketReal)(0.0f), v, mask);
-    const float8 a = m.lo + m.hi;
-    const float4 b = a.lo + a.hi;
-    const float2 c = b.lo + b.hi;
-    return c.x + c.y;
+    return rayPacketSum8(m.lo + m.hi);
 }
 #elif CB_RAY_PACKET == 8
 typedef float8 RayPacketReal;
@@ -65,7 +70,7 @@ typedef int8 RayPacketInt;
 #define CB_RAY_PACKET_LANES ((RayPacketInt)(0, 1, 2, 3, 4, 5, 6, 7))
 #define CB_RAY_PACKET_LOAD(p, a) vload8(p, a)
 #define CB_RAY_PACKET_AS_INT(v) as_int8(v)
-#define CB_RAY_PACKET_GATHER(a, f)                                                                 \
+#define CB_RAY_PACKET_GATHER(a, index, f)                                                          \
     (RayPacketReal)(a[index.s0] f, a[index.s1] f, a[index.s2] f, a[index.s3] f, a[index.s4] f,     \
                     a[index.s5] f, a[index.s6] f, a[index.s7] f)
 CB_FN uint rayPacketBits(RayPacketInt mask) {
@@ -75,10 +80,7 @@ CB_FN int rayPacketOrAll(RayPacketInt v) {
     return bvhWideOrAll(v);
 }
 CB_FN float rayPacketSum(RayPacketReal v, RayPacketInt mask) {
-    const RayPacketReal m = select((RayPacketReal)(0.0f), v, mask);
-    const float4 a = m.lo + m.hi;
-    const float2 b = a.lo + a.hi;
-    return b.x + b.y;
+    return rayPacketSum8(select((RayPacketReal)(0.0f), v, mask));
 }
 #else
 #error "CB_RAY_PACKET must be 8 or 16"
@@ -297,13 +299,13 @@ rayPacketTraverse(CB_GLOBAL const BvhNodeWide* nodes, CB_GLOBAL const TrianglePa
     /* index < 0: no ray (padding of the last packet), an inactive lane. */
     const RayPacketInt valid = index >= (RayPacketInt)(0);
     index = select((RayPacketInt)(0), index, valid);
-    const RayPacketReal ox = CB_RAY_PACKET_GATHER(rays, .o.x),
-                        oy = CB_RAY_PACKET_GATHER(rays, .o.y),
-                        oz = CB_RAY_PACKET_GATHER(rays, .o.z);
-    const RayPacketReal dx = CB_RAY_PACKET_GATHER(rays, .d.x),
-                        dy = CB_RAY_PACKET_GATHER(rays, .d.y),
-                        dz = CB_RAY_PACKET_GATHER(rays, .d.z);
-    const RayPacketReal tMax = CB_RAY_PACKET_GATHER(tMaxes, );
+    const RayPacketReal ox = CB_RAY_PACKET_GATHER(rays, index, .o.x),
+                        oy = CB_RAY_PACKET_GATHER(rays, index, .o.y),
+                        oz = CB_RAY_PACKET_GATHER(rays, index, .o.z);
+    const RayPacketReal dx = CB_RAY_PACKET_GATHER(rays, index, .d.x),
+                        dy = CB_RAY_PACKET_GATHER(rays, index, .d.y),
+                        dz = CB_RAY_PACKET_GATHER(rays, index, .d.z);
+    const RayPacketReal tMax = CB_RAY_PACKET_GATHER(tMaxes, index, );
     const RayPacketInt active = (tMax > (RayPacketReal)(0.0f)) & valid;
     /* Live rays keep their closest hit here; a ray that is done (inactive, or an any-hit query
      * that hit) has -1, which no box is entered before. */

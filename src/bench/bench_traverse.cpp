@@ -24,6 +24,12 @@ using cbk::Ray;
 namespace cb::bench {
 namespace {
 
+// Rays per work-item of the ray-packet traversals (cb_bvh_ray_packet.h): 8 for `ray8`, 16 for
+// `ray16`, 0 for the others.
+int packetRaysOf(const std::string& variant) {
+    return variant == "ray8" ? 8 : variant == "ray16" ? 16 : 0;
+}
+
 class ClTraversal {
   public:
     // variant: ordered | skip (binary BVH) | wide (cb_bvh_wide.h, what the renderers use) |
@@ -34,7 +40,7 @@ class ClTraversal {
         : rt_(rt), localSize_(variant == "packet" ? kPacketSize : localSize) {
         std::vector<std::string> defines = {"CB_CHANNELS=3", "CB_FEATURES=0x101u"};
         if (variant == "skip") defines.push_back("CB_BVH_SKIP_ORDER=1");
-        packetRays_ = variant == "ray8" ? 8 : variant == "ray16" ? 16 : 0;
+        packetRays_ = packetRaysOf(variant);
         if (packetRays_ > 0) defines.push_back(fmt::format("CB_RAY_PACKET={}", packetRays_));
         program_ = rt.buildProgram("bench_traverse.cl", defines);
         const bool packet = variant == "packet";
@@ -358,7 +364,7 @@ json caseRow(const TraverseInput& in, const std::string& name, bool anyHit, cons
 Bvh variantBvh(const Options& o, const std::string& variant,
                const std::vector<cbk::Primitive>& prims, const std::vector<Ray>& primary,
                std::string& settings) {
-    if ((variant == "wide" || variant == "packet" || variant == "ray8" || variant == "ray16") &&
+    if ((variant == "wide" || variant == "packet" || packetRaysOf(variant) > 0) &&
         o.sahBlock <= 0) {
         // As the renderers build it (DeviceScene): the candidate cheapest for a sample of the
         // camera rays and their bounces.
