@@ -78,6 +78,13 @@ with tempfile.TemporaryDirectory() as tmp:
           "BVH build times")
     check(all(positive(b.get("wide_seconds")) for b in build.get("bvh", [])),
           "the renderers' wide BVH build (both candidate settings) timed")
+    for b in build.get("bvh", []):
+        # The packs hold each triangle's three vertices (36 bytes); Embree holds at least the
+        # index buffer (12 bytes a triangle) besides its BVH.
+        check(b.get("wide_pack_bytes", 0) >= 36 * b["triangles"]
+              and b.get("wide_node_bytes", 0) > 0, f"the wide BVH's bytes counted {b}")
+        if "embree_seconds" in b:
+            check(b.get("embree_bytes", 0) > 12 * b["triangles"], f"Embree's bytes counted {b}")
     progs = build.get("program", [])
     check(len(progs) >= 1, "program build timed")
     for p in progs:

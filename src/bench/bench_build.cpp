@@ -39,8 +39,10 @@ json bvhBuildRows(const Options& o) {
     fmt::print("\n== build: BVH (binned SAH, {} bins, leaf <= {})\n", 16, o.leafSize);
     // wide s: what a scene load spends, the renderers' wide BVH built under both SAH settings
     // (the second on another thread), the sample rays traced through both, and the collapse.
-    fmt::print("{:<11} {:>9} {:>9} {:>10} {:>10} {:>10}\n", "mesh", "triangles", "nodes", "ours s",
-               "wide s", "embree s");
+    // wide MB: the chosen wide BVH's nodes and leaf packs (the packs hold the vertices);
+    // embree MB: what Embree holds after its build, its BVH and the mesh's buffers.
+    fmt::print("{:<11} {:>9} {:>9} {:>10} {:>10} {:>10} {:>9} {:>10}\n", "mesh", "triangles",
+               "nodes", "ours s", "wide s", "embree s", "wide MB", "embree MB");
     json bvhRows = json::array();
     for (auto& m : loadMeshes(o)) {
         auto prims = meshPrimitives(m.mesh);
@@ -53,26 +55,38 @@ json bvhBuildRows(const Options& o) {
         }
         std::vector<double> wideTimes;
         const auto sample = cameraSample(primaryRays(meshBounds(m.mesh), 65536));
+        std::size_t nodeBytes = 0, packBytes = 0;
         for (int r = 0; r < (o.quick ? 1 : 3); ++r) {
             auto start = Clock::now();
             WideBvhChoice choice = buildWideBvhForRays(prims, sample);
             wideTimes.push_back(secondsSince(start));
+            nodeBytes = choice.wide.nodes.size() * sizeof(cbk::BvhNodeWide);
+            packBytes = choice.wide.packs.size() * sizeof(cbk::TrianglePack);
         }
         double embreeS = 0.0;
+        std::size_t embreeBytes = 0;
         if (embreeAvailable()) {
             EmbreeBaseline e(m.mesh, o.threads);
             embreeS = e.buildSeconds();
+            embreeBytes = e.sceneBytes();
         }
-        fmt::print("{:<11} {:>9} {:>9} {:>10.3f} {:>10.3f} {:>10.3f}\n", m.name, prims.size(),
-                   bvh.nodes.size(), median(times), median(wideTimes), embreeS);
+        constexpr double kMB = 1e6;
+        fmt::print("{:<11} {:>9} {:>9} {:>10.3f} {:>10.3f} {:>10.3f} {:>9.1f} {:>10.1f}\n", m.name,
+                   prims.size(), bvh.nodes.size(), median(times), median(wideTimes), embreeS,
+                   (nodeBytes + packBytes) / kMB, embreeBytes / kMB);
         json row = {{"mesh", m.name},
                     {"triangles", prims.size()},
                     {"nodes", bvh.nodes.size()},
                     {"depth", bvh.depth},
                     {"seconds", median(times)},
                     {"threads", 1},
-                    {"wide_seconds", median(wideTimes)}};
-        if (embreeAvailable()) row["embree_seconds"] = embreeS;
+                    {"wide_seconds", median(wideTimes)},
+                    {"wide_node_bytes", nodeBytes},
+                    {"wide_pack_bytes", packBytes}};
+        if (embreeAvailable()) {
+            row["embree_seconds"] = embreeS;
+            row["embree_bytes"] = embreeBytes;
+        }
         bvhRows.push_back(row);
     }
     return bvhRows;

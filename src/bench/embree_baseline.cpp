@@ -2,6 +2,7 @@
 
 #include "bench/parallel_rays.h"
 
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -23,13 +24,23 @@ bool embreeAvailable() {
 struct EmbreeBaseline::Impl {
     RTCDevice device = nullptr;
     RTCScene scene = nullptr;
+    std::atomic<long long> bytes{0}; // Embree's own allocations less its frees
 };
+
+namespace {
+// Embree calls this once per allocation (bytes > 0) and once per free (bytes < 0).
+bool countEmbreeBytes(void* impl, ssize_t bytes, bool /*post*/) {
+    static_cast<std::atomic<long long>*>(impl)->fetch_add(bytes);
+    return true;
+}
+} // namespace
 
 EmbreeBaseline::EmbreeBaseline(const PlyMesh& mesh, int threads)
     : impl_(std::make_unique<Impl>()), threads_(threads) {
     std::string config = "threads=" + std::to_string(threads);
     impl_->device = rtcNewDevice(config.c_str());
     if (!impl_->device) throw std::runtime_error("rtcNewDevice failed");
+    rtcSetDeviceMemoryMonitorFunction(impl_->device, countEmbreeBytes, &impl_->bytes);
     auto start = std::chrono::steady_clock::now();
     impl_->scene = rtcNewScene(impl_->device);
     RTCGeometry geom = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
@@ -47,6 +58,8 @@ EmbreeBaseline::EmbreeBaseline(const PlyMesh& mesh, int threads)
     rtcReleaseGeometry(geom);
     rtcCommitScene(impl_->scene);
     buildSeconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    // The build's scratch memory is freed by now: what is left is the BVH and the mesh buffers.
+    sceneBytes_ = static_cast<std::size_t>(impl_->bytes.load());
 }
 
 EmbreeBaseline::~EmbreeBaseline() {

@@ -5,6 +5,7 @@
 
 #include "cb_types.h"
 
+#include <cstddef>
 #include <memory>
 #include <string>
 #include <vector>
@@ -25,6 +26,9 @@ class EmbreeBaseline {
     EmbreeBaseline& operator=(const EmbreeBaseline&) = delete;
 
     double buildSeconds() const { return buildSeconds_; }
+    // Bytes Embree holds once the scene is built (its memory monitor's allocations less frees):
+    // the BVH with its triangle blocks, and the mesh's vertex and index buffers.
+    std::size_t sceneBytes() const { return sceneBytes_; }
     std::string version() const;
     // rtcIntersect1 per ray, in chunks on `threads` std::threads (parallelRayChunks). With
     // tMax, tfar = tMax[i], and a ray with tMax[i] <= 0 is inactive (a path that ended): it
@@ -49,6 +53,7 @@ class EmbreeBaseline {
     std::unique_ptr<Impl> impl_;
     int threads_;
     double buildSeconds_ = 0.0;
+    std::size_t sceneBytes_ = 0;
 };
 
 bool embreeAvailable();
