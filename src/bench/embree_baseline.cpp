@@ -53,6 +53,7 @@ EmbreeBaseline::EmbreeBaseline(const PlyMesh& mesh, int threads)
         rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
                                 3 * sizeof(unsigned), mesh.triangles.size()));
     std::memcpy(idx, mesh.triangles.data(), mesh.triangles.size() * 3 * sizeof(unsigned));
+    meshBufferBytes_ = static_cast<std::size_t>(impl_->bytes.load());
     rtcCommitGeometry(geom);
     rtcAttachGeometry(impl_->scene, geom);
     rtcReleaseGeometry(geom);

@@ -29,6 +29,8 @@ class EmbreeBaseline {
     // Bytes Embree holds once the scene is built (its memory monitor's allocations less frees):
     // the BVH with its triangle blocks, and the mesh's vertex and index buffers.
     std::size_t sceneBytes() const { return sceneBytes_; }
+    // Of those, the mesh's vertex and index buffers (counted before the build).
+    std::size_t meshBufferBytes() const { return meshBufferBytes_; }
     std::string version() const;
     // rtcIntersect1 per ray, in chunks on `threads` std::threads (parallelRayChunks). With
     // tMax, tfar = tMax[i], and a ray with tMax[i] <= 0 is inactive (a path that ended): it
@@ -54,6 +56,7 @@ class EmbreeBaseline {
     int threads_;
     double buildSeconds_ = 0.0;
     std::size_t sceneBytes_ = 0;
+    std::size_t meshBufferBytes_ = 0;
 };
 
 bool embreeAvailable();
