@@ -45,7 +45,6 @@
 #define CB_MLT_STAT_ZERO_PROPOSALS 3
 #define CB_MLT_STATS 4
 
-
 typedef struct MltSample {
     int count;
     int pixel[CB_MLT_MAX_SPLATS];
@@ -148,11 +147,8 @@ static void mltBootstrapVector(uint seed, uint index, float* u) {
 
 /* Bootstrap: I(u) of independent uniform vectors u_i, i = first .. first + count - 1. Their mean
  * estimates the normalisation b = integral of I over [0,1)^D. */
-__kernel void mltBootstrap(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings),
-                           uint first,
-                           uint count,
-                           __global float* luminance,
-                           CB_COUNTER_PARAMS) {
+__kernel void mltBootstrap(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings), uint first, uint count,
+                           __global float* luminance, CB_COUNTER_PARAMS) {
     uint i = (uint)get_global_id(0);
     if (i >= count) return;
     CB_SCENE_VIEW(scene);
@@ -166,10 +162,9 @@ __kernel void mltBootstrap(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings),
     cbAddCounts(CB_COUNTERS, nonFinite, rays);
 }
 
-static void mltStoreState(__global float* state, __global float* chainLum,
-                          __global int* splatCount, __global int* splatPixel,
-                          __global float* splatRgb, uint chain, const float* u,
-                          const MltSample* s) {
+static void mltStoreState(__global float* state, __global float* chainLum, __global int* splatCount,
+                          __global int* splatPixel, __global float* splatRgb, uint chain,
+                          const float* u, const MltSample* s) {
     for (uint d = 0u; d < CB_MLT_DIMS; ++d)
         state[chain * CB_MLT_DIMS + d] = u[d];
     chainLum[chain] = s->luminance;
@@ -183,14 +178,10 @@ static void mltStoreState(__global float* state, __global float* chainLum,
 
 /* Chain c starts at bootstrap vector bootstrapIndex[c] (resampled on the host in proportion to
  * I, so the chains start close to their stationary distribution). */
-__kernel void mltSeedChains(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings),
-                            uint chains,
-                            __global const uint* bootstrapIndex,
-                            __global float* state,
-                            __global float* chainLum,
-                            __global int* splatCount,
-                            __global int* splatPixel,
-                            __global float* splatRgb) {
+__kernel void mltSeedChains(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings), uint chains,
+                            __global const uint* bootstrapIndex, __global float* state,
+                            __global float* chainLum, __global int* splatCount,
+                            __global int* splatPixel, __global float* splatRgb) {
     uint chain = (uint)get_global_id(0);
     if (chain >= chains) return;
     CB_SCENE_VIEW(scene);
@@ -223,22 +214,12 @@ static void mltSplat(volatile __global float* image, const MltSample* s, float w
  * same amounts with fewer atomics). The image receives sum weight * F / I; the host multiplies
  * by b * pixels / mutations. largeSum/largeCount collect I of large-step proposals, which are
  * uniform draws and so refine the estimate of b. */
-__kernel void mltAdvance(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings),
-                         uint chains,
-                         uint firstStep,
-                         int mutations,
-                         float largeStepProbability,
-                         float s1,
-                         float s2,
-                         __global float* state,
-                         __global float* chainLum,
-                         __global int* splatCount,
-                         __global int* splatPixel,
-                         __global float* splatRgb,
-                         volatile __global float* image,
-                         __global float* largeSum,
-                         __global uint* stats,
-                         CB_COUNTER_PARAMS) {
+__kernel void mltAdvance(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings), uint chains, uint firstStep,
+                         int mutations, float largeStepProbability, float s1, float s2,
+                         __global float* state, __global float* chainLum, __global int* splatCount,
+                         __global int* splatPixel, __global float* splatRgb,
+                         volatile __global float* image, __global float* largeSum,
+                         __global uint* stats, CB_COUNTER_PARAMS) {
     uint chain = (uint)get_global_id(0);
     if (chain >= chains) return;
     CB_SCENE_VIEW(scene);
@@ -280,8 +261,7 @@ __kernel void mltAdvance(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings),
                 prop[d] = x < 1.0f ? x : 0.0f; /* rounding of x - 1 + 1 */
             }
         }
-        mltEvaluate(&scene, &camera, toRgb, settingsCopy, prop, &propSample, &rays,
-                    &nonFinite);
+        mltEvaluate(&scene, &camera, toRgb, settingsCopy, prop, &propSample, &rays, &nonFinite);
         if (isLarge) {
             large += 1u;
             sumLarge += propSample.luminance;

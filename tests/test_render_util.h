@@ -10,8 +10,8 @@
 namespace cbtest {
 
 struct PooledStats {
-    double mean = 0;           // mean over all pixels, channels and estimates
-    double standardError = 0;  // of that mean, treating every pixel sample as independent
+    double mean = 0;          // mean over all pixels, channels and estimates
+    double standardError = 0; // of that mean, treating every pixel sample as independent
     long nonFinite = 0;
 };
 
@@ -33,7 +33,8 @@ inline PooledStats renderPooled(const cb::DeviceScene& scene, cb::ClRuntime& run
     }
     PooledStats s;
     s.mean = sum / double(n);
-    double variance = std::max(0.0, sumSq / double(n) - s.mean * s.mean) * double(n) / double(n - 1);
+    double variance =
+        std::max(0.0, sumSq / double(n) - s.mean * s.mean) * double(n) / double(n - 1);
     s.standardError = std::sqrt(variance / double(n));
     s.nonFinite = integrator->nonFiniteSamples();
     return s;
