@@ -8,6 +8,7 @@ import importlib.machinery
 import json
 import math
 import os
+import re
 import subprocess
 import sys
 import tempfile
@@ -152,6 +153,12 @@ with tempfile.TemporaryDirectory() as tmp:
         check(rec["status"] == "done" and rec["machine"]["cores"] >= 1 and
               len(rec["load_before"]) == 3 and rec["process_cpu_seconds"] > 0,
               f"{uid}: done, with machine, load and CPU seconds ({rec})")
+        # The speed probe: an estimate of a 128x128 PT render takes milliseconds of wall time and,
+        # on the render's threads together, at least as many CPU seconds per core busy.
+        probe = rec["speed_probe"]
+        check(1e-5 < probe["seconds_per_estimate"] < 1.0 and
+              0.5 * probe["seconds_per_estimate"] < probe["cpu_seconds_per_estimate"] < 1.0,
+              f"{uid}: the speed probe's wall and CPU seconds per estimate ({probe})")
         _, lrows = cr.read_log(os.path.join(units, uid + ".csv"))
         check(len(lrows["estimates"]) >= 3, f"{uid}: log has checkpoint rows")
         if rec["kind"] == "time":
@@ -180,12 +187,16 @@ with tempfile.TemporaryDirectory() as tmp:
                   f"{uid}: the inputs share the 0.5 s split budget")
     # Units already done are skipped: a second run with one more seed runs only the new ones.
     before = {uid: rec["started"] for uid, rec in records.items()}
-    r = subprocess.run(experiment + ["--seeds", "1", "2", "--kinds", "time"], capture_output=True,
-                       text=True)
+    r = subprocess.run(experiment + ["--seeds", "1", "2", "--kinds", "time", "--no-probe"],
+                       capture_output=True, text=True)
     check(r.returncode == 0 and "[1/" in r.stdout, f"second experiment run ({r.stdout[-800:]})")
     ran = [line for line in r.stdout.splitlines() if line.startswith("experiment: [")]
     check(all("seed2" in line for line in ran) and len(ran) == 3,
           f"only the seed-2 units ran the second time ({ran})")
+    for line in ran:
+        uid = line.split()[-1]
+        rec = json.load(open(os.path.join(units, uid + ".json")))
+        check(rec["speed_probe"] is None, f"{uid}: --no-probe records no probe")
     for uid, started in before.items():
         rec = json.load(open(os.path.join(units, uid + ".json")))
         check(rec["started"] == started, f"{uid} was not run again")
@@ -289,6 +300,15 @@ with tempfile.TemporaryDirectory() as tmp:
                    "### PT's share of the split budget", "measured from 2 PT seeds",
                    "earlier version of their reference (1;", "cornell-box/n8/cbdpt/time-seed2"):
         check(needle in text, f"report has '{needle}'")
+    # The speed probe: its spread over the units that ran it, and per unit a time or, for the
+    # units run with --no-probe, a dash.
+    probe_line = re.search(r"Speed probe \(.*?\): ([0-9.]+)-([0-9.]+) CPU ms per estimate over "
+                           r"(\d+) units", text)
+    check(probe_line is not None and 0 < float(probe_line[1]) <= float(probe_line[2]),
+          f"report gives the speed probe's spread ({probe_line and probe_line[0]})")
+    seed2_row = re.search(r"\| cornell-box/n8/pt/time-seed2 \| [^|]+ \| [^|]+ \| (\S+) \|", text)
+    check(seed2_row is not None and seed2_row[1] == "—",
+          f"a unit run with --no-probe has no probe time ({seed2_row and seed2_row[0]})")
     # The combination tables hold numbers: median [min–max] cells for the single methods at the
     # combined images' CPU seconds, each combination and each share; the goal is evaluated.
     rows = {}
