@@ -153,8 +153,8 @@ with tempfile.TemporaryDirectory() as tmp:
         check(rec["status"] == "done" and rec["machine"]["cores"] >= 1 and
               len(rec["load_before"]) == 3 and rec["process_cpu_seconds"] > 0,
               f"{uid}: done, with machine, load and CPU seconds ({rec})")
-        # The speed probe: an estimate of a 128x128 PT render takes milliseconds of wall time and,
-        # on the render's threads together, at least as many CPU seconds per core busy.
+        # The speed probe: an estimate of a 128x128 PT render takes milliseconds of wall time, and
+        # its threads' CPU seconds are at least half that (one core busy, less the host's waits).
         probe = rec["speed_probe"]
         check(1e-5 < probe["seconds_per_estimate"] < 1.0 and
               0.5 * probe["seconds_per_estimate"] < probe["cpu_seconds_per_estimate"] < 1.0,
