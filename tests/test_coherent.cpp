@@ -508,6 +508,43 @@ TEST_CASE("CPT and CBDPT traced as packets: the per-pixel kernels' images") {
     }
 }
 
+TEST_CASE("CPT's and CBDPT's packets: prefetching the tree changes no pixel") {
+    // CB_RAY_PACKET_PREFETCH (cb_bvh_ray_packet.h) asks for the nodes and packs a packet will
+    // enter; it must not change which it enters. Unforced it is on only where the scene's tree
+    // is larger than the device's cache (rayPacketPrefetchPays), so never for this box;
+    // CBDPT_PREFETCH=1 forces it on, 0 off. Packets are for CPU devices only.
+    if (!runtime().info().cpu) return;
+    cb::SceneDesc desc = cb::parseSceneFile(scenePath("cornell-box.pbrt"));
+    desc.film.width = 37;
+    desc.film.height = 29;
+    const cb::DeviceScene scene = cb::buildDeviceScene(desc, cb::ChannelMode::Rgb);
+    for (std::string method : {"cpt", "cbdpt"}) {
+        CAPTURE(method);
+        cb::IntegratorSettings s;
+        s.name = method;
+        s.eyeVertices = method == "cpt" ? 6 : 4;
+        s.lightVertices = 3;
+        s.seed = 5;
+        CHECK(!cb::makeIntegrator(s, scene, runtime())->rayPacketPrefetch());
+        auto on = makeIntegratorWith("CBDPT_PREFETCH", "1", s, scene);
+        auto off = makeIntegratorWithout("CBDPT_PREFETCH", s, scene);
+        REQUIRE(on->tracesPackets());
+        CHECK(on->rayPacketPrefetch());
+        CHECK(!off->rayPacketPrefetch());
+        size_t differing = 0;
+        const auto [sumOn, sumOff] =
+            renderBoth(*on, *off, 3, [&](float x, float y) { differing += x != y; });
+        CHECK(sumOff > 0.0);
+        CHECK(differing == 0);
+        CHECK(sumOn == sumOff);
+    }
+    cb::IntegratorSettings s;
+    s.name = "cpt";
+    s.eyeVertices = 3;
+    CHECK_THROWS_WITH_AS(makeIntegratorWith("CBDPT_PREFETCH", "yes", s, scene),
+                         doctest::Contains("CBDPT_PREFETCH='yes'"), std::invalid_argument);
+}
+
 TEST_CASE("CBDPT rejects --strategy (a BDPT debug mode)") {
     cb::SceneDesc desc = cb::parseSceneFile(scenePath("cornell-box.pbrt"));
     desc.film.width = desc.film.height = 8;

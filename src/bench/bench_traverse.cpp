@@ -35,16 +35,25 @@ class ClTraversal {
     // variant: ordered | skip (binary BVH) | wide (cb_bvh_wide.h, what the renderers use) |
     // packet (the wide BVH, work-group-wide traversal of bench_bvh_packet.h, for every ray set;
     // its kernels require work-groups of 64, whatever localSize says) | ray8, ray16 (the wide
-    // BVH, packets of 2x4 or 4x4 rays per work-item, cb_bvh_ray_packet.h)
-    ClTraversal(ClRuntime& rt, const Bvh& bvh, const std::string& variant, int localSize)
+    // BVH, packets of 2x4 or 4x4 rays per work-item, cb_bvh_ray_packet.h). prefetch (ray8,
+    // ray16): auto (the renderers' choice, rayPacketPrefetchPays), on or off.
+    ClTraversal(ClRuntime& rt, const Bvh& bvh, const std::string& variant, int localSize,
+                const std::string& prefetch)
         : rt_(rt), localSize_(variant == "packet" ? kPacketSize : localSize) {
         std::vector<std::string> defines = {"CB_CHANNELS=3", "CB_FEATURES=0x101u"};
         if (variant == "skip") defines.push_back("CB_BVH_SKIP_ORDER=1");
         packetRays_ = packetRaysOf(variant);
-        if (packetRays_ > 0) defines.push_back(fmt::format("CB_RAY_PACKET={}", packetRays_));
-        program_ = rt.buildProgram("bench_traverse.cl", defines);
         const bool packet = variant == "packet";
         const bool wide = variant == "wide" || packet || packetRays_ > 0;
+        if (wide) wide_ = collapseBvhWide(bvh);
+        if (packetRays_ > 0) {
+            prefetch_ = prefetch == "on" ||
+                        (prefetch == "auto" &&
+                         rayPacketPrefetchPays(wide_.bytes(), rt.info().globalCacheBytes));
+            defines.push_back(fmt::format("CB_RAY_PACKET={}", packetRays_));
+            defines.push_back(fmt::format("CB_RAY_PACKET_PREFETCH={}", prefetch_ ? 1 : 0));
+        }
+        program_ = rt.buildProgram("bench_traverse.cl", defines);
         if (packetRays_ > 0) {
             closest_ = cl::Kernel(program_, "benchClosestWideRays");
             closestCoherent_ = closest_;
@@ -59,7 +68,6 @@ class ClTraversal {
             if (wide) closestCoherent_ = cl::Kernel(program_, "benchClosestWideCoherent");
         }
         if (wide) {
-            wide_ = collapseBvhWide(bvh);
             nodes_ = uploadArray(rt, "bench wide BVH nodes", wide_.nodes);
             packs_ = uploadArray(rt, "bench BVH leaf triangles", wide_.packs);
         } else {
@@ -67,6 +75,8 @@ class ClTraversal {
         }
         prims_ = uploadArray(rt, "bench primitives", bvh.primitives);
     }
+
+    bool prefetches() const { return prefetch_; }
 
     // Returns the median seconds of `repeats` launches; hits from the last one.
     // tMax[i] <= 0: an inactive ray, reported as a miss.
@@ -173,6 +183,7 @@ class ClTraversal {
     ClRuntime& rt_;
     int localSize_;
     int packetRays_ = 0; // rays per work-item: 8 or 16 for ray8 and ray16, else 0
+    bool prefetch_ = false;
     cl::Program program_;
     cl::Kernel closest_, closestCoherent_, occluded_;
     cl::Buffer nodes_, packs_, prims_;
@@ -385,9 +396,10 @@ void traverseVariant(const Options& o, ClRuntime& rt, const BenchMesh& m,
     const int repeats = o.repeats > 0 ? o.repeats : (o.quick ? 2 : 5);
     std::string settings;
     const Bvh bvh = variantBvh(o, variant, prims, primary, settings);
+    ClTraversal cl(rt, bvh, variant, o.localSize, o.prefetch);
+    if (cl.prefetches()) settings += "; packets prefetch";
     fmt::print("{:<11} {:>9} {:<8} BVH: {}\n", m.name, prims.size(), variant, settings);
     const TraverseInput in{m, prims.size(), variant, settings, bvh, embree};
-    ClTraversal cl(rt, bvh, variant, o.localSize);
     auto wanted = [&](const char* name) {
         return std::find(o.cases.begin(), o.cases.end(), name) != o.cases.end();
     };

@@ -57,6 +57,10 @@ uint32_t packLeaf(const std::vector<cbk::Primitive>& prims, uint32_t first, uint
 
 } // namespace
 
+bool rayPacketPrefetchPays(std::size_t treeBytes, unsigned long long cacheBytes) {
+    return cacheBytes > 0 && treeBytes > cacheBytes;
+}
+
 BvhWide collapseBvhWide(const Bvh& bvh) {
     const auto& bin = bvh.nodes;
     constexpr float kInf = std::numeric_limits<float>::infinity();

@@ -2,6 +2,7 @@
 // traverse (kernels/cb_bvh_wide.h; DeviceScene::wide).
 #pragma once
 
+#include <cstddef>
 #include <vector>
 
 #include "bvh/bvh.h"
@@ -17,7 +18,20 @@ struct BvhWide {
     // then its other primitives (spheres) four to a pack. Packs name primitives by their index
     // in bvh.primitives.
     std::vector<cbk::TrianglePack> packs;
+
+    // What a traversal reads: the nodes and the packs (which hold the vertices).
+    std::size_t bytes() const {
+        return nodes.size() * sizeof(cbk::BvhNodeWide) + packs.size() * sizeof(cbk::TrianglePack);
+    }
 };
+
+// Whether ray packets prefetch the nodes and packs they are about to enter
+// (kernels/cb_bvh_ray_packet.h, CB_RAY_PACKET_PREFETCH): only for a tree of `treeBytes` larger
+// than the device's cache of `cacheBytes` (ClDeviceInfo::globalCacheBytes; 0, unknown: no).
+// Against Embree's packets, 32 MiB cache: the second bounces of a 36 MB tree +1-21%, every
+// coherent ray set of a 61 MB one +2-4% (medians), the second bounces of a 122 MB one +10-27%;
+// 2 MB trees, which fit, 1-7% slower (docs/performance.md, "What was tried").
+bool rayPacketPrefetchPays(std::size_t treeBytes, unsigned long long cacheBytes);
 
 // The wide BVH over bvh.primitives; its leaves are the binary leaves.
 BvhWide collapseBvhWide(const Bvh& bvh);

@@ -109,6 +109,7 @@ ClDeviceInfo describe(int platformIndex, int deviceIndex, const cl::Platform& pl
     info.computeUnits = device.getInfo<CL_DEVICE_MAX_COMPUTE_UNITS>();
     info.globalMemoryBytes = device.getInfo<CL_DEVICE_GLOBAL_MEM_SIZE>();
     info.maxAllocationBytes = device.getInfo<CL_DEVICE_MAX_MEM_ALLOC_SIZE>();
+    info.globalCacheBytes = device.getInfo<CL_DEVICE_GLOBAL_MEM_CACHE_SIZE>();
     const auto type = device.getInfo<CL_DEVICE_TYPE>();
     info.cpu = (type & CL_DEVICE_TYPE_CPU) != 0;
     info.gpu = (type & CL_DEVICE_TYPE_GPU) != 0;

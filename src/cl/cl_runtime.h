@@ -41,6 +41,8 @@ struct ClDeviceInfo {
     unsigned computeUnits = 0;
     unsigned long long globalMemoryBytes = 0;
     unsigned long long maxAllocationBytes = 0;
+    // CL_DEVICE_GLOBAL_MEM_CACHE_SIZE (PoCL: the CPU's last-level cache), 0 if none.
+    unsigned long long globalCacheBytes = 0;
     bool cpu = false; // CL_DEVICE_TYPE_CPU: it reads host memory in place
     bool gpu = false; // CL_DEVICE_TYPE_GPU
     // CL_DEVICE_NATIVE_VECTOR_WIDTH_FLOAT: floats per native vector register (PoCL: 16 with

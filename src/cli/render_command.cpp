@@ -611,6 +611,7 @@ nlohmann::json RenderJob::statistics(const cb::RenderOutcome& outcome) const {
         {"host_sample_streams", integrator_->hostSampleStreams()},
         {"packets", integrator_->tracesPackets()},
         {"ray_packet_rays", integrator_->rayPacketRays()},
+        {"ray_packet_prefetch", integrator_->rayPacketPrefetch()},
         {"scene_load_seconds", loadSeconds_},
         {"non_finite_samples", outcome.nonFiniteSamples},
         {"mean_standard_error", meanError},

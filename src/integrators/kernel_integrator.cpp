@@ -1,5 +1,7 @@
 #include "integrators/kernel_integrator.h"
 
+#include "bvh/bvh_wide.h"
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -8,6 +10,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <iterator>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -135,19 +138,39 @@ bool PixelKernelIntegrator::packetsWanted() const {
            settings_.coherenceTile <= kMaxPacketCoherenceTile && !(env && std::string(env) == "0");
 }
 
+namespace {
+
+// Environment variable `name`'s value when it is set and not empty, which must be `first` or
+// `second` (a comparison's forced choice); `unset` says in the error what unsetting it does.
+std::optional<std::string> forcedChoice(const char* name, const char* first, const char* second,
+                                        const std::string& unset) {
+    const char* env = std::getenv(name);
+    if (!env || !*env) return std::nullopt;
+    const std::string forced = env;
+    if (forced != first && forced != second)
+        throw std::invalid_argument(fmt::format("{}='{}': expected {} or {} (unset it to {})", name,
+                                                forced, first, second, unset));
+    return forced;
+}
+
+} // namespace
+
 std::vector<std::string> PixelKernelIntegrator::rayPacketDefines() {
-    int width = runtime_.info().nativeFloatWidth >= 16 ? 16 : 8;
-    if (const char* env = std::getenv("CBDPT_RAY_PACKET"); env && *env) {
-        const std::string forced = env;
-        if (forced != "8" && forced != "16")
-            throw std::invalid_argument(fmt::format(
-                "CBDPT_RAY_PACKET='{}': expected 8 or 16 rays per packet (unset it to let the "
-                "device choose: {})",
-                forced, width));
-        width = std::stoi(forced);
-    }
-    rayPacketRays_ = width;
-    return {fmt::format("CB_RAY_PACKET={}", width)};
+    const int native = runtime_.info().nativeFloatWidth >= 16 ? 16 : 8;
+    const auto width =
+        forcedChoice("CBDPT_RAY_PACKET", "8", "16",
+                     fmt::format("let the device choose: {} rays per packet", native));
+    rayPacketRays_ = width ? std::stoi(*width) : native;
+    const std::size_t tree = scene_.wide.bytes();
+    const auto cache = runtime_.info().globalCacheBytes;
+    const auto prefetch = forcedChoice(
+        "CBDPT_PREFETCH", "0", "1",
+        fmt::format("prefetch only where the scene's tree, {:.3g} MB, is larger than the "
+                    "device's cache, {:.3g} MB",
+                    double(tree) / 1e6, double(cache) / 1e6));
+    rayPacketPrefetch_ = prefetch ? *prefetch == "1" : rayPacketPrefetchPays(tree, cache);
+    return {fmt::format("CB_RAY_PACKET={}", rayPacketRays_),
+            fmt::format("CB_RAY_PACKET_PREFETCH={}", rayPacketPrefetch_ ? 1 : 0)};
 }
 
 std::pair<size_t, size_t> PixelKernelIntegrator::tiles(int stride) const {

@@ -79,6 +79,7 @@ class PixelKernelIntegrator : public KernelIntegrator {
     std::uint32_t hostSampleStreams() const override { return sharedStreams_; }
     bool tracesPackets() const override { return perTile_; }
     int rayPacketRays() const override { return perTile_ ? rayPacketRays_ : 0; }
+    bool rayPacketPrefetch() const override { return perTile_ && rayPacketPrefetch_; }
     // With --coherence-tile k a packet's pixels are k apart: at k = 8 its rays had spread too
     // far to pay on the dragon (CPT 0.94x PT against the per-pixel kernel's 0.87x, 256x256;
     // k <= 4 paid everywhere: docs/performance.md). Larger k also overhang the film more.
@@ -116,7 +117,9 @@ class PixelKernelIntegrator : public KernelIntegrator {
     // The packets' program defines: CB_RAY_PACKET, the rays per packet (cb_bvh_ray_packet.h),
     // 16 where the device's native float vectors hold 16 lanes (AVX-512 under PoCL: CPT
     // 0.93-0.94x, CBDPT 0.90-0.98x the time with packets of 8, docs/performance.md), else 8.
-    // CBDPT_RAY_PACKET=8 or 16 forces a width (to measure one against the other).
+    // CBDPT_RAY_PACKET=8 or 16 forces a width (to measure one against the other). And
+    // CB_RAY_PACKET_PREFETCH, 1 where the scene's tree is larger than the device's cache
+    // (rayPacketPrefetchPays, bvh/bvh_wide.h); CBDPT_PREFETCH=0 or 1 forces it.
     std::vector<std::string> rayPacketDefines();
     // Launches a work-item per tile of tileSize x tileSize pixels coherenceTile apart
     // (tiles()), each its own work-group, from now on, instead of a work-item per pixel:
@@ -149,8 +152,10 @@ class PixelKernelIntegrator : public KernelIntegrator {
     cl::Kernel kernel_;
     int estimateArgument_ = 0;
     bool perTile_ = false;
-    int rayPacketRays_ = 0; // rayPacketDefines()'s choice
-    std::string label_;     // the method, e.g. "CPT", in buffer names
+    // rayPacketDefines()'s choices.
+    int rayPacketRays_ = 0;
+    bool rayPacketPrefetch_ = false;
+    std::string label_; // the method, e.g. "CPT", in buffer names
 };
 
 } // namespace cb
