@@ -53,9 +53,9 @@ void printScene(const std::string& scenePath) {
     fmt::print("  bounding box     ({:.4g}, {:.4g}, {:.4g}) - ({:.4g}, {:.4g}, {:.4g})\n",
                scene.boundsMin[0], scene.boundsMin[1], scene.boundsMin[2], scene.boundsMax[0],
                scene.boundsMax[1], scene.boundsMax[2]);
-    fmt::print("  BVH              {} nodes, depth {}; wide: {} nodes, {} leaf packs\n",
+    fmt::print("  BVH              {} nodes, depth {}; wide: {} nodes, {} leaf packs, {:.3g} MB\n",
                scene.bvh.nodes.size(), scene.bvh.depth, scene.wide.nodes.size(),
-               scene.wide.packs.size());
+               scene.wide.packs.size(), double(scene.wide.bytes()) / 1e6);
     fmt::print("  BVH settings     {}\n", scene.wideSettingsWhy);
     fmt::print("  film             {}x{}\n", scene.camera.width, scene.camera.height);
     fmt::print("  kernel features  {}\n", scene.featureNames());
