@@ -286,39 +286,6 @@ rayPacketLeaf(CB_GLOBAL const TrianglePack* packs, CB_GLOBAL const Primitive* pr
 }
 #pragma OPENCL FP_CONTRACT ON
 
-/* CB_RAY_PACKET_PREFETCH 1 (the host's choice, rayPacketPrefetchPays of src/bvh/bvh_wide.h):
- * for a tree larger than the device's cache, a packet coming down to a node asks for the node
- * or the first pack of every child it will enter, whose loads then overlap its work on the
- * nearer children. A tree that fits gains nothing and pays the requests (docs/performance.md). */
-#ifndef CB_RAY_PACKET_PREFETCH
-#define CB_RAY_PACKET_PREFETCH 0
-#endif
-#if CB_RAY_PACKET_PREFETCH
-CB_FN __attribute__((always_inline)) void
-rayPacketPrefetchChildren(CB_GLOBAL const BvhNodeWide* nodes, CB_GLOBAL const TrianglePack* packs,
-                          CB_GLOBAL const BvhNodeWide* node, uint group) {
-    while (group != 0u) {
-        const int c = 31 - (int)clz(group & (0u - group));
-        group &= group - 1u;
-        if (bvhWideCount(node, c) == 0u) {
-            /* A node: four cache lines. */
-            CB_GLOBAL const char* p =
-                (CB_GLOBAL const char*)(nodes + bvhWideInteriorChild(node, c));
-            __builtin_prefetch(p);
-            __builtin_prefetch(p + 64);
-            __builtin_prefetch(p + 128);
-            __builtin_prefetch(p + 192);
-        } else {
-            /* The leaf's first pack: 176 bytes. */
-            CB_GLOBAL const char* p = (CB_GLOBAL const char*)(packs + node->child[c]);
-            __builtin_prefetch(p);
-            __builtin_prefetch(p + 64);
-            __builtin_prefetch(p + 128);
-        }
-    }
-}
-#endif
-
 /* The rays of one packet, rays[index[0 .. CB_RAY_PACKET - 1]] (index < 0: no ray), each with t in
  * (0, tMax) (tMax <= 0: an inactive ray, a miss), traced together: closest hits (closestHit) into
  * hitT, hitPrim, hitB1, hitB2 (t, primitive, b1, b2 per lane, as bvhWideTraverse's Hit), or any
@@ -413,8 +380,9 @@ rayPacketTraverse(CB_GLOBAL const BvhNodeWide* nodes, CB_GLOBAL const TrianglePa
             if (((presentBits >> c) & 1u) == 0u) continue;
             if (rayPacketBits(rayPacketBox(node, c, &s, closest)) != 0u) group |= 1u << c;
         }
-#if CB_RAY_PACKET_PREFETCH
-        if (fromLane < 0) rayPacketPrefetchChildren(nodes, packs, node, group);
+#if CB_TREE_PREFETCH
+        /* Coming down: the children any of the packet's rays will enter. */
+        if (fromLane < 0) bvhWidePrefetch(nodes, packs, node, group);
 #endif
         bool more;
         const int k = bvhGroupNext(node, rep, group, fromLane, &more);

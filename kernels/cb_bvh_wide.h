@@ -467,6 +467,41 @@ CB_FN bool bvhWideMore(int cand, BvhWideInt keys, BvhWideKey key, bool coherent)
 #define CB_BVHW_ONE_COPY
 #endif
 
+/* CB_TREE_PREFETCH 1 (the host's choice for CPU devices, treePrefetchPays of
+ * src/bvh/bvh_wide.h): for a tree larger than the device's cache, a traversal coming down to a
+ * node asks for the children it will enter after the next one (a packet: all it will enter,
+ * cb_bvh_ray_packet.h), whose loads then overlap its work on the nearer ones. A tree that fits
+ * gains nothing and pays the requests (docs/performance.md, "What was tried"). */
+#ifndef CB_TREE_PREFETCH
+#define CB_TREE_PREFETCH 0
+#endif
+#if defined(CB_KERNEL_SIDE) && CB_TREE_PREFETCH
+/* Prefetches the children of `node` in `lanes` (bits): an interior child's node (four cache
+ * lines), a leaf's first pack (176 bytes). */
+CB_FN __attribute__((always_inline)) void bvhWidePrefetch(CB_GLOBAL const BvhNodeWide* nodes,
+                                                          CB_GLOBAL const TrianglePack* packs,
+                                                          CB_GLOBAL const BvhNodeWide* node,
+                                                          uint lanes) {
+    while (lanes != 0u) {
+        const int c = 31 - (int)clz(lanes & (0u - lanes));
+        lanes &= lanes - 1u;
+        if (bvhWideCount(node, c) == 0u) {
+            CB_GLOBAL const char* p =
+                (CB_GLOBAL const char*)(nodes + bvhWideInteriorChild(node, c));
+            __builtin_prefetch(p);
+            __builtin_prefetch(p + 64);
+            __builtin_prefetch(p + 128);
+            __builtin_prefetch(p + 192);
+        } else {
+            CB_GLOBAL const char* p = (CB_GLOBAL const char*)(packs + node->child[c]);
+            __builtin_prefetch(p);
+            __builtin_prefetch(p + 64);
+            __builtin_prefetch(p + 128);
+        }
+    }
+}
+#endif
+
 /* Closest hit (closestHit) or any hit (!closestHit: returns at the first one found, in the
  * same near-first order) with t in (0, tMax). `coherent`: see bvhWideNext; it changes how
  * the next child is found, never which, so the answer is the same either way. */
@@ -521,6 +556,12 @@ CB_FN CB_BVHW_SPECIALISE bool bvhWideTraverse(CB_GLOBAL const BvhNodeWide* nodes
         BvhWideKey key = after;
         BvhWideCand cand;
         int k = bvhWideNext(node, tn, far, keys, after, coherent, &key, &cand);
+#if defined(CB_KERNEL_SIDE) && CB_TREE_PREFETCH
+        /* Coming down: the candidates after the one entered next. Not for camera rays (the
+         * coherent closest-hit copy), where it measured 0-2% slower. */
+        if (!(coherent && closestHit) && fromLane < 0 && k >= 0)
+            bvhWidePrefetch(nodes, packs, node, bvhWideBits(cand.mask) & ~(1u << k));
+#endif
         if (k >= 0) {
             bool more = bvhWideMore(cand, keys, key, coherent);
             uint count = bvhWideCount(node, k);

@@ -59,29 +59,31 @@ for mesh in ("bunny", "bunny-room"):
                 check(packet["agreement"] == 1.0,
                       f"{mesh} {case}: {variant} traversal agrees with Embree on every ray "
                       f"({packet['agreement']})")
-# The packets' prefetch (CB_RAY_PACKET_PREFETCH), forced on for a tree that fits the cache (the
-# renderers would not prefetch it): the same answers, and the run says it prefetched.
+# The tree prefetch (CB_TREE_PREFETCH), forced on for a tree that fits the cache (the renderers
+# would not prefetch it), in the packets and in the wide traversal: the same answers, and the
+# run says it prefetched.
 with tempfile.TemporaryDirectory() as tmp:
     out = os.path.join(tmp, "bench.json")
-    r = subprocess.run([args.bench, "--sections", "traverse", "--traversal", "ray16",
+    r = subprocess.run([args.bench, "--sections", "traverse", "--traversal", "wide,ray16",
                         "--prefetch", "on", "--meshes", "bunny", "--rays", "4104",
                         "--repeats", "1", "--cases", ",".join(CASES), "--json", out],
                        capture_output=True, text=True, timeout=900)
     check(r.returncode == 0, f"cbdpt-bench --prefetch on exits 0 (got {r.returncode}: {r.stderr})")
-    check("packets prefetch" in r.stdout, "cbdpt-bench --prefetch on says it prefetches")
+    check(r.stdout.count("; prefetch") == 2, "cbdpt-bench --prefetch on says both prefetch")
     prefetched = json.load(open(out)).get("traverse", []) if r.returncode == 0 else []
-for case in CASES:
-    row = next((x for x in prefetched if x["rays"] == case), None)
-    wide = by_key.get(("bunny", "wide", case))
-    check(row is not None and wide is not None, f"bunny {case}: ray16 with prefetch ran")
-    if row is None or wide is None:
-        continue
-    check(row["hit_fraction"] == wide["hit_fraction"],
-          f"bunny {case}: ray16 with prefetch hits as many rays as wide "
-          f"({row['hit_fraction']} vs {wide['hit_fraction']})")
-    if embree:
-        check(row["agreement"] == 1.0,
-              f"bunny {case}: ray16 with prefetch agrees with Embree ({row['agreement']})")
+for variant in ("wide", "ray16"):
+    for case in CASES:
+        row = next((x for x in prefetched if x["order"] == variant and x["rays"] == case), None)
+        wide = by_key.get(("bunny", "wide", case))
+        check(row is not None and wide is not None, f"bunny {case}: {variant} with prefetch ran")
+        if row is None or wide is None:
+            continue
+        check(row["hit_fraction"] == wide["hit_fraction"],
+              f"bunny {case}: {variant} with prefetch hits as many rays as wide without "
+              f"({row['hit_fraction']} vs {wide['hit_fraction']})")
+        if embree:
+            check(row["agreement"] == 1.0,
+                  f"bunny {case}: {variant} with prefetch agrees with Embree ({row['agreement']})")
 
 if not embree:
     print("note: cbdpt-bench built without Embree: compared with the wide traversal only")

@@ -87,10 +87,9 @@ with tempfile.TemporaryDirectory() as tmp:
         check(s["integrator"] == integrator and s["estimates"] == 2, f"{integrator} stats ({s})")
         check(abs(s["seconds_per_estimate"] + s["first_estimate_seconds"] - s["render_seconds"])
               <= 1e-9 * s["render_seconds"] + 1e-12, f"{integrator} timing fields add up ({s})")
-        if integrator in ("cpt", "cbdpt"):
-            # The Cornell box's tree fits any cache: its packets, if any, do not prefetch.
-            check(s.get("ray_packet_prefetch") is False,
-                  f"{integrator}: ray_packet_prefetch false ({s.get('ray_packet_prefetch')})")
+        # The Cornell box's tree fits any cache: no method prefetches it.
+        check(s.get("tree_prefetch") is False,
+              f"{integrator}: tree_prefetch false ({s.get('tree_prefetch')})")
         if integrator == "mlt":
             check(0 < s["mlt"]["acceptance_rate"] < 1 and s["mlt"]["mutations"] > 0,
                   f"mlt statistics in the stats file ({s.get('mlt')})")

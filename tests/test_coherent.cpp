@@ -508,29 +508,32 @@ TEST_CASE("CPT and CBDPT traced as packets: the per-pixel kernels' images") {
     }
 }
 
-TEST_CASE("CPT's and CBDPT's packets: prefetching the tree changes no pixel") {
-    // CB_RAY_PACKET_PREFETCH (cb_bvh_ray_packet.h) asks for the nodes and packs a packet will
-    // enter; it must not change which it enters. Unforced it is on only where the scene's tree
-    // is larger than the device's cache (rayPacketPrefetchPays), so never for this box;
-    // CBDPT_PREFETCH=1 forces it on, 0 off. Packets are for CPU devices only.
+TEST_CASE("every method: prefetching the tree changes no pixel") {
+    // CB_TREE_PREFETCH (cb_bvh_wide.h) asks for the nodes and packs a traversal will enter, in
+    // the single-ray traversal and in CPT's and CBDPT's packets; it must not change which it
+    // enters. Unforced it is on only where the scene's tree is larger than a CPU device's cache
+    // (treePrefetchPays), so never for this box; CBDPT_PREFETCH=1 forces it on, 0 off. It is
+    // for CPU devices only (a GPU gets 0 either way).
     if (!runtime().info().cpu) return;
     cb::SceneDesc desc = cb::parseSceneFile(scenePath("cornell-box.pbrt"));
     desc.film.width = 37;
     desc.film.height = 29;
     const cb::DeviceScene scene = cb::buildDeviceScene(desc, cb::ChannelMode::Rgb);
-    for (std::string method : {"cpt", "cbdpt"}) {
+    for (std::string method : {"pt", "cpt", "bdpt", "cbdpt", "mlt"}) {
         CAPTURE(method);
         cb::IntegratorSettings s;
         s.name = method;
-        s.eyeVertices = method == "cpt" ? 6 : 4;
+        s.eyeVertices = method == "pt" || method == "cpt" ? 6 : 4;
         s.lightVertices = 3;
         s.seed = 5;
-        CHECK(!cb::makeIntegrator(s, scene, runtime())->rayPacketPrefetch());
+        s.mltChains = 16;
+        s.mltBootstrap = 1024;
+        CHECK(!cb::makeIntegrator(s, scene, runtime())->treePrefetch());
         auto on = makeIntegratorWith("CBDPT_PREFETCH", "1", s, scene);
         auto off = makeIntegratorWithout("CBDPT_PREFETCH", s, scene);
-        REQUIRE(on->tracesPackets());
-        CHECK(on->rayPacketPrefetch());
-        CHECK(!off->rayPacketPrefetch());
+        CHECK(on->tracesPackets() == (method == "cpt" || method == "cbdpt"));
+        CHECK(on->treePrefetch());
+        CHECK(!off->treePrefetch());
         size_t differing = 0;
         const auto [sumOn, sumOff] =
             renderBoth(*on, *off, 3, [&](float x, float y) { differing += x != y; });
@@ -539,7 +542,7 @@ TEST_CASE("CPT's and CBDPT's packets: prefetching the tree changes no pixel") {
         CHECK(sumOn == sumOff);
     }
     cb::IntegratorSettings s;
-    s.name = "cpt";
+    s.name = "pt";
     s.eyeVertices = 3;
     CHECK_THROWS_WITH_AS(makeIntegratorWith("CBDPT_PREFETCH", "yes", s, scene),
                          doctest::Contains("CBDPT_PREFETCH='yes'"), std::invalid_argument);

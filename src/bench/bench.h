@@ -30,7 +30,7 @@ struct Options {
     std::string models;
     std::vector<std::string> sections{"traverse", "build", "render", "scaling", "accumulate"};
     std::string traversal = "wide,ordered"; // comma-separated ordered, skip, wide; or both
-    std::string prefetch = "auto";          // ray8, ray16: auto (the renderers' rule), on, off
+    std::string prefetch = "auto";          // the wide BVH: auto (the renderers' rule), on, off
     int repeats = 0;                        // 0: 5 (2 in --quick)
     int localSize = 64;                     // 0: let PoCL choose
     int leafSize = 4;

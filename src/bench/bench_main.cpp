@@ -68,8 +68,9 @@ void addOptions(CLI::App& app, Options& o) {
             return std::string();
         });
     app.add_option("--prefetch", o.prefetch,
-                   "ray8, ray16: prefetch the nodes and packs a packet will enter: auto (where "
-                   "the tree is larger than the device's cache, as the renderers), on, off")
+                   "wide, ray8, ray16: prefetch the nodes and packs a traversal will enter: auto "
+                   "(on a CPU, where the tree is larger than the device's cache, as the "
+                   "renderers), on, off")
         ->check(CLI::IsMember({"auto", "on", "off"}));
     app.add_option("--repeats", o.repeats, "timed repeats per measurement");
     app.add_option("--local-size", o.localSize, "traversal work-group size (0: PoCL chooses)");

@@ -35,8 +35,8 @@ class ClTraversal {
     // variant: ordered | skip (binary BVH) | wide (cb_bvh_wide.h, what the renderers use) |
     // packet (the wide BVH, work-group-wide traversal of bench_bvh_packet.h, for every ray set;
     // its kernels require work-groups of 64, whatever localSize says) | ray8, ray16 (the wide
-    // BVH, packets of 2x4 or 4x4 rays per work-item, cb_bvh_ray_packet.h). prefetch (ray8,
-    // ray16): auto (the renderers' choice, rayPacketPrefetchPays), on or off.
+    // BVH, packets of 2x4 or 4x4 rays per work-item, cb_bvh_ray_packet.h). prefetch (the wide
+    // BVH's traversals): auto (the renderers' choice, treePrefetchPays), on or off.
     ClTraversal(ClRuntime& rt, const Bvh& bvh, const std::string& variant, int localSize,
                 const std::string& prefetch)
         : rt_(rt), localSize_(variant == "packet" ? kPacketSize : localSize) {
@@ -45,14 +45,14 @@ class ClTraversal {
         packetRays_ = packetRaysOf(variant);
         const bool packet = variant == "packet";
         const bool wide = variant == "wide" || packet || packetRays_ > 0;
-        if (wide) wide_ = collapseBvhWide(bvh);
-        if (packetRays_ > 0) {
-            prefetch_ = prefetch == "on" ||
-                        (prefetch == "auto" &&
-                         rayPacketPrefetchPays(wide_.bytes(), rt.info().globalCacheBytes));
-            defines.push_back(fmt::format("CB_RAY_PACKET={}", packetRays_));
-            defines.push_back(fmt::format("CB_RAY_PACKET_PREFETCH={}", prefetch_ ? 1 : 0));
+        if (wide) {
+            wide_ = collapseBvhWide(bvh);
+            prefetch_ =
+                prefetch == "on" || (prefetch == "auto" && rt.info().cpu &&
+                                     treePrefetchPays(wide_.bytes(), rt.info().globalCacheBytes));
+            defines.push_back(fmt::format("CB_TREE_PREFETCH={}", prefetch_ ? 1 : 0));
         }
+        if (packetRays_ > 0) defines.push_back(fmt::format("CB_RAY_PACKET={}", packetRays_));
         program_ = rt.buildProgram("bench_traverse.cl", defines);
         if (packetRays_ > 0) {
             closest_ = cl::Kernel(program_, "benchClosestWideRays");
@@ -397,7 +397,7 @@ void traverseVariant(const Options& o, ClRuntime& rt, const BenchMesh& m,
     std::string settings;
     const Bvh bvh = variantBvh(o, variant, prims, primary, settings);
     ClTraversal cl(rt, bvh, variant, o.localSize, o.prefetch);
-    if (cl.prefetches()) settings += "; packets prefetch";
+    if (cl.prefetches()) settings += "; prefetch";
     fmt::print("{:<11} {:>9} {:<8} BVH: {}\n", m.name, prims.size(), variant, settings);
     const TraverseInput in{m, prims.size(), variant, settings, bvh, embree};
     auto wanted = [&](const char* name) {

@@ -57,7 +57,7 @@ uint32_t packLeaf(const std::vector<cbk::Primitive>& prims, uint32_t first, uint
 
 } // namespace
 
-bool rayPacketPrefetchPays(std::size_t treeBytes, unsigned long long cacheBytes) {
+bool treePrefetchPays(std::size_t treeBytes, unsigned long long cacheBytes) {
     return cacheBytes > 0 && treeBytes > cacheBytes;
 }
 

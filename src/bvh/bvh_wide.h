@@ -25,13 +25,13 @@ struct BvhWide {
     }
 };
 
-// Whether ray packets prefetch the nodes and packs they are about to enter
-// (kernels/cb_bvh_ray_packet.h, CB_RAY_PACKET_PREFETCH): only for a tree of `treeBytes` larger
-// than the device's cache of `cacheBytes` (ClDeviceInfo::globalCacheBytes; 0, unknown: no).
-// Against Embree's packets, 32 MiB cache: the second bounces of a 36 MB tree +1-21%, every
-// coherent ray set of a 61 MB one +2-4% (medians), the second bounces of a 122 MB one +10-27%;
-// 2 MB trees, which fit, 1-7% slower (docs/performance.md, "What was tried").
-bool rayPacketPrefetchPays(std::size_t treeBytes, unsigned long long cacheBytes);
+// Whether the traversals prefetch the nodes and packs they are about to enter
+// (kernels/cb_bvh_wide.h, CB_TREE_PREFETCH): only for a tree of `treeBytes` larger than the
+// device's cache of `cacheBytes` (ClDeviceInfo::globalCacheBytes; 0, unknown: no). 32 MiB cache:
+// a 61 MB tree's incoherent rays +7-12% against rtcIntersect1, its packets +2-4% against
+// Embree's; 122 MB +11% and up to +27%; 2 MB trees, which fit, 1-7% slower
+// (docs/performance.md, "What was tried").
+bool treePrefetchPays(std::size_t treeBytes, unsigned long long cacheBytes);
 
 // The wide BVH over bvh.primitives; its leaves are the binary leaves.
 BvhWide collapseBvhWide(const Bvh& bvh);

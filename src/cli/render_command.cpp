@@ -611,7 +611,7 @@ nlohmann::json RenderJob::statistics(const cb::RenderOutcome& outcome) const {
         {"host_sample_streams", integrator_->hostSampleStreams()},
         {"packets", integrator_->tracesPackets()},
         {"ray_packet_rays", integrator_->rayPacketRays()},
-        {"ray_packet_prefetch", integrator_->rayPacketPrefetch()},
+        {"tree_prefetch", integrator_->treePrefetch()},
         {"scene_load_seconds", loadSeconds_},
         {"non_finite_samples", outcome.nonFiniteSamples},
         {"mean_standard_error", meanError},

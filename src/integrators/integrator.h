@@ -58,8 +58,9 @@ class Integrator {
     virtual bool tracesPackets() const { return false; }
     // Rays per packet when tracesPackets() (8 or 16), else 0.
     virtual int rayPacketRays() const { return 0; }
-    // Whether the packets prefetch the tree's nodes and packs (a tree larger than the cache).
-    virtual bool rayPacketPrefetch() const { return false; }
+    // Whether the kernels' traversals prefetch the tree's nodes and packs (a tree larger than
+    // the device's cache).
+    virtual bool treePrefetch() const { return false; }
 };
 
 // The kernels' sampler settings: seed and kind (CB_SAMPLER_*), from a validated name.

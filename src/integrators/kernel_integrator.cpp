@@ -16,6 +16,23 @@
 
 namespace cb {
 
+namespace {
+
+// Environment variable `name`'s value when it is set and not empty, which must be `first` or
+// `second` (a comparison's forced choice); `unset` says in the error what unsetting it does.
+std::optional<std::string> forcedChoice(const char* name, const char* first, const char* second,
+                                        const std::string& unset) {
+    const char* env = std::getenv(name);
+    if (!env || !*env) return std::nullopt;
+    const std::string forced = env;
+    if (forced != first && forced != second)
+        throw std::invalid_argument(fmt::format("{}='{}': expected {} or {} (unset it to {})", name,
+                                                forced, first, second, unset));
+    return forced;
+}
+
+} // namespace
+
 KernelIntegrator::KernelIntegrator(std::string name, const IntegratorSettings& settings,
                                    const DeviceScene& scene, ClRuntime& runtime)
     : settings_(settings), scene_(scene), runtime_(runtime),
@@ -36,7 +53,18 @@ KernelIntegrator::~KernelIntegrator() {
 }
 
 void KernelIntegrator::buildProgram(const std::string& file, std::vector<std::string> defines) {
+    const std::size_t tree = scene_.wide.bytes();
+    const auto cache = runtime_.info().globalCacheBytes;
+    const auto forced = forcedChoice(
+        "CBDPT_PREFETCH", "0", "1",
+        fmt::format("prefetch only where the scene's tree, {:.3g} MB, is larger than a CPU "
+                    "device's cache, {:.3g} MB",
+                    double(tree) / 1e6, double(cache) / 1e6));
+    // __builtin_prefetch is for PoCL's CPU code; GPUs hide latency with other work-items.
+    treePrefetch_ =
+        runtime_.info().cpu && (forced ? *forced == "1" : treePrefetchPays(tree, cache));
     std::vector<std::string> all = scene_.kernelDefines();
+    all.push_back(fmt::format("CB_TREE_PREFETCH={}", treePrefetch_ ? 1 : 0));
     all.insert(all.end(), defines.begin(), defines.end());
     program_ = runtime_.buildProgram(file, all);
     buildSeconds_ = runtime_.lastBuildSeconds();
@@ -138,39 +166,13 @@ bool PixelKernelIntegrator::packetsWanted() const {
            settings_.coherenceTile <= kMaxPacketCoherenceTile && !(env && std::string(env) == "0");
 }
 
-namespace {
-
-// Environment variable `name`'s value when it is set and not empty, which must be `first` or
-// `second` (a comparison's forced choice); `unset` says in the error what unsetting it does.
-std::optional<std::string> forcedChoice(const char* name, const char* first, const char* second,
-                                        const std::string& unset) {
-    const char* env = std::getenv(name);
-    if (!env || !*env) return std::nullopt;
-    const std::string forced = env;
-    if (forced != first && forced != second)
-        throw std::invalid_argument(fmt::format("{}='{}': expected {} or {} (unset it to {})", name,
-                                                forced, first, second, unset));
-    return forced;
-}
-
-} // namespace
-
 std::vector<std::string> PixelKernelIntegrator::rayPacketDefines() {
     const int native = runtime_.info().nativeFloatWidth >= 16 ? 16 : 8;
     const auto width =
         forcedChoice("CBDPT_RAY_PACKET", "8", "16",
                      fmt::format("let the device choose: {} rays per packet", native));
     rayPacketRays_ = width ? std::stoi(*width) : native;
-    const std::size_t tree = scene_.wide.bytes();
-    const auto cache = runtime_.info().globalCacheBytes;
-    const auto prefetch = forcedChoice(
-        "CBDPT_PREFETCH", "0", "1",
-        fmt::format("prefetch only where the scene's tree, {:.3g} MB, is larger than the "
-                    "device's cache, {:.3g} MB",
-                    double(tree) / 1e6, double(cache) / 1e6));
-    rayPacketPrefetch_ = prefetch ? *prefetch == "1" : rayPacketPrefetchPays(tree, cache);
-    return {fmt::format("CB_RAY_PACKET={}", rayPacketRays_),
-            fmt::format("CB_RAY_PACKET_PREFETCH={}", rayPacketPrefetch_ ? 1 : 0)};
+    return {fmt::format("CB_RAY_PACKET={}", rayPacketRays_)};
 }
 
 std::pair<size_t, size_t> PixelKernelIntegrator::tiles(int stride) const {

@@ -22,13 +22,16 @@ class KernelIntegrator : public Integrator {
     ~KernelIntegrator() override;
     long nonFiniteSamples() const override { return nonFiniteTotal_; }
     double buildSeconds() const override { return buildSeconds_; }
+    bool treePrefetch() const override { return treePrefetch_; }
 
   protected:
     // `name` prefixes the ray report ("bdpt: ... rays").
     KernelIntegrator(std::string name, const IntegratorSettings& settings, const DeviceScene& scene,
                      ClRuntime& runtime);
 
-    // Builds kernels/`file` with the scene's feature defines and `defines`.
+    // Builds kernels/`file` with the scene's feature defines and `defines`, and CB_TREE_PREFETCH:
+    // 1 on CPU devices where the scene's tree is larger than the device's cache
+    // (treePrefetchPays, bvh/bvh_wide.h); CBDPT_PREFETCH=0 or 1 forces it (on CPU devices).
     void buildProgram(const std::string& file, std::vector<std::string> defines = {});
     // CB_MAX_EYE_VERTICES and CB_MAX_LIGHT_VERTICES: the bidirectional kernels size their
     // private vertex arrays by the caps, so each cap pair is its own build.
@@ -69,6 +72,7 @@ class KernelIntegrator : public Integrator {
     long long rayTotal_ = 0;
     double kernelSeconds_ = 0.0;
     double buildSeconds_ = 0.0;
+    bool treePrefetch_ = false;
 };
 
 // An integrator whose kernel computes one pixel per work-item (pt, cpt, bdpt, cbdpt): each
@@ -79,7 +83,6 @@ class PixelKernelIntegrator : public KernelIntegrator {
     std::uint32_t hostSampleStreams() const override { return sharedStreams_; }
     bool tracesPackets() const override { return perTile_; }
     int rayPacketRays() const override { return perTile_ ? rayPacketRays_ : 0; }
-    bool rayPacketPrefetch() const override { return perTile_ && rayPacketPrefetch_; }
     // With --coherence-tile k a packet's pixels are k apart: at k = 8 its rays had spread too
     // far to pay on the dragon (CPT 0.94x PT against the per-pixel kernel's 0.87x, 256x256;
     // k <= 4 paid everywhere: docs/performance.md). Larger k also overhang the film more.
@@ -117,9 +120,7 @@ class PixelKernelIntegrator : public KernelIntegrator {
     // The packets' program defines: CB_RAY_PACKET, the rays per packet (cb_bvh_ray_packet.h),
     // 16 where the device's native float vectors hold 16 lanes (AVX-512 under PoCL: CPT
     // 0.93-0.94x, CBDPT 0.90-0.98x the time with packets of 8, docs/performance.md), else 8.
-    // CBDPT_RAY_PACKET=8 or 16 forces a width (to measure one against the other). And
-    // CB_RAY_PACKET_PREFETCH, 1 where the scene's tree is larger than the device's cache
-    // (rayPacketPrefetchPays, bvh/bvh_wide.h); CBDPT_PREFETCH=0 or 1 forces it.
+    // CBDPT_RAY_PACKET=8 or 16 forces a width (to measure one against the other).
     std::vector<std::string> rayPacketDefines();
     // Launches a work-item per tile of tileSize x tileSize pixels coherenceTile apart
     // (tiles()), each its own work-group, from now on, instead of a work-item per pixel:
@@ -152,10 +153,8 @@ class PixelKernelIntegrator : public KernelIntegrator {
     cl::Kernel kernel_;
     int estimateArgument_ = 0;
     bool perTile_ = false;
-    // rayPacketDefines()'s choices.
-    int rayPacketRays_ = 0;
-    bool rayPacketPrefetch_ = false;
-    std::string label_; // the method, e.g. "CPT", in buffer names
+    int rayPacketRays_ = 0; // rayPacketDefines()'s choice
+    std::string label_;     // the method, e.g. "CPT", in buffer names
 };
 
 } // namespace cb
