@@ -13,6 +13,10 @@ doctest_discover_tests(cbdpt_tests ADD_LABELS 1 PROPERTIES ENVIRONMENT "CBDPT_SO
 # End-to-end tests of the command line (render, interrupt, errors, info).
 add_test(NAME cli COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_cli.py $<TARGET_FILE:cbdpt> ${CMAKE_SOURCE_DIR})
 
+# scripts/make-big-scene (a scene whose tree outgrows the cache, for the prefetch's numbers)
+# writes a scene that renders.
+add_test(NAME big_scene COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_big_scene.py $<TARGET_FILE:cbdpt> ${CMAKE_SOURCE_DIR})
+
 # Thesis scene data: the grille/cage/lamp PLYs reproduce byte for byte from
 # scripts/make-meshes, are closed and outward, match docs/scenes.md, and every scene file
 # references existing files and keeps its objects and lights inside the Cornell box.
