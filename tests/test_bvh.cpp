@@ -444,7 +444,7 @@ TEST_CASE("bvh: the wide BVH equals brute force on the bunny (3k rays)") {
     CHECK(m.hits > 1000);
 }
 
-TEST_CASE("bvh: a wide tree's bytes; traversals prefetch only a tree larger than the cache") {
+TEST_CASE("bvh: a wide tree's bytes; traversals prefetch only a tree larger than a CPU's cache") {
     cb::Bvh one =
         cb::buildBvh({triangle(cbk::vec3(-1, -1, 2), cbk::vec3(1, -1, 2), cbk::vec3(0, 1, 2))});
     const auto wide = cb::collapseBvhWide(one);
@@ -452,11 +452,12 @@ TEST_CASE("bvh: a wide tree's bytes; traversals prefetch only a tree larger than
     REQUIRE(wide.packs.size() == 1);
     CHECK(wide.bytes() == sizeof(cbk::BvhNodeWide) + sizeof(cbk::TrianglePack));
     const std::size_t mib = std::size_t(1) << 20;
-    CHECK_FALSE(cb::treePrefetchPays(2 * mib, 32 * mib)); // the dragon's tree
-    CHECK_FALSE(cb::treePrefetchPays(32 * mib, 32 * mib));
-    CHECK(cb::treePrefetchPays(32 * mib + 1, 32 * mib));
-    CHECK(cb::treePrefetchPays(61 * mib, 32 * mib)); // the 1M sphere's
-    CHECK_FALSE(cb::treePrefetchPays(61 * mib, 0));  // a device that reports no cache
+    CHECK_FALSE(cb::treePrefetchPays(2 * mib, 32 * mib, true)); // the dragon's tree
+    CHECK_FALSE(cb::treePrefetchPays(32 * mib, 32 * mib, true));
+    CHECK(cb::treePrefetchPays(32 * mib + 1, 32 * mib, true));
+    CHECK(cb::treePrefetchPays(61 * mib, 32 * mib, true));        // the 1M sphere's
+    CHECK_FALSE(cb::treePrefetchPays(61 * mib, 0, true));         // a device that reports no cache
+    CHECK_FALSE(cb::treePrefetchPays(61 * mib, 32 * mib, false)); // a GPU
 }
 
 TEST_CASE("bvh: the wide BVH on an empty scene, one triangle and spheres") {

@@ -47,9 +47,11 @@ class ClTraversal {
         const bool wide = variant == "wide" || packet || packetRays_ > 0;
         if (wide) {
             wide_ = collapseBvhWide(bvh);
-            prefetch_ =
-                prefetch == "on" || (prefetch == "auto" && rt.info().cpu &&
-                                     treePrefetchPays(wide_.bytes(), rt.info().globalCacheBytes));
+            // "on" as CBDPT_PREFETCH=1: forced, but on CPU devices only.
+            const bool cpu = rt.info().cpu;
+            prefetch_ = prefetch == "auto"
+                            ? treePrefetchPays(wide_.bytes(), rt.info().globalCacheBytes, cpu)
+                            : cpu && prefetch == "on";
             defines.push_back(fmt::format("CB_TREE_PREFETCH={}", prefetch_ ? 1 : 0));
         }
         if (packetRays_ > 0) defines.push_back(fmt::format("CB_RAY_PACKET={}", packetRays_));

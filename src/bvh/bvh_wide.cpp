@@ -57,8 +57,8 @@ uint32_t packLeaf(const std::vector<cbk::Primitive>& prims, uint32_t first, uint
 
 } // namespace
 
-bool treePrefetchPays(std::size_t treeBytes, unsigned long long cacheBytes) {
-    return cacheBytes > 0 && treeBytes > cacheBytes;
+bool treePrefetchPays(std::size_t treeBytes, unsigned long long cacheBytes, bool cpuDevice) {
+    return cpuDevice && cacheBytes > 0 && treeBytes > cacheBytes;
 }
 
 BvhWide collapseBvhWide(const Bvh& bvh) {

@@ -26,12 +26,14 @@ struct BvhWide {
 };
 
 // Whether the traversals prefetch the nodes and packs they are about to enter
-// (kernels/cb_bvh_wide.h, CB_TREE_PREFETCH): only for a tree of `treeBytes` larger than the
-// device's cache of `cacheBytes` (ClDeviceInfo::globalCacheBytes; 0, unknown: no). 32 MiB cache:
+// (kernels/cb_bvh_wide.h, CB_TREE_PREFETCH): only on a CPU device (`cpuDevice`; __builtin_prefetch
+// is for PoCL's CPU code, a GPU hides latency with other work-items) and only for a tree of
+// `treeBytes` larger than its cache of `cacheBytes` (ClDeviceInfo::globalCacheBytes; 0, unknown:
+// no). 32 MiB cache:
 // a 61 MB tree's incoherent rays +7-12% against rtcIntersect1, its packets +2-4% against
 // Embree's; 122 MB +11% and up to +27%; 2 MB trees, which fit, 1-7% slower
 // (docs/performance.md, "What was tried").
-bool treePrefetchPays(std::size_t treeBytes, unsigned long long cacheBytes);
+bool treePrefetchPays(std::size_t treeBytes, unsigned long long cacheBytes, bool cpuDevice);
 
 // The wide BVH over bvh.primitives; its leaves are the binary leaves.
 BvhWide collapseBvhWide(const Bvh& bvh);

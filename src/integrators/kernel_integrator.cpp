@@ -60,9 +60,8 @@ void KernelIntegrator::buildProgram(const std::string& file, std::vector<std::st
         fmt::format("prefetch only where the scene's tree, {:.3g} MB, is larger than a CPU "
                     "device's cache, {:.3g} MB",
                     double(tree) / 1e6, double(cache) / 1e6));
-    // __builtin_prefetch is for PoCL's CPU code; GPUs hide latency with other work-items.
-    treePrefetch_ =
-        runtime_.info().cpu && (forced ? *forced == "1" : treePrefetchPays(tree, cache));
+    const bool cpu = runtime_.info().cpu;
+    treePrefetch_ = forced ? cpu && *forced == "1" : treePrefetchPays(tree, cache, cpu);
     std::vector<std::string> all = scene_.kernelDefines();
     all.push_back(fmt::format("CB_TREE_PREFETCH={}", treePrefetch_ ? 1 : 0));
     all.insert(all.end(), defines.begin(), defines.end());

@@ -31,7 +31,7 @@ class KernelIntegrator : public Integrator {
 
     // Builds kernels/`file` with the scene's feature defines and `defines`, and CB_TREE_PREFETCH:
     // 1 on CPU devices where the scene's tree is larger than the device's cache
-    // (treePrefetchPays, bvh/bvh_wide.h); CBDPT_PREFETCH=0 or 1 forces it (on CPU devices).
+    // (treePrefetchPays, bvh/bvh_wide.h); CBDPT_PREFETCH=0 or 1 forces it, on CPU devices only.
     void buildProgram(const std::string& file, std::vector<std::string> defines = {});
     // CB_MAX_EYE_VERTICES and CB_MAX_LIGHT_VERTICES: the bidirectional kernels size their
     // private vertex arrays by the caps, so each cap pair is its own build.
