@@ -320,9 +320,9 @@ def away_from_emitters(cbdpt, scene, size, margin, folder):
     """True where a pixel is at least `margin` pixels (Chebyshev) from a directly seen emitter:
     the pixels a 2-vertex path tracer finds lit (camera and emitter only)."""
     out = os.path.join(folder, "emitters.exr")
-    subprocess.run([cbdpt, "render", scene, "--integrator", "pt", "--eye-vertices", "2",
+    run_checked([cbdpt, "render", scene, "--integrator", "pt", "--eye-vertices", "2",
                     "--width", str(size[0]), "--height", str(size[1]), "--spp", "4", "--seed",
-                    "1", "-o", out, "-q"], check=True, env=environment())
+                    "1", "-o", out, "-q"], env=environment(), stderr=subprocess.PIPE, text=True)
     lit = read_exr(out).astype(np.float64) @ LUMINANCE > 0
     near = lit.copy()
     for dy in range(-margin, margin + 1):
@@ -398,3 +398,70 @@ def need_matplotlib():
 
 def has(program):
     return shutil.which(program) is not None
+
+
+# ---------------------------------------------------------------------------------------------
+# Error at equal time (scripts/equal-time-pbrt, scripts/compare-mitsuba): K images of one
+# unbiased estimator, each with its own seed, give each image its own MSE by leave-one-out.
+
+def leave_one_out_squares(images):
+    """Per image and pixel: (x_k - mean of the others)^2 (K-1)/K, an unbiased estimate of that
+    image's variance at that pixel (its MSE, for an unbiased estimator). E[(x_k - m_k)^2] =
+    s^2 + s^2/(K-1) = s^2 K/(K-1), hence the factor."""
+    stack = np.stack(images)
+    k = len(images)
+    if k < 2:
+        raise ValueError(f"leave-one-out needs 2 or more images, got {k}")
+    others = (stack.sum(0)[None] - stack) / (k - 1)
+    return (stack - others) ** 2 * (k - 1) / k
+
+
+def leave_one_out_mse(images, mask):
+    """Per image: the mean of leave_one_out_squares over the pixels where mask is true."""
+    return np.array([float(square[mask].mean()) for square in leave_one_out_squares(images)])
+
+
+def band(values):
+    return dict(median=float(np.median(values)), min=float(np.min(values)),
+                max=float(np.max(values)))
+
+
+def merit_ratio(theirs, ours):
+    """Figures of merit MSE x seconds (arrays, one per image): the ratio theirs / ours of the
+    medians (> 1: ours has the lower error at equal time) and the range over all pairs."""
+    theirs, ours = np.asarray(theirs, float), np.asarray(ours, float)
+    pairs = theirs[:, None] / ours[None, :]
+    return dict(ratio_median=float(np.median(theirs) / np.median(ours)),
+                ratio_min=float(pairs.min()), ratio_max=float(pairs.max()))
+
+
+# ---------------------------------------------------------------------------------------------
+# Refusals of the comparison scripts: a usage error (exit 2) names the path, a failed child
+# ends the script with its command and exit status instead of a traceback.
+
+def check_inputs(parser, scenes=(), programs=()):
+    """parser.error (usage, exit 2) for a scene that is not a file or a program that is not an
+    executable file, naming it and the option it came from."""
+    for scene in scenes:
+        if not os.path.isfile(scene):
+            parser.error(f"scene '{scene}': no such file")
+    for option, program in programs:
+        if program is None:
+            continue
+        path = shutil.which(program) if os.sep not in program else program
+        if not path or not os.path.isfile(path) or not os.access(path, os.X_OK):
+            parser.error(f"{option} '{program}': not an executable program")
+
+
+def run_checked(command, **kwargs):
+    """subprocess.run(command, **kwargs); when the child fails, SystemExit naming the command,
+    its exit status and the end of its error output (when captured)."""
+    r = subprocess.run(command, **kwargs)
+    if r.returncode != 0:
+        detail = ""
+        if isinstance(r.stderr, (str, bytes)) and r.stderr:
+            err = r.stderr.decode(errors="replace") if isinstance(r.stderr, bytes) else r.stderr
+            detail = "\n" + err.strip()[-2000:]
+        raise SystemExit(f"{os.path.basename(sys.argv[0])}: failed (exit status "
+                         f"{r.returncode}): {' '.join(map(str, command))}{detail}")
+    return r

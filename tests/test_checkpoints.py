@@ -4,7 +4,6 @@ reference metrics, `cbdpt compare`, and the scripts/experiment --quick -> script
 pipeline, on tiny Cornell box renders.
 
 Usage: test_checkpoints.py PATH/TO/cbdpt REPO_ROOT"""
-import importlib.machinery
 import json
 import math
 import os
@@ -18,7 +17,7 @@ scene = os.path.join(root, "scenes", "cornell-box.pbrt")
 sys.path.insert(0, os.path.join(root, "scripts"))
 import cbdpt_results as cr  # noqa: E402
 import numpy as np  # noqa: E402
-from checks import check, finish  # noqa: E402
+from checks import check, finish, load_script  # noqa: E402
 
 COLUMNS = ["estimates", "seconds", "rmse", "rel_mse", "mae", "mean_stderr", "rms_stderr",
            "image_mean", "checkpoint_seconds", "cpu_seconds"]
@@ -354,10 +353,8 @@ except ValueError as e:
     check("2 or more runs" in str(e), f"one run is refused ({e})")
 
 # Every reference an experiment unit measures against is one scripts/make-reference makes.
-loader = importlib.machinery.SourceFileLoader
-experiment = loader("experiment", os.path.join(root, "scripts", "experiment")).load_module()
-make_reference = loader("make_reference",
-                        os.path.join(root, "scripts", "make-reference")).load_module()
+experiment = load_script(os.path.join(root, "scripts", "experiment"), "experiment")
+make_reference = load_script(os.path.join(root, "scripts", "make-reference"), "make_reference")
 needed = {cr.reference_path(u["scene"], *experiment.reference_of(u)[::-1])
           for u in experiment.plan(list(cr.SCENES), cr.ALL_METHODS, [1], ["time", "combine"],
                                    False)}

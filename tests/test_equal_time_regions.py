@@ -6,12 +6,13 @@ ratios 0.75 in that cell and 3 elsewhere, within 10% (about 12 standard errors o
 estimates from 64 seeds x 1024 pixels per cell); a cell outside the mask has none. The
 equal-time sample counts, zsobol's powers of two included. And --pbrt-lightsampler with
 --integrator bdpt, and a zsobol --pbrt-spp that is not a power of two, are refused, with the
-reason."""
-import importlib.machinery
-import importlib.util
+reason. The comparison scripts' refusals: a missing scene or a --pbrt that is not a program is a
+usage error naming it (exit 2); a child that fails ends the script with its command and exit
+status (scripts/cbdpt_results.py's check_inputs and run_checked)."""
 import os
 import subprocess
 import sys
+import tempfile
 
 root = sys.argv[1]
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -20,13 +21,10 @@ import python_env  # noqa: F401,E402  (re-executes under .venv/bin/python, which
 
 import numpy as np  # noqa: E402
 
-from checks import check, finish  # noqa: E402
+from checks import check, finish, load_script  # noqa: E402
 
 path = os.path.join(root, "scripts", "equal-time-pbrt")
-loader = importlib.machinery.SourceFileLoader("equal_time_pbrt", path)
-spec = importlib.util.spec_from_loader("equal_time_pbrt", loader)
-module = importlib.util.module_from_spec(spec)
-loader.exec_module(module)
+module = load_script(path, "equal_time_pbrt")
 
 
 class Seeds:
@@ -81,4 +79,22 @@ r = subprocess.run([sys.executable, path, "--pbrt", "/nonexistent/pbrt", "--pbrt
                     scene], capture_output=True, text=True, timeout=60)
 check(r.returncode == 2 and "renders 8" in r.stderr,
       f"--pbrt-spp 10 with zsobol is refused (exit {r.returncode}: {r.stderr.strip()[-200:]})")
+
+# Inputs checked before anything renders; a failing child named with its exit status.
+r = subprocess.run([sys.executable, path, "--pbrt", "/nonexistent/pbrt", scene],
+                   capture_output=True, text=True, timeout=60)
+check(r.returncode == 2 and "'/nonexistent/pbrt': not an executable program" in r.stderr,
+      f"a --pbrt that is not a program is named (exit {r.returncode}: {r.stderr.strip()[-200:]})")
+r = subprocess.run([sys.executable, path, "--pbrt", "/bin/true", "/nonexistent/box.pbrt"],
+                   capture_output=True, text=True, timeout=60)
+check(r.returncode == 2 and "'/nonexistent/box.pbrt': no such file" in r.stderr,
+      f"a missing scene is named (exit {r.returncode}: {r.stderr.strip()[-200:]})")
+compare = os.path.join(root, "scripts", "compare-pbrt")
+with tempfile.TemporaryDirectory() as out:
+    r = subprocess.run([sys.executable, compare, "--pbrt", "/bin/false", "--out", out, scene],
+                       capture_output=True, text=True, timeout=60)
+check(r.returncode == 1 and "failed (exit status 1): /bin/false" in r.stderr
+      and "Traceback" not in r.stderr,
+      f"a failing pbrt-v4 ends compare-pbrt with its command and status (exit {r.returncode}: "
+      f"{r.stderr.strip()[-300:]})")
 finish()

@@ -10,7 +10,7 @@ import tempfile
 
 cbdpt, tests, root = sys.argv[1], sys.argv[2], sys.argv[3]
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from checks import check, finish  # noqa: E402
+from checks import check, finish, load_script  # noqa: E402
 from stanford_models import skip_without_models  # noqa: E402
 
 skip_without_models()  # the dragon's renders need them
@@ -78,13 +78,7 @@ with tempfile.TemporaryDirectory() as folder:
           f"an unwritable binary folder is named ({r.stderr.strip()[-300:]})")
 
 # The binaries' count on a PTX-like file: the parameter-address reads are found.
-import importlib.machinery  # noqa: E402
-import importlib.util  # noqa: E402
-loader = importlib.machinery.SourceFileLoader("gpu_check",
-                                              os.path.join(root, "scripts", "gpu-check"))
-spec = importlib.util.spec_from_loader("gpu_check", loader)
-gpu_check = importlib.util.module_from_spec(spec)
-loader.exec_module(gpu_check)
+gpu_check = load_script(os.path.join(root, "scripts", "gpu-check"), "gpu_check")
 with tempfile.TemporaryDirectory() as folder:
     with open(os.path.join(folder, "bdpt.cl-0.bin"), "w") as f:
         f.write("\tcvta.param.u64 \t%rd76, %rd67;\n\tcvta.to.local.u64 \t%rd77, %rd76;\n"

@@ -49,10 +49,15 @@ set_tests_properties(interleave_render PROPERTIES TIMEOUT 600)
 # methods at equal CPU time, the goal reached, not reached, not measured.
 add_test(NAME report_combine COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_report_combine.py ${CMAKE_SOURCE_DIR})
 set_tests_properties(report_combine PROPERTIES TIMEOUT 600)
+# scripts/equal-time-pbrt --regions finds known per-cell variances (no pbrt-v4 needed); the
+# comparison scripts' refusals.
+add_test(NAME equal_time_regions COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_equal_time_regions.py ${CMAKE_SOURCE_DIR})
+# scripts/compare-mitsuba without Mitsuba: its scene reader against cbdpt info, its colour
+# matrices against docs/spectral.md, refusals naming file and line, the error at equal time.
+add_test(NAME compare_mitsuba COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_compare_mitsuba.py $<TARGET_FILE:cbdpt> ${CMAKE_SOURCE_DIR})
+set_tests_properties(compare_mitsuba PROPERTIES TIMEOUT 300)
 # scripts/report's answers to the thesis's claims on synthetic units with known cost and error
 # ratios: bands apart and overlapping, each claim's count of where it holds.
-# scripts/equal-time-pbrt --regions finds known per-cell variances (no pbrt-v4 needed).
-add_test(NAME equal_time_regions COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_equal_time_regions.py ${CMAKE_SOURCE_DIR})
 add_test(NAME report_claims COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_report_claims.py ${CMAKE_SOURCE_DIR})
 set_tests_properties(report_claims PROPERTIES TIMEOUT 600)
 
