@@ -9,6 +9,9 @@ and after Mitsuba renders, checked where the answer is known.
 - The error at equal time on synthetic rounds of known variance and time: each renderer's MSE
   (leave-one-out, so its (K-1)/K factor matters) and the ratio of MSE x seconds, whole image
   and in a mask, within 6% (about 6 standard errors of the medians of 5 rounds x 16,384 pixels).
+- The agreement check that gates the timing, on images of known expectation: the same passes,
+  3% brighter everywhere or 30% brighter in one block fails (in that block alone), and the
+  spectral mode's floor lets a difference below it through.
 - Without Mitsuba (a stub package that fails to import) it exits 2 with the install command,
   and a missing scene or --cbdpt is a usage error naming the path, before Mitsuba is needed.
 """
@@ -124,6 +127,35 @@ for label, (mse_ours, mse_theirs, ratio) in expected.items():
           f"{label}: the pairs' range holds the median: {r}")
     check(abs(r["ours"]["mse_times_seconds"]["median"] / (2.0 * mse_ours) - 1.0) < 0.06,
           f"{label}: ours' MSE x seconds {r['ours']['mse_times_seconds']}")
+
+# --- the agreement check that gates every timing ---------------------------------------------
+# Ours: one image with its per-pixel standard error; Mitsuba: 4 independent runs. The same
+# expectation passes; 3% brighter everywhere, or 30% brighter in one 64 x 64 block, fails.
+truth = np.ones((256, 256, 3)) * np.array([0.5, 0.3, 0.1])
+noise = 0.05 * truth
+ours_image = truth + noise * rng.standard_normal(truth.shape)
+ours_se = noise
+
+
+def mitsuba_runs(expectation):
+    return [expectation + 2.0 * noise * rng.standard_normal(truth.shape) for _ in range(4)]
+
+
+same = cm.agreement(ours_image, ours_se, mitsuba_runs(truth), 8, 5.0, 0.0, "same")
+check(same["ok"] and same["blocks_failed"] == 0 and same["block_rms_z"] < 1.5,
+      f"the same expectation agrees: blocks failed {same['blocks_failed']}, rms z "
+      f"{same['block_rms_z']:.2f}")
+brighter = cm.agreement(ours_image, ours_se, mitsuba_runs(1.03 * truth), 8, 5.0, 0.0, "3%")
+check(not brighter["ok"] and brighter["blocks_failed"] > 100,
+      f"3% brighter fails: blocks failed {brighter['blocks_failed']}")
+local = truth.copy()
+local[64:96, 128:160] *= 1.3
+one_block = cm.agreement(ours_image, ours_se, mitsuba_runs(local), 8, 5.0, 0.0, "one block")
+check(not one_block["ok"] and [c[:2] for c in one_block["blocks_failed_where"]] == [[2, 4]] * 3,
+      f"a change in one block fails there only: {one_block['blocks_failed_where']}")
+# The spectral tolerance floor (a fraction of the brightest channel) lets the 3% through.
+floored = cm.agreement(ours_image, ours_se, mitsuba_runs(1.03 * truth), 8, 5.0, 0.04, "floor")
+check(floored["ok"], f"a 3% difference passes a 4% floor: {floored['blocks_failed']}")
 
 # --- without Mitsuba, and refusals before it is needed ---------------------------------------
 with tempfile.TemporaryDirectory() as stubs:
