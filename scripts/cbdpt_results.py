@@ -6,6 +6,8 @@ import functools
 import hashlib
 import math
 import os
+import platform
+import re
 import shutil
 import subprocess
 import sys
@@ -73,6 +75,36 @@ def find_cbdpt(explicit=None):
     if not found:
         raise SystemExit("cbdpt binary not found: build it (scripts/build) or pass --cbdpt")
     return max(found, key=os.path.getmtime)
+
+
+@functools.lru_cache(maxsize=None)  # scripts/experiment asks once per unit of its plan
+def machine():
+    """The CPU model, its widest vector instructions (a virtual machine's model name can be the
+    same for CPUs with and without AVX-512, whose kernels PoCL compiles differently, and
+    Dr.Jit's wavefronts are as wide as the vectors), cores and host name."""
+    model, flags = "?", set()
+    try:
+        for line in open("/proc/cpuinfo"):
+            if line.startswith("model name") and model == "?":
+                model = line.split(":", 1)[1].strip()
+            elif line.startswith("flags") and not flags:
+                flags = set(line.split(":", 1)[1].split())
+    except OSError:
+        pass
+    isa = "AVX-512" if "avx512f" in flags else "AVX2" if "avx2" in flags else "SSE"
+    return dict(cpu=model, vector_isa=isa, cores=os.cpu_count(), host=platform.node())
+
+
+def git_revision(cbdpt):
+    """The revision the cbdpt binary was built from (its --version), which is what the numbers
+    describe; the checkout's own revision when the binary does not say."""
+    r = subprocess.run([cbdpt, "--version"], capture_output=True, text=True)
+    match = re.search(r"\(git ([0-9a-f]+)", r.stdout)
+    if match:
+        return match.group(1)
+    r = subprocess.run(["git", "-C", ROOT, "describe", "--always", "--dirty"],
+                       capture_output=True, text=True)
+    return r.stdout.strip() or "?"
 
 
 def environment():

@@ -29,7 +29,7 @@ SPECTRUM = dict(frequency=[0.1, 0.2, 0.3], power=[1e-4, 1e-4, 1e-4])
 def write_unit(folder, record, csv_text):
     stem = os.path.join(folder, record["id"])
     os.makedirs(os.path.dirname(stem), exist_ok=True)
-    # A record of scripts/experiment's machine(); test_report_claims.py's lacks vector_isa, as
+    # A unit's machine (cbdpt_results.machine()); test_report_claims.py's lacks vector_isa, as
     # units recorded before it did.
     base = dict(status="done",
                 machine=dict(cpu="synthetic", vector_isa="AVX2", cores=2, host="x"),
