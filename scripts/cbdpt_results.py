@@ -352,9 +352,9 @@ def away_from_emitters(cbdpt, scene, size, margin, folder):
     """True where a pixel is at least `margin` pixels (Chebyshev) from a directly seen emitter:
     the pixels a 2-vertex path tracer finds lit (camera and emitter only)."""
     out = os.path.join(folder, "emitters.exr")
-    run_checked([cbdpt, "render", scene, "--integrator", "pt", "--eye-vertices", "2",
-                    "--width", str(size[0]), "--height", str(size[1]), "--spp", "4", "--seed",
-                    "1", "-o", out, "-q"], env=environment(), stderr=subprocess.PIPE, text=True)
+    run_checked([cbdpt, "render", scene, "--integrator", "pt", "--eye-vertices", "2", "--width",
+                 str(size[0]), "--height", str(size[1]), "--spp", "4", "--seed", "1", "-o", out,
+                 "-q"], env=environment(), stderr=subprocess.PIPE, text=True)
     lit = read_exr(out).astype(np.float64) @ LUMINANCE > 0
     near = lit.copy()
     for dy in range(-margin, margin + 1):
