@@ -187,7 +187,11 @@ with tempfile.TemporaryDirectory() as tmp:
     r = subprocess.run([cbdpt, "render", scene, "--eye-vertices", "1"], capture_output=True, text=True)
     check(r.returncode != 0 and "eye-vertices" in r.stderr, f"eye cap 1 refused ({r.stderr.strip()})")
     r = subprocess.run([cbdpt, "render", os.path.join(tmp, "missing.pbrt")], capture_output=True, text=True)
-    check(r.returncode != 0 and "missing.pbrt" in r.stderr, f"missing file named ({r.stderr.strip()})")
+    check(r.returncode != 0 and "missing.pbrt: cannot read the scene file: no such file" in r.stderr,
+          f"missing file named, with the reason ({r.stderr.strip()})")
+    r = subprocess.run([cbdpt, "render", tmp], capture_output=True, text=True)
+    check(r.returncode != 0 and "it is a folder, not a file" in r.stderr,
+          f"a folder given as the scene is refused, with the reason ({r.stderr.strip()})")
     # A real device out-of-memory: PoCL's CPU device shrunk to 1 GiB of global memory
     # (POCL_MEMORY_LIMIT, in GiB; its largest allocation becomes 256 MiB). A 4800 x 4800 image
     # needs 264 MiB per RGB float buffer; 10^6 MLT chains of 236 primary samples need 900 MiB.
@@ -241,7 +245,8 @@ with tempfile.TemporaryDirectory() as tmp:
                  ["--nthreads", "0"], ["--target-stderr", "0"], ["--target-stderr", "inf"],
                  ["--checkpoint-every", "-1"], ["--cropwindow", "0", "1.5", "0", "1"],
                  ["--cropwindow", "0", "1", "0"], ["--integrator", "foo"],
-                 ["--weights", "foo"], ["--channels", "foo"], ["--width", "12x"]):
+                 ["--weights", "foo"], ["--channels", "foo"], ["--width", "12x"],
+                 ["--png", os.path.join(tmp, "preview.jpg")]):
         r = run("render", scene, "-o", out, *args)
         check(r.returncode != 0 and args[0] in r.stderr and not os.path.exists(out),
               f"render {' '.join(args)} is refused naming the option ({r.returncode}: "

@@ -666,3 +666,27 @@ TEST_CASE("parser: geometry errors") {
     expectError("LookAt 0 0 0  0 1 0  0 1 0\n", "t.pbrt:1:1", "up is parallel");
     expectError("Rotate 10 0 0 0\n", "t.pbrt:1:1", "axis has zero length");
 }
+
+TEST_CASE("parser: a file that cannot be read is named with the reason, without a line") {
+    const fs::path dir =
+        fs::temp_directory_path() / ("cbdpt-unreadable-" + std::to_string(getpid()));
+    fs::create_directories(dir / "folder.pbrt");
+    const auto errorOfFile = [](const fs::path& path) -> std::string {
+        try {
+            cb::parseSceneFile(path.string());
+        } catch (const cb::SceneError& e) {
+            return e.what();
+        }
+        return "<no error>";
+    };
+    CHECK(errorOfFile(dir / "missing.pbrt") ==
+          (dir / "missing.pbrt").string() + ": cannot read the scene file: no such file");
+    CHECK(errorOfFile(dir / "folder.pbrt") ==
+          (dir / "folder.pbrt").string() +
+              ": cannot read the scene file: it is a folder, not a file");
+    { std::ofstream(dir / "main.pbrt") << "WorldBegin\nInclude \"gone.pbrt\"\n"; }
+    // An included file's failure is located at the Include that names it.
+    CHECK(contains(errorOfFile(dir / "main.pbrt"),
+                   (dir / "main.pbrt").string() + ":2:9: cannot find included file \"gone.pbrt\""));
+    fs::remove_all(dir);
+}

@@ -163,7 +163,7 @@ TEST_CASE("ply: truncated binary payload names element, row and byte offset") {
     // not part of the minimum), so the failure comes from the reader itself, in element
     // 'material' row 1.
     const std::string e = plyError(full.substr(0, full.size() - 1), "cut.ply");
-    CHECK(contains(e, "cut.ply:0:0:"));
+    CHECK(contains(e, "cut.ply:"));
     CHECK(contains(e, "element 'material' row 1"));
     CHECK(contains(e, "byte offset"));
     CHECK(contains(e, "truncated"));
@@ -295,12 +295,14 @@ TEST_CASE("ply: malformed headers are rejected with the header line") {
                             "property float y\nproperty float z\nelement face 0\n"
                             "property int flags\nend_header\n"),
                    "mem.ply:7:1: face element lacks"));
-    CHECK(contains(plyError("", "empty.ply"), "empty.ply:0:1: missing end_header"));
+    CHECK(contains(plyError("", "empty.ply"), "empty.ply: missing end_header"));
     CHECK(contains(plyError("ply\nformat ascii 1.0\nelement vertex 0\nproperty float x\n"
                             "property float y\nproperty float z\nelement face 0\n"
                             "property list uchar int vertex_indices\nend_header\n"),
                    "<no error>"));
-    CHECK_THROWS_AS(cb::readPly("/nonexistent/dir/x.ply"), cb::SceneError);
+    CHECK_THROWS_WITH_AS(cb::readPly("/nonexistent/dir/x.ply"),
+                         "/nonexistent/dir/x.ply: cannot read the PLY file: no such file",
+                         cb::SceneError);
 }
 
 TEST_CASE("ply: the Stanford models load with the counts and bounding boxes of docs/scenes.md") {

@@ -126,7 +126,9 @@ with tempfile.TemporaryDirectory() as tmp:
             ("overlap", [s0, P("merged.state")], "overlap"),
             ("other seed", [s2, P("seed.exr.state")], "seed: 0 there, 4 here"),
             ("other method", [s2, P("pt.exr.state")], "integrator: \"cbdpt\" there, \"pt\" here"),
-            ("missing", [s0, P("none.state")], "cannot read the render state")):
+            ("missing", [s0, P("none.state")],
+             f"cannot read the render state {P('none.state')}: no such file"),
+            ("a folder", [s0, P("")], "it is a folder, not a file")):
         r = run("merge", *states, "-o", P("keep.exr"))
         check(r.returncode != 0 and expect in r.stderr, f"merge {name} refused ({r.stderr.strip()})")
         check(data(P("keep.exr")) == b"precious", f"a refused merge ({name}) overwrites nothing")

@@ -2,6 +2,7 @@
 
 #include "cli/cli_format.h"
 #include "image/image.h"
+#include "io/files.h"
 
 #include <fmt/format.h>
 

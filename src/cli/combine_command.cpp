@@ -11,6 +11,7 @@
 #include "image/render_record.h"
 #include "integrators/integrator.h"
 #include "integrators/split_budget.h"
+#include "io/files.h"
 #include "scene/device_scene.h"
 #include "scene/scene_desc.h"
 
@@ -143,10 +144,7 @@ std::vector<CombineInput> renderInputs(const CombineOptions& o, nlohmann::json& 
 
 int runCombine(CombineOptions& o) {
     o.settings.how = parseCombination(o.how);
-    if (std::filesystem::path(o.output).extension() != ".exr")
-        throw std::invalid_argument(fmt::format("output '{}' must end in .exr", o.output));
-    const std::string png =
-        o.png.empty() ? std::filesystem::path(o.output).replace_extension(".png").string() : o.png;
+    const std::string png = previewPngPath(o.output, o.png);
     // Before --split-budget's renders, not after them.
     requireWritable(o.output, "the combined image (-o)");
     requireWritable(png, "the PNG (--png)");

@@ -1,6 +1,9 @@
 #include "cli/command_support.h"
 
+#include <fmt/format.h>
+
 #include <csignal>
+#include <filesystem>
 #include <stdexcept>
 
 namespace cb::cli {
@@ -21,6 +24,16 @@ cb::ChannelMode parseChannels(const std::string& s) {
     if (s == "rgb") return cb::ChannelMode::Rgb;
     if (s == "spectral") return cb::ChannelMode::Spectral;
     throw std::invalid_argument("--channels must be auto, rgb or spectral");
+}
+
+std::string previewPngPath(const std::string& output, const std::string& png) {
+    namespace fs = std::filesystem;
+    if (fs::path(output).extension() != ".exr")
+        throw std::invalid_argument(fmt::format("output '{}' must end in .exr", output));
+    if (png.empty()) return fs::path(output).replace_extension(".png").string();
+    if (fs::path(png).extension() != ".png")
+        throw std::invalid_argument(fmt::format("--png '{}' must end in .png", png));
+    return png;
 }
 
 void installStopHandler() {

@@ -1,4 +1,4 @@
-// Pieces shared by the commands that render (render_command.cpp, combine_command.cpp).
+// Pieces shared by the commands (render, combine, merge).
 #pragma once
 
 #include "scene/device_scene.h"
@@ -10,6 +10,10 @@ namespace cb::cli {
 
 // auto | rgb | spectral; throws std::invalid_argument otherwise.
 cb::ChannelMode parseChannels(const std::string& text);
+
+// The PNG preview's path for the image `output`: `png` as given, else the output with .png.
+// Throws std::invalid_argument unless `output` ends in .exr and the PNG's path in .png.
+std::string previewPngPath(const std::string& output, const std::string& png);
 
 // Ctrl-C and SIGTERM set stopRequested(), so a render ends after its current estimate and
 // writes what it has; a second one ends the program at once.

@@ -4,6 +4,7 @@
 #include "cli/commands.h"
 #include "image/image.h"
 #include "image/metrics.h"
+#include "io/files.h"
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>

@@ -1,10 +1,12 @@
 // `cbdpt merge S1.state S2.state ... -o OUT.exr [--state MERGED.state]`: adds the exact sums of
 // render states of disjoint estimate sets (shards, or the ranks of separate jobs) into one
 // image; the result is the render of the union of their estimates, bit for bit.
+#include "cli/command_support.h"
 #include "cli/commands.h"
 #include "image/image.h"
 #include "image/render_record.h"
 #include "image/render_state.h"
+#include "io/files.h"
 
 #include <fmt/format.h>
 
@@ -28,9 +30,7 @@ struct MergeOptions {
 
 int runMerge(MergeOptions& o) {
     namespace fs = std::filesystem;
-    if (fs::path(o.output).extension() != ".exr")
-        throw std::invalid_argument(fmt::format("output '{}' must end in .exr", o.output));
-    if (o.png.empty()) o.png = fs::path(o.output).replace_extension(".png").string();
+    o.png = previewPngPath(o.output, o.png);
     // Outputs are checked before any state is read; nothing is written unless all succeeds.
     cb::requireWritable(o.output, "the image (-o)");
     cb::requireWritable(o.png, "the PNG (--png)");

@@ -12,6 +12,7 @@
 #include "image/metrics.h"
 #include "image/render_state.h"
 #include "integrators/render.h"
+#include "io/files.h"
 #include "scene/device_scene.h"
 #include "scene/scene_desc.h"
 
@@ -340,10 +341,7 @@ void RenderJob::checkOutputs() const {
 void RenderJob::chooseOutputPaths() {
     output_ = o_.output.empty() ? std::filesystem::path(desc_.film.filename).filename().string()
                                 : o_.output;
-    if (std::filesystem::path(output_).extension() != ".exr")
-        throw std::invalid_argument(fmt::format("output '{}' must end in .exr", output_));
-    png_ =
-        o_.png.empty() ? std::filesystem::path(output_).replace_extension(".png").string() : o_.png;
+    png_ = previewPngPath(output_, o_.png);
     statePath_ = cb::renderStatePath(output_);
 }
 

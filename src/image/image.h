@@ -54,18 +54,4 @@ void writePng(const std::string& path, const RgbImage& image, float key = 0.18f)
 void writePng8(const std::string& path, int width, int height,
                const std::vector<std::uint8_t>& rgb);
 
-// Write `bytes` to `path` atomically (temporary file in the same folder, then rename).
-void writeFileAtomically(const std::string& path, const std::string& bytes);
-// Throws std::runtime_error naming `what` and `path` unless a file can be created at `path`
-// (its folder exists and is writable, and it is not a folder, and the path does not start with
-// '-', the mark of an option that took a file name's place): checked before long work. Leaves
-// nothing behind and never touches an existing file at `path`.
-void requireWritable(const std::string& path, const std::string& what);
-// Where to keep work when its own destination cannot be written: `name` in $TMPDIR (or /tmp),
-// else in the current folder; the first folder where a file can be created. Throws if none.
-std::string fallbackPath(const std::string& name);
-// Temporary name next to `path` for writers that need a file name (OpenEXR, libpng).
-std::string temporarySiblingPath(const std::string& path);
-void commitTemporary(const std::string& temporary, const std::string& path);
-
 } // namespace cb

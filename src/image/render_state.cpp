@@ -1,12 +1,11 @@
 #include "image/render_state.h"
 
 #include "cl/embedded_kernels.h"
+#include "io/files.h"
 
 #include <fmt/format.h>
 
 #include <cstring>
-#include <fstream>
-#include <iterator>
 #include <stdexcept>
 #include <utility>
 
@@ -58,13 +57,6 @@ std::uint64_t fnv1a(std::uint64_t h, const std::string& bytes) {
     return h;
 }
 
-std::string readWholeFile(const std::string& path, const std::string& what) {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw std::runtime_error(fmt::format("cannot read {} {}", what, path));
-    std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    if (in.bad()) throw std::runtime_error(fmt::format("cannot read {} {}", what, path));
-    return bytes;
-}
 } // namespace
 
 std::string renderStatePath(const std::string& exrPath) {
@@ -267,21 +259,17 @@ RenderState decodeRenderState(const std::string& bytes, const std::string& path)
 }
 
 RenderState loadRenderState(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw std::runtime_error(fmt::format("cannot read the render state {}", path));
-    std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    return decodeRenderState(bytes, path);
+    return decodeRenderState(readWholeFile(path, "the render state"), path);
 }
 
 void resumeRenderState(const std::string& path, const RenderIdentity& identity,
                        EstimateAccumulator& accumulator) {
-    std::ifstream probe(path, std::ios::binary);
-    if (!probe)
+    std::error_code ec;
+    if (!std::filesystem::exists(path, ec))
         throw std::runtime_error(fmt::format(
             "--resume: no saved state at {} (it is written periodically, when a render is "
             "interrupted, and with --keep-state)",
             path));
-    probe.close();
     RenderState state = loadRenderState(path);
     const auto differences = identityDifferences(state.identity, identity);
     if (!differences.empty()) {

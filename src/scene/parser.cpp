@@ -5,6 +5,7 @@
 // orientation, material, area light) saved and restored by AttributeBegin/AttributeEnd. Unlike
 // pbrt, nothing is ever ignored with a warning: anything outside the subset is a SceneError
 // that points at the offending token.
+#include "io/files.h"
 #include "scene/ply.h"
 #include "scene/scene_desc.h"
 #include "scene/transform.h"
@@ -15,7 +16,6 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
-#include <fstream>
 #include <iostream>
 #include <limits>
 #include <map>
@@ -425,15 +425,6 @@ void requireText(const std::string& bytes, const SourceLocation& where, const st
     const std::string what = describeNonTextFile(bytes);
     if (!what.empty())
         throw SceneError(where, "\"" + path + "\" is " + what + ", not a pbrt scene (text)");
-}
-
-std::string readWholeFile(const std::string& path, bool& ok) {
-    std::ifstream f(path, std::ios::binary);
-    ok = static_cast<bool>(f);
-    if (!ok) return {};
-    std::string s((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
-    ok = !f.bad();
-    return s;
 }
 
 fs::path canonicalKey(const std::string& path) {
@@ -1707,9 +1698,10 @@ class Parser {
             for (const auto& f : files_)
                 if (f->key == key)
                     throw SceneError(name.where, "recursive Include of \"" + path + "\"");
-            bool ok = false;
-            std::string text = readWholeFile(path, ok);
-            if (!ok) throw SceneError(name.where, "cannot read included file \"" + path + "\"");
+            std::string text;
+            if (!tryReadWholeFile(path, text))
+                throw SceneError(name.where, "cannot read included file \"" + path +
+                                                 "\": " + unreadableReason(path));
             requireText(text, name.where, path);
             scene_.sourceFiles.push_back(path);
             files_.push_back(std::make_unique<SourceFile>(
@@ -1758,9 +1750,10 @@ SceneDesc parseSceneString(const std::string& text, const std::string& virtualPa
 }
 
 SceneDesc parseSceneFile(const std::string& path) {
-    bool ok = false;
-    std::string text = readWholeFile(path, ok);
-    if (!ok) throw SceneError(SourceLocation{path, 0, 0}, "cannot open scene file");
+    std::string text;
+    if (!tryReadWholeFile(path, text))
+        throw SceneError(SourceLocation{path, 0, 0},
+                         "cannot read the scene file: " + unreadableReason(path));
     SceneDesc scene = parseSceneString(text, path);
     scene.sourceFiles.insert(scene.sourceFiles.begin(), path);
     return scene;

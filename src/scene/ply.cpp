@@ -1,5 +1,6 @@
 #include "scene/ply.h"
 
+#include "io/files.h"
 #include "scene/scene_desc.h"
 
 #include <bit>
@@ -7,7 +8,6 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
-#include <fstream>
 #include <limits>
 #include <optional>
 #include <sstream>
@@ -511,10 +511,10 @@ PlyMesh readPlyFromMemory(const std::string& bytes, const std::string& path) {
 }
 
 PlyMesh readPly(const std::string& path) {
-    std::ifstream f(path, std::ios::binary);
-    if (!f) throw SceneError(SourceLocation{path, 0, 0}, "cannot open PLY file");
-    std::string bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
-    if (f.bad()) throw SceneError(SourceLocation{path, 0, 0}, "error reading PLY file");
+    std::string bytes;
+    if (!tryReadWholeFile(path, bytes))
+        throw SceneError(SourceLocation{path, 0, 0},
+                         "cannot read the PLY file: " + unreadableReason(path));
     return readPlyFromMemory(bytes, path);
 }
 

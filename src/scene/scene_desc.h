@@ -16,7 +16,7 @@ struct SourceLocation {
     std::string file;
     int line = 0;
     int column = 0;
-    std::string str() const; // "file:line:column"
+    std::string str() const; // "file:line:column"; "file" alone when line is 0 (the whole file)
 };
 
 // `text` with every byte that is not printable ASCII, a tab, a newline or part of a valid UTF-8
@@ -27,7 +27,8 @@ std::string printableText(const std::string& text);
 // binary file"); empty when it looks like text.
 std::string describeNonTextFile(const std::string& bytes);
 
-// Thrown for every malformed input; what() is "file:line:column: message", made printable.
+// Thrown for every malformed input; what() is "file:line:column: message" (or "file: message"
+// for the whole file), made printable.
 class SceneError : public std::runtime_error {
   public:
     SceneError(const SourceLocation& where, const std::string& message);

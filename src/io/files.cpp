@@ -1,0 +1,123 @@
+#include "io/files.h"
+
+#include <fmt/format.h>
+
+#include <cerrno>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <stdexcept>
+#include <unistd.h>
+#include <vector>
+
+namespace cb {
+
+bool tryReadWholeFile(const std::string& path, std::string& bytes) {
+    // A folder opens as a stream on Linux and fails only when read, with an exception.
+    std::error_code ec;
+    if (std::filesystem::is_directory(path, ec)) return false;
+    std::ifstream f(path, std::ios::binary);
+    if (!f) return false;
+    try {
+        bytes.assign(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
+    } catch (const std::ios_base::failure&) {
+        return false;
+    }
+    return !f.bad();
+}
+
+std::string unreadableReason(const std::string& path) {
+    std::error_code ec;
+    const auto status = std::filesystem::status(path, ec);
+    if (!std::filesystem::exists(status)) return "no such file";
+    if (std::filesystem::is_directory(status)) return "it is a folder, not a file";
+    std::ifstream probe(path, std::ios::binary);
+    if (!probe) return errno != 0 ? std::string(std::strerror(errno)) : "it cannot be opened";
+    return "reading it failed";
+}
+
+std::string readWholeFile(const std::string& path, const std::string& what) {
+    std::string bytes;
+    if (!tryReadWholeFile(path, bytes))
+        throw std::runtime_error(
+            fmt::format("cannot read {} {}: {}", what, path, unreadableReason(path)));
+    return bytes;
+}
+
+std::string temporarySiblingPath(const std::string& path) {
+    std::filesystem::path p(path);
+    // Appended piece by piece: GCC 12 warns falsely (-Wrestrict, its bug 105651) on
+    // "." + std::string&&.
+    std::string name = ".";
+    name += p.filename().string();
+    name += ".tmp.";
+    name += std::to_string(::getpid());
+    return (p.parent_path() / name).string();
+}
+
+void commitTemporary(const std::string& temporary, const std::string& path) {
+    std::error_code ec;
+    std::filesystem::rename(temporary, path, ec);
+    if (ec) {
+        std::filesystem::remove(temporary);
+        throw std::runtime_error("cannot write " + path + ": " + ec.message());
+    }
+}
+
+void requireWritable(const std::string& path, const std::string& what) {
+    namespace fs = std::filesystem;
+    // `--stats -q` gives --stats the path "-q": an option that took a file name's place.
+    if (!path.empty() && path[0] == '-')
+        throw std::runtime_error(fmt::format(
+            "cannot write {} {}: a path that starts with '-' is probably an option that took the "
+            "file name's place; write ./{} for a file of that name",
+            what, path, path));
+    const fs::path p(path);
+    std::error_code ec;
+    if (fs::is_directory(p, ec))
+        throw std::runtime_error(fmt::format("cannot write {} {}: it is a folder", what, path));
+    const fs::path folder = p.parent_path().empty() ? fs::path(".") : p.parent_path();
+    if (!fs::is_directory(folder, ec))
+        throw std::runtime_error(fmt::format("cannot write {} {}: the folder {} does not exist",
+                                             what, path, folder.string()));
+    const std::string probe = temporarySiblingPath(path) + ".probe";
+    std::FILE* f = std::fopen(probe.c_str(), "wb");
+    if (!f)
+        throw std::runtime_error(fmt::format("cannot write {} {}: cannot create files in {} ({})",
+                                             what, path, folder.string(), std::strerror(errno)));
+    std::fclose(f);
+    fs::remove(probe, ec);
+}
+
+std::string fallbackPath(const std::string& name) {
+    std::vector<std::string> folders;
+    if (const char* tmp = std::getenv("TMPDIR"); tmp && *tmp) folders.push_back(tmp);
+    folders.push_back("/tmp");
+    folders.push_back(".");
+    for (const auto& folder : folders) {
+        const std::string path = (std::filesystem::path(folder) / name).string();
+        try {
+            requireWritable(path, "fallback");
+            return path;
+        } catch (const std::exception&) {
+        }
+    }
+    throw std::runtime_error("no folder to keep the work in: $TMPDIR, /tmp and the current "
+                             "folder are not writable");
+}
+
+void writeFileAtomically(const std::string& path, const std::string& bytes) {
+    std::string tmp = temporarySiblingPath(path);
+    {
+        std::ofstream out(tmp, std::ios::binary);
+        if (!out) throw std::runtime_error("cannot create " + tmp);
+        out.write(bytes.data(), std::streamsize(bytes.size()));
+        if (!out) throw std::runtime_error("cannot write " + tmp);
+    }
+    commitTemporary(tmp, path);
+}
+
+} // namespace cb
