@@ -1507,10 +1507,11 @@ class Parser {
         const bool full = phimax >= 360.0;
         const int ringVertices = full ? segments : segments + 1;
         std::vector<std::array<double, 3>> pos;
-        auto ring = [&](double r) {
+        // A copy of the binding: clang 14 (the fuzz build) cannot capture structured bindings.
+        auto ring = [&, z = height](double r) {
             for (int i = 0; i < ringVertices; ++i) {
                 const double phi = dphi * i;
-                pos.push_back({k * r * std::cos(phi), k * r * std::sin(phi), height});
+                pos.push_back({k * r * std::cos(phi), k * r * std::sin(phi), z});
             }
         };
         std::vector<std::array<unsigned, 3>> tris;
