@@ -248,9 +248,16 @@ with tempfile.TemporaryDirectory() as tmp:
                  ["--weights", "foo"], ["--channels", "foo"], ["--width", "12x"],
                  ["--png", os.path.join(tmp, "preview.jpg")]):
         r = run("render", scene, "-o", out, *args)
-        check(r.returncode != 0 and args[0] in r.stderr and not os.path.exists(out),
+        check(r.returncode in (1, 2) and args[0] in r.stderr and not os.path.exists(out),
               f"render {' '.join(args)} is refused naming the option ({r.returncode}: "
               f"{r.stderr.strip()})")
+    # Exit status: 2 for a command line CLI11 refuses, 1 for a failure while running, 0 for --help.
+    for args, status in ((["render", scene, "--width", "0"], 2), (["render", scene, "--frob"], 2),
+                         ([], 2), (["render"], 2), (["render", "--help"], 0),
+                         (["render", os.path.join(tmp, "none.pbrt"), "-o", out], 1)):
+        r = run(*args)
+        check(r.returncode == status,
+              f"cbdpt {' '.join(args)} exits {status} ({r.returncode}: {r.stderr.strip()[:200]})")
     # An output path that starts with '-' is an option that took a file name's place
     # (`--stats -q`): refused before rendering, naming it, with nothing written.
     r = subprocess.run([cbdpt, "render", scene, "-o", out, "--spp", "1", "--width", "16",

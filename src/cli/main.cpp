@@ -69,7 +69,12 @@ int main(int argc, char** argv) {
         cb::cli::addInfoCommand(app),   cb::cli::addCombineCommand(app),
         cb::cli::addMergeCommand(app),
     };
-    CLI11_PARSE(app, argc, argv);
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+        // CLI11 prints the message (or --help); a wrong command line exits 2, as the scripts do.
+        return app.exit(e) == 0 ? 0 : 2;
+    }
     try {
         for (const auto& command : commands)
             if (*command.subcommand) return command.run();
