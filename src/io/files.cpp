@@ -34,6 +34,7 @@ std::string unreadableReason(const std::string& path) {
     const auto status = std::filesystem::status(path, ec);
     if (!std::filesystem::exists(status)) return "no such file";
     if (std::filesystem::is_directory(status)) return "it is a folder, not a file";
+    errno = 0; // so that a failed open below reports its own cause, not an earlier one
     std::ifstream probe(path, std::ios::binary);
     if (!probe) return errno != 0 ? std::string(std::strerror(errno)) : "it cannot be opened";
     return "reading it failed";
