@@ -56,6 +56,8 @@ add_test(NAME equal_time_regions COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_
 # matrices against docs/spectral.md, refusals naming file and line, the error at equal time.
 add_test(NAME compare_mitsuba COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_compare_mitsuba.py $<TARGET_FILE:cbdpt> ${CMAKE_SOURCE_DIR})
 set_tests_properties(compare_mitsuba PROPERTIES TIMEOUT 300)
+# Every repository path the README and docs/ name exists (docs describe the present).
+add_test(NAME docs_paths COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_docs_paths.py ${CMAKE_SOURCE_DIR})
 # scripts/report's answers to the thesis's claims on synthetic units with known cost and error
 # ratios: bands apart and overlapping, each claim's count of where it holds.
 add_test(NAME report_claims COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_report_claims.py ${CMAKE_SOURCE_DIR})
