@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include <cstring>
+#include <filesystem>
 #include <stdexcept>
 #include <utility>
 

@@ -32,6 +32,9 @@ bool tryReadWholeFile(const std::string& path, std::string& bytes) {
 std::string unreadableReason(const std::string& path) {
     std::error_code ec;
     const auto status = std::filesystem::status(path, ec);
+    // A folder on the way that may not be searched fails here, not as "no such file".
+    if (ec && ec != std::errc::no_such_file_or_directory && ec != std::errc::not_a_directory)
+        return ec.message();
     if (!std::filesystem::exists(status)) return "no such file";
     if (std::filesystem::is_directory(status)) return "it is a folder, not a file";
     errno = 0; // so that a failed open below reports its own cause, not an earlier one

@@ -92,7 +92,6 @@ std::string describeNonTextFile(const std::string& bytes) {
 
 std::string SourceLocation::str() const {
     if (line <= 0) return file; // the whole file: it could not be read, or its content is wrong
-    if (column <= 0) return file + ":" + std::to_string(line);
     return file + ":" + std::to_string(line) + ":" + std::to_string(column);
 }
 
