@@ -351,9 +351,7 @@ with tempfile.TemporaryDirectory() as tmp:
     # --cropwindow as pbrt: fractions x0 x1 y0 y1 of the film, pixels ceil(W x0)..ceil(W x1);
     # the image is the crop. Its pixels estimate the same values as the same pixels of the full
     # film: region means agree within 5 standard errors (the renders are independent).
-    sys.path.insert(0, os.path.join(root, "scripts"))
     import numpy as np  # noqa: E402
-    import cbdpt_results as cr  # noqa: E402
     full, crop = os.path.join(tmp, "full.exr"), os.path.join(tmp, "crop.exr")
     for integrator in ("pt", "bdpt"):
         common = ["--integrator", integrator, "--eye-vertices", "5", "--spp", "32", "--width",
