@@ -13,8 +13,6 @@ import sys
 import tempfile
 
 root = os.path.abspath(sys.argv[1])
-sys.path.insert(0, os.path.join(root, "scripts"))
-import cbdpt_results as cr  # noqa: E402
 from checks import check, finish  # noqa: E402
 
 SEEDS = [1, 2, 3, 4]

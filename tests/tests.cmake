@@ -58,6 +58,8 @@ add_test(NAME compare_mitsuba COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_com
 set_tests_properties(compare_mitsuba PROPERTIES TIMEOUT 300)
 # Every repository path the README and docs/ name exists (docs describe the present).
 add_test(NAME docs_paths COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_docs_paths.py ${CMAKE_SOURCE_DIR})
+# pyflakes finds nothing in the Python of scripts/ and tests/ (warnings on, no warnings).
+add_test(NAME python_lint COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_python_lint.py ${CMAKE_SOURCE_DIR})
 # scripts/report's answers to the thesis's claims on synthetic units with known cost and error
 # ratios: bands apart and overlapping, each claim's count of where it holds.
 add_test(NAME report_claims COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_report_claims.py ${CMAKE_SOURCE_DIR})
