@@ -1,16 +1,20 @@
 // Exact sums, estimate sets and the portable render state: merges of shards in any order give
 // the bits of one render, and every truncation or byte flip of a state file is refused cleanly.
 #include "image/accumulator.h"
+#include "image/image.h"
 #include "image/render_state.h"
+#include "io/files.h"
 
 #include <doctest/doctest.h>
 
 #include <algorithm>
 #include <cmath>
+#include <csignal>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <random>
+#include <sys/resource.h>
 
 namespace {
 
@@ -247,6 +251,68 @@ TEST_CASE("render state: resume refuses another render, saving is atomic") {
     std::filesystem::remove(path);
     CHECK_THROWS_WITH_AS(cb::resumeRenderState(path, identity(), other),
                          doctest::Contains("no saved state"), std::runtime_error);
+}
+
+namespace {
+
+// Writes in its scope fail past `bytes` (RLIMIT_FSIZE, EFBIG; SIGXFSZ ignored): a disk that fills
+// up, without needing root to mount a small one.
+class FileSizeLimit {
+  public:
+    explicit FileSizeLimit(rlim_t bytes) {
+        getrlimit(RLIMIT_FSIZE, &saved_);
+        previousHandler_ = std::signal(SIGXFSZ, SIG_IGN);
+        rlimit limit = saved_;
+        limit.rlim_cur = bytes;
+        setrlimit(RLIMIT_FSIZE, &limit);
+    }
+    ~FileSizeLimit() {
+        setrlimit(RLIMIT_FSIZE, &saved_);
+        std::signal(SIGXFSZ, previousHandler_);
+    }
+    FileSizeLimit(const FileSizeLimit&) = delete;
+    FileSizeLimit& operator=(const FileSizeLimit&) = delete;
+
+  private:
+    rlimit saved_{};
+    void (*previousHandler_)(int) = SIG_DFL;
+};
+
+// Nothing at `path` and no temporary file beside it.
+bool leftNothing(const std::filesystem::path& folder) {
+    return std::filesystem::is_empty(folder);
+}
+
+} // namespace
+
+TEST_CASE("a write that fails at the end is reported and leaves no file") {
+    // 3000 bytes stay in the stream's buffer until it is flushed or closed, where a full disk
+    // answers: an empty state had been renamed into place as if written (exit 0).
+    const auto folder = std::filesystem::temp_directory_path() / "cbdpt_test_full_disk";
+    std::filesystem::remove_all(folder);
+    std::filesystem::create_directories(folder);
+    const std::string state = (folder / "r.exr.state").string();
+    const auto acc = render(0, 3, 8, 8, true);
+    {
+        FileSizeLimit limit(1000);
+        CHECK_THROWS_WITH_AS(
+            cb::writeFileAtomically((folder / "s.json").string(), std::string(3000, 'x')),
+            doctest::Contains("cannot write"), std::runtime_error);
+        CHECK_THROWS_WITH_AS(cb::saveRenderState(state, identity(), acc),
+                             doctest::Contains(("cannot write " + state).c_str()),
+                             std::runtime_error);
+        CHECK_THROWS_WITH_AS(cb::writeExr((folder / "r.exr").string(), render(0, 1, 32, 32).mean()),
+                             doctest::Contains("cannot write"), std::runtime_error);
+    }
+    CHECK(leftNothing(folder));
+    // Under the limit the same writes succeed.
+    cb::writeFileAtomically((folder / "s.json").string(), std::string(3000, 'x'));
+    cb::saveRenderState(state, identity(), acc);
+    CHECK(std::filesystem::file_size(folder / "s.json") == 3000);
+    cb::EstimateAccumulator resumed(8, 8);
+    cb::resumeRenderState(state, identity(), resumed);
+    CHECK(resumed.estimates() == 3);
+    std::filesystem::remove_all(folder);
 }
 
 TEST_CASE("scene content hash: bytes, not names") {

@@ -9,6 +9,7 @@
 #include <ImfInputFile.h>
 #include <ImfIntAttribute.h>
 #include <ImfOutputFile.h>
+#include <ImfStdIO.h>
 #include <ImfStringAttribute.h>
 #include <png.h>
 
@@ -21,6 +22,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <stdexcept>
 #include <unistd.h>
 
@@ -67,12 +69,23 @@ void writeExr(const std::string& path, const std::vector<ExrLayer>& layers,
         }
     }
     std::string tmp = temporarySiblingPath(path);
+    // Our own stream, checked once OpenEXR is done: its OutputFile writes the line offsets when
+    // it is destroyed and swallows a failure there (a disk that filled up at the end).
+    std::ofstream stream(tmp, std::ios::binary);
     try {
-        Imf::OutputFile file(tmp.c_str(), header);
-        file.setFrameBuffer(fb);
-        file.writePixels(h);
+        if (!stream) throw std::runtime_error("cannot create " + tmp);
+        {
+            Imf::StdOFStream exrStream(stream, tmp.c_str());
+            Imf::OutputFile file(exrStream, header);
+            file.setFrameBuffer(fb);
+            file.writePixels(h);
+        }
+        stream.close();
+        if (stream.fail()) throw std::runtime_error("the file system refused the last bytes");
     } catch (const std::exception& e) {
-        std::filesystem::remove(tmp);
+        stream.close();
+        std::error_code ignored;
+        std::filesystem::remove(tmp, ignored);
         throw std::runtime_error("cannot write " + path + ": " + e.what());
     }
     commitTemporary(tmp, path);

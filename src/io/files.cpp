@@ -113,13 +113,39 @@ std::string fallbackPath(const std::string& name) {
                              "folder are not writable");
 }
 
+namespace {
+
+// fsync, where the file system has it (some answer EINVAL or ENOTSUP: nothing to wait for).
+bool syncToDisk(std::FILE* f) {
+    if (::fsync(::fileno(f)) == 0) return true;
+    if (errno == EINVAL || errno == ENOTSUP || errno == ENOSYS) {
+        errno = 0;
+        return true;
+    }
+    return false;
+}
+
+} // namespace
+
 void writeFileAtomically(const std::string& path, const std::string& bytes) {
-    std::string tmp = temporarySiblingPath(path);
-    {
-        std::ofstream out(tmp, std::ios::binary);
-        if (!out) throw std::runtime_error("cannot create " + tmp);
-        out.write(bytes.data(), std::streamsize(bytes.size()));
-        if (!out) throw std::runtime_error("cannot write " + tmp);
+    const std::string tmp = temporarySiblingPath(path);
+    std::FILE* f = std::fopen(tmp.c_str(), "wb");
+    if (!f)
+        throw std::runtime_error(
+            fmt::format("cannot write {}: cannot create {} ({})", path, tmp, std::strerror(errno)));
+    // A full disk may fail only when the buffer is flushed or the file closed, so every step is
+    // checked (a failure at close had renamed an empty file into place), and the data reaches
+    // the disk before the rename makes it the file (a power cut must not leave an empty one).
+    errno = 0;
+    bool ok = std::fwrite(bytes.data(), 1, bytes.size(), f) == bytes.size();
+    ok = ok && std::fflush(f) == 0 && syncToDisk(f);
+    const int error = errno;
+    ok = std::fclose(f) == 0 && ok;
+    if (!ok) {
+        const std::string reason = std::strerror(error != 0 ? error : errno);
+        std::error_code ignored;
+        std::filesystem::remove(tmp, ignored);
+        throw std::runtime_error(fmt::format("cannot write {}: {}", path, reason));
     }
     commitTemporary(tmp, path);
 }
