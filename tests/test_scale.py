@@ -132,6 +132,9 @@ with tempfile.TemporaryDirectory() as tmp:
         r = run("merge", *states, "-o", P("keep.exr"))
         check(r.returncode != 0 and expect in r.stderr, f"merge {name} refused ({r.stderr.strip()})")
         check(data(P("keep.exr")) == b"precious", f"a refused merge ({name}) overwrites nothing")
+    r = run("merge", s0, "-o", P("keep.exr"), "--state", P("keep.exr"))
+    check(r.returncode != 0 and "one would overwrite the other" in r.stderr and
+          data(P("keep.exr")) == b"precious", f"merge with --state = -o refused ({r.stderr})")
 
     # Corrupted and truncated states through the command line: a clear error, no crash.
     good = data(s0)
@@ -169,6 +172,10 @@ with tempfile.TemporaryDirectory() as tmp:
             ("missing log folder", ["--log", P("no/such/a.csv")], "the log (--log)"),
             ("missing stats folder", ["--stats", P("no/such/a.json")], "the statistics"),
             ("output is a folder", ["-o", tmp + "/"], "output"),
+            ("statistics over the image", ["--stats", P("keep.exr")],
+             "the image (-o) and the statistics (--stats) are both"),
+            ("mlt --keep-state", ["--integrator", "mlt", "--keep-state"],
+             "--keep-state is not supported for mlt"),
     ):
         out = [] if "-o" in extra else ["-o", P("keep.exr")]
         r = run("render", scene, "-q", *SIZE, *out, *extra)
@@ -194,6 +201,15 @@ with tempfile.TemporaryDirectory() as tmp:
         saved = run("merge", kill + ".state", "-o", P("saved.exr"))
         done = int(saved.stderr.split("state: ")[1].split(" ")[0]) if "state: " in saved.stderr else 0
         check(done > 0, f"the periodic state holds estimates ({saved.stderr.strip()})")
+        # The killed render's state is the only copy of its work: a new render to the same image
+        # without --resume is refused, and so is a total below what the state holds.
+        before = data(kill + ".state")
+        for extra, expect in (([], "holds estimates that no image shows"),
+                              (["--resume"], "is the total with --resume")):
+            r = run("render", scene, "-q", *big, "--spp", 1, "-o", kill, *extra)
+            check(r.returncode == 1 and expect in r.stderr and data(kill + ".state") == before,
+                  f"{' '.join(extra) or 'a new render'} over the killed state is refused and "
+                  f"leaves it ({r.stderr.strip()})")
         total = done + 2
         r = run("render", scene, "-q", *big, "--spp", total, "-o", kill, "--resume",
                 "--stats", P("kill.json"))
@@ -224,5 +240,39 @@ with tempfile.TemporaryDirectory() as tmp:
         r = run("merge", kept[0], "-o", P("rescued.exr"), "-q")
         check(r.returncode == 0 and os.path.exists(P("rescued.exr")),
               f"the kept state gives the image ({r.stderr})")
+
+    # A periodic save that fails (its folder vanished) warns and the render goes on; the final
+    # write keeps the work as above. For MLT too, whose one state alone gives its image.
+    for method, extra in (("pt", ["--save-state-every", "0.3"]),
+                          ("mlt", ["--integrator", "mlt", "--bootstrap", "1000"])):
+        gone = P(f"gone-{method}")
+        os.mkdir(gone)
+        p = subprocess.Popen([cbdpt, "render", scene, "-q", *big, "--spp", "100000", "--time", "4",
+                              "-o", os.path.join(gone, "a.exr"), *extra],
+                             stderr=subprocess.PIPE, text=True, env=env)
+        time.sleep(2)
+        shutil.rmtree(gone)
+        _, err = p.communicate(timeout=300)
+        kept = re.findall(r"are kept in (\S+);", err)
+        if method == "pt":
+            check("the render goes on" in err, f"a failed periodic save is a warning ({err})")
+        check(p.returncode == 1 and kept and os.path.exists(kept[0]),
+              f"{method}: the work of a render that lost its folder is kept ({err.strip()})")
+        if kept and os.path.exists(kept[0]):
+            r = run("merge", kept[0], "-o", P(f"rescued-{method}.exr"), "-q")
+            check(r.returncode == 0 and os.path.exists(P(f"rescued-{method}.exr")),
+                  f"{method}: the kept state gives the image ({r.stderr})")
+
+    # Ctrl-C on MLT: the image of the estimates done and no state, since its Markov chains
+    # cannot be resumed; so no advice to --resume either.
+    mlt_out = P("mlt.exr")
+    p = subprocess.Popen([cbdpt, "render", scene, *big, "--integrator", "mlt", "--spp", "100000",
+                          "--bootstrap", "1000", "-o", mlt_out], stderr=subprocess.PIPE, text=True)
+    time.sleep(3)
+    p.send_signal(signal.SIGINT)
+    _, err = p.communicate(timeout=300)
+    check(p.returncode == 130 and os.path.exists(mlt_out) and
+          not os.path.exists(mlt_out + ".state") and "--resume" not in err,
+          f"an interrupted mlt render writes its image and no state ({p.returncode}: {err})")
 
 finish()

@@ -36,6 +36,22 @@ std::string previewPngPath(const std::string& output, const std::string& png) {
     return png;
 }
 
+void requireDistinctOutputs(const std::vector<std::pair<std::string, std::string>>& outputs) {
+    namespace fs = std::filesystem;
+    for (size_t i = 0; i < outputs.size(); ++i)
+        for (size_t j = 0; j < i; ++j) {
+            const auto& [path, what] = outputs[i];
+            const auto& [otherPath, otherWhat] = outputs[j];
+            if (path.empty() || otherPath.empty()) continue;
+            std::error_code ec;
+            // Compared as absolute, normalised paths: ./a.exr and a.exr are one file.
+            if (fs::absolute(path, ec).lexically_normal() ==
+                fs::absolute(otherPath, ec).lexically_normal())
+                throw std::invalid_argument(fmt::format(
+                    "{} and {} are both {}: one would overwrite the other", otherWhat, what, path));
+        }
+}
+
 void installStopHandler() {
     std::signal(SIGINT, onStopSignal);
     std::signal(SIGTERM, onStopSignal);

@@ -32,6 +32,9 @@ int runMerge(MergeOptions& o) {
     namespace fs = std::filesystem;
     o.png = previewPngPath(o.output, o.png);
     // Outputs are checked before any state is read; nothing is written unless all succeeds.
+    requireDistinctOutputs({{o.output, "the image (-o)"},
+                            {o.png, "the PNG (--png)"},
+                            {o.state, "the merged state (--state)"}});
     cb::requireWritable(o.output, "the image (-o)");
     cb::requireWritable(o.png, "the PNG (--png)");
     if (!o.state.empty()) cb::requireWritable(o.state, "the merged state (--state)");
@@ -45,10 +48,11 @@ int runMerge(MergeOptions& o) {
                     o.states[i]));
         }
     cb::RenderState merged = cb::loadRenderState(o.states.front());
-    if (merged.identity.settings.value("integrator", "") == "mlt")
+    // One mlt state alone gives its image (a render whose final write failed keeps one).
+    if (o.states.size() > 1 && merged.identity.settings.value("integrator", "") == "mlt")
         throw std::invalid_argument(fmt::format(
             "{} is an mlt render: its estimates are steps of Markov chains, not independent, so "
-            "mlt states are not merged",
+            "mlt states are not merged with others",
             o.states.front()));
     for (size_t i = 1; i < o.states.size(); ++i) {
         cb::RenderState next = cb::loadRenderState(o.states[i]);
@@ -71,10 +75,11 @@ int runMerge(MergeOptions& o) {
         merged.accumulator.merge(next.accumulator);
     }
     const cb::RgbImage mean = merged.accumulator.mean();
-    if (!o.state.empty()) cb::saveRenderState(o.state, merged.identity, merged.accumulator);
     // The halves and the render record too, so a merged image can be combined (docs/combine.md).
     cb::writeRenderExr(o.output, merged.accumulator, cb::renderRecordFromIdentity(merged.identity));
     cb::writePng(o.png, mean);
+    // The merged state last: it is written only when the image was.
+    if (!o.state.empty()) cb::saveRenderState(o.state, merged.identity, merged.accumulator);
     if (!o.quiet)
         fmt::print(stderr, "cbdpt: merged {} state{}: {} estimates ({}); wrote {} and {}{}\n",
                    o.states.size(), o.states.size() == 1 ? "" : "s", merged.accumulator.estimates(),

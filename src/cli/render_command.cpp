@@ -99,6 +99,7 @@ class RenderJob {
     void readReference();
     void buildScene();
     void applyPathOptions();
+    void refuseMltContinuation() const;
     void chooseOutputPaths();
     void startIntegrator();
     void startAccumulator();
@@ -106,6 +107,7 @@ class RenderJob {
     void warmUp();
     void openLog();
     void onCheckpoint(const cb::Checkpoint& c);
+    void evaluateCheckpoint(const cb::Checkpoint& c);
     cb::RenderOutcome renderWithProgress(const cb::RenderLimits& limits);
     int finish(const cb::RenderOutcome& outcome);
     void writeOutputs(const cb::RenderOutcome& outcome, const cb::EstimateAccumulator& image);
@@ -138,6 +140,10 @@ class RenderJob {
     double warmupSeconds_ = 0.0;
     std::optional<CheckpointLog> log_;
     double checkpointSeconds_ = 0.0;
+    // The first failure of a periodic state save and of a checkpoint output (--log,
+    // --checkpoint-images): the render goes on and reports them at the end.
+    std::string stateSaveFailure_;
+    std::string checkpointOutputFailure_;
     cb::RgbImage mean_;
     cb::RgbImage error_;
     long estimates_ = 0; // in the written image (every rank's)
@@ -161,6 +167,7 @@ int RenderJob::runSteps() {
     joinTeam();
     readSceneDescription();
     readShard();
+    refuseMltContinuation();
     readCheckpointRequests();
     chooseOutputPaths();
     checkOutputs();
@@ -245,6 +252,18 @@ void RenderJob::applySceneDefaults() {
     }
 }
 
+// MLT's Markov chains carry their state from one estimate to the next and are not saved, so its
+// renders cannot be continued or extended; refused before the scene is built.
+void RenderJob::refuseMltContinuation() const {
+    if (o_.integrator.name != "mlt") return;
+    if (o_.resume)
+        throw std::invalid_argument("--resume is not supported for mlt: its Markov chains "
+                                    "are not saved");
+    if (o_.keepState)
+        throw std::invalid_argument("--keep-state is not supported for mlt: its Markov chains are "
+                                    "not saved, so the render cannot be extended");
+}
+
 // --estimates A:B: a shard of a render, estimate indices A to B-1.
 void RenderJob::readShard() {
     if (o_.estimateRange.empty()) return;
@@ -321,10 +340,41 @@ void RenderJob::applyPathOptions() {
             o_.strategy));
 }
 
+namespace {
+
+// Whether the render state at `state` exists and the image at `output` is missing or older.
+bool unsavedState(const std::string& state, const std::string& output) {
+    namespace fs = std::filesystem;
+    std::error_code ec;
+    if (!fs::exists(state, ec)) return false;
+    if (!fs::exists(output, ec)) return true;
+    const auto stateTime = fs::last_write_time(state, ec);
+    if (ec) return true;
+    const auto outputTime = fs::last_write_time(output, ec);
+    return ec || outputTime < stateTime;
+}
+
+} // namespace
+
 // Every output is checked before the scene is built: a render must not run for hours and then
 // fail to write. Nothing is created or touched but the checkpoint image folder.
 void RenderJob::checkOutputs() const {
     if (!root_) return;
+    requireDistinctOutputs({{output_, "the image (-o)"},
+                            {png_, "the PNG (--png)"},
+                            {statePath_, "the render state"},
+                            {o_.statsPath, "the statistics (--stats)"},
+                            {o_.logPath, "the log (--log)"}});
+    // A state that no image shows (its render was killed, or could not write the image) is the
+    // only copy of that work: a new render would replace it. A state older than the image (kept
+    // with --keep-state, or left by Ctrl-C, which writes the image after it) is replaced with
+    // the image, as asked.
+    if (!o_.resume && unsavedState(statePath_, output_))
+        throw std::invalid_argument(fmt::format(
+            "{} holds estimates that no image shows (a render to {} was killed or could not write "
+            "it); continue it with --resume, write its image with: cbdpt merge {} -o IMAGE.exr, "
+            "or remove it to start over",
+            statePath_, output_, statePath_));
     cb::requireWritable(output_, "the image (-o)");
     cb::requireWritable(png_, "the PNG (--png)");
     cb::requireWritable(statePath_, "the render state");
@@ -369,10 +419,11 @@ void RenderJob::startAccumulator() {
     accumulator_->trackHalves();
     identity_ = cb::renderIdentity(o_.integrator, desc_, scene_);
     if (!o_.resume || !root_) return;
-    if (o_.integrator.name == "mlt")
-        throw std::invalid_argument("--resume is not supported for mlt: its Markov chains "
-                                    "are not saved");
     cb::resumeRenderState(statePath_, identity_, *accumulator_);
+    if (o_.sppGiven && !shard_ && accumulator_->estimates() > o_.spp)
+        throw std::invalid_argument(
+            fmt::format("--spp {} is the total with --resume, and {} holds {} estimates already",
+                        o_.spp, statePath_, accumulator_->estimates()));
     // The render time of the runs before, from the image they wrote, so the record's time
     // covers all the estimates.
     try {
@@ -458,8 +509,34 @@ void RenderJob::openLog() {
 void RenderJob::onCheckpoint(const cb::Checkpoint& c) {
     const cb::EstimateAccumulator& image = *c.image;
     // The periodic state: what a SIGKILL, the out-of-memory killer or a power cut would lose.
-    if (c.saveState) cb::saveRenderState(statePath_, identity_, image);
+    if (c.saveState) {
+        try {
+            cb::saveRenderState(statePath_, identity_, image);
+        } catch (const std::exception& e) {
+            // Insurance that failed must not end the render it insures: the final write keeps
+            // the work where it can (keepWork).
+            // A leading newline ends the progress bar's line.
+            if (stateSaveFailure_.empty())
+                fmt::print(stderr,
+                           "{}cbdpt: warning: {}; the render goes on, the state is saved again at "
+                           "the next period and at the end\n",
+                           o_.quiet ? "" : "\n", e.what());
+            stateSaveFailure_ = e.what();
+        }
+    }
     if (!c.evaluate || !wantCheckpoints_) return;
+    try {
+        evaluateCheckpoint(c);
+    } catch (const std::exception& e) {
+        if (checkpointOutputFailure_.empty())
+            fmt::print(stderr, "{}cbdpt: error: {}; the render goes on\n", o_.quiet ? "" : "\n",
+                       e.what());
+        checkpointOutputFailure_ = e.what();
+    }
+}
+
+void RenderJob::evaluateCheckpoint(const cb::Checkpoint& c) {
+    const cb::EstimateAccumulator& image = *c.image;
     const auto before = Clock::now();
     cb::NoiseEstimate noise = cb::estimateNoise(image);
     cb::ImageMetrics metrics;
@@ -533,6 +610,11 @@ int RenderJob::finish(const cb::RenderOutcome& outcome) {
                    estimates_, formatSeconds(outcome.renderSeconds),
                    outcome.renderSeconds / double(std::max(1L, outcome.estimatesRendered)), output_,
                    png_);
+    if (!checkpointOutputFailure_.empty()) {
+        fmt::print(stderr, "cbdpt: error: the checkpoint outputs are incomplete: {}\n",
+                   checkpointOutputFailure_);
+        return 1;
+    }
     return outcome.interrupted ? 130 : 0;
 }
 
@@ -541,7 +623,8 @@ void RenderJob::writeOutputs(const cb::RenderOutcome& outcome,
     mean_ = image.mean();
     error_ = image.standardError();
     // The state first: if anything below fails, the work is on disk already.
-    const bool keep = outcome.interrupted || o_.keepState;
+    // MLT's Markov chains are not saved, so its state could not be resumed or extended.
+    const bool keep = o_.integrator.name != "mlt" && (outcome.interrupted || o_.keepState);
     if (keep) cb::saveRenderState(statePath_, identity_, image);
     cb::writeRenderExr(output_, image, renderRecord(outcome));
     cb::writePng(png_, mean_);
