@@ -399,6 +399,8 @@ TEST_CASE("combine: each combination's bias on the furnace is within its bound" 
         s.eyeVertices = method == "pt" ? vertices : 3;
         s.lightVertices = 2;
         s.seed = seed;
+        // Independent halves, as the cross-weighted combinations need (a Sobol render's are not).
+        s.sampler = "independent";
         auto integrator = cb::makeIntegrator(s, scene, runtime);
         cb::EstimateAccumulator acc(scene.camera.width, scene.camera.height);
         acc.trackHalves();
@@ -409,6 +411,7 @@ TEST_CASE("combine: each combination's bias on the furnace is within its bound" 
         cb::RenderRecord record = syntheticRecord(method, seed);
         record.eyeVertices = s.eyeVertices;
         record.lightVertices = s.lightVertices;
+        record.sampler = s.sampler;
         return cb::combineInputFromAccumulator(acc, record, method + std::to_string(seed));
     };
     std::vector<cb::CombineInput> all{render("pt", 1, 64), render("cbdpt", 2, 32),

@@ -19,9 +19,11 @@ from checks import check, finish  # noqa: E402
 scene = os.path.join(root, "scenes", "cornell-box.pbrt")
 
 
-def render(out, *args):
+def render(out, *args, sampler="independent"):
+    """The independent sampler unless said: the combinations that weight one half of an input
+    by the other need independent halves, which a Sobol render's are not."""
     r = subprocess.run([cbdpt, "render", scene, "--width", "24", "--height", "24", "-o", out,
-                        "-q"] + list(args), capture_output=True, text=True)
+                        "-q", "--sampler", sampler] + list(args), capture_output=True, text=True)
     check(r.returncode == 0, f"render {args} exits 0 ({r.stderr.strip()})")
     return r
 
@@ -94,6 +96,39 @@ with tempfile.TemporaryDirectory() as tmp:
               f"{what} refused naming {words} ({r.returncode}: {r.stderr.strip()})")
 
     refused([pt1, pt1], ["not independent", "pt1.exr"], "the same render twice")
+    check(cr.read_exr_attributes(pt1).get("cbdpt_sampler") == "independent",
+          "the record names the sampler")
+    # The Sobol sampler: even and odd estimates (the halves) and disjoint estimate sets of one
+    # seed are parts of one randomised sequence, correlated, so what needs independence refuses.
+    so1, so2, so3 = (os.path.join(tmp, n) for n in ("so1.exr", "so2.exr", "so3.exr"))
+    render(so1, "--eye-vertices", "6", "--spp", "8", "--seed", "21", sampler="sobol")
+    render(so2, "--eye-vertices", "6", "--spp", "8", "--seed", "22", sampler="sobol")
+    for how in ("inverse-variance", "guided"):
+        refused([so1, cb1, "--how", how], ["needs independent halves", "so1.exr", "Sobol"],
+                f"{how} of a Sobol render")
+    r = combine(so1, so2, "--how", "mean", "-o", os.path.join(tmp, "so-mean.exr"))
+    check(r.returncode == 0, f"the mean of Sobol renders of two seeds runs ({r.stderr})")
+    render(so3, "--eye-vertices", "6", "--spp", "16", "--estimates", "8:16", "--seed", "21",
+           sampler="sobol")
+    refused([so1, so3, "--how", "mean"], ["one seed with the Sobol sampler", "cbdpt merge"],
+            "disjoint estimates of one Sobol seed")
+    in1, in2 = os.path.join(tmp, "in1.exr"), os.path.join(tmp, "in2.exr")
+    render(in1, "--eye-vertices", "6", "--spp", "8", "--estimates", "0:4", "--seed", "23")
+    render(in2, "--eye-vertices", "6", "--spp", "8", "--estimates", "4:8", "--seed", "23")
+    r = combine(in1, in2, "--how", "mean", "-o", os.path.join(tmp, "in-mean.exr"))
+    check(r.returncode == 0, f"disjoint estimates of one independent seed combine ({r.stderr})")
+    # Other parts of the film, and a one-strategy debugging image, are not the image.
+    top, bottom = os.path.join(tmp, "top.exr"), os.path.join(tmp, "bottom.exr")
+    render(top, "--eye-vertices", "6", "--spp", "4", "--seed", "24",
+           "--cropwindow", "0", "1", "0", "0.5")
+    render(bottom, "--eye-vertices", "6", "--spp", "4", "--seed", "25",
+           "--cropwindow", "0", "1", "0.5", "1")
+    refused([top, bottom, "--how", "mean"], ["different parts of the film", "0 24 0 12"],
+            "two crop windows of one size")
+    one = os.path.join(tmp, "strategy.exr")
+    render(one, "--integrator", "bdpt", "--eye-vertices", "3", "--light-vertices", "3",
+           "--strategy", "1,2", "--spp", "4", "--seed", "26")
+    refused([cb1, one, "--how", "mean"], ["renders only strategy 1,2"], "a --strategy image")
     pt8 = os.path.join(tmp, "pt8.exr")
     render(pt8, "--integrator", "pt", "--eye-vertices", "8", "--spp", "4", "--seed", "9")
     refused([pt1, pt8], ["vertex caps", "6 vs 8"], "other caps")

@@ -96,8 +96,11 @@ std::vector<CombineInput> renderInputs(const CombineOptions& o, nlohmann::json& 
         // caps it resolves to, as `cbdpt render` does.
         s.maxPathVertices = o.maxVertices;
         s = withResolvedCaps(s);
-        // Distinct seeds: the methods' random numbers must be independent.
+        // Distinct seeds: the methods' random numbers must be independent. The independent
+        // sampler: the combinations that weight one half of an input by the other need halves
+        // that are independent, which a Sobol render's are not (docs/combine.md).
         s.seed = o.seed + std::uint32_t(i);
+        s.sampler = "independent";
         split.methods.push_back(s);
     }
     SceneDesc desc = parseSceneFile(scenePath);
@@ -173,7 +176,10 @@ int runCombine(CombineOptions& o) {
     record.sceneFile = first.sceneFile;
     record.sceneHash = first.sceneHash;
     record.seed = first.seed;
+    record.pixelBounds = first.pixelBounds;
+    record.sampler = first.sampler;
     for (const auto& in : inputs) {
+        if (in.record.sampler != record.sampler) record.sampler = "mixed";
         record.estimates += in.record.estimates;
         record.renderSeconds += in.record.renderSeconds;
         record.renderCpuSeconds += in.record.renderCpuSeconds;

@@ -645,6 +645,7 @@ void RenderJob::writeOutputs(const cb::RenderOutcome& outcome,
 cb::RenderRecord RenderJob::renderRecord(const cb::RenderOutcome& outcome) const {
     cb::RenderRecord record = cb::makeRenderRecord(o_.integrator, o_.scene, identity_.sceneHash,
                                                    scene_.channels, outcome);
+    if (desc_.film.pixelBounds) record.pixelBounds = cb::pixelBoundsText(*desc_.film.pixelBounds);
     record.renderSeconds += previous_.renderSeconds;
     record.renderCpuSeconds += previous_.renderCpuSeconds;
     return record;

@@ -157,6 +157,12 @@ CombineInput combineInputFromAccumulator(const EstimateAccumulator& accumulator,
 
 void requireCombinable(const std::vector<CombineInput>& inputs) {
     if (inputs.empty()) throw std::invalid_argument("combine: no input images");
+    for (const CombineInput& in : inputs)
+        if (!in.record.strategy.empty())
+            throw std::invalid_argument(fmt::format(
+                "combine: {} renders only strategy {} (--strategy, unweighted), not the image; "
+                "render it without --strategy",
+                describe(in), in.record.strategy));
     const CombineInput& a = inputs[0];
     for (size_t i = 1; i < inputs.size(); ++i) {
         const CombineInput& b = inputs[i];
@@ -177,6 +183,12 @@ void requireCombinable(const std::vector<CombineInput>& inputs) {
             throw refuse(fmt::format("differ in colour channels ({} vs {}); render both with one "
                                      "--channels",
                                      ra.channels, rb.channels));
+        if (ra.pixelBounds != rb.pixelBounds)
+            throw refuse(fmt::format(
+                "are different parts of the film (pixel bounds {} vs {}): render both with one "
+                "--cropwindow",
+                ra.pixelBounds.empty() ? "the whole film" : ra.pixelBounds,
+                rb.pixelBounds.empty() ? "the whole film" : rb.pixelBounds));
         if (pathVertexCap(ra) != pathVertexCap(rb))
             throw refuse(fmt::format(
                 "differ in vertex caps (paths of up to {} vs {} vertices), so they compute "
@@ -190,6 +202,14 @@ void requireCombinable(const std::vector<CombineInput>& inputs) {
                     "combine: {} and {} use one seed and overlapping estimate numbers, so they "
                     "share random numbers and are not independent; render one with another "
                     "--seed",
+                    describe(inputs[j]), describe(b)));
+            // Disjoint estimates of one Sobol sequence are not independent either: they are
+            // parts of one randomised sequence, as shards of one render are.
+            if (rj.seed == rb.seed && (rj.sampler == "sobol" || rb.sampler == "sobol"))
+                throw std::invalid_argument(fmt::format(
+                    "combine: {} and {} use one seed with the Sobol sampler, so their estimates "
+                    "are parts of one randomised sequence and not independent; render one with "
+                    "another --seed (shards of one render are added with cbdpt merge)",
                     describe(inputs[j]), describe(b)));
         }
     }
@@ -281,6 +301,15 @@ CombineResult combine(const std::vector<CombineInput>& inputs, const CombineSett
         names += (names.empty() ? "" : ", ") + in.path;
     result.description = fmt::format("{} of {}", combinationName(s.how), names);
     auto requireHalves = [&] {
+        for (const auto& in : inputs)
+            if (in.record.sampler == "sobol")
+                throw std::invalid_argument(fmt::format(
+                    "combine: {} weights each half of an input by the other half, which needs "
+                    "independent halves; {} was rendered with the Sobol sampler, whose even and "
+                    "odd estimates are points of one randomised sequence (correlated, so the "
+                    "weights would bias the result: docs/combine.md). Render the inputs with "
+                    "--sampler independent, or use --how mean, median or reject",
+                    combinationName(s.how), in.path));
         for (const auto& in : inputs)
             if (!in.hasHalves || in.halfEstimates[0] < 2 || in.halfEstimates[1] < 2)
                 throw std::invalid_argument(fmt::format(

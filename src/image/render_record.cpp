@@ -20,6 +20,10 @@ int checkedInt(long value, const char* what) {
 }
 } // namespace
 
+std::string pixelBoundsText(const std::array<int, 4>& bounds) {
+    return fmt::format("{} {} {} {}", bounds[0], bounds[1], bounds[2], bounds[3]);
+}
+
 ExrAttributes toExrAttributes(const RenderRecord& r) {
     ExrAttributes a;
     a.strings["cbdpt_method"] = r.method;
@@ -27,6 +31,9 @@ ExrAttributes toExrAttributes(const RenderRecord& r) {
     a.strings["cbdpt_scene"] = r.sceneFile;
     a.strings["cbdpt_scene_hash"] = r.sceneHash;
     if (!r.inputs.empty()) a.strings["cbdpt_inputs"] = r.inputs;
+    if (!r.sampler.empty()) a.strings["cbdpt_sampler"] = r.sampler;
+    if (!r.pixelBounds.empty()) a.strings["cbdpt_pixel_bounds"] = r.pixelBounds;
+    if (!r.strategy.empty()) a.strings["cbdpt_strategy"] = r.strategy;
     a.ints["cbdpt_eye_vertices"] = r.eyeVertices;
     a.ints["cbdpt_light_vertices"] = r.lightVertices;
     a.ints["cbdpt_max_vertices"] = r.maxVertices;
@@ -75,6 +82,9 @@ RenderRecord renderRecordFromExr(const ExrAttributes& a, const std::string& path
     r.sceneFile = str("cbdpt_scene");
     r.sceneHash = str("cbdpt_scene_hash");
     r.inputs = str("cbdpt_inputs");
+    r.sampler = str("cbdpt_sampler");
+    r.pixelBounds = str("cbdpt_pixel_bounds");
+    r.strategy = str("cbdpt_strategy");
     r.eyeVertices = integer("cbdpt_eye_vertices");
     r.lightVertices = integer("cbdpt_light_vertices");
     // Absent from files written before the total-length cap was recorded: the caps alone.
@@ -112,6 +122,11 @@ RenderRecord renderRecordFromIdentity(const RenderIdentity& identity) {
     r.rouletteVertex = s.value("roulette_vertex", 0);
     r.seed = s.value("seed", std::uint32_t(0));
     r.channels = s.value("channels", 0);
+    r.sampler = r.method == "mlt" ? "mlt" : s.value("sampler", "");
+    if (s.contains("pixel_bounds"))
+        r.pixelBounds = pixelBoundsText(s["pixel_bounds"].get<std::array<int, 4>>());
+    if (const auto st = s.value("strategy", std::vector<int>{-1, -1}); st.size() == 2 && st[0] >= 0)
+        r.strategy = fmt::format("{},{}", st[0], st[1]);
     r.sceneHash = identity.sceneHash;
     return r;
 }

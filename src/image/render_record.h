@@ -6,6 +6,7 @@
 #include "image/image.h"
 #include "image/render_state.h"
 
+#include <array>
 #include <cstdint>
 #include <string>
 
@@ -20,6 +21,14 @@ struct RenderRecord {
     int coherenceTile = 0;
     int rouletteVertex = 0;
     std::uint32_t seed = 0;
+    // sobol | independent (the sample vectors, docs/sampling.md) | mlt (its chains' own samples);
+    // empty in files written before it was recorded. A Sobol render's estimates are points of
+    // one randomised sequence, so its halves (and its shards) are not independent.
+    std::string sampler;
+    // --cropwindow's pixel bounds of the full film, "x0 x1 y0 y1"; empty for the whole film.
+    std::string pixelBounds;
+    // --strategy S,T: one BDPT strategy, unweighted (a debugging image); empty otherwise.
+    std::string strategy;
     int channels = 0; // 3 (RGB) or 16 (spectral bins)
     int width = 0, height = 0;
     long estimates = 0;
@@ -32,6 +41,9 @@ struct RenderRecord {
     std::string sceneHash; // sceneContentHash of the scene file, its Includes and meshes
     std::string inputs;    // combinations: the input files
 };
+
+// --cropwindow's pixel bounds as RenderRecord::pixelBounds writes them.
+std::string pixelBoundsText(const std::array<int, 4>& bounds);
 
 // The record of a render from its state's identity (`cbdpt merge`): the scene file's name and
 // the render times are not in a state, so they are left empty and zero.
