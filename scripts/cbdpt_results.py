@@ -97,9 +97,11 @@ def machine():
 
 def git_revision(cbdpt):
     """The revision the cbdpt binary was built from (its --version), which is what the numbers
-    describe; the checkout's own revision when the binary does not say."""
+    describe, with "-dirty" when it was built from a modified tree (so that such a build never
+    passes for the clean one under --same-revision); the checkout's own revision when the binary
+    does not say."""
     r = subprocess.run([cbdpt, "--version"], capture_output=True, text=True)
-    match = re.search(r"\(git ([0-9a-f]+)", r.stdout)
+    match = re.search(r"\(git ([0-9a-f]+(?:-dirty)?)", r.stdout)
     if match:
         return match.group(1)
     r = subprocess.run(["git", "-C", ROOT, "describe", "--always", "--dirty"],

@@ -8,6 +8,7 @@ import json
 import math
 import os
 import re
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -127,16 +128,25 @@ with tempfile.TemporaryDirectory() as tmp:
     # The pipeline: scripts/experiment --quick in units, then scripts/report. PT and CBDPT only
     # (BDPT and CPT share the machinery), the two methods the combination units combine, so
     # that it stays a few minutes on a loaded machine.
-    units = P("units")
+    units, images = P("units"), P("images")
     experiment = [sys.executable, os.path.join(root, "scripts", "experiment"), "--quick",
-                  "--cbdpt", cbdpt, "--units", units, "--methods", "pt", "cbdpt"]
+                  "--cbdpt", cbdpt, "--units", units, "--images", images, "--methods", "pt",
+                  "cbdpt"]
     # --configs keeps only the configurations named.
     r = subprocess.run(experiment + ["--list", "--configs", "n8"], capture_output=True, text=True)
     listed = [line.split()[1] for line in r.stdout.splitlines() if line.startswith("  ")]
     check(r.returncode == 0 and listed and all("/n8/" in uid for uid in listed),
           f"--configs n8 lists only n8 units ({listed})")
+    # What a killed attempt of a unit left: its periodic state (no image shows it, so cbdpt would
+    # refuse to start over it) and a checkpoint image of its own. A unit starts from scratch.
+    stale = os.path.join(images, "cornell-box", "n8", "pt", "time-seed1")
+    os.makedirs(stale)
+    shutil.copy(P("ref.exr"), os.path.join(stale, "time-seed1-99999999.exr"))
+    with open(stale + ".exr.state", "wb") as f:
+        f.write(b"left by a killed attempt")
     r = subprocess.run(experiment + ["--seeds", "1"], capture_output=True, text=True)
     check(r.returncode == 0, f"experiment --quick exits 0 ({r.stdout[-500:]} {r.stderr[-500:]})")
+    check(not os.path.exists(stale + ".exr.state"), "a killed attempt's state is gone")
     records = {}
     for dirpath, _, files in os.walk(units):
         for name in files:
@@ -148,15 +158,20 @@ with tempfile.TemporaryDirectory() as tmp:
     check({"cornell-box/n8/pt/time-seed1", "cornell-box/4+4/cbdpt/time-seed1",
            "cornell-box/n8/cbdpt/thesis-seed1"} | combine_ids <= set(records),
           f"units written ({sorted(records)})")
+    pt_unit = records.get("cornell-box/n8/pt/time-seed1", {})
+    check("99999999" not in pt_unit.get("flip", {}) and
+          pt_unit.get("spectrum", {}).get("estimates") != 99999999,
+          f"a killed attempt's checkpoint image is not in the unit's record ({pt_unit.get('flip')})")
     for uid, rec in records.items():
         check(rec["status"] == "done" and rec["machine"]["cores"] >= 1 and
               len(rec["load_before"]) == 3 and rec["process_cpu_seconds"] > 0,
               f"{uid}: done, with machine, load and CPU seconds ({rec})")
-        # The speed probe: an estimate of a 128x128 PT render takes milliseconds of wall time, and
-        # its threads' CPU seconds are at least half that (one core busy, less the host's waits).
+        # The speed probe: an estimate of a 128x128 PT render takes milliseconds of wall and CPU
+        # time. No ratio of the two is asserted: on a loaded machine the render waits for a core,
+        # and the CPU seconds include the first estimate's kernel compilation.
         probe = rec["speed_probe"]
         check(1e-5 < probe["seconds_per_estimate"] < 1.0 and
-              0.5 * probe["seconds_per_estimate"] < probe["cpu_seconds_per_estimate"] < 1.0,
+              0 < probe["cpu_seconds_per_estimate"] < 1.0,
               f"{uid}: the speed probe's wall and CPU seconds per estimate ({probe})")
         _, lrows = cr.read_log(os.path.join(units, uid + ".csv"))
         check(len(lrows["estimates"]) >= 3, f"{uid}: log has checkpoint rows")

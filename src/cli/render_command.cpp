@@ -372,9 +372,10 @@ void RenderJob::checkOutputs() const {
     if (!o_.resume && unsavedState(statePath_, output_))
         throw std::invalid_argument(fmt::format(
             "{} holds estimates that no image shows (a render to {} was killed or could not write "
-            "it); continue it with --resume, write its image with: cbdpt merge {} -o IMAGE.exr, "
-            "or remove it to start over",
-            statePath_, output_, statePath_));
+            "it); {}write its image with: cbdpt merge {} -o IMAGE.exr, or remove it to start over",
+            statePath_, output_,
+            o_.integrator.name == "mlt" ? "" : "continue it with --resume (the same command), ",
+            statePath_));
     cb::requireWritable(output_, "the image (-o)");
     cb::requireWritable(png_, "the PNG (--png)");
     cb::requireWritable(statePath_, "the render state");
