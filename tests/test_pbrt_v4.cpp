@@ -751,3 +751,23 @@ TEST_CASE("pbrt-v4 infinite and distant light with an area light: BDPT agrees wi
                             "Translate -0.5 1.5 0\nRotate 90 1 0 0\n"
                             "Shape \"disk\" \"float radius\" 0.3\nAttributeEnd\n");
 }
+
+TEST_CASE("pbrt-v4: integer values are whole-number text, as pbrt-v4's parseInt reads them") {
+    const std::string tri = "WorldBegin\nShape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0] "
+                            "\"integer indices\" ";
+    std::string e = errorOf(tri + "[0 1 2.0]\n");
+    CHECK(contains(e, "t.pbrt:2:76"));
+    CHECK(contains(e, "expects integers"));
+    CHECK(contains(e, "'2.0'"));
+    e = errorOf(tri + "[0 1 2e0]\n");
+    CHECK(contains(e, "t.pbrt:2:76"));
+    CHECK(contains(e, "'2e0'"));
+    // Checked when read, as pbrt-v4 does, also where cbdpt does not use the parameter.
+    e = errorOf("Sampler \"halton\" \"integer seed\" 3.0\nWorldBegin\n");
+    CHECK(contains(e, "t.pbrt:1:33"));
+    CHECK(contains(e, "'3.0'"));
+    // A sign is part of pbrt-v4's integer syntax.
+    const auto s = parseSceneString(tri + "[0 +1 2]\n", "t.pbrt");
+    REQUIRE(s.meshes.size() == 1);
+    CHECK(s.meshes[0].triangles.size() == 1);
+}

@@ -559,6 +559,14 @@ class Parser {
         return !parseNumber(t.text, outOfRange) && !outOfRange;
     }
 
+    static bool isIntegerText(std::string_view s) {
+        if (!s.empty() && (s[0] == '+' || s[0] == '-')) s.remove_prefix(1);
+        if (s.empty()) return false;
+        for (char c : s)
+            if (c < '0' || c > '9') return false;
+        return true;
+    }
+
     static void addValue(Param& p, const Token& t, bool inBrackets) {
         if (t.isBracket('['))
             throw SceneError(t.where, "unexpected '[' in the values of parameter " + p.decl());
@@ -577,6 +585,12 @@ class Parser {
                 throw SceneError(t.where, "expected a value or ']' in parameter " + p.decl() +
                                               ", found " + describe(t) + " (missing ']'?)");
             p.numbers.push_back(numberFromToken(t, "in parameter " + p.decl()));
+            // pbrt-v4's parseInt takes an optional sign and digits only, for every "integer"
+            // parameter as it is read: 2.0 or 2e0 is an error there, not the integer 2.
+            if (p.type == "integer" && !isIntegerText(t.text))
+                throw SceneError(t.where, "parameter " + p.decl() +
+                                              " expects integers (in int range), found '" + t.text +
+                                              "'");
         } else if (kind == Param::Kind::String) {
             p.strings.push_back(t.text);
         } else {
