@@ -771,3 +771,20 @@ TEST_CASE("pbrt-v4: integer values are whole-number text, as pbrt-v4's parseInt 
     REQUIRE(s.meshes.size() == 1);
     CHECK(s.meshes[0].triangles.size() == 1);
 }
+
+TEST_CASE("pbrt-v4: the coordinate system \"world\" is the identity from WorldBegin on") {
+    auto s = parseSceneString("WorldBegin\nTranslate 1 2 3\nCoordSysTransform \"world\"\n" + kTri,
+                              "t.pbrt");
+    REQUIRE(s.meshes.size() == 1);
+    CHECK(s.meshes[0].positions[1] == std::array<double, 3>{1, 0, 0});
+    // WorldBegin overrides a "world" the options block defined.
+    s = parseSceneString("Translate 0 0 5\nCoordinateSystem \"world\"\nIdentity\nWorldBegin\n"
+                         "CoordSysTransform \"world\"\n" +
+                             kTri,
+                         "t.pbrt");
+    REQUIRE(s.meshes.size() == 1);
+    CHECK(s.meshes[0].positions[1] == std::array<double, 3>{1, 0, 0});
+    // Before WorldBegin it is whatever the file defined, as in pbrt-v4.
+    CHECK(contains(errorOf("CoordSysTransform \"world\"\nWorldBegin\n"),
+                   "unknown coordinate system \"world\""));
+}

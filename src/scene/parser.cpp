@@ -664,6 +664,8 @@ class Parser {
             if (inWorld_) throw SceneError(t.where, "second WorldBegin");
             inWorld_ = true;
             state_.ctm = Mat4::identity();
+            // pbrt-v4's WorldBegin defines "world" as the (new) CTM, replacing any earlier one.
+            namedCoordinateSystems_["world"] = state_.ctm;
         } else if (d == "AttributeBegin") {
             requireWorld(t);
             stack_.push_back(state_);
