@@ -467,7 +467,7 @@ TEST_CASE("parser: syntax errors point at the offending token") {
                 "expected a number for ConcatTransform, found ']'");
     expectError("WorldBegin\nMaterial diffuse\n", "t.pbrt:2:10", "in double quotes");
     expectError("WorldBegin\nNamedMaterial\n", "t.pbrt:2:1", "unexpected end of file");
-    expectError("TransformBegin\n", "t.pbrt:1:1", "not part of pbrt-v4");
+    expectError("TransformBegin\n", "t.pbrt:1:1", "only allowed after WorldBegin");
     expectError("WorldBegin\nWorldEnd\n", "t.pbrt:2:1", "pbrt-v3");
     expectError("WorldBegin\nImport \"x.pbrt\"\n", "t.pbrt:2:8", "cannot find included file");
     expectError("Camera \"perspective\"\n", "t.pbrt:2:1", "end of file before WorldBegin");

@@ -788,3 +788,25 @@ TEST_CASE("pbrt-v4: the coordinate system \"world\" is the identity from WorldBe
     CHECK(contains(errorOf("CoordSysTransform \"world\"\nWorldBegin\n"),
                    "unknown coordinate system \"world\""));
 }
+
+TEST_CASE("pbrt-v4: TransformBegin/TransformEnd are AttributeBegin/AttributeEnd, noted once") {
+    // pbrt-v4's parser turns them into AttributeBegin/AttributeEnd: the whole graphics state,
+    // material included, is saved and restored, not only the CTM.
+    const auto s = parseSceneString(
+        "WorldBegin\nTransformBegin\nTranslate 1 0 0\nMaterial \"conductor\" \"rgb reflectance\" "
+        "[0.9 0.9 0.9]\nTransformEnd\n" +
+            kTri + "TransformBegin\nTransformEnd\n",
+        "t.pbrt");
+    REQUIRE(s.meshes.size() == 1);
+    CHECK(s.meshes[0].positions[1] == std::array<double, 3>{1, 0, 0});
+    CHECK(s.materials[s.meshes[0].material].kind == cb::MaterialKind::Diffuse);
+    REQUIRE(s.notes.size() == 1);
+    CHECK(contains(s.notes[0], "t.pbrt:2"));
+    CHECK(contains(s.notes[0], "deprecated"));
+    CHECK(contains(errorOf("TransformBegin\nWorldBegin\n"),
+                   "t.pbrt:1:1: TransformBegin is only allowed after WorldBegin"));
+    CHECK(contains(errorOf("WorldBegin\nTransformBegin\n"),
+                   "t.pbrt:2:1: TransformBegin without matching TransformEnd"));
+    CHECK(contains(errorOf("WorldBegin\nTransformEnd\n"),
+                   "t.pbrt:2:1: TransformEnd without matching TransformBegin"));
+}

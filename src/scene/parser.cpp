@@ -412,6 +412,7 @@ struct GraphicsState {
     int material = -1; // -1: pbrt's default material, created on first use
     int areaLight = -1;
     SourceLocation openedAt; // of the AttributeBegin that saved this state
+    std::string openedBy;    // that directive: AttributeBegin, TransformBegin or ObjectBegin
 };
 
 struct SourceFile {
@@ -460,9 +461,11 @@ class Parser {
             }
             directive(*t);
         }
-        if (!stack_.empty())
+        if (!stack_.empty()) {
+            const std::string& by = stack_.back().openedBy;
             throw SceneError(stack_.back().openedAt,
-                             "AttributeBegin without matching AttributeEnd");
+                             by + " without matching " + by.substr(0, by.size() - 5) + "End");
+        }
         if (!inWorld_) throw SceneError(end, "end of file before WorldBegin");
     }
 
@@ -666,17 +669,26 @@ class Parser {
             state_.ctm = Mat4::identity();
             // pbrt-v4's WorldBegin defines "world" as the (new) CTM, replacing any earlier one.
             namedCoordinateSystems_["world"] = state_.ctm;
-        } else if (d == "AttributeBegin") {
+        } else if (d == "AttributeBegin" || d == "TransformBegin") {
             requireWorld(t);
+            // pbrt-v4's parser reads TransformBegin/End as AttributeBegin/End (the whole graphics
+            // state, not only the CTM) and warns once that they are deprecated.
+            if (d == "TransformBegin")
+                note(t.where, "transformbegin",
+                     "TransformBegin/TransformEnd are deprecated in pbrt-v4, which reads them as "
+                     "AttributeBegin/AttributeEnd (the whole graphics state is saved); so does "
+                     "cbdpt");
             stack_.push_back(state_);
             stack_.back().openedAt = t.where;
-        } else if (d == "AttributeEnd") {
+            stack_.back().openedBy = d;
+        } else if (d == "AttributeEnd" || d == "TransformEnd") {
             requireWorld(t);
             if (stack_.empty())
-                throw SceneError(t.where, "AttributeEnd without matching AttributeBegin");
+                throw SceneError(t.where,
+                                 d + " without matching " + d.substr(0, d.size() - 3) + "Begin");
             if (openObject_ && stack_.size() == openObject_->depth)
-                throw SceneError(t.where, "AttributeEnd would close ObjectBegin \"" +
-                                              openObject_->name + "\"; use ObjectEnd");
+                throw SceneError(t.where, d + " would close ObjectBegin \"" + openObject_->name +
+                                              "\"; use ObjectEnd");
             state_ = stack_.back();
             stack_.pop_back();
         } else if (d == "Material") {
@@ -748,9 +760,6 @@ class Parser {
             objectEnd(t);
         } else if (d == "ObjectInstance") {
             objectInstance(t);
-        } else if (d == "TransformBegin" || d == "TransformEnd") {
-            throw SceneError(t.where,
-                             d + " is not part of pbrt-v4; use AttributeBegin/AttributeEnd");
         } else if (d == "WorldEnd") {
             throw SceneError(t.where, "WorldEnd is pbrt-v3 syntax and not part of pbrt-v4");
         } else {
@@ -917,6 +926,7 @@ class Parser {
             throw SceneError(name.where, "object \"" + name.text + "\" is already defined");
         stack_.push_back(state_); // ObjectBegin implies AttributeBegin, as in pbrt-v4
         stack_.back().openedAt = t.where;
+        stack_.back().openedBy = "ObjectBegin";
         openObject_ =
             OpenObject{name.text, scene_.meshes.size(), scene_.spheres.size(), stack_.size()};
     }
