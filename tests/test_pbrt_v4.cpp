@@ -810,3 +810,18 @@ TEST_CASE("pbrt-v4: TransformBegin/TransformEnd are AttributeBegin/AttributeEnd,
     CHECK(contains(errorOf("WorldBegin\nTransformEnd\n"),
                    "t.pbrt:2:1: TransformEnd without matching TransformBegin"));
 }
+
+TEST_CASE("pbrt-v4: Accelerator is read, checked and reported once as not used") {
+    auto s = parseSceneString("Accelerator \"bvh\" \"integer maxnodeprims\" 8 \"string splitmethod\" "
+                              "\"middle\"\nAccelerator \"kdtree\" \"integer maxprims\" 2 "
+                              "\"float emptybonus\" 0.25\nWorldBegin\n",
+                              "t.pbrt");
+    REQUIRE(s.notes.size() == 1);
+    CHECK(contains(s.notes[0], "t.pbrt:1"));
+    CHECK(contains(s.notes[0], "not used"));
+    // What pbrt-v4 refuses (CreateAccelerator, ReportUnused) cbdpt refuses too.
+    CHECK(contains(errorOf("Accelerator \"octree\"\nWorldBegin\n"), "t.pbrt:1:13"));
+    CHECK(contains(errorOf("Accelerator \"bvh\" \"integer maxprims\" 2\nWorldBegin\n"),
+                   "unknown or unsupported parameter \"integer maxprims\""));
+    CHECK(contains(errorOf("WorldBegin\nAccelerator \"bvh\"\n"), "only allowed before WorldBegin"));
+}

@@ -737,6 +737,8 @@ class Parser {
             integrator(t);
         } else if (d == "PixelFilter") {
             pixelFilter(t);
+        } else if (d == "Accelerator") {
+            accelerator(t);
         } else if (d == "ColorSpace") {
             const Token name = quoted(t, "a colour space name");
             if (name.text != "srgb")
@@ -763,9 +765,8 @@ class Parser {
         } else if (d == "WorldEnd") {
             throw SceneError(t.where, "WorldEnd is pbrt-v3 syntax and not part of pbrt-v4");
         } else {
-            for (const char* known :
-                 {"Accelerator", "ActiveTransform", "Attribute", "MakeNamedMedium",
-                  "MediumInterface", "Texture", "TransformTimes"})
+            for (const char* known : {"ActiveTransform", "Attribute", "MakeNamedMedium",
+                                      "MediumInterface", "Texture", "TransformTimes"})
                 if (d == known)
                     throw SceneError(t.where, "pbrt-v4 directive '" + d +
                                                   "' is not supported by cbdpt (see "
@@ -905,6 +906,35 @@ class Parser {
                  "area; pbrt-v4's " +
                  type.text +
                  " filter also weights neighbouring pixels, so edges are sharper here)");
+    }
+
+    // pbrt-v4's aggregates (CreateAccelerator) with the parameters each reads; an unknown type or
+    // parameter is an error there too. Neither changes the image, and cbdpt builds its own BVH.
+    void accelerator(const Token& t) {
+        requireOptions(t);
+        const Token type = quoted(t, "an accelerator type");
+        ParamList pl = params("Accelerator \"" + type.text + "\"");
+        if (type.text == "bvh") {
+            if (const Param* p = pl.peek("splitmethod")) {
+                const std::string m = *pl.oneString("splitmethod");
+                if (m != "sah" && m != "hlbvh" && m != "middle" && m != "equal")
+                    throw SceneError(p->valueLoc(0), "unknown BVH split method \"" + m +
+                                                         "\" (pbrt-v4 knows sah, hlbvh, middle, "
+                                                         "equal)");
+            }
+            pl.oneInt("maxnodeprims");
+        } else if (type.text == "kdtree") {
+            for (const char* name : {"intersectcost", "traversalcost", "maxprims", "maxdepth"})
+                pl.oneInt(name);
+            pl.oneFloat("emptybonus");
+        } else {
+            throw SceneError(type.where, "unknown accelerator \"" + type.text +
+                                             "\" (pbrt-v4 has \"bvh\" and \"kdtree\")");
+        }
+        pl.finish();
+        note(t.where, "accelerator",
+             "Accelerator \"" + type.text +
+                 "\" is not used: cbdpt builds its own BVH (the image does not depend on it)");
     }
 
     void option(const Token& t) {
