@@ -105,12 +105,40 @@ TEST_CASE("pbrt-v4: PixelFilter, ColorSpace, Option") {
     s = parseSceneString("PixelFilter \"box\" \"float xradius\" 1\nWorldBegin\n", "t.pbrt");
     REQUIRE(s.notes.size() == 1);
     CHECK(contains(errorOf("ColorSpace \"aces2065-1\"\nWorldBegin\n"), "srgb"));
-    s = parseSceneString("Option \"bool disablepixeljitter\" true\n"
-                         "Option \"bool disablepixeljitter\" true\nWorldBegin\n",
+    s = parseSceneString("Option \"disablepixeljitter\" false\n"
+                         "Option \"disable_pixel_jitter\" false\nWorldBegin\n",
                          "t.pbrt");
     CHECK(s.notes.size() == 1); // once per option
-    CHECK(contains(errorOf("Option \"bool a\" true \"bool b\" false\nWorldBegin\n"),
-                   "exactly one parameter"));
+}
+
+TEST_CASE("pbrt-v4: Option \"name\" value, refused where it would change the image") {
+    // pbrt-v4's syntax (parser.cpp, BasicSceneBuilder::Option): a quoted name, then one value.
+    const auto s = parseSceneString(
+        "Option \"seed\" 5\nOption \"wavefront\" true\nOption \"rendercoordsys\" \"world\"\n"
+        "Option \"msereferenceimage\" \"ref.exr\"\nOption \"displacementedgescale\" 2\n"
+        "Option \"pixelstats\" true\nOption \"disableTextureFiltering\" true\n"
+        "Option \"forcediffuse\" false\nWorldBegin\nOption \"seed\" 6\n",
+        "t.pbrt");
+    REQUIRE(s.notes.size() == 8); // once per option
+    CHECK(contains(s.notes[0], "t.pbrt:1"));
+    CHECK(contains(s.notes[0], "no effect"));
+    // Options that change pbrt-v4's image are refused: cbdpt does not implement them.
+    for (const char* name :
+         {"forcediffuse", "disablepixeljitter", "disablewavelengthjitter", "force_diffuse"}) {
+        const std::string e = errorOf(std::string("Option \"") + name + "\" true\nWorldBegin\n");
+        CHECK(contains(e, "t.pbrt:1:8"));
+        CHECK(contains(e, "not supported"));
+    }
+    // The typed form is an unknown option in pbrt-v4; the message shows the right syntax.
+    std::string e = errorOf("Option \"bool forcediffuse\" true\nWorldBegin\n");
+    CHECK(contains(e, "t.pbrt:1:8"));
+    CHECK(contains(e, "Option \"forcediffuse\" true"));
+    CHECK(contains(errorOf("Option \"frobnicate\" 1\nWorldBegin\n"), "unknown option"));
+    CHECK(contains(errorOf("Option \"pixelstats\" 1\nWorldBegin\n"), "t.pbrt:1:21"));
+    CHECK(contains(errorOf("Option \"seed\" \"five\"\nWorldBegin\n"), "t.pbrt:1:15"));
+    CHECK(contains(errorOf("Option \"rendercoordsys\" \"sideways\"\nWorldBegin\n"), "sideways"));
+    CHECK(contains(errorOf("Option \"msereferenceimage\" ref\nWorldBegin\n"), "quoted"));
+    CHECK(contains(errorOf("Option \"seed\""), "unexpected end of file"));
 }
 
 TEST_CASE("pbrt-v4: Import reads the file like Include") {
@@ -812,10 +840,11 @@ TEST_CASE("pbrt-v4: TransformBegin/TransformEnd are AttributeBegin/AttributeEnd,
 }
 
 TEST_CASE("pbrt-v4: Accelerator is read, checked and reported once as not used") {
-    auto s = parseSceneString("Accelerator \"bvh\" \"integer maxnodeprims\" 8 \"string splitmethod\" "
-                              "\"middle\"\nAccelerator \"kdtree\" \"integer maxprims\" 2 "
-                              "\"float emptybonus\" 0.25\nWorldBegin\n",
-                              "t.pbrt");
+    auto s =
+        parseSceneString("Accelerator \"bvh\" \"integer maxnodeprims\" 8 \"string splitmethod\" "
+                         "\"middle\"\nAccelerator \"kdtree\" \"integer maxprims\" 2 "
+                         "\"float emptybonus\" 0.25\nWorldBegin\n",
+                         "t.pbrt");
     REQUIRE(s.notes.size() == 1);
     CHECK(contains(s.notes[0], "t.pbrt:1"));
     CHECK(contains(s.notes[0], "not used"));

@@ -937,13 +937,94 @@ class Parser {
                  "\" is not used: cbdpt builds its own BVH (the image does not depend on it)");
     }
 
+    // pbrt-v4's Option "name" value (parser.cpp, BasicSceneBuilder::Option): a quoted name, matched
+    // ignoring case, '-' and '_' as normalizeArg does, then one value token whose kind depends on
+    // the option. Those that change pbrt-v4's image when true are refused; the rest have no
+    // effect in cbdpt.
     void option(const Token& t) {
-        ParamList pl = params("Option");
-        const std::vector<std::string> rest = pl.takeRest();
-        if (rest.size() != 1) throw SceneError(t.where, "Option expects exactly one parameter");
-        // None of pbrt-v4's options changes what cbdpt renders except through features it does
-        // not have (textures, displacement, pixel jitter control, the wavefront renderer).
-        note(t.where, "option:" + rest[0], "Option " + rest[0] + " has no effect in cbdpt");
+        const Token name = quoted(t, "an option name");
+        const Token value = required(t, "a value");
+        enum class Kind { Bool, Float, Int, String };
+        struct Known {
+            const char* name;
+            Kind kind;
+            const char* effect; // what pbrt-v4 does with it
+            bool changesImage;  // when true
+        };
+        static const Known known[] = {
+            {"disablepixeljitter", Kind::Bool, "samples every pixel at its centre", true},
+            {"disablewavelengthjitter", Kind::Bool, "uses the same wavelengths for every sample",
+             true},
+            {"forcediffuse", Kind::Bool, "renders every material as diffuse", true},
+            {"disabletexturefiltering", Kind::Bool, "point-samples textures", false},
+            {"displacementedgescale", Kind::Float, "sets displacement tessellation", false},
+            {"msereferenceimage", Kind::String, "reports the error against an image", false},
+            {"msereferenceout", Kind::String, "writes the error against an image", false},
+            {"rendercoordsys", Kind::String, "chooses the space it renders in", false},
+            {"seed", Kind::Int, "seeds the samplers, as cbdpt's --seed does", false},
+            {"pixelstats", Kind::Bool, "writes per-pixel statistics", false},
+            {"wavefront", Kind::Bool, "chooses its wavefront renderer", false},
+        };
+        auto normalized = [](std::string_view n) {
+            std::string out;
+            for (const unsigned char c : n)
+                if (c != '_' && c != '-') out += static_cast<char>(std::tolower(c));
+            return out;
+        };
+        auto find = [&](const std::string& key) -> const Known* {
+            for (const Known& k : known)
+                if (key == k.name) return &k;
+            return nullptr;
+        };
+        const Known* opt = find(normalized(name.text));
+        if (!opt) {
+            // pbrt-v4 takes "bool forcediffuse" as the name of an unknown option.
+            const size_t space = name.text.find(' ');
+            if (space != std::string::npos && find(normalized(name.text.substr(space + 1))))
+                throw SceneError(name.where,
+                                 "Option \"" + name.text +
+                                     "\": pbrt-v4 names the option without a type; "
+                                     "write Option \"" +
+                                     name.text.substr(space + 1) + "\" " +
+                                     (value.quoted ? "\"" + value.text + "\"" : value.text));
+            std::string names;
+            for (const Known& k : known)
+                names += std::string(names.empty() ? "" : ", ") + k.name;
+            throw SceneError(name.where,
+                             "unknown option \"" + name.text + "\" (pbrt-v4's are " + names + ")");
+        }
+        const std::string what = "Option \"" + name.text + "\"";
+        switch (opt->kind) {
+        case Kind::Bool:
+            if (value.quoted || (value.text != "true" && value.text != "false"))
+                throw SceneError(value.where,
+                                 what + " expects true or false, found " + describe(value));
+            break;
+        case Kind::Float:
+            numberFromToken(value, "for " + what);
+            break;
+        case Kind::Int:
+            if (value.quoted || !isIntegerText(value.text))
+                throw SceneError(value.where,
+                                 what + " expects an integer, found " + describe(value));
+            break;
+        case Kind::String:
+            if (!value.quoted)
+                throw SceneError(value.where,
+                                 what + " expects a quoted string, found " + describe(value));
+            if (std::string(opt->name) == "rendercoordsys" && value.text != "camera" &&
+                value.text != "cameraworld" && value.text != "world")
+                throw SceneError(value.where, "unknown rendering coordinate system \"" +
+                                                  value.text + "\" (camera, cameraworld or world)");
+            break;
+        }
+        if (opt->changesImage && value.text == "true")
+            throw SceneError(name.where, what + " true is not supported: pbrt-v4 then " +
+                                             opt->effect + ", which cbdpt does not implement");
+        note(t.where, std::string("option:") + opt->name,
+             opt->changesImage
+                 ? what + " false has no effect (pbrt-v4's default)"
+                 : what + " has no effect in cbdpt (in pbrt-v4 it " + opt->effect + ")");
     }
 
     void objectBegin(const Token& t) {
