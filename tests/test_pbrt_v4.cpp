@@ -141,7 +141,7 @@ TEST_CASE("pbrt-v4: Option \"name\" value, refused where it would change the ima
     CHECK(contains(errorOf("Option \"seed\""), "unexpected end of file"));
 }
 
-TEST_CASE("pbrt-v4: Import reads the file like Include") {
+TEST_CASE("pbrt-v4: Import reads the file's shapes like Include") {
     const auto dir =
         std::filesystem::temp_directory_path() / ("cbdpt-import-" + std::to_string(::getpid()));
     std::filesystem::create_directories(dir);
@@ -853,4 +853,71 @@ TEST_CASE("pbrt-v4: Accelerator is read, checked and reported once as not used")
     CHECK(contains(errorOf("Accelerator \"bvh\" \"integer maxprims\" 2\nWorldBegin\n"),
                    "unknown or unsupported parameter \"integer maxprims\""));
     CHECK(contains(errorOf("WorldBegin\nAccelerator \"bvh\"\n"), "only allowed before WorldBegin"));
+}
+
+TEST_CASE("pbrt-v4: Import keeps the importer's graphics state; named things come back") {
+    const auto dir = std::filesystem::temp_directory_path() /
+                     ("cbdpt-import-state-" + std::to_string(::getpid()));
+    std::filesystem::create_directories(dir);
+    std::ofstream(dir / "part.pbrt")
+        << "Translate 0 0 5\nMaterial \"conductor\" \"rgb reflectance\" [0.9 0.9 0.9]\n"
+           "AreaLightSource \"diffuse\"\nReverseOrientation\n"
+           "MakeNamedMaterial \"red\" \"string type\" \"diffuse\" \"rgb reflectance\" [1 0 0]\n"
+           "ObjectBegin \"ball\"\nShape \"sphere\"\nObjectEnd\n"
+           "CoordinateSystem \"there\"\nShape \"sphere\" \"float radius\" 0.5\n";
+    const auto parse = [&](const std::string& main) {
+        std::ofstream(dir / "main.pbrt") << main;
+        return cb::parseSceneFile((dir / "main.pbrt").string());
+    };
+    const auto errorOfMain = [&](const std::string& main) -> std::string {
+        try {
+            parse(main);
+        } catch (const SceneError& e) {
+            return e.what();
+        }
+        return "";
+    };
+    // pbrt-v4 parses an imported file with a copy of the graphics state (CopyForImport) and
+    // takes back only its shapes and named things (MergeImported).
+    const auto s = parse("WorldBegin\nImport \"part.pbrt\"\nShape \"sphere\"\n"
+                         "NamedMaterial \"red\"\nTranslate 3 0 0\nObjectInstance \"ball\"\n");
+    REQUIRE(s.spheres.size() == 3);
+    const cb::SphereDesc &imported = s.spheres[0], &after = s.spheres[1], &instance = s.spheres[2];
+    CHECK(imported.center == std::array<double, 3>{0, 0, 5});
+    CHECK(imported.areaLight >= 0);
+    CHECK(imported.reverseOrientation);
+    CHECK(s.materials[imported.material].kind == cb::MaterialKind::Conductor);
+    CHECK(after.center == std::array<double, 3>{0, 0, 0});
+    CHECK(after.areaLight < 0);
+    CHECK(!after.reverseOrientation);
+    CHECK(s.materials[after.material].kind == cb::MaterialKind::Diffuse);
+    CHECK(s.materials[after.material].name.empty());
+    CHECK(instance.center == std::array<double, 3>{3, 0, 5}); // the object and "red" came back
+    // Named coordinate systems do not cross an Import either way in pbrt-v4: the imported
+    // file's builder starts without them and MergeImported does not copy them back.
+    std::string e = errorOfMain("WorldBegin\nImport \"part.pbrt\"\nCoordSysTransform \"there\"\n");
+    CHECK(contains(e, "main.pbrt:3:19: unknown coordinate system \"there\""));
+    CHECK(contains(e, "Import"));
+    std::ofstream(dir / "cs.pbrt") << "CoordSysTransform \"world\"\n";
+    e = errorOfMain("WorldBegin\nImport \"cs.pbrt\"\n");
+    CHECK(contains(e, "cs.pbrt:1:19: unknown coordinate system \"world\""));
+    CHECK(contains(e, "Import"));
+    // Blocks may not cross the file boundary.
+    std::ofstream(dir / "open.pbrt") << "AttributeBegin\n";
+    CHECK(contains(errorOfMain("WorldBegin\nImport \"open.pbrt\"\nAttributeEnd\n"),
+                   "open.pbrt:1:1: AttributeBegin without matching AttributeEnd"));
+    std::ofstream(dir / "close.pbrt") << "AttributeEnd\n";
+    CHECK(contains(errorOfMain("WorldBegin\nAttributeBegin\nImport \"close.pbrt\"\n"),
+                   "close.pbrt:1:1: AttributeEnd without matching AttributeBegin"));
+    std::ofstream(dir / "objend.pbrt") << "ObjectEnd\n";
+    CHECK(contains(errorOfMain("WorldBegin\nObjectBegin \"o\"\nImport \"objend.pbrt\"\n"),
+                   "objend.pbrt:1:1"));
+    // As in pbrt-v4, an Import's shapes join an object being defined.
+    std::ofstream(dir / "shape.pbrt") << "Shape \"sphere\"\n";
+    const auto o = parse("WorldBegin\nObjectBegin \"o\"\nImport \"shape.pbrt\"\nObjectEnd\n"
+                         "ObjectInstance \"o\"\nObjectInstance \"o\"\n");
+    CHECK(o.spheres.size() == 2);
+    CHECK(contains(errorOfMain("Import \"shape.pbrt\"\nWorldBegin\n"),
+                   "main.pbrt:1:1: Import statement only allowed inside world definition block"));
+    std::filesystem::remove_all(dir);
 }

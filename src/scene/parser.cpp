@@ -415,10 +415,18 @@ struct GraphicsState {
     std::string openedBy;    // that directive: AttributeBegin, TransformBegin or ObjectBegin
 };
 
+// What an Import saves of the importing file, restored when the imported file ends.
+struct ImportScope {
+    GraphicsState state;
+    size_t stackDepth = 0; // of the attribute stack: the imported file may not pop below it
+    std::map<std::string, Mat4> coordinateSystems;
+};
+
 struct SourceFile {
     Tokenizer tokens;
-    std::string dir; // folder for relative paths ("" = current directory)
-    fs::path key;    // canonical path, for recursive-include detection
+    std::string dir;                   // folder for relative paths ("" = current directory)
+    fs::path key;                      // canonical path, for recursive-include detection
+    std::optional<ImportScope> import; // set for a file read by Import
 };
 
 // Refuses a file that is not text (an image, a mesh, any binary data), saying what it is.
@@ -449,13 +457,14 @@ class Parser {
     void run(std::string text, const std::string& path) {
         topDir_ = parentDir(path);
         files_.push_back(std::make_unique<SourceFile>(
-            SourceFile{Tokenizer(std::move(text), path), topDir_, canonicalKey(path)}));
+            SourceFile{Tokenizer(std::move(text), path), topDir_, canonicalKey(path), {}}));
         SourceLocation end;
         for (;;) {
             std::optional<Token> t = next();
             if (!t) {
                 end = files_.back()->tokens.here();
                 if (files_.size() == 1) break;
+                if (files_.back()->import) endImport(*files_.back()->import);
                 files_.pop_back();
                 continue;
             }
@@ -683,9 +692,11 @@ class Parser {
             stack_.back().openedBy = d;
         } else if (d == "AttributeEnd" || d == "TransformEnd") {
             requireWorld(t);
-            if (stack_.empty())
-                throw SceneError(t.where,
-                                 d + " without matching " + d.substr(0, d.size() - 3) + "Begin");
+            // An imported file has its own attribute stack in pbrt-v4.
+            const ImportScope* scope = importBase();
+            if (stack_.size() == (scope ? scope->stackDepth : 0))
+                throw SceneError(t.where, d + " without matching " + d.substr(0, d.size() - 3) +
+                                              "Begin" + (scope ? " in this Import-ed file" : ""));
             if (openObject_ && stack_.size() == openObject_->depth)
                 throw SceneError(t.where, d + " would close ObjectBegin \"" + openObject_->name +
                                               "\"; use ObjectEnd");
@@ -727,10 +738,13 @@ class Parser {
         } else if (d == "Shape") {
             requireWorld(t);
             shape(t);
-        } else if (d == "Include" || d == "Import") {
-            // pbrt-v4's Import is an Include whose file may be parsed in parallel; the meaning
-            // is the same for everything cbdpt reads.
-            include(t);
+        } else if (d == "Include") {
+            include(t, false);
+        } else if (d == "Import") {
+            if (!inWorld_)
+                throw SceneError(t.where, "Import statement only allowed inside world definition "
+                                          "block (after WorldBegin), as in pbrt-v4");
+            include(t, true);
         } else if (d == "Sampler") {
             sampler(t);
         } else if (d == "Integrator") {
@@ -749,12 +763,22 @@ class Parser {
         } else if (d == "CoordinateSystem") {
             const Token name = quoted(t, "a coordinate system name");
             namedCoordinateSystems_[name.text] = state_.ctm;
+            if (importBase() != nullptr) importedCoordinateSystems_[name.text] = name.where;
         } else if (d == "CoordSysTransform") {
             const Token name = quoted(t, "a coordinate system name");
             const auto it = namedCoordinateSystems_.find(name.text);
-            if (it == namedCoordinateSystems_.end())
-                throw SceneError(name.where, "unknown coordinate system \"" + name.text +
-                                                 "\" (define it with CoordinateSystem first)");
+            if (it == namedCoordinateSystems_.end()) {
+                std::string why = " (define it with CoordinateSystem first)";
+                if (importBase() != nullptr)
+                    why = " (an Import-ed file starts without named coordinate systems, as in "
+                          "pbrt-v4; define it in this file)";
+                else if (const auto d2 = importedCoordinateSystems_.find(name.text);
+                         d2 != importedCoordinateSystems_.end())
+                    why = " (it was defined in an Import-ed file, at " + d2->second.str() +
+                          "; pbrt-v4 does not pass named coordinate systems back from Import)";
+                throw SceneError(name.where,
+                                 "unknown coordinate system \"" + name.text + "\"" + why);
+            }
             state_.ctm = it->second;
         } else if (d == "ObjectBegin") {
             objectBegin(t);
@@ -1045,6 +1069,10 @@ class Parser {
     void objectEnd(const Token& t) {
         requireWorld(t);
         if (!openObject_) throw SceneError(t.where, "ObjectEnd without ObjectBegin");
+        if (const ImportScope* scope = importBase();
+            scope && openObject_->depth <= scope->stackDepth)
+            throw SceneError(t.where, "ObjectEnd in an Import-ed file cannot close ObjectBegin \"" +
+                                          openObject_->name + "\" of the importing file");
         if (stack_.size() != openObject_->depth)
             throw SceneError(t.where, "ObjectEnd inside an AttributeBegin block of the object");
         ObjectDef& def = objects_[openObject_->name];
@@ -1819,7 +1847,28 @@ class Parser {
         throw SceneError(where, msg);
     }
 
-    void include(const Token& t) {
+    // The innermost Import being read, if any.
+    const ImportScope* importBase() const {
+        for (auto f = files_.rbegin(); f != files_.rend(); ++f)
+            if ((*f)->import) return &*(*f)->import;
+        return nullptr;
+    }
+
+    // pbrt-v4 parses an imported file with a copy of the importer's graphics state and keeps only
+    // its shapes, objects and named materials (CopyForImport, MergeImported): the CTM, material,
+    // area light and orientation it sets, and its named coordinate systems, do not leak out.
+    void endImport(const ImportScope& scope) {
+        if (stack_.size() > scope.stackDepth) {
+            const std::string& by = stack_.back().openedBy;
+            throw SceneError(stack_.back().openedAt,
+                             by + " without matching " + by.substr(0, by.size() - 5) +
+                                 "End (an Import-ed file must close the blocks it opens)");
+        }
+        state_ = scope.state;
+        namedCoordinateSystems_ = scope.coordinateSystems;
+    }
+
+    void include(const Token& t, bool isImport) {
         const Token name = quoted(t, "a file name");
         std::vector<std::string> candidates;
         if (fs::path(name.text).is_absolute()) {
@@ -1843,7 +1892,12 @@ class Parser {
             requireText(text, name.where, path);
             scene_.sourceFiles.push_back(path);
             files_.push_back(std::make_unique<SourceFile>(
-                SourceFile{Tokenizer(std::move(text), path), parentDir(path), key}));
+                SourceFile{Tokenizer(std::move(text), path), parentDir(path), key, {}}));
+            if (isImport) {
+                files_.back()->import =
+                    ImportScope{state_, stack_.size(), std::move(namedCoordinateSystems_)};
+                namedCoordinateSystems_.clear();
+            }
             return;
         }
         std::string msg = "cannot find included file \"" + name.text + "\"; tried:";
@@ -1864,6 +1918,7 @@ class Parser {
     int defaultMaterial_ = -1;
     std::set<std::string> notedKinds_;
     std::map<std::string, Mat4> namedCoordinateSystems_;
+    std::map<std::string, SourceLocation> importedCoordinateSystems_; // defined inside an Import
     struct ObjectDef {
         std::vector<TriangleMeshDesc> meshes;
         std::vector<SphereDesc> spheres;
