@@ -921,3 +921,26 @@ TEST_CASE("pbrt-v4: Import keeps the importer's graphics state; named things com
                    "main.pbrt:1:1: Import statement only allowed inside world definition block"));
     std::filesystem::remove_all(dir);
 }
+
+TEST_CASE("pbrt-v4: a flat but folded bilinear patch (a bowtie) is refused") {
+    // p00 p10 p01 p11 = the unit square's corners in order round it: pbrt-v4's patch folds over
+    // itself (cross(dpdu, dpdv) changes sign), not the square two triangles would make.
+    std::string e = errorOf("WorldBegin\nShape \"bilinearmesh\" \"point3 P\" [0 0 0  1 0 0  1 1 0  "
+                            "0 1 0]\n");
+    CHECK(contains(e, "t.pbrt:2:1"));
+    CHECK(contains(e, "folded"));
+    // A planar but non-convex quadrilateral folds too.
+    e = errorOf("WorldBegin\nShape \"bilinearmesh\" \"point3 P\" [0 0 0  2 0 0  0 2 0  0.5 0.5 0] "
+                "\"integer indices\" [0 1 2 3  0 1 2 3]\n");
+    CHECK(contains(e, "folded"));
+    CHECK(contains(e, "patch 1"));
+    // Convex patches, and one collapsed to a triangle (p11 = p10), are accepted.
+    const auto s =
+        parseSceneString("WorldBegin\nShape \"bilinearmesh\" \"point3 P\" [0 0 0  2 0 0  "
+                         "0 1 0  1 1 0]\nShape \"bilinearmesh\" \"point3 P\" [0 0 0  1 0 "
+                         "0  0 1 0  1 0 0]\n",
+                         "t.pbrt");
+    REQUIRE(s.meshes.size() == 2);
+    CHECK(s.meshes[0].triangles.size() == 2);
+    CHECK(s.meshes[1].triangles.size() == 1);
+}

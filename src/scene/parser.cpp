@@ -1633,6 +1633,34 @@ class Parser {
             if (std::fabs(volume) > 1e-6 * size)
                 throw SceneError(t.where, "a curved (non-planar) bilinear patch is not supported; "
                                           "cbdpt renders planar patches only");
+            // A planar patch's cross(dpdu, dpdv) is bilinear in (u, v), so it keeps one side
+            // everywhere iff it does at the four corners; otherwise (a bowtie, or a non-convex
+            // quadrilateral) pbrt-v4's surface folds over itself and two triangles are not it.
+            const double d[3] = {p11[0] - p01[0], p11[1] - p01[1], p11[2] - p01[2]};
+            const double e[3] = {p11[0] - p10[0], p11[1] - p10[1], p11[2] - p10[2]};
+            auto cross = [](const double* x, const double* y) {
+                return std::array<double, 3>{x[1] * y[2] - x[2] * y[1], x[2] * y[0] - x[0] * y[2],
+                                             x[0] * y[1] - x[1] * y[0]};
+            };
+            const std::array<double, 3> corners[4] = {cross(a, b), cross(a, e), cross(d, b),
+                                                      cross(d, e)};
+            auto dot = [](const std::array<double, 3>& x, const std::array<double, 3>& y) {
+                return x[0] * y[0] + x[1] * y[1] + x[2] * y[2];
+            };
+            const std::array<double, 3>* largest = &corners[0];
+            for (const auto& c2 : corners)
+                if (dot(c2, c2) > dot(*largest, *largest)) largest = &c2;
+            for (const auto& c2 : corners)
+                if (dot(c2, *largest) < -1e-6 * dot(*largest, *largest))
+                    throw SceneError(
+                        t.where,
+                        "bilinear patch" +
+                            (patches.size() > 1 ? " " + std::to_string(&q - patches.data() + 1) +
+                                                      " of " + std::to_string(patches.size())
+                                                : std::string()) +
+                            " is flat but folded (a bowtie or a non-convex quadrilateral): "
+                            "pbrt-v4's surface turns over inside it, which cbdpt does not render. "
+                            "The corners are p00 p10 p01 p11, so p11 is opposite p00");
             tris.push_back({q[0], q[1], q[3]});
             tris.push_back({q[0], q[3], q[2]});
         }
