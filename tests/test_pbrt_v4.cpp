@@ -944,3 +944,26 @@ TEST_CASE("pbrt-v4: a flat but folded bilinear patch (a bowtie) is refused") {
     CHECK(s.meshes[0].triangles.size() == 2);
     CHECK(s.meshes[1].triangles.size() == 1);
 }
+
+TEST_CASE("pbrt-v4: PLY faces of more than 4 vertices are skipped and reported once per file") {
+    // pbrt-v4's rply_face_callback reads triangles and quads and ignores other faces.
+    const auto dir =
+        std::filesystem::temp_directory_path() / ("cbdpt-ply-faces-" + std::to_string(::getpid()));
+    std::filesystem::create_directories(dir);
+    std::ofstream(dir / "pent.ply")
+        << "ply\nformat ascii 1.0\nelement vertex 5\nproperty float x\nproperty float y\n"
+           "property float z\nelement face 4\nproperty list uchar int vertex_indices\n"
+           "end_header\n0 0 0\n1 0 0\n1.3 1 0\n0.5 1.6 0\n-0.3 1 0\n"
+           "5 0 1 2 3 4\n3 0 1 2\n5 0 1 2 3 4\n6 0 1 2 3 4 0\n";
+    std::ofstream(dir / "main.pbrt")
+        << "WorldBegin\nShape \"plymesh\" \"string filename\" \"pent.ply\"\n"
+           "Shape \"plymesh\" \"string filename\" \"pent.ply\"\n";
+    const auto s = cb::parseSceneFile((dir / "main.pbrt").string());
+    REQUIRE(s.meshes.size() == 2);
+    CHECK(s.meshes[0].triangles.size() == 1);
+    REQUIRE(s.notes.size() == 1);
+    CHECK(contains(s.notes[0], "main.pbrt:2"));
+    CHECK(contains(s.notes[0], "pent.ply"));
+    CHECK(contains(s.notes[0], "3 faces"));
+    std::filesystem::remove_all(dir);
+}

@@ -1,5 +1,5 @@
 // PLY reader: all three encodings written by the test itself (with properties and elements the
-// reader must skip, quads and a pentagon), hostile files, and the Stanford meshes.
+// reader must skip, quads and a skipped pentagon), hostile files, and the Stanford meshes.
 #include <doctest/doctest.h>
 
 #include "scene/ply.h"
@@ -46,8 +46,8 @@ struct Bin {
     }
 };
 
-// 5 vertices: a unit square (0..3) plus an apex (4). Faces: a quad, a triangle and a pentagon
-// (0 1 2 3 4 is not planar but the fan is still well defined).
+// 5 vertices: a unit square (0..3) plus an apex (4). Faces: a quad, a triangle and a pentagon,
+// which is skipped as pbrt-v4 skips faces of more than 4 vertices.
 const float kPos[5][3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {0.5f, 0.5f, 2.5f}};
 
 std::string binaryHeader(const char* fmt) {
@@ -96,12 +96,12 @@ void checkTestMesh(const cb::PlyMesh& m) {
     for (int i = 0; i < 5; ++i)
         for (int k = 0; k < 3; ++k)
             CHECK(m.positions[i][k] == kPos[i][k]);
-    // quad -> 2, triangle -> 1, pentagon -> 3 (fan from the first vertex)
-    REQUIRE(m.triangles.size() == 6);
-    const std::array<unsigned, 3> expect[6] = {{0, 1, 2}, {0, 2, 3}, {0, 1, 4},
-                                               {0, 1, 2}, {0, 2, 3}, {0, 3, 4}};
-    for (int i = 0; i < 6; ++i)
+    // quad -> 2, triangle -> 1, pentagon -> skipped and counted (pbrt-v4's rply_face_callback)
+    REQUIRE(m.triangles.size() == 3);
+    const std::array<unsigned, 3> expect[3] = {{0, 1, 2}, {0, 2, 3}, {0, 1, 4}};
+    for (int i = 0; i < 3; ++i)
         CHECK(m.triangles[i] == expect[i]);
+    CHECK(m.skippedFaces == 1);
     CHECK(m.normals.empty());
 }
 

@@ -1553,6 +1553,12 @@ class Parser {
             } catch (const SceneError& e) {
                 throw SceneError(t.where, "cannot load plymesh: " + std::string(e.what()));
             }
+            if (ply.skippedFaces > 0)
+                note(t.where, "ply-faces:" + path,
+                     "plymesh \"" + path + "\": skipped " + std::to_string(ply.skippedFaces) +
+                         (ply.skippedFaces == 1 ? " face" : " faces") +
+                         " of more than 4 vertices, as pbrt-v4 does (it reads triangles and "
+                         "quads only)");
             std::vector<std::array<double, 3>> pos(ply.positions.size());
             for (size_t i = 0; i < pos.size(); ++i)
                 pos[i] = {ply.positions[i][0], ply.positions[i][1], ply.positions[i][2]};

@@ -477,6 +477,12 @@ PlyMesh readPlyFromMemory(const std::string& bytes, const std::string& path) {
                     }
                     poly.push_back(static_cast<uint64_t>(idx));
                 }
+                // pbrt-v4 (rply_face_callback) reads triangles and quads only and ignores
+                // larger faces with a warning; the parser reports the count.
+                if (poly.size() > 4) {
+                    ++mesh.skippedFaces;
+                    continue;
+                }
                 for (size_t k = 1; k + 1 < poly.size(); ++k)
                     mesh.triangles.push_back({static_cast<unsigned>(poly[0]),
                                               static_cast<unsigned>(poly[k]),

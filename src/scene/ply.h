@@ -12,10 +12,12 @@ namespace cb {
 
 struct PlyMesh {
     std::vector<std::array<float, 3>> positions;
-    std::vector<std::array<unsigned, 3>> triangles; // polygons fan-triangulated (0,i,i+1)
+    std::vector<std::array<unsigned, 3>> triangles; // quads split as (0,1,2), (0,2,3)
     // Per-vertex normals when the vertex element has nx, ny and nz, else empty. cbdpt shades
     // flat; the scene parser only uses these to orient faces as pbrt-v4 does.
     std::vector<std::array<float, 3>> normals;
+    // Faces of more than 4 vertices, skipped as pbrt-v4 skips them (with a warning).
+    unsigned long long skippedFaces = 0;
 };
 
 // Throws SceneError. Header errors carry the header line (column 1); ascii payload errors the
