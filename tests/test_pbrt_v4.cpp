@@ -1,6 +1,6 @@
 // pbrt-v4 compatibility: the directives and parameters a pbrt-v4 file brings (Sampler,
-// Integrator, PixelFilter, ColorSpace, Option, Import, objects, named coordinate systems,
-// bilinear patches, film colour parameters) and pbrt-v4's light normalisation and film colour
+// Integrator, PixelFilter, Accelerator, ColorSpace, Option, Import, TransformBegin, objects,
+// named coordinate systems, bilinear patches, PLY faces, film colour parameters) and pbrt-v4's light normalisation and film colour
 // (docs/pbrt-v4.md).
 #include <doctest/doctest.h>
 
