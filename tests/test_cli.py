@@ -417,4 +417,42 @@ with tempfile.TemporaryDirectory() as tmp:
     check(r.returncode != 0 and "garbage.pbrt:2:1" in r.stderr and "\\x1b" in r.stderr
           and printable(r.stderr), f"stray bytes are escaped in messages ({r.stderr.strip()})")
 
+    # Options that used to be accepted and then misread, ignored or refused late.
+    sixteen = ["--width", "16", "--height", "16"]
+    full_ref, crop_ref = os.path.join(tmp, "ref16.exr"), os.path.join(tmp, "ref8.exr")
+    crop = ["--cropwindow", "0", "0.5", "0", "0.5"]
+    run("render", scene, *sixteen, "--spp", "4", "-q", "-o", full_ref)
+    run("render", scene, *sixteen, *crop, "--spp", "4", "-q", "-o", crop_ref)
+    log = os.path.join(tmp, "crop.csv")
+    r = run("render", scene, *sixteen, *crop, "--spp", "2", "-q", "-o", out, "--reference",
+            crop_ref, "--log", log)
+    check(r.returncode == 0 and os.path.exists(log),
+          f"--cropwindow measures against a reference of the crop's size ({r.stderr.strip()})")
+    r = run("render", scene, *sixteen, *crop, "--spp", "2", "-q", "-o", out, "--reference",
+            full_ref)
+    check(r.returncode == 1 and "is 16x16 but the image is 8x8" in r.stderr,
+          f"--cropwindow refuses a reference of the film's size ({r.stderr.strip()})")
+    r = run("render", scene, *small, "--integrator", "pt", "--strategy", "2,3", "-o", out)
+    check(r.returncode == 1 and "pt does not take it" in r.stderr,
+          f"pt refuses --strategy ({r.stderr.strip()})")
+    stats = os.path.join(tmp, "tiny.json")
+    r = run("render", scene, *small, "--time", "0.000001", "-q", "-o", out, "--stats", stats)
+    check(r.returncode == 0 and json.load(open(stats))["estimates"] == 1,
+          f"a time budget shorter than one estimate still renders one ({r.stderr.strip()})")
+    r = run("render", scene, *small, "--spp", str(2 ** 32 + 1), "-o", out)
+    check(r.returncode == 2 and "--spp" in r.stderr,
+          f"--spp past 2^32 is a command-line error ({r.returncode}: {r.stderr.strip()})")
+    maxdepth = os.path.join(root, "scenes", "pbrt-v4", "cornell-box.pbrt")
+    r = run("render", maxdepth, *sixteen, "--spp", "1", "--integrator", "bdpt", "--max-vertices",
+            "0", "-q", "-o", out, "--stats", stats)
+    s = json.load(open(stats)) if r.returncode == 0 else {}
+    check(s.get("max_vertices") == 0,
+          f"--max-vertices 0 turns off the scene's maxdepth cap ({r.stderr.strip()} {s})")
+    for args, what in ((["--split-budget", "1", scene, "--width", "-5"], "--width"),
+                       (["a.exr", "b.exr", "--how", "bogus"], "unknown combination 'bogus'"),
+                       (["--split-budget", "-1", scene], "--split-budget")):
+        r = run("combine", *args, "-o", out)
+        check(r.returncode == 2 and what in r.stderr,
+              f"combine {' '.join(args)}: a command-line error ({r.returncode}: {r.stderr})")
+
 finish()

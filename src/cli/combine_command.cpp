@@ -3,6 +3,7 @@
 // methods within one time budget (integrators/split_budget.h), then combines them.
 #include "cl/cl_runtime.h"
 #include "cli/cli_format.h"
+#include "cli/cli_options.h"
 #include "cli/command_support.h"
 #include "cli/commands.h"
 #include "cli/progress_bar.h"
@@ -222,31 +223,58 @@ Command addCombineCommand(CLI::App& app) {
         ->required();
     cmd->add_option("-o,--output", o.output, "combined EXR")->required();
     cmd->add_option("--png", o.png, "PNG preview (default: output with .png)");
-    cmd->add_option("--how", o.how, "combination: " + combinationNames());
+    // Values are checked as the command line is read: a bad one exits 2 before any work.
+    cmd->add_option("--how", o.how, "combination: " + combinationNames())
+        ->check(
+            [](const std::string& name) {
+                try {
+                    parseCombination(name);
+                    return std::string();
+                } catch (const std::exception& e) {
+                    return std::string(e.what());
+                }
+            },
+            "COMBINATION")
+        ->capture_default_str();
     cmd->add_option("--variance-radius", o.settings.varianceRadius,
-                    "inverse-variance: box radius (pixels) of the averaged variances");
+                    "inverse-variance: box radius (pixels) of the averaged variances")
+        ->check(CLI::Range(0, 64))
+        ->capture_default_str();
     cmd->add_option("--reject-threshold", o.settings.rejectThreshold,
-                    "reject: standard errors from the median beyond which an input is dropped");
+                    "reject: standard errors from the median beyond which an input is dropped")
+        ->check(finiteRange(0.0, 1e6, true))
+        ->capture_default_str();
     cmd->add_option("--guide-sigma", o.settings.guideSigma,
-                    "guided: Gaussian sigma (pixels) of the correction filter");
+                    "guided: Gaussian sigma (pixels) of the correction filter")
+        ->check(finiteRange(0.0, 1024.0, true))
+        ->capture_default_str();
     cmd->add_option("--guide-range", o.settings.guideRange,
-                    "guided: relative luminance difference of the edge stop (0: none)");
+                    "guided: relative luminance difference of the edge stop (0: none)")
+        ->check(finiteRange(0.0, 1e6))
+        ->capture_default_str();
     cmd->add_option("--guide-clamp", o.settings.guideClamp,
                     "guided: clamp the noisy - pattern-prone difference at this many standard "
-                    "deviations before filtering (0: off)");
+                    "deviations before filtering (0: off)")
+        ->check(finiteRange(0.0, 1e6))
+        ->capture_default_str();
     cmd->add_flag("--guide-blend", o.settings.guideBlend,
                   "guided: then mix the corrected image with the noisy one per pixel by inverse "
                   "variance");
     cmd->add_option("--stats", o.statsPath, "write the inputs' records and times as JSON");
     cmd->add_option("--split-budget", o.budget,
-                    "render the --methods within this many render seconds in all, then combine");
+                    "render the --methods within this many render seconds in all, then combine")
+        ->check(finiteRange(0.0, 1e9, true));
     cmd->add_option("--methods", o.methods, "--split-budget: methods, e.g. pt,cbdpt");
     cmd->add_option("--shares", o.shares,
                     "--split-budget: fractions of the budget per method (default: equal)");
     auto* eye =
         cmd->add_option("--eye-vertices", o.eyeVertices,
-                        "--split-budget: Ne of the bidirectional methods (PT, CPT: Ne + Nl)");
-    auto* light = cmd->add_option("--light-vertices", o.lightVertices, "--split-budget: Nl");
+                        "--split-budget: Ne of the bidirectional methods (PT, CPT: Ne + Nl)")
+            ->check(CLI::Range(2, 1024))
+            ->capture_default_str();
+    auto* light = cmd->add_option("--light-vertices", o.lightVertices, "--split-budget: Nl")
+                      ->check(CLI::Range(1, 1024))
+                      ->capture_default_str();
     cmd->add_option("--max-vertices", o.maxVertices,
                     "--split-budget: N, a cap on the whole path instead of Ne and Nl (every "
                     "strategy with s + t <= N: PT's integral for every method)")
@@ -254,9 +282,12 @@ Command addCombineCommand(CLI::App& app) {
         ->excludes(eye)
         ->excludes(light);
     cmd->add_option("--seed", o.seed, "--split-budget: seed of the first method (+1 per method)");
-    cmd->add_option("--width", o.width, "--split-budget: override the film width");
-    cmd->add_option("--height", o.height, "--split-budget: override the film height");
-    cmd->add_option("--channels", o.channels, "--split-budget: auto | rgb | spectral");
+    cmd->add_option("--width", o.width, "--split-budget: override the film width")
+        ->check(CLI::Range(1, 32768));
+    cmd->add_option("--height", o.height, "--split-budget: override the film height")
+        ->check(CLI::Range(1, 32768));
+    cmd->add_option("--channels", o.channels, "--split-budget: auto | rgb | spectral")
+        ->check(CLI::IsMember({"auto", "rgb", "spectral"}));
     cmd->add_option("--keep-inputs", o.keepInputs,
                     "--split-budget: also write each method's render to this folder");
     cmd->add_option("--device", o.device, "OpenCL device P:D");

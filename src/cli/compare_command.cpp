@@ -64,9 +64,7 @@ int runCompare(const CompareOptions& o) {
     if (!o.diffPng.empty()) cb::requireWritable(o.diffPng, "the difference map (--diff-png)");
     cb::RgbImage image = cb::readExr(o.image);
     cb::RgbImage reference = cb::readExr(o.reference);
-    cb::requireSameSize(image, reference,
-                        fmt::format("{} ({}x{})", o.image, image.width, image.height),
-                        fmt::format("{} ({}x{})", o.reference, reference.width, reference.height));
+    cb::requireSameSize(image, reference, o.image, "the reference " + o.reference);
     if (!(o.diffScale > 0.0) || !std::isfinite(o.diffScale))
         throw std::invalid_argument("--diff-scale must be a positive number");
     cb::ImageMetrics m = cb::compareImages(image, reference);

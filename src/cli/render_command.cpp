@@ -59,6 +59,7 @@ struct RenderOptions {
     bool sppGiven = false;
     bool integratorGiven = false;
     bool eyeVerticesGiven = false;
+    bool maxVerticesGiven = false; // --max-vertices, 0 (off) included: the scene's maxdepth yields
     bool lightVerticesGiven = false;
     bool resume = false;
     bool keepState = false;
@@ -239,7 +240,7 @@ void RenderJob::applySceneDefaults() {
     if (!o_.sppGiven && desc_.sampler.pixelSamples > 0) o_.spp = desc_.sampler.pixelSamples;
     const cb::IntegratorDesc& in = desc_.integrator;
     if (!o_.integratorGiven && !in.type.empty()) o_.integrator.name = in.type;
-    if (in.maxDepth < 0) return;
+    if (in.maxDepth < 0 || o_.maxVerticesGiven) return;
     const int vertices = in.maxDepth + 2;
     if (o_.integrator.name == "pt" || o_.integrator.name == "cpt") {
         if (!o_.eyeVerticesGiven) o_.integrator.eyeVertices = vertices;
@@ -304,11 +305,17 @@ void RenderJob::readCheckpointRequests() {
 void RenderJob::readReference() {
     if (!o_.reference.empty()) {
         reference_ = cb::readExr(o_.reference);
-        if (reference_->width != desc_.film.width || reference_->height != desc_.film.height)
+        // The image's size: the crop's with --cropwindow.
+        int width = desc_.film.width, height = desc_.film.height;
+        if (const auto& b = desc_.film.pixelBounds) {
+            width = (*b)[1] - (*b)[0];
+            height = (*b)[3] - (*b)[2];
+        }
+        if (reference_->width != width || reference_->height != height)
             throw std::invalid_argument(fmt::format(
-                "--reference {} is {}x{} but the render is {}x{} (set --width/--height to match)",
-                o_.reference, reference_->width, reference_->height, desc_.film.width,
-                desc_.film.height));
+                "--reference {} is {}x{} but the image is {}x{} (set --width/--height{} to match)",
+                o_.reference, reference_->width, reference_->height, width, height,
+                desc_.film.pixelBounds ? " or --cropwindow" : ""));
         cb::RgbImage referenceError;
         if (cb::readExrStandardError(o_.reference, referenceError))
             referenceRmsError_ = cb::rootMeanSquareOf(referenceError.rgb);
@@ -408,7 +415,10 @@ void RenderJob::startIntegrator() {
                    o_.integrator.maxPathVertices > 0
                        ? fmt::format("N={} (Ne={}, Nl={})", o_.integrator.maxPathVertices,
                                      o_.integrator.eyeVertices, o_.integrator.lightVertices)
-                       : fmt::format("Ne={}", o_.integrator.eyeVertices),
+                   : o_.integrator.name == "pt" || o_.integrator.name == "cpt"
+                       ? fmt::format("Ne={}", o_.integrator.eyeVertices)
+                       : fmt::format("Ne={}, Nl={}", o_.integrator.eyeVertices,
+                                     o_.integrator.lightVertices),
                    integrator_->buildSeconds());
 }
 
@@ -846,7 +856,7 @@ void addBudgetOptions(CLI::App& cmd, RenderOptions& o) {
     cmd.add_option(
            "--spp", o.spp,
            "estimates (samples per pixel; default: the scene's Sampler pixelsamples, else 16)")
-        ->check(CLI::Range(1L, 1L << 40))
+        ->check(CLI::Range(1L, 1L << 32)) // estimate indices seed 32-bit random streams
         ->capture_default_str()
         ->group(group);
     cmd.add_option("--time", o.seconds, "render for this many seconds")
@@ -924,6 +934,7 @@ Command addRenderCommand(CLI::App& app) {
                 o->sppGiven = cmd->count("--spp") > 0;
                 o->integratorGiven = cmd->count("--integrator") > 0;
                 o->eyeVerticesGiven = cmd->count("--eye-vertices") > 0;
+                o->maxVerticesGiven = cmd->count("--max-vertices") > 0;
                 o->lightVerticesGiven = cmd->count("--light-vertices") > 0;
                 applyThreadLimit(o->device);
                 return RenderJob(*o).run();

@@ -248,7 +248,7 @@ std::string combinationNames() {
 
 RgbImage jointBilateralFilter(const RgbImage& values, const RgbImage& guide, double sigma,
                               double range) {
-    requireSameSize(values, guide, "filtered image", "guide");
+    requireSameSize(values, guide, "the filtered image", "the guide");
     if (!(sigma > 0.0)) throw std::invalid_argument("the guided filter's sigma must be positive");
     const int w = values.width, h = values.height;
     const int radius = int(std::ceil(2.5 * sigma));

@@ -11,9 +11,9 @@ namespace cb {
 void requireSameSize(const RgbImage& image, const RgbImage& reference, const std::string& imageName,
                      const std::string& referenceName) {
     if (image.width != reference.width || image.height != reference.height)
-        throw std::invalid_argument(fmt::format(
-            "image sizes differ: {} is {}x{} but the reference {} is {}x{}", imageName, image.width,
-            image.height, referenceName, reference.width, reference.height));
+        throw std::invalid_argument(fmt::format("image sizes differ: {} is {}x{} but {} is {}x{}",
+                                                imageName, image.width, image.height, referenceName,
+                                                reference.width, reference.height));
     if (image.rgb.size() != reference.rgb.size() ||
         image.rgb.size() != size_t(3) * size_t(image.width) * size_t(image.height))
         throw std::invalid_argument(
@@ -21,7 +21,7 @@ void requireSameSize(const RgbImage& image, const RgbImage& reference, const std
 }
 
 ImageMetrics compareImages(const RgbImage& image, const RgbImage& reference) {
-    requireSameSize(image, reference, "the image", "reference");
+    requireSameSize(image, reference, "the image", "the reference");
     ImageMetrics m;
     const size_t n = image.rgb.size();
     if (n == 0) return m;
@@ -46,7 +46,7 @@ double rootMeanSquaredError(const RgbImage& image, const RgbImage& reference) {
 }
 
 double relativeMeanSquaredError(const RgbImage& image, const RgbImage& reference, double epsilon) {
-    requireSameSize(image, reference, "the image", "reference");
+    requireSameSize(image, reference, "the image", "the reference");
     if (image.rgb.empty()) return ImageMetrics::nan;
     double sum = 0.0;
     for (size_t i = 0; i < image.rgb.size(); ++i) {
@@ -109,7 +109,7 @@ bool readExrStandardError(const std::string& path, RgbImage& out) {
 
 std::vector<std::uint8_t> relativeErrorColourMap(const RgbImage& image, const RgbImage& reference,
                                                  double scale) {
-    requireSameSize(image, reference, "the image", "reference");
+    requireSameSize(image, reference, "the image", "the reference");
     if (!(scale > 0.0)) throw std::invalid_argument("the colour-map scale must be positive");
     const size_t n = size_t(image.width) * size_t(image.height);
     std::vector<std::uint8_t> out(3 * n);

@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include <cstdlib>
+#include <stdexcept>
 #include <string>
 
 namespace cb {
@@ -70,6 +71,9 @@ class PathTracingIntegrator final : public PixelKernelIntegrator {
 std::unique_ptr<Integrator> makePathTracingIntegrator(const IntegratorSettings& settings,
                                                       const DeviceScene& scene,
                                                       ClRuntime& runtime) {
+    if (settings.debugS >= 0 || settings.debugT >= 0)
+        throw std::invalid_argument(
+            fmt::format("--strategy is a bdpt debug mode; {} does not take it", settings.name));
     return std::make_unique<PathTracingIntegrator>(settings, scene, runtime);
 }
 

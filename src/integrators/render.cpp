@@ -268,7 +268,10 @@ RenderOutcome renderEstimates(Integrator& integrator, EstimateAccumulator& accum
             break;
         }
         if (!workLeft) break;
-        if (limits.seconds > 0.0 && shared[6] >= limits.seconds) break;
+        // A time budget ends the render once it has an estimate: a budget shorter than one
+        // estimate still gives an image, as --spp 1 would.
+        if (limits.seconds > 0.0 && shared[6] >= limits.seconds && initialInRange + totalDone > 0)
+            break;
         if (havePending) {
             integrator.renderEstimate(std::uint32_t(pending), rgb);
             accumulator.add(pending, rgb.data());
