@@ -621,6 +621,9 @@ int RenderJob::finish(const cb::RenderOutcome& outcome) {
                    estimates_, formatSeconds(outcome.renderSeconds),
                    outcome.renderSeconds / double(std::max(1L, outcome.estimatesRendered)), output_,
                    png_);
+    if (const cb::MltStatistics* mlt = cb::mltStatistics(*integrator_);
+        mlt && mlt->mutations > 0 && !o_.quiet)
+        fmt::print(stderr, "{}\n", cb::mltSummary(*mlt));
     if (!checkpointOutputFailure_.empty()) {
         fmt::print(stderr, "cbdpt: error: the checkpoint outputs are incomplete: {}\n",
                    checkpointOutputFailure_);

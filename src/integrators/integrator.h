@@ -113,5 +113,7 @@ struct MltStatistics {
 
 // The statistics if `integrator` is an MLT integrator, else nullptr.
 const MltStatistics* mltStatistics(const Integrator& integrator);
+// One line of them, "mlt: b = ... zero proposals ...", as `cbdpt render` prints it.
+std::string mltSummary(const MltStatistics& stats);
 
 } // namespace cb

@@ -12,7 +12,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <fmt/format.h>
 #include <random>
 #include <stdexcept>
@@ -76,21 +75,6 @@ class MltIntegrator final : public KernelIntegrator {
         stats.chains = long(chains_);
         stats.mutationsPerChain = mutationsPerChain_;
         stats.bootstrapSamples = bootstrapSamples_;
-    }
-
-    ~MltIntegrator() override {
-        if (stats.mutations > 0)
-            std::fprintf(
-                stderr,
-                "mlt: b = %.6g (bootstrap %.6g +- %.2g, %ld samples, %ld non-zero), %ld "
-                "chains x %ld mutations per estimate, acceptance %.4f, large steps "
-                "%.4f of %ld accepted, zero proposals %.4f\n",
-                stats.normalization, stats.bootstrapNormalization, stats.bootstrapStandardError,
-                stats.bootstrapSamples, stats.bootstrapNonZero, stats.chains,
-                stats.mutationsPerChain, stats.acceptanceRate(),
-                stats.largeSteps ? double(stats.largeStepsAccepted) / double(stats.largeSteps)
-                                 : 0.0,
-                stats.largeSteps, double(stats.zeroProposals) / double(stats.mutations));
     }
 
     void renderEstimate(std::uint32_t estimate, std::vector<float>& rgb) override {
@@ -245,6 +229,19 @@ std::unique_ptr<Integrator> makeMltIntegrator(const IntegratorSettings& settings
 
 long mltBootstrapSamples(const IntegratorSettings& settings, long pixels) {
     return settings.mltBootstrap > 0 ? settings.mltBootstrap : std::max(pixels, kBootstrapBatch);
+}
+
+std::string mltSummary(const MltStatistics& stats) {
+    return fmt::format(
+        "mlt: b = {:.6g} (bootstrap {:.6g} +- {:.2g}, {} samples, {} non-zero), {} chains x {} "
+        "mutations per estimate, acceptance {:.4f}, large steps {:.4f} of {} accepted, zero "
+        "proposals {:.4f}",
+        stats.normalization, stats.bootstrapNormalization, stats.bootstrapStandardError,
+        stats.bootstrapSamples, stats.bootstrapNonZero, stats.chains, stats.mutationsPerChain,
+        stats.acceptanceRate(),
+        stats.largeSteps ? double(stats.largeStepsAccepted) / double(stats.largeSteps) : 0.0,
+        stats.largeSteps,
+        stats.mutations ? double(stats.zeroProposals) / double(stats.mutations) : 0.0);
 }
 
 const MltStatistics* mltStatistics(const Integrator& integrator) {
