@@ -94,7 +94,8 @@ with tempfile.TemporaryDirectory() as tmp:
     check(r.returncode == 0 and "rmse            0\n" in r.stdout, f"self-compare is zero ({r.stdout})")
     render("--width", 16, "--height", 8, "--spp", 1, "-o", P("small.exr"), "--png", P("s.png"))
     r = subprocess.run([cbdpt, "compare", P("small.exr"), P("ref.exr")], capture_output=True, text=True)
-    check(r.returncode != 0 and "small.exr (16x8)" in r.stderr and "ref.exr (32x32)" in r.stderr,
+    check(r.returncode != 0 and "small.exr is 16x8" in r.stderr and
+          "the reference " + P("ref.exr") + " is 32x32" in r.stderr,
           f"size mismatch names both files and sizes ({r.stderr.strip()})")
     r = render("--width", 16, "--height", 16, "--reference", P("ref.exr"), "--checkpoints", "1,2")
     check(r.returncode != 0 and "32x32" in r.stderr and "16x16" in r.stderr,
