@@ -470,11 +470,7 @@ class Parser {
             }
             directive(*t);
         }
-        if (!stack_.empty()) {
-            const std::string& by = stack_.back().openedBy;
-            throw SceneError(stack_.back().openedAt,
-                             by + " without matching " + by.substr(0, by.size() - 5) + "End");
-        }
+        if (!stack_.empty()) throw unclosedBlock("");
         if (!inWorld_) throw SceneError(end, "end of file before WorldBegin");
     }
 
@@ -1628,36 +1624,21 @@ class Parser {
         for (const auto& q : patches) {
             const auto &p00 = pos[q[0]], &p10 = pos[q[1]], &p01 = pos[q[2]], &p11 = pos[q[3]];
             // Planar when p11 lies in the plane of the other three (relative to the patch size).
-            const double a[3] = {p10[0] - p00[0], p10[1] - p00[1], p10[2] - p00[2]};
-            const double b[3] = {p01[0] - p00[0], p01[1] - p00[1], p01[2] - p00[2]};
-            const double c[3] = {p11[0] - p00[0], p11[1] - p00[1], p11[2] - p00[2]};
-            const double n[3] = {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
-                                 a[0] * b[1] - a[1] * b[0]};
-            const double volume = n[0] * c[0] + n[1] * c[1] + n[2] * c[2];
-            const double size = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]) *
-                                std::sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
-            if (std::fabs(volume) > 1e-6 * size)
+            const Vec3d a = vecSub(p10, p00), b = vecSub(p01, p00), c = vecSub(p11, p00);
+            const Vec3d n = vecCross(a, b);
+            if (std::fabs(vecDot(n, c)) > 1e-6 * std::sqrt(vecDot(n, n)) * std::sqrt(vecDot(c, c)))
                 throw SceneError(t.where, "a curved (non-planar) bilinear patch is not supported; "
                                           "cbdpt renders planar patches only");
             // A planar patch's cross(dpdu, dpdv) is bilinear in (u, v), so it keeps one side
             // everywhere iff it does at the four corners; otherwise (a bowtie, or a non-convex
             // quadrilateral) pbrt-v4's surface folds over itself and two triangles are not it.
-            const double d[3] = {p11[0] - p01[0], p11[1] - p01[1], p11[2] - p01[2]};
-            const double e[3] = {p11[0] - p10[0], p11[1] - p10[1], p11[2] - p10[2]};
-            auto cross = [](const double* x, const double* y) {
-                return std::array<double, 3>{x[1] * y[2] - x[2] * y[1], x[2] * y[0] - x[0] * y[2],
-                                             x[0] * y[1] - x[1] * y[0]};
-            };
-            const std::array<double, 3> corners[4] = {cross(a, b), cross(a, e), cross(d, b),
-                                                      cross(d, e)};
-            auto dot = [](const std::array<double, 3>& x, const std::array<double, 3>& y) {
-                return x[0] * y[0] + x[1] * y[1] + x[2] * y[2];
-            };
-            const std::array<double, 3>* largest = &corners[0];
-            for (const auto& c2 : corners)
-                if (dot(c2, c2) > dot(*largest, *largest)) largest = &c2;
-            for (const auto& c2 : corners)
-                if (dot(c2, *largest) < -1e-6 * dot(*largest, *largest))
+            const Vec3d d = vecSub(p11, p01), e = vecSub(p11, p10);
+            const Vec3d corners[4] = {n, vecCross(a, e), vecCross(d, b), vecCross(d, e)};
+            const Vec3d* largest = &corners[0];
+            for (const Vec3d& corner : corners)
+                if (vecDot(corner, corner) > vecDot(*largest, *largest)) largest = &corner;
+            for (const Vec3d& corner : corners)
+                if (vecDot(corner, *largest) < -1e-6 * vecDot(*largest, *largest))
                     throw SceneError(
                         t.where,
                         "bilinear patch" +
@@ -1811,12 +1792,7 @@ class Parser {
             const auto& p0 = mesh.positions[tri[0]];
             const auto& p1 = mesh.positions[tri[1]];
             const auto& p2 = mesh.positions[tri[2]];
-            const double e1[3] = {double(p1[0]) - p0[0], double(p1[1]) - p0[1],
-                                  double(p1[2]) - p0[2]};
-            const double e2[3] = {double(p2[0]) - p0[0], double(p2[1]) - p0[1],
-                                  double(p2[2]) - p0[2]};
-            const double c[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
-                                 e1[0] * e2[1] - e1[1] * e2[0]};
+            const Vec3d c = vecCross(vecSub(p1, p0), vecSub(p2, p0));
             if (tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2] ||
                 (c[0] == 0.0 && c[1] == 0.0 && c[2] == 0.0)) {
                 ++dropped;
@@ -1824,11 +1800,11 @@ class Parser {
             }
             bool reverse = flip;
             if (!n.empty()) {
-                double ns[3];
-                for (int k = 0; k < 3; ++k)
+                Vec3d ns;
+                for (size_t k = 0; k < 3; ++k)
                     ns[k] = n[tri[0]][k] + n[tri[1]][k] + n[tri[2]][k];
                 const double sign = reverse ? -1.0 : 1.0;
-                const double d = sign * (c[0] * ns[0] + c[1] * ns[1] + c[2] * ns[2]);
+                const double d = sign * vecDot(c, ns);
                 if (d < 0.0) reverse = !reverse;
             }
             if (reverse) std::swap(tri[1], tri[2]);
@@ -1881,6 +1857,13 @@ class Parser {
         throw SceneError(where, msg);
     }
 
+    // The innermost open block's error: "XBegin without matching XEnd" where it was opened.
+    SceneError unclosedBlock(const std::string& why) const {
+        const std::string& by = stack_.back().openedBy; // "...Begin"
+        return SceneError(stack_.back().openedAt,
+                          by + " without matching " + by.substr(0, by.size() - 5) + "End" + why);
+    }
+
     // The innermost Import being read, if any.
     const ImportScope* importBase() const {
         for (auto f = files_.rbegin(); f != files_.rend(); ++f)
@@ -1892,12 +1875,8 @@ class Parser {
     // its shapes, objects and named materials (CopyForImport, MergeImported): the CTM, material,
     // area light and orientation it sets, and its named coordinate systems, do not leak out.
     void endImport(const ImportScope& scope) {
-        if (stack_.size() > scope.stackDepth) {
-            const std::string& by = stack_.back().openedBy;
-            throw SceneError(stack_.back().openedAt,
-                             by + " without matching " + by.substr(0, by.size() - 5) +
-                                 "End (an Import-ed file must close the blocks it opens)");
-        }
+        if (stack_.size() > scope.stackDepth)
+            throw unclosedBlock(" (an Import-ed file must close the blocks it opens)");
         state_ = scope.state;
         namedCoordinateSystems_ = scope.coordinateSystems;
     }

@@ -11,6 +11,18 @@
 
 namespace cb {
 
+// 3-vectors of the scene description (double precision, as std::array).
+using Vec3d = std::array<double, 3>;
+inline Vec3d vecSub(const Vec3d& a, const Vec3d& b) {
+    return {a[0] - b[0], a[1] - b[1], a[2] - b[2]};
+}
+inline Vec3d vecCross(const Vec3d& a, const Vec3d& b) {
+    return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
+inline double vecDot(const Vec3d& a, const Vec3d& b) {
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
 struct Mat4 {
     std::array<double, 16> m{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
 
@@ -121,24 +133,17 @@ inline std::optional<Mat4> rotateMatrix(double degrees, double ax, double ay, do
 inline std::optional<Mat4> lookAtMatrix(const std::array<double, 3>& eye,
                                         const std::array<double, 3>& look,
                                         const std::array<double, 3>& up) {
-    auto sub = [](const std::array<double, 3>& a, const std::array<double, 3>& b) {
-        return std::array<double, 3>{a[0] - b[0], a[1] - b[1], a[2] - b[2]};
-    };
-    auto cross = [](const std::array<double, 3>& a, const std::array<double, 3>& b) {
-        return std::array<double, 3>{a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
-                                     a[0] * b[1] - a[1] * b[0]};
-    };
     auto normalize = [](std::array<double, 3> a) -> std::optional<std::array<double, 3>> {
         const double l = std::sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
         if (!(l > 0.0) || !std::isfinite(l)) return std::nullopt;
         return std::array<double, 3>{a[0] / l, a[1] / l, a[2] / l};
     };
-    const auto dir = normalize(sub(look, eye));
+    const auto dir = normalize(vecSub(look, eye));
     const auto upN = normalize(up);
     if (!dir || !upN) return std::nullopt;
-    const auto right = normalize(cross(*upN, *dir));
+    const auto right = normalize(vecCross(*upN, *dir));
     if (!right) return std::nullopt;
-    const auto newUp = cross(*dir, *right);
+    const auto newUp = vecCross(*dir, *right);
     const std::array<std::array<double, 3>, 3> rows{*right, newUp, *dir};
     Mat4 r;
     for (int i = 0; i < 3; ++i) {
