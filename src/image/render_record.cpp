@@ -24,6 +24,14 @@ std::string pixelBoundsText(const std::array<int, 4>& bounds) {
     return fmt::format("{} {} {} {}", bounds[0], bounds[1], bounds[2], bounds[3]);
 }
 
+std::string recordedSampler(const std::string& method, const std::string& sampler) {
+    return method == "mlt" ? "mlt" : sampler;
+}
+
+std::string strategyText(int s, int t) {
+    return s >= 0 ? fmt::format("{},{}", s, t) : std::string();
+}
+
 ExrAttributes toExrAttributes(const RenderRecord& r) {
     ExrAttributes a;
     a.strings["cbdpt_method"] = r.method;
@@ -122,11 +130,11 @@ RenderRecord renderRecordFromIdentity(const RenderIdentity& identity) {
     r.rouletteVertex = s.value("roulette_vertex", 0);
     r.seed = s.value("seed", std::uint32_t(0));
     r.channels = s.value("channels", 0);
-    r.sampler = r.method == "mlt" ? "mlt" : s.value("sampler", "");
+    r.sampler = recordedSampler(r.method, s.value("sampler", ""));
     if (s.contains("pixel_bounds"))
         r.pixelBounds = pixelBoundsText(s["pixel_bounds"].get<std::array<int, 4>>());
-    if (const auto st = s.value("strategy", std::vector<int>{-1, -1}); st.size() == 2 && st[0] >= 0)
-        r.strategy = fmt::format("{},{}", st[0], st[1]);
+    if (const auto st = s.value("strategy", std::vector<int>{-1, -1}); st.size() == 2)
+        r.strategy = strategyText(st[0], st[1]);
     r.sceneHash = identity.sceneHash;
     return r;
 }

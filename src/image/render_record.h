@@ -44,6 +44,10 @@ struct RenderRecord {
 
 // --cropwindow's pixel bounds as RenderRecord::pixelBounds writes them.
 std::string pixelBoundsText(const std::array<int, 4>& bounds);
+// RenderRecord::sampler of a render of `method` with --sampler `sampler` (MLT: its own chains).
+std::string recordedSampler(const std::string& method, const std::string& sampler);
+// RenderRecord::strategy of --strategy S,T; empty when S < 0 (no --strategy).
+std::string strategyText(int s, int t);
 
 // The record of a render from its state's identity (`cbdpt merge`): the scene file's name and
 // the render times are not in a state, so they are left empty and zero.

@@ -303,8 +303,8 @@ RenderRecord makeRenderRecord(const IntegratorSettings& settings, const std::str
     r.coherenceTile = settings.coherenceTile;
     r.rouletteVertex = settings.rouletteVertex;
     r.seed = settings.seed;
-    r.sampler = settings.name == "mlt" ? "mlt" : settings.sampler;
-    if (settings.debugS >= 0) r.strategy = fmt::format("{},{}", settings.debugS, settings.debugT);
+    r.sampler = recordedSampler(settings.name, settings.sampler);
+    r.strategy = strategyText(settings.debugS, settings.debugT);
     r.channels = channels;
     r.renderSeconds = outcome.renderSeconds;
     r.renderCpuSeconds = outcome.renderCpuSeconds;
