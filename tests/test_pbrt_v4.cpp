@@ -1,7 +1,7 @@
 // pbrt-v4 compatibility: the directives and parameters a pbrt-v4 file brings (Sampler,
 // Integrator, PixelFilter, Accelerator, ColorSpace, Option, Import, TransformBegin, objects,
-// named coordinate systems, bilinear patches, PLY faces, film colour parameters) and pbrt-v4's light normalisation and film colour
-// (docs/pbrt-v4.md).
+// named coordinate systems, bilinear patches, PLY faces, film colour parameters) and pbrt-v4's
+// light normalisation and film colour (docs/pbrt-v4.md).
 #include <doctest/doctest.h>
 
 #include "scene/scene_desc.h"
@@ -206,7 +206,8 @@ TEST_CASE("pbrt-v4: object instances are flattened with the instance transform")
     // Both face +z: the mirror keeps the surface's side, as pbrt-v4 transforms the normal.
     CHECK(normalOf(s.meshes[0], 0)[2] > 0.0);
     CHECK(normalOf(s.meshes[1], 0)[2] > 0.0);
-    CHECK(contains(errorOf("WorldBegin\nObjectInstance \"none\"\n"), "unknown object"));
+    CHECK(contains(errorOf("WorldBegin\nObjectInstance \"none\"\n"),
+                   "t.pbrt:2:16: unknown object \"none\" (no ObjectBegin defines it)"));
     CHECK(contains(errorOf("WorldBegin\nObjectBegin \"a\"\nObjectBegin \"b\"\n"), "nesting"));
     CHECK(contains(errorOf("WorldBegin\nObjectBegin \"a\"\nAttributeEnd\n"), "ObjectEnd"));
     // Area lights inside an object definition do not emit (pbrt-v4 warns and drops them).
@@ -216,6 +217,48 @@ TEST_CASE("pbrt-v4: object instances are flattened with the instance transform")
                                       "t.pbrt");
     CHECK(lit.meshes[0].areaLight == -1);
     CHECK(lit.notes.size() == 1);
+}
+
+TEST_CASE("pbrt-v4: NamedMaterial and ObjectInstance before their definitions") {
+    // pbrt-v4 resolves both names after parsing, so a file may use them before it defines them;
+    // the scene must be the one the same file gives with the definitions first.
+    const std::string red = "MakeNamedMaterial \"red\" \"string type\" \"diffuse\" "
+                            "\"rgb reflectance\" [0.8 0.1 0.1]\n";
+    const std::string glass = "MakeNamedMaterial \"glass\" \"string type\" \"dielectric\"\n";
+    const std::string object =
+        "ObjectBegin \"tri\"\nNamedMaterial \"glass\"\nTranslate 0 0 1\n" + kTri + "ObjectEnd\n";
+    const std::string uses =
+        "AttributeBegin\nNamedMaterial \"red\"\n" + kTri +
+        "Shape \"sphere\" \"float radius\" 2\nAttributeEnd\n" + kTri +
+        "AttributeBegin\nTranslate 10 0 0\nObjectInstance \"tri\"\nAttributeEnd\n";
+    const auto later = parseSceneString("WorldBegin\n" + uses + object + red + glass, "t.pbrt");
+    const auto first = parseSceneString("WorldBegin\n" + red + glass + object + uses, "t.pbrt");
+    REQUIRE(later.meshes.size() == 3);
+    REQUIRE(first.meshes.size() == 3);
+    REQUIRE(later.spheres.size() == 1);
+    auto nameOf = [](const cb::SceneDesc& s, int material) {
+        REQUIRE(material >= 0);
+        REQUIRE(material < static_cast<int>(s.materials.size()));
+        return s.materials[static_cast<size_t>(material)].name;
+    };
+    for (const auto* s : {&later, &first}) {
+        CHECK(nameOf(*s, s->meshes[0].material) == "red");
+        CHECK(nameOf(*s, s->spheres[0].material) == "red");
+        CHECK(nameOf(*s, s->meshes[1].material).empty()); // the default material after the block
+        CHECK(nameOf(*s, s->meshes[2].material) == "glass");
+        CHECK(s->meshes[2].positions[1] == std::array<double, 3>{11, 0, 1});
+    }
+    const auto& redDesc = later.materials[static_cast<size_t>(later.meshes[0].material)];
+    CHECK(redDesc.kind == cb::MaterialKind::Diffuse);
+    CHECK(later.materials[static_cast<size_t>(later.meshes[2].material)].kind ==
+          cb::MaterialKind::Dielectric);
+    // A name no directive defines is an error where a shape uses it, at the name's place.
+    CHECK(contains(errorOf("WorldBegin\nNamedMaterial \"ghost\"\n" + kTri + red),
+                   "t.pbrt:2:15: unknown named material \"ghost\""));
+    CHECK(errorOf("WorldBegin\nNamedMaterial \"ghost\"\n" + red).empty()); // unused, as pbrt-v4
+    CHECK(contains(errorOf("WorldBegin\nObjectInstance \"tri\"\nObjectBegin \"tri2\"\n" + kTri +
+                           "ObjectEnd\n"),
+                   "t.pbrt:2:16: unknown object \"tri\""));
 }
 
 TEST_CASE("pbrt-v4: CoordinateSystem and CoordSysTransform, camera included") {

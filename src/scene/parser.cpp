@@ -409,7 +409,9 @@ class ParamList {
 struct GraphicsState {
     Mat4 ctm;
     bool reverseOrientation = false;
-    int material = -1; // -1: pbrt's default material, created on first use
+    // -1: pbrt's default material, created on first use; <= -2: a named material defined later
+    // (kLaterMaterial)
+    int material = -1;
     int areaLight = -1;
     SourceLocation openedAt; // of the AttributeBegin that saved this state
     std::string openedBy;    // that directive: AttributeBegin, TransformBegin or ObjectBegin
@@ -472,6 +474,8 @@ class Parser {
         }
         if (!stack_.empty()) throw unclosedBlock("");
         if (!inWorld_) throw SceneError(end, "end of file before WorldBegin");
+        instantiateLaterObjects();
+        resolveLaterMaterials();
     }
 
   private:
@@ -722,9 +726,7 @@ class Parser {
             requireWorld(t);
             const Token name = quoted(t, "a material name");
             const int idx = findNamedMaterial(name.text);
-            if (idx < 0)
-                throw SceneError(name.where, "unknown named material \"" + name.text + "\"");
-            state_.material = idx;
+            state_.material = idx >= 0 ? idx : laterNamedMaterial(name);
         } else if (d == "AreaLightSource") {
             requireWorld(t);
             areaLight(t);
@@ -870,7 +872,7 @@ class Parser {
              "Sampler \"" + type.text +
                  "\" is not used: each cbdpt method draws its own samples; " +
                  std::to_string(s.pixelSamples) +
-                 " samples per pixel become the default estimate count" +
+                 " samples per pixel become the estimate count where --spp is not given" +
                  (rest.empty() ? std::string() : " (ignored: " + joined(rest) + ")"));
     }
 
@@ -1047,6 +1049,12 @@ class Parser {
                  : what + " has no effect in cbdpt (in pbrt-v4 it " + opt->effect + ")");
     }
 
+    struct ObjectDef {
+        std::vector<TriangleMeshDesc> meshes;
+        std::vector<SphereDesc> spheres;
+        SourceLocation where;
+    };
+
     void objectBegin(const Token& t) {
         requireWorld(t);
         const Token name = quoted(t, "an object name");
@@ -1093,33 +1101,48 @@ class Parser {
     }
 
     // Instances are flattened: each shape of the object is copied with the instance's CTM
-    // applied on top of the CTM it was defined with (pbrt-v4's renderFromInstance).
+    // applied on top of the CTM it was defined with (pbrt-v4's renderFromInstance). An object
+    // defined later in the file is flattened at the end, as pbrt-v4 resolves names after parsing.
     void objectInstance(const Token& t) {
         requireWorld(t);
         const Token name = quoted(t, "an object name");
         if (openObject_) throw SceneError(t.where, "ObjectInstance inside an object definition");
+        requireAffine(t.where);
         const auto it = objects_.find(name.text);
         if (it == objects_.end())
-            throw SceneError(name.where, "unknown object \"" + name.text + "\"");
-        requireAffine(t.where);
-        const Mat4& m = state_.ctm;
-        for (const TriangleMeshDesc& src : it->second.meshes) {
+            laterInstances_.push_back({name, state_.ctm});
+        else
+            instantiate(it->second, state_.ctm, t.where);
+    }
+
+    void instantiateLaterObjects() {
+        for (const LaterInstance& use : laterInstances_) {
+            const auto it = objects_.find(use.name.text);
+            if (it == objects_.end())
+                throw SceneError(use.name.where, "unknown object \"" + use.name.text +
+                                                     "\" (no ObjectBegin defines it)");
+            instantiate(it->second, use.ctm, use.name.where);
+        }
+    }
+
+    void instantiate(const ObjectDef& object, const Mat4& m, const SourceLocation& where) {
+        for (const TriangleMeshDesc& src : object.meshes) {
             TriangleMeshDesc mesh = src;
             for (auto& p : mesh.positions)
-                p = checkedPoint(m.point(p), t.where, "an instanced vertex position");
+                p = checkedPoint(m.point(p), where, "an instanced vertex position");
             // A mirroring instance keeps each surface's side (its normal is transformed too).
             if (m.det3() < 0.0)
                 for (auto& tri : mesh.triangles)
                     std::swap(tri[1], tri[2]);
             scene_.meshes.push_back(std::move(mesh));
         }
-        for (const SphereDesc& src : it->second.spheres) {
-            const double scale = similarityScale(t.where);
+        for (const SphereDesc& src : object.spheres) {
+            const double scale = similarityScale(m, where);
             SphereDesc sp = src;
-            sp.center = checkedPoint(m.point(src.center), t.where, "an instanced sphere centre");
+            sp.center = checkedPoint(m.point(src.center), where, "an instanced sphere centre");
             sp.radius = static_cast<float>(src.radius * scale);
             if (!(sp.radius > 0.f) || !std::isfinite(sp.radius))
-                throw SceneError(t.where, "instanced sphere radius is not a positive float");
+                throw SceneError(where, "instanced sphere radius is not a positive float");
             scene_.spheres.push_back(sp);
         }
     }
@@ -1468,8 +1491,38 @@ class Parser {
         return v;
     }
 
+    // A name NamedMaterial used before its MakeNamedMaterial: pbrt-v4 looks names up after
+    // parsing, so shapes carry a placeholder (kLaterMaterial - k) until resolveLaterMaterials.
+    int laterNamedMaterial(const Token& name) {
+        for (size_t k = 0; k < laterMaterials_.size(); ++k)
+            if (laterMaterials_[k].name == name.text) return kLaterMaterial - static_cast<int>(k);
+        laterMaterials_.push_back({name.text, name.where});
+        return kLaterMaterial - static_cast<int>(laterMaterials_.size() - 1);
+    }
+
+    void resolveLaterMaterials() {
+        if (laterMaterials_.empty()) return;
+        std::vector<int> resolved(laterMaterials_.size(), -1);
+        auto resolve = [&](int& material) {
+            if (material > kLaterMaterial) return;
+            const size_t k = static_cast<size_t>(kLaterMaterial - material);
+            if (resolved[k] < 0) {
+                resolved[k] = findNamedMaterial(laterMaterials_[k].name);
+                if (resolved[k] < 0)
+                    throw SceneError(laterMaterials_[k].where,
+                                     "unknown named material \"" + laterMaterials_[k].name +
+                                         "\" (no MakeNamedMaterial defines it)");
+            }
+            material = resolved[k];
+        };
+        for (TriangleMeshDesc& mesh : scene_.meshes)
+            resolve(mesh.material);
+        for (SphereDesc& sphere : scene_.spheres)
+            resolve(sphere.material);
+    }
+
     int currentMaterial() {
-        if (state_.material >= 0) return state_.material;
+        if (state_.material >= 0 || state_.material <= kLaterMaterial) return state_.material;
         if (defaultMaterial_ < 0) {
             // pbrt-v4's initial graphics state uses a "diffuse" material with reflectance 0.5.
             MaterialDesc m;
@@ -1726,7 +1779,10 @@ class Parser {
     // a sphere): A^T A must be s^2 I for the 3x3 block A.
     double similarityScale(const SourceLocation& where) const {
         requireAffine(where);
-        const Mat4& m = state_.ctm;
+        return similarityScale(state_.ctm, where);
+    }
+
+    static double similarityScale(const Mat4& m, const SourceLocation& where) {
         double g[3][3];
         for (int i = 0; i < 3; ++i)
             for (int j = 0; j < 3; ++j)
@@ -1929,20 +1985,26 @@ class Parser {
     bool haveCamera_ = false;
     bool haveFilm_ = false;
     int defaultMaterial_ = -1;
+    static constexpr int kLaterMaterial = -2;
+    struct LaterMaterial {
+        std::string name;
+        SourceLocation where; // its first NamedMaterial
+    };
+    std::vector<LaterMaterial> laterMaterials_;
     std::set<std::string> notedKinds_;
     std::map<std::string, Mat4> namedCoordinateSystems_;
     std::map<std::string, SourceLocation> importedCoordinateSystems_; // defined inside an Import
-    struct ObjectDef {
-        std::vector<TriangleMeshDesc> meshes;
-        std::vector<SphereDesc> spheres;
-        SourceLocation where;
-    };
     struct OpenObject {
         std::string name;
         size_t firstMesh = 0, firstSphere = 0, depth = 0;
     };
     std::map<std::string, ObjectDef> objects_;
     std::optional<OpenObject> openObject_;
+    struct LaterInstance {
+        Token name; // ObjectInstance's name, before its ObjectBegin
+        Mat4 ctm;
+    };
+    std::vector<LaterInstance> laterInstances_;
 };
 
 } // namespace
