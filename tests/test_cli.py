@@ -15,6 +15,7 @@ import time
 cbdpt, root = sys.argv[1], sys.argv[2]
 sys.path.insert(0, os.path.join(root, "scripts"))
 import cbdpt_results as cr  # noqa: E402
+import numpy as np  # noqa: E402
 from checks import check, finish  # noqa: E402
 scene = os.path.join(root, "scenes", "cornell-box.pbrt")
 
@@ -273,6 +274,26 @@ with tempfile.TemporaryDirectory() as tmp:
     check(r.returncode != 0 and "--diff-scale" in r.stderr, f"compare --diff-scale 0 ({r.stderr})")
     r = run("compare", out, out, "--diff-png", "-x")
     check(r.returncode != 0 and "--diff-png" in r.stderr, f"compare --diff-png -x ({r.stderr})")
+    # A NaN is counted, named, drawn black in the map and fails the comparison; the other pixels
+    # keep the map's colours.
+    r = run("render", scene, "-o", out, "--spp", "1", *small)
+    check(r.returncode == 0, f"a 16x16 render to compare ({r.stderr})")
+    good = cr.read_exr(out)
+    bad = good.copy()
+    bad[0, 0, 1] = float("nan")
+    nan_exr, diff_png = os.path.join(tmp, "nan.exr"), os.path.join(tmp, "nan-diff.png")
+    cr.write_exr(nan_exr, {"": bad})
+    r = run("compare", nan_exr, out, "--json", "--diff-png", diff_png)
+    j = json.loads(r.stdout) if r.stdout.startswith("{") else {}
+    check(r.returncode == 1 and "1 of 768 values not finite" in r.stderr and nan_exr in r.stderr
+          and j.get("image_nonfinite_values") == 1 and j.get("reference_nonfinite_values") == 0,
+          f"compare counts a NaN and exits 1 ({r.returncode}: {r.stderr.strip()}, {j})")
+    from PIL import Image
+    pixels = np.asarray(Image.open(diff_png).convert("RGB"))
+    check(pixels[0, 0].tolist() == [0, 0, 0] and pixels[0, 1].tolist() == [255, 255, 255],
+          f"the NaN pixel is black, an exact one white ({pixels[0, :2].tolist()})")
+    r = run("compare", out, out)
+    check(r.returncode == 0 and r.stderr == "", f"finite images compare with exit 0 ({r.stderr})")
 
     # --outfile is -o; --help shows defaults and examples; --version names version, revision
     # and platform.
@@ -351,7 +372,6 @@ with tempfile.TemporaryDirectory() as tmp:
     # --cropwindow as pbrt: fractions x0 x1 y0 y1 of the film, pixels ceil(W x0)..ceil(W x1);
     # the image is the crop. Its pixels estimate the same values as the same pixels of the full
     # film: region means agree within 5 standard errors (the renders are independent).
-    import numpy as np  # noqa: E402
     full, crop = os.path.join(tmp, "full.exr"), os.path.join(tmp, "crop.exr")
     for integrator in ("pt", "bdpt"):
         common = ["--integrator", integrator, "--eye-vertices", "5", "--spp", "32", "--width",
@@ -375,6 +395,14 @@ with tempfile.TemporaryDirectory() as tmp:
             check(bool(np.all(np.abs(a - b) < 5 * se)) and float(a.mean()) > 0.01,
                   f"{integrator} crop {name} half matches the full film's pixels ({a} vs {b}, "
                   f"standard error {se})")
+    # compare refuses two crops of the same size over different film pixels.
+    other = os.path.join(tmp, "crop2.exr")
+    r = run("render", scene, "-o", other, "--cropwindow", "0.4", "0.9", "0.5", "1", *common)
+    r2 = run("compare", crop, other)
+    check(r.returncode == 0 and r2.returncode != 0 and "different film pixels" in r2.stderr
+          and "7 39 32 64" in r2.stderr, f"compare refuses other crops ({r2.stderr.strip()})")
+    r2 = run("compare", crop, crop)
+    check(r2.returncode == 0, f"compare takes a crop against itself ({r2.stderr.strip()})")
 
     # Kernel diagnosis (docs/gpu.md): extra build options reach the compiler and the build log is
     # printed; CBDPT_KERNEL_DIR replaces an embedded kernel file by the folder's copy.

@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <memory>
@@ -26,8 +27,30 @@ struct CompareOptions {
     bool json = false;
 };
 
+size_t nonFiniteValues(const cb::RgbImage& image) {
+    return size_t(std::count_if(image.rgb.begin(), image.rgb.end(),
+                                [](float v) { return !std::isfinite(v); }));
+}
+
+// Two crops are comparable only where they cover the same film pixels (render_record.h's
+// cbdpt_pixel_bounds); a crop beside an image without the record is taken as the user gives it.
+void requireSameCrop(const CompareOptions& o) {
+    auto bounds = [](const std::string& path) {
+        const cb::ExrAttributes a = cb::readExrAttributes(path);
+        const auto it = a.strings.find("cbdpt_pixel_bounds");
+        return it == a.strings.end() ? std::string() : it->second;
+    };
+    const std::string imageBounds = bounds(o.image), referenceBounds = bounds(o.reference);
+    if (!imageBounds.empty() && !referenceBounds.empty() && imageBounds != referenceBounds)
+        throw std::invalid_argument(fmt::format(
+            "{} and {} are crops of different film pixels (cbdpt_pixel_bounds {} and {}); "
+            "compare crops of the same window",
+            o.image, o.reference, imageBounds, referenceBounds));
+}
+
 void printCompareJson(const CompareOptions& o, const cb::RgbImage& image, const cb::ImageMetrics& m,
-                      double imageSe, double referenceSe) {
+                      double imageSe, double referenceSe, size_t imageNonFinite,
+                      size_t referenceNonFinite) {
     nlohmann::json j = {{"image", o.image},
                         {"reference", o.reference},
                         {"width", image.width},
@@ -39,7 +62,9 @@ void printCompareJson(const CompareOptions& o, const cb::RgbImage& image, const 
                         {"image_mean", jsonNumber(cb::meanValue(image))},
                         {"reference_mean", jsonNumber(m.referenceMean)},
                         {"mean_stderr", jsonNumber(imageSe)},
-                        {"reference_rms_stderr", jsonNumber(referenceSe)}};
+                        {"reference_rms_stderr", jsonNumber(referenceSe)},
+                        {"image_nonfinite_values", imageNonFinite},
+                        {"reference_nonfinite_values", referenceNonFinite}};
     fmt::print("{}\n", j.dump(2));
 }
 
@@ -65,9 +90,21 @@ int runCompare(const CompareOptions& o) {
     cb::RgbImage image = cb::readExr(o.image);
     cb::RgbImage reference = cb::readExr(o.reference);
     cb::requireSameSize(image, reference, o.image, "the reference " + o.reference);
+    requireSameCrop(o);
     if (!(o.diffScale > 0.0) || !std::isfinite(o.diffScale))
         throw std::invalid_argument("--diff-scale must be a positive number");
     cb::ImageMetrics m = cb::compareImages(image, reference);
+    // A NaN or infinity makes every metric NaN or infinite; say where, and fail.
+    const size_t imageNonFinite = nonFiniteValues(image);
+    const size_t referenceNonFinite = nonFiniteValues(reference);
+    for (const auto& [path, count] :
+         {std::pair{o.image, imageNonFinite}, std::pair{o.reference, referenceNonFinite}})
+        if (count > 0)
+            fmt::print(stderr,
+                       "cbdpt compare: {} has {} of {} values not finite (NaN or infinity), so "
+                       "the metrics are not finite either{}\n",
+                       path, count, image.rgb.size(),
+                       o.diffPng.empty() ? "" : " (black in the difference map)");
     double imageSe = std::numeric_limits<double>::quiet_NaN();
     double referenceSe = imageSe;
     cb::RgbImage se;
@@ -77,10 +114,10 @@ int runCompare(const CompareOptions& o) {
         cb::writePng8(o.diffPng, image.width, image.height,
                       cb::relativeErrorColourMap(image, reference, o.diffScale));
     if (o.json)
-        printCompareJson(o, image, m, imageSe, referenceSe);
+        printCompareJson(o, image, m, imageSe, referenceSe, imageNonFinite, referenceNonFinite);
     else
         printCompareText(o, image, m, imageSe, referenceSe);
-    return 0;
+    return imageNonFinite + referenceNonFinite > 0 ? 1 : 0;
 }
 
 } // namespace
@@ -93,7 +130,7 @@ Command addCompareCommand(CLI::App& app) {
     cmd->add_option("reference", o->reference, "reference EXR")->required();
     cmd->add_option("--diff-png", o->diffPng,
                     "write a signed relative luminance error map (blue: too dark, white: "
-                    "exact, red: too bright)");
+                    "exact, red: too bright, black: not finite)");
     cmd->add_option("--diff-scale", o->diffScale, "relative error at which the map saturates")
         ->check(finiteRange(0.0, 1e30, true))
         ->capture_default_str();

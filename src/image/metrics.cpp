@@ -112,15 +112,16 @@ std::vector<std::uint8_t> relativeErrorColourMap(const RgbImage& image, const Rg
     requireSameSize(image, reference, "the image", "the reference");
     if (!(scale > 0.0)) throw std::invalid_argument("the colour-map scale must be positive");
     const size_t n = size_t(image.width) * size_t(image.height);
-    std::vector<std::uint8_t> out(3 * n);
+    std::vector<std::uint8_t> out(3 * n, 0);
     auto luminance = [](const float* p) {
         return 0.2126 * double(p[0]) + 0.7152 * double(p[1]) + 0.0722 * double(p[2]);
     };
     for (size_t i = 0; i < n; ++i) {
         const double l = luminance(&image.rgb[3 * i]);
         const double lr = luminance(&reference.rgb[3 * i]);
+        if (!std::isfinite(l) || !std::isfinite(lr)) continue; // black: no error to show
         double e = (l - lr) / (std::abs(lr) + kRelMseEpsilon);
-        if (!std::isfinite(e)) e = l > lr ? scale : -scale;
+        if (!std::isfinite(e)) e = l > lr ? scale : -scale; // overflow of finite values
         const double t = std::clamp(e / scale, -1.0, 1.0);
         // White at zero, fading linearly to pure red (t = 1) or pure blue (t = -1).
         const double fade = 1.0 - std::abs(t);
