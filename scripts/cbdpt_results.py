@@ -358,11 +358,19 @@ def away_from_emitters(cbdpt, scene, size, margin, folder):
                  str(size[0]), "--height", str(size[1]), "--spp", "4", "--seed", "1", "-o", out,
                  "-q"], env=environment(), stderr=subprocess.PIPE, text=True)
     lit = read_exr(out).astype(np.float64) @ LUMINANCE > 0
-    near = lit.copy()
-    for dy in range(-margin, margin + 1):
-        for dx in range(-margin, margin + 1):
-            near |= np.roll(np.roll(lit, dy, 0), dx, 1)
-    return ~near
+    return ~near_pixels(lit, margin)
+
+
+def near_pixels(mask, margin):
+    """The pixels within `margin` (Chebyshev distance) of a True pixel of `mask`; the image's
+    edges do not wrap around."""
+    h, w = mask.shape
+    padded = np.pad(mask, margin, constant_values=False)
+    near = np.zeros_like(mask)
+    for dy in range(2 * margin + 1):
+        for dx in range(2 * margin + 1):
+            near |= padded[dy:dy + h, dx:dx + w]
+    return near
 
 
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
@@ -390,16 +398,24 @@ def radial_spectrum(error):
     return np.array(freqs), np.array(values), float(low)
 
 
+def flip_evaluate(image, reference):
+    """HDR-FLIP (NVIDIA's flip-evaluator) of image against reference: (error map, mean,
+    parameters). HDR-FLIP expects non-negative linear values, and spectral renders hold small
+    negative sRGB values, so both images are clamped at 0 (an image against itself scores 0).
+    Raises ImportError without flip-evaluator."""
+    import flip_evaluator
+    error_map, mean, params = flip_evaluator.evaluate(
+        np.ascontiguousarray(np.maximum(reference, 0), np.float32),
+        np.ascontiguousarray(np.maximum(image, 0), np.float32), "HDR")
+    return error_map, float(mean), params
+
+
 def flip_mean(image, reference):
-    """Mean HDR-FLIP (NVIDIA's flip-evaluator) of image against reference; None without it."""
+    """Mean HDR-FLIP of image against reference (flip_evaluate); None without flip-evaluator."""
     try:
-        import flip_evaluator
+        return flip_evaluate(image, reference)[1]
     except ImportError:
         return None
-    _, mean, _ = flip_evaluator.evaluate(np.ascontiguousarray(reference, np.float32),
-                                         np.ascontiguousarray(np.maximum(image, 0), np.float32),
-                                         "HDR")
-    return float(mean)
 
 
 def read_exr_attributes(path):
