@@ -219,6 +219,10 @@ with tempfile.TemporaryDirectory() as tmp:
     check(r.returncode == 0 and "triangles" in r.stdout and "spectral-16" in r.stdout and
           re.search(r"leaf packs, [0-9.e+-]+ MB", r.stdout),
           f"info describes the scene, the tree's size too ({r.stdout.strip()})")
+    box = os.path.join(root, "scenes", "pbrt-v4", "box-spectral.pbrt")
+    r = subprocess.run([cbdpt, "info", box], capture_output=True, text=True)
+    check("4 (2 area-light primitives, 1 point lights, 1 spot, 0 distant, 0 infinite)" in r.stdout,
+          f"info counts the spot light apart from the point light ({r.stdout.strip()})")
 
 # Command-line habits (pbrt-v4's names where it has them) and bad input.
 def run(*args, env=None):

@@ -7,6 +7,8 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+
 #include <memory>
 #include <string>
 
@@ -43,12 +45,15 @@ void printScene(const std::string& scenePath) {
     fmt::print("  triangles        {}\n", scene.triangleCount);
     fmt::print("  vertices         {}\n", scene.vertexCount);
     fmt::print("  spheres          {}\n", scene.sphereCount);
-    fmt::print("  lights           {} ({} area-light primitives, {} point lights, {} distant, {} "
-               "infinite)\n",
+    const auto spots = std::count_if(desc.pointLights.begin(), desc.pointLights.end(),
+                                     [](const cb::PointLightDesc& l) { return l.spot; });
+    fmt::print("  lights           {} ({} area-light primitives, {} point lights, {} spot, {} "
+               "distant, {} infinite)\n",
                scene.lights.size(),
                scene.lights.size() - desc.pointLights.size() - desc.distantLights.size() -
                    desc.infiniteLights.size(),
-               desc.pointLights.size(), desc.distantLights.size(), desc.infiniteLights.size());
+               desc.pointLights.size() - size_t(spots), spots, desc.distantLights.size(),
+               desc.infiniteLights.size());
     fmt::print("  materials        {}\n", scene.materials.size());
     fmt::print("  bounding box     ({:.4g}, {:.4g}, {:.4g}) - ({:.4g}, {:.4g}, {:.4g})\n",
                scene.boundsMin[0], scene.boundsMin[1], scene.boundsMin[2], scene.boundsMax[0],
