@@ -40,9 +40,9 @@ def run(*a, prefix=(), **kw):
                           text=True, **kw)
 
 
-def render(out, *a, method="pt", prefix=()):
+def render(out, *a, method="pt", prefix=(), **kw):
     return run("render", scene, "-q", *SIZE, "--integrator", method, *METHODS[method], "-o", out,
-               *a, prefix=prefix)
+               *a, prefix=prefix, **kw)
 
 
 def data(path):
@@ -95,6 +95,17 @@ with tempfile.TemporaryDirectory() as tmp:
               f"--time under MPI ends on every rank and writes contiguous estimates ({r.stderr} "
               f"{stats})")
         check(os.path.exists(P("t.csv")), "rank 0 writes the checkpoint log")
+        # Periodic saves every second for 6 s: process 0 decides each one for every rank (ranks
+        # that timed saves on their own clocks met in different reductions and hung).
+        try:
+            r = render(P("saves.exr"), "--time", 6, "--save-state-every", 1, "--stats",
+                       P("saves.json"), prefix=mpirun + ["-n", "2"], timeout=120)
+            stats = json.load(open(P("saves.json"))) if os.path.exists(P("saves.json")) else {}
+            ok = r.returncode == 0 and stats.get("estimates", 0) > 0
+            detail = f"{r.returncode}: {r.stderr.strip()[-300:]} {stats.get('estimates')}"
+        except subprocess.TimeoutExpired:
+            ok, detail = False, "still running after 120 s"
+        check(ok, f"an MPI render with a periodic save each second ends ({detail})")
         finish()
 
     # Shards merged in any order equal one render of the union, bit for bit, per method.

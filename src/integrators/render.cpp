@@ -200,6 +200,8 @@ RenderOutcome renderEstimates(Integrator& integrator, EstimateAccumulator& accum
     double standardError = currentStandardError();
     // One round per estimate: agree on the totals and on process 0's clock, evaluate what is
     // due for the estimates done so far, then stop or render the next.
+    // Process 0 alone decides when a state is saved (its nextSave, on its clock): processes
+    // whose own clocks disagreed would enter the save's reduction in different rounds.
     std::vector<double> shared(7);
     long lastReported = -1;
     while (true) {
@@ -208,14 +210,15 @@ RenderOutcome renderEstimates(Integrator& integrator, EstimateAccumulator& accum
                   havePending ? 1.0 : 0.0,
                   root ? lastEstimateSeconds : 0.0,
                   root ? lastEstimateCpu : 0.0,
-                  root ? wall() : 0.0,
+                  root && nextSave > 0.0 && wall() >= nextSave ? 1.0 : 0.0,
                   root ? elapsed() : 0.0};
         crew.sumAll(shared);
         const long previous = totalDone;
         totalDone = long(shared[0]);
         const bool stopAsked = shared[1] > 0.0;
         const bool workLeft = shared[2] > 0.0;
-        const double now = shared[3], cpuNow = shared[4], wallNow = shared[5];
+        const double now = shared[3], cpuNow = shared[4];
+        const bool saveDue = shared[5] > 0.0;
         if (totalDone > previous) {
             if (previous == 0) outcome.firstEstimateSeconds = now;
             if (onCheckpoint) {
@@ -231,8 +234,7 @@ RenderOutcome renderEstimates(Integrator& integrator, EstimateAccumulator& accum
                     nextTime = (std::floor(now / checkpoints.everySeconds) + 1.0) *
                                checkpoints.everySeconds;
                 }
-                const bool save = nextSave > 0.0 && wallNow >= nextSave;
-                if (due || save) fire(now, cpuNow, false, due, save);
+                if (due || saveDue) fire(now, cpuNow, false, due, saveDue);
             }
         }
         if (onProgress && root && totalDone != lastReported) {
