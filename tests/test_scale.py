@@ -147,6 +147,22 @@ with tempfile.TemporaryDirectory() as tmp:
     check(r.returncode != 0 and "one would overwrite the other" in r.stderr and
           data(P("keep.exr")) == b"precious", f"merge with --state = -o refused ({r.stderr})")
 
+    # Kernels replaced through CBDPT_KERNEL_DIR (or built with CBDPT_KERNEL_OPTIONS) are other
+    # kernels: their states do not merge with the embedded kernels' states.
+    kernels = P("kernels")
+    os.makedirs(kernels)
+    with open(os.path.join(args.root, "kernels", "pt.cl")) as f:
+        edited = f.read() + "\n/* edited */\n"
+    with open(os.path.join(kernels, "pt.cl"), "w") as f:
+        f.write(edited)
+    for name, variable, value in (("dir", "CBDPT_KERNEL_DIR", kernels),
+                                  ("options", "CBDPT_KERNEL_OPTIONS", "-DCB_UNUSED_PROBE=1")):
+        r = render(P(f"k{name}.exr"), "--estimates", "9:10", "--keep-state", method="cbdpt",
+                   env=dict(os.environ, **{variable: value}))
+        r2 = run("merge", s0, P(f"k{name}.exr.state"), "-o", P("keep.exr"))
+        check(r.returncode == 0 and r2.returncode != 0 and "kernel_sources" in r2.stderr,
+              f"a state of kernels changed by {variable} does not merge ({r.stderr}{r2.stderr})")
+
     # Corrupted and truncated states through the command line: a clear error, no crash.
     good = data(s0)
     rng = random.Random(5)

@@ -299,22 +299,6 @@ ClRuntime::ClRuntime(const std::string& selector) {
     }
 }
 
-// The embedded kernel sources, each replaced by the file of the same name in the folder
-// CBDPT_KERNEL_DIR when set: kernels edited without rebuilding, e.g. to find where a device faults.
-static std::map<std::string, std::string> kernelSources() {
-    auto sources = embeddedKernelSources();
-    const char* dir = std::getenv("CBDPT_KERNEL_DIR");
-    if (!dir || !*dir) return sources;
-    for (auto& [name, text] : sources) {
-        std::ifstream in(std::string(dir) + "/" + name, std::ios::binary);
-        if (!in) continue;
-        std::ostringstream body;
-        body << in.rdbuf();
-        text = fmt::format("#line 1 \"{}\"\n{}", name, body.str());
-    }
-    return sources;
-}
-
 std::string assembleKernelSource(const std::string& mainFile) {
     const auto sources = kernelSources();
     std::set<std::string> included;

@@ -5,6 +5,7 @@
 
 #include <fmt/format.h>
 
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <stdexcept>
@@ -76,12 +77,15 @@ std::string sceneContentHash(const std::vector<std::string>& files) {
 
 std::string kernelSourceHash() {
     std::uint64_t h = kFnvOffset;
-    for (const auto& [name, source] : embeddedKernelSources()) {
+    for (const auto& [name, source] : kernelSources()) {
         // The first line is a #line directive naming where the file was built: left out.
         const auto firstLine = source.find('\n');
         h = fnv1a(h, name);
         h = fnv1a(h, firstLine == std::string::npos ? source : source.substr(firstLine));
     }
+    // Extra build options change the kernels as much as their sources (cl_runtime.cpp).
+    if (const char* extra = std::getenv("CBDPT_KERNEL_OPTIONS"); extra && *extra)
+        h = fnv1a(h, std::string("options ") + extra);
     return fmt::format("{:016x}", h);
 }
 

@@ -31,7 +31,8 @@ struct RenderIdentity {
 // same scene in another folder or on another machine hashes the same). Throws naming a file
 // it cannot read.
 std::string sceneContentHash(const std::vector<std::string>& files);
-// A hash of the embedded kernel sources: states of builds with other kernels do not mix.
+// A hash of the kernel sources in use (kernelSources: CBDPT_KERNEL_DIR's files replace the
+// embedded ones) and of CBDPT_KERNEL_OPTIONS: states of other kernels do not mix.
 std::string kernelSourceHash();
 
 // Lines "key: saved X, here Y" for each difference, empty when the identities match.
