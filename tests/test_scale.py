@@ -106,6 +106,20 @@ with tempfile.TemporaryDirectory() as tmp:
         except subprocess.TimeoutExpired:
             ok, detail = False, "still running after 120 s"
         check(ok, f"an MPI render with a periodic save each second ends ({detail})")
+        # Ranks that run other renders (another seed: other images summed; other checkpoints:
+        # other collective calls) are refused before they render, naming why.
+        for what, extra in (("seed", ["--seed", "5"]),
+                            ("checkpoints", ["--checkpoints", "2,4", "--log", P("ck.csv")])):
+            rank = ["render", scene, "-q", *SIZE, "--spp", "8", "-o", P("mix.exr")]
+            command = mpirun + ["-n", "1", cbdpt, *rank, ":", "-n", "1", cbdpt, *rank, *extra]
+            try:
+                r = subprocess.run(command, capture_output=True, text=True, timeout=120)
+                ok = r.returncode != 0 and "1 of 2 MPI ranks run another render" in r.stderr
+                detail = f"{r.returncode}: {r.stderr.strip()[-300:]}"
+            except subprocess.TimeoutExpired:
+                ok, detail = False, "still running after 120 s"
+            check(ok and not os.path.exists(P("mix.exr")),
+                  f"a rank with another {what} is refused ({detail})")
         finish()
 
     # Shards merged in any order equal one render of the union, bit for bit, per method.

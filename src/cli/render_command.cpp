@@ -22,8 +22,10 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <optional>
@@ -104,6 +106,7 @@ class RenderJob {
     void chooseOutputPaths();
     void startIntegrator();
     void startAccumulator();
+    void requireOneRenderOnEveryRank() const;
     cb::RenderLimits renderLimits() const;
     void warmUp();
     void openLog();
@@ -422,6 +425,41 @@ void RenderJob::startIntegrator() {
                    integrator_->buildSeconds());
 }
 
+// The ranks share one render only if each runs the same command on the same scene: otherwise
+// their sums mix other images, or they meet in different collective calls and hang. Each rank
+// compares a hash of its identity and of the options that drive collectives with process 0's.
+void RenderJob::requireOneRenderOnEveryRank() const {
+    if (!team_ || team_->size() < 2) return;
+    const std::string command = fmt::format(
+        "{}|{}|spp {}|time {}|target {}|estimates {}|save {}|checkpoints {}|every {}|log {}|"
+        "reference {}|images {}|resume {}|warm-up {}",
+        identity_.settings.dump(), identity_.sceneHash, o_.spp, o_.seconds, o_.targetStandardError,
+        o_.estimateRange, o_.saveStateEvery, o_.checkpoints, o_.checkpointEvery,
+        !o_.logPath.empty(), !o_.reference.empty(), !o_.checkpointImages.empty(), o_.resume,
+        !o_.noWarmup);
+    // 16-bit parts, which sums of doubles over any number of ranks keep exactly.
+    const std::uint64_t hash = std::hash<std::string>{}(command);
+    std::vector<double> rootHash(4);
+    for (size_t i = 0; i < 4; ++i)
+        rootHash[i] = root_ ? double((hash >> (16 * i)) & 0xffffu) : 0.0;
+    team_->sumAll(rootHash);
+    bool same = true;
+    for (size_t i = 0; i < 4; ++i)
+        same = same && rootHash[i] == double((hash >> (16 * i)) & 0xffffu);
+    std::vector<double> differing{same ? 0.0 : 1.0};
+    team_->sumAll(differing);
+    const std::string why = "the scene, the render settings or the options --spp, --time, "
+                            "--estimates, --checkpoints, --log, --save-state-every differ; every "
+                            "rank must run the same command";
+    if (!same)
+        throw std::invalid_argument(
+            fmt::format("MPI rank {} runs another render than rank 0 ({})", team_->rank(), why));
+    if (root_ && differing[0] > 0.0)
+        throw std::invalid_argument(
+            fmt::format("{} of {} MPI ranks run another render than rank 0 ({})",
+                        long(differing[0]), team_->size(), why));
+}
+
 // Ctrl-C handling, the accumulator, and what it holds already when resuming.
 void RenderJob::startAccumulator() {
     installStopHandler();
@@ -429,6 +467,7 @@ void RenderJob::startAccumulator() {
     // Two independent halves of the estimates, for `cbdpt combine` (image/combine.h).
     accumulator_->trackHalves();
     identity_ = cb::renderIdentity(o_.integrator, desc_, scene_);
+    requireOneRenderOnEveryRank();
     if (!o_.resume || !root_) return;
     cb::resumeRenderState(statePath_, identity_, *accumulator_);
     if (o_.sppGiven && !shard_ && accumulator_->estimates() > o_.spp)
