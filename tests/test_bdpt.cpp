@@ -574,6 +574,41 @@ TEST_CASE("BDPT single strategies equal PT restricted to the same path length" *
     }
 }
 
+// Under one refracting surface, light subpaths cross one interface that eye subpaths cross in
+// the other direction, so radiance's (eta_t / eta_i)^2 and the adjoint BSDF's absence of it do
+// not cancel (Veach 1997, sec. 5.2); a closed glass object hides a wrong adjoint. A pool: diffuse
+// walls and floor under a glass surface, the light above it. BDPT under the total cap 6
+// computes PT 6's paths, among them those connecting two diffuse vertices under the glass.
+TEST_CASE("BDPT equals PT under a single refracting surface (the adjoint BSDF)" *
+          doctest::test_suite("statistical")) {
+    cb::ClRuntime runtime;
+    const cb::DeviceScene scene = cb::buildDeviceScene(cb::parseSceneString(
+        "LookAt 0 2.2 -2.4  0 0.2 0  0 1 0\nCamera \"perspective\" \"float fov\" 45\n"
+        "Film \"rgb\" \"integer xresolution\" 24 \"integer yresolution\" 24\nWorldBegin\n"
+        "AttributeBegin\nAreaLightSource \"diffuse\" \"rgb L\" [4 4 4] \"bool twosided\" true\n"
+        "Shape \"bilinearmesh\" \"point3 P\" [-0.8 2.5 -0.8  0.8 2.5 -0.8  -0.8 2.5 0.8  0.8 2.5 "
+        "0.8]\n"
+        "AttributeEnd\n"
+        "AttributeBegin\nMaterial \"dielectric\" \"float eta\" 1.5\n"
+        "Shape \"bilinearmesh\" \"point3 P\" [-1 1 -1  -1 1 1  1 1 -1  1 1 1]\nAttributeEnd\n"
+        "Material \"diffuse\" \"rgb reflectance\" [0.8 0.8 0.8]\n"
+        "Shape \"bilinearmesh\" \"point3 P\" [-1 0 -1  1 0 -1  -1 0 1  1 0 1]\n"
+        "Shape \"bilinearmesh\" \"point3 P\" [-1 0 1  1 0 1  -1 1 1  1 1 1]\n"
+        "Shape \"bilinearmesh\" \"point3 P\" [-1 0 -1  -1 0 1  -1 1 -1  -1 1 1]\n"
+        "Shape \"bilinearmesh\" \"point3 P\" [1 0 -1  1 0 1  1 1 -1  1 1 1]\n",
+        "pool.pbrt"));
+    // Estimates enough that the adjoint's error (about 15% here) is 6 standard errors.
+    const auto pt = renderRegions(scene, runtime, ptSettings(6, 31), 512, 2);
+    for (const std::string weights : {"power", "lafortune"}) {
+        CAPTURE(weights);
+        cb::IntegratorSettings b = bdptSettings(6, 6, weights.c_str(), 32);
+        b.maxPathVertices = 6;
+        long nonFinite = 0;
+        checkRegionsEqual(renderRegions(scene, runtime, b, 256, 2, &nonFinite), pt);
+        CHECK(nonFinite == 0);
+    }
+}
+
 TEST_CASE("BDPT with both weightings equals PT and the furnace" *
           doctest::test_suite("statistical")) {
     cb::ClRuntime runtime;
