@@ -72,6 +72,9 @@ with tempfile.TemporaryDirectory() as tmp:
             check(stats["processes"] == 2 and stats["estimates"] == 7 and
                   stats["estimate_ranges"] == "0:7",
                   f"{method}: 2 processes rendered estimates 0:7 ({stats})")
+            # The last checkpoint's reduction is the image: finishing does not reduce again.
+            check(stats["reductions"] == 1,
+                  f"{method}: one reduction of the sums to rank 0 ({stats['reductions']})")
             check(pixels(P(f"mpi-{method}.exr")) == pixels(P(f"one-{method}.exr")),
                   f"{method}: 2 MPI ranks give the single-process image bit for bit")
         # A shard under MPI, merged with a single-process shard: the whole render.

@@ -85,7 +85,16 @@ class MpiTeam final : public RenderTeam {
     }
     const EstimateAccumulator* gather(const EstimateAccumulator& local) override {
         const auto start = std::chrono::steady_clock::now();
+        // The render's last checkpoint has reduced the sums that finishing reduces again: when
+        // no rank's accumulator changed since the last reduction, rank 0's total still holds.
+        const Fingerprint now{&local, local.estimates(), local.droppedSamples()};
+        int changed = reduced_ && now == last_ ? 0 : 1;
+        check(MPI_Allreduce(MPI_IN_PLACE, &changed, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD),
+              "MPI_Allreduce");
+        if (!changed) return rank_ == 0 ? &total_ : nullptr;
         const EstimateAccumulator* total = reduce(local);
+        reduced_ = true;
+        last_ = now;
         reductionSeconds_ +=
             std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         ++reductions_;
@@ -161,6 +170,14 @@ class MpiTeam final : public RenderTeam {
             ranges.emplace_back(flat[i], flat[i + 1]);
         return EstimateSet::fromRanges(std::move(ranges));
     }
+    // What identifies a local accumulator's content: estimates are only ever added to it.
+    struct Fingerprint {
+        const EstimateAccumulator* accumulator = nullptr;
+        long estimates = 0, dropped = 0;
+        bool operator==(const Fingerprint&) const = default;
+    };
+    bool reduced_ = false;
+    Fingerprint last_;
     int rank_ = 0, size_ = 1;
     MPI_Datatype sampleType_{}, squareType_{};
     MPI_Op sampleOp_{}, squareOp_{};
