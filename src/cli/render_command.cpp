@@ -106,6 +106,7 @@ class RenderJob {
     void chooseOutputPaths();
     void startIntegrator();
     void startAccumulator();
+    void resumeOnRoot();
     void requireOneRenderOnEveryRank() const;
     cb::RenderLimits renderLimits() const;
     void warmUp();
@@ -468,7 +469,18 @@ void RenderJob::startAccumulator() {
     accumulator_->trackHalves();
     identity_ = cb::renderIdentity(o_.integrator, desc_, scene_);
     requireOneRenderOnEveryRank();
-    if (!o_.resume || !root_) return;
+    if (o_.resume && root_) resumeOnRoot();
+    // A state of an earlier build may hold no halves: every rank's sums must then have none,
+    // for each reduction moves the same arrays on every rank.
+    if (o_.resume && team_) {
+        std::vector<double> rootHasNoHalves{root_ && !accumulator_->tracksHalves() ? 1.0 : 0.0};
+        team_->sumAll(rootHasNoHalves);
+        if (rootHasNoHalves[0] > 0.0 && !root_)
+            accumulator_.emplace(scene_.camera.width, scene_.camera.height);
+    }
+}
+
+void RenderJob::resumeOnRoot() {
     cb::resumeRenderState(statePath_, identity_, *accumulator_);
     if (o_.sppGiven && !shard_ && accumulator_->estimates() > o_.spp)
         throw std::invalid_argument(
