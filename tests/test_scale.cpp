@@ -232,6 +232,25 @@ TEST_CASE("render state: every truncation and random byte flips are refused with
                          doctest::Contains("format version 1"), std::runtime_error);
 }
 
+TEST_CASE("render state: estimate indices past the random streams' 2^32 are refused") {
+    // A state whose checksum holds but whose ranges reach past 2^32 (whose count would not fit
+    // a long at 2^63): such indices would repeat the estimates of index mod 2^32.
+    for (const std::uint64_t end :
+         {cb::kEstimateIndexEnd + 1, std::uint64_t(1) << 63, ~std::uint64_t(0)}) {
+        CAPTURE(end);
+        auto acc = render(0, 2, 2, 1);
+        acc.setIndices(cb::EstimateSet::fromRanges({{0, 1}, {end - 1, end}}));
+        CHECK_THROWS_WITH_AS(cb::decodeRenderState(cb::encodeRenderState(identity(), acc), "b"),
+                             doctest::Contains("past the 4294967296 indices"), std::runtime_error);
+    }
+    auto acc = render(0, 2, 2, 1);
+    acc.setIndices(
+        cb::EstimateSet::fromRanges({{0, 1}, {cb::kEstimateIndexEnd - 1, cb::kEstimateIndexEnd}}));
+    CHECK(cb::decodeRenderState(cb::encodeRenderState(identity(), acc), "b")
+              .accumulator.indices()
+              .toString() == "0:1,4294967295:4294967296");
+}
+
 TEST_CASE("render state: resume refuses another render, saving is atomic") {
     const auto dir = std::filesystem::temp_directory_path();
     const std::string path = (dir / "cbdpt_test_scale.state").string();

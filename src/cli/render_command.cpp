@@ -277,12 +277,11 @@ void RenderJob::readShard() {
             "--estimates: mlt renders cannot be split into shards: its Markov chains carry "
             "their state from one estimate to the next, so estimate A cannot start alone");
     shard_ = cb::parseEstimateRange(o_.estimateRange);
-    // Estimate indices seed 32-bit random streams: larger ones would repeat estimates.
-    if (shard_->second > (std::uint64_t(1) << 32))
+    if (shard_->second > cb::kEstimateIndexEnd)
         throw std::invalid_argument(fmt::format(
             "--estimates {}: estimate indices seed 32-bit random streams, so B must be at most "
-            "4294967296",
-            o_.estimateRange));
+            "{}",
+            o_.estimateRange, cb::kEstimateIndexEnd));
     if (o_.sppGiven && shard_->second > std::uint64_t(std::max(0L, o_.spp)))
         throw std::invalid_argument(
             fmt::format("--estimates {} is outside the render of --spp {} (indices 0 to {})",
@@ -910,7 +909,7 @@ void addBudgetOptions(CLI::App& cmd, RenderOptions& o) {
     cmd.add_option(
            "--spp", o.spp,
            "estimates (samples per pixel; default: the scene's Sampler pixelsamples, else 16)")
-        ->check(CLI::Range(1L, 1L << 32)) // estimate indices seed 32-bit random streams
+        ->check(CLI::Range(1L, long(cb::kEstimateIndexEnd)))
         ->capture_default_str()
         ->group(group);
     cmd.add_option("--time", o.seconds, "render for this many seconds")

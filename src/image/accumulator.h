@@ -35,6 +35,9 @@ using SampleSum = FixedPoint<3>; // up to 2^79 in magnitude: samples below 2^48,
 using SquareSum = FixedPoint<4>; // up to 2^143: squares below 2^96, 2^47 of them
 constexpr double kLargestSample = 281474976710656.0; // 2^48: larger samples are refused
 
+// Estimate indices seed 32-bit random streams: an index past them would repeat an estimate.
+constexpr std::uint64_t kEstimateIndexEnd = std::uint64_t(1) << 32;
+
 // A set of estimate indices as sorted, disjoint, non-adjacent half-open ranges [begin, end).
 class EstimateSet {
   public:

@@ -230,6 +230,10 @@ RenderState decodeRenderState(const std::string& bytes, const std::string& path)
         for (const auto& r : header.at("estimate_ranges"))
             ranges.emplace_back(r.at(0).get<std::uint64_t>(), r.at(1).get<std::uint64_t>());
         EstimateSet indices = EstimateSet::fromRanges(std::move(ranges));
+        if (!indices.ranges().empty() && indices.ranges().back().second > kEstimateIndexEnd)
+            throw fail(fmt::format("its estimate ranges end at {}, past the {} indices that seed "
+                                   "the random streams",
+                                   indices.ranges().back().second, kEstimateIndexEnd));
         if (indices.count() != header.at("estimates").get<std::uint64_t>())
             throw fail("its estimate count does not match its estimate ranges");
         state.accumulator = EstimateAccumulator(width, height);
