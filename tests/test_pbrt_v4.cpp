@@ -261,6 +261,39 @@ TEST_CASE("pbrt-v4: NamedMaterial and ObjectInstance before their definitions") 
                    "t.pbrt:2:16: unknown object \"tri\""));
 }
 
+TEST_CASE("pbrt-v4: a mix may name materials defined after it") {
+    // pbrt-v4 creates every material after parsing, so a mix's parts may follow it; the scene
+    // must be the one the same file gives with the parts first.
+    const std::string parts = "MakeNamedMaterial \"red\" \"string type\" \"diffuse\" "
+                              "\"rgb reflectance\" [0.8 0.1 0.1]\n"
+                              "MakeNamedMaterial \"glass\" \"string type\" \"dielectric\"\n";
+    const std::string mix = "MakeNamedMaterial \"blend\" \"string type\" \"mix\" "
+                            "\"string materials\" [\"glass\" \"red\"] \"float amount\" 0.25\n"
+                            "AttributeBegin\nNamedMaterial \"blend\"\n" +
+                            kTri + "AttributeEnd\n";
+    const auto later = parseSceneString("WorldBegin\n" + mix + parts, "t.pbrt");
+    const auto first = parseSceneString("WorldBegin\n" + parts + mix, "t.pbrt");
+    for (const auto* s : {&later, &first}) {
+        REQUIRE(s->meshes.size() == 1);
+        const auto& blend = s->materials.at(static_cast<size_t>(s->meshes[0].material));
+        CHECK(blend.name == "blend");
+        REQUIRE(blend.kind == cb::MaterialKind::Mix);
+        CHECK(s->materials.at(static_cast<size_t>(blend.mix[0])).name == "glass");
+        CHECK(s->materials.at(static_cast<size_t>(blend.mix[1])).name == "red");
+        CHECK(blend.amount == doctest::Approx(0.25f));
+    }
+    // As pbrt-v4, a part nothing defines is an error even where no shape uses the mix, at the
+    // part's name; and a part that is itself a mix is refused wherever it is defined.
+    CHECK(contains(
+        errorOf("WorldBegin\nMaterial \"mix\" \"string materials\" [\"red\" \"ghost\"]\n" + parts),
+        "t.pbrt:2:42: unknown named material \"ghost\" in mix"));
+    CHECK(contains(errorOf("WorldBegin\nMaterial \"mix\" \"string materials\" [\"red\" \"m\"]\n" +
+                           parts +
+                           "MakeNamedMaterial \"m\" \"string type\" \"mix\" \"string materials\" "
+                           "[\"red\" \"glass\"]\n"),
+                   "t.pbrt:2:42: mix of mix is not supported"));
+}
+
 TEST_CASE("pbrt-v4: CoordinateSystem and CoordSysTransform, camera included") {
     auto s = parseSceneString("WorldBegin\nTranslate 5 0 0\nCoordinateSystem \"here\"\n"
                               "Identity\nCoordSysTransform \"here\"\n" +

@@ -476,6 +476,7 @@ class Parser {
         if (!inWorld_) throw SceneError(end, "end of file before WorldBegin");
         instantiateLaterObjects();
         resolveLaterMaterials();
+        resolveLaterMixParts();
     }
 
   private:
@@ -1209,6 +1210,25 @@ class Parser {
         return -1;
     }
 
+    int mixPart(int material, const std::string& name, const SourceLocation& where) const {
+        if (scene_.materials[static_cast<size_t>(material)].kind == MaterialKind::Mix)
+            throw SceneError(where, "mix of mix is not supported (\"" + name + "\" is a mix)");
+        return material;
+    }
+
+    // A mix's parts named before their MakeNamedMaterial. pbrt-v4 creates every material, used
+    // or not, so a name nothing defines is an error even in a mix no shape uses.
+    void resolveLaterMixParts() {
+        for (const LaterMixPart& part : laterMixParts_) {
+            const int idx = findNamedMaterial(part.name);
+            if (idx < 0)
+                throw SceneError(part.where, "unknown named material \"" + part.name +
+                                                 "\" in mix (no MakeNamedMaterial defines it)");
+            scene_.materials[static_cast<size_t>(part.mix)].mix[part.index] =
+                mixPart(idx, part.name, part.where);
+        }
+    }
+
     int makeMaterial(const std::string& type, const SourceLocation& typeLoc, ParamList& pl,
                      const std::string& name, const SourceLocation& where) {
         MaterialDesc m;
@@ -1274,15 +1294,14 @@ class Parser {
                 throw SceneError(mats->where, "\"string materials\" of a mix needs exactly 2 "
                                               "named materials, got " +
                                                   std::to_string(mats->size()));
+            // pbrt-v4 creates materials after parsing: a name defined later is looked up then.
+            const int self = static_cast<int>(scene_.materials.size());
             for (size_t i = 0; i < 2; ++i) {
                 const int idx = findNamedMaterial(mats->strings[i]);
                 if (idx < 0)
-                    throw SceneError(mats->valueLoc(i),
-                                     "unknown named material \"" + mats->strings[i] + "\" in mix");
-                if (scene_.materials[idx].kind == MaterialKind::Mix)
-                    throw SceneError(mats->valueLoc(i), "mix of mix is not supported (\"" +
-                                                            mats->strings[i] + "\" is a mix)");
-                m.mix[i] = idx;
+                    laterMixParts_.push_back({self, i, mats->strings[i], mats->valueLoc(i)});
+                else
+                    m.mix[i] = mixPart(idx, mats->strings[i], mats->valueLoc(i));
             }
             if (const Param* p = pl.peek("amount")) {
                 const double a = *pl.oneFloat("amount");
@@ -1991,6 +2010,13 @@ class Parser {
         SourceLocation where; // its first NamedMaterial
     };
     std::vector<LaterMaterial> laterMaterials_;
+    struct LaterMixPart {
+        int mix = -1;     // the mix material
+        size_t index = 0; // which of its two parts
+        std::string name;
+        SourceLocation where;
+    };
+    std::vector<LaterMixPart> laterMixParts_;
     std::set<std::string> notedKinds_;
     std::map<std::string, Mat4> namedCoordinateSystems_;
     std::map<std::string, SourceLocation> importedCoordinateSystems_; // defined inside an Import
