@@ -487,7 +487,7 @@ CB_FN SurfacePoint surfacePointFromHit(const SceneView* scene, Ray ray, Hit hit)
     sp.p = vadd(vadd(w0, w1), w2);
     /* pbrt 3rd ed. sec. 3.9.4 (triangles, barycentric interpolation): gamma(7) sum |b_i p_i|. */
     sp.pError = vscale(vadd(vadd(vabs(w0), vabs(w1)), vabs(w2)), cbGamma(7));
-    sp.ng = vnormalize(vcross(vsub(p1, p0), vsub(p2, p0)));
+    sp.ng = triangleNormal(p0, p1, p2);
     return sp;
 }
 

@@ -122,7 +122,7 @@ CB_FN void lightSamplePoint(const SceneView* scene, int lightIndex, real u0, rea
     out->p = vadd(vadd(vscale(p0, b0), vscale(p1, b1)), vscale(p2, b2));
     out->pError = vscale(
         vadd(vadd(vabs(vscale(p0, b0)), vabs(vscale(p1, b1))), vabs(vscale(p2, b2))), cbGamma(6));
-    out->n = vnormalize(vcross(vsub(p1, p0), vsub(p2, p0)));
+    out->n = triangleNormal(p0, p1, p2);
 }
 
 /* Choose a light by power (uChoice), then a point on it uniformly by area (u0, u1): the origin

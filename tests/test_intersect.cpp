@@ -11,6 +11,7 @@
 
 #include "bvh/bvh.h"
 #include "bvh/bvh_wide.h"
+#include "cb_lights.h"
 
 using cbk::Hit;
 using cbk::Primitive;
@@ -540,4 +541,56 @@ TEST_CASE("intersect: shadow rays between facing surfaces, at any scale") {
     CHECK(occluderTests > 0.9 * double(rays));
     CHECK(missedOccluder == 0);
     CHECK(pointLightFalse == 0);
+}
+
+TEST_CASE("intersect: triangle normals at hits and light samples are unit at scales 1e-18..1e18") {
+    // Each triangle's normal against cross(p1 - p0, p2 - p0) normalised in double; before
+    // cbk::triangleNormal, float vnormalize(vcross) gave 0 for edges above ~4e9 (|n|^2 overflows)
+    // and NaN below ~1e-11 (it underflows), so the surface looked black or NaN at those scales.
+    std::mt19937 rng(7u);
+    std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+    long checked = 0;
+    for (double scale : {1e-18, 1e-12, 1e-6, 1.0, 1e6, 1e10, 1e12, 1e18}) {
+        for (int trial = 0; trial < 50; ++trial) {
+            Vec3 v[3];
+            for (Vec3& p : v)
+                p = vec3(float(u(rng) * scale), float(u(rng) * scale), float(u(rng) * scale));
+            double e1[3], e2[3];
+            for (int a = 0; a < 3; ++a) {
+                e1[a] = double(cbk::vcomponent(v[1], a)) - cbk::vcomponent(v[0], a);
+                e2[a] = double(cbk::vcomponent(v[2], a)) - cbk::vcomponent(v[0], a);
+            }
+            double n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
+                           e1[0] * e2[1] - e1[1] * e2[0]};
+            const double len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+            const double e1len = std::sqrt(e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2]);
+            const double e2len = std::sqrt(e2[0] * e2[0] + e2[1] * e2[1] + e2[2] * e2[2]);
+            if (len < 0.05 * e1len * e2len) continue; // sliver: its float normal is inexact
+            std::vector<Primitive> prims{makeTriangle(v[0], v[1], v[2])};
+            prims[0].light = 0;
+            cbk::Light light{};
+            light.kind = CB_LIGHT_AREA;
+            light.primitive = 0;
+            light.area = float(0.5 * len);
+            light.pickProbability = 1.0f;
+            light.cdf = 1.0f;
+            SceneView view = viewOf(prims);
+            view.lights = &light;
+            view.lightCount = 1;
+            Hit hit{};
+            hit.primitive = 0;
+            hit.b1 = hit.b2 = 1.0f / 3.0f;
+            const Vec3 atHit = cbk::surfacePointFromHit(&view, Ray{}, hit).ng;
+            cbk::LightSample ls{};
+            cbk::lightSamplePoint(&view, 0, 0.3f, 0.6f, &ls);
+            for (Vec3 got : {atHit, ls.n}) {
+                INFO("scale " << scale << " trial " << trial << ": " << got.x << " " << got.y << " "
+                              << got.z);
+                for (int a = 0; a < 3; ++a)
+                    CHECK(std::fabs(cbk::vcomponent(got, a) - n[a] / len) < 1e-5);
+                ++checked;
+            }
+        }
+    }
+    CHECK(checked > 500);
 }

@@ -299,7 +299,12 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
             double cx = e1[1] * e2[2] - e1[2] * e2[1], cy = e1[2] * e2[0] - e1[0] * e2[2],
                    cz = e1[0] * e2[1] - e1[1] * e2[0];
             double area = 0.5 * std::sqrt(cx * cx + cy * cy + cz * cz);
-            if (!(area > 0.0)) {
+            // The kernels' float normal: a sliver with area > 0 can still have a float cross
+            // product of 0 (its two products round equal), a NaN normal at every hit on it.
+            const cbk::Vec3 n = cbk::triangleNormal(cbk::vec3(prim.p0[0], prim.p0[1], prim.p0[2]),
+                                                    cbk::vec3(prim.p1[0], prim.p1[1], prim.p1[2]),
+                                                    cbk::vec3(prim.p2[0], prim.p2[1], prim.p2[2]));
+            if (!(area > 0.0) || !std::isfinite(n.x + n.y + n.z)) {
                 ++scene.droppedDegenerateTriangles; // zero area once rounded to float
                 continue;
             }
@@ -402,8 +407,8 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
     }
     if (scene.droppedDegenerateTriangles > 0) {
         fmt::print(stderr,
-                   "warning: {}: dropped {} triangles that have zero area in float "
-                   "precision\n",
+                   "warning: {}: dropped {} triangles that are degenerate in float "
+                   "precision (zero area, or a cross product that rounds to zero)\n",
                    desc.path, scene.droppedDegenerateTriangles);
     }
 
