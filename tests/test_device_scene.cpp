@@ -41,6 +41,15 @@ cbk::SceneView viewOf(const cb::DeviceScene& s) {
     return v;
 }
 
+std::string errorOf(const std::string& world) {
+    try {
+        build(world);
+    } catch (const cb::SceneError& e) {
+        return e.what();
+    }
+    return "<no error>";
+}
+
 bool unit(cbk::Vec3 n) {
     return std::isfinite(n.x + n.y + n.z) && std::fabs(cbk::vlength(n) - 1.0f) < 1e-5f;
 }
@@ -76,4 +85,26 @@ TEST_CASE("device scene: a sliver whose float cross product is 0 is dropped, not
         CHECK(unit(ls.n));
         CHECK(std::isfinite(s.lights[size_t(l)].pickProbability));
     }
+}
+
+TEST_CASE("device scene: geometry beyond float intersection range is an error naming it") {
+    // The watertight test's products of three coordinates overflow float beyond ~1e12 from the
+    // device origin: such geometry rendered black without a word.
+    const std::string e =
+        errorOf("LightSource \"point\" \"point3 from\" [0 1 0] \"rgb I\" [1 1 1]\n"
+                "Shape \"trianglemesh\" \"point3 P\" [-1e30 0 -1e30  1e30 0 -1e30  0 0 1e30]\n");
+    INFO(e);
+    CHECK(e.rfind("t.pbrt:7:1: a vertex reaches 1e+30 ", 0) == 0);
+    CHECK(e.find("supports up to 1e+12") != std::string::npos);
+
+    const std::string sphere =
+        errorOf("AttributeBegin\nAreaLightSource \"diffuse\" \"rgb L\" [1 1 1]\n"
+                "Shape \"sphere\" \"float radius\" 1e20\nAttributeEnd\n");
+    INFO(sphere);
+    CHECK(sphere.rfind("t.pbrt:8:1: a sphere reaches 1e+20 ", 0) == 0);
+
+    // Within the range, the same shapes build.
+    CHECK(errorOf("LightSource \"point\" \"point3 from\" [0 1 0] \"rgb I\" [1 1 1]\n"
+                  "Shape \"trianglemesh\" \"point3 P\" [-1e11 0 -1e11  1e11 0 -1e11  0 0 1e11]\n"
+                  "Shape \"sphere\" \"float radius\" 1e11\n") == "<no error>");
 }

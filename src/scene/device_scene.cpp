@@ -149,6 +149,26 @@ cbk::Camera makeCamera(const SceneDesc& desc, const std::array<double, 3>& origi
     return camera;
 }
 
+// The kernels' watertight triangle test multiplies three sheared coordinates (edge functions
+// times z), about 200 c^3 for coordinates up to c from the device origin: beyond ~1.2e12 that
+// overflows float and the geometry silently vanishes (a sphere's c^2 terms go later, its area at
+// 1e19). Below the limit a scene renders like the same scene at unit size.
+constexpr double kMaxDeviceCoordinate = 1e12;
+
+void requireInFloatRange(const std::array<double, 3>& p, double radius,
+                         const std::array<double, 3>& origin, const SourceLocation& where,
+                         const char* what) {
+    double far = 0.0;
+    for (size_t a = 0; a < 3; ++a)
+        far = std::max(far, std::fabs(p[a] - origin[a]) + radius);
+    if (!(far <= kMaxDeviceCoordinate))
+        throw SceneError(where, fmt::format("{} reaches {:g} from the camera (or the scene point "
+                                            "nearest to it) along an axis; cbdpt's float "
+                                            "intersection supports up to {:g}: scale the scene "
+                                            "down or drop far geometry",
+                                            what, far, kMaxDeviceCoordinate));
+}
+
 unsigned materialFeature(MaterialKind kind) {
     switch (kind) {
     case MaterialKind::Diffuse:
@@ -280,8 +300,10 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
 
     for (const auto& mesh : desc.meshes) {
         scene.vertexCount += long(mesh.positions.size());
-        for (const auto& p : mesh.positions)
+        for (const auto& p : mesh.positions) {
             grow(p, 0.f);
+            requireInFloatRange(p, 0.0, scene.origin, mesh.where, "a vertex");
+        }
         for (const auto& tri : mesh.triangles) {
             cbk::Primitive prim{};
             prim.kind = CB_PRIM_TRIANGLE;
@@ -322,6 +344,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         prim.p1[0] = sphere.radius;
         prim.p1[1] = sphere.reverseOrientation ? -1.f : 1.f;
         grow(sphere.center, sphere.radius);
+        requireInFloatRange(sphere.center, sphere.radius, scene.origin, sphere.where, "a sphere");
         if (sphere.areaLight >= 0) {
             float area = float(4.0 * M_PI * double(sphere.radius) * sphere.radius);
             prim.light = addAreaLight(sphere.areaLight, area);
