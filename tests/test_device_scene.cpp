@@ -108,3 +108,45 @@ TEST_CASE("device scene: geometry beyond float intersection range is an error na
                   "Shape \"trianglemesh\" \"point3 P\" [-1e11 0 -1e11  1e11 0 -1e11  0 0 1e11]\n"
                   "Shape \"sphere\" \"float radius\" 1e11\n") == "<no error>");
 }
+
+TEST_CASE("device scene: light powers beyond the float range keep pick probabilities exact") {
+    // A point light of intensity 1 and a two-sided sphere light of radius 1e10 whose radiance is
+    // scaled by k: the sphere's power (~8e21 k) passes 3.4e38 for k = 3e17. The odds of
+    // picking the sphere over the point light must scale by exactly k (power is linear in L).
+    auto odds = [](double k) {
+        const cb::DeviceScene s =
+            build("LightSource \"point\" \"point3 from\" [0 0.5 0] \"rgb I\" [1 1 1]\n"
+                  "AttributeBegin\nTranslate 0 0 2e10\n"
+                  "AreaLightSource \"diffuse\" \"rgb L\" [1 1 1] \"bool twosided\" true "
+                  "\"float scale\" " +
+                  std::to_string(k) + "\nShape \"sphere\" \"float radius\" 1e10\nAttributeEnd\n");
+        REQUIRE(s.lights.size() == 2);
+        double sum = 0.0;
+        for (const cbk::Light& l : s.lights) {
+            CHECK(std::isfinite(l.pickProbability));
+            CHECK(l.pickProbability > 0.0f);
+            sum += l.pickProbability;
+        }
+        CHECK(sum == doctest::Approx(1.0).epsilon(1e-6));
+        const cbk::Light& sphere = s.lights[0].kind == CB_LIGHT_AREA ? s.lights[0] : s.lights[1];
+        const cbk::Light& point = s.lights[0].kind == CB_LIGHT_AREA ? s.lights[1] : s.lights[0];
+        return double(sphere.pickProbability) / double(point.pickProbability);
+    };
+    const double ratio = odds(3e17) / odds(1.0);
+    CHECK(ratio == doctest::Approx(3e17).epsilon(1e-4));
+}
+
+TEST_CASE("device scene: emission times scale beyond the float range is an error naming it") {
+    // Each factor fits a float, so the parser accepts both; their product was +Inf radiance.
+    const std::string e = errorOf("AttributeBegin\n"
+                                  "AreaLightSource \"diffuse\" \"rgb L\" [1e20 1e20 1e20] "
+                                  "\"float scale\" 1e20\n"
+                                  "Shape \"sphere\" \"float radius\" 0.1\nAttributeEnd\n");
+    INFO(e);
+    CHECK(e.rfind("t.pbrt:7:1: the light's emission times its \"float scale\" 1e+20 exceeds", 0) ==
+          0);
+    const std::string point = errorOf("LightSource \"point\" \"point3 from\" [0 1 0] \"rgb I\" "
+                                      "[3e38 3e38 3e38] \"float scale\" 10\n");
+    INFO(point);
+    CHECK(point.rfind("t.pbrt:6:1: the light's emission", 0) == 0);
+}

@@ -44,11 +44,24 @@ class SpectraTable {
         }
         return index;
     }
-    float average(int index) const {
-        float sum = 0.f;
+    // An emission entry: radiance and scale each fit a float, but their product need not
+    // ("rgb L" [1e20 ...] with "float scale" 1e20): an infinite emission made every light's pick
+    // probability NaN.
+    int addEmission(const SpectrumValue& value, float scale, const SourceLocation& where) {
+        const int index = add(value, scale, true);
+        for (int i = 0; i < channels_; ++i)
+            if (!std::isfinite(data_[size_t(index * channels_ + i)]))
+                throw SceneError(where, fmt::format("the light's emission times its \"float "
+                                                    "scale\" {:g} exceeds the float range "
+                                                    "(3.4e38)",
+                                                    scale));
+        return index;
+    }
+    double average(int index) const {
+        double sum = 0.0; // in double: entries near the float maximum must not sum to +Inf
         for (int i = 0; i < channels_; ++i)
             sum += data_[size_t(index * channels_ + i)];
-        return sum / float(channels_);
+        return sum / double(channels_);
     }
 
   private:
@@ -271,20 +284,22 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
 
     // Primitives. Area lights get one Light per emitting primitive.
     std::vector<cbk::Primitive> primitives;
-    std::vector<float> lightPower;
+    // In double: a bright, large light's power can pass the float range while its radiance and
+    // area fit, and an infinite power made every pick probability NaN (a black image).
+    std::vector<double> lightPower;
     std::vector<int> emissionEntry(desc.areaLights.size(), -1); // one spectrum per AreaLightSource
     auto addAreaLight = [&](int areaLight, float area) {
         const AreaLightDesc& al = desc.areaLights[size_t(areaLight)];
         int& entry = emissionEntry[size_t(areaLight)];
-        if (entry < 0) entry = spectra.add(al.radiance, al.scale, true);
+        if (entry < 0) entry = spectra.addEmission(al.radiance, al.scale, al.where);
         cbk::Light light{};
         light.kind = CB_LIGHT_AREA;
         light.primitive = -1; // set once the BVH has placed the primitive
         light.emission = entry;
         light.twoSided = al.twoSided ? 1 : 0;
         light.area = area;
-        lightPower.push_back(spectra.average(light.emission) * area * float(M_PI) *
-                             (al.twoSided ? 2.f : 1.f));
+        lightPower.push_back(spectra.average(light.emission) * area * M_PI *
+                             (al.twoSided ? 2.0 : 1.0));
         scene.lights.push_back(light);
         scene.features |= CB_FEATURE_AREA_LIGHT;
         return int(scene.lights.size()) - 1;
@@ -357,7 +372,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         cbk::Light light{};
         light.kind = CB_LIGHT_POINT;
         light.primitive = -1;
-        light.emission = spectra.add(pl.intensity, pl.scale, true);
+        light.emission = spectra.addEmission(pl.intensity, pl.scale, pl.where);
         toDevice(pl.position, light.position);
         light.spotCosEnd = -2.f;
         // A unit-intensity point light emits 4 pi; a spot 2 pi (1 - (cosStart + cosEnd) / 2)
@@ -392,7 +407,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         cbk::Light light{};
         light.kind = kind;
         light.primitive = -1;
-        light.emission = spectra.add(radiance, scale, true);
+        light.emission = spectra.addEmission(radiance, scale, where);
         toDevice(centre, light.position);
         // Rounded up, so that the float sphere still holds the geometry; never 0 (a flat scene
         // seen edge-on still needs a disk).
@@ -404,7 +419,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         cbk::Light light = lightAtInfinity(CB_LIGHT_DISTANT, dl.radiance, dl.scale, dl.where);
         for (size_t a = 0; a < 3; ++a)
             light.axis[a] = float(dl.direction[a]);
-        lightPower.push_back(spectra.average(light.emission) * float(M_PI) * light.sceneRadius *
+        lightPower.push_back(spectra.average(light.emission) * M_PI * double(light.sceneRadius) *
                              light.sceneRadius);
         scene.lights.push_back(light);
         scene.features |= CB_FEATURE_DISTANT_LIGHT;
@@ -415,8 +430,8 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         throw SceneError(desc.infiniteLights[1].where, "cbdpt supports one infinite light");
     for (const auto& il : desc.infiniteLights) {
         cbk::Light light = lightAtInfinity(CB_LIGHT_INFINITE, il.radiance, il.scale, il.where);
-        lightPower.push_back(spectra.average(light.emission) * 4.f * float(M_PI * M_PI) *
-                             light.sceneRadius * light.sceneRadius);
+        lightPower.push_back(spectra.average(light.emission) * 4.0 * M_PI * M_PI *
+                             double(light.sceneRadius) * light.sceneRadius);
         scene.lights.push_back(light);
         scene.features |= CB_FEATURE_INFINITE_LIGHT;
     }
