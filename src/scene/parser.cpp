@@ -1400,7 +1400,7 @@ class Parser {
             l.spotCosStart = static_cast<float>(std::cos((cone - delta) * M_PI / 180.0));
             solidAngle = 2.0 * M_PI * (1.0 - 0.5 * (double(l.spotCosStart) + l.spotCosEnd));
             // The cone's angles are measured in the light's space; only a similarity keeps them.
-            similarityScale(t.where);
+            similarityScale(t.where, "a spot light's");
             const std::array<double, 3> d{to[0] - from[0], to[1] - from[1], to[2] - from[2]};
             const Mat4& m = state_.ctm;
             std::array<double, 3> axis{};
@@ -1796,12 +1796,14 @@ class Parser {
 
     // The CTM's scale factor; an error unless the CTM is a similarity (only those keep a sphere
     // a sphere): A^T A must be s^2 I for the 3x3 block A.
-    double similarityScale(const SourceLocation& where) const {
+    double similarityScale(const SourceLocation& where, const char* whose = "a sphere's") const {
         requireAffine(where);
-        return similarityScale(state_.ctm, where);
+        return similarityScale(state_.ctm, where, whose);
     }
 
-    static double similarityScale(const Mat4& m, const SourceLocation& where) {
+    // `whose` names what needs it in the error ("a sphere's"): the spot light shares the check.
+    static double similarityScale(const Mat4& m, const SourceLocation& where,
+                                  const char* whose = "a sphere's") {
         double g[3][3];
         for (int i = 0; i < 3; ++i)
             for (int j = 0; j < 3; ++j)
@@ -1812,8 +1814,9 @@ class Parser {
             for (int j = 0; j < 3; ++j)
                 if (std::fabs(g[i][j] - (i == j ? s2 : 0.0)) > 1e-6 * s2) similar = false;
         if (!similar)
-            throw SceneError(where, "a sphere's transformation must be a similarity (rotation, "
-                                    "uniform scale, translation); this CTM is not");
+            throw SceneError(where, std::string(whose) +
+                                        " transformation must be a similarity (rotation, uniform "
+                                        "scale, translation); this CTM is not");
         return std::sqrt(s2);
     }
 
