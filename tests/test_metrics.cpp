@@ -347,3 +347,66 @@ TEST_CASE("target standard error: the render stops at the first estimate count b
     CHECK(capped.estimates() == 5);
     CHECK_FALSE(early.reachedTargetStandardError);
 }
+
+TEST_CASE("metrics: per-value statistics that differ across pixels and channels") {
+    // The reference mean is the plain mean of the reference's values (a gradient, not zero).
+    const cb::RgbImage reference = gradientImage(5, 4);
+    double refSum = 0.0;
+    for (float v : reference.rgb)
+        refSum += v;
+    CHECK(cb::compareImages(reference, reference).referenceMean ==
+          doctest::Approx(refSum / double(reference.rgb.size())).epsilon(1e-12));
+
+    // Estimates whose spread differs per value: estimate k of value i is (i + 1) k, so value i's
+    // sample variance is (i + 1)^2 n (n + 1) / 12 and its standard error (i + 1) sqrt((n + 1) /
+    // 12). The mean of those and their root mean square then differ.
+    const int n = 5;
+    cb::EstimateAccumulator acc(2, 1);
+    std::vector<float> values(6);
+    for (int k = 0; k < n; ++k) {
+        for (size_t i = 0; i < values.size(); ++i)
+            values[i] = float(double(i + 1) * k);
+        acc.add(values.data());
+    }
+    double seSum = 0.0, varSum = 0.0;
+    for (size_t i = 0; i < values.size(); ++i) {
+        const double se = double(i + 1) * std::sqrt((n + 1) / 12.0);
+        seSum += se;
+        varSum += se * se;
+    }
+    const cb::NoiseEstimate noise = cb::estimateNoise(acc);
+    CHECK(noise.meanStandardError == doctest::Approx(seSum / 6.0).epsilon(1e-12));
+    CHECK(noise.rmsStandardError == doctest::Approx(std::sqrt(varSum / 6.0)).epsilon(1e-12));
+}
+
+TEST_CASE("metrics: the colour map weighs channels by Rec. 709 luminance, signed by |L_ref|") {
+    // A red-only excess x on a grey reference of 1 has luminance error 0.2126 x: x chosen for
+    // e = 0.5 gives half-faded red (g = b = 128).
+    cb::RgbImage reference = constantImage(2, 1, 1.f);
+    cb::RgbImage image = reference;
+    image.rgb[0] = float(1.0 + 0.5 * (1.0 + cb::kRelMseEpsilon) / 0.2126);
+    // A reference of negative luminance (RGB from spectra can be) and an image above it: too
+    // bright, so red, whatever the reference's sign: e = 0.5 / (|-1| + eps).
+    for (int c = 0; c < 3; ++c) {
+        reference.rgb[size_t(3 + c)] = -1.f;
+        image.rgb[size_t(3 + c)] = -0.5f;
+    }
+    const auto map = cb::relativeErrorColourMap(image, reference, 1.0);
+    REQUIRE(map.size() == 6);
+    CHECK(map[0] == 255);
+    CHECK(int(map[1]) == doctest::Approx(128).epsilon(0.01));
+    CHECK(int(map[2]) == doctest::Approx(128).epsilon(0.01));
+    const int fade = int(std::lround(255.0 * (1.0 - 0.5 / (1.0 + cb::kRelMseEpsilon))));
+    CHECK(map[3] == 255);
+    CHECK(int(map[4]) == fade);
+    CHECK(int(map[5]) == fade);
+}
+
+TEST_CASE("metrics: a pixel buffer that does not fit the size is refused on either side") {
+    cb::RgbImage a = constantImage(2, 2, 1.f), b = constantImage(2, 2, 1.f);
+    b.rgb.resize(6); // claims 2x2 but holds 2 pixels: reading it would run past its end
+    CHECK_THROWS_WITH_AS(cb::compareImages(a, b), doctest::Contains("malformed"),
+                         std::invalid_argument);
+    CHECK_THROWS_WITH_AS(cb::compareImages(b, a), doctest::Contains("malformed"),
+                         std::invalid_argument);
+}
