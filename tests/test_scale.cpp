@@ -350,3 +350,132 @@ TEST_CASE("scene content hash: bytes, not names") {
     std::filesystem::remove(a);
     std::filesystem::remove(b);
 }
+
+namespace {
+
+// The state's checksum as docs/scale-out.md states it, written out here independently: FNV-1a
+// over 64-bit little-endian words (the tail zero-padded), then the byte count.
+std::uint64_t documentedChecksum(const std::string& bytes) {
+    const std::uint64_t prime = 0x100000001b3ull;
+    std::uint64_t h = 0xcbf29ce484222325ull;
+    for (size_t i = 0; i < bytes.size(); i += 8) {
+        std::uint64_t w = 0;
+        for (size_t b = 0; b < 8 && i + b < bytes.size(); ++b)
+            w |= std::uint64_t(std::uint8_t(bytes[i + b])) << (8 * b);
+        h = (h ^ w) * prime;
+    }
+    if (bytes.size() % 8 == 0) h = (h ^ 0) * prime; // an empty tail still takes a step
+    return (h ^ std::uint64_t(bytes.size())) * prime;
+}
+
+// A state with its header replaced by `header` and a valid checksum: what a writer with another
+// idea of the format (or a bug) would produce, past the checksum and down to the validation.
+std::string resealed(const std::string& state, const std::string& header) {
+    const size_t fixed = 19 + 4;
+    std::uint64_t oldLength = 0;
+    for (size_t b = 0; b < 8; ++b)
+        oldLength |= std::uint64_t(std::uint8_t(state[fixed + b])) << (8 * b);
+    std::string out = state.substr(0, fixed);
+    for (size_t b = 0; b < 8; ++b)
+        out.push_back(char((header.size() >> (8 * b)) & 0xff));
+    out += header;
+    out += state.substr(fixed + 8 + size_t(oldLength), state.size() - 8 - fixed - 8 - oldLength);
+    const std::uint64_t sum = documentedChecksum(out);
+    for (size_t b = 0; b < 8; ++b)
+        out.push_back(char((sum >> (8 * b)) & 0xff));
+    return out;
+}
+
+std::string headerOf(const std::string& state) {
+    std::uint64_t length = 0;
+    for (size_t b = 0; b < 8; ++b)
+        length |= std::uint64_t(std::uint8_t(state[23 + b])) << (8 * b);
+    return state.substr(31, size_t(length));
+}
+
+} // namespace
+
+TEST_CASE("render state: a sealed header that contradicts the sums is refused") {
+    const auto acc = render(0, 5, 3, 2, true);
+    const std::string bytes = cb::encodeRenderState(identity(), acc);
+    const auto header = nlohmann::json::parse(headerOf(bytes));
+    // The documented checksum seals the file as written, and resealing an unchanged header
+    // gives a state that loads.
+    CHECK(resealed(bytes, header.dump()) == bytes);
+    auto refusal = [&](const std::string& key, const nlohmann::json& value) {
+        auto changed = header;
+        changed[key] = value;
+        try {
+            cb::decodeRenderState(resealed(bytes, changed.dump()), "s.state");
+        } catch (const std::runtime_error& e) {
+            return std::string(e.what());
+        }
+        return std::string("accepted");
+    };
+    CHECK(refusal("width", 2).find("image size 2x2 does not match its 18 values") !=
+          std::string::npos);
+    CHECK(refusal("fraction_bits", 111).find("another fixed-point layout") != std::string::npos);
+    CHECK(refusal("sample_sum_words", 4).find("another fixed-point layout") != std::string::npos);
+    CHECK(refusal("estimates", 6).find("estimate count does not match") != std::string::npos);
+    CHECK(refusal("estimate_ranges", nlohmann::json::array({{0, 3}, {3, 5}}))
+              .find("not sorted and apart") != std::string::npos);
+}
+
+TEST_CASE("render state: settings set on one side only are differences") {
+    cb::RenderIdentity saved = identity(), here = identity();
+    here.settings["sampler"] = "independent";
+    const auto added = cb::identityDifferences(saved, here);
+    REQUIRE(added.size() == 1);
+    CHECK(added[0] == "sampler: not set there, \"independent\" here");
+    const auto removed = cb::identityDifferences(here, saved);
+    REQUIRE(removed.size() == 1);
+    CHECK(removed[0] == "sampler: \"independent\" there, not set here");
+}
+
+TEST_CASE("scene content hash: the same bytes split between files differently differ") {
+    const auto dir = std::filesystem::temp_directory_path();
+    const std::string files[4] = {
+        (dir / "cbdpt_split_1.pbrt").string(), (dir / "cbdpt_split_2.pbrt").string(),
+        (dir / "cbdpt_split_3.pbrt").string(), (dir / "cbdpt_split_4.pbrt").string()};
+    std::ofstream(files[0]) << "Shape \"sphere\"";
+    std::ofstream(files[1]) << "\n";
+    std::ofstream(files[2]) << "Shape \"sphere\"\n";
+    std::ofstream(files[3]) << "";
+    // "Shape \"sphere\"" + "\n" and "Shape \"sphere\"\n" + "" concatenate to the same bytes.
+    CHECK(cb::sceneContentHash({files[0], files[1]}) != cb::sceneContentHash({files[2], files[3]}));
+    for (const auto& f : files)
+        std::filesystem::remove(f);
+}
+
+TEST_CASE("exact sums: limits, rounding to the grid and images split among threads") {
+    cb::EstimateSet s = cb::EstimateSet::fromRanges({{0, 1}, {3, 6}, {10, 11}});
+    CHECK(s.missingIn(0, 12, 3) == std::vector<std::uint64_t>{1, 2, 6});
+    CHECK(s.missingIn(0, 12, 0).empty());
+    // A sample below the grid's unit is rounded to the nearest grid point (ties away from zero):
+    // 0.75 and 0.5 units give 1, 0.25 gives 0, in either sign.
+    const double unit = std::ldexp(1.0, -cb::kFixedPointFractionBits);
+    for (double units : {0.75, 0.5, -0.75}) {
+        CAPTURE(units);
+        cb::SampleSum sum;
+        sum.addScaled(units * unit);
+        CHECK(sum.toDouble() == (units < 0 ? -1.0 : 1.0));
+    }
+    cb::SampleSum quarter;
+    quarter.addScaled(0.25 * unit);
+    CHECK(quarter.toDouble() == 0.0);
+    // 160 x 150 pixels (72000 values) are added in parts by several threads where there are
+    // cores: every value, each part's first and last included, gets its sample.
+    const int w = 160, h = 150;
+    const auto acc = render(0, 3, w, h);
+    const auto mean = acc.mean();
+    std::vector<std::vector<float>> estimates;
+    for (std::uint64_t k = 0; k < 3; ++k)
+        estimates.push_back(fakeEstimate(k, w, h));
+    size_t wrong = 0;
+    for (size_t i = 0; i < mean.rgb.size(); ++i) {
+        const double expected =
+            (double(estimates[0][i]) + double(estimates[1][i]) + double(estimates[2][i])) / 3.0;
+        if (!(std::fabs(mean.rgb[i] - expected) <= 1e-6 * std::fabs(expected) + 1e-30)) ++wrong;
+    }
+    CHECK(wrong == 0);
+}
