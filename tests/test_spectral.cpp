@@ -327,3 +327,40 @@ TEST_CASE("cornell-box.pbrt: emitters and orientation") {
     CHECK(meshes == 8); // 5 walls, 2 blocks, 1 light
     CHECK(lights == 1);
 }
+
+TEST_CASE("spectral: white-balance chromaticities of CIE illuminants A, D50 and D75") {
+    // pbrt-v4 takes a temperature in its own scale, CCT = T * 1.4388 / 1.4380, so the CIE's
+    // daylight illuminants D50 (5003 K) and D75 (7504 K) are asked for at their CCT / that ratio.
+    // The CIE 15 daylight locus reproduces the tabulated chromaticities to about 1e-4.
+    const double ratio = 1.4380 / 1.4388;
+    const auto d50 = whiteBalanceChromaticity(5003.0 * ratio);
+    CHECK(std::abs(d50[0] - 0.34567) < 1.5e-4);
+    CHECK(std::abs(d50[1] - 0.35850) < 1.5e-4);
+    const auto d75 = whiteBalanceChromaticity(7504.0 * ratio);
+    CHECK(std::abs(d75[0] - 0.29902) < 1.5e-4);
+    CHECK(std::abs(d75[1] - 0.31485) < 1.5e-4);
+    // Below 4000 K: Planck's law. Illuminant A is a black body of 2856 K with the old radiation
+    // constant c2 = 1.435e-2 m K; with today's 1.438777e-2 the same spectrum is at 2863.5 K.
+    // The CMF fit's error leaves its chromaticity (0.44757, 0.40745) within 3e-3.
+    const double c2 = 6.62606957e-34 * 299792458.0 / 1.3806488e-23;
+    const auto a = whiteBalanceChromaticity(2856.0 * c2 / 1.435e-2 * ratio);
+    CHECK(std::abs(a[0] - 0.44757) < 3e-3);
+    CHECK(std::abs(a[1] - 0.40745) < 3e-3);
+}
+
+TEST_CASE("spectral: an emission converted to RGB is what the spectral film records of it") {
+    // emissionToRgb gives an RGB render the light a spectral render sees through its film (no
+    // white balance, imaging ratio 1), for a narrow blue line and a broad ramp alike.
+    const auto film = filmMatrix(kSpectralBins, {});
+    for (const PiecewiseLinear& s : {PiecewiseLinear{{440.f, 0.f}, {450.f, 3.f}, {460.f, 0.f}},
+                                     PiecewiseLinear{{400.f, 0.5f}, {700.f, 2.f}}}) {
+        const auto bins = binSpectrum(s);
+        const auto rgb = emissionToRgb(s);
+        for (int c = 0; c < 3; ++c) {
+            double v = 0.0;
+            for (int i = 0; i < kSpectralBins; ++i)
+                v += double(film[size_t(c * kSpectralBins + i)]) * bins[size_t(i)];
+            CHECK(rgb[size_t(c)] == doctest::Approx(v).epsilon(1e-5));
+        }
+    }
+}
