@@ -468,3 +468,235 @@ TEST_CASE("combine: each combination's bias on the furnace is within its bound" 
         CHECK(std::fabs(bias) <= c.boundInSe * se + slack);
     }
 }
+
+namespace {
+
+// An input whose halves are constant images: value halfValue[h] with standard error halfSe[h]
+// from halfCount[h] estimates; the full mean and error follow from the halves.
+cb::CombineInput constantHalves(const std::string& method, std::uint32_t seed,
+                                std::array<double, 2> halfValue, std::array<double, 2> halfSe,
+                                std::array<long, 2> halfCount, int w = 3, int h = 2) {
+    cb::CombineInput in;
+    in.path = method + std::to_string(seed);
+    in.record = syntheticRecord(method, seed);
+    in.hasHalves = true;
+    in.halfEstimates = halfCount;
+    const double n = double(halfCount[0] + halfCount[1]);
+    const double full =
+        (double(halfCount[0]) * halfValue[0] + double(halfCount[1]) * halfValue[1]) / n;
+    in.mean = cb::RgbImage(w, h);
+    in.standardError = cb::RgbImage(w, h);
+    for (float& v : in.mean.rgb)
+        v = float(full);
+    for (float& v : in.standardError.rgb)
+        v = float(std::hypot(double(halfCount[0]) * halfSe[0], double(halfCount[1]) * halfSe[1]) /
+                  n);
+    for (int half = 0; half < 2; ++half) {
+        in.halfMean[size_t(half)] = cb::RgbImage(w, h);
+        in.halfStandardError[size_t(half)] = cb::RgbImage(w, h);
+        for (float& v : in.halfMean[size_t(half)].rgb)
+            v = float(halfValue[size_t(half)]);
+        for (float& v : in.halfStandardError[size_t(half)].rgb)
+            v = float(halfSe[size_t(half)]);
+    }
+    return in;
+}
+
+} // namespace
+
+TEST_CASE("combine: cross weights take the other half's variance scaled by the count ratio") {
+    // Half h of input i is weighted by 1 / v_ih with v_ih = se_i,1-h^2 n_i,1-h / n_ih: the other
+    // half's variance of its mean, scaled to a mean of n_ih estimates. Halves of unequal counts
+    // and errors, so a weight from the wrong half or an inverted ratio changes the answer.
+    const std::array<double, 2> x0{1.0, 1.3}, x1{0.6, 0.8}, se0{0.1, 0.25}, se1{0.3, 0.15};
+    const std::array<long, 2> n0{6, 3}, n1{4, 4};
+    std::vector<cb::CombineInput> inputs{constantHalves("pt", 1, x0, se0, n0),
+                                         constantHalves("cbdpt", 2, x1, se1, n1)};
+    cb::CombineSettings settings;
+    settings.how = cb::Combination::InverseVariance;
+    const auto result = cb::combine(inputs, settings);
+    double expected = 0.0;
+    for (int h = 0; h < 2; ++h) {
+        const int o = 1 - h;
+        const double v0 =
+            se0[size_t(o)] * se0[size_t(o)] * double(n0[size_t(o)]) / double(n0[size_t(h)]);
+        const double v1 =
+            se1[size_t(o)] * se1[size_t(o)] * double(n1[size_t(o)]) / double(n1[size_t(h)]);
+        expected += 0.5 * (x0[size_t(h)] / v0 + x1[size_t(h)] / v1) / (1.0 / v0 + 1.0 / v1);
+    }
+    for (float v : result.image.rgb)
+        CHECK(v == doctest::Approx(expected).epsilon(1e-6));
+}
+
+TEST_CASE("combine: pixels without variance, an even number of inputs, the mean's error") {
+    // A pixel every input computes exactly (standard error 0, e.g. a directly seen light) keeps
+    // that value: the exact inputs are averaged, never summed.
+    std::vector<cb::CombineInput> inputs;
+    for (std::uint32_t i = 0; i < 4; ++i)
+        inputs.push_back(constantHalves(i % 2 ? "cbdpt" : "pt", i, {0.7, 0.7}, {0.0, 0.0}, {4, 4}));
+    cb::CombineSettings settings;
+    for (auto how : {cb::Combination::InverseVariance, cb::Combination::InverseVarianceNaive}) {
+        CAPTURE(cb::combinationName(how));
+        settings.how = how;
+        for (float v : cb::combine(inputs, settings).image.rgb)
+            CHECK(v == doctest::Approx(0.7));
+    }
+    // The median of an even count is the mean of the middle two: 1, 2, 4, 8 -> 3.
+    const double values[4] = {8.0, 1.0, 4.0, 2.0};
+    for (size_t i = 0; i < 4; ++i) {
+        for (float& v : inputs[i].mean.rgb)
+            v = float(values[i]);
+        for (float& v : inputs[i].standardError.rgb)
+            v = float(0.1 * double(i + 1));
+    }
+    settings.how = cb::Combination::Median;
+    for (float v : cb::combine(inputs, settings).image.rgb)
+        CHECK(v == doctest::Approx(3.0));
+    // The plain mean of k independent inputs has standard error sqrt(sum se_i^2) / k.
+    settings.how = cb::Combination::Mean;
+    const double meanError = std::sqrt(0.01 + 0.04 + 0.09 + 0.16) / 4.0;
+    for (float v : cb::combine(inputs, settings).standardError.rgb)
+        CHECK(v == doctest::Approx(meanError).epsilon(1e-6));
+}
+
+TEST_CASE("combine: variances are box means over the pixels inside the image") {
+    // Naive inverse variance of two inputs: the standard error is 1 / sqrt(sum_i 1 / V_i), V_i
+    // the mean of se_i^2 over the (2r + 1)^2 box clipped at the borders, computed here directly.
+    const int w = 5, h = 4, r = 1;
+    std::vector<cb::CombineInput> inputs;
+    for (std::uint32_t i = 0; i < 2; ++i) {
+        cb::CombineInput in;
+        in.path = "in" + std::to_string(i);
+        in.record = syntheticRecord(i ? "cbdpt" : "pt", i);
+        in.mean = cb::RgbImage(w, h);
+        in.standardError = cb::RgbImage(w, h);
+        for (size_t e = 0; e < in.standardError.rgb.size(); ++e)
+            in.standardError.rgb[e] = float(0.05 + 0.01 * double((e * (i + 3)) % 7));
+        inputs.push_back(in);
+    }
+    cb::CombineSettings settings;
+    settings.how = cb::Combination::InverseVarianceNaive;
+    settings.varianceRadius = r;
+    const auto result = cb::combine(inputs, settings);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+            for (int c = 0; c < 3; ++c) {
+                double weights = 0.0;
+                for (const auto& in : inputs) {
+                    double sum = 0.0;
+                    int count = 0;
+                    for (int yy = y - r; yy <= y + r; ++yy)
+                        for (int xx = x - r; xx <= x + r; ++xx) {
+                            if (xx < 0 || yy < 0 || xx >= w || yy >= h) continue;
+                            const double se = in.standardError.rgb[size_t(3 * (yy * w + xx) + c)];
+                            sum += se * se;
+                            ++count;
+                        }
+                    weights += count / sum;
+                }
+                CAPTURE(x);
+                CAPTURE(y);
+                CHECK(result.standardError.rgb[size_t(3 * (y * w + x) + c)] ==
+                      doctest::Approx(1.0 / std::sqrt(weights)).epsilon(1e-5));
+            }
+}
+
+TEST_CASE("combine: guided winsorises with the group's variance and guides by the other half") {
+    // One noisy input at 1 and two pattern-prone inputs at 0, constant halves: the difference
+    // P - C = 1 is clamped at z sqrt(var P + var C), var C the variance of the mean of the two
+    // (sum / 4); a constant survives the filter, so the image is that limit.
+    const double sp = 0.2, sc = 0.3, z = 2.0;
+    std::vector<cb::CombineInput> inputs{constantHalves("pt", 1, {1.0, 1.0}, {sp, sp}, {4, 4}),
+                                         constantHalves("cbdpt", 2, {0.0, 0.0}, {sc, sc}, {4, 4}),
+                                         constantHalves("cbdpt", 3, {0.0, 0.0}, {sc, sc}, {4, 4})};
+    cb::CombineSettings settings;
+    settings.how = cb::Combination::Guided;
+    settings.guideClamp = z;
+    const double limit = z * std::sqrt(sp * sp + 2.0 * sc * sc / 4.0);
+    REQUIRE(limit < 1.0);
+    for (float v : cb::combine(inputs, settings).image.rgb)
+        CHECK(v == doctest::Approx(limit).epsilon(1e-5));
+
+    // Half h's correction is filtered with edge stops from the pattern-prone half 1 - h (which
+    // is independent of it): the halves differ, one with an edge and one flat, so using the
+    // wrong half changes the image.
+    const int w = 12, hgt = 3;
+    auto a = constantHalves("pt", 4, {0, 0}, {0.1, 0.1}, {4, 4}, w, hgt);
+    auto b = constantHalves("cbdpt", 5, {0, 0}, {0.1, 0.1}, {4, 4}, w, hgt);
+    for (int y = 0; y < hgt; ++y)
+        for (int x = 0; x < w; ++x)
+            for (int c = 0; c < 3; ++c) {
+                const size_t e = size_t(3 * (y * w + x) + c);
+                a.halfMean[0].rgb[e] = x < 6 ? -1.f : 1.f;
+                a.halfMean[1].rgb[e] = x < 6 ? 1.f : -1.f;
+                b.halfMean[0].rgb[e] = x < 6 ? 0.1f : 1.f; // an edge
+                b.halfMean[1].rgb[e] = 0.5f;               // flat
+            }
+    settings.guideClamp = 0.0;
+    const auto guided = cb::combine({a, b}, settings);
+    cb::RgbImage expected(w, hgt);
+    for (int half = 0; half < 2; ++half) {
+        cb::RgbImage difference(w, hgt);
+        for (size_t e = 0; e < difference.rgb.size(); ++e)
+            difference.rgb[e] = a.halfMean[size_t(half)].rgb[e] - b.halfMean[size_t(half)].rgb[e];
+        const auto filtered = cb::jointBilateralFilter(difference, b.halfMean[size_t(1 - half)],
+                                                       settings.guideSigma, settings.guideRange);
+        for (size_t e = 0; e < expected.rgb.size(); ++e)
+            expected.rgb[e] += 0.5f * (b.halfMean[size_t(half)].rgb[e] + filtered.rgb[e]);
+    }
+    for (size_t e = 0; e < expected.rgb.size(); ++e)
+        CHECK(guided.image.rgb[e] == doctest::Approx(expected.rgb[e]).epsilon(1e-5));
+}
+
+TEST_CASE("combine: refusals among three inputs, of crops, Sobol and too few half estimates") {
+    auto a = gaussianInput("pt", 1, 4, 8, 1.0, 0.1);
+    auto b = gaussianInput("cbdpt", 2, 4, 8, 1.0, 0.1);
+    auto c = gaussianInput("cbdpt", 2, 4, 8, 1.0, 0.1);
+    // The second and third share a seed and estimates: every pair is checked, not only pairs
+    // with the first.
+    CHECK_THROWS_WITH_AS(cb::requireCombinable({a, b, c}), doctest::Contains("not independent"),
+                         std::invalid_argument);
+    c.record.seed = 3;
+    CHECK_NOTHROW(cb::requireCombinable({a, b, c}));
+    auto crop = b;
+    crop.record.pixelBounds = "0 4 0 4";
+    CHECK_THROWS_WITH_AS(cb::requireCombinable({a, crop}), doctest::Contains("parts of the film"),
+                         std::invalid_argument);
+    // One seed with the Sobol sampler in either input: parts of one sequence.
+    auto sobol = gaussianInput("cbdpt", 1, 4, 8, 1.0, 0.1);
+    sobol.record.estimateSet = cb::EstimateSet::range(8, 16);
+    sobol.record.sampler = "sobol";
+    a.record.sampler = "independent";
+    CHECK_THROWS_WITH_AS(cb::requireCombinable({a, sobol}), doctest::Contains("Sobol"),
+                         std::invalid_argument);
+    // CPT's cap is its Ne alone, as PT's: CPT Ne = 8 goes with PT Ne = 8, CPT Ne = 4 does not.
+    auto cpt = b;
+    cpt.record.method = "cpt";
+    cpt.record.eyeVertices = 8;
+    CHECK_NOTHROW(cb::requireCombinable({a, cpt}));
+    cpt.record.eyeVertices = 4;
+    CHECK_THROWS_WITH_AS(cb::requireCombinable({a, cpt}), doctest::Contains("vertex caps"),
+                         std::invalid_argument);
+    // Cross weights need a variance from each half: one estimate in a half has none.
+    cb::CombineSettings settings;
+    settings.how = cb::Combination::InverseVariance;
+    auto thin = constantHalves("pt", 7, {1, 1}, {0.1, 0.1}, {2, 1});
+    auto full = constantHalves("cbdpt", 8, {1, 1}, {0.1, 0.1}, {4, 4});
+    CHECK_THROWS_WITH_AS(cb::combine({thin, full}, settings),
+                         doctest::Contains("at least 2 estimates each"), std::invalid_argument);
+}
+
+TEST_CASE("combine: --shares parses fractions that sum to 1, the last one implied") {
+    CHECK(cb::parseShares("0.25,0.75", 2) == std::vector<double>{0.25, 0.75});
+    const auto implied = cb::parseShares("0.3", 2);
+    REQUIRE(implied.size() == 2);
+    CHECK(implied[1] == doctest::Approx(0.7));
+    // Shares that already sum to 1 leave nothing for a third method (a zero share renders
+    // nothing); sums off 1 beyond rounding, zero and non-numbers are refused.
+    for (auto [text, methods] : std::vector<std::pair<std::string, size_t>>{
+             {"0.5,0.5", 3}, {"0.3,0.695", 2}, {"0,0.5", 3}, {"0.5,x", 2}, {"0.2,0.2", 2}}) {
+        CAPTURE(text);
+        CHECK_THROWS_WITH_AS(cb::parseShares(text, methods), doctest::Contains("--shares"),
+                             std::invalid_argument);
+    }
+}
