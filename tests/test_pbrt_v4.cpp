@@ -5,6 +5,7 @@
 #include <doctest/doctest.h>
 
 #include "scene/scene_desc.h"
+#include "scene_builders.h"
 #include "spectral/spectral.h"
 #include "test_render_util.h"
 
@@ -428,6 +429,61 @@ TEST_CASE("pbrt-v4 spot light: parameters, normalisation and power") {
                    "conedeltaangle"));
     CHECK(contains(errorOf("WorldBegin\nScale 1 2 1\nLightSource \"spot\"\n"), "similarity"));
     CHECK(contains(errorOf("WorldBegin\nLightSource \"goniometric\"\n"), "\"distant\""));
+}
+
+TEST_CASE("pbrt-v4 light power: lights are picked in proportion to their Phi") {
+    // Every light has radiance or intensity 1, so the pick probabilities are the ratios of
+    // pbrt-v4's Phi over its spectrum's mean: area A pi (twice two-sided), point 4 pi, spot
+    // 2 pi (1 - (cosStart + cosEnd) / 2), distant pi R^2, infinite 4 pi^2 R^2 (R the bounding
+    // sphere's radius the scene reports).
+    cb::SceneDesc desc = cbtest::furnaceScene(0.5f, 1.f); // 12 one-sided triangles of area 2
+    cb::AreaLightDesc twoSided;
+    twoSided.twoSided = true;
+    desc.areaLights.push_back(twoSided);
+    cb::TriangleMeshDesc triangle;
+    triangle.positions = {{0.0, 0.0, 0.5}, {0.5, 0.0, 0.5}, {0.0, 0.5, 0.5}}; // area 1/8
+    triangle.triangles = {{0, 1, 2}};
+    triangle.material = 0;
+    triangle.areaLight = 1;
+    desc.meshes.push_back(triangle);
+    desc.areaLights.push_back(cb::AreaLightDesc{});
+    cb::SphereDesc sphere;
+    sphere.center = {-0.5, -0.5, -0.5};
+    sphere.radius = 0.25f;
+    sphere.material = 0;
+    sphere.areaLight = 2;
+    desc.spheres.push_back(sphere);
+    desc.pointLights.push_back(cb::PointLightDesc{});
+    cb::PointLightDesc spot;
+    spot.spot = true;
+    spot.spotCosStart = 0.9f;
+    spot.spotCosEnd = 0.8f;
+    desc.pointLights.push_back(spot);
+    desc.distantLights.push_back(cb::DistantLightDesc{});
+    desc.infiniteLights.push_back(cb::InfiniteLightDesc{});
+    const cb::DeviceScene scene = cb::buildDeviceScene(desc, cb::ChannelMode::Rgb);
+    REQUIRE(scene.lights.size() == 18);
+    const double r = scene.lights[16].sceneRadius;
+    CHECK(scene.lights[17].sceneRadius == float(r));
+    std::vector<double> power(12, 2.0 * M_PI);
+    power.push_back(2.0 * 0.125 * M_PI);
+    power.push_back(4.0 * M_PI * 0.25 * 0.25 * M_PI);
+    power.push_back(4.0 * M_PI);
+    power.push_back(2.0 * M_PI * (1.0 - 0.5 * (0.9 + 0.8)));
+    power.push_back(M_PI * r * r);
+    power.push_back(4.0 * M_PI * M_PI * r * r);
+    double total = 0.0;
+    for (double p : power)
+        total += p;
+    double cdf = 0.0;
+    for (size_t i = 0; i < power.size(); ++i) {
+        CAPTURE(i);
+        cdf += power[i] / total;
+        CHECK(scene.lights[i].pickProbability == doctest::Approx(power[i] / total).epsilon(1e-5));
+        CHECK(scene.lights[i].cdf == doctest::Approx(cdf).epsilon(1e-5));
+    }
+    // The sphere's area is what its light samples by.
+    CHECK(scene.lights[13].area == doctest::Approx(4.0 * M_PI * 0.25 * 0.25).epsilon(1e-6));
 }
 
 // A spot light 1 m above a diffuse plane, seen from straight above: each pixel's radiance is
