@@ -60,7 +60,7 @@ NoiseEstimate estimateNoise(const EstimateAccumulator& accumulator);
 bool readExrStandardError(const std::string& path, RgbImage& out);
 
 // False-colour map of the signed relative luminance error
-//   e = (L(image) - L(reference)) / (L(reference) + kRelMseEpsilon),
+//   e = (L(image) - L(reference)) / (|L(reference)| + kRelMseEpsilon),
 // clamped to [-scale, scale]: blue (too dark) through white (exact) to red (too bright), linear in
 // e, so full blue/red means |e| >= scale. 8-bit sRGB, row-major.
 std::vector<std::uint8_t> relativeErrorColourMap(const RgbImage& image, const RgbImage& reference,
