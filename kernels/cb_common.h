@@ -204,17 +204,18 @@ CB_FN real vmaxComponent(Vec3 a) {
 CB_FN real vcomponent(Vec3 a, int axis) {
     return axis == 0 ? a.x : (axis == 1 ? a.y : a.z);
 }
-/* Unit normal along cross(p1 - p0, p2 - p0). The edges, then the cross product, are scaled to a
- * largest component of 1 first: plain vnormalize(vcross) overflows to a zero normal for edges
- * above ~4e9 and underflows to NaN below ~1e-11. Not finite only for a triangle that is
- * degenerate in real precision (the host drops those: device_scene.cpp). */
+/* Unit normal along cross(p1 - p0, p2 - p0). Its squared length overflows float for edges
+ * above ~4e9 and underflows below ~1e-10, where the cross product itself holds from edges of
+ * ~1e-19 to ~1e19: only then is it scaled to a largest component of 1 first (a branch almost
+ * never taken). Not finite only for a float cross product of 0 (the host drops those). */
 CB_FN Vec3 triangleNormal(Vec3 p0, Vec3 p1, Vec3 p2) {
-    Vec3 e1 = vsub(p1, p0);
-    Vec3 e2 = vsub(p2, p0);
-    e1 = vscale(e1, 1.0f / vmaxComponent(vabs(e1)));
-    e2 = vscale(e2, 1.0f / vmaxComponent(vabs(e2)));
-    Vec3 n = vcross(e1, e2);
-    return vnormalize(vscale(n, 1.0f / vmaxComponent(vabs(n))));
+    Vec3 n = vcross(vsub(p1, p0), vsub(p2, p0));
+    real squared = vdot(n, n);
+    if (!(squared > 1e-30f && squared < 1e30f)) {
+        n = vscale(n, 1.0f / vmaxComponent(vabs(n)));
+        squared = vdot(n, n);
+    }
+    return vscale(n, 1.0f / sqrt(squared));
 }
 /* a + b*s */
 CB_FN Vec3 vmadd(Vec3 a, Vec3 b, real s) {
