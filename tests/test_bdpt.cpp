@@ -209,18 +209,6 @@ struct FullPath {
     std::vector<int> delta;
 };
 
-cbk::SceneView hostView(const cb::DeviceScene& s) {
-    cbk::SceneView v{};
-    v.nodes = s.wide.nodes.data();
-    v.packs = s.wide.packs.data();
-    v.primitives = s.bvh.primitives.data();
-    v.materials = s.materials.data();
-    v.lights = s.lights.data();
-    v.spectra = s.spectra.data();
-    v.lightCount = int(s.lights.size());
-    return v;
-}
-
 Vec3 dirTo(const PathVertex& a, const PathVertex& b) {
     return cbk::vnormalize(cbk::vsub(cbk::pvP(&b), cbk::pvP(&a)));
 }
@@ -415,7 +403,7 @@ TEST_CASE("BDPT MIS weights equal the explicit-ratio oracle and sum to one") {
             desc.spheres.push_back(sphere);
         }
         cb::DeviceScene scene = cb::buildDeviceScene(desc);
-        cbk::SceneView view = hostView(scene);
+        cbk::SceneView view = cbtest::hostView(scene);
         const cbk::Camera& camera = scene.camera;
         const int ne = 5, nl = 4;
         long compared = 0, uncut = 0, sums = 0;

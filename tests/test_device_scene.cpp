@@ -5,6 +5,7 @@
 
 #include "scene/device_scene.h"
 #include "scene/scene_desc.h"
+#include "test_render_util.h"
 
 #include "cb_intersect.h"
 #include "cb_lights.h"
@@ -27,18 +28,6 @@ const std::string kHeader =
 cb::DeviceScene build(const std::string& world) {
     return cb::buildDeviceScene(cb::parseSceneString(kHeader + world, "t.pbrt"),
                                 cb::ChannelMode::Rgb);
-}
-
-cbk::SceneView viewOf(const cb::DeviceScene& s) {
-    cbk::SceneView v{};
-    v.nodes = s.wide.nodes.data();
-    v.packs = s.wide.packs.data();
-    v.primitives = s.bvh.primitives.data();
-    v.materials = s.materials.data();
-    v.lights = s.lights.data();
-    v.spectra = s.spectra.data();
-    v.lightCount = int(s.lights.size());
-    return v;
 }
 
 std::string errorOf(const std::string& world) {
@@ -70,7 +59,7 @@ TEST_CASE("device scene: a sliver whose float cross product is 0 is dropped, not
               "AttributeEnd\n");
     CHECK(s.droppedDegenerateTriangles == 1);
     CHECK(s.triangleCount == 3);
-    const cbk::SceneView view = viewOf(s);
+    const cbk::SceneView view = cbtest::hostView(s);
     for (int i = 0; i < int(s.bvh.primitives.size()); ++i) {
         cbk::Hit hit{};
         hit.primitive = i;

@@ -9,6 +9,20 @@
 
 namespace cbtest {
 
+// The scene as the kernels' shared code sees it, run on the host (the kernels' headers compiled
+// as C++): pointers into the device scene's arrays.
+inline cbk::SceneView hostView(const cb::DeviceScene& s) {
+    cbk::SceneView v{};
+    v.nodes = s.wide.nodes.data();
+    v.packs = s.wide.packs.data();
+    v.primitives = s.bvh.primitives.data();
+    v.materials = s.materials.data();
+    v.lights = s.lights.data();
+    v.spectra = s.spectra.data();
+    v.lightCount = int(s.lights.size());
+    return v;
+}
+
 struct PooledStats {
     double mean = 0;          // mean over all pixels, channels and estimates
     double standardError = 0; // of that mean, treating every pixel sample as independent

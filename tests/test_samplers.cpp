@@ -47,18 +47,6 @@ bool isNet(const std::vector<double>& x, const std::vector<double>& y, int k) {
     return true;
 }
 
-SceneView hostView(const cb::DeviceScene& s) {
-    SceneView v{};
-    v.nodes = s.wide.nodes.data();
-    v.packs = s.wide.packs.data();
-    v.primitives = s.bvh.primitives.data();
-    v.materials = s.materials.data();
-    v.lights = s.lights.data();
-    v.spectra = s.spectra.data();
-    v.lightCount = int(s.lights.size());
-    return v;
-}
-
 // A diffuse plane z = 2 facing the camera (at the origin, looking +z) lit only by a sphere light
 // above the view. A sphere of radiance L entirely above a point's horizon gives irradiance
 // pi L (r/d)^2 cos(theta) there, so the plane reflects rho L (r/d)^2 cos(theta).
@@ -342,7 +330,7 @@ TEST_CASE("sphere light by cone: points on the visible cap, uniform in solid ang
     for (double radius : {0.25, 0.01}) { // the second takes the small-angle branch
         setup.radius = radius;
         cb::DeviceScene scene = cb::buildDeviceScene(setup.desc(8));
-        SceneView view = hostView(scene);
+        SceneView view = cbtest::hostView(scene);
         REQUIRE(view.lightCount == 1);
         // Device coordinates are world coordinates minus scene.origin.
         const auto& o = scene.origin;
