@@ -52,11 +52,61 @@ CB_FN real fresnelDielectric(real cosI, real eta, real* cosT) {
     return 0.5f * (rs * rs + rp * rp);
 }
 
+#if CB_HAS(CB_FEATURE_CONDUCTOR_FRESNEL)
+/* Unpolarised Fresnel reflectance of a conductor of complex index eta + i k under vacuum, at
+ * cosI to its normal (Born & Wolf sec. 13.2; the a, b form of Lagarde's "Memo on Fresnel
+ * equations", as pbrt-v3's FrConductor), arranged against cancellation: t0 = eta^2 - k^2 -
+ * sin^2 from whichever of its two groupings has the smaller rounding bound (sin^2 near 0: a
+ * tiny eta at normal incidence; near 1: index matching at grazing angles), and a^2 =
+ * (|z| + t0) / 2 with t0 < 0 as q^2 / (2 (|z| - t0)), z = t0 + i q (a nearly lossless index
+ * below 1). hypot keeps eta, k up to 1e9 finite. */
+CB_FN real fresnelConductor(real cosI, real eta, real k) {
+    real c = cbClamp(cosI, 0.0f, 1.0f);
+    real cos2 = c * c;
+    real sin2 = (1.0f - c) * (1.0f + c);
+    real etaK = (eta - k) * (eta + k), eta1 = (eta - 1.0f) * (eta + 1.0f);
+    real t0 = fabs(etaK) + sin2 <= fabs(eta1) + k * k + cos2 ? etaK - sin2 : eta1 - k * k + cos2;
+    real q = 2.0f * eta * k;
+    real a2b2 = hypot(t0, q); /* a^2 + b^2 */
+    real a = t0 >= 0.0f ? sqrt(0.5f * (a2b2 + t0)) : q / sqrt(2.0f * (a2b2 - t0));
+    real t1 = a2b2 + cos2;
+    real t2 = 2.0f * a * c;
+    /* t1 - t2 >= (a - cos)^2 >= 0; t1 + t2 is 0 only at grazing on eta = 1, k = 0 (no
+     * interface), where the limit is 0. */
+    real rs = t1 + t2 > 0.0f ? fmax(t1 - t2, 0.0f) / (t1 + t2) : 0.0f;
+    real t3 = cos2 * a2b2 + sin2 * sin2;
+    real t4 = t2 * sin2;
+    /* t3 + t4 is 0 only at normal incidence on eta = k = 0, where rp = rs. */
+    real rp = t3 + t4 > 0.0f ? rs * fmax(t3 - t4, 0.0f) / (t3 + t4) : rs;
+    return 0.5f * (rs + rp);
+}
+#endif
+
 /* ---- Per-kind lobes, in the local frame flipped so that wo.z > 0 ----------------------------- */
 
 #if CB_HAS(CB_FEATURE_CONDUCTOR)
 CB_FN real cbConductorAlpha(Material m) {
     return fmax(m.alpha, CB_GGX_MIN_ALPHA);
+}
+
+/* The conductor's Fresnel factor at cosH to the microfacet (or mirror) normal, given the entry
+ * `reflectance` points to: that constant tint, or, where the material has eta and k, the complex
+ * Fresnel equations per channel on eta (that entry) and k. */
+CB_FN Spectrum cbConductorFresnel(const SceneView* scene, Material m, Spectrum reflectance,
+                                  real cosH) {
+#if CB_HAS(CB_FEATURE_CONDUCTOR_FRESNEL)
+    if (m.conductorK >= 0) {
+        Spectrum k = specLoad(scene->spectra, m.conductorK);
+        Spectrum f;
+        for (int c = 0; c < CB_CHANNELS; ++c)
+            f.c[c] = fresnelConductor(cosH, reflectance.c[c], k.c[c]);
+        return f;
+    }
+#endif
+    (void)scene;
+    (void)m;
+    (void)cosH;
+    return reflectance;
 }
 
 /* Torrance-Sparrow with GGX and height-correlated Smith G (Walter et al. 2007, eq. 20), the
@@ -100,9 +150,10 @@ CB_FN Spectrum cbLobeEval(const SceneView* scene, Material m, Vec3 wo, Vec3 wi, 
         Vec3 h = vadd(wo, wi);
         real len = vlength(h);
         if (!(len > 0.0f)) return specZero();
-        real value =
-            cbGgxReflection(wo, wi, vscale(h, 1.0f / len), cbConductorAlpha(m), pdfFwd, pdfRev);
-        return specScale(specLoad(scene->spectra, m.reflectance), value);
+        Vec3 wm = vscale(h, 1.0f / len);
+        real value = cbGgxReflection(wo, wi, wm, cbConductorAlpha(m), pdfFwd, pdfRev);
+        Spectrum r = specLoad(scene->spectra, m.reflectance);
+        return specScale(cbConductorFresnel(scene, m, r, vdot(wo, wm)), value);
     }
 #endif
     (void)scene;
@@ -156,7 +207,7 @@ CB_FN bool cbLobeSample(const SceneView* scene, Material m, Vec3 wo, bool enteri
         Spectrum r = specLoad(scene->spectra, m.reflectance);
         if (m.alpha == 0.0f) {
             out->wi = vec3(-wo.x, -wo.y, wo.z);
-            out->f = specScale(r, 1.0f / wo.z);
+            out->f = specScale(cbConductorFresnel(scene, m, r, wo.z), 1.0f / wo.z);
             out->pdf = 1.0f;
             out->pdfRev = 1.0f;
             out->isDelta = 1;
@@ -175,7 +226,7 @@ CB_FN bool cbLobeSample(const SceneView* scene, Material m, Vec3 wo, bool enteri
         real value = cbGgxReflection(wo, wi, wm, alpha, &out->pdf, &out->pdfRev);
         if (!(out->pdf > 0.0f)) return false;
         out->wi = wi;
-        out->f = specScale(r, value);
+        out->f = specScale(cbConductorFresnel(scene, m, r, vdot(wo, wm)), value);
         return true;
     }
 #endif

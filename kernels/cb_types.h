@@ -79,6 +79,7 @@ typedef struct SurfacePoint {
 #define CB_FEATURE_CONDUCTOR (1u << 1)
 #define CB_FEATURE_DIELECTRIC (1u << 2)
 #define CB_FEATURE_MIX (1u << 3)
+#define CB_FEATURE_CONDUCTOR_FRESNEL (1u << 4) /* conductors given eta and k (pbrt-v4's) */
 #define CB_FEATURE_AREA_LIGHT (1u << 8)
 #define CB_FEATURE_POINT_LIGHT (1u << 9)
 #define CB_FEATURE_SPHERES (1u << 10)
@@ -99,7 +100,9 @@ typedef struct Material {
     int mixFirst;    /* CB_MAT_MIX: the two component materials */
     int mixSecond;
     real mixAmount; /* probability of mixSecond */
-    int pad;
+    /* CB_MAT_CONDUCTOR given eta and k: the index of k's spectrum, `reflectance` then holding
+     * eta's (CB_FEATURE_CONDUCTOR_FRESNEL); -1: `reflectance` is a constant Fresnel tint. */
+    int conductorK;
 } Material;
 
 /* ---- Lights ------------------------------------------------------------------------------- */

@@ -7,6 +7,7 @@
 #include <CL/cl.h>
 
 #include <cmath>
+#include <complex>
 #include <cstdio>
 #include <fstream>
 #include <limits>
@@ -52,11 +53,18 @@ struct TestScene {
         m.mixFirst = first;
         m.mixSecond = second;
         m.mixAmount = amount;
+        m.conductorK = -1;
         materials.push_back(m);
         return static_cast<int>(materials.size()) - 1;
     }
     int diffuse(int refl) { return add(CB_MAT_DIFFUSE, refl, 0.0f, 1.0f); }
     int conductor(int refl, float alpha) { return add(CB_MAT_CONDUCTOR, refl, alpha, 1.0f); }
+    // A conductor given its complex index eta + i k (two spectra), as pbrt-v4's eta and k.
+    int fresnelConductor(int eta, int k, float alpha) {
+        int m = conductor(eta, alpha);
+        materials[size_t(m)].conductorK = k;
+        return m;
+    }
     int dielectric(float eta) { return add(CB_MAT_DIELECTRIC, 0, 0.0f, eta); }
     int mix(int a, int b, float amount) { return add(CB_MAT_MIX, 0, 0.0f, 1.0f, a, b, amount); }
     SceneView view() const {
@@ -73,6 +81,7 @@ struct Fixture {
     int white, tint, gold;
     int diffuse, diffuseTint, mirror, rough005, rough03, rough1, glass, glassWater, tiny;
     int mixDiffuseRough, mixDragon, mixDiffuseGlossy, mixDiffuseGlass, mixMirrorGlass;
+    int goldEta, goldK, goldFresnelMirror, goldFresnelRough, mixDiffuseGoldRough;
     Fixture() {
         white = s.spectrum(1.0f, 1.0f, 1.0f);
         tint = s.spectrum(0.8f, 0.6f, 0.4f);
@@ -92,6 +101,12 @@ struct Fixture {
         mixDiffuseGlossy = s.mix(diffuseTint, rough005, 0.6f);
         mixDiffuseGlass = s.mix(diffuse, glass, 0.5f);
         mixMirrorGlass = s.mix(mirror, glass, 0.4f);
+        // Gold's complex index at about 650, 550 and 450 nm (Johnson and Christy 1972).
+        goldEta = s.spectrum(0.166f, 0.43f, 1.5f);
+        goldK = s.spectrum(3.15f, 2.45f, 1.88f);
+        goldFresnelMirror = s.fresnelConductor(goldEta, goldK, 0.0f);
+        goldFresnelRough = s.fresnelConductor(goldEta, goldK, 0.3f);
+        mixDiffuseGoldRough = s.mix(diffuseTint, goldFresnelRough, 0.5f);
     }
 };
 
@@ -117,6 +132,17 @@ double fresnelRef(double cosI, double eta) {
     double rs = (cosI - eta * cosT) / (cosI + eta * cosT);
     double rp = (eta * cosI - cosT) / (eta * cosI + cosT);
     return 0.5 * (rs * rs + rp * rp);
+}
+
+// Conductor Fresnel in double from the complex amplitudes (Born & Wolf sec. 13.2), written
+// apart from the header's real a, b form: eta + i k the conductor's index, vacuum outside.
+double fresnelConductorRef(double cosI, double eta, double k) {
+    using C = std::complex<double>;
+    const C n(eta, k);
+    const C cosT = std::sqrt(C(1.0) - C(1.0 - cosI * cosI) / (n * n));
+    const C rs = (C(cosI) - n * cosT) / (C(cosI) + n * cosT);
+    const C rp = (n * C(cosI) - cosT) / (n * C(cosI) + cosT);
+    return 0.5 * (std::norm(rs) + std::norm(rp));
 }
 
 // In double via atan2: acos of a float dot product near 1 has an error of ~3e-4 rad.
@@ -292,7 +318,7 @@ TEST_CASE("reflection BSDFs are reciprocal and pdfRev is the swapped pdfFwd") {
     SceneView v = fx.s.view();
     Uniform u(12);
     for (int m : {fx.diffuse, fx.rough005, fx.rough03, fx.rough1, fx.mixDiffuseRough,
-                  fx.mixDiffuseGlossy, fx.mixDragon}) {
+                  fx.mixDiffuseGlossy, fx.mixDragon, fx.goldFresnelRough, fx.mixDiffuseGoldRough}) {
         int nonZero = 0;
         for (int i = 0; i < 2000; ++i) {
             Vec3 a = frameToWorld(kFrame, sampleUniformSphere(u(), u()));
@@ -315,6 +341,97 @@ TEST_CASE("reflection BSDFs are reciprocal and pdfRev is the swapped pdfFwd") {
         }
         CHECK(nonZero > 500);
     }
+}
+
+TEST_CASE("conductor Fresnel: the complex-amplitude form, its limits and stiff indices") {
+    // Against the complex form in double on a grid of angles and indices, from index-matched
+    // (eta 1, k 0) through metals to stiff ones (eta, k from 1e-6 to 1e6).
+    double worst = 0.0;
+    const double indices[] = {0.0, 1e-6, 1e-3, 0.05, 0.166, 0.43, 1.0, 1.5, 3.15, 10.0, 1e3, 1e6};
+    const double cosines[] = {1.0, 0.99, 0.8, 0.5, 0.2, 0.05, 1e-3, 1e-6, 0.0};
+    for (double eta : indices)
+        for (double k : indices)
+            for (double c : cosines) {
+                // No medium, or no interface at grazing: the complex form divides 0 by 0.
+                if ((eta == 0.0 || (eta == 1.0 && c == 0.0)) && k == 0.0) continue;
+                const float f = fresnelConductor(float(c), float(eta), float(k));
+                const double ref =
+                    fresnelConductorRef(double(float(c)), double(float(eta)), double(float(k)));
+                INFO("cos " << c << " eta " << eta << " k " << k << ": " << f << " vs " << ref);
+                REQUIRE(std::isfinite(f));
+                REQUIRE(f >= 0.0f);
+                REQUIRE(f <= 1.0f);
+                // Absolute: near index matching the reflectance is 0 and float's rounding of
+                // a^2 + b^2 ~ 1 leaves ~1e-7.
+                worst = std::max(worst, std::fabs(f - ref));
+                CHECK(std::fabs(f - ref) < 1e-6);
+            }
+    MESSAGE("worst |F - F_complex| " << worst);
+    // Normal incidence: ((eta - 1)^2 + k^2) / ((eta + 1)^2 + k^2); grazing: 1.
+    for (double eta : {0.2, 1.0, 2.5})
+        for (double k : {0.0, 0.5, 3.0}) {
+            const double normal = ((eta - 1) * (eta - 1) + k * k) / ((eta + 1) * (eta + 1) + k * k);
+            CHECK(fresnelConductor(1.0f, float(eta), float(k)) ==
+                  doctest::Approx(normal).epsilon(1e-6).scale(1.0));
+            if (eta != 1.0 || k != 0.0)
+                CHECK(fresnelConductor(0.0f, float(eta), float(k)) == doctest::Approx(1.0));
+        }
+    // k = 0 is a dielectric seen from outside: the dielectric's Fresnel (eta > 1 and < 1, with
+    // total internal reflection).
+    for (double eta : {1.33, 1.5, 2.4, 0.7})
+        for (double c : {1.0, 0.9, 0.6, 0.3, 0.1}) {
+            float cosT;
+            CHECK(fresnelConductor(float(c), float(eta), 0.0f) ==
+                  doctest::Approx(fresnelDielectric(float(c), float(eta), &cosT)).epsilon(1e-5));
+        }
+    // eta = k = 0 reflects everything (the limit of the complex form), also at normal incidence.
+    for (double c : cosines)
+        CHECK(fresnelConductor(float(c), 0.0f, 0.0f) == 1.0f);
+    // eta = 1, k = 0 is no interface: nothing is reflected, also at grazing (the limit).
+    for (double c : cosines)
+        CHECK(fresnelConductor(float(c), 1.0f, 0.0f) <= 1e-6f);
+}
+
+TEST_CASE("Fresnel conductor: mirror and rough lobes carry F(wo . wm) per channel") {
+    Fixture fx;
+    SceneView v = fx.s.view();
+    const float eta[3] = {0.166f, 0.43f, 1.5f}, k[3] = {3.15f, 2.45f, 1.88f};
+    // The mirror: throughput F(cos wo) per channel.
+    for (float c : {1.0f, 0.7f, 0.2f, 0.02f, -0.5f}) {
+        Vec3 wo = worldDir(c, 1.0f);
+        BsdfSample s;
+        REQUIRE(bsdfSample(&v, fx.goldFresnelMirror, kFrame, wo, 0.3f, 0.8f, 0.5f, 0, &s));
+        CHECK(s.isDelta == 1);
+        const float cosI = vabsdot(s.wi, kFrame.n);
+        for (int ch = 0; ch < 3; ++ch)
+            CHECK(s.f.c[ch] * cosI / s.pdf ==
+                  doctest::Approx(fresnelConductorRef(std::fabs(c), eta[ch], k[ch])).epsilon(2e-5));
+    }
+    // The rough lobe: f equals the tint-1 GGX lobe times F at the half vector, in eval and in
+    // sample, so MIS and the sampler see the same function.
+    Uniform u(18);
+    int checked = 0;
+    for (int i = 0; i < 2000; ++i) {
+        Vec3 wo = worldDir(0.05f + 0.95f * u(), 6.28f * u());
+        BsdfSample s;
+        if (!bsdfSample(&v, fx.goldFresnelRough, kFrame, wo, u(), u(), u(), 0, &s)) continue;
+        float pf, pr, pf1, pr1;
+        Spectrum f = bsdfEval(&v, fx.goldFresnelRough, kFrame, wo, s.wi, 0, &pf, &pr);
+        Spectrum one = bsdfEval(&v, fx.rough03, kFrame, wo, s.wi, 0, &pf1, &pr1);
+        const Vec3 h = vnormalize(vadd(wo, s.wi));
+        const double cosH = std::fabs(vdot(wo, h));
+        for (int ch = 0; ch < 3; ++ch) {
+            const double fr = fresnelConductorRef(cosH, eta[ch], k[ch]);
+            CHECK(f.c[ch] == doctest::Approx(one.c[ch] * fr).epsilon(1e-3));
+            CHECK(s.f.c[ch] == doctest::Approx(f.c[ch]).epsilon(2e-3));
+        }
+        CHECK(pf == pf1);
+        CHECK(pr == pr1);
+        ++checked;
+    }
+    CHECK(checked > 1800);
+    checkNonDelta(v, fx.goldFresnelRough, 0.0, false, {0.9f, 0.3f, 0.05f}, 95);
+    checkNonDelta(v, fx.mixDiffuseGoldRough, 0.0, false, {0.8f, -0.2f}, 96);
 }
 
 TEST_CASE("perfect mirror: exact reflection, tint as throughput, delta contract") {
@@ -763,9 +880,10 @@ TEST_CASE("cb_bsdf.h built as OpenCL C by PoCL matches the host, with all and wi
     SceneView v = fx.s.view();
     // Moderate angles and roughness only: PoCL may contract to FMA and its sin/cos differ by an
     // ulp or two, which GGX at alpha 0.05 amplifies past 1e-5 near its peak.
-    std::vector<int> materials = {fx.diffuse,         fx.diffuseTint, fx.mirror,
-                                  fx.rough03,         fx.rough1,      fx.glass,
-                                  fx.mixDiffuseRough, fx.mixDragon,   fx.mixDiffuseGlass};
+    std::vector<int> materials = {fx.diffuse,           fx.diffuseTint,     fx.mirror,
+                                  fx.rough03,           fx.rough1,          fx.glass,
+                                  fx.mixDiffuseRough,   fx.mixDragon,       fx.mixDiffuseGlass,
+                                  fx.goldFresnelMirror, fx.goldFresnelRough};
     Uniform u(17);
     std::vector<float> inputs, diffuseInputs;
     for (int m : materials)

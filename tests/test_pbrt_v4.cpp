@@ -4,6 +4,7 @@
 // light normalisation and film colour (docs/pbrt-v4.md).
 #include <doctest/doctest.h>
 
+#include "cb_bsdf.h"
 #include "scene/scene_desc.h"
 #include "scene_builders.h"
 #include "spectral/spectral.h"
@@ -770,7 +771,7 @@ namespace {
 // BDPT, CBDPT and MLT against PT where every strategy matters: a floor, a wall and a floating
 // block between them under `light` (shadows, interreflection up to 5 vertices). The mean over
 // each cell of a 3 x 3 grid must agree within 4.5 combined standard errors (spread over runs).
-void checkMethodsAgreeWithPt(const std::string& light) {
+void checkMethodsAgreeWithPt(const std::string& light, const std::string& extra = "") {
     cb::ClRuntime runtime;
     const std::string text =
         "LookAt 0 2 -3  0 0.3 0  0 1 0\nCamera \"perspective\" \"float fov\" 50\n"
@@ -782,7 +783,8 @@ void checkMethodsAgreeWithPt(const std::string& light) {
         "AttributeBegin\nTranslate 0 0.6 0\nScale 0.4 0.3 0.4\n"
         "Shape \"trianglemesh\" \"point3 P\" [-1 -1 -1  1 -1 -1  1 1 -1  -1 1 -1  -1 -1 1  1 -1 1 "
         " 1 1 1  -1 1 1] \"integer indices\" [0 2 1  0 3 2  4 5 6  4 6 7  0 1 5  0 5 4  2 3 7 "
-        " 2 7 6  0 4 7  0 7 3  1 2 6  1 6 5]\nAttributeEnd\n";
+        " 2 7 6  0 4 7  0 7 3  1 2 6  1 6 5]\nAttributeEnd\n" +
+        extra;
     const cb::DeviceScene scene = cb::buildDeviceScene(parseSceneString(text, "t.pbrt"));
     const int w = scene.camera.width, h = scene.camera.height;
     auto cells = [&](cb::IntegratorSettings settings, int runs, int estimates) {
@@ -910,6 +912,213 @@ TEST_CASE("pbrt-v4 infinite and distant light with an area light: BDPT agrees wi
                             "AttributeBegin\nAreaLightSource \"diffuse\" \"rgb L\" [4 4 4]\n"
                             "Translate -0.5 1.5 0\nRotate 90 1 0 0\n"
                             "Shape \"disk\" \"float radius\" 0.3\nAttributeEnd\n");
+}
+
+TEST_CASE("pbrt-v4 conductor: eta and k, or reflectance, and what is refused") {
+    const std::string gold = "\"spectrum eta\" [400 1.66 550 0.43 700 0.16] "
+                             "\"spectrum k\" [400 1.96 550 2.45 700 3.92]";
+    auto s = parseSceneString("WorldBegin\nLightSource \"point\"\nMaterial \"conductor\" " + gold +
+                                  " \"float roughness\" 0.01\n" + kTri,
+                              "t.pbrt");
+    REQUIRE(s.materials.size() == 1);
+    REQUIRE(s.materials[0].conductorEta.has_value());
+    REQUIRE(s.materials[0].conductorK.has_value());
+    CHECK(s.materials[0].conductorEta->samples.size() == 3);
+    CHECK(s.materials[0].conductorK->samples[2].second == 3.92f);
+    CHECK(s.usesSpectra);
+    cb::DeviceScene scene = cb::buildDeviceScene(s);
+    CHECK(contains(scene.featureNames(), "conductor-fresnel"));
+    REQUIRE(scene.materials.size() == 1);
+    CHECK(scene.materials[0].conductorK >= 0);
+    // Each bin holds the spectrum's mean over the bin: k rises from 1.96 to 3.92.
+    const float* k = &scene.spectra[size_t(scene.materials[0].conductorK * scene.channels)];
+    CHECK(k[0] == doctest::Approx(1.96 + (2.45 - 1.96) * (409.375 - 400.0) / 150.0).epsilon(1e-4));
+    CHECK(k[0] < k[scene.channels - 1]);
+    // RGB values are the channels' eta and k; a conductor with reflectance keeps its tint and
+    // compiles no Fresnel code.
+    s = parseSceneString(
+        "WorldBegin\nLightSource \"point\"\nMaterial \"conductor\" \"rgb eta\" [0.2 0.9 1.1] "
+        "\"rgb k\" [3.9 2.4 1.9]\n" +
+            kTri,
+        "t.pbrt");
+    scene = cb::buildDeviceScene(s);
+    REQUIRE(scene.channels == 3);
+    CHECK(scene.spectra[size_t(scene.materials[0].reflectance * 3 + 1)] == 0.9f);
+    CHECK(scene.spectra[size_t(scene.materials[0].conductorK * 3 + 2)] == 1.9f);
+    s = parseSceneString("WorldBegin\nLightSource \"point\"\nMaterial \"conductor\" \"rgb "
+                         "reflectance\" [0.9 0.8 0.7]\n" +
+                             kTri,
+                         "t.pbrt");
+    scene = cb::buildDeviceScene(s);
+    CHECK(scene.materials[0].conductorK == -1);
+    CHECK(contains(scene.featureNames(), "conductor"));
+    CHECK(!contains(scene.featureNames(), "conductor-fresnel"));
+    // Refused, each at its line: both forms, one of eta and k (pbrt-v4 would fill in copper's
+    // measured spectra, which cbdpt does not have), neither, negative or huge values, named
+    // spectra.
+    const std::string both = errorOf(
+        "WorldBegin\n\nMaterial \"conductor\" \"rgb reflectance\" [0.9 0.8 0.7] " + gold + "\n");
+    CHECK(contains(both, "t.pbrt:3:"));
+    CHECK(contains(both, "not both"));
+    const std::string onlyEta =
+        errorOf("WorldBegin\nMaterial \"conductor\" \"rgb eta\" [0.2 0.9 1.1]\n");
+    CHECK(contains(onlyEta, "t.pbrt:2:"));
+    CHECK(contains(onlyEta, "without \"k\""));
+    CHECK(contains(onlyEta, "copper"));
+    CHECK(contains(errorOf("WorldBegin\nMaterial \"conductor\" \"rgb k\" [1 1 1]\n"),
+                   "without \"eta\""));
+    CHECK(contains(errorOf("WorldBegin\nMaterial \"conductor\"\n"), "copper"));
+    CHECK(contains(errorOf("WorldBegin\nMaterial \"conductor\" \"rgb eta\" [0.2 -0.9 1.1] "
+                           "\"rgb k\" [1 1 1]\n"),
+                   "negative"));
+    const std::string huge = errorOf("WorldBegin\nMaterial \"conductor\" \"rgb eta\" [1 1 1] "
+                                     "\"rgb k\" [1 2e6 1]\n");
+    CHECK(contains(huge, "t.pbrt:2:"));
+    CHECK(contains(huge, "2e+06"));
+    CHECK(contains(huge, "up to 1e+06"));
+    // Outside its samples a spectrum is 0: eta = k = 0 there would be a vacuum (pbrt-v4's
+    // Fresnel gives NaN); a conductor's spectra must cover cbdpt's 400-700 nm.
+    const std::string partial = errorOf("WorldBegin\nMaterial \"conductor\" \"spectrum eta\" "
+                                        "[450 1 700 1] \"spectrum k\" [400 1 700 1]\n");
+    CHECK(contains(partial, "t.pbrt:2:22"));
+    CHECK(contains(partial, "covers 450-700 nm"));
+    CHECK(contains(partial, "must cover 400-700 nm"));
+    CHECK(contains(errorOf("WorldBegin\nMaterial \"conductor\" \"spectrum eta\" \"metal-Au-eta\" "
+                           "\"spectrum k\" \"metal-Au-k\"\n"),
+                   "metal-Au-eta"));
+}
+
+TEST_CASE("pbrt-v4: spectrum files, found beside the file that names them, with '#' comments") {
+    const auto dir =
+        std::filesystem::temp_directory_path() / ("cbdpt-spd-" + std::to_string(::getpid()));
+    std::filesystem::create_directories(dir / "spds");
+    std::filesystem::create_directories(dir / "parts");
+    std::ofstream(dir / "spds" / "Au.k.spd") << "# gold's k\n400 1.96\n550 2.45 # mid\n700 3.92\n";
+    std::ofstream(dir / "parts" / "eta.spd") << "400 1.66 550 0.43 700 0.16";
+    std::ofstream(dir / "parts" / "gold.pbrt") << "Material \"conductor\" \"spectrum eta\" "
+                                                  "\"eta.spd\" \"spectrum k\" [\"spds/Au.k.spd\"]\n"
+                                               << kTri;
+    std::ofstream(dir / "main.pbrt") << "WorldBegin\nInclude \"parts/gold.pbrt\"\n";
+    const auto s = cb::parseSceneFile((dir / "main.pbrt").string());
+    REQUIRE(s.materials.size() == 1);
+    // eta.spd beside parts/gold.pbrt, spds/Au.k.spd beside main.pbrt (pbrt-v4's folder).
+    using Samples = std::vector<std::pair<float, float>>;
+    CHECK(s.materials[0].conductorEta->samples ==
+          Samples{{400, 1.66f}, {550, 0.43f}, {700, 0.16f}});
+    CHECK(s.materials[0].conductorK->samples == Samples{{400, 1.96f}, {550, 2.45f}, {700, 3.92f}});
+    CHECK(s.usesSpectra);
+    CHECK(std::count_if(s.sourceFiles.begin(), s.sourceFiles.end(), [](const std::string& f) {
+              return f.size() > 4 && f.compare(f.size() - 4, 4, ".spd") == 0;
+          }) == 2);
+    // Errors at the file's own line and column; a missing file names pbrt-v4's named spectra.
+    auto errorIn = [&](const std::string& spd) {
+        std::ofstream(dir / "bad.spd") << spd;
+        std::ofstream(dir / "bad.pbrt")
+            << "WorldBegin\nMaterial \"diffuse\" \"spectrum reflectance\" \"bad.spd\"\n";
+        try {
+            cb::parseSceneFile((dir / "bad.pbrt").string());
+        } catch (const SceneError& e) {
+            return std::string(e.what());
+        }
+        return std::string();
+    };
+    CHECK(contains(errorIn("400 0.5\n550 x\n"), "bad.spd:2:5: expected a number"));
+    CHECK(contains(errorIn("400 0.5\n550 1.5\n"), "bad.spd:2:5: parameter \"spectrum reflectance\" "
+                                                  "is a reflectance and must be <= 1"));
+    CHECK(contains(errorIn("400 0.5 550\n"), "bad.spd: parameter \"spectrum reflectance\""));
+    CHECK(contains(errorIn("# nothing\n"), "holds no (wavelength, value) pairs"));
+    CHECK(contains(errorIn("500 0.5 400 0.5\n"), "bad.spd:1:9: wavelengths must be strictly"));
+    const std::string named = errorOf("WorldBegin\nMaterial \"conductor\" \"spectrum eta\" "
+                                      "\"metal-Au-eta\" \"spectrum k\" \"metal-Au-k\"\n");
+    CHECK(contains(named, "t.pbrt:2:37"));
+    CHECK(contains(named, "no spectrum file \"metal-Au-eta\""));
+    CHECK(contains(named, "named spectra"));
+    std::filesystem::remove_all(dir);
+}
+
+// A smooth Fresnel conductor plane under a constant sky seen from straight above: each camera
+// ray is reflected into the sky, so a pixel is L F(cos theta) with cos theta = 1 / sqrt(1 + x^2 +
+// y^2) on the film plane at distance 1 (fov 90). The image mean per channel is L times F's mean
+// over the film, with each channel its own eta and k; every method renders it.
+TEST_CASE("pbrt-v4 conductor: a smooth eta, k plane under a constant sky has radiance L F, every "
+          "method" *
+          doctest::test_suite("statistical")) {
+    cb::ClRuntime runtime;
+    const double radiance = 0.8;
+    struct Case {
+        const char* material;
+        float eta[3], k[3];
+    };
+    const Case cases[] = {{"\"rgb eta\" [0.17 0.43 1.5] \"rgb k\" [3.1 2.4 1.9]",
+                           {0.17f, 0.43f, 1.5f},
+                           {3.1f, 2.4f, 1.9f}},
+                          // Flat spectra render spectrally (16 bins), grey.
+                          {"\"spectrum eta\" [400 1.2 700 1.2] \"spectrum k\" [400 0.5 700 0.5]",
+                           {1.2f, 1.2f, 1.2f},
+                           {0.5f, 0.5f, 0.5f}}};
+    for (const Case& c : cases) {
+        CAPTURE(c.material);
+        const std::string text =
+            "LookAt 0 1 0  0 0 0  0 0 1\nCamera \"perspective\" \"float fov\" 90\n"
+            "Film \"rgb\" \"integer xresolution\" 16 \"integer yresolution\" 16\nWorldBegin\n"
+            "LightSource \"infinite\" \"rgb L\" [0.8 0.8 0.8]\n"
+            "Material \"conductor\" " +
+            std::string(c.material) +
+            "\nShape \"bilinearmesh\" \"point3 P\" [-10 0 -10  10 0 -10  -10 0 10  10 0 10]\n";
+        const cb::DeviceScene scene = cb::buildDeviceScene(parseSceneString(text, "t.pbrt"));
+        CHECK(contains(scene.featureNames(), "conductor-fresnel"));
+        double expected[3] = {0, 0, 0};
+        const int n = 400; // midpoint rule on the film plane; F is smooth, error < 1e-6
+        for (int j = 0; j < n; ++j)
+            for (int i = 0; i < n; ++i) {
+                const double x = -1 + (i + 0.5) * 2.0 / n, y = -1 + (j + 0.5) * 2.0 / n;
+                const float cosTheta = float(1.0 / std::sqrt(1 + x * x + y * y));
+                for (int ch = 0; ch < 3; ++ch)
+                    expected[ch] += radiance * cbk::fresnelConductor(cosTheta, c.eta[ch], c.k[ch]) /
+                                    (double(n) * n);
+            }
+        for (const std::string method : kMethods) {
+            CAPTURE(method);
+            cb::IntegratorSettings settings = methodSettings(method);
+            std::vector<std::vector<double>> runs;
+            std::vector<float> rgb;
+            long nonFinite = 0;
+            for (int r = 0; r < 6; ++r) {
+                settings.seed = 700u + std::uint32_t(r);
+                auto integrator = cb::makeIntegrator(settings, scene, runtime);
+                std::vector<double> mean(3, 0.0);
+                for (int e = 0; e < 4; ++e) {
+                    integrator->renderEstimate(std::uint32_t(e), rgb);
+                    for (size_t p = 0; p < rgb.size(); ++p)
+                        mean[p % 3] += rgb[p] * 3.0 / double(rgb.size()) / 4.0;
+                }
+                runs.push_back(mean);
+                nonFinite += integrator->nonFiniteSamples();
+            }
+            const cbtest::RunStats st = cbtest::summarizeRuns(runs);
+            for (size_t ch = 0; ch < 3; ++ch) {
+                CAPTURE(ch);
+                CAPTURE(expected[ch]);
+                CAPTURE(st.mean[ch]);
+                CAPTURE(st.se[ch]);
+                // Spectral: the film's rendering of a flat spectrum under the sky's white, 1e-3.
+                CHECK(std::fabs(st.mean[ch] - expected[ch]) <=
+                      4.5 * st.se[ch] + (scene.channels == 3 ? 1e-4 : 2e-3) * expected[ch]);
+            }
+            CHECK(nonFinite == 0);
+        }
+    }
+}
+
+TEST_CASE("pbrt-v4 conductor: BDPT, CBDPT and MLT agree with PT with rough eta, k blocks" *
+          doctest::test_suite("statistical")) {
+    checkMethodsAgreeWithPt("AttributeBegin\nAreaLightSource \"diffuse\" \"rgb L\" [4 4 4]\n"
+                            "Translate -0.5 1.5 0\nRotate 90 1 0 0\n"
+                            "Shape \"disk\" \"float radius\" 0.3\nAttributeEnd\n",
+                            "AttributeBegin\nMaterial \"conductor\" \"rgb eta\" [0.17 0.43 1.5] "
+                            "\"rgb k\" [3.1 2.4 1.9] \"float roughness\" 0.1\n"
+                            "Translate 0.8 0.3 -0.4\nShape \"sphere\" \"float radius\" 0.3\n"
+                            "AttributeEnd\n");
 }
 
 TEST_CASE("pbrt-v4: integer values are whole-number text, as pbrt-v4's parseInt reads them") {

@@ -257,6 +257,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         cbk::Material out{};
         out.reflectance = oneSpectrum;
         out.mixFirst = out.mixSecond = -1;
+        out.conductorK = -1;
         switch (m.kind) {
         case MaterialKind::Diffuse:
             out.kind = CB_MAT_DIFFUSE;
@@ -264,7 +265,14 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
             break;
         case MaterialKind::Conductor:
             out.kind = CB_MAT_CONDUCTOR;
-            out.reflectance = spectra.add(m.reflectance, 1.f);
+            if (m.conductorEta && m.conductorK) {
+                // Bins hold each spectrum's bin means (RGB: its linear projection), and the
+                // kernels evaluate Fresnel from those, not Fresnel's mean over the bin.
+                out.reflectance = spectra.add(*m.conductorEta, 1.f);
+                out.conductorK = spectra.add(*m.conductorK, 1.f);
+            } else {
+                out.reflectance = spectra.add(m.reflectance, 1.f);
+            }
             out.alpha = m.remapRoughness ? std::sqrt(std::max(m.roughness, 0.f)) : m.roughness;
             break;
         case MaterialKind::Dielectric:
@@ -279,7 +287,10 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
             break;
         }
         scene.materials.push_back(out);
-        if (materialUsed[i]) scene.features |= materialFeature(m.kind);
+        if (materialUsed[i]) {
+            scene.features |= materialFeature(m.kind);
+            if (out.conductorK >= 0) scene.features |= CB_FEATURE_CONDUCTOR_FRESNEL;
+        }
     }
 
     // Primitives. Area lights get one Light per emitting primitive.
@@ -499,6 +510,7 @@ std::string DeviceScene::featureNames() const {
     };
     add(CB_FEATURE_DIFFUSE, "diffuse");
     add(CB_FEATURE_CONDUCTOR, "conductor");
+    add(CB_FEATURE_CONDUCTOR_FRESNEL, "conductor-fresnel");
     add(CB_FEATURE_DIELECTRIC, "dielectric");
     add(CB_FEATURE_MIX, "mix");
     add(CB_FEATURE_AREA_LIGHT, "area-light");

@@ -16,6 +16,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <functional>
 #include <iostream>
 #include <limits>
 #include <map>
@@ -24,6 +25,8 @@
 #include <set>
 #include <sstream>
 #include <string_view>
+
+#include <fmt/format.h>
 
 namespace cb {
 namespace {
@@ -202,12 +205,22 @@ bool knownParamType(const std::string& t) {
     return false;
 }
 
-enum class SpectrumRole { Reflectance, Emission };
+// What a spectral parameter's values may be: a reflectance in [0, 1], an emission >= 0, or a
+// conductor's eta or k in [0, kMaxConductorIndex].
+enum class SpectrumRole { Reflectance, Emission, ConductorIndex };
+// fresnelConductor's float arithmetic stays finite to about 1e9; no material comes near 1e6.
+constexpr double kMaxConductorIndex = 1e6;
 
 class ParamList {
   public:
-    ParamList(std::vector<Param> params, std::string owner, SceneDesc& scene)
-        : params_(std::move(params)), owner_(std::move(owner)), scene_(scene) {}
+    // Reads a spectrum file named by a "spectrum" parameter's string: the same parameter with
+    // the file's numbers, their locations in that file.
+    using SpectrumFileReader = std::function<Param(const Param&)>;
+
+    ParamList(std::vector<Param> params, std::string owner, SceneDesc& scene,
+              SpectrumFileReader spectrumFiles = {})
+        : params_(std::move(params)), owner_(std::move(owner)), scene_(scene),
+          spectrumFiles_(std::move(spectrumFiles)) {}
 
     bool has(const std::string& name) const {
         for (const Param& p : params_)
@@ -291,12 +304,16 @@ class ParamList {
         SpectrumValue s;
         if (p->type == "spectrum") {
             scene_.usesSpectra = true;
-            if (p->kind == Param::Kind::String)
-                throw SceneError(p->where, "parameter " + p->decl() +
-                                               ": named/file spectra not "
-                                               "supported (got \"" +
-                                               p->strings[0] +
-                                               "\"); give [lambda value ...] pairs inline");
+            Param fromFile;
+            if (p->kind == Param::Kind::String) {
+                if (p->size() != 1) wrongCount(*p, "one spectrum file name");
+                if (!spectrumFiles_)
+                    throw SceneError(p->where, "parameter " + p->decl() +
+                                                   ": spectrum files are not read here; give "
+                                                   "[wavelength value ...] pairs");
+                fromFile = spectrumFiles_(*p);
+                p = &fromFile;
+            }
             if (p->kind != Param::Kind::Number)
                 throw SceneError(p->valueLoc(0), "parameter " + p->decl() + " expects numbers");
             if (p->size() % 2 != 0)
@@ -314,6 +331,16 @@ class ParamList {
                 s.samples.emplace_back(static_cast<float>(lambda),
                                        static_cast<float>(p->numbers[i + 1]));
             }
+            // Outside its samples a spectrum is 0: an eta = k = 0 vacuum, where pbrt-v4's Fresnel
+            // gives NaN and cbdpt's a perfect mirror, so a conductor's must cover cbdpt's bins.
+            if (role == SpectrumRole::ConductorIndex &&
+                (s.samples.front().first > kLambdaMin || s.samples.back().first < kLambdaMax))
+                throw SceneError(p->where,
+                                 fmt::format("parameter {} covers {:g}-{:g} nm; a conductor's eta "
+                                             "and k must cover {:g}-{:g} nm (pbrt-v4 samples "
+                                             "360-830 nm)",
+                                             p->decl(), s.samples.front().first,
+                                             s.samples.back().first, kLambdaMin, kLambdaMax));
             return s;
         }
         if (p->kind != Param::Kind::Number)
@@ -396,11 +423,16 @@ class ParamList {
         if (role == SpectrumRole::Reflectance && v > 1.0)
             throw SceneError(p.valueLoc(i),
                              "parameter " + p.decl() + " is a reflectance and must be <= 1");
+        if (role == SpectrumRole::ConductorIndex && v > kMaxConductorIndex)
+            throw SceneError(p.valueLoc(i), fmt::format("parameter {} has {:g}; cbdpt evaluates "
+                                                        "a conductor's eta and k up to {:g}",
+                                                        p.decl(), v, kMaxConductorIndex));
     }
 
     std::vector<Param> params_;
     std::string owner_;
     SceneDesc& scene_;
+    SpectrumFileReader spectrumFiles_;
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -560,7 +592,54 @@ class Parser {
             }
             list.push_back(std::move(p));
         }
-        return ParamList(std::move(list), owner, scene_);
+        return ParamList(std::move(list), owner, scene_,
+                         [this](const Param& p) { return readSpectrumFile(p); });
+    }
+
+    // pbrt-v4's spectrum files: whitespace-separated (wavelength, value) pairs with '#' comments,
+    // found beside the file that names them or the main scene file, as Include finds files.
+    Param readSpectrumFile(const Param& p) {
+        const std::string& name = p.strings[0];
+        const SourceLocation where = p.valueLoc(0);
+        std::vector<std::string> candidates{name};
+        if (!fs::path(name).is_absolute()) {
+            candidates = {joinPath(files_.back()->dir, name)};
+            const std::string top = joinPath(topDir_, name);
+            if (top != candidates[0]) candidates.push_back(top);
+        }
+        for (const std::string& path : candidates) {
+            if (!fs::is_regular_file(path)) continue;
+            std::string text;
+            if (!tryReadWholeFile(path, text))
+                throw SceneError(where, "cannot read spectrum file \"" + path +
+                                            "\": " + unreadableReason(path));
+            requireText(text, where, path);
+            scene_.sourceFiles.push_back(path);
+            Param out = p;
+            out.where = SourceLocation{path, 0, 0};
+            out.kind = Param::Kind::Number;
+            out.strings.clear();
+            out.valuePos.clear();
+            Tokenizer tokens(std::move(text), path);
+            while (std::optional<Token> t = tokens.next()) {
+                if (t->quoted || t->isBracket('[') || t->isBracket(']'))
+                    throw SceneError(t->where, "spectrum file holds " + describe(*t) +
+                                                   "; expected (wavelength, value) numbers");
+                out.numbers.push_back(numberFromToken(*t, "in spectrum file"));
+                out.valuePos.emplace_back(t->where.line, t->where.column);
+            }
+            if (out.numbers.empty())
+                throw SceneError(out.where, "spectrum file holds no (wavelength, value) pairs");
+            return out;
+        }
+        std::string tried;
+        for (const std::string& c : candidates)
+            tried += " " + c;
+        throw SceneError(where, "parameter " + p.decl() + ": no spectrum file \"" + name +
+                                    "\" (tried" + tried +
+                                    "); pbrt-v4's named spectra (\"metal-Au-eta\", "
+                                    "\"glass-BK7\", ...) are not built into cbdpt: give "
+                                    "[wavelength value ...] pairs or a file of them");
     }
 
     // A bare capitalised word that is not a number ("Infinity" is one) is a directive name:
@@ -1239,16 +1318,30 @@ class Parser {
             if (auto r = pl.spectrum("reflectance", SpectrumRole::Reflectance)) m.reflectance = *r;
         } else if (type == "conductor") {
             m.kind = MaterialKind::Conductor;
-            for (const char* unsupported : {"eta", "k"})
-                if (const Param* p = pl.peek(unsupported))
-                    throw SceneError(p->where, std::string("conductor \"") + unsupported +
-                                                   "\" is not supported (eta/k are not supported "
-                                                   "by cbdpt); give \"reflectance\" instead");
-            auto r = pl.spectrum("reflectance", SpectrumRole::Reflectance);
-            if (!r)
-                throw SceneError(where, "conductor needs \"reflectance\" (eta/k are not "
-                                        "supported by cbdpt)");
-            m.reflectance = *r;
+            // pbrt-v4's ConductorMaterial: "reflectance", or the complex index "eta" + i "k".
+            const Param* pEta = pl.peek("eta");
+            const Param* pK = pl.peek("k");
+            if (const Param* pr = pl.peek("reflectance"); pr && (pEta || pK))
+                throw SceneError(pEta ? pEta->where : pK->where,
+                                 "conductor takes \"reflectance\" or \"eta\" and \"k\", not "
+                                 "both (as pbrt-v4)");
+            if (pEta || pK) {
+                if (!pEta || !pK)
+                    throw SceneError(pEta ? pEta->where : pK->where,
+                                     std::string("conductor has \"") + (pEta ? "eta" : "k") +
+                                         "\" without \"" + (pEta ? "k" : "eta") +
+                                         "\"; give both (pbrt-v4's default, copper's measured "
+                                         "spectra, is not built into cbdpt)");
+                m.conductorEta = pl.spectrum("eta", SpectrumRole::ConductorIndex);
+                m.conductorK = pl.spectrum("k", SpectrumRole::ConductorIndex);
+            } else {
+                auto r = pl.spectrum("reflectance", SpectrumRole::Reflectance);
+                if (!r)
+                    throw SceneError(where, "conductor needs \"reflectance\", or \"eta\" and "
+                                            "\"k\" (pbrt-v4's default, copper's measured "
+                                            "spectra, is not built into cbdpt)");
+                m.reflectance = *r;
+            }
             const Param* pr = pl.peek("roughness");
             const std::optional<double> rough = pl.oneFloat("roughness");
             const std::optional<double> ur = pl.oneFloat("uroughness");

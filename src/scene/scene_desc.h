@@ -54,7 +54,10 @@ struct MaterialDesc {
     std::string name; // the MakeNamedMaterial name, or "" for an anonymous Material
     MaterialKind kind = MaterialKind::Diffuse;
     SpectrumValue reflectance = SpectrumValue::constant(0.5f); // diffuse and conductor
-    float roughness = 0.f;                                     // conductor: as written in the file
+    // conductor given "eta" and "k" instead of "reflectance": its complex index of refraction,
+    // with pbrt-v4's Fresnel equations (cb_bsdf.h, fresnelConductor)
+    std::optional<SpectrumValue> conductorEta, conductorK;
+    float roughness = 0.f;          // conductor: as written in the file
     bool remapRoughness = true;     // conductor: pbrt-v4's default maps roughness to alpha=sqrt(r)
     float eta = 1.5f;               // dielectric
     std::array<int, 2> mix{-1, -1}; // mix: indices into SceneDesc::materials
