@@ -131,11 +131,64 @@ CB_FN real cbGgxReflection(Vec3 wo, Vec3 wi, Vec3 wm, real alpha, real* pdfFwd, 
 }
 #endif
 
-/* Non-delta part of a non-mix material. wo.z > 0 (flipped local frame). */
-CB_FN Spectrum cbLobeEval(const SceneView* scene, Material m, Vec3 wo, Vec3 wi, real* pdfFwd,
-                          real* pdfRev) {
+#if CB_HAS(CB_FEATURE_ROUGH_DIELECTRIC)
+/* A rough dielectric (Walter et al. 2007, eqs. 15-21, with GGX, height-correlated G and Heitz's
+ * visible normals, as pbrt-v4's DielectricBxDF): wo.z > 0, eta = n(other side) / n(wo's side).
+ * Returns f (radiance, or importance when adjoint: transmitted radiance is divided by eta^2,
+ * Veach 1997 sec. 5.2) and *pdf, the density of bsdfSample choosing wi: the visible-normal pdf
+ * through the generalized half vector's Jacobian, times the Fresnel probability of the lobe. */
+CB_FN real cbRoughDielectricEval(Vec3 wo, Vec3 wi, real eta, real alpha, int adjoint, real* pdf) {
+    *pdf = 0.0f;
+    real cosO = wo.z, cosI = wi.z;
+    if (!(cosO > 0.0f) || cosI == 0.0f) return 0.0f;
+    bool reflect = cosI > 0.0f;
+    Vec3 wm = vadd(vscale(wi, reflect ? 1.0f : eta), wo);
+    real len2 = vlength2(wm);
+    if (!(len2 > 0.0f)) return 0.0f;
+    wm = vscale(wm, (wm.z < 0.0f ? -1.0f : 1.0f) / sqrt(len2));
+    real dotOm = vdot(wo, wm), dotIm = vdot(wi, wm);
+    /* Back-facing microfacets: each direction must lie on the side of wm its z says. */
+    if (!(dotOm > 0.0f) || !(dotIm * cosI > 0.0f)) return 0.0f;
+    real cosT;
+    real fr = fresnelDielectric(dotOm, eta, &cosT);
+    real dg = ggxD(wm, alpha) * ggxG(wo, wi, alpha);
+    real visible = ggxVisibleNormalPdf(wo, wm, alpha);
+    real f, p;
+    if (reflect) {
+        f = dg * fr / (4.0f * cosO * cosI);
+        p = visible / (4.0f * dotOm) * fr;
+    } else {
+        real denom = cbSqr(dotIm + dotOm / eta);
+        f = (1.0f - fr) * dg * fabs(dotIm * dotOm / (cosI * cosO * denom));
+        if (!adjoint) f /= eta * eta;
+        p = visible * fabs(dotIm) / denom * (1.0f - fr);
+    }
+    if (!isfinite(f) || !isfinite(p) || !(p > 0.0f)) return 0.0f;
+    *pdf = p;
+    return f;
+}
+
+/* The density of sampling wo from wi: the same lobe seen from wi's side. */
+CB_FN real cbRoughDielectricPdfRev(Vec3 wo, Vec3 wi, real eta, real alpha) {
+    real pdf;
+    if (wi.z > 0.0f) {
+        cbRoughDielectricEval(wi, wo, eta, alpha, 0, &pdf);
+    } else {
+        cbRoughDielectricEval(vec3(wi.x, wi.y, -wi.z), vec3(wo.x, wo.y, -wo.z), 1.0f / eta, alpha,
+                              0, &pdf);
+    }
+    return pdf;
+}
+#endif
+
+/* Non-delta part of a non-mix material. wo.z > 0 (flipped local frame); `entering` says whether
+ * wo is on the side frame.n points to, adjoint as bsdfEval's. */
+CB_FN Spectrum cbLobeEval(const SceneView* scene, Material m, Vec3 wo, Vec3 wi, bool entering,
+                          int adjoint, real* pdfFwd, real* pdfRev) {
     *pdfFwd = 0.0f;
     *pdfRev = 0.0f;
+    (void)entering;
+    (void)adjoint;
 #if CB_HAS(CB_FEATURE_DIFFUSE)
     if (m.kind == CB_MAT_DIFFUSE) {
         if (!(wi.z > 0.0f)) return specZero();
@@ -156,6 +209,16 @@ CB_FN Spectrum cbLobeEval(const SceneView* scene, Material m, Vec3 wo, Vec3 wi, 
         return specScale(cbConductorFresnel(scene, m, r, vdot(wo, wm)), value);
     }
 #endif
+#if CB_HAS(CB_FEATURE_ROUGH_DIELECTRIC)
+    if (m.kind == CB_MAT_DIELECTRIC && m.alpha > 0.0f) {
+        real eta = entering ? m.eta : 1.0f / m.eta;
+        real alpha = fmax(m.alpha, CB_GGX_MIN_ALPHA);
+        real f = cbRoughDielectricEval(wo, wi, eta, alpha, adjoint, pdfFwd);
+        if (!(f > 0.0f)) return specZero();
+        *pdfRev = cbRoughDielectricPdfRev(wo, wi, eta, alpha);
+        return specConst(f);
+    }
+#endif
     (void)scene;
     (void)m;
     (void)wo;
@@ -168,7 +231,11 @@ CB_FN bool cbLobeIsDeltaOnly(Material m) {
     if (m.kind == CB_MAT_CONDUCTOR) return m.alpha == 0.0f;
 #endif
 #if CB_HAS(CB_FEATURE_DIELECTRIC)
+#if CB_HAS(CB_FEATURE_ROUGH_DIELECTRIC)
+    if (m.kind == CB_MAT_DIELECTRIC) return m.alpha == 0.0f;
+#else
     if (m.kind == CB_MAT_DIELECTRIC) return true;
+#endif
 #endif
     (void)m;
     return false;
@@ -230,6 +297,36 @@ CB_FN bool cbLobeSample(const SceneView* scene, Material m, Vec3 wo, bool enteri
         return true;
     }
 #endif
+#if CB_HAS(CB_FEATURE_ROUGH_DIELECTRIC)
+    if (m.kind == CB_MAT_DIELECTRIC && m.alpha > 0.0f) {
+        real eta = entering ? m.eta : 1.0f / m.eta;
+        real alpha = fmax(m.alpha, CB_GGX_MIN_ALPHA);
+        Vec3 wm = ggxSampleVisibleNormal(wo, alpha, u0, u1);
+        real dotOm = vdot(wo, wm);
+        real cosT;
+        real fr = fresnelDielectric(dotOm, eta, &cosT);
+        Vec3 wi;
+        if (uLobe < fr) {
+            wi = vsub(vscale(wm, 2.0f * dotOm), wo);
+        } else {
+            if (!(cosT > 0.0f)) return false;
+            /* Snell about wm: the tangential part scales by 1/eta. */
+            wi = vsub(vscale(wm, dotOm / eta - cosT), vscale(wo, 1.0f / eta));
+        }
+        real len = vlength(wi);
+        if (!(len > 0.0f)) return false;
+        wi = vscale(wi, 1.0f / len);
+        /* A reflection below the surface or a refraction above it is no path (masking). */
+        if ((uLobe < fr) != (wi.z > 0.0f)) return false;
+        /* f and both pdfs from the half vector of (wo, wi), as bsdfEval computes them. */
+        real f = cbRoughDielectricEval(wo, wi, eta, alpha, adjoint, &out->pdf);
+        if (!(f > 0.0f)) return false;
+        out->wi = wi;
+        out->f = specConst(f);
+        out->pdfRev = cbRoughDielectricPdfRev(wo, wi, eta, alpha);
+        return true;
+    }
+#endif
 #if CB_HAS(CB_FEATURE_DIELECTRIC)
     if (m.kind == CB_MAT_DIELECTRIC) {
         real eta = entering ? m.eta : 1.0f / m.eta;
@@ -280,12 +377,13 @@ CB_FN Vec3 cbToFlippedLocal(Frame frame, Vec3 w, real flip) {
 
 CB_FN Spectrum bsdfEval(const SceneView* scene, int material, Frame frame, Vec3 wo, Vec3 wi,
                         int adjoint, real* pdfFwd, real* pdfRev) {
-    (void)adjoint; /* only the (delta) dielectric transmission depends on it */
+    /* adjoint: only dielectric transmission (its radiance scaling) depends on it */
     *pdfFwd = 0.0f;
     *pdfRev = 0.0f;
     real cosO = vdot(wo, frame.n);
     if (cosO == 0.0f || !isfinite(cosO)) return specZero();
     real flip = cosO > 0.0f ? 1.0f : -1.0f;
+    bool entering = cosO > 0.0f;
     Vec3 lo = cbToFlippedLocal(frame, wo, flip);
     Vec3 li = cbToFlippedLocal(frame, wi, flip);
     Material m = scene->materials[material];
@@ -293,14 +391,16 @@ CB_FN Spectrum bsdfEval(const SceneView* scene, int material, Frame frame, Vec3 
     if (m.kind == CB_MAT_MIX) {
         real a = m.mixAmount;
         real p1f, p1r, p2f, p2r;
-        Spectrum f1 = cbLobeEval(scene, scene->materials[m.mixFirst], lo, li, &p1f, &p1r);
-        Spectrum f2 = cbLobeEval(scene, scene->materials[m.mixSecond], lo, li, &p2f, &p2r);
+        Spectrum f1 =
+            cbLobeEval(scene, scene->materials[m.mixFirst], lo, li, entering, adjoint, &p1f, &p1r);
+        Spectrum f2 =
+            cbLobeEval(scene, scene->materials[m.mixSecond], lo, li, entering, adjoint, &p2f, &p2r);
         *pdfFwd = (1.0f - a) * p1f + a * p2f;
         *pdfRev = (1.0f - a) * p1r + a * p2r;
         return specAdd(specScale(f1, 1.0f - a), specScale(f2, a));
     }
 #endif
-    return cbLobeEval(scene, m, lo, li, pdfFwd, pdfRev);
+    return cbLobeEval(scene, m, lo, li, entering, adjoint, pdfFwd, pdfRev);
 }
 
 CB_FN bool bsdfSample(const SceneView* scene, int material, Frame frame, Vec3 wo, real u0, real u1,
@@ -329,8 +429,10 @@ CB_FN bool bsdfSample(const SceneView* scene, int material, Frame frame, Vec3 wo
             s.pdfRev *= pick;
         } else {
             real p1f, p1r, p2f, p2r;
-            Spectrum f1 = cbLobeEval(scene, scene->materials[m.mixFirst], lo, s.wi, &p1f, &p1r);
-            Spectrum f2 = cbLobeEval(scene, scene->materials[m.mixSecond], lo, s.wi, &p2f, &p2r);
+            Spectrum f1 = cbLobeEval(scene, scene->materials[m.mixFirst], lo, s.wi, entering,
+                                     adjoint, &p1f, &p1r);
+            Spectrum f2 = cbLobeEval(scene, scene->materials[m.mixSecond], lo, s.wi, entering,
+                                     adjoint, &p2f, &p2r);
             s.f = specAdd(specScale(f1, 1.0f - a), specScale(f2, a));
             s.pdf = (1.0f - a) * p1f + a * p2f;
             s.pdfRev = (1.0f - a) * p1r + a * p2r;

@@ -70,7 +70,7 @@ typedef struct SurfacePoint {
 
 #define CB_MAT_DIFFUSE 0
 #define CB_MAT_CONDUCTOR 1  /* perfect mirror (alpha == 0) or GGX rough mirror */
-#define CB_MAT_DIELECTRIC 2 /* smooth glass */
+#define CB_MAT_DIELECTRIC 2 /* glass: smooth (alpha == 0) or GGX rough */
 #define CB_MAT_MIX 3        /* mixture of two non-mix materials: second with probability amount */
 
 /* Feature bits: the scene's material kinds and light kinds, passed to the kernel build as
@@ -80,6 +80,7 @@ typedef struct SurfacePoint {
 #define CB_FEATURE_DIELECTRIC (1u << 2)
 #define CB_FEATURE_MIX (1u << 3)
 #define CB_FEATURE_CONDUCTOR_FRESNEL (1u << 4) /* conductors given eta and k (pbrt-v4's) */
+#define CB_FEATURE_ROUGH_DIELECTRIC (1u << 5)  /* dielectrics with a GGX roughness */
 #define CB_FEATURE_AREA_LIGHT (1u << 8)
 #define CB_FEATURE_POINT_LIGHT (1u << 9)
 #define CB_FEATURE_SPHERES (1u << 10)
@@ -95,7 +96,7 @@ typedef struct SurfacePoint {
 typedef struct Material {
     int kind;        /* CB_MAT_* */
     int reflectance; /* index into the spectra table (CB_CHANNELS floats per entry) */
-    real alpha;      /* GGX roughness alpha for conductors (0: perfect mirror) */
+    real alpha;      /* GGX roughness alpha for conductors and dielectrics (0: smooth) */
     real eta;        /* relative index of refraction for dielectrics */
     int mixFirst;    /* CB_MAT_MIX: the two component materials */
     int mixSecond;

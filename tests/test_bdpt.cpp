@@ -570,30 +570,39 @@ TEST_CASE("BDPT single strategies equal PT restricted to the same path length" *
 TEST_CASE("BDPT equals PT under a single refracting surface (the adjoint BSDF)" *
           doctest::test_suite("statistical")) {
     cb::ClRuntime runtime;
-    const cb::DeviceScene scene = cb::buildDeviceScene(cb::parseSceneString(
-        "LookAt 0 2.2 -2.4  0 0.2 0  0 1 0\nCamera \"perspective\" \"float fov\" 45\n"
-        "Film \"rgb\" \"integer xresolution\" 24 \"integer yresolution\" 24\nWorldBegin\n"
-        "AttributeBegin\nAreaLightSource \"diffuse\" \"rgb L\" [4 4 4] \"bool twosided\" true\n"
-        "Shape \"bilinearmesh\" \"point3 P\" [-0.8 2.5 -0.8  0.8 2.5 -0.8  -0.8 2.5 0.8  0.8 2.5 "
-        "0.8]\n"
-        "AttributeEnd\n"
-        "AttributeBegin\nMaterial \"dielectric\" \"float eta\" 1.5\n"
-        "Shape \"bilinearmesh\" \"point3 P\" [-1 1 -1  -1 1 1  1 1 -1  1 1 1]\nAttributeEnd\n"
-        "Material \"diffuse\" \"rgb reflectance\" [0.8 0.8 0.8]\n"
-        "Shape \"bilinearmesh\" \"point3 P\" [-1 0 -1  1 0 -1  -1 0 1  1 0 1]\n"
-        "Shape \"bilinearmesh\" \"point3 P\" [-1 0 1  1 0 1  -1 1 1  1 1 1]\n"
-        "Shape \"bilinearmesh\" \"point3 P\" [-1 0 -1  -1 0 1  -1 1 -1  -1 1 1]\n"
-        "Shape \"bilinearmesh\" \"point3 P\" [1 0 -1  1 0 1  1 1 -1  1 1 1]\n",
-        "pool.pbrt"));
-    // Estimates enough that the adjoint's error (about 15% here) is 6 standard errors.
-    const auto pt = renderRegions(scene, runtime, ptSettings(6, 31), 512, 2);
-    for (const std::string weights : {"power", "lafortune"}) {
-        CAPTURE(weights);
-        cb::IntegratorSettings b = bdptSettings(6, 6, weights.c_str(), 32);
-        b.maxPathVertices = 6;
-        long nonFinite = 0;
-        checkRegionsEqual(renderRegions(scene, runtime, b, 256, 2, &nonFinite), pt);
-        CHECK(nonFinite == 0);
+    // Smooth, and rough (GGX alpha 0.45: connections at the glass, transmission both ways).
+    for (const std::string roughness : {"0", "0.2"}) {
+        CAPTURE(roughness);
+        const cb::DeviceScene scene = cb::buildDeviceScene(cb::parseSceneString(
+            "LookAt 0 2.2 -2.4  0 0.2 0  0 1 0\nCamera \"perspective\" \"float fov\" 45\n"
+            "Film \"rgb\" \"integer xresolution\" 24 \"integer yresolution\" 24\nWorldBegin\n"
+            "AttributeBegin\nAreaLightSource \"diffuse\" \"rgb L\" [4 4 4] \"bool twosided\" true\n"
+            "Shape \"bilinearmesh\" \"point3 P\" [-0.8 2.5 -0.8  0.8 2.5 -0.8  -0.8 2.5 0.8  0.8 "
+            "2.5 "
+            "0.8]\n"
+            "AttributeEnd\n"
+            "AttributeBegin\nMaterial \"dielectric\" \"float eta\" 1.5 \"float roughness\" " +
+                roughness +
+                "\nShape \"bilinearmesh\" \"point3 P\" [-1 1 -1  -1 1 1  1 1 -1  1 1 1]\n"
+                "AttributeEnd\n"
+                "Material \"diffuse\" \"rgb reflectance\" [0.8 0.8 0.8]\n"
+                "Shape \"bilinearmesh\" \"point3 P\" [-1 0 -1  1 0 -1  -1 0 1  1 0 1]\n"
+                "Shape \"bilinearmesh\" \"point3 P\" [-1 0 1  1 0 1  -1 1 1  1 1 1]\n"
+                "Shape \"bilinearmesh\" \"point3 P\" [-1 0 -1  -1 0 1  -1 1 -1  -1 1 1]\n"
+                "Shape \"bilinearmesh\" \"point3 P\" [1 0 -1  1 0 1  1 1 -1  1 1 1]\n",
+            "pool.pbrt"));
+        CHECK((scene.featureNames().find("rough-dielectric") != std::string::npos) ==
+              (roughness != "0"));
+        // Estimates enough that the adjoint's error (about 15% here) is 6 standard errors.
+        const auto pt = renderRegions(scene, runtime, ptSettings(6, 31), 512, 2);
+        for (const std::string weights : {"power", "lafortune"}) {
+            CAPTURE(weights);
+            cb::IntegratorSettings b = bdptSettings(6, 6, weights.c_str(), 32);
+            b.maxPathVertices = 6;
+            long nonFinite = 0;
+            checkRegionsEqual(renderRegions(scene, runtime, b, 256, 2, &nonFinite), pt);
+            CHECK(nonFinite == 0);
+        }
     }
 }
 

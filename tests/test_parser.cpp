@@ -591,10 +591,10 @@ TEST_CASE("parser: material errors") {
                 "t.pbrt:2:48", "overridden");
     expectError(w + "Material \"conductor\" \"rgb reflectance\" [1 1 1] \"float roughness\" -1\n",
                 "t.pbrt:2:48", "must be >= 0");
-    expectError(w + "Material \"dielectric\" \"float roughness\" 0.3\n", "t.pbrt:2:23",
-                "rough dielectric not supported");
     expectError(w + "Material \"dielectric\" \"float vroughness\" 0.3\n", "t.pbrt:2:23",
-                "rough dielectric not supported");
+                "anisotropic roughness");
+    expectError(w + "Material \"dielectric\" \"float roughness\" -0.3\n", "t.pbrt:2:23",
+                "must be >= 0");
     expectError(w + "Material \"dielectric\" \"spectrum eta\" \"glass-BK7\"\n", "t.pbrt:2:23",
                 "spectrally varying");
     expectError(w + "Material \"dielectric\" \"float eta\" 0\n", "t.pbrt:2:23", "must be > 0");

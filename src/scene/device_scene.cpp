@@ -278,6 +278,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         case MaterialKind::Dielectric:
             out.kind = CB_MAT_DIELECTRIC;
             out.eta = m.eta;
+            out.alpha = m.remapRoughness ? std::sqrt(std::max(m.roughness, 0.f)) : m.roughness;
             break;
         case MaterialKind::Mix:
             out.kind = CB_MAT_MIX;
@@ -290,6 +291,8 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         if (materialUsed[i]) {
             scene.features |= materialFeature(m.kind);
             if (out.conductorK >= 0) scene.features |= CB_FEATURE_CONDUCTOR_FRESNEL;
+            if (out.kind == CB_MAT_DIELECTRIC && out.alpha > 0.f)
+                scene.features |= CB_FEATURE_ROUGH_DIELECTRIC;
         }
     }
 
@@ -512,6 +515,7 @@ std::string DeviceScene::featureNames() const {
     add(CB_FEATURE_CONDUCTOR, "conductor");
     add(CB_FEATURE_CONDUCTOR_FRESNEL, "conductor-fresnel");
     add(CB_FEATURE_DIELECTRIC, "dielectric");
+    add(CB_FEATURE_ROUGH_DIELECTRIC, "rough-dielectric");
     add(CB_FEATURE_MIX, "mix");
     add(CB_FEATURE_AREA_LIGHT, "area-light");
     add(CB_FEATURE_POINT_LIGHT, "point-light");

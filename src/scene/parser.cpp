@@ -1308,6 +1308,32 @@ class Parser {
         }
     }
 
+    // pbrt-v4's "roughness", or "uroughness" and "vroughness" (defaulting to "roughness", which
+    // defaults to 0); cbdpt's GGX is isotropic, so the two must be equal.
+    static float roughness(ParamList& pl) {
+        const Param* pr = pl.peek("roughness");
+        const std::optional<double> rough = pl.oneFloat("roughness");
+        const std::optional<double> ur = pl.oneFloat("uroughness");
+        const std::optional<double> vr = pl.oneFloat("vroughness");
+        // pbrt-v4: u/v roughness default to "roughness", which defaults to 0.
+        const double u = ur ? *ur : (rough ? *rough : 0.0);
+        const double v = vr ? *vr : (rough ? *rough : 0.0);
+        if (rough && ur && vr)
+            throw SceneError(pr->where, "\"roughness\" is overridden by \"uroughness\" and "
+                                        "\"vroughness\"; give one or the other");
+        if (u != v) {
+            const Param* pu = pl.peek(ur ? "uroughness" : "vroughness");
+            throw SceneError(pu->where, "anisotropic roughness (uroughness != vroughness) is "
+                                        "not supported");
+        }
+        if (u < 0.0) {
+            const Param* p = pl.peek(ur ? "uroughness" : vr ? "vroughness" : "roughness");
+            throw SceneError(p->where, "roughness must be >= 0");
+        }
+
+        return static_cast<float>(u);
+    }
+
     int makeMaterial(const std::string& type, const SourceLocation& typeLoc, ParamList& pl,
                      const std::string& name, const SourceLocation& where) {
         MaterialDesc m;
@@ -1342,26 +1368,7 @@ class Parser {
                                             "spectra, is not built into cbdpt)");
                 m.reflectance = *r;
             }
-            const Param* pr = pl.peek("roughness");
-            const std::optional<double> rough = pl.oneFloat("roughness");
-            const std::optional<double> ur = pl.oneFloat("uroughness");
-            const std::optional<double> vr = pl.oneFloat("vroughness");
-            // pbrt-v4: u/v roughness default to "roughness", which defaults to 0.
-            const double u = ur ? *ur : (rough ? *rough : 0.0);
-            const double v = vr ? *vr : (rough ? *rough : 0.0);
-            if (rough && ur && vr)
-                throw SceneError(pr->where, "\"roughness\" is overridden by \"uroughness\" and "
-                                            "\"vroughness\"; give one or the other");
-            if (u != v) {
-                const Param* pu = pl.peek(ur ? "uroughness" : "vroughness");
-                throw SceneError(pu->where, "anisotropic roughness (uroughness != vroughness) is "
-                                            "not supported");
-            }
-            if (u < 0.0) {
-                const Param* p = pl.peek(ur ? "uroughness" : vr ? "vroughness" : "roughness");
-                throw SceneError(p->where, "roughness must be >= 0");
-            }
-            m.roughness = static_cast<float>(u);
+            m.roughness = roughness(pl);
             if (auto remap = pl.oneBool("remaproughness")) m.remapRoughness = *remap;
         } else if (type == "dielectric") {
             m.kind = MaterialKind::Dielectric;
@@ -1373,11 +1380,7 @@ class Parser {
                 if (!(eta > 0.0)) throw SceneError(p->where, "\"float eta\" must be > 0");
                 m.eta = static_cast<float>(eta);
             }
-            for (const char* r : {"roughness", "uroughness", "vroughness"})
-                if (const Param* p = pl.peek(r); p && *pl.oneFloat(r) != 0.0)
-                    throw SceneError(p->where, "rough dielectric not supported (\"" +
-                                                   std::string(r) + "\" must be 0)");
-            // Accepted for compatibility; it has no effect on a smooth dielectric.
+            m.roughness = roughness(pl);
             if (auto remap = pl.oneBool("remaproughness")) m.remapRoughness = *remap;
         } else if (type == "mix") {
             m.kind = MaterialKind::Mix;

@@ -57,8 +57,8 @@ struct MaterialDesc {
     // conductor given "eta" and "k" instead of "reflectance": its complex index of refraction,
     // with pbrt-v4's Fresnel equations (cb_bsdf.h, fresnelConductor)
     std::optional<SpectrumValue> conductorEta, conductorK;
-    float roughness = 0.f;          // conductor: as written in the file
-    bool remapRoughness = true;     // conductor: pbrt-v4's default maps roughness to alpha=sqrt(r)
+    float roughness = 0.f;          // conductor and dielectric: as written in the file
+    bool remapRoughness = true;     // pbrt-v4: alpha = sqrt(roughness) by default
     float eta = 1.5f;               // dielectric
     std::array<int, 2> mix{-1, -1}; // mix: indices into SceneDesc::materials
     float amount = 0.5f;            // mix: probability of choosing mix[1] (pbrt-v4 semantics)
