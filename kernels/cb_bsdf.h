@@ -135,10 +135,14 @@ CB_FN real cbGgxReflection(Vec3 wo, Vec3 wi, Vec3 wm, real alpha, real* pdfFwd, 
 /* A rough dielectric (Walter et al. 2007, eqs. 15-21, with GGX, height-correlated G and Heitz's
  * visible normals, as pbrt-v4's DielectricBxDF): wo.z > 0, eta = n(other side) / n(wo's side).
  * Returns f (radiance, or importance when adjoint: transmitted radiance is divided by eta^2,
- * Veach 1997 sec. 5.2) and *pdf, the density of bsdfSample choosing wi: the visible-normal pdf
- * through the generalized half vector's Jacobian, times the Fresnel probability of the lobe. */
-CB_FN real cbRoughDielectricEval(Vec3 wo, Vec3 wi, real eta, real alpha, int adjoint, real* pdf) {
-    *pdf = 0.0f;
+ * Veach 1997 sec. 5.2), *pdfFwd, the density of bsdfSample choosing wi (the visible-normal pdf
+ * through the generalized half vector's Jacobian, times the Fresnel probability of the lobe),
+ * and *pdfRev, that of choosing wo from wi: the same microfacet seen from wi's side, whose
+ * Fresnel term is the same (Stokes) and whose Jacobian's denominator carries eta^2. */
+CB_FN real cbRoughDielectric(Vec3 wo, Vec3 wi, real eta, real alpha, int adjoint, real* pdfFwd,
+                             real* pdfRev) {
+    *pdfFwd = 0.0f;
+    *pdfRev = 0.0f;
     real cosO = wo.z, cosI = wi.z;
     if (!(cosO > 0.0f) || cosI == 0.0f) return 0.0f;
     bool reflect = cosI > 0.0f;
@@ -151,33 +155,27 @@ CB_FN real cbRoughDielectricEval(Vec3 wo, Vec3 wi, real eta, real alpha, int adj
     if (!(dotOm > 0.0f) || !(dotIm * cosI > 0.0f)) return 0.0f;
     real cosT;
     real fr = fresnelDielectric(dotOm, eta, &cosT);
-    real dg = ggxD(wm, alpha) * ggxG(wo, wi, alpha);
-    real visible = ggxVisibleNormalPdf(wo, wm, alpha);
-    real f, p;
+    real d = ggxD(wm, alpha);
+    /* Visible-normal densities of wm from each side, G1(w) |w.wm| D / |w.z| (Heitz 2018, eq. 3). */
+    real visibleO = ggxG1(wo, alpha) * dotOm * d / cosO;
+    real visibleI = ggxG1(wi, alpha) * fabs(dotIm) * d / fabs(cosI);
+    real dg = d * ggxG(wo, wi, alpha);
+    real f, fwd, rev;
     if (reflect) {
         f = dg * fr / (4.0f * cosO * cosI);
-        p = visible / (4.0f * dotOm) * fr;
+        fwd = visibleO / (4.0f * dotOm) * fr;
+        rev = visibleI / (4.0f * dotIm) * fr;
     } else {
         real denom = cbSqr(dotIm + dotOm / eta);
         f = (1.0f - fr) * dg * fabs(dotIm * dotOm / (cosI * cosO * denom));
         if (!adjoint) f /= eta * eta;
-        p = visible * fabs(dotIm) / denom * (1.0f - fr);
+        fwd = visibleO * fabs(dotIm) / denom * (1.0f - fr);
+        rev = visibleI * dotOm / (eta * eta * denom) * (1.0f - fr);
     }
-    if (!isfinite(f) || !isfinite(p) || !(p > 0.0f)) return 0.0f;
-    *pdf = p;
+    if (!isfinite(f) || !isfinite(fwd) || !(fwd > 0.0f)) return 0.0f;
+    *pdfFwd = fwd;
+    *pdfRev = isfinite(rev) ? rev : 0.0f;
     return f;
-}
-
-/* The density of sampling wo from wi: the same lobe seen from wi's side. */
-CB_FN real cbRoughDielectricPdfRev(Vec3 wo, Vec3 wi, real eta, real alpha) {
-    real pdf;
-    if (wi.z > 0.0f) {
-        cbRoughDielectricEval(wi, wo, eta, alpha, 0, &pdf);
-    } else {
-        cbRoughDielectricEval(vec3(wi.x, wi.y, -wi.z), vec3(wo.x, wo.y, -wo.z), 1.0f / eta, alpha,
-                              0, &pdf);
-    }
-    return pdf;
 }
 #endif
 
@@ -213,10 +211,8 @@ CB_FN Spectrum cbLobeEval(const SceneView* scene, Material m, Vec3 wo, Vec3 wi, 
     if (m.kind == CB_MAT_DIELECTRIC && m.alpha > 0.0f) {
         real eta = entering ? m.eta : 1.0f / m.eta;
         real alpha = fmax(m.alpha, CB_GGX_MIN_ALPHA);
-        real f = cbRoughDielectricEval(wo, wi, eta, alpha, adjoint, pdfFwd);
-        if (!(f > 0.0f)) return specZero();
-        *pdfRev = cbRoughDielectricPdfRev(wo, wi, eta, alpha);
-        return specConst(f);
+        real f = cbRoughDielectric(wo, wi, eta, alpha, adjoint, pdfFwd, pdfRev);
+        return f > 0.0f ? specConst(f) : specZero();
     }
 #endif
     (void)scene;
@@ -319,11 +315,10 @@ CB_FN bool cbLobeSample(const SceneView* scene, Material m, Vec3 wo, bool enteri
         /* A reflection below the surface or a refraction above it is no path (masking). */
         if ((uLobe < fr) != (wi.z > 0.0f)) return false;
         /* f and both pdfs from the half vector of (wo, wi), as bsdfEval computes them. */
-        real f = cbRoughDielectricEval(wo, wi, eta, alpha, adjoint, &out->pdf);
+        real f = cbRoughDielectric(wo, wi, eta, alpha, adjoint, &out->pdf, &out->pdfRev);
         if (!(f > 0.0f)) return false;
         out->wi = wi;
         out->f = specConst(f);
-        out->pdfRev = cbRoughDielectricPdfRev(wo, wi, eta, alpha);
         return true;
     }
 #endif

@@ -18,6 +18,10 @@
 
 #include "cb_bsdf.h"
 #include "chi2.h"
+#include "float64/host_kernels.h"
+#include "scene/device_scene.h"
+#include "scene/scene_bytes.h"
+#include "scene/scene_desc.h"
 
 using namespace cbk;
 using cbtest::kPi;
@@ -461,47 +465,94 @@ TEST_CASE("rough dielectric: sampling matches pdf on both sides, energy <= 1 (ad
     CHECK(r.albedoQuad == doctest::Approx(1.0).epsilon(2e-2));
 }
 
-TEST_CASE("rough dielectric: the adjoint is the transpose, pdfRev the swapped pdf") {
-    Fixture fx;
-    SceneView v = fx.s.view();
+TEST_CASE("rough dielectric: the adjoint is the transpose, pdfRev the swapped pdf, float as "
+          "double") {
+    // The kernels' code in double (the float64 check's oracle) and in float, on glass of alpha
+    // 0.1 (eta 1.5) and 0.5 (eta 1.33) and a diffuse-glass mix; a point light only to be valid.
+    const cb::DeviceScene scene = cb::buildDeviceScene(
+        cb::parseSceneString(
+            "WorldBegin\nLightSource \"point\"\n"
+            "MakeNamedMaterial \"g01\" \"string type\" \"dielectric\" \"float eta\" 1.5 "
+            "\"float roughness\" 0.01\n"
+            "MakeNamedMaterial \"g05\" \"string type\" \"dielectric\" \"float eta\" 1.33 "
+            "\"float roughness\" 0.25\n"
+            "MakeNamedMaterial \"d\" \"string type\" \"diffuse\" \"rgb reflectance\" [0.8 0.6 "
+            "0.4]\n"
+            "MakeNamedMaterial \"m\" \"string type\" \"mix\" \"string materials\" [\"d\" \"g05\"]\n"
+            "NamedMaterial \"m\"\nShape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0]\n",
+            "t.pbrt"),
+        cb::ChannelMode::Rgb);
+    const auto single =
+        cb::float64::makeHostKernels(cb::sceneBytes(scene), cb::float64::Precision::Float);
+    const auto wide =
+        cb::float64::makeHostKernels(cb::sceneBytes(scene), cb::float64::Precision::Double);
+    const std::array<double, 3> n{0.3 / std::sqrt(0.98), -0.5 / std::sqrt(0.98),
+                                  0.8 / std::sqrt(0.98)};
+    // Unit length in double: the half vector of directions 1e-7 off unit length bisects them
+    // only to 1e-7, which the double check would see.
+    auto array = [](Vec3 v) {
+        const double l = std::sqrt(double(v.x) * v.x + double(v.y) * v.y + double(v.z) * v.z);
+        return std::array<double, 3>{v.x / l, v.y / l, v.z / l};
+    };
     Uniform u(19);
-    for (int m : {fx.roughGlass01, fx.roughGlass05, fx.mixDiffuseRoughGlass}) {
+    // g01, g05, m: the materials in the order of their definition.
+    for (int m : {0, 1, 3}) {
+        const Material& mat = scene.materials[size_t(m)];
+        const double eta =
+            mat.kind == CB_MAT_MIX ? scene.materials[size_t(mat.mixSecond)].eta : mat.eta;
         int transmitted = 0, reflected = 0, loose = 0;
+        double worstDouble = 0.0, worstFloat = 0.0;
+        int looseDouble = 0;
         for (int i = 0; i < 4000; ++i) {
-            Vec3 a = frameToWorld(kFrame, sampleUniformSphere(u(), u()));
-            Vec3 b = frameToWorld(kFrame, sampleUniformSphere(u(), u()));
-            float pab, rab, pba, rba, padj, radj;
-            // f*(a, b) = f(b, a) (importance against radiance), both ways round.
-            Spectrum fab = bsdfEval(&v, m, kFrame, a, b, 0, &pab, &rab);
-            Spectrum fba = bsdfEval(&v, m, kFrame, b, a, 1, &pba, &rba);
-            Spectrum adj = bsdfEval(&v, m, kFrame, a, b, 1, &padj, &radj);
-            INFO("material " << m << " a.n " << vdot(a, kFrame.n) << " b.n " << vdot(b, kFrame.n));
-            if (fab.c[0] == 0.0f) continue;
-            (vdot(a, kFrame.n) * vdot(b, kFrame.n) > 0.0f ? reflected : transmitted) += 1;
-            // Near total internal reflection T = 1 - F keeps few of float's digits, and where wo
-            // grazes the microfacet f ~ 1e-7 comes from a cancelled wo . wm: relative to the
-            // value plus 1e-4 (f and pdf are O(1) and above), 98% of the pairs agree to 1e-4,
-            // all to 1e-2.
+            const auto a = array(sampleUniformSphere(u(), u()));
+            const auto b = array(sampleUniformSphere(u(), u()));
+            const double an = a[0] * n[0] + a[1] * n[1] + a[2] * n[2];
+            const double bn = b[0] * n[0] + b[1] * n[1] + b[2] * n[2];
+            const cb::float64::BsdfValue ab = wide->bsdf(m, n, a, b, 0);
+            const cb::float64::BsdfValue adj = wide->bsdf(m, n, a, b, 1);
+            const cb::float64::BsdfValue baAdj = wide->bsdf(m, n, b, a, 1);
+            const cb::float64::BsdfValue abFloat = single->bsdf(m, n, a, b, 0);
+            INFO("material " << m << " a.n " << an << " b.n " << bn);
+            if (ab.f == 0.0) continue;
+            (an * bn > 0.0 ? reflected : transmitted) += 1;
+            // In double, f*(a, b) = f(b, a) (importance against radiance) and pdfRev is the
+            // swapped pdfFwd, to the frame's accuracy: frameFromNormal's rotation constants are
+            // float literals, so local directions are unit only to ~2e-8 in double too, which
+            // near the critical angle (T = 1 - F, infinitely steep there) moves a value by up to
+            // 8.4e-3 (measured). Relative to the value plus 1e-4 (f and pdf are O(1) and above):
+            // 98% of the pairs to 1e-5, all to 1e-2. Densities do not depend on the transported
+            // quantity, and the adjoint's eta^2 is exact.
             auto close = [](double x, double y) {
                 return std::fabs(x - y) / (std::max(std::fabs(x), std::fabs(y)) + 1e-4);
             };
-            const double worst =
-                std::max({close(fab.c[0], fba.c[0]), close(pab, rba), close(pba, rab)});
-            CHECK(worst < 1e-2);
+            const double transposed =
+                std::max({close(ab.f, baAdj.f), close(ab.pdfRev, baAdj.pdfFwd),
+                          close(ab.pdfFwd, baAdj.pdfRev)});
+            CHECK(transposed < 1e-2);
+            looseDouble += transposed >= 1e-5 ? 1 : 0;
+            worstDouble = std::max(worstDouble, transposed);
+            CHECK(adj.pdfFwd == ab.pdfFwd);
+            // Transmission: radiance carries (n_a / n_b)^2 over importance (Veach 1997, sec.
+            // 5.2); a mix's diffuse part transmits nothing.
+            if (an * bn < 0.0)
+                CHECK(ab.f == doctest::Approx(adj.f * (an > 0.0 ? 1.0 / (eta * eta) : eta * eta))
+                                  .epsilon(1e-12));
+            // Float against double: 98% of the pairs to 1e-4; all to 2e-2, the oracle itself
+            // being off by up to 8.4e-3 near the critical angle (measured worst 1.1e-2).
+            const double worst = std::max({close(abFloat.f, ab.f), close(abFloat.pdfFwd, ab.pdfFwd),
+                                           close(abFloat.pdfRev, ab.pdfRev)});
+            CHECK(worst < 2e-2);
+            worstFloat = std::max(worstFloat, worst);
             loose += worst >= 1e-4 ? 1 : 0;
-            CHECK(padj == pab); // densities do not depend on the transported quantity
-            if (vdot(a, kFrame.n) * vdot(b, kFrame.n) < 0.0f) {
-                // Transmission: radiance carries (n_a / n_b)^2 over importance (Veach 1997,
-                // sec. 5.2); a mix's diffuse part transmits nothing.
-                const Material& mm = v.materials[m];
-                const float eta = mm.kind == CB_MAT_MIX ? v.materials[mm.mixSecond].eta : mm.eta;
-                const float ratio = vdot(a, kFrame.n) > 0.0f ? 1.0f / (eta * eta) : eta * eta;
-                CHECK(fab.c[0] == doctest::Approx(adj.c[0] * ratio).epsilon(1e-5));
-            }
         }
         CHECK(transmitted > 200);
         CHECK(reflected > 200);
+        CHECK(looseDouble <= (transmitted + reflected) / 50);
         CHECK(loose <= (transmitted + reflected) / 50);
+        MESSAGE("material " << m << ": double transpose worst " << worstDouble << ", "
+                            << looseDouble << " above 1e-5; float against double " << loose
+                            << " above 1e-4 (worst " << worstFloat << "), of "
+                            << transmitted + reflected);
     }
 }
 

@@ -45,6 +45,10 @@ struct PtPixelSettings {
     int streamTile = 0; // 0: PT; k > 0: CPT with k x k shared sample vectors
 };
 
+struct BsdfValue {
+    double f = 0, pdfFwd = 0, pdfRev = 0;
+};
+
 class HostKernels {
   public:
     virtual ~HostKernels() = default;
@@ -58,6 +62,11 @@ class HostKernels {
     // One PT/CPT sample of pixel (x, y) in linear sRGB (ptPixelRgb in kernels/cb_pt.h), not
     // filtered for non-finite values.
     virtual std::array<double, 3> ptPixel(int x, int y, const PtPixelSettings& settings) const = 0;
+    // bsdfEval (kernels/cb_bsdf.h) of `material` at a surface of normal n, directions rounded
+    // to this precision; the reflectance's first channel and both densities.
+    virtual BsdfValue bsdf(int material, const std::array<double, 3>& n,
+                           const std::array<double, 3>& wo, const std::array<double, 3>& wi,
+                           int adjoint) const = 0;
 };
 
 // Copies the scene (3 channels only: the host builds have CB_CHANNELS == 3); throws

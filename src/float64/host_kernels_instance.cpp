@@ -66,6 +66,22 @@ class Instance final : public HostKernels {
         return {rgb.x, rgb.y, rgb.z};
     }
 
+    float64::BsdfValue bsdf(int material, const std::array<double, 3>& n,
+                            const std::array<double, 3>& wo, const std::array<double, 3>& wi,
+                            int adjoint) const override {
+        auto vec = [](const std::array<double, 3>& v) {
+            return cbk::vec3(cbk::real(v[0]), cbk::real(v[1]), cbk::real(v[2]));
+        };
+        float64::BsdfValue out;
+        cbk::real pdfFwd, pdfRev;
+        const cbk::Spectrum f = cbk::bsdfEval(&view_, material, cbk::frameFromNormal(vec(n)),
+                                              vec(wo), vec(wi), adjoint, &pdfFwd, &pdfRev);
+        out.f = f.c[0];
+        out.pdfFwd = pdfFwd;
+        out.pdfRev = pdfRev;
+        return out;
+    }
+
   private:
     static cbk::Ray toRay(const RayQuery& q) {
         cbk::Ray ray;
