@@ -258,6 +258,8 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         out.reflectance = oneSpectrum;
         out.mixFirst = out.mixSecond = -1;
         out.conductorK = -1;
+        // GGX alpha of conductors and dielectrics; pbrt-v4 maps roughness r to sqrt(r).
+        const float alpha = m.remapRoughness ? std::sqrt(std::max(m.roughness, 0.f)) : m.roughness;
         switch (m.kind) {
         case MaterialKind::Diffuse:
             out.kind = CB_MAT_DIFFUSE;
@@ -273,12 +275,12 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
             } else {
                 out.reflectance = spectra.add(m.reflectance, 1.f);
             }
-            out.alpha = m.remapRoughness ? std::sqrt(std::max(m.roughness, 0.f)) : m.roughness;
+            out.alpha = alpha;
             break;
         case MaterialKind::Dielectric:
             out.kind = CB_MAT_DIELECTRIC;
             out.eta = m.eta;
-            out.alpha = m.remapRoughness ? std::sqrt(std::max(m.roughness, 0.f)) : m.roughness;
+            out.alpha = alpha;
             break;
         case MaterialKind::Mix:
             out.kind = CB_MAT_MIX;

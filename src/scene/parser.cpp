@@ -601,12 +601,7 @@ class Parser {
     Param readSpectrumFile(const Param& p) {
         const std::string& name = p.strings[0];
         const SourceLocation where = p.valueLoc(0);
-        std::vector<std::string> candidates{name};
-        if (!fs::path(name).is_absolute()) {
-            candidates = {joinPath(files_.back()->dir, name)};
-            const std::string top = joinPath(topDir_, name);
-            if (top != candidates[0]) candidates.push_back(top);
-        }
+        const std::vector<std::string> candidates = nearbyPaths(name);
         for (const std::string& path : candidates) {
             if (!fs::is_regular_file(path)) continue;
             std::string text;
@@ -1309,8 +1304,8 @@ class Parser {
     }
 
     // pbrt-v4's "roughness", or "uroughness" and "vroughness" (defaulting to "roughness", which
-    // defaults to 0); cbdpt's GGX is isotropic, so the two must be equal.
-    static float roughness(ParamList& pl) {
+    // defaults to 0; cbdpt's GGX is isotropic, so the two must be equal), and "remaproughness".
+    static void readRoughness(ParamList& pl, MaterialDesc& m) {
         const Param* pr = pl.peek("roughness");
         const std::optional<double> rough = pl.oneFloat("roughness");
         const std::optional<double> ur = pl.oneFloat("uroughness");
@@ -1330,8 +1325,8 @@ class Parser {
             const Param* p = pl.peek(ur ? "uroughness" : vr ? "vroughness" : "roughness");
             throw SceneError(p->where, "roughness must be >= 0");
         }
-
-        return static_cast<float>(u);
+        m.roughness = static_cast<float>(u);
+        if (auto remap = pl.oneBool("remaproughness")) m.remapRoughness = *remap;
     }
 
     int makeMaterial(const std::string& type, const SourceLocation& typeLoc, ParamList& pl,
@@ -1368,8 +1363,7 @@ class Parser {
                                             "spectra, is not built into cbdpt)");
                 m.reflectance = *r;
             }
-            m.roughness = roughness(pl);
-            if (auto remap = pl.oneBool("remaproughness")) m.remapRoughness = *remap;
+            readRoughness(pl, m);
         } else if (type == "dielectric") {
             m.kind = MaterialKind::Dielectric;
             if (const Param* p = pl.peek("eta"); p && p->type == "spectrum")
@@ -1380,8 +1374,7 @@ class Parser {
                 if (!(eta > 0.0)) throw SceneError(p->where, "\"float eta\" must be > 0");
                 m.eta = static_cast<float>(eta);
             }
-            m.roughness = roughness(pl);
-            if (auto remap = pl.oneBool("remaproughness")) m.remapRoughness = *remap;
+            readRoughness(pl, m);
         } else if (type == "mix") {
             m.kind = MaterialKind::Mix;
             const Param* mats = pl.stringList("materials");
@@ -2055,17 +2048,19 @@ class Parser {
         namedCoordinateSystems_ = scope.coordinateSystems;
     }
 
+    // Where a file named in the scene may be: as given when absolute, else beside the file
+    // naming it, then beside the main scene file (pbrt-v4's folder, tried second).
+    std::vector<std::string> nearbyPaths(const std::string& name) const {
+        if (fs::path(name).is_absolute()) return {name};
+        std::vector<std::string> paths{joinPath(files_.back()->dir, name)};
+        const std::string top = joinPath(topDir_, name);
+        if (top != paths[0]) paths.push_back(top);
+        return paths;
+    }
+
     void include(const Token& t, bool isImport) {
         const Token name = quoted(t, "a file name");
-        std::vector<std::string> candidates;
-        if (fs::path(name.text).is_absolute()) {
-            candidates.push_back(name.text);
-        } else {
-            candidates.push_back(joinPath(files_.back()->dir, name.text));
-            // pbrt-v4 resolves against the main scene file's folder; try that second.
-            const std::string top = joinPath(topDir_, name.text);
-            if (top != candidates[0]) candidates.push_back(top);
-        }
+        const std::vector<std::string> candidates = nearbyPaths(name.text);
         for (const std::string& path : candidates) {
             if (!fs::is_regular_file(path)) continue;
             const fs::path key = canonicalKey(path);
