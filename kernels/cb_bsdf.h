@@ -5,7 +5,8 @@
  * - wo points toward the viewer / previous vertex, wi toward the next vertex; both are world-space
  *   unit vectors pointing away from the surface.
  * - frame.n is the geometric (outward) normal. Surfaces are two-sided: diffuse and conductor
- *   reflect into wo's hemisphere; the dielectric decides entering/leaving by wo's side.
+ *   reflect into wo's hemisphere; the dielectric decides entering/leaving by wo's side; diffuse
+ *   transmission and the thin dielectric are the same from both sides.
  * - f excludes the cosine. A delta sample carries pdf = the discrete probability of its lobe and
  *   f = (lobe weight) / |cos wi|, so f |cos wi| / pdf is always the throughput factor.
  * - adjoint = 0 for radiance transport (eye paths), 1 for importance transport (light paths).
@@ -82,6 +83,29 @@ CB_FN real fresnelConductor(real cosI, real eta, real k) {
 }
 #endif
 
+#if CB_HAS(CB_FEATURE_THIN_DIELECTRIC)
+/* Reflectance of a thin sheet of index eta in vacuum, seen at cosO: the light reflected by its
+ * first face plus what leaves through the first face after 1, 3, 5, ... internal reflections,
+ * R + T^2 R / (1 - R^2) with T = 1 - R, which is 2R / (1 + R) (pbrt-v4's ThinDielectricBxDF,
+ * sec. 9.5.1); the rest passes straight through. */
+CB_FN real thinDielectricReflectance(real cosO, real eta) {
+    real cosT;
+    real r = fresnelDielectric(cosO, eta, &cosT);
+    return 2.0f * r / (1.0f + r);
+}
+#endif
+
+#if CB_HAS(CB_FEATURE_DIFFUSE_TRANSMISSION)
+/* The probability that a diffuse transmitter's sample reflects: its reflectance's largest
+ * channel over the sum of both spectra's largest (pbrt-v4's DiffuseTransmissionBxDF), 0 and 1
+ * included; below 0 when both are black. */
+CB_FN real cbDiffuseReflectProbability(const SceneView* scene, Material m) {
+    real pr = specMaxComponent(specLoad(scene->spectra, m.reflectance));
+    real pt = specMaxComponent(specLoad(scene->spectra, m.secondSpectrum));
+    return pr + pt > 0.0f ? pr / (pr + pt) : -1.0f;
+}
+#endif
+
 /* ---- Per-kind lobes, in the local frame flipped so that wo.z > 0 ----------------------------- */
 
 #if CB_HAS(CB_FEATURE_CONDUCTOR)
@@ -95,8 +119,8 @@ CB_FN real cbConductorAlpha(Material m) {
 CB_FN Spectrum cbConductorFresnel(const SceneView* scene, Material m, Spectrum reflectance,
                                   real cosH) {
 #if CB_HAS(CB_FEATURE_CONDUCTOR_FRESNEL)
-    if (m.conductorK >= 0) {
-        Spectrum k = specLoad(scene->spectra, m.conductorK);
+    if (m.secondSpectrum >= 0) {
+        Spectrum k = specLoad(scene->spectra, m.secondSpectrum);
         Spectrum f;
         for (int c = 0; c < CB_CHANNELS; ++c)
             f.c[c] = fresnelConductor(cosH, reflectance.c[c], k.c[c]);
@@ -195,6 +219,20 @@ CB_FN Spectrum cbLobeEval(const SceneView* scene, Material m, Vec3 wo, Vec3 wi, 
         return specScale(specLoad(scene->spectra, m.reflectance), CB_INV_PI);
     }
 #endif
+#if CB_HAS(CB_FEATURE_DIFFUSE_TRANSMISSION)
+    if (m.kind == CB_MAT_DIFFUSE_TRANSMISSION) {
+        real pr = cbDiffuseReflectProbability(scene, m);
+        if (wi.z == 0.0f || !(pr >= 0.0f)) return specZero();
+        bool reflect = wi.z > 0.0f;
+        /* The lobe that reaches wi from wo also reaches wo from wi. */
+        real lobe = reflect ? pr : 1.0f - pr;
+        *pdfFwd = lobe * cosineHemispherePdf(fabs(wi.z));
+        *pdfRev = lobe * cosineHemispherePdf(wo.z);
+        if (!(lobe > 0.0f)) return specZero();
+        return specScale(specLoad(scene->spectra, reflect ? m.reflectance : m.secondSpectrum),
+                         CB_INV_PI);
+    }
+#endif
 #if CB_HAS(CB_FEATURE_CONDUCTOR)
     if (m.kind == CB_MAT_CONDUCTOR) {
         if (m.alpha == 0.0f || !(wi.z > 0.0f)) return specZero();
@@ -223,6 +261,9 @@ CB_FN Spectrum cbLobeEval(const SceneView* scene, Material m, Vec3 wo, Vec3 wi, 
 }
 
 CB_FN bool cbLobeIsDeltaOnly(Material m) {
+#if CB_HAS(CB_FEATURE_THIN_DIELECTRIC)
+    if (m.kind == CB_MAT_THIN_DIELECTRIC) return true;
+#endif
 #if CB_HAS(CB_FEATURE_CONDUCTOR)
     if (m.kind == CB_MAT_CONDUCTOR) return m.alpha == 0.0f;
 #endif
@@ -238,6 +279,9 @@ CB_FN bool cbLobeIsDeltaOnly(Material m) {
 }
 
 CB_FN real cbLobeSpecularity(Material m) {
+#if CB_HAS(CB_FEATURE_THIN_DIELECTRIC)
+    if (m.kind == CB_MAT_THIN_DIELECTRIC) return 1.0f;
+#endif
 #if CB_HAS(CB_FEATURE_CONDUCTOR)
     if (m.kind == CB_MAT_CONDUCTOR) return 1.0f;
 #endif
@@ -263,6 +307,37 @@ CB_FN bool cbLobeSample(const SceneView* scene, Material m, Vec3 wo, bool enteri
         out->pdf = cosineHemispherePdf(wi.z);
         out->pdfRev = cosineHemispherePdf(wo.z);
         return true;
+    }
+#endif
+#if CB_HAS(CB_FEATURE_DIFFUSE_TRANSMISSION)
+    if (m.kind == CB_MAT_DIFFUSE_TRANSMISSION) {
+        real pr = cbDiffuseReflectProbability(scene, m);
+        Vec3 wi = sampleCosineHemisphere(u0, u1);
+        if (!(wi.z > 0.0f) || !(pr >= 0.0f)) return false;
+        bool reflect = uLobe < pr;
+        real lobe = reflect ? pr : 1.0f - pr;
+        out->wi = reflect ? wi : vec3(wi.x, wi.y, -wi.z);
+        out->f = specScale(specLoad(scene->spectra, reflect ? m.reflectance : m.secondSpectrum),
+                           CB_INV_PI);
+        out->pdf = lobe * cosineHemispherePdf(wi.z);
+        out->pdfRev = lobe * cosineHemispherePdf(wo.z);
+        return out->pdf > 0.0f;
+    }
+#endif
+#if CB_HAS(CB_FEATURE_THIN_DIELECTRIC)
+    if (m.kind == CB_MAT_THIN_DIELECTRIC) {
+        real r = thinDielectricReflectance(wo.z, m.eta);
+        bool reflect = uLobe < r;
+        real lobe = reflect ? r : 1.0f - r;
+        out->isDelta = 1;
+        /* Transmission leaves unbent: the sheet's two faces are parallel. Neither lobe changes
+         * the medium, so radiance and importance scatter alike, and the reverse choice sees the
+         * same angle. */
+        out->wi = reflect ? vec3(-wo.x, -wo.y, wo.z) : vec3(-wo.x, -wo.y, -wo.z);
+        out->f = specConst(lobe / wo.z);
+        out->pdf = lobe;
+        out->pdfRev = lobe;
+        return isfinite(out->f.c[0]) && lobe > 0.0f;
     }
 #endif
 #if CB_HAS(CB_FEATURE_CONDUCTOR)
@@ -454,8 +529,8 @@ CB_FN bool materialHasNonDelta(const SceneView* scene, int material) {
 }
 
 /* Whether bsdfSample reads its uLobe, which only chooses between lobes (a mix's components, a
- * dielectric's reflection and transmission): otherwise the caller need not draw it. A scene
- * compiled without those materials reads none. */
+ * (thin) dielectric's or a diffuse transmitter's reflection and transmission): otherwise the
+ * caller need not draw it. A scene compiled without those materials reads none. */
 CB_FN bool bsdfReadsLobeSample(const SceneView* scene, int material) {
     int kind = scene->materials[material].kind;
     (void)kind;
@@ -464,6 +539,12 @@ CB_FN bool bsdfReadsLobeSample(const SceneView* scene, int material) {
 #endif
 #if CB_HAS(CB_FEATURE_DIELECTRIC)
     if (kind == CB_MAT_DIELECTRIC) return true;
+#endif
+#if CB_HAS(CB_FEATURE_DIFFUSE_TRANSMISSION)
+    if (kind == CB_MAT_DIFFUSE_TRANSMISSION) return true;
+#endif
+#if CB_HAS(CB_FEATURE_THIN_DIELECTRIC)
+    if (kind == CB_MAT_THIN_DIELECTRIC) return true;
 #endif
     return false;
 }

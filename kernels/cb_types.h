@@ -72,6 +72,8 @@ typedef struct SurfacePoint {
 #define CB_MAT_CONDUCTOR 1  /* perfect mirror (alpha == 0) or GGX rough mirror */
 #define CB_MAT_DIELECTRIC 2 /* glass: smooth (alpha == 0) or GGX rough */
 #define CB_MAT_MIX 3        /* mixture of two non-mix materials: second with probability amount */
+#define CB_MAT_DIFFUSE_TRANSMISSION 4 /* Lambertian reflection and transmission (pbrt-v4's) */
+#define CB_MAT_THIN_DIELECTRIC 5      /* a thin glass sheet (pbrt-v4's "thindielectric") */
 
 /* Feature bits: the scene's material kinds and light kinds, passed to the kernel build as
  * -DCB_FEATURES=... so that unused code is compiled out (each scene compiles only what it uses). */
@@ -81,6 +83,8 @@ typedef struct SurfacePoint {
 #define CB_FEATURE_MIX (1u << 3)
 #define CB_FEATURE_CONDUCTOR_FRESNEL (1u << 4) /* conductors given eta and k (pbrt-v4's) */
 #define CB_FEATURE_ROUGH_DIELECTRIC (1u << 5)  /* dielectrics with a GGX roughness */
+#define CB_FEATURE_DIFFUSE_TRANSMISSION (1u << 6)
+#define CB_FEATURE_THIN_DIELECTRIC (1u << 7)
 #define CB_FEATURE_AREA_LIGHT (1u << 8)
 #define CB_FEATURE_POINT_LIGHT (1u << 9)
 #define CB_FEATURE_SPHERES (1u << 10)
@@ -97,13 +101,14 @@ typedef struct Material {
     int kind;        /* CB_MAT_* */
     int reflectance; /* index into the spectra table (CB_CHANNELS floats per entry) */
     real alpha;      /* GGX roughness alpha for conductors and dielectrics (0: smooth) */
-    real eta;        /* relative index of refraction for dielectrics */
+    real eta;        /* relative index of refraction for (thin) dielectrics */
     int mixFirst;    /* CB_MAT_MIX: the two component materials */
     int mixSecond;
     real mixAmount; /* probability of mixSecond */
-    /* CB_MAT_CONDUCTOR given eta and k: the index of k's spectrum, `reflectance` then holding
-     * eta's (CB_FEATURE_CONDUCTOR_FRESNEL); -1: `reflectance` is a constant Fresnel tint. */
-    int conductorK;
+    /* A second spectrum's index, -1 where there is none. CB_MAT_CONDUCTOR given eta and k: k's,
+     * `reflectance` then holding eta's (CB_FEATURE_CONDUCTOR_FRESNEL; -1: `reflectance` is a
+     * constant Fresnel tint). CB_MAT_DIFFUSE_TRANSMISSION: the transmittance. */
+    int secondSpectrum;
 } Material;
 
 /* ---- Lights ------------------------------------------------------------------------------- */

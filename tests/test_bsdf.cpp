@@ -57,7 +57,7 @@ struct TestScene {
         m.mixFirst = first;
         m.mixSecond = second;
         m.mixAmount = amount;
-        m.conductorK = -1;
+        m.secondSpectrum = -1;
         materials.push_back(m);
         return static_cast<int>(materials.size()) - 1;
     }
@@ -66,11 +66,17 @@ struct TestScene {
     // A conductor given its complex index eta + i k (two spectra), as pbrt-v4's eta and k.
     int fresnelConductor(int eta, int k, float alpha) {
         int m = conductor(eta, alpha);
-        materials[size_t(m)].conductorK = k;
+        materials[size_t(m)].secondSpectrum = k;
         return m;
     }
     int dielectric(float eta) { return add(CB_MAT_DIELECTRIC, 0, 0.0f, eta); }
     int mix(int a, int b, float amount) { return add(CB_MAT_MIX, 0, 0.0f, 1.0f, a, b, amount); }
+    int diffuseTransmission(int refl, int trans) {
+        int m = add(CB_MAT_DIFFUSE_TRANSMISSION, refl, 0.0f, 1.0f);
+        materials[size_t(m)].secondSpectrum = trans;
+        return m;
+    }
+    int thinDielectric(float eta) { return add(CB_MAT_THIN_DIELECTRIC, 0, 0.0f, eta); }
     SceneView view() const {
         SceneView v{};
         v.materials = materials.data();
@@ -87,6 +93,8 @@ struct Fixture {
     int mixDiffuseRough, mixDragon, mixDiffuseGlossy, mixDiffuseGlass, mixMirrorGlass;
     int goldEta, goldK, goldFresnelMirror, goldFresnelRough, mixDiffuseGoldRough;
     int roughGlass01, roughGlass05, roughGlassTiny, mixDiffuseRoughGlass;
+    int black, translucent, transmitterOnly, reflectorOnly, mixDiffuseTranslucent;
+    int thinGlass, thinLowIndex, mixTranslucentThin, thinTinyIndex, thinHugeIndex;
     Fixture() {
         white = s.spectrum(1.0f, 1.0f, 1.0f);
         tint = s.spectrum(0.8f, 0.6f, 0.4f);
@@ -116,6 +124,18 @@ struct Fixture {
         roughGlass05 = s.add(CB_MAT_DIELECTRIC, 0, 0.5f, 1.33f);
         roughGlassTiny = s.add(CB_MAT_DIELECTRIC, 0, 1e-4f, 1.5f);
         mixDiffuseRoughGlass = s.mix(diffuseTint, roughGlass05, 0.5f);
+        black = s.spectrum(0.0f, 0.0f, 0.0f);
+        // Lobe choice by the largest channels: reflect with probability 0.5 / (0.5 + 0.45).
+        translucent =
+            s.diffuseTransmission(s.spectrum(0.5f, 0.3f, 0.2f), s.spectrum(0.35f, 0.45f, 0.1f));
+        transmitterOnly = s.diffuseTransmission(black, tint);
+        reflectorOnly = s.diffuseTransmission(tint, black);
+        mixDiffuseTranslucent = s.mix(diffuseTint, translucent, 0.4f);
+        thinGlass = s.thinDielectric(1.5f);
+        thinLowIndex = s.thinDielectric(0.7f); // an index below 1: total reflection at grazing
+        mixTranslucentThin = s.mix(translucent, thinGlass, 0.5f);
+        thinTinyIndex = s.thinDielectric(1e-6f); // stiff: total reflection almost everywhere
+        thinHugeIndex = s.thinDielectric(1e6f);  // stiff: a near-perfect mirror
     }
 };
 
@@ -588,6 +608,129 @@ TEST_CASE("rough dielectric of alpha 1e-4: Fresnel's split and Snell's direction
     }
 }
 
+TEST_CASE("diffuse transmission: sampling matches pdf on both sides, albedo R + T, symmetric") {
+    Fixture fx;
+    SceneView v = fx.s.view();
+    // Channel 0: R = 0.5, T = 0.35, so the albedo is 0.85 from either side.
+    checkNonDelta(v, fx.translucent, 0.0, true, {0.9f, 0.3f, 0.02f, -0.6f}, 300);
+    checkNonDelta(v, fx.transmitterOnly, 0.0, true, {0.7f, -0.2f}, 310);
+    checkNonDelta(v, fx.mixDiffuseTranslucent, 0.0, true, {0.5f, -0.9f}, 320);
+    SamplerCheck r = checkSampler(v, fx.translucent, worldDir(-0.4f, 1.0f), 0.0, 100000, 330);
+    CHECK(r.albedoQuad == doctest::Approx(0.85).epsilon(2e-3));
+    CHECK(std::fabs(r.albedoMean - 0.85) < 5.0 * r.albedoStdErr);
+    // f is R / pi on wo's side and T / pi on the other, the same both ways (no eta: one medium
+    // on both sides), and pdfRev is the swapped pdfFwd.
+    Uniform u(331);
+    int across = 0;
+    for (int i = 0; i < 2000; ++i) {
+        Vec3 a = frameToWorld(kFrame, sampleUniformSphere(u(), u()));
+        Vec3 b = frameToWorld(kFrame, sampleUniformSphere(u(), u()));
+        float pab, rab, pba, rba;
+        Spectrum fab = bsdfEval(&v, fx.translucent, kFrame, a, b, i % 2, &pab, &rab);
+        Spectrum fba = bsdfEval(&v, fx.translucent, kFrame, b, a, 0, &pba, &rba);
+        bool sameSide = vdot(a, kFrame.n) * vdot(b, kFrame.n) > 0.0f;
+        across += sameSide ? 0 : 1;
+        const float expected[2][3] = {{0.35f, 0.45f, 0.1f}, {0.5f, 0.3f, 0.2f}};
+        for (int c = 0; c < 3; ++c) {
+            CHECK(fab.c[c] == doctest::Approx(expected[sameSide][c] / M_PI).epsilon(1e-6));
+            CHECK(rel(fab.c[c], fba.c[c]) < 1e-6);
+        }
+        const double lobe = sameSide ? 0.5 / 0.95 : 0.45 / 0.95;
+        CHECK(pab == doctest::Approx(lobe * std::fabs(vdot(b, kFrame.n)) / M_PI).epsilon(1e-5));
+        CHECK(rel(pab, rba) < 1e-5);
+        CHECK(rel(pba, rab) < 1e-5);
+    }
+    CHECK(across > 800);
+    // One black side: that lobe is never sampled and has no density; every sample carries the
+    // other side's spectrum as its weight.
+    for (int m : {fx.transmitterOnly, fx.reflectorOnly}) {
+        Uniform w(332);
+        for (int i = 0; i < 500; ++i) {
+            Vec3 wo = worldDir(i % 2 ? 0.6f : -0.3f, 0.2f * i);
+            BsdfSample s;
+            REQUIRE(bsdfSample(&v, m, kFrame, wo, w(), w(), w(), 0, &s));
+            bool transmitted = vdot(s.wi, kFrame.n) * vdot(wo, kFrame.n) < 0.0f;
+            CHECK(transmitted == (m == fx.transmitterOnly));
+            double weight = s.f.c[1] * vabsdot(s.wi, kFrame.n) / s.pdf;
+            CHECK(weight == doctest::Approx(0.6).epsilon(1e-5));
+            float pf, pr;
+            Vec3 mirrored = vsub(s.wi, vscale(kFrame.n, 2.0f * vdot(s.wi, kFrame.n)));
+            CHECK(specIsBlack(bsdfEval(&v, m, kFrame, wo, mirrored, 0, &pf, &pr)));
+            CHECK(pf == 0.0f);
+        }
+    }
+    // Both sides black: no sample, no value.
+    TestScene blackScene;
+    int none = blackScene.spectrum(0.0f, 0.0f, 0.0f);
+    int blackMaterial = blackScene.diffuseTransmission(none, none);
+    SceneView bv = blackScene.view();
+    BsdfSample s;
+    CHECK(!bsdfSample(&bv, blackMaterial, kFrame, worldDir(0.5f, 0.0f), 0.3f, 0.3f, 0.3f, 0, &s));
+    CHECK(materialSpecularity(&v, fx.translucent) == 0.0f);
+    CHECK(bsdfReadsLobeSample(&v, fx.translucent));
+}
+
+TEST_CASE("thin dielectric: the sheet's reflectance from both sides, straight transmission") {
+    Fixture fx;
+    SceneView v = fx.s.view();
+    for (int m : {fx.thinGlass, fx.thinLowIndex, fx.thinTinyIndex, fx.thinHugeIndex})
+        for (float c : {1.0f, 0.8f, 0.3f, 0.05f, -0.5f, -0.95f}) {
+            const double eta = v.materials[m].eta;
+            // The sheet: the first face's Fresnel R (in double, fresnelRef), then what leaves
+            // through it after each odd number of internal reflections, T R T, T R^3 T, ...:
+            // R + T^2 R / (1 - R^2) (pbrt-v4's form; a series would need ~1e5 terms at R near 1).
+            const double r1 = fresnelRef(std::fabs(c), eta), t1 = 1.0 - r1;
+            const double sheet = r1 < 1.0 ? r1 + t1 * t1 * r1 / (1.0 - r1 * r1) : 1.0;
+            CAPTURE(eta);
+            CAPTURE(c);
+            Vec3 wo = worldDir(c, 0.4f);
+            BsdfSample s;
+            // uLobe just below and at the reflectance picks reflection, then transmission.
+            REQUIRE(bsdfSample(&v, m, kFrame, wo, 0.5f, 0.5f, float(sheet) * 0.999f, 0, &s));
+            CHECK(s.isDelta == 1);
+            CHECK(s.pdf == doctest::Approx(sheet).epsilon(2e-6));
+            CHECK(s.pdfRev == s.pdf);
+            Vec3 mirror = vsub(vscale(kFrame.n, 2.0f * vdot(wo, kFrame.n)), wo);
+            CHECK(angleBetween(s.wi, mirror) < 1e-6);
+            CHECK(s.f.c[2] * vabsdot(s.wi, kFrame.n) / s.pdf == doctest::Approx(1.0).epsilon(1e-5));
+            if (sheet < 0.999) {
+                for (int adjoint = 0; adjoint < 2; ++adjoint) {
+                    REQUIRE(bsdfSample(&v, m, kFrame, wo, 0.5f, 0.5f, float(sheet) * 1.001f + 1e-4f,
+                                       adjoint, &s));
+                    CHECK(s.pdf == doctest::Approx(1.0 - sheet).epsilon(2e-5));
+                    CHECK(s.pdfRev == s.pdf);
+                    // Unbent, and no eta^2: the same medium on both sides.
+                    CHECK(angleBetween(s.wi, vscale(wo, -1.0f)) < 1e-6);
+                    CHECK(s.f.c[0] * vabsdot(s.wi, kFrame.n) / s.pdf ==
+                          doctest::Approx(1.0).epsilon(1e-5));
+                }
+            }
+        }
+    // Frequencies: reflection in proportion R over uniform uLobe; bsdfEval has no non-delta part.
+    Uniform u(340);
+    Vec3 wo = worldDir(0.3f, 1.0f);
+    const double expected = [] {
+        const double r = fresnelRef(0.3, 1.5);
+        return 2.0 * r / (1.0 + r);
+    }();
+    int reflected = 0;
+    const int n = 100000;
+    for (int i = 0; i < n; ++i) {
+        BsdfSample s;
+        REQUIRE(bsdfSample(&v, fx.thinGlass, kFrame, wo, u(), u(), u(), 0, &s));
+        reflected += vdot(s.wi, kFrame.n) > 0.0f ? 1 : 0;
+    }
+    CHECK(std::fabs(reflected / double(n) - expected) <
+          5.0 * std::sqrt(expected * (1 - expected) / n));
+    float pf, pr;
+    CHECK(specIsBlack(bsdfEval(&v, fx.thinGlass, kFrame, wo, vscale(wo, -1.0f), 0, &pf, &pr)));
+    CHECK(!materialHasNonDelta(&v, fx.thinGlass));
+    CHECK(materialHasNonDelta(&v, fx.mixTranslucentThin));
+    CHECK(materialSpecularity(&v, fx.thinGlass) == 1.0f);
+    CHECK(materialSpecularity(&v, fx.mixTranslucentThin) == 0.5f);
+    checkNonDelta(v, fx.mixTranslucentThin, 0.5, true, {0.7f, -0.4f}, 341);
+}
+
 TEST_CASE("perfect mirror: exact reflection, tint as throughput, delta contract") {
     Fixture fx;
     SceneView v = fx.s.view();
@@ -1037,7 +1180,8 @@ TEST_CASE("cb_bsdf.h built as OpenCL C by PoCL matches the host, with all and wi
     std::vector<int> materials = {fx.diffuse,           fx.diffuseTint,      fx.mirror,
                                   fx.rough03,           fx.rough1,           fx.glass,
                                   fx.mixDiffuseRough,   fx.mixDragon,        fx.mixDiffuseGlass,
-                                  fx.goldFresnelMirror, fx.goldFresnelRough, fx.roughGlass05};
+                                  fx.goldFresnelMirror, fx.goldFresnelRough, fx.roughGlass05,
+                                  fx.translucent,       fx.thinGlass,        fx.mixTranslucentThin};
     Uniform u(17);
     std::vector<float> inputs, diffuseInputs;
     for (int m : materials)

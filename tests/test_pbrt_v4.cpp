@@ -929,9 +929,9 @@ TEST_CASE("pbrt-v4 conductor: eta and k, or reflectance, and what is refused") {
     cb::DeviceScene scene = cb::buildDeviceScene(s);
     CHECK(contains(scene.featureNames(), "conductor-fresnel"));
     REQUIRE(scene.materials.size() == 1);
-    CHECK(scene.materials[0].conductorK >= 0);
+    CHECK(scene.materials[0].secondSpectrum >= 0);
     // Each bin holds the spectrum's mean over the bin: k rises from 1.96 to 3.92.
-    const float* k = &scene.spectra[size_t(scene.materials[0].conductorK * scene.channels)];
+    const float* k = &scene.spectra[size_t(scene.materials[0].secondSpectrum * scene.channels)];
     CHECK(k[0] == doctest::Approx(1.96 + (2.45 - 1.96) * (409.375 - 400.0) / 150.0).epsilon(1e-4));
     CHECK(k[0] < k[scene.channels - 1]);
     // RGB values are the channels' eta and k; a conductor with reflectance keeps its tint and
@@ -944,13 +944,13 @@ TEST_CASE("pbrt-v4 conductor: eta and k, or reflectance, and what is refused") {
     scene = cb::buildDeviceScene(s);
     REQUIRE(scene.channels == 3);
     CHECK(scene.spectra[size_t(scene.materials[0].reflectance * 3 + 1)] == 0.9f);
-    CHECK(scene.spectra[size_t(scene.materials[0].conductorK * 3 + 2)] == 1.9f);
+    CHECK(scene.spectra[size_t(scene.materials[0].secondSpectrum * 3 + 2)] == 1.9f);
     s = parseSceneString("WorldBegin\nLightSource \"point\"\nMaterial \"conductor\" \"rgb "
                          "reflectance\" [0.9 0.8 0.7]\n" +
                              kTri,
                          "t.pbrt");
     scene = cb::buildDeviceScene(s);
-    CHECK(scene.materials[0].conductorK == -1);
+    CHECK(scene.materials[0].secondSpectrum == -1);
     CHECK(contains(scene.featureNames(), "conductor"));
     CHECK(!contains(scene.featureNames(), "conductor-fresnel"));
     // Refused, each at its line: both forms, one of eta and k (pbrt-v4 would fill in copper's
@@ -1148,6 +1148,202 @@ TEST_CASE("pbrt-v4 dielectric: BDPT, CBDPT and MLT agree with PT with a rough gl
                             "\"float roughness\" 0.1\n"
                             "Translate 0.5 0.35 -0.5\nShape \"sphere\" \"float radius\" 0.3\n"
                             "AttributeEnd\n");
+}
+
+TEST_CASE("pbrt-v4 diffusetransmission and thindielectric: parameters, defaults, refusals") {
+    const std::string light = "WorldBegin\nLightSource \"point\"\n";
+    // pbrt-v4's defaults: reflectance and transmittance 0.25, eta 1.5.
+    auto s = parseSceneString(light + "Material \"diffusetransmission\"\n" + kTri +
+                                  "Material \"thindielectric\"\n" + kTri,
+                              "t.pbrt");
+    REQUIRE(s.materials.size() == 2);
+    CHECK(s.materials[0].kind == cb::MaterialKind::DiffuseTransmission);
+    CHECK(s.materials[1].kind == cb::MaterialKind::ThinDielectric);
+    CHECK(s.materials[1].eta == 1.5f);
+    cb::DeviceScene scene = cb::buildDeviceScene(s);
+    REQUIRE(scene.channels == 3);
+    CHECK(contains(scene.featureNames(), "diffuse-transmission"));
+    CHECK(contains(scene.featureNames(), "thin-dielectric"));
+    CHECK(!contains(scene.featureNames(), "conductor-fresnel"));
+    auto entry = [&](int index, int channel) {
+        return scene.spectra[size_t(index * scene.channels + channel)];
+    };
+    CHECK(entry(scene.materials[0].reflectance, 1) == 0.25f);
+    CHECK(entry(scene.materials[0].secondSpectrum, 2) == 0.25f);
+    // "scale" multiplies both; each product is clamped to 1 per channel, as pbrt-v4 clamps it.
+    s = parseSceneString(light +
+                             "Material \"diffusetransmission\" \"rgb reflectance\" [0.2 0.5 0.9] "
+                             "\"rgb transmittance\" [0.1 0.3 0.6] \"float scale\" 2\n" +
+                             kTri + "Material \"thindielectric\" \"float eta\" 1.33\n" + kTri,
+                         "t.pbrt");
+    scene = cb::buildDeviceScene(s);
+    CHECK(entry(scene.materials[0].reflectance, 0) == doctest::Approx(0.4));
+    CHECK(entry(scene.materials[0].reflectance, 2) == 1.0f);
+    CHECK(entry(scene.materials[0].secondSpectrum, 1) == doctest::Approx(0.6));
+    CHECK(entry(scene.materials[0].secondSpectrum, 2) == 1.0f);
+    CHECK(scene.materials[1].kind == CB_MAT_THIN_DIELECTRIC);
+    CHECK(scene.materials[1].eta == doctest::Approx(1.33));
+    // Without them, neither feature is compiled.
+    scene = cb::buildDeviceScene(parseSceneString(light + kTri, "t.pbrt"));
+    CHECK(!contains(scene.featureNames(), "transmission"));
+    CHECK(!contains(scene.featureNames(), "thin"));
+    auto expectError = [](const std::string& text, std::initializer_list<const char*> parts) {
+        const std::string e = errorOf(text);
+        INFO(text << " -> " << e);
+        for (const char* part : parts)
+            CHECK(contains(e, part));
+    };
+    expectError("WorldBegin\n\nMaterial \"diffusetransmission\" \"float scale\" -1\n",
+                {"t.pbrt:3:", "\"float scale\" must be in [0, 1e6]"});
+    expectError("WorldBegin\nMaterial \"diffusetransmission\" \"rgb transmittance\" [0.5 1.2 0]\n",
+                {"t.pbrt:2:", "must be <= 1"});
+    expectError("WorldBegin\nMaterial \"thindielectric\" \"spectrum eta\" [400 1.5 700 1.4]\n",
+                {"t.pbrt:2:", "spectrally varying"});
+    expectError("WorldBegin\nMaterial \"thindielectric\" \"float eta\" 0\n", {"must be > 0"});
+    expectError("WorldBegin\nMaterial \"thindielectric\" \"float roughness\" 0.1\n",
+                {"t.pbrt:2:", "roughness"});
+    expectError("WorldBegin\nMaterial \"coateddiffuse\"\n",
+                {"t.pbrt:2:", "thindielectric, diffusetransmission"});
+}
+
+namespace {
+
+// Unpolarised dielectric Fresnel in double (Hecht, eqs. 4.42/4.43), apart from the kernels'.
+double dielectricFresnel(double cosI, double eta) {
+    const double sinT = std::sqrt(1.0 - cosI * cosI) / eta;
+    if (sinT >= 1.0) return 1.0;
+    const double cosT = std::sqrt(1.0 - sinT * sinT);
+    const double rs = (cosI - eta * cosT) / (cosI + eta * cosT);
+    const double rp = (eta * cosI - cosT) / (eta * cosI + cosT);
+    return 0.5 * (rs * rs + rp * rp);
+}
+
+// A thin sheet's reflectance as the sum over internal bounces: R, then T R T, T R^3 T, ...
+double thinSheetReflectance(double cosI, double eta) {
+    const double r = dielectricFresnel(cosI, eta), t = 1.0 - r;
+    double sum = r, bounce = t * r * t;
+    for (int k = 0; k < 200 && bounce > 1e-17; ++k, bounce *= r * r)
+        sum += bounce;
+    return sum;
+}
+
+} // namespace
+
+// A closed black box whose lid is the material under test, under a constant sky of radiance L,
+// seen straight down from above and straight up from inside (fov 90): the box sends no light,
+// so from above a pixel is what the lid reflects of the sky and from inside what it transmits.
+// diffusetransmission: R L and T L per channel, everywhere. thindielectric: L R(theta) and
+// L (1 - R(theta)), R the sheet's reflectance summed over its internal bounces, theta the
+// pixel's angle to the lid's normal (cos theta = 1 / sqrt(1 + x^2 + y^2) on the film plane at
+// distance 1). Every method renders the image mean.
+TEST_CASE("pbrt-v4 diffusetransmission and thindielectric: a lid on a black box under a "
+          "constant sky, every method" *
+          doctest::test_suite("statistical")) {
+    cb::ClRuntime runtime;
+    const double radiance = 0.8;
+    const double reflectance[3] = {0.5, 0.3, 0.2}, transmittance[3] = {0.2, 0.4, 0.6};
+    const std::string box =
+        "Material \"diffuse\" \"rgb reflectance\" [0 0 0]\n"
+        "Shape \"trianglemesh\" \"point3 P\" [-2 -1 -2  2 -1 -2  2 -1 2  -2 -1 2  "
+        "-2 0 -2  2 0 -2  2 0 2  -2 0 2] \"integer indices\" [0 1 2  0 2 3  0 1 5  0 5 4  "
+        "1 2 6  1 6 5  2 3 7  2 7 6  3 0 4  3 4 7]\n";
+    const std::string lid =
+        "Shape \"bilinearmesh\" \"point3 P\" [-2 0 -2  2 0 -2  -2 0 2  2 0 2]\n";
+    // The mean over the film (x, y in [-1, 1]) of g(cos theta), midpoint rule; g is smooth.
+    auto filmMean = [](auto g) {
+        const int n = 400;
+        double sum = 0.0;
+        for (int j = 0; j < n; ++j)
+            for (int i = 0; i < n; ++i) {
+                const double x = -1 + (i + 0.5) * 2.0 / n, y = -1 + (j + 0.5) * 2.0 / n;
+                sum += g(1.0 / std::sqrt(1 + x * x + y * y));
+            }
+        return sum / (double(n) * n);
+    };
+    const double thinR = filmMean([](double c) { return thinSheetReflectance(c, 1.5); });
+    struct Case {
+        std::string material, camera;
+        std::array<double, 3> expected;
+    };
+    const std::string dt = "Material \"diffusetransmission\" \"rgb reflectance\" [0.5 0.3 0.2] "
+                           "\"rgb transmittance\" [0.2 0.4 0.6]\n";
+    const std::string thin = "Material \"thindielectric\" \"float eta\" 1.5\n";
+    const std::string above = "LookAt 0 1 0  0 0 0  0 0 1\n",
+                      inside = "LookAt 0 -0.5 0  0 0 0  0 0 1\n";
+    auto scaled = [&](const double* v) {
+        return std::array<double, 3>{radiance * v[0], radiance * v[1], radiance * v[2]};
+    };
+    const Case cases[] = {
+        {dt, above, scaled(reflectance)},
+        {dt, inside, scaled(transmittance)},
+        {thin, above, {radiance * thinR, radiance * thinR, radiance * thinR}},
+        {thin, inside, {radiance * (1 - thinR), radiance * (1 - thinR), radiance * (1 - thinR)}}};
+    // The sheet reflects more than one face: R(0) = 0.04 for eta 1.5, the sheet 2R / (1 + R).
+    CHECK(thinSheetReflectance(1.0, 1.5) == doctest::Approx(0.08 / 1.04).epsilon(1e-12));
+    for (const Case& c : cases) {
+        CAPTURE(c.material);
+        CAPTURE(c.camera);
+        const std::string text =
+            c.camera +
+            "Camera \"perspective\" \"float fov\" 90\n"
+            "Film \"rgb\" \"integer xresolution\" 16 \"integer yresolution\" 16\n"
+            "WorldBegin\nLightSource \"infinite\" \"rgb L\" [0.8 0.8 0.8]\n" +
+            box + c.material + lid;
+        const cb::DeviceScene scene = cb::buildDeviceScene(parseSceneString(text, "t.pbrt"));
+        for (const std::string method : kMethods) {
+            CAPTURE(method);
+            cb::IntegratorSettings settings = methodSettings(method);
+            // CPT's and CBDPT's pixels share each estimate's samples, so one lobe choice
+            // decides the whole image: many estimates per run, or 6 runs misjudge the spread.
+            const int estimates = method == "cpt" || method == "cbdpt" ? 64 : 4;
+            std::vector<std::vector<double>> runs;
+            std::vector<float> rgb;
+            long nonFinite = 0;
+            for (int r = 0; r < 6; ++r) {
+                settings.seed = 900u + std::uint32_t(r);
+                auto integrator = cb::makeIntegrator(settings, scene, runtime);
+                std::vector<double> mean(3, 0.0);
+                for (int e = 0; e < estimates; ++e) {
+                    integrator->renderEstimate(std::uint32_t(e), rgb);
+                    for (size_t p = 0; p < rgb.size(); ++p)
+                        mean[p % 3] += rgb[p] * 3.0 / double(rgb.size()) / estimates;
+                }
+                runs.push_back(mean);
+                nonFinite += integrator->nonFiniteSamples();
+            }
+            const cbtest::RunStats st = cbtest::summarizeRuns(runs);
+            for (size_t ch = 0; ch < 3; ++ch) {
+                CAPTURE(ch);
+                CAPTURE(c.expected[ch]);
+                CAPTURE(st.mean[ch]);
+                CAPTURE(st.se[ch]);
+                CHECK(std::fabs(st.mean[ch] - c.expected[ch]) <=
+                      4.5 * st.se[ch] + 1e-4 * c.expected[ch]);
+            }
+            CHECK(nonFinite == 0);
+        }
+    }
+}
+
+TEST_CASE("pbrt-v4 diffusetransmission and thindielectric: BDPT, CBDPT and MLT agree with PT" *
+          doctest::test_suite("statistical")) {
+    // A diffuser below the light (every path to it passes through), a translucent sphere, and
+    // a thin pane standing before the block.
+    checkMethodsAgreeWithPt("AttributeBegin\nAreaLightSource \"diffuse\" \"rgb L\" [6 6 6]\n"
+                            "Translate -0.5 1.5 0\nRotate 90 1 0 0\n"
+                            "Shape \"disk\" \"float radius\" 0.3\nAttributeEnd\n"
+                            "AttributeBegin\nMaterial \"diffusetransmission\" \"rgb reflectance\" "
+                            "[0.2 0.3 0.4] \"rgb transmittance\" [0.7 0.6 0.5]\n"
+                            "Shape \"bilinearmesh\" \"point3 P\" [-1 1.3 -0.6  0 1.3 -0.6  "
+                            "-1 1.3 0.6  0 1.3 0.6]\nAttributeEnd\n",
+                            "AttributeBegin\nMaterial \"diffusetransmission\" \"rgb reflectance\" "
+                            "[0.4 0.4 0.4] \"rgb transmittance\" [0.5 0.5 0.5]\n"
+                            "Translate 0.8 0.3 -0.4\nShape \"sphere\" \"float radius\" 0.3\n"
+                            "AttributeEnd\n"
+                            "AttributeBegin\nMaterial \"thindielectric\" \"float eta\" 1.5\n"
+                            "Translate 0 0.5 -0.6\nRotate 20 0 1 0\n"
+                            "Shape \"bilinearmesh\" \"point3 P\" [-0.5 -0.4 0  0.5 -0.4 0  "
+                            "-0.5 0.4 0  0.5 0.4 0]\nAttributeEnd\n");
 }
 
 TEST_CASE("pbrt-v4: integer values are whole-number text, as pbrt-v4's parseInt reads them") {

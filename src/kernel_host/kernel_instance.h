@@ -100,7 +100,7 @@ template <class Visit> void forEachField(cbk::Material& s, Visit&& visit) {
     visit(s.mixFirst);
     visit(s.mixSecond);
     visit(s.mixAmount);
-    visit(s.conductorK);
+    visit(s.secondSpectrum);
 }
 template <class Visit> void forEachField(cbk::Light& s, Visit&& visit) {
     visit(s.kind);

@@ -44,6 +44,16 @@ class SpectraTable {
         }
         return index;
     }
+    // A reflectance or transmittance times `scale`, clamped to [0, 1] per channel or bin as
+    // pbrt-v4 clamps each wavelength's value.
+    int addAlbedo(const SpectrumValue& value, float scale) {
+        const int index = add(value, scale);
+        for (int i = 0; i < channels_; ++i) {
+            float& v = data_[size_t(index * channels_ + i)];
+            v = std::clamp(v, 0.f, 1.f);
+        }
+        return index;
+    }
     // An emission entry: radiance and scale each fit a float, but their product need not
     // ("rgb L" [1e20 ...] with "float scale" 1e20): an infinite emission made every light's pick
     // probability NaN.
@@ -192,6 +202,10 @@ unsigned materialFeature(MaterialKind kind) {
         return CB_FEATURE_DIELECTRIC;
     case MaterialKind::Mix:
         return CB_FEATURE_MIX;
+    case MaterialKind::DiffuseTransmission:
+        return CB_FEATURE_DIFFUSE_TRANSMISSION;
+    case MaterialKind::ThinDielectric:
+        return CB_FEATURE_THIN_DIELECTRIC;
     }
     return 0;
 }
@@ -257,7 +271,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         cbk::Material out{};
         out.reflectance = oneSpectrum;
         out.mixFirst = out.mixSecond = -1;
-        out.conductorK = -1;
+        out.secondSpectrum = -1;
         // GGX alpha of conductors and dielectrics; pbrt-v4 maps roughness r to sqrt(r).
         const float alpha = m.remapRoughness ? std::sqrt(std::max(m.roughness, 0.f)) : m.roughness;
         switch (m.kind) {
@@ -271,7 +285,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
                 // Bins hold each spectrum's bin means (RGB: its linear projection), and the
                 // kernels evaluate Fresnel from those, not Fresnel's mean over the bin.
                 out.reflectance = spectra.add(*m.conductorEta, 1.f);
-                out.conductorK = spectra.add(*m.conductorK, 1.f);
+                out.secondSpectrum = spectra.add(*m.conductorK, 1.f);
             } else {
                 out.reflectance = spectra.add(m.reflectance, 1.f);
             }
@@ -288,11 +302,21 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
             out.mixSecond = m.mix[1];
             out.mixAmount = m.amount;
             break;
+        case MaterialKind::DiffuseTransmission:
+            out.kind = CB_MAT_DIFFUSE_TRANSMISSION;
+            out.reflectance = spectra.addAlbedo(m.reflectance, m.scale);
+            out.secondSpectrum = spectra.addAlbedo(m.transmittance, m.scale);
+            break;
+        case MaterialKind::ThinDielectric:
+            out.kind = CB_MAT_THIN_DIELECTRIC;
+            out.eta = m.eta;
+            break;
         }
         scene.materials.push_back(out);
         if (materialUsed[i]) {
             scene.features |= materialFeature(m.kind);
-            if (out.conductorK >= 0) scene.features |= CB_FEATURE_CONDUCTOR_FRESNEL;
+            if (out.kind == CB_MAT_CONDUCTOR && out.secondSpectrum >= 0)
+                scene.features |= CB_FEATURE_CONDUCTOR_FRESNEL;
             if (out.kind == CB_MAT_DIELECTRIC && out.alpha > 0.f)
                 scene.features |= CB_FEATURE_ROUGH_DIELECTRIC;
         }
@@ -519,6 +543,8 @@ std::string DeviceScene::featureNames() const {
     add(CB_FEATURE_DIELECTRIC, "dielectric");
     add(CB_FEATURE_ROUGH_DIELECTRIC, "rough-dielectric");
     add(CB_FEATURE_MIX, "mix");
+    add(CB_FEATURE_DIFFUSE_TRANSMISSION, "diffuse-transmission");
+    add(CB_FEATURE_THIN_DIELECTRIC, "thin-dielectric");
     add(CB_FEATURE_AREA_LIGHT, "area-light");
     add(CB_FEATURE_POINT_LIGHT, "point-light");
     add(CB_FEATURE_SPHERES, "spheres");

@@ -207,6 +207,7 @@ bool knownParamType(const std::string& t) {
 
 // What a spectral parameter's values may be: a reflectance in [0, 1], an emission >= 0, or a
 // conductor's eta or k in [0, kMaxConductorIndex].
+// Reflectance: a fraction of light in [0, 1] (reflectances and transmittances).
 enum class SpectrumRole { Reflectance, Emission, ConductorIndex };
 // fresnelConductor's float arithmetic stays finite to about 1e9; no material comes near 1e6.
 constexpr double kMaxConductorIndex = 1e6;
@@ -422,7 +423,9 @@ class ParamList {
             throw SceneError(p.valueLoc(i), "parameter " + p.decl() + " has a negative value");
         if (role == SpectrumRole::Reflectance && v > 1.0)
             throw SceneError(p.valueLoc(i),
-                             "parameter " + p.decl() + " is a reflectance and must be <= 1");
+                             "parameter " + p.decl() + " is a " +
+                                 (p.name == "transmittance" ? "transmittance" : "reflectance") +
+                                 " and must be <= 1");
         if (role == SpectrumRole::ConductorIndex && v > kMaxConductorIndex)
             throw SceneError(p.valueLoc(i), fmt::format("parameter {} has {:g}; cbdpt evaluates "
                                                         "a conductor's eta and k up to {:g}",
@@ -1329,6 +1332,19 @@ class Parser {
         if (auto remap = pl.oneBool("remaproughness")) m.remapRoughness = *remap;
     }
 
+    // A dielectric's or thin dielectric's "float eta" (pbrt-v4's default 1.5); a spectrally
+    // varying index would need a wavelength per path, which cbdpt's bins do not have.
+    static void readEta(ParamList& pl, MaterialDesc& m) {
+        const Param* p = pl.peek("eta");
+        if (!p) return;
+        if (p->type == "spectrum")
+            throw SceneError(p->where, "spectrally varying dielectric \"eta\" is not "
+                                       "supported; give \"float eta\"");
+        const double eta = *pl.oneFloat("eta");
+        if (!(eta > 0.0)) throw SceneError(p->where, "\"float eta\" must be > 0");
+        m.eta = static_cast<float>(eta);
+    }
+
     int makeMaterial(const std::string& type, const SourceLocation& typeLoc, ParamList& pl,
                      const std::string& name, const SourceLocation& where) {
         MaterialDesc m;
@@ -1366,15 +1382,25 @@ class Parser {
             readRoughness(pl, m);
         } else if (type == "dielectric") {
             m.kind = MaterialKind::Dielectric;
-            if (const Param* p = pl.peek("eta"); p && p->type == "spectrum")
-                throw SceneError(p->where, "spectrally varying dielectric \"eta\" is not "
-                                           "supported; give \"float eta\"");
-            if (const Param* p = pl.peek("eta")) {
-                const double eta = *pl.oneFloat("eta");
-                if (!(eta > 0.0)) throw SceneError(p->where, "\"float eta\" must be > 0");
-                m.eta = static_cast<float>(eta);
-            }
+            readEta(pl, m);
             readRoughness(pl, m);
+        } else if (type == "thindielectric") {
+            m.kind = MaterialKind::ThinDielectric;
+            readEta(pl, m);
+        } else if (type == "diffusetransmission") {
+            m.kind = MaterialKind::DiffuseTransmission;
+            m.reflectance = SpectrumValue::constant(0.25f); // pbrt-v4's defaults
+            if (auto r = pl.spectrum("reflectance", SpectrumRole::Reflectance)) m.reflectance = *r;
+            if (auto t = pl.spectrum("transmittance", SpectrumRole::Reflectance))
+                m.transmittance = *t;
+            if (const Param* p = pl.peek("scale")) {
+                const double scale = *pl.oneFloat("scale");
+                if (!(scale >= 0.0 && scale <= 1e6))
+                    throw SceneError(p->where, fmt::format("\"float scale\" must be in [0, 1e6], "
+                                                           "got {:g}",
+                                                           scale));
+                m.scale = static_cast<float>(scale);
+            }
         } else if (type == "mix") {
             m.kind = MaterialKind::Mix;
             const Param* mats = pl.stringList("materials");
@@ -1399,9 +1425,9 @@ class Parser {
                 m.amount = static_cast<float>(a);
             }
         } else {
-            throw SceneError(typeLoc,
-                             "unsupported material type \"" + type +
-                                 "\" (cbdpt supports diffuse, conductor, dielectric, mix)");
+            throw SceneError(typeLoc, "unsupported material type \"" + type +
+                                          "\" (cbdpt supports diffuse, conductor, dielectric, "
+                                          "thindielectric, diffusetransmission, mix)");
         }
         pl.finish();
         scene_.materials.push_back(std::move(m));

@@ -48,18 +48,30 @@ struct SpectrumValue {
     static SpectrumValue constant(float v) { return SpectrumValue{true, {v, v, v}, {}}; }
 };
 
-enum class MaterialKind { Diffuse, Conductor, Dielectric, Mix };
+enum class MaterialKind {
+    Diffuse,
+    Conductor,
+    Dielectric,
+    Mix,
+    DiffuseTransmission,
+    ThinDielectric
+};
 
 struct MaterialDesc {
     std::string name; // the MakeNamedMaterial name, or "" for an anonymous Material
     MaterialKind kind = MaterialKind::Diffuse;
-    SpectrumValue reflectance = SpectrumValue::constant(0.5f); // diffuse and conductor
+    // diffuse, conductor and diffuse transmission (whose default, pbrt-v4's, is 0.25)
+    SpectrumValue reflectance = SpectrumValue::constant(0.5f);
+    SpectrumValue transmittance = SpectrumValue::constant(0.25f); // diffuse transmission
+    // diffuse transmission: multiplies reflectance and transmittance, each product then clamped
+    // to [0, 1] per channel (pbrt-v4's DiffuseTransmissionMaterial)
+    float scale = 1.f;
     // conductor given "eta" and "k" instead of "reflectance": its complex index of refraction,
     // with pbrt-v4's Fresnel equations (cb_bsdf.h, fresnelConductor)
     std::optional<SpectrumValue> conductorEta, conductorK;
     float roughness = 0.f;          // conductor and dielectric: as written in the file
     bool remapRoughness = true;     // pbrt-v4: alpha = sqrt(roughness) by default
-    float eta = 1.5f;               // dielectric
+    float eta = 1.5f;               // dielectric and thin dielectric
     std::array<int, 2> mix{-1, -1}; // mix: indices into SceneDesc::materials
     float amount = 0.5f;            // mix: probability of choosing mix[1] (pbrt-v4 semantics)
     SourceLocation where;
