@@ -102,12 +102,15 @@ CB_FN BdptSettings bdptSettingsCopy(BdptSettings in) {
 typedef char cbBdptSettingsCopyCheck[sizeof(BdptSettings) == 8 * sizeof(int) ? 1 : -1];
 
 /* Light subpath dimensions (its own stream, see bdptLightStream): 0-1 point, 2-3 direction,
- * 4 light choice, 5 side of a two-sided light; then CB_DIMS_PER_BOUNCE per bounce as for eye
- * paths (cb_rng.h slots). Pairs start at even dimensions (the Sobol sampler's 2D pairs). */
+ * 4 light choice, 5 side of a two-sided light, 6-7 the lens point its t = 1 connections meet
+ * where CBDPT connects them on the host (a camera with a thin lens only); then
+ * CB_DIMS_PER_BOUNCE per bounce as for eye paths (cb_rng.h slots). Pairs start at even
+ * dimensions (the Sobol sampler's 2D pairs). */
 #define CB_LIGHT_DIM_POINT 0u
 #define CB_LIGHT_DIM_DIRECTION 2u
 #define CB_LIGHT_DIM_CHOICE 4u
 #define CB_LIGHT_DIM_SIDE 5u
+#define CB_LIGHT_DIM_LENS 6u
 #define CB_LIGHT_DIM_FIRST_BOUNCE 8u
 #define CB_LIGHT_STREAM_SALT 0x4c69676du
 
@@ -212,9 +215,12 @@ CB_FN real cameraImportance(const Camera* camera, Vec3 w, real* pdfDir) {
     return 1.0f / (area * cos2 * cos2);
 }
 
-CB_FN PathVertex bdptCameraVertex(const Camera* camera) {
+/* The camera vertex at `lens` (camera space, cameraLensPoint): the camera position for a pinhole.
+ * Its density on the lens (1 / its area) cancels against the importance's (pbrt-v4's We divides
+ * by the lens area), so the thin lens keeps the pinhole's We and pdfs per direction. */
+CB_FN PathVertex bdptCameraVertex(const Camera* camera, Vec3 lens) {
     PathVertex v;
-    cbStore3(v.p, affineTransformPoint(camera->cameraToWorld, vec3(0.0f, 0.0f, 0.0f)));
+    cbStore3(v.p, affineTransformPoint(camera->cameraToWorld, lens));
     cbStore3(v.n, vnormalize(affineTransformVector(camera->cameraToWorld, vec3(0.0f, 0.0f, 1.0f))));
     cbStore3(v.pError, vec3(0.0f, 0.0f, 0.0f));
     cbStore3(v.wo, vec3(0.0f, 0.0f, 0.0f));
@@ -357,10 +363,10 @@ CB_FN int bdptRandomWalk(const SceneView* scene, Ray ray, Spectrum beta, real pd
  * work-group's work-items are neighbouring pixels, so the camera rays are traced with
  * sceneIntersectCoherent (MLT's chains jump anywhere on the image and pass false). bdptEyeStart:
  * its camera vertex into eye[0] and its first ray, with that ray's direction density. */
-CB_FN Ray bdptEyeStart(const Camera* camera, real rasterX, real rasterY, PathVertex* eye,
+CB_FN Ray bdptEyeStart(const Camera* camera, real rasterX, real rasterY, Vec3 lens, PathVertex* eye,
                        real* pdfDir) {
-    eye[0] = bdptCameraVertex(camera);
-    Ray ray = cameraGenerateRay(camera, rasterX, rasterY);
+    eye[0] = bdptCameraVertex(camera, lens);
+    Ray ray = cameraGenerateRay(camera, rasterX, rasterY, lens);
     cameraImportance(camera, ray.d, pdfDir);
     return ray;
 }
@@ -368,12 +374,13 @@ CB_FN Ray bdptEyeStart(const Camera* camera, real rasterX, real rasterY, PathVer
 CB_FN int bdptEyeSubpath(const SceneView* scene, const Camera* camera, real rasterX, real rasterY,
                          bool pixelOrder, SampleStream stream, int maxVertices, PathVertex* eye,
                          int* rays) {
+    Vec3 lens = cameraStreamLensPoint(camera, stream, CB_DIM_LENS);
     if (maxVertices < 2) {
-        eye[0] = bdptCameraVertex(camera);
+        eye[0] = bdptCameraVertex(camera, lens);
         return 1;
     }
     real pdfDir;
-    Ray ray = bdptEyeStart(camera, rasterX, rasterY, eye, &pdfDir);
+    Ray ray = bdptEyeStart(camera, rasterX, rasterY, lens, eye, &pdfDir);
     return bdptRandomWalk(scene, ray, specConst(1.0f), pdfDir, 0, pixelOrder, stream,
                           CB_DIM_FIRST_BOUNCE, eye, 1, maxVertices, rays);
 }
@@ -653,6 +660,16 @@ typedef struct BdptConnection {
     int pad;
 } BdptConnection;
 
+/* Where a t = 1 connection meets the camera: the camera position, or on a thin lens eye[0]'s
+ * point (the eye subpath's lens sample, independent of the light subpath's). */
+CB_FN Vec3 bdptCameraPoint(const Camera* camera, const PathVertex* eye) {
+#if CB_HAS(CB_FEATURE_THIN_LENS)
+    if (camera->lensRadius > 0.0f) return pvP(&eye[0]);
+#endif
+    (void)eye;
+    return affineTransformPoint(camera->cameraToWorld, vec3(0.0f, 0.0f, 0.0f));
+}
+
 CB_FN bool bdptConnectUnoccluded(const SceneView* scene, const Camera* camera,
                                  const PathVertex* light, int s, const PathVertex* eye, int t,
                                  BdptConnection* out) {
@@ -690,11 +707,12 @@ CB_FN bool bdptConnectUnoccluded(const SceneView* scene, const Camera* camera,
     const PathVertex* qs = &light[s - 1];
     if (qs->type == CB_VERTEX_SURFACE && !materialHasNonDelta(scene, qs->material)) return false;
     if (t == 1) {
-        /* Light tracing: qs seen by the camera, splatted to the pixel it projects to. */
+        /* Light tracing: qs seen by the camera (from eye[0]'s point on a thin lens), splatted to
+         * the pixel it projects to. */
         if (s < 2) return false;
+        Vec3 cam = bdptCameraPoint(camera, eye);
         real rx, ry;
-        if (!cameraProjectPoint(camera, pvP(qs), &rx, &ry)) return false;
-        Vec3 cam = affineTransformPoint(camera->cameraToWorld, vec3(0.0f, 0.0f, 0.0f));
+        if (!cameraProjectPoint(camera, cam, pvP(qs), &rx, &ry)) return false;
         Vec3 d = vsub(cam, pvP(qs));
         real dist2 = vlength2(d);
         if (!(dist2 > 0.0f)) return false;
@@ -754,7 +772,7 @@ CB_FN Ray bdptConnectionRay(const Camera* camera, const PathVertex* light, int s
                             const PathVertex* eye, int t, real* tMax) {
     const PathVertex* qs = &light[s - 1];
     if (t == 1) {
-        Vec3 cam = affineTransformPoint(camera->cameraToWorld, vec3(0.0f, 0.0f, 0.0f));
+        Vec3 cam = bdptCameraPoint(camera, eye);
         return spawnRayTo(pvSurfacePoint(qs), cam, vec3(0.0f, 0.0f, 0.0f), vec3(0.0f, 0.0f, 0.0f),
                           tMax);
     }
@@ -808,7 +826,8 @@ CB_FN Spectrum bdptConnect(const SceneView* scene, const Camera* camera, const P
                            real cameraCount, real* rasterX, real* rasterY, int* rays) {
     Spectrum weighted;
     int needsShadow;
-    Ray shadow;
+    Ray shadow; /* set where needsShadow; zeroed for compilers that cannot see that */
+    shadow.o = shadow.d = vec3(0.0f, 0.0f, 0.0f);
     real shadowTMax = 0.0f;
     real rx = 0.0f, ry = 0.0f;
     if (!bdptConnectDeferred(scene, camera, light, s, eye, t, settings, cameraCount, &rx, &ry,

@@ -1,22 +1,65 @@
-/* cb_camera.h - pinhole perspective camera, pbrt-v4 conventions (see Camera in cb_types.h). */
+/* cb_camera.h - perspective camera, pinhole or thin lens, pbrt-v4 conventions (see Camera in
+ * cb_types.h). */
 #ifndef CB_CAMERA_H
 #define CB_CAMERA_H
 
 #include "cb_rng.h"
+#include "cb_sampling.h"
 #include "cb_types.h"
 
 CB_BEGIN_NAMESPACE
 
-/* Primary ray through raster position (rasterX, rasterY), (0,0) the top-left image corner.
- * Direction is unit length; origin is the camera position. */
-CB_FN Ray cameraGenerateRay(const Camera* camera, real rasterX, real rasterY) {
+/* The point on the lens, in camera space (z = 0), for the lens sample (u0, u1): uniform over the
+ * lens disk by the concentric map (pbrt-v4's SampleUniformDiskConcentric), the origin for a
+ * pinhole. */
+CB_FN Vec3 cameraLensPoint(const Camera* camera, real u0, real u1) {
+#if CB_HAS(CB_FEATURE_THIN_LENS)
+    if (camera->lensRadius > 0.0f) {
+        real x, y;
+        sampleConcentricDisk(u0, u1, &x, &y);
+        return vec3(x * camera->lensRadius, y * camera->lensRadius, 0.0f);
+    }
+#endif
+    (void)camera;
+    (void)u0;
+    (void)u1;
+    return vec3(0.0f, 0.0f, 0.0f);
+}
+
+/* The lens point of a sample stream: dimensions `dimension` and + 1 (a camera with a lens only). */
+CB_FN Vec3 cameraStreamLensPoint(const Camera* camera, SampleStream stream, uint dimension) {
+#if CB_HAS(CB_FEATURE_THIN_LENS)
+    if (camera->lensRadius > 0.0f) {
+        real u0, u1;
+        sampleAt2(stream, dimension, &u0, &u1);
+        return cameraLensPoint(camera, u0, u1);
+    }
+#endif
+    (void)stream;
+    (void)dimension;
+    return cameraLensPoint(camera, 0.5f, 0.5f);
+}
+
+/* Primary ray through raster position (rasterX, rasterY), (0,0) the top-left image corner, from
+ * `lens` (camera space, cameraLensPoint). Direction is unit length. A pinhole's ray leaves the
+ * camera position; a thin lens's leaves the lens point toward where the pinhole ray meets the
+ * plane of focus (pbrt-v4's PerspectiveCamera::GenerateRay). */
+CB_FN Ray cameraGenerateRay(const Camera* camera, real rasterX, real rasterY, Vec3 lens) {
     real sx =
         camera->screenCenterX + (2.0f * rasterX / (real)camera->width - 1.0f) * camera->tanHalfFovX;
     real sy = camera->screenCenterY +
               (1.0f - 2.0f * rasterY / (real)camera->height) * camera->tanHalfFovY;
+    Vec3 origin = vec3(0.0f, 0.0f, 0.0f), dir = vec3(sx, sy, 1.0f);
+#if CB_HAS(CB_FEATURE_THIN_LENS)
+    if (camera->lensRadius > 0.0f) {
+        origin = lens;
+        dir = vsub(vscale(dir, camera->focalDistance), lens);
+    }
+#endif
+    (void)lens;
     Ray ray;
-    ray.o = affineTransformPoint(camera->cameraToWorld, vec3(0.0f, 0.0f, 0.0f));
-    ray.d = vnormalize(affineTransformVector(camera->cameraToWorld, vec3(sx, sy, 1.0f)));
+    ray.o = affineTransformPoint(camera->cameraToWorld, origin);
+    ray.d = vnormalize(affineTransformVector(camera->cameraToWorld, dir));
     return ray;
 }
 
@@ -30,9 +73,22 @@ CB_FN void cameraJitteredRaster(SampleStream stream, int x, int y, real* rasterX
     *rasterY = (real)y + jitterY;
 }
 
-/* Raster position of a world point, if it lies in front of the camera and inside the image. */
-CB_FN bool cameraProjectPoint(const Camera* camera, Vec3 p, real* rasterX, real* rasterY) {
+/* Raster position of a world point seen from the world point `lens` on the lens (the camera
+ * position for a pinhole), if it lies in front of the camera and inside the image: for a thin
+ * lens, where the ray from the lens point through p meets the plane of focus, projected through
+ * the lens centre (pbrt-v4's PerspectiveCamera::We). */
+CB_FN bool cameraProjectPoint(const Camera* camera, Vec3 lens, Vec3 p, real* rasterX,
+                              real* rasterY) {
     Vec3 c = affineTransformPoint(camera->worldToCamera, p);
+#if CB_HAS(CB_FEATURE_THIN_LENS)
+    if (camera->lensRadius > 0.0f) {
+        Vec3 l = affineTransformPoint(camera->worldToCamera, lens);
+        Vec3 d = vsub(c, l);
+        if (!(d.z > 0.0f)) return false;
+        c = vmadd(l, d, camera->focalDistance / d.z);
+    }
+#endif
+    (void)lens;
     if (c.z <= 0.0f) return false;
     real sx = (c.x - camera->screenCenterX * c.z) / (c.z * camera->tanHalfFovX);
     real sy = (c.y - camera->screenCenterY * c.z) / (c.z * camera->tanHalfFovY);

@@ -208,11 +208,12 @@ CB_FN SampleStream ptPixelStream(SamplerSettings sampler, uint estimate, int str
     return samplerStreamShared(sampler, estimate, stream, sharedSamples, sharedDimensions);
 }
 
-/* The camera ray of pixel (x, y), jittered by the pixel's sample stream. */
+/* The camera ray of pixel (x, y), jittered (and through the lens) by the pixel's sample stream. */
 CB_FN Ray ptCameraRay(const Camera* camera, SampleStream samples, int x, int y) {
     real rasterX, rasterY;
     cameraJitteredRaster(samples, x, y, &rasterX, &rasterY);
-    return cameraGenerateRay(camera, rasterX, rasterY);
+    return cameraGenerateRay(camera, rasterX, rasterY,
+                             cameraStreamLensPoint(camera, samples, CB_DIM_LENS));
 }
 
 /* One PT/CPT sample of pixel (x, y) in linear sRGB: the whole work of one work-item of

@@ -248,10 +248,12 @@ CB_FN real sampleNext(SampleStream* s) {
 }
 
 /* Fixed dimension layout: the same decision reads the same dimension in every pixel, which is
- * what makes shared vectors coherent. Dimensions 0-1 are the pixel jitter; then each eye
+ * what makes shared vectors coherent. Dimensions 0-1 are the pixel jitter, 2-3 the point on a
+ * thin lens (read only by cameras with one); then each eye
  * vertex (bounce) owns CB_DIMS_PER_BOUNCE consecutive dimensions. Two-dimensional decisions start
  * at even dimensions: the Sobol sampler stratifies the pairs (2i, 2i+1) jointly. */
 #define CB_DIM_PIXEL 0u
+#define CB_DIM_LENS 2u
 #define CB_DIM_FIRST_BOUNCE 4u
 #define CB_DIMS_PER_BOUNCE 8u
 #define CB_SLOT_BSDF_DIRECTION 0u /* 2 dims */

@@ -91,6 +91,7 @@ typedef struct SurfacePoint {
 #define CB_FEATURE_SPOT_LIGHT (1u << 11)     /* point lights with a cone (pbrt-v4's "spot") */
 #define CB_FEATURE_DISTANT_LIGHT (1u << 12)  /* pbrt-v4's "distant": a delta in direction */
 #define CB_FEATURE_INFINITE_LIGHT (1u << 13) /* pbrt-v4's "infinite" with a constant L */
+#define CB_FEATURE_THIN_LENS (1u << 14)      /* a camera with a lens radius (depth of field) */
 
 #ifndef CB_FEATURES
 #define CB_FEATURES 0xffffffffu
@@ -158,7 +159,10 @@ typedef struct Camera {
      * --cropwindow), whose image is that part of the full film's screen window. */
     real screenCenterX;
     real screenCenterY;
-    int pad[2];
+    /* pbrt-v4's thin lens: a lens of this radius at the camera's origin, in focus at z =
+     * focalDistance (camera space); radius 0 is the pinhole (CB_FEATURE_THIN_LENS). */
+    real lensRadius;
+    real focalDistance;
 } Camera;
 
 CB_FN Vec3 affineTransformPoint(const real* m, Vec3 p) {

@@ -58,7 +58,9 @@ __kernel void renderCoherentBdpt(CB_CBDPT_PARAMS, int tile, __global PathVertex*
         cameraJitteredRaster(eyeStream, x, y, &rasterX, &rasterY);
         PathVertex eye0[1];
         real pdfDir;
-        rays[i] = bdptEyeStart(&camera, rasterX, rasterY, eye0, &pdfDir);
+        rays[i] =
+            bdptEyeStart(&camera, rasterX, rasterY,
+                         cameraStreamLensPoint(&camera, eyeStream, CB_DIM_LENS), eye0, &pdfDir);
         eyes[i * maxEye] = eye0[0];
         CbdptWalk walk;
         walk.beta = specConst(1.0f);

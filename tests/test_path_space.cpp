@@ -294,7 +294,8 @@ MissingImages integrateMissing(const MirrorRoom& room, const cb::DeviceScene& sc
                     for (int i = 0; i < strata; ++i) {
                         double rx = x + (i + uniform(rng)) / strata;
                         double ry = y + (j + uniform(rng)) / strata;
-                        cbk::Ray ray = cbk::cameraGenerateRay(&camera, float(rx), float(ry));
+                        cbk::Ray ray = cbk::cameraGenerateRay(&camera, float(rx), float(ry),
+                                                              cbk::vec3(0.0f, 0.0f, 0.0f));
                         // Device coordinates are world coordinates minus scene.origin.
                         V3 origin = add({ray.o.x, ray.o.y, ray.o.z}, scene.origin);
                         MissingRadiance m =

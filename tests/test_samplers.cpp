@@ -93,8 +93,9 @@ struct SphereLitPlane {
             for (int x = 0; x < camera.width; ++x)
                 for (int j = 0; j < sub; ++j)
                     for (int i = 0; i < sub; ++i) {
-                        Ray ray = cameraGenerateRay(&camera, real(x + (i + 0.5) / sub),
-                                                    real(y + (j + 0.5) / sub));
+                        Ray ray =
+                            cameraGenerateRay(&camera, real(x + (i + 0.5) / sub),
+                                              real(y + (j + 0.5) / sub), vec3(0.0f, 0.0f, 0.0f));
                         double t = (2.0 - o[2] - double(ray.o.z)) / double(ray.d.z);
                         double p[3] = {o[0] + ray.o.x + t * ray.d.x, o[1] + ray.o.y + t * ray.d.y,
                                        2.0};

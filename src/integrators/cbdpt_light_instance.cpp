@@ -51,7 +51,6 @@ class LightTracer final : public CbdptLightTracer {
         // BDPT: W*H subpaths per estimate, each splatting with the importance of "some pixel"
         // (pbrt-v4's We, see cameraImportance). Here `subpaths_` stand for all of them.
         const float scale = float(double(width) * double(height) / double(subpaths_));
-        cbk::PathVertex eye[1] = {cbk::bdptCameraVertex(&camera_)};
         for (int i = 0; i < settings_.tileRows; ++i)
             for (int j = 0; j < settings_.tileColumns; ++j) {
                 const int index = i * settings_.tileColumns + j;
@@ -59,12 +58,16 @@ class LightTracer final : public CbdptLightTracer {
                 for (auto& v : path_)
                     v = cbk::PathVertex{};
                 int rays = 0;
-                const int count = cbk::bdptLightSubpath(
-                    &view_,
-                    cbk::bdptLightStream(
-                        sampler_, estimate, stream,
-                        std::uint32_t(settings_.coherenceTile * settings_.coherenceTile)),
-                    nl, path_.data(), &rays);
+                const cbk::SampleStream lightStream = cbk::bdptLightStream(
+                    sampler_, estimate, stream,
+                    std::uint32_t(settings_.coherenceTile * settings_.coherenceTile));
+                const int count =
+                    cbk::bdptLightSubpath(&view_, lightStream, nl, path_.data(), &rays);
+                // Its t = 1 connections meet the camera at one point of the lens (a pinhole:
+                // the camera position), drawn from its own stream.
+                cbk::PathVertex eye[1] = {cbk::bdptCameraVertex(
+                    &camera_,
+                    cbk::cameraStreamLensPoint(&camera_, lightStream, CB_LIGHT_DIM_LENS))};
                 out.counts[std::size_t(index)] = count;
                 std::memcpy(out.vertices.data() +
                                 std::size_t(index) * std::size_t(nl) * sizeof(cbk::PathVertex),

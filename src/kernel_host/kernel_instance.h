@@ -125,7 +125,8 @@ template <class Visit> void forEachField(cbk::Camera& s, Visit&& visit) {
     visit(s.height);
     visit(s.screenCenterX);
     visit(s.screenCenterY);
-    visit(s.pad);
+    visit(s.lensRadius);
+    visit(s.focalDistance);
 }
 
 // Calls word(element) for each scalar of a field, arrays of arrays included.

@@ -168,6 +168,8 @@ cbk::Camera makeCamera(const SceneDesc& desc, const std::array<double, 3>& origi
     camera.tanHalfFovY = float(aspect >= 1.0 ? tanHalf : tanHalf / aspect);
     camera.width = film.width;
     camera.height = film.height;
+    camera.lensRadius = desc.camera.lensRadius;
+    camera.focalDistance = desc.camera.focalDistance;
     if (film.pixelBounds) cropCamera(camera, *film.pixelBounds, where);
     return camera;
 }
@@ -245,6 +247,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
     // origin renders like the same scene at the origin.
     scene.origin = deviceOrigin(desc);
     scene.camera = makeCamera(desc, scene.origin);
+    if (scene.camera.lensRadius > 0.f) scene.features |= CB_FEATURE_THIN_LENS;
     auto toDevice = [&](const std::array<double, 3>& p, float* out) {
         for (int a = 0; a < 3; ++a)
             out[a] = float(p[size_t(a)] - scene.origin[size_t(a)]);
@@ -502,14 +505,15 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
     scene.lights.back().cdf = 1.0f; // rounding must not leave a gap at the top
 
     // The BVH settings are chosen by the traversal work of rays from this camera (bvh_choice.h):
-    // a grid of 32 x 32 pixel centres.
+    // a grid of 32 x 32 pixel centres, through the lens centre.
     std::vector<cbk::Ray> cameraRays;
     constexpr int kSampleGrid = 32;
+    const cbk::Vec3 lensCentre = cbk::cameraLensPoint(&scene.camera, 0.5f, 0.5f);
     for (int y = 0; y < kSampleGrid; ++y)
         for (int x = 0; x < kSampleGrid; ++x)
             cameraRays.push_back(cbk::cameraGenerateRay(
                 &scene.camera, (float(x) + 0.5f) * float(scene.camera.width) / kSampleGrid,
-                (float(y) + 0.5f) * float(scene.camera.height) / kSampleGrid));
+                (float(y) + 0.5f) * float(scene.camera.height) / kSampleGrid, lensCentre));
     WideBvhChoice choice = buildWideBvhForRays(primitives, cameraRays);
     scene.wideSettings = choice.settings;
     scene.wideSettingsWhy = describeChoice(choice);
@@ -551,6 +555,7 @@ std::string DeviceScene::featureNames() const {
     add(CB_FEATURE_SPOT_LIGHT, "spot-light");
     add(CB_FEATURE_DISTANT_LIGHT, "distant-light");
     add(CB_FEATURE_INFINITE_LIGHT, "infinite-light");
+    add(CB_FEATURE_THIN_LENS, "thin-lens");
     names += channels == 16 ? " spectral-16" : " rgb";
     return names;
 }

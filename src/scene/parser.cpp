@@ -205,9 +205,8 @@ bool knownParamType(const std::string& t) {
     return false;
 }
 
-// What a spectral parameter's values may be: a reflectance in [0, 1], an emission >= 0, or a
-// conductor's eta or k in [0, kMaxConductorIndex].
-// Reflectance: a fraction of light in [0, 1] (reflectances and transmittances).
+// What a spectral parameter's values may be: a fraction of light in [0, 1] (a reflectance or a
+// transmittance), an emission >= 0, or a conductor's eta or k in [0, kMaxConductorIndex].
 enum class SpectrumRole { Reflectance, Emission, ConductorIndex };
 // fresnelConductor's float arithmetic stays finite to about 1e9; no material comes near 1e6.
 constexpr double kMaxConductorIndex = 1e6;
@@ -903,9 +902,24 @@ class Parser {
             throw SceneError(t.where, "\"float shutterclose\" must be greater than "
                                       "\"float shutteropen\"");
         scene_.film.exposureTime = close - open;
-        if (const Param* p = pl.peek("lensradius"); p && *pl.oneFloat("lensradius") != 0.0)
-            throw SceneError(p->where, "a thin lens (\"float lensradius\" > 0) is not supported");
-        pl.ignore("focaldistance", {"float"});
+        // pbrt-v4's thin lens (PerspectiveCamera): depth of field.
+        if (const Param* p = pl.peek("lensradius")) {
+            const double r = *pl.oneFloat("lensradius");
+            if (!(r >= 0.0 && r <= 1e6))
+                throw SceneError(
+                    p->valueLoc(0),
+                    fmt::format("\"float lensradius\" must be in [0, 1e6], got {:g}", r));
+            cam.lensRadius = static_cast<float>(r);
+        }
+        if (const Param* p = pl.peek("focaldistance")) {
+            const double d = *pl.oneFloat("focaldistance");
+            if (!(d > 0.0 && d <= 1e30))
+                throw SceneError(p->valueLoc(0),
+                                 fmt::format("\"float focaldistance\" must be in (0, 1e30], got "
+                                             "{:g}",
+                                             d));
+            cam.focalDistance = static_cast<float>(d);
+        }
         pl.finish();
     }
 
@@ -1341,7 +1355,9 @@ class Parser {
             throw SceneError(p->where, "spectrally varying dielectric \"eta\" is not "
                                        "supported; give \"float eta\"");
         const double eta = *pl.oneFloat("eta");
-        if (!(eta > 0.0)) throw SceneError(p->where, "\"float eta\" must be > 0");
+        if (!(eta > 0.0))
+            throw SceneError(p->valueLoc(0),
+                             fmt::format("\"float eta\" must be > 0, got {:g}", eta));
         m.eta = static_cast<float>(eta);
     }
 
@@ -1393,14 +1409,9 @@ class Parser {
             if (auto r = pl.spectrum("reflectance", SpectrumRole::Reflectance)) m.reflectance = *r;
             if (auto t = pl.spectrum("transmittance", SpectrumRole::Reflectance))
                 m.transmittance = *t;
-            if (const Param* p = pl.peek("scale")) {
-                const double scale = *pl.oneFloat("scale");
-                if (!(scale >= 0.0 && scale <= 1e6))
-                    throw SceneError(p->where, fmt::format("\"float scale\" must be in [0, 1e6], "
-                                                           "got {:g}",
-                                                           scale));
-                m.scale = static_cast<float>(scale);
-            }
+            // Any scale, as in pbrt-v4: the products are clamped to [0, 1] (a negative scale
+            // makes the surface black).
+            if (pl.peek("scale")) m.scale = static_cast<float>(*pl.oneFloat("scale"));
         } else if (type == "mix") {
             m.kind = MaterialKind::Mix;
             const Param* mats = pl.stringList("materials");

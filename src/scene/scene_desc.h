@@ -139,6 +139,10 @@ struct CameraDesc {
     // left-handed camera space: +z forward, +y up, +x right in the image.
     std::array<double, 16> worldToCamera{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
     float fovDegrees = 90.f; // pbrt: the field of view of the shorter image axis
+    // pbrt-v4's thin lens, in camera space: radius 0 is the pinhole; in focus at z =
+    // focalDistance (pbrt-v4's default 1e6)
+    float lensRadius = 0.f;
+    float focalDistance = 1e6f;
     SourceLocation where;
 };
 

@@ -51,10 +51,15 @@ void checkScene(const cb::SceneDesc& s) {
     for (double v : s.camera.worldToCamera)
         if (!std::isfinite(v)) broken("camera matrix not finite");
     if (!(s.camera.fovDegrees > 0.f && s.camera.fovDegrees < 180.f)) broken("fov out of range");
+    if (!(s.camera.lensRadius >= 0.f && s.camera.lensRadius <= 1e6f)) broken("lens radius");
+    if (!(s.camera.focalDistance > 0.f && std::isfinite(s.camera.focalDistance)))
+        broken("focal distance");
     if (s.film.width < 1 || s.film.height < 1 || s.film.width > 65536 || s.film.height > 65536)
         broken("film resolution out of range");
     for (const cb::MaterialDesc& m : s.materials) {
         checkSpectrum(m.reflectance, true, "material reflectance");
+        checkSpectrum(m.transmittance, true, "material transmittance");
+        if (!std::isfinite(m.scale)) broken("material scale");
         if (!std::isfinite(m.roughness) || m.roughness < 0.f) broken("roughness");
         if (!std::isfinite(m.eta) || !(m.eta > 0.f)) broken("eta");
         if (!(m.amount >= 0.f && m.amount <= 1.f)) broken("mix amount");
