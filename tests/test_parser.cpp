@@ -536,7 +536,8 @@ TEST_CASE("parser: parameter errors name the parameter") {
     expectError("Film \"rgb\" \"float gain\" 100\n", "t.pbrt:1:12",
                 "unknown or unsupported parameter");
     expectError("Camera \"perspective\" \"float fov\" 180\n", "t.pbrt:1:22", "(0, 180)");
-    expectError("Camera \"perspective\" \"float lensradius\" 0.1\n", "t.pbrt:1:22", "thin lens");
+    expectError("Camera \"perspective\" \"float lensradius\" -0.1\n", "t.pbrt:1:41",
+                "\"float lensradius\" must be in [0, 1e6], got -0.1");
     expectError("Camera \"perspective\" \"float screenwindow\" [-1 1 -1 1]\n", "t.pbrt:1:22",
                 "unknown or unsupported parameter");
 }
@@ -597,7 +598,8 @@ TEST_CASE("parser: material errors") {
                 "must be >= 0");
     expectError(w + "Material \"dielectric\" \"spectrum eta\" \"glass-BK7\"\n", "t.pbrt:2:23",
                 "spectrally varying");
-    expectError(w + "Material \"dielectric\" \"float eta\" 0\n", "t.pbrt:2:23", "must be > 0");
+    expectError(w + "Material \"dielectric\" \"float eta\" 0\n", "t.pbrt:2:35",
+                "must be > 0, got 0");
     expectError(w + "Material \"diffuse\" \"float sigma\" 10\n", "t.pbrt:2:20",
                 "unknown or unsupported parameter \"float sigma\" for Material \"diffuse\"");
     // pbrt-v4 looks names up after parsing: an undefined one is an error where a shape uses it.

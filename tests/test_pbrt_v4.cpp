@@ -655,9 +655,50 @@ TEST_CASE("pbrt-v4 disk light: irradiance on a plane against the analytic image 
 
 namespace {
 
-// Mean and standard error of the image mean over independent runs (seeds): the spread over
-// runs, so that methods whose pixels share samples (CPT, CBDPT) or chains (MLT) are judged
-// fairly.
+// The mean of each bin of pixel channels (binOf(x, y, channel): a bin below `bins`, or `bins`
+// for none) over `estimates` estimates, per run of seeds seed, seed + 1, ...: the checks use the
+// spread over runs, so that methods whose pixels share samples (CPT, CBDPT) or chains (MLT) are
+// judged fairly.
+struct BinnedMeans {
+    cbtest::RunStats stats;
+    long nonFinite = 0;
+};
+
+template <class BinOf>
+BinnedMeans binnedMeans(const cb::DeviceScene& scene, cb::ClRuntime& runtime,
+                        cb::IntegratorSettings settings, int runs, int estimates,
+                        std::uint32_t seed, size_t bins, BinOf binOf) {
+    const int w = scene.camera.width, h = scene.camera.height;
+    std::vector<double> members(bins, 0.0);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+            for (int c = 0; c < 3; ++c)
+                if (const size_t b = binOf(x, y, c); b < bins) members[b] += 1.0;
+    BinnedMeans out;
+    std::vector<std::vector<double>> all;
+    std::vector<float> rgb;
+    for (int r = 0; r < runs; ++r) {
+        settings.seed = seed + std::uint32_t(r);
+        auto integrator = cb::makeIntegrator(settings, scene, runtime);
+        std::vector<double> sum(bins, 0.0);
+        for (int e = 0; e < estimates; ++e) {
+            integrator->renderEstimate(std::uint32_t(e), rgb);
+            for (int y = 0; y < h; ++y)
+                for (int x = 0; x < w; ++x)
+                    for (int c = 0; c < 3; ++c)
+                        if (const size_t b = binOf(x, y, c); b < bins)
+                            sum[b] += rgb[3 * size_t(y * w + x) + size_t(c)];
+        }
+        for (size_t b = 0; b < bins; ++b)
+            sum[b] /= members[b] * estimates;
+        all.push_back(sum);
+        out.nonFinite += integrator->nonFiniteSamples();
+    }
+    out.stats = cbtest::summarizeRuns(all);
+    return out;
+}
+
+// The image mean (all channels) and its standard error over runs.
 struct MethodMean {
     double mean = 0.0, se = 0.0;
     long nonFinite = 0;
@@ -665,25 +706,16 @@ struct MethodMean {
 
 MethodMean methodMean(const cb::DeviceScene& scene, cb::ClRuntime& runtime,
                       cb::IntegratorSettings settings, int runs, int estimates) {
-    std::vector<std::vector<double>> means;
-    std::vector<float> rgb;
-    MethodMean out;
-    for (int r = 0; r < runs; ++r) {
-        settings.seed = 100u + std::uint32_t(r);
-        auto integrator = cb::makeIntegrator(settings, scene, runtime);
-        double sum = 0.0;
-        for (int e = 0; e < estimates; ++e) {
-            integrator->renderEstimate(std::uint32_t(e), rgb);
-            for (float v : rgb)
-                sum += v;
-        }
-        means.push_back({sum / double(rgb.size()) / estimates});
-        out.nonFinite += integrator->nonFiniteSamples();
-    }
-    const cbtest::RunStats s = cbtest::summarizeRuns(means);
-    out.mean = s.mean[0];
-    out.se = s.se[0];
-    return out;
+    const BinnedMeans b = binnedMeans(scene, runtime, settings, runs, estimates, 100u, 1,
+                                      [](int, int, int) { return size_t(0); });
+    return {b.stats.mean[0], b.stats.se[0], b.nonFinite};
+}
+
+// Per channel, for images whose expected value is known per channel.
+BinnedMeans channelMeans(const cb::DeviceScene& scene, cb::ClRuntime& runtime,
+                         cb::IntegratorSettings settings, int estimates, std::uint32_t seed) {
+    return binnedMeans(scene, runtime, settings, 6, estimates, seed, 3,
+                       [](int, int, int c) { return size_t(c); });
 }
 
 cb::IntegratorSettings methodSettings(const std::string& name) {
@@ -791,24 +823,9 @@ void checkMethodsAgreeWithPt(const std::string& light, const std::string& extra 
     const cb::DeviceScene scene = cb::buildDeviceScene(parseSceneString(text, "t.pbrt"));
     const int w = scene.camera.width, h = scene.camera.height;
     auto cells = [&](cb::IntegratorSettings settings, int runs, int estimates) {
-        std::vector<std::vector<double>> all;
-        std::vector<float> rgb;
-        for (int r = 0; r < runs; ++r) {
-            settings.seed = 500u + std::uint32_t(r);
-            auto integrator = cb::makeIntegrator(settings, scene, runtime);
-            std::vector<double> sum(9, 0.0);
-            for (int e = 0; e < estimates; ++e) {
-                integrator->renderEstimate(std::uint32_t(e), rgb);
-                for (int y = 0; y < h; ++y)
-                    for (int x = 0; x < w; ++x) {
-                        const size_t i = 3 * size_t(y * w + x);
-                        sum[size_t((3 * y / h) * 3 + 3 * x / w)] +=
-                            (rgb[i] + rgb[i + 1] + rgb[i + 2]) / 3.0 * 9.0 / (w * h) / estimates;
-                    }
-            }
-            all.push_back(sum);
-        }
-        return cbtest::summarizeRuns(all);
+        return binnedMeans(scene, runtime, settings, runs, estimates, 500u, 9,
+                           [&](int x, int y, int) { return size_t((3 * y / h) * 3 + 3 * x / w); })
+            .stats;
     };
     cb::IntegratorSettings pt = methodSettings("pt");
     pt.maxPathVertices = 0;
@@ -1076,23 +1093,8 @@ TEST_CASE("pbrt-v4 conductor: a smooth eta, k plane under a constant sky has rad
             }
         for (const std::string method : kMethods) {
             CAPTURE(method);
-            cb::IntegratorSettings settings = methodSettings(method);
-            std::vector<std::vector<double>> runs;
-            std::vector<float> rgb;
-            long nonFinite = 0;
-            for (int r = 0; r < 6; ++r) {
-                settings.seed = 700u + std::uint32_t(r);
-                auto integrator = cb::makeIntegrator(settings, scene, runtime);
-                std::vector<double> mean(3, 0.0);
-                for (int e = 0; e < 4; ++e) {
-                    integrator->renderEstimate(std::uint32_t(e), rgb);
-                    for (size_t p = 0; p < rgb.size(); ++p)
-                        mean[p % 3] += rgb[p] * 3.0 / double(rgb.size()) / 4.0;
-                }
-                runs.push_back(mean);
-                nonFinite += integrator->nonFiniteSamples();
-            }
-            const cbtest::RunStats st = cbtest::summarizeRuns(runs);
+            const BinnedMeans b = channelMeans(scene, runtime, methodSettings(method), 4, 700u);
+            const cbtest::RunStats& st = b.stats;
             for (size_t ch = 0; ch < 3; ++ch) {
                 CAPTURE(ch);
                 CAPTURE(expected[ch]);
@@ -1102,7 +1104,7 @@ TEST_CASE("pbrt-v4 conductor: a smooth eta, k plane under a constant sky has rad
                 CHECK(std::fabs(st.mean[ch] - expected[ch]) <=
                       4.5 * st.se[ch] + (scene.channels == 3 ? 1e-4 : 2e-3) * expected[ch]);
             }
-            CHECK(nonFinite == 0);
+            CHECK(b.nonFinite == 0);
         }
     }
 }
@@ -1311,26 +1313,12 @@ TEST_CASE("pbrt-v4 diffusetransmission and thindielectric: a lid on a black box 
         const cb::DeviceScene scene = cb::buildDeviceScene(parseSceneString(text, "t.pbrt"));
         for (const std::string method : kMethods) {
             CAPTURE(method);
-            cb::IntegratorSettings settings = methodSettings(method);
             // CPT's and CBDPT's pixels share each estimate's samples, so one lobe choice
             // decides the whole image: many estimates per run, or 6 runs misjudge the spread.
             const int estimates = method == "cpt" || method == "cbdpt" ? 64 : 4;
-            std::vector<std::vector<double>> runs;
-            std::vector<float> rgb;
-            long nonFinite = 0;
-            for (int r = 0; r < 6; ++r) {
-                settings.seed = 900u + std::uint32_t(r);
-                auto integrator = cb::makeIntegrator(settings, scene, runtime);
-                std::vector<double> mean(3, 0.0);
-                for (int e = 0; e < estimates; ++e) {
-                    integrator->renderEstimate(std::uint32_t(e), rgb);
-                    for (size_t p = 0; p < rgb.size(); ++p)
-                        mean[p % 3] += rgb[p] * 3.0 / double(rgb.size()) / estimates;
-                }
-                runs.push_back(mean);
-                nonFinite += integrator->nonFiniteSamples();
-            }
-            const cbtest::RunStats st = cbtest::summarizeRuns(runs);
+            const BinnedMeans b =
+                channelMeans(scene, runtime, methodSettings(method), estimates, 900u);
+            const cbtest::RunStats& st = b.stats;
             for (size_t ch = 0; ch < 3; ++ch) {
                 CAPTURE(ch);
                 CAPTURE(c.expected[ch]);
@@ -1339,7 +1327,7 @@ TEST_CASE("pbrt-v4 diffusetransmission and thindielectric: a lid on a black box 
                 CHECK(std::fabs(st.mean[ch] - c.expected[ch]) <=
                       4.5 * st.se[ch] + 1e-4 * c.expected[ch]);
             }
-            CHECK(nonFinite == 0);
+            CHECK(b.nonFinite == 0);
         }
     }
 }
@@ -1452,28 +1440,11 @@ TEST_CASE("pbrt-v4 thin lens: the defocused image of a disk light against quadra
             CHECK(expected[3] > 0.05);
         for (const std::string method : kMethods) {
             CAPTURE(method);
-            cb::IntegratorSettings settings = methodSettings(method);
             const int estimates = method == "cpt" || method == "cbdpt" ? 64 : 8;
-            std::vector<std::vector<double>> runs;
-            std::vector<float> rgb;
-            long nonFinite = 0;
-            for (int run = 0; run < 6; ++run) {
-                settings.seed = 1300u + std::uint32_t(run);
-                auto integrator = cb::makeIntegrator(settings, scene, runtime);
-                std::vector<double> mean(rings, 0.0);
-                for (int e = 0; e < estimates; ++e) {
-                    integrator->renderEstimate(std::uint32_t(e), rgb);
-                    for (int y = 0; y < size; ++y)
-                        for (int x = 0; x < size; ++x) {
-                            const size_t p = 3 * size_t(y * size + x);
-                            mean[size_t(ring(x, y))] += (rgb[p] + rgb[p + 1] + rgb[p + 2]) / 3.0 /
-                                                        pixelsIn[size_t(ring(x, y))] / estimates;
-                        }
-                }
-                runs.push_back(mean);
-                nonFinite += integrator->nonFiniteSamples();
-            }
-            const cbtest::RunStats st = cbtest::summarizeRuns(runs);
+            const BinnedMeans b =
+                binnedMeans(scene, runtime, methodSettings(method), 6, estimates, 1300u,
+                            size_t(rings), [&](int x, int y, int) { return size_t(ring(x, y)); });
+            const cbtest::RunStats& st = b.stats;
             for (int r = 0; r < rings; ++r) {
                 CAPTURE(r);
                 CAPTURE(expected[size_t(r)]);
@@ -1484,7 +1455,7 @@ TEST_CASE("pbrt-v4 thin lens: the defocused image of a disk light against quadra
                 CHECK(std::fabs(st.mean[size_t(r)] - expected[size_t(r)]) <=
                       4.5 * st.se[size_t(r)] + 2e-3);
             }
-            CHECK(nonFinite == 0);
+            CHECK(b.nonFinite == 0);
         }
     }
 }
@@ -1517,25 +1488,11 @@ TEST_CASE("pbrt-v4 thin lens: a defocused occluder's profile, BDPT, CBDPT and ML
         "Material \"diffuse\" \"rgb reflectance\" [0 0 0]\n"
         "Shape \"bilinearmesh\" \"point3 P\" [-0.1 -1 1  0.1 -1 1  -0.1 1 1  0.1 1 1]\n";
     const cb::DeviceScene scene = cb::buildDeviceScene(parseSceneString(text, "t.pbrt"));
-    const int w = scene.camera.width, h = scene.camera.height;
+    const int w = scene.camera.width;
     auto columns = [&](cb::IntegratorSettings settings, int runs, int estimates) {
-        std::vector<std::vector<double>> all;
-        std::vector<float> rgb;
-        for (int r = 0; r < runs; ++r) {
-            settings.seed = 1500u + std::uint32_t(r);
-            auto integrator = cb::makeIntegrator(settings, scene, runtime);
-            std::vector<double> sum(size_t(w), 0.0);
-            for (int e = 0; e < estimates; ++e) {
-                integrator->renderEstimate(std::uint32_t(e), rgb);
-                for (int y = 0; y < h; ++y)
-                    for (int x = 0; x < w; ++x) {
-                        const size_t i = 3 * size_t(y * w + x);
-                        sum[size_t(x)] += (rgb[i] + rgb[i + 1] + rgb[i + 2]) / 3.0 / h / estimates;
-                    }
-            }
-            all.push_back(sum);
-        }
-        return cbtest::summarizeRuns(all);
+        return binnedMeans(scene, runtime, settings, runs, estimates, 1500u, size_t(w),
+                           [](int x, int, int) { return size_t(x); })
+            .stats;
     };
     cb::IntegratorSettings pt = methodSettings("pt");
     const cbtest::RunStats reference = columns(pt, 8, 32);
@@ -1580,26 +1537,9 @@ TEST_CASE("pbrt-v4 thin lens: a defocused caustic, CBDPT's light tracing against
         return std::min(rings - 1, int(r / 2.5));
     };
     auto ringMeans = [&](cb::IntegratorSettings settings, int estimates) {
-        std::vector<std::vector<double>> all;
-        std::vector<float> rgb;
-        for (int r = 0; r < 6; ++r) {
-            settings.seed = 1700u + std::uint32_t(r);
-            auto integrator = cb::makeIntegrator(settings, scene, runtime);
-            std::vector<double> sum(rings, 0.0), count(rings, 0.0);
-            for (int e = 0; e < estimates; ++e) {
-                integrator->renderEstimate(std::uint32_t(e), rgb);
-                for (int y = 0; y < size; ++y)
-                    for (int x = 0; x < size; ++x) {
-                        const size_t i = 3 * size_t(y * size + x);
-                        sum[size_t(ring(x, y))] += (rgb[i] + rgb[i + 1] + rgb[i + 2]) / 3.0;
-                        count[size_t(ring(x, y))] += 1.0;
-                    }
-            }
-            for (int k = 0; k < rings; ++k)
-                sum[size_t(k)] /= count[size_t(k)];
-            all.push_back(sum);
-        }
-        return cbtest::summarizeRuns(all);
+        return binnedMeans(scene, runtime, settings, 6, estimates, 1700u, size_t(rings),
+                           [&](int x, int y, int) { return size_t(ring(x, y)); })
+            .stats;
     };
     cb::IntegratorSettings bdpt = methodSettings("bdpt"), cbdpt = methodSettings("cbdpt");
     bdpt.maxPathVertices = cbdpt.maxPathVertices = 5;
