@@ -730,6 +730,11 @@ cb::IntegratorSettings methodSettings(const std::string& name) {
 
 const char* const kMethods[] = {"pt", "cpt", "bdpt", "cbdpt", "mlt"};
 
+// The area light of checkMethodsAgreeWithPt's scenes: a disk above the block, facing down.
+const std::string kDiskLight = "AttributeBegin\nAreaLightSource \"diffuse\" \"rgb L\" [4 4 4]\n"
+                               "Translate -0.5 1.5 0\nRotate 90 1 0 0\n"
+                               "Shape \"disk\" \"float radius\" 0.3\nAttributeEnd\n";
+
 } // namespace
 
 TEST_CASE("pbrt-v4 distant light: parameters, normalisation and direction") {
@@ -1111,9 +1116,7 @@ TEST_CASE("pbrt-v4 conductor: a smooth eta, k plane under a constant sky has rad
 
 TEST_CASE("pbrt-v4 conductor: BDPT, CBDPT and MLT agree with PT with rough eta, k blocks" *
           doctest::test_suite("statistical")) {
-    checkMethodsAgreeWithPt("AttributeBegin\nAreaLightSource \"diffuse\" \"rgb L\" [4 4 4]\n"
-                            "Translate -0.5 1.5 0\nRotate 90 1 0 0\n"
-                            "Shape \"disk\" \"float radius\" 0.3\nAttributeEnd\n",
+    checkMethodsAgreeWithPt(kDiskLight,
                             "AttributeBegin\nMaterial \"conductor\" \"rgb eta\" [0.17 0.43 1.5] "
                             "\"rgb k\" [3.1 2.4 1.9] \"float roughness\" 0.1\n"
                             "Translate 0.8 0.3 -0.4\nShape \"sphere\" \"float radius\" 0.3\n"
@@ -1146,9 +1149,7 @@ TEST_CASE("pbrt-v4 dielectric: roughness makes it rough (alpha = sqrt(roughness)
 
 TEST_CASE("pbrt-v4 dielectric: BDPT, CBDPT and MLT agree with PT with a rough glass sphere" *
           doctest::test_suite("statistical")) {
-    checkMethodsAgreeWithPt("AttributeBegin\nAreaLightSource \"diffuse\" \"rgb L\" [4 4 4]\n"
-                            "Translate -0.5 1.5 0\nRotate 90 1 0 0\n"
-                            "Shape \"disk\" \"float radius\" 0.3\nAttributeEnd\n",
+    checkMethodsAgreeWithPt(kDiskLight,
                             "AttributeBegin\nMaterial \"dielectric\" \"float eta\" 1.5 "
                             "\"float roughness\" 0.1\n"
                             "Translate 0.5 0.35 -0.5\nShape \"sphere\" \"float radius\" 0.3\n"
@@ -1464,10 +1465,7 @@ TEST_CASE("pbrt-v4 thin lens: BDPT, CBDPT and MLT agree with PT, light tracing i
           doctest::test_suite("statistical")) {
     // In focus at the block, the floor and the wall blurred; BDPT's t = 1 strategy projects
     // through the lens point.
-    checkMethodsAgreeWithPt("AttributeBegin\nAreaLightSource \"diffuse\" \"rgb L\" [4 4 4]\n"
-                            "Translate -0.5 1.5 0\nRotate 90 1 0 0\n"
-                            "Shape \"disk\" \"float radius\" 0.3\nAttributeEnd\n",
-                            "", "\"float lensradius\" 0.2 \"float focaldistance\" 3.2");
+    checkMethodsAgreeWithPt(kDiskLight, "", "\"float lensradius\" 0.2 \"float focaldistance\" 3.2");
 }
 
 // A black bar close to a thin-lens camera focused on a lit wall behind it: the bar's image is a
