@@ -223,6 +223,10 @@ with tempfile.TemporaryDirectory() as tmp:
     r = subprocess.run([cbdpt, "info", box], capture_output=True, text=True)
     check("4 (2 area-light primitives, 1 point lights, 1 spot, 0 distant, 0 infinite)" in r.stdout,
           f"info counts the spot light apart from the point light ({r.stdout.strip()})")
+    lens = os.path.join(root, "scenes", "pbrt-v4", "thin-lens.pbrt")
+    r = subprocess.run([cbdpt, "info", lens], capture_output=True, text=True)
+    check("fov 40, thin lens of radius 0.12, in focus at 3.3" in r.stdout and "thin-lens" in r.stdout,
+          f"info describes the thin lens ({r.stdout.strip()})")
 
 # Command-line habits (pbrt-v4's names where it has them) and bad input.
 def run(*args, env=None):

@@ -63,6 +63,11 @@ void printScene(const std::string& scenePath) {
                scene.wide.packs.size(), double(scene.wide.bytes()) / 1e6);
     fmt::print("  BVH settings     {}\n", scene.wideSettingsWhy);
     fmt::print("  film             {}x{}\n", scene.camera.width, scene.camera.height);
+    if (desc.camera.lensRadius > 0.f)
+        fmt::print("  camera           fov {:g}, thin lens of radius {:g}, in focus at {:g}\n",
+                   desc.camera.fovDegrees, desc.camera.lensRadius, desc.camera.focalDistance);
+    else
+        fmt::print("  camera           fov {:g}, pinhole\n", desc.camera.fovDegrees);
     fmt::print("  kernel features  {}\n", scene.featureNames());
     std::string defines;
     for (const auto& d : scene.kernelDefines())
