@@ -660,16 +660,6 @@ typedef struct BdptConnection {
     int pad;
 } BdptConnection;
 
-/* Where a t = 1 connection meets the camera: the camera position, or on a thin lens eye[0]'s
- * point (the eye subpath's lens sample, independent of the light subpath's). */
-CB_FN Vec3 bdptCameraPoint(const Camera* camera, const PathVertex* eye) {
-#if CB_HAS(CB_FEATURE_THIN_LENS)
-    if (camera->lensRadius > 0.0f) return pvP(&eye[0]);
-#endif
-    (void)eye;
-    return affineTransformPoint(camera->cameraToWorld, vec3(0.0f, 0.0f, 0.0f));
-}
-
 CB_FN bool bdptConnectUnoccluded(const SceneView* scene, const Camera* camera,
                                  const PathVertex* light, int s, const PathVertex* eye, int t,
                                  BdptConnection* out) {
@@ -710,7 +700,7 @@ CB_FN bool bdptConnectUnoccluded(const SceneView* scene, const Camera* camera,
         /* Light tracing: qs seen by the camera (from eye[0]'s point on a thin lens), splatted to
          * the pixel it projects to. */
         if (s < 2) return false;
-        Vec3 cam = bdptCameraPoint(camera, eye);
+        Vec3 cam = pvP(&eye[0]); /* the camera position, or the eye subpath's lens point */
         real rx, ry;
         if (!cameraProjectPoint(camera, cam, pvP(qs), &rx, &ry)) return false;
         Vec3 d = vsub(cam, pvP(qs));
@@ -768,25 +758,17 @@ CB_FN bool bdptConnectUnoccluded(const SceneView* scene, const Camera* camera,
 }
 
 /* The shadow ray of the segment between the connection's two vertices, free up to *tMax. */
-CB_FN Ray bdptConnectionRay(const Camera* camera, const PathVertex* light, int s,
-                            const PathVertex* eye, int t, real* tMax) {
+CB_FN Ray bdptConnectionRay(const PathVertex* light, int s, const PathVertex* eye, int t,
+                            real* tMax) {
     const PathVertex* qs = &light[s - 1];
     if (t == 1) {
-        Vec3 cam = bdptCameraPoint(camera, eye);
-        return spawnRayTo(pvSurfacePoint(qs), cam, vec3(0.0f, 0.0f, 0.0f), vec3(0.0f, 0.0f, 0.0f),
-                          tMax);
+        /* To the camera position, or the eye subpath's lens point. */
+        return spawnRayTo(pvSurfacePoint(qs), pvP(&eye[0]), vec3(0.0f, 0.0f, 0.0f),
+                          vec3(0.0f, 0.0f, 0.0f), tMax);
     }
     const PathVertex* pt = &eye[t - 1];
     SurfacePoint target = pvSurfacePoint(qs);
     return spawnRayTo(pvSurfacePoint(pt), target.p, target.pError, target.ng, tMax);
-}
-
-/* Whether the segment between the connection's two vertices is free (one shadow ray). */
-CB_FN bool bdptConnectionVisible(const SceneView* scene, const Camera* camera,
-                                 const PathVertex* light, int s, const PathVertex* eye, int t) {
-    real tMax;
-    Ray r = bdptConnectionRay(camera, light, s, eye, t, &tMax);
-    return !sceneOccluded(scene, r, tMax);
 }
 
 /* The weighted (or, in debug mode, unweighted) contribution of strategy (s,t) as if its
@@ -811,7 +793,7 @@ CB_FN bool bdptConnectDeferred(const SceneView* scene, const Camera* camera,
     if (c.needsShadow) {
         *rays += 1;
         *needsShadow = 1;
-        *shadow = bdptConnectionRay(camera, light, s, eye, t, shadowTMax);
+        *shadow = bdptConnectionRay(light, s, eye, t, shadowTMax);
     }
     *rasterX = c.rasterX;
     *rasterY = c.rasterY;

@@ -35,9 +35,10 @@ CB_FN Vec3 cameraStreamLensPoint(const Camera* camera, SampleStream stream, uint
         return cameraLensPoint(camera, u0, u1);
     }
 #endif
+    (void)camera;
     (void)stream;
     (void)dimension;
-    return cameraLensPoint(camera, 0.5f, 0.5f);
+    return vec3(0.0f, 0.0f, 0.0f);
 }
 
 /* Primary ray through raster position (rasterX, rasterY), (0,0) the top-left image corner, from

@@ -29,7 +29,7 @@ class Instance final : public HostKernels {
 
     RayQuery cameraRay(double rasterX, double rasterY) const override {
         cbk::Ray ray = cbk::cameraGenerateRay(&camera_, cbk::real(rasterX), cbk::real(rasterY),
-                                              cbk::cameraLensPoint(&camera_, 0.5, 0.5));
+                                              cbk::vec3(0.0, 0.0, 0.0)); // the lens centre
         RayQuery q;
         q.origin = {ray.o.x, ray.o.y, ray.o.z};
         q.direction = {ray.d.x, ray.d.y, ray.d.z};

@@ -44,8 +44,8 @@ class SpectraTable {
         }
         return index;
     }
-    // A reflectance or transmittance times `scale`, clamped to [0, 1] per channel or bin as
-    // pbrt-v4 clamps each wavelength's value.
+    // A reflectance or transmittance times `scale`, clamped to [0, 1] per channel or bin
+    // (pbrt-v4 clamps per wavelength).
     int addAlbedo(const SpectrumValue& value, float scale) {
         const int index = add(value, scale);
         for (int i = 0; i < channels_; ++i) {
@@ -508,7 +508,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
     // a grid of 32 x 32 pixel centres, through the lens centre.
     std::vector<cbk::Ray> cameraRays;
     constexpr int kSampleGrid = 32;
-    const cbk::Vec3 lensCentre = cbk::cameraLensPoint(&scene.camera, 0.5f, 0.5f);
+    const cbk::Vec3 lensCentre = cbk::vec3(0.f, 0.f, 0.f); // camera space
     for (int y = 0; y < kSampleGrid; ++y)
         for (int x = 0; x < kSampleGrid; ++x)
             cameraRays.push_back(cbk::cameraGenerateRay(

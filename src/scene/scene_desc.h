@@ -64,7 +64,7 @@ struct MaterialDesc {
     SpectrumValue reflectance = SpectrumValue::constant(0.5f);
     SpectrumValue transmittance = SpectrumValue::constant(0.25f); // diffuse transmission
     // diffuse transmission: multiplies reflectance and transmittance, each product then clamped
-    // to [0, 1] per channel (pbrt-v4's DiffuseTransmissionMaterial)
+    // to [0, 1] per channel or bin (pbrt-v4's DiffuseTransmissionMaterial, per wavelength)
     float scale = 1.f;
     // conductor given "eta" and "k" instead of "reflectance": its complex index of refraction,
     // with pbrt-v4's Fresnel equations (cb_bsdf.h, fresnelConductor)
