@@ -10,6 +10,9 @@
  * - f excludes the cosine. A delta sample carries pdf = the discrete probability of its lobe and
  *   f = (lobe weight) / |cos wi|, so f |cos wi| / pdf is always the throughput factor.
  * - adjoint = 0 for radiance transport (eye paths), 1 for importance transport (light paths).
+ * - Coated diffuse estimates f and its pdf by a random walk between its two layers (below), as
+ *   pbrt-v4 does: bsdfSample's f |cos wi| / pdf is the walk's exact weight, its pdf the same
+ *   estimate bsdfEval returns for MIS.
  * - Mix (f = (1-a) f1 + a f2): a non-delta sample returns the full mixture's f and its pdf
  *   (1-a) p1 + a p2 over the non-delta components, so bsdfEval's pdfFwd is exactly the density
  *   of bsdfSample's non-delta directions. A delta sample (a delta component was picked) returns
@@ -20,6 +23,7 @@
 #define CB_BSDF_H
 
 #include "cb_common.h"
+#include "cb_rng.h"
 #include "cb_sampling.h"
 #include "cb_spectrum.h"
 #include "cb_types.h"
@@ -107,6 +111,202 @@ CB_FN real cbDiffuseReflectProbability(const SceneView* scene, Material m) {
 #endif
 
 /* ---- Per-kind lobes, in the local frame flipped so that wo.z > 0 ----------------------------- */
+
+#if CB_HAS(CB_FEATURE_COATED_DIFFUSE)
+/* ---- Coated diffuse (pbrt-v4's CoatedDiffuseBxDF) ---------------------------------------------
+ * A Lambertian base of reflectance rho under a smooth dielectric coat of index eta, both faces
+ * alike, with a layer between them that absorbs exp(-thickness / |cos|) per crossing and does not
+ * scatter (pbrt-v4's default albedo 0). Light refracts in through the coat, bounces between base
+ * and coat (Fresnel reflection from inside) and refracts out. pbrt-v4's LayeredBxDF estimates f
+ * by a random walk with next-event estimation at the base toward the exit's refracted direction,
+ * samples directions by the walk itself (Guo et al. 2018, "Position-free Monte Carlo simulation
+ * for arbitrary layered BSDFs"; pbrt-v4 sec. 14.3) and gives MIS a pdf estimate mixed with the
+ * uniform sphere's; these are the same estimators for this pair of layers. */
+
+/* The walk's random numbers: a counter hashed under a key made from its arguments, so that an
+ * estimate is a deterministic function of them, as pbrt-v4 seeds its RNG with Hash(wo), Hash(wi):
+ * the two strategies of MIS then see the same pdf for the same directions. */
+typedef struct LayerRng {
+    uint key;
+    uint count;
+} LayerRng;
+
+CB_FN uint layerHashDirection(uint seed, Vec3 w) {
+    return cbHashCombine(cbHashCombine(cbHashCombine(seed, cbFloatBits(w.x)), cbFloatBits(w.y)),
+                         cbFloatBits(w.z));
+}
+
+CB_FN real layerRngNext(LayerRng* rng) {
+    rng->count += 1u;
+    return cbUintToUnitFloat(cbHashCombine(rng->key, rng->count));
+}
+
+/* Transmittance of the layer along a direction of cosine cosTheta (pbrt-v4's LayeredBxDF::Tr). */
+CB_FN real layerTransmittance(real thickness, real cosTheta) {
+    return thickness > 1.17549435e-38f ? exp(-thickness / fabs(cosTheta)) : 1.0f;
+}
+
+/* w refracted through the coat from w's side (w.z > 0: from outside, relative index eta; below:
+ * 1 / eta) into *wt, and the Fresnel transmittance into *t; false under total internal
+ * reflection. */
+CB_FN bool coatRefract(Vec3 w, real eta, Vec3* wt, real* t) {
+    real etap = w.z > 0.0f ? eta : 1.0f / eta;
+    real cosT;
+    real r = fresnelDielectric(fabs(w.z), etap, &cosT);
+    if (!(cosT > 0.0f)) return false;
+    *t = 1.0f - r;
+    *wt = vnormalize(vec3(-w.x / etap, -w.y / etap, w.z > 0.0f ? -cosT : cosT));
+    return *t > 0.0f;
+}
+
+/* pbrt-v4's pdf estimate for the coat over the base (LayeredBxDF::PDF): reflection into wi
+ * through the coat, base and coat, which for a smooth coat is the base's cosine density at wi's
+ * refracted direction; then mixed 0.9 : 0.1 with the uniform sphere's density. wo.z > 0 or both
+ * flipped; transmission (wi below) has none but the uniform part, f being 0 there. */
+CB_FN real coatedDiffusePdf(Material m, Vec3 wo, Vec3 wi) {
+    if (wo.z < 0.0f) {
+        wo = vneg(wo);
+        wi = vneg(wi);
+    }
+    real walk = 0.0f;
+    Vec3 inO, inI;
+    real tO, tI;
+    if (wi.z > 0.0f && coatRefract(wo, m.eta, &inO, &tO) && coatRefract(wi, m.eta, &inI, &tI))
+        walk = cosineHemispherePdf(-inI.z);
+    return 0.1f * (0.25f * CB_INV_PI) + 0.9f * walk;
+}
+
+/* f(wo, wi) estimated by layerSamples random walks (LayeredBxDF::f), wo.z > 0. Radiance entering
+ * the denser side is divided by eta^2 (Veach 1997, sec. 5.2), importance is not; the exit, seen
+ * from wi, is the adjoint's crossing, so f(wo, wi) for radiance equals f(wi, wo) for importance. */
+CB_FN Spectrum coatedDiffuseEval(const SceneView* scene, Material m, Vec3 wo, Vec3 wi,
+                                 int adjoint) {
+    Vec3 w0, exitDir;
+    real tEnter, tExit;
+    if (!(wi.z > 0.0f) || !coatRefract(wo, m.eta, &w0, &tEnter) ||
+        !coatRefract(wi, m.eta, &exitDir, &tExit))
+        return specZero();
+    real eta2 = m.eta * m.eta;
+    real enter = adjoint ? tEnter : tEnter / eta2;
+    /* Next-event estimation from the base along exitDir: the base's 1/pi, the layer, the exit. */
+    real exitWeight =
+        (adjoint ? tExit / eta2 : tExit) * layerTransmittance(m.thickness, exitDir.z) * CB_INV_PI;
+    Spectrum rho = specLoad(scene->spectra, m.reflectance);
+    LayerRng rng;
+    rng.key = layerHashDirection(layerHashDirection(0x1b873593u, wo), wi);
+    rng.count = 0u;
+    Spectrum f = specZero();
+    for (int sample = 0; sample < m.layerSamples; ++sample) {
+        Spectrum beta = specConst(enter);
+        Vec3 w = w0;
+        bool atTop = true;
+        for (int depth = 0; depth < m.layerDepth; ++depth) {
+            /* pbrt-v4's Russian roulette of the walk. */
+            real largest = specMaxComponent(beta);
+            if (depth > 3 && largest < 0.25f) {
+                real q = fmax(0.0f, 1.0f - largest);
+                if (layerRngNext(&rng) < q) break;
+                beta = specScale(beta, 1.0f / (1.0f - q));
+            }
+            atTop = !atTop;
+            beta = specScale(beta, layerTransmittance(m.thickness, w.z));
+            if (atTop) {
+                /* Back at the coat from inside: only its reflection keeps the walk inside. */
+                real cosT;
+                real r = fresnelDielectric(fabs(w.z), 1.0f / m.eta, &cosT);
+                if (!(r > 0.0f)) break;
+                beta = specScale(beta, r);
+                w = vec3(w.x, w.y, -w.z);
+            } else {
+                f = specAdd(f, specScale(specMul(beta, rho), exitWeight));
+                real u0 = layerRngNext(&rng);
+                real u1 = layerRngNext(&rng);
+                w = sampleCosineHemisphere(u0, u1);
+                if (!(w.z > 0.0f)) break;
+                beta = specMul(beta, rho); /* f cos / pdf of the cosine-sampled base */
+            }
+        }
+    }
+    return specScale(f, 1.0f / (real)m.layerSamples);
+}
+
+/* A direction by the walk itself (LayeredBxDF::Sample_f), wo.z > 0: uLobe < F(wo) reflects at the
+ * coat (a delta, as the smooth dielectric's); otherwise the walk refracts in and bounces until
+ * Fresnel lets it out, its weight f |cos| / pdf being exact. The sample then carries the pdf
+ * estimate of coatedDiffusePdf, f scaled so that the weight is kept. */
+CB_FN bool coatedDiffuseSample(const SceneView* scene, Material m, Vec3 wo, real u0, real u1,
+                               real uLobe, int adjoint, BsdfSample* out) {
+    real cosT;
+    real r = fresnelDielectric(wo.z, m.eta, &cosT);
+    if (uLobe < r) {
+        out->isDelta = 1;
+        out->wi = vec3(-wo.x, -wo.y, wo.z);
+        out->f = specConst(r / wo.z);
+        out->pdf = r;
+        out->pdfRev = r;
+        return isfinite(out->f.c[0]) && r > 0.0f;
+    }
+    Vec3 w;
+    real t;
+    if (!coatRefract(wo, m.eta, &w, &t)) return false;
+    real eta2 = m.eta * m.eta;
+    Spectrum f = specConst(adjoint ? t : t / eta2); /* f |cos| of the way in */
+    real pdf = t;
+    Spectrum rho = specLoad(scene->spectra, m.reflectance);
+    LayerRng rng;
+    rng.key = cbHashCombine(
+        cbHashCombine(cbHashCombine(layerHashDirection(0x85ebca6bu, wo), cbFloatBits(uLobe)),
+                      cbFloatBits(u0)),
+        cbFloatBits(u1));
+    rng.count = 0u;
+    bool atTop = true;
+    for (int depth = 0; depth < m.layerDepth; ++depth) {
+        real rrWeight = specMaxComponent(f) / pdf;
+        if (depth > 3 && rrWeight < 0.25f) {
+            real q = fmax(0.0f, 1.0f - rrWeight);
+            if (layerRngNext(&rng) < q) return false;
+            pdf *= 1.0f - q;
+        }
+        if (w.z == 0.0f) return false;
+        atTop = !atTop;
+        f = specScale(f, layerTransmittance(m.thickness, w.z));
+        if (!atTop) {
+            real v0 = layerRngNext(&rng);
+            real v1 = layerRngNext(&rng);
+            Vec3 wb = sampleCosineHemisphere(v0, v1);
+            if (!(wb.z > 0.0f)) return false;
+            /* f *= rho / pi, pdf *= cos / pi, then the cosine of the new direction. */
+            f = specScale(specMul(f, rho), CB_INV_PI * wb.z);
+            pdf *= cosineHemispherePdf(wb.z);
+            w = wb;
+        } else {
+            /* At the coat from inside, Fresnel chooses between reflection and the way out. */
+            real cosOut;
+            real ri = fresnelDielectric(w.z, 1.0f / m.eta, &cosOut);
+            if (layerRngNext(&rng) < ri) {
+                f = specScale(f, ri); /* (R / |cos|) |cos| */
+                pdf *= ri;
+                w = vec3(w.x, w.y, -w.z);
+                continue;
+            }
+            Vec3 wOut;
+            real tOut;
+            if (!coatRefract(vneg(w), m.eta, &wOut, &tOut)) return false;
+            /* Radiance leaving the denser side is multiplied by eta^2. */
+            f = specScale(f, (adjoint ? tOut : tOut * eta2) / wOut.z);
+            pdf *= tOut;
+            real pdfEstimate = coatedDiffusePdf(m, wo, wOut);
+            out->isDelta = 0;
+            out->wi = wOut;
+            out->f = specScale(f, pdfEstimate / pdf);
+            out->pdf = pdfEstimate;
+            out->pdfRev = coatedDiffusePdf(m, wOut, wo);
+            return specIsFinite(out->f) && pdf > 0.0f;
+        }
+    }
+    return false;
+}
+#endif
 
 #if CB_HAS(CB_FEATURE_CONDUCTOR)
 CB_FN real cbConductorAlpha(Material m) {
@@ -233,6 +433,14 @@ CB_FN Spectrum cbLobeEval(const SceneView* scene, Material m, Vec3 wo, Vec3 wi, 
                          CB_INV_PI);
     }
 #endif
+#if CB_HAS(CB_FEATURE_COATED_DIFFUSE)
+    if (m.kind == CB_MAT_COATED_DIFFUSE) {
+        if (!(wi.z > 0.0f)) return specZero();
+        *pdfFwd = coatedDiffusePdf(m, wo, wi);
+        *pdfRev = coatedDiffusePdf(m, wi, wo);
+        return coatedDiffuseEval(scene, m, wo, wi, adjoint);
+    }
+#endif
 #if CB_HAS(CB_FEATURE_CONDUCTOR)
     if (m.kind == CB_MAT_CONDUCTOR) {
         if (m.alpha == 0.0f || !(wi.z > 0.0f)) return specZero();
@@ -323,6 +531,10 @@ CB_FN bool cbLobeSample(const SceneView* scene, Material m, Vec3 wo, bool enteri
         out->pdfRev = lobe * cosineHemispherePdf(wo.z);
         return out->pdf > 0.0f;
     }
+#endif
+#if CB_HAS(CB_FEATURE_COATED_DIFFUSE)
+    if (m.kind == CB_MAT_COATED_DIFFUSE)
+        return coatedDiffuseSample(scene, m, wo, u0, u1, uLobe, adjoint, out);
 #endif
 #if CB_HAS(CB_FEATURE_THIN_DIELECTRIC)
     if (m.kind == CB_MAT_THIN_DIELECTRIC) {
@@ -529,8 +741,8 @@ CB_FN bool materialHasNonDelta(const SceneView* scene, int material) {
 }
 
 /* Whether bsdfSample reads its uLobe, which only chooses between lobes (a mix's components, a
- * (thin) dielectric's or a diffuse transmitter's reflection and transmission): otherwise the
- * caller need not draw it. A scene compiled without those materials reads none. */
+ * (thin) dielectric's, a diffuse transmitter's or a coat's reflection and transmission): otherwise
+ * the caller need not draw it. A scene compiled without those materials reads none. */
 CB_FN bool bsdfReadsLobeSample(const SceneView* scene, int material) {
     int kind = scene->materials[material].kind;
     (void)kind;
@@ -545,6 +757,9 @@ CB_FN bool bsdfReadsLobeSample(const SceneView* scene, int material) {
 #endif
 #if CB_HAS(CB_FEATURE_THIN_DIELECTRIC)
     if (kind == CB_MAT_THIN_DIELECTRIC) return true;
+#endif
+#if CB_HAS(CB_FEATURE_COATED_DIFFUSE)
+    if (kind == CB_MAT_COATED_DIFFUSE) return true;
 #endif
     return false;
 }

@@ -138,6 +138,21 @@ CB_FN real cbNextFloatDown(real v) {
 }
 #endif
 
+/* The bits of v rounded to float: a hash key that is the same for the kernels' floats and the
+ * host's double build. */
+#ifdef CB_KERNEL_SIDE
+CB_FN uint cbFloatBits(real v) {
+    return as_uint((float)v);
+}
+#else
+CB_FN uint cbFloatBits(real v) {
+    const float f = (float)v;
+    uint bits;
+    std::memcpy(&bits, &f, sizeof bits);
+    return bits;
+}
+#endif
+
 /* ---- 3-vectors ---------------------------------------------------------------------------- */
 
 typedef struct Vec3 {

@@ -74,6 +74,7 @@ typedef struct SurfacePoint {
 #define CB_MAT_MIX 3        /* mixture of two non-mix materials: second with probability amount */
 #define CB_MAT_DIFFUSE_TRANSMISSION 4 /* Lambertian reflection and transmission (pbrt-v4's) */
 #define CB_MAT_THIN_DIELECTRIC 5      /* a thin glass sheet (pbrt-v4's "thindielectric") */
+#define CB_MAT_COATED_DIFFUSE 6       /* Lambertian under a smooth dielectric coat (pbrt-v4's) */
 
 /* Feature bits: the scene's material kinds and light kinds, passed to the kernel build as
  * -DCB_FEATURES=... so that unused code is compiled out (each scene compiles only what it uses). */
@@ -92,6 +93,7 @@ typedef struct SurfacePoint {
 #define CB_FEATURE_DISTANT_LIGHT (1u << 12)  /* pbrt-v4's "distant": a delta in direction */
 #define CB_FEATURE_INFINITE_LIGHT (1u << 13) /* pbrt-v4's "infinite" with a constant L */
 #define CB_FEATURE_THIN_LENS (1u << 14)      /* a camera with a lens radius (depth of field) */
+#define CB_FEATURE_COATED_DIFFUSE (1u << 15) /* pbrt-v4's layered "coateddiffuse" */
 
 #ifndef CB_FEATURES
 #define CB_FEATURES 0xffffffffu
@@ -110,6 +112,13 @@ typedef struct Material {
      * `reflectance` then holding eta's (CB_FEATURE_CONDUCTOR_FRESNEL; -1: `reflectance` is a
      * constant Fresnel tint). CB_MAT_DIFFUSE_TRANSMISSION: the transmittance. */
     int secondSpectrum;
+    /* CB_MAT_COATED_DIFFUSE (`reflectance` the base's, `eta` the coat's): the layer's thickness
+     * in mean free paths, the random walk's longest path and its walks per estimate (pbrt-v4's
+     * "thickness", "maxdepth", "nsamples"). */
+    real thickness;
+    int layerDepth;
+    int layerSamples;
+    int pad;
 } Material;
 
 /* ---- Lights ------------------------------------------------------------------------------- */

@@ -19,6 +19,7 @@
 #include "cb_bsdf.h"
 #include "chi2.h"
 #include "float64/host_kernels.h"
+#include "layered_reference.h"
 #include "scene/device_scene.h"
 #include "scene/scene_bytes.h"
 #include "scene/scene_desc.h"
@@ -77,6 +78,13 @@ struct TestScene {
         return m;
     }
     int thinDielectric(float eta) { return add(CB_MAT_THIN_DIELECTRIC, 0, 0.0f, eta); }
+    int coatedDiffuse(int refl, float eta, float thickness, int depth, int samples) {
+        int m = add(CB_MAT_COATED_DIFFUSE, refl, 0.0f, eta);
+        materials[size_t(m)].thickness = thickness;
+        materials[size_t(m)].layerDepth = depth;
+        materials[size_t(m)].layerSamples = samples;
+        return m;
+    }
     SceneView view() const {
         SceneView v{};
         v.materials = materials.data();
@@ -95,6 +103,7 @@ struct Fixture {
     int roughGlass01, roughGlass05, roughGlassTiny, mixDiffuseRoughGlass;
     int black, translucent, transmitterOnly, reflectorOnly, mixDiffuseTranslucent;
     int thinGlass, thinLowIndex, mixTranslucentThin, thinTinyIndex, thinHugeIndex;
+    int coatedThick, coatedDefault, coatedLowIndex;
     Fixture() {
         white = s.spectrum(1.0f, 1.0f, 1.0f);
         tint = s.spectrum(0.8f, 0.6f, 0.4f);
@@ -136,6 +145,9 @@ struct Fixture {
         mixTranslucentThin = s.mix(translucent, thinGlass, 0.5f);
         thinTinyIndex = s.thinDielectric(1e-6f); // stiff: total reflection almost everywhere
         thinHugeIndex = s.thinDielectric(1e6f);  // stiff: a near-perfect mirror
+        coatedThick = s.coatedDiffuse(tint, 1.5f, 0.25f, 1000, 1);
+        coatedDefault = s.coatedDiffuse(tint, 1.5f, 0.01f, 10, 1); // pbrt-v4's defaults
+        coatedLowIndex = s.coatedDiffuse(gold, 0.7f, 0.0f, 40, 2); // total reflection inside
     }
 };
 
@@ -729,6 +741,105 @@ TEST_CASE("thin dielectric: the sheet's reflectance from both sides, straight tr
     CHECK(materialSpecularity(&v, fx.thinGlass) == 1.0f);
     CHECK(materialSpecularity(&v, fx.mixTranslucentThin) == 0.5f);
     checkNonDelta(v, fx.mixTranslucentThin, 0.5, true, {0.7f, -0.4f}, 341);
+}
+
+// pbrt-v4's coated diffuse estimates f by a random walk (cb_bsdf.h), so its sampler is checked
+// against closed forms (tests/layered_reference.h) instead of a chi-square against bsdfEval's
+// pdf, which is an estimate only MIS uses.
+TEST_CASE("coated diffuse: the walk's albedo and f against the closed form, adjoint, pdfs") {
+    Fixture fx;
+    SceneView v = fx.s.view();
+    struct Case {
+        int material;
+        double rho, eta, thickness;
+        int depth;
+    };
+    // Channel 0 of tint and gold: 0.8 and 0.68.
+    const Case cases[] = {{fx.coatedThick, 0.8, 1.5, 0.25, 1000},
+                          {fx.coatedDefault, 0.8, 1.5, 0.01, 10},
+                          {fx.coatedLowIndex, 0.68, 0.7, 0.0, 40}};
+    for (const Case& c : cases) {
+        CAPTURE(c.material);
+        const cbtest::CoatedDiffuseReference ref(c.rho, c.eta, c.thickness, c.depth);
+        // Sampling, from both faces: f |cos| / pdf averages to the albedo, the coat's delta
+        // reflection is taken with probability R, and every walk's sample carries bsdfEval's pdfs.
+        for (float cosO : {0.9f, 0.35f, -0.6f}) {
+            CAPTURE(cosO);
+            const Vec3 wo = worldDir(cosO, 0.4f);
+            Uniform u(500 + unsigned(c.material));
+            const int n = 100000;
+            double sum = 0.0, sum2 = 0.0, worstPdf = 0.0;
+            int deltas = 0, wrongSide = 0;
+            for (int i = 0; i < n; ++i) {
+                BsdfSample s;
+                double w = 0.0;
+                if (bsdfSample(&v, c.material, kFrame, wo, u(), u(), u(), i % 2, &s)) {
+                    w = s.f.c[0] * vabsdot(s.wi, kFrame.n) / s.pdf;
+                    deltas += s.isDelta;
+                    wrongSide += vdot(s.wi, kFrame.n) * cosO <= 0.0f;
+                    if (!s.isDelta && i % 8 == 0) {
+                        float pf, pr;
+                        bsdfEval(&v, c.material, kFrame, wo, s.wi, i % 2, &pf, &pr);
+                        worstPdf = std::max({worstPdf, rel(pf, s.pdf), rel(pr, s.pdfRev)});
+                    }
+                }
+                sum += w;
+                sum2 += w * w;
+            }
+            const double mean = sum / n, se = std::sqrt(std::max(0.0, sum2 / n - mean * mean) / n);
+            const double expected = ref.albedo(std::fabs(cosO));
+            CAPTURE(mean);
+            CAPTURE(se);
+            CAPTURE(expected);
+            CHECK(std::fabs(mean - expected) < 5.0 * se + 1e-5);
+            const double r = cbtest::dielectricFresnel(std::fabs(cosO), c.eta);
+            CHECK(std::fabs(double(deltas) / n - r) < 5.0 * std::sqrt(r * (1 - r) / n) + 1e-6);
+            CHECK(wrongSide == 0);
+            // The sample's pdf is computed before its direction goes to world space and back;
+            // near a low index's critical angle the refracted cosine magnifies that rounding.
+            CHECK(worstPdf < (c.eta < 1.0 ? 1e-3 : 1e-5));
+        }
+        // Evaluation: f(wo, wi) is an estimate of E[f] per pair; over random pairs on one face
+        // the ratio to E[f] averages to 1, for radiance and for the adjoint with the pair swapped
+        // (f* (wi, wo) = f(wo, wi)). Across the faces f is 0: the base transmits nothing.
+        Uniform u(600 + unsigned(c.material));
+        const int pairs = 4000;
+        double ratio[2] = {0, 0}, ratio2[2] = {0, 0};
+        int counted = 0;
+        for (int i = 0; i < pairs; ++i) {
+            const float side = i % 2 ? 1.0f : -1.0f;
+            const float cosO = side * (0.05f + 0.95f * u()), cosI = side * (0.05f + 0.95f * u());
+            const Vec3 wo = worldDir(cosO, 6.28f * u()), wi = worldDir(cosI, 6.28f * u());
+            const double expected = ref.meanF(std::fabs(cosO), std::fabs(cosI));
+            float pf, pr;
+            const Spectrum f = bsdfEval(&v, c.material, kFrame, wo, wi, 0, &pf, &pr);
+            const Spectrum fAdjoint = bsdfEval(&v, c.material, kFrame, wi, wo, 1, &pf, &pr);
+            CHECK(specIsFinite(f));
+            if (expected == 0.0) { // total internal reflection keeps wo or wi out
+                CHECK(specIsBlack(f));
+                continue;
+            }
+            ++counted;
+            for (int k = 0; k < 2; ++k) {
+                const double q = (k ? fAdjoint : f).c[0] / expected;
+                ratio[k] += q;
+                ratio2[k] += q * q;
+            }
+            const Vec3 below = worldDir(-cosI, 1.0f);
+            CHECK(specIsBlack(bsdfEval(&v, c.material, kFrame, wo, below, 0, &pf, &pr)));
+        }
+        REQUIRE(counted > pairs / 20); // eta 0.7 refracts only within 44 degrees of the normal
+        for (int k = 0; k < 2; ++k) {
+            const double mean = ratio[k] / counted;
+            const double se = std::sqrt(std::max(0.0, ratio2[k] / counted - mean * mean) / counted);
+            CAPTURE(k);
+            CAPTURE(mean);
+            CAPTURE(se);
+            CHECK(std::fabs(mean - 1.0) < 5.0 * se + 1e-5);
+        }
+    }
+    CHECK(bsdfReadsLobeSample(&v, fx.coatedThick));
+    CHECK(materialHasNonDelta(&v, fx.coatedThick));
 }
 
 TEST_CASE("perfect mirror: exact reflection, tint as throughput, delta contract") {

@@ -101,6 +101,10 @@ template <class Visit> void forEachField(cbk::Material& s, Visit&& visit) {
     visit(s.mixSecond);
     visit(s.mixAmount);
     visit(s.secondSpectrum);
+    visit(s.thickness);
+    visit(s.layerDepth);
+    visit(s.layerSamples);
+    visit(s.pad);
 }
 template <class Visit> void forEachField(cbk::Light& s, Visit&& visit) {
     visit(s.kind);

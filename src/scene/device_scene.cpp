@@ -9,12 +9,13 @@
 #include <algorithm>
 #include <cmath>
 #include <fmt/format.h>
+#include <limits>
 #include <numeric>
 
 namespace cb {
 
 static_assert(sizeof(cbk::Primitive) == 48, "Primitive must match the OpenCL layout");
-static_assert(sizeof(cbk::Material) == 32, "Material must match the OpenCL layout");
+static_assert(sizeof(cbk::Material) == 48, "Material must match the OpenCL layout");
 static_assert(sizeof(cbk::Light) == 64, "Light must match the OpenCL layout");
 static_assert(sizeof(cbk::Camera) == 128, "Camera must match the OpenCL layout");
 
@@ -208,6 +209,8 @@ unsigned materialFeature(MaterialKind kind) {
         return CB_FEATURE_DIFFUSE_TRANSMISSION;
     case MaterialKind::ThinDielectric:
         return CB_FEATURE_THIN_DIELECTRIC;
+    case MaterialKind::CoatedDiffuse:
+        return CB_FEATURE_COATED_DIFFUSE;
     }
     return 0;
 }
@@ -313,6 +316,15 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         case MaterialKind::ThinDielectric:
             out.kind = CB_MAT_THIN_DIELECTRIC;
             out.eta = m.eta;
+            break;
+        case MaterialKind::CoatedDiffuse:
+            out.kind = CB_MAT_COATED_DIFFUSE;
+            out.reflectance = spectra.addAlbedo(m.reflectance, 1.f);
+            out.eta = m.eta;
+            // pbrt-v4 keeps the thickness at least the smallest normal float
+            out.thickness = std::max(m.thickness, std::numeric_limits<float>::min());
+            out.layerDepth = m.layerDepth;
+            out.layerSamples = m.layerSamples;
             break;
         }
         scene.materials.push_back(out);
@@ -549,6 +561,7 @@ std::string DeviceScene::featureNames() const {
     add(CB_FEATURE_MIX, "mix");
     add(CB_FEATURE_DIFFUSE_TRANSMISSION, "diffuse-transmission");
     add(CB_FEATURE_THIN_DIELECTRIC, "thin-dielectric");
+    add(CB_FEATURE_COATED_DIFFUSE, "coated-diffuse");
     add(CB_FEATURE_AREA_LIGHT, "area-light");
     add(CB_FEATURE_POINT_LIGHT, "point-light");
     add(CB_FEATURE_SPHERES, "spheres");

@@ -1304,6 +1304,11 @@ class Parser {
     int mixPart(int material, const std::string& name, const SourceLocation& where) const {
         if (scene_.materials[static_cast<size_t>(material)].kind == MaterialKind::Mix)
             throw SceneError(where, "mix of mix is not supported (\"" + name + "\" is a mix)");
+        // A mix's sample is weighed by the mixture's pdf, which needs each part's exact density;
+        // the coat's is an estimate (pbrt-v4 instead picks one part per point).
+        if (scene_.materials[static_cast<size_t>(material)].kind == MaterialKind::CoatedDiffuse)
+            throw SceneError(where, "a mix with coateddiffuse is not supported (\"" + name +
+                                        "\" is coateddiffuse)");
         return material;
     }
 
@@ -1361,6 +1366,64 @@ class Parser {
         m.eta = static_cast<float>(eta);
     }
 
+    // pbrt-v4's "coateddiffuse": a diffuse base under a dielectric coat, with a layer between
+    // them that absorbs (cb_bsdf.h). cbdpt's coat is smooth and its layer does not scatter.
+    static void readCoatedDiffuse(ParamList& pl, MaterialDesc& m) {
+        m.kind = MaterialKind::CoatedDiffuse;
+        if (auto r = pl.spectrum("reflectance", SpectrumRole::Reflectance)) m.reflectance = *r;
+        readEta(pl, m);
+        readRoughness(pl, m);
+        const float alpha = m.remapRoughness ? std::sqrt(m.roughness) : m.roughness;
+        // pbrt-v4 treats a coat with alpha below 1e-3 as smooth (EffectivelySmooth).
+        if (alpha >= 1e-3f) {
+            const Param* p = pl.peek("roughness")
+                                 ? pl.peek("roughness")
+                                 : pl.peek(pl.peek("uroughness") ? "uroughness" : "vroughness");
+            throw SceneError(p->valueLoc(0),
+                             fmt::format("a rough coat (roughness {:g}) is not supported; "
+                                         "coateddiffuse needs roughness 0",
+                                         m.roughness));
+        }
+        if (const Param* p = pl.peek("thickness")) {
+            const double t = *pl.oneFloat("thickness");
+            if (!(t >= 0.0))
+                throw SceneError(p->valueLoc(0),
+                                 fmt::format("\"float thickness\" must be >= 0, got {:g}", t));
+            m.thickness = static_cast<float>(t);
+        }
+        if (const Param* p = pl.peek("maxdepth")) {
+            m.layerDepth = *pl.oneInt("maxdepth");
+            if (m.layerDepth < 0 || m.layerDepth > 1000)
+                throw SceneError(
+                    p->valueLoc(0),
+                    fmt::format("\"integer maxdepth\" must be in [0, 1000], got {}", m.layerDepth));
+        }
+        if (const Param* p = pl.peek("nsamples")) {
+            m.layerSamples = *pl.oneInt("nsamples");
+            if (m.layerSamples < 1 || m.layerSamples > 1000)
+                throw SceneError(p->valueLoc(0),
+                                 fmt::format("\"integer nsamples\" must be in [1, 1000], got {}",
+                                             m.layerSamples));
+        }
+        // A scattering layer (albedo > 0, with its phase function's g) is not implemented; the
+        // default albedo 0 makes g irrelevant, which pbrt-v4 then ignores too.
+        if (const Param* p = pl.peek("albedo")) {
+            const std::optional<SpectrumValue> albedo =
+                pl.spectrum("albedo", SpectrumRole::Reflectance);
+            bool zero = albedo->isRgb ? albedo->rgb == std::array<float, 3>{0.f, 0.f, 0.f} : true;
+            if (!albedo->isRgb)
+                for (const auto& sample : albedo->samples)
+                    zero = zero && sample.second == 0.f;
+            if (!zero)
+                throw SceneError(p->where, "a scattering layer (coateddiffuse \"albedo\" > 0) "
+                                           "is not supported; give albedo 0");
+        }
+        if (pl.peek("g")) {
+            const double g = *pl.oneFloat("g");
+            (void)g;
+        }
+    }
+
     int makeMaterial(const std::string& type, const SourceLocation& typeLoc, ParamList& pl,
                      const std::string& name, const SourceLocation& where) {
         MaterialDesc m;
@@ -1412,6 +1475,8 @@ class Parser {
             // Any scale, as in pbrt-v4: the products are clamped to [0, 1] (a negative scale
             // makes the surface black).
             if (pl.peek("scale")) m.scale = static_cast<float>(*pl.oneFloat("scale"));
+        } else if (type == "coateddiffuse") {
+            readCoatedDiffuse(pl, m);
         } else if (type == "mix") {
             m.kind = MaterialKind::Mix;
             const Param* mats = pl.stringList("materials");
@@ -1436,9 +1501,10 @@ class Parser {
                 m.amount = static_cast<float>(a);
             }
         } else {
-            throw SceneError(typeLoc, "unsupported material type \"" + type +
-                                          "\" (cbdpt supports diffuse, conductor, dielectric, "
-                                          "thindielectric, diffusetransmission, mix)");
+            throw SceneError(typeLoc,
+                             "unsupported material type \"" + type +
+                                 "\" (cbdpt supports diffuse, conductor, dielectric, "
+                                 "thindielectric, diffusetransmission, coateddiffuse, mix)");
         }
         pl.finish();
         scene_.materials.push_back(std::move(m));

@@ -54,7 +54,8 @@ enum class MaterialKind {
     Dielectric,
     Mix,
     DiffuseTransmission,
-    ThinDielectric
+    ThinDielectric,
+    CoatedDiffuse
 };
 
 struct MaterialDesc {
@@ -69,9 +70,14 @@ struct MaterialDesc {
     // conductor given "eta" and "k" instead of "reflectance": its complex index of refraction,
     // with pbrt-v4's Fresnel equations (cb_bsdf.h, fresnelConductor)
     std::optional<SpectrumValue> conductorEta, conductorK;
-    float roughness = 0.f;          // conductor and dielectric: as written in the file
-    bool remapRoughness = true;     // pbrt-v4: alpha = sqrt(roughness) by default
-    float eta = 1.5f;               // dielectric and thin dielectric
+    float roughness = 0.f;      // conductor and dielectric: as written in the file
+    bool remapRoughness = true; // pbrt-v4: alpha = sqrt(roughness) by default
+    float eta = 1.5f;           // dielectric, thin dielectric and the coat of coated diffuse
+    // coated diffuse (pbrt-v4's defaults): the layer between coat and base in mean free paths,
+    // the random walk's longest path and its walks per estimate
+    float thickness = 0.01f;
+    int layerDepth = 10;
+    int layerSamples = 1;
     std::array<int, 2> mix{-1, -1}; // mix: indices into SceneDesc::materials
     float amount = 0.5f;            // mix: probability of choosing mix[1] (pbrt-v4 semantics)
     SourceLocation where;

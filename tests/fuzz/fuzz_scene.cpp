@@ -60,6 +60,9 @@ void checkScene(const cb::SceneDesc& s) {
         checkSpectrum(m.reflectance, true, "material reflectance");
         checkSpectrum(m.transmittance, true, "material transmittance");
         if (!std::isfinite(m.scale)) broken("material scale");
+        if (!(m.thickness >= 0.f && std::isfinite(m.thickness))) broken("coat thickness");
+        if (m.layerDepth < 0 || m.layerDepth > 1000) broken("coat maxdepth");
+        if (m.layerSamples < 1 || m.layerSamples > 1000) broken("coat nsamples");
         if (!std::isfinite(m.roughness) || m.roughness < 0.f) broken("roughness");
         if (!std::isfinite(m.eta) || !(m.eta > 0.f)) broken("eta");
         if (!(m.amount >= 0.f && m.amount <= 1.f)) broken("mix amount");

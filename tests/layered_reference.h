@@ -1,0 +1,69 @@
+// Closed forms of smooth dielectric interfaces in double, apart from the kernels' float code:
+// Fresnel, and pbrt-v4's coated diffuse (a Lambertian base under a smooth coat with an absorbing
+// layer) as its random walk of a given depth estimates it.
+#pragma once
+
+#include <cmath>
+
+namespace cbtest {
+
+// Unpolarised dielectric Fresnel (Hecht, eqs. 4.42/4.43); 1 under total internal reflection.
+inline double dielectricFresnel(double cosI, double eta) {
+    const double sinT = std::sqrt(1.0 - cosI * cosI) / eta;
+    if (sinT >= 1.0) return 1.0;
+    const double cosT = std::sqrt(1.0 - sinT * sinT);
+    const double rs = (cosI - eta * cosT) / (cosI + eta * cosT);
+    const double rp = (eta * cosI - cosT) / (eta * cosI + cosT);
+    return 0.5 * (rs * rs + rp * rp);
+}
+
+// The coated diffuse of base reflectance rho, coat index eta and layer `thickness`: the coat
+// reflects R(mu); T(mu) refracts in, crosses the layer (tau = exp(-thickness / mu') at the
+// refracted cosine mu') and the base reflects rho, cosine-distributed. An upward trip leaves with
+// a = int (1 - F_in) tau 2 mu' dmu' and comes back down with b = int F_in tau^2 2 mu' dmu' (F_in
+// the coat's reflectance from inside, total beyond the critical angle). pbrt-v4's walk of
+// maxdepth d reaches the base d / 2 times (integer division), hence the truncated series.
+struct CoatedDiffuseReference {
+    double rho, eta, thickness;
+    int maxDepth;
+    double a = 0.0, b = 0.0;
+
+    CoatedDiffuseReference(double rho_, double eta_, double thickness_, int maxDepth_)
+        : rho(rho_), eta(eta_), thickness(thickness_), maxDepth(maxDepth_) {
+        const int n = 20000;
+        for (int i = 0; i < n; ++i) {
+            const double mu = (i + 0.5) / n;
+            const double fin = dielectricFresnel(mu, 1.0 / eta), tau = std::exp(-thickness / mu);
+            a += (1.0 - fin) * tau * 2.0 * mu / n;
+            b += fin * tau * tau * 2.0 * mu / n;
+        }
+    }
+    // sum over the base visits of what survives the round trips between them
+    double visits() const {
+        double sum = 0.0, term = 1.0;
+        for (int k = 0; k < maxDepth / 2; ++k, term *= rho * b)
+            sum += term;
+        return sum;
+    }
+    // T(mu) tau(mu') on the way in (or out) at outside cosine mu; 0 where a coat of eta < 1
+    // reflects totally.
+    double crossing(double cosOutside) const {
+        const double cos2Inside = 1.0 - (1.0 - cosOutside * cosOutside) / (eta * eta);
+        if (cos2Inside <= 0.0) return 0.0;
+        return (1.0 - dielectricFresnel(cosOutside, eta)) *
+               std::exp(-thickness / std::sqrt(cos2Inside));
+    }
+    // The directional albedo seen from an outside cosine: R + T tau rho a visits. The outside
+    // solid angle of the exit maps to mu' with eta^2 mu' dmu' = mu dmu, cancelling radiance's
+    // eta^2.
+    double albedo(double cosO) const {
+        return dielectricFresnel(cosO, eta) + crossing(cosO) * rho * a * visits();
+    }
+    // E[f(wo, wi)] for radiance, both above: in at wo (divided by eta^2), the base's rho / pi,
+    // out at wi, each visit of the base looking toward wi's refracted direction.
+    double meanF(double cosO, double cosI) const {
+        return crossing(cosO) / (eta * eta) * rho / M_PI * crossing(cosI) * visits();
+    }
+};
+
+} // namespace cbtest
