@@ -21,8 +21,10 @@ inline double dielectricFresnel(double cosI, double eta) {
 // reflects R(mu); T(mu) refracts in, crosses the layer (tau = exp(-thickness / mu') at the
 // refracted cosine mu') and the base reflects rho, cosine-distributed. An upward trip leaves with
 // a = int (1 - F_in) tau 2 mu' dmu' and comes back down with b = int F_in tau^2 2 mu' dmu' (F_in
-// the coat's reflectance from inside, total beyond the critical angle). pbrt-v4's walk of
-// maxdepth d reaches the base d / 2 times (integer division), hence the truncated series.
+// the coat's reflectance from inside, total beyond the critical angle). pbrt-v4's walk of an even
+// maxdepth d reaches the base d / 2 times, hence the truncated series. (For an odd d its f visits
+// the base once more than its sampling can leave: pbrt-v4's, and cbdpt's, f and sampling then
+// describe different BSDFs; the tests use even depths.)
 struct CoatedDiffuseReference {
     double rho, eta, thickness;
     int maxDepth;

@@ -6,6 +6,7 @@
 
 #include <CL/cl.h>
 
+#include <array>
 #include <cmath>
 #include <complex>
 #include <cstdio>
@@ -78,8 +79,9 @@ struct TestScene {
         return m;
     }
     int thinDielectric(float eta) { return add(CB_MAT_THIN_DIELECTRIC, 0, 0.0f, eta); }
-    int coatedDiffuse(int refl, float eta, float thickness, int depth, int samples) {
-        int m = add(CB_MAT_COATED_DIFFUSE, refl, 0.0f, eta);
+    int coatedDiffuse(int refl, float eta, float thickness, int depth, int samples,
+                      float alpha = 0.0f) {
+        int m = add(CB_MAT_COATED_DIFFUSE, refl, alpha, eta);
         materials[size_t(m)].thickness = thickness;
         materials[size_t(m)].layerDepth = depth;
         materials[size_t(m)].layerSamples = samples;
@@ -103,7 +105,7 @@ struct Fixture {
     int roughGlass01, roughGlass05, roughGlassTiny, mixDiffuseRoughGlass;
     int black, translucent, transmitterOnly, reflectorOnly, mixDiffuseTranslucent;
     int thinGlass, thinLowIndex, mixTranslucentThin, thinTinyIndex, thinHugeIndex;
-    int coatedThick, coatedDefault, coatedLowIndex;
+    int coatedThick, coatedDefault, coatedLowIndex, coatedRough, coatedRoughGold, coatedNearSmooth;
     Fixture() {
         white = s.spectrum(1.0f, 1.0f, 1.0f);
         tint = s.spectrum(0.8f, 0.6f, 0.4f);
@@ -148,6 +150,9 @@ struct Fixture {
         coatedThick = s.coatedDiffuse(tint, 1.5f, 0.25f, 1000, 1);
         coatedDefault = s.coatedDiffuse(tint, 1.5f, 0.01f, 10, 1); // pbrt-v4's defaults
         coatedLowIndex = s.coatedDiffuse(gold, 0.7f, 0.0f, 40, 2); // total reflection inside
+        coatedRough = s.coatedDiffuse(tint, 1.5f, 0.1f, 10, 1, 0.3f);
+        coatedRoughGold = s.coatedDiffuse(gold, 1.25f, 0.0f, 20, 2, 0.6f);
+        coatedNearSmooth = s.coatedDiffuse(tint, 1.5f, 0.25f, 1000, 1, 2e-3f);
     }
 };
 
@@ -770,12 +775,21 @@ TEST_CASE("coated diffuse: the walk's albedo and f against the closed form, adjo
             const int n = 100000;
             double sum = 0.0, sum2 = 0.0, worstPdf = 0.0;
             int deltas = 0, wrongSide = 0;
+            // The walk's weights by the cosine of their direction, in 8 bins.
+            constexpr int kBins = 8;
+            std::array<double, kBins> binSum{}, binSum2{};
             for (int i = 0; i < n; ++i) {
                 BsdfSample s;
                 double w = 0.0;
                 if (bsdfSample(&v, c.material, kFrame, wo, u(), u(), u(), i % 2, &s)) {
                     w = s.f.c[0] * vabsdot(s.wi, kFrame.n) / s.pdf;
                     deltas += s.isDelta;
+                    if (!s.isDelta) {
+                        const int b =
+                            std::min(kBins - 1, int(vabsdot(s.wi, kFrame.n) * float(kBins)));
+                        binSum[size_t(b)] += w;
+                        binSum2[size_t(b)] += w * w;
+                    }
                     wrongSide += vdot(s.wi, kFrame.n) * cosO <= 0.0f;
                     if (!s.isDelta && i % 8 == 0) {
                         float pf, pr;
@@ -792,6 +806,22 @@ TEST_CASE("coated diffuse: the walk's albedo and f against the closed form, adjo
             CAPTURE(se);
             CAPTURE(expected);
             CHECK(std::fabs(mean - expected) < 5.0 * se + 1e-5);
+            // Per bin, E[f] mu over its cosines (and azimuths): where the walk leaves to.
+            for (int b = 0; b < kBins; ++b) {
+                double reference = 0.0;
+                const int steps = 200;
+                for (int k = 0; k < steps; ++k) {
+                    const double mu = (b + (k + 0.5) / steps) / kBins;
+                    reference += ref.meanF(std::fabs(cosO), mu) * mu * 2.0 * M_PI / (steps * kBins);
+                }
+                const double binMean = binSum[size_t(b)] / n;
+                const double binSe =
+                    std::sqrt(std::max(0.0, binSum2[size_t(b)] / n - binMean * binMean) / n);
+                CAPTURE(b);
+                CAPTURE(binMean);
+                CAPTURE(reference);
+                CHECK(std::fabs(binMean - reference) < 5.0 * binSe + 1e-5);
+            }
             const double r = cbtest::dielectricFresnel(std::fabs(cosO), c.eta);
             CHECK(std::fabs(double(deltas) / n - r) < 5.0 * std::sqrt(r * (1 - r) / n) + 1e-6);
             CHECK(wrongSide == 0);
@@ -840,6 +870,91 @@ TEST_CASE("coated diffuse: the walk's albedo and f against the closed form, adjo
     }
     CHECK(bsdfReadsLobeSample(&v, fx.coatedThick));
     CHECK(materialHasNonDelta(&v, fx.coatedThick));
+}
+
+// A rough coat has no closed form: its walk's sampling and its evaluation are two estimators of
+// the same albedo, and at alpha 2e-3 both reach the smooth coat's.
+TEST_CASE("coated diffuse, rough coat: sampled and evaluated albedo agree, adjoint, smooth limit") {
+    Fixture fx;
+    SceneView v = fx.s.view();
+    for (int material : {fx.coatedRough, fx.coatedRoughGold, fx.coatedNearSmooth}) {
+        CAPTURE(material);
+        for (float cosO : {0.8f, 0.3f, -0.5f}) {
+            CAPTURE(cosO);
+            const Vec3 wo = worldDir(cosO, 1.1f);
+            Uniform u(700 + unsigned(material));
+            const int n = 100000;
+            // Sampling: the mean of f |cos| / pdf.
+            double sum = 0.0, sum2 = 0.0;
+            int deltas = 0, wrongSide = 0;
+            for (int i = 0; i < n; ++i) {
+                BsdfSample s;
+                double w = 0.0;
+                if (bsdfSample(&v, material, kFrame, wo, u(), u(), u(), i % 2, &s)) {
+                    w = s.f.c[0] * vabsdot(s.wi, kFrame.n) / s.pdf;
+                    deltas += s.isDelta;
+                    wrongSide += vdot(s.wi, kFrame.n) * cosO <= 0.0f;
+                    CHECK(s.pdf > 0.0f);
+                }
+                sum += w;
+                sum2 += w * w;
+            }
+            const double sampled = sum / n;
+            const double sampledSe = std::sqrt(std::max(0.0, sum2 / n - sampled * sampled) / n);
+            // Evaluation: pi f over cosine-distributed directions on wo's side.
+            double esum = 0.0, esum2 = 0.0;
+            for (int i = 0; i < n; ++i) {
+                Vec3 l = sampleCosineHemisphere(u(), u());
+                if (cosO < 0.0f) l.z = -l.z;
+                float pf, pr;
+                const double e = M_PI * bsdfEval(&v, material, kFrame, wo, frameToWorld(kFrame, l),
+                                                 i % 2, &pf, &pr)
+                                            .c[0];
+                esum += e;
+                esum2 += e * e;
+            }
+            const double evaluated = esum / n;
+            const double evaluatedSe =
+                std::sqrt(std::max(0.0, esum2 / n - evaluated * evaluated) / n);
+            CAPTURE(sampled);
+            CAPTURE(sampledSe);
+            CAPTURE(evaluated);
+            CAPTURE(evaluatedSe);
+            // Cosine-distributed directions all but miss a near-delta coat's reflection.
+            if (material != fx.coatedNearSmooth)
+                CHECK(std::fabs(sampled - evaluated) <
+                      5.0 * std::hypot(sampledSe, evaluatedSe) + 1e-5);
+            CHECK(sampled <= 1.0 + 5.0 * sampledSe);
+            CHECK(deltas == 0);
+            CHECK(wrongSide == 0);
+            if (material == fx.coatedNearSmooth) {
+                const cbtest::CoatedDiffuseReference smooth(0.8, 1.5, 0.25, 1000);
+                CHECK(std::fabs(sampled - smooth.albedo(std::fabs(cosO))) < 5.0 * sampledSe + 2e-3);
+            }
+        }
+        // f for radiance against f for importance with the pair swapped, pair by pair.
+        Uniform u(800 + unsigned(material));
+        double diff = 0.0, diff2 = 0.0, total = 0.0;
+        const int pairs = 20000;
+        for (int i = 0; i < pairs; ++i) {
+            const float side = i % 2 ? 1.0f : -1.0f;
+            const Vec3 wo = worldDir(side * (0.05f + 0.95f * u()), 6.28f * u());
+            const Vec3 wi = worldDir(side * (0.05f + 0.95f * u()), 6.28f * u());
+            float pf, pr;
+            const double f = bsdfEval(&v, material, kFrame, wo, wi, 0, &pf, &pr).c[0];
+            const double fAdjoint = bsdfEval(&v, material, kFrame, wi, wo, 1, &pf, &pr).c[0];
+            CHECK(std::isfinite(pf));
+            diff += f - fAdjoint;
+            diff2 += (f - fAdjoint) * (f - fAdjoint);
+            total += f;
+        }
+        const double meanDiff = diff / pairs;
+        const double se = std::sqrt(std::max(0.0, diff2 / pairs - meanDiff * meanDiff) / pairs);
+        CAPTURE(meanDiff);
+        CAPTURE(se);
+        CAPTURE(total / pairs);
+        CHECK(std::fabs(meanDiff) < 5.0 * se + 1e-6);
+    }
 }
 
 TEST_CASE("perfect mirror: exact reflection, tint as throughput, delta contract") {

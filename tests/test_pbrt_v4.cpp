@@ -1381,11 +1381,24 @@ TEST_CASE("pbrt-v4 coateddiffuse: parameters, defaults, refusals") {
     cb::DeviceScene thin = cb::buildDeviceScene(parseSceneString(
         light + "Material \"coateddiffuse\" \"float thickness\" 0\n" + kTri, "t.pbrt"));
     CHECK(thin.materials[0].thickness == std::numeric_limits<float>::min());
-    // Below pbrt-v4's alpha 1e-3 a coat is smooth: roughness 1e-7 (alpha 3.2e-4) is accepted.
-    CHECK_NOTHROW(parseSceneString(
+    // A rough coat is a rough dielectric interface, alpha = sqrt(roughness) by default; below
+    // pbrt-v4's alpha 1e-3 it is smooth: roughness 1e-7 (alpha 3.2e-4).
+    cb::DeviceScene rough = cb::buildDeviceScene(parseSceneString(
+        light + "Material \"coateddiffuse\" \"float roughness\" 0.09\n" + kTri, "t.pbrt"));
+    CHECK(rough.materials[0].alpha == doctest::Approx(0.3f));
+    CHECK(contains(rough.featureNames(), "rough-dielectric"));
+    cb::DeviceScene nearlySmooth = cb::buildDeviceScene(parseSceneString(
         light + "Material \"coateddiffuse\" \"float roughness\" 1e-7\n" + kTri, "t.pbrt"));
-    expectError(light + "Material \"coateddiffuse\" \"float roughness\" 0.1\n",
-                {"t.pbrt:3:", "rough coat (roughness 0.1) is not supported"});
+    CHECK(nearlySmooth.materials[0].alpha == 0.0f);
+    CHECK(!contains(nearlySmooth.featureNames(), "rough-dielectric"));
+    CHECK(!contains(scene.featureNames(), "rough-dielectric"));
+    expectError(light + "Material \"coateddiffuse\" \"float roughness\" 0.1 \"float eta\" 0.9\n",
+                {"t.pbrt:3:", "a rough coat needs \"float eta\" >= 1, got 0.9"});
+    CHECK_NOTHROW(parseSceneString(light + "Material \"coateddiffuse\" \"float eta\" 0.9\n" + kTri,
+                                   "t.pbrt"));
+    expectError(light + "Material \"coateddiffuse\" \"float uroughness\" 0.1 "
+                        "\"float vroughness\" 0.2\n",
+                {"t.pbrt:3:", "anisotropic"});
     expectError(light + "Material \"coateddiffuse\" \"rgb albedo\" [0.5 0.5 0.5]\n",
                 {"t.pbrt:3:", "scattering layer"});
     expectError(light + "Material \"coateddiffuse\" \"float thickness\" -1\n",
@@ -1471,14 +1484,14 @@ TEST_CASE("pbrt-v4 coateddiffuse: a coated lid under a constant sky renders L A(
 
 TEST_CASE("pbrt-v4 coateddiffuse: BDPT, CBDPT and MLT agree with PT" *
           doctest::test_suite("statistical")) {
-    // A coated floor under the block, a coated sphere beside it.
+    // A coated floor under the block, a sphere with a rough coat beside it.
     checkMethodsAgreeWithPt(kDiskLight,
                             "AttributeBegin\nMaterial \"coateddiffuse\" \"rgb reflectance\" "
                             "[0.6 0.3 0.2] \"float thickness\" 0.1\n"
                             "Shape \"bilinearmesh\" \"point3 P\" [-1.5 0.01 -1.5  1.5 0.01 -1.5  "
                             "-1.5 0.01 1  1.5 0.01 1]\nAttributeEnd\n"
                             "AttributeBegin\nMaterial \"coateddiffuse\" \"rgb reflectance\" "
-                            "[0.2 0.5 0.7] \"float eta\" 1.4\n"
+                            "[0.2 0.5 0.7] \"float eta\" 1.4 \"float roughness\" 0.05\n"
                             "Translate 0.8 0.3 -0.4\nShape \"sphere\" \"float radius\" 0.3\n"
                             "AttributeEnd\n");
 }

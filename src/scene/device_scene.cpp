@@ -321,6 +321,9 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
             out.kind = CB_MAT_COATED_DIFFUSE;
             out.reflectance = spectra.addAlbedo(m.reflectance, 1.f);
             out.eta = m.eta;
+            // pbrt-v4 treats a coat of alpha below 1e-3 as smooth (EffectivelySmooth; the
+            // parser's check of rough coats uses the same bound)
+            out.alpha = alpha < 1e-3f ? 0.f : alpha;
             // pbrt-v4 keeps the thickness at least the smallest normal float
             out.thickness = std::max(m.thickness, std::numeric_limits<float>::min());
             out.layerDepth = m.layerDepth;
@@ -332,7 +335,9 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
             scene.features |= materialFeature(m.kind);
             if (out.kind == CB_MAT_CONDUCTOR && out.secondSpectrum >= 0)
                 scene.features |= CB_FEATURE_CONDUCTOR_FRESNEL;
-            if (out.kind == CB_MAT_DIELECTRIC && out.alpha > 0.f)
+            // a rough coat scatters as a rough dielectric interface
+            if ((out.kind == CB_MAT_DIELECTRIC || out.kind == CB_MAT_COATED_DIFFUSE) &&
+                out.alpha > 0.f)
                 scene.features |= CB_FEATURE_ROUGH_DIELECTRIC;
         }
     }
