@@ -159,6 +159,11 @@ CB_FN real cbGgxReflection(Vec3 wo, Vec3 wi, Vec3 wm, real alpha, real* pdfFwd, 
 }
 #endif
 
+/* Which lobes of a dielectric interface a sample may take (pbrt-v4's BxDFReflTransFlags). */
+#define CB_LOBE_REFLECT 1
+#define CB_LOBE_TRANSMIT 2
+#define CB_LOBES_BOTH 3
+
 #if CB_HAS(CB_FEATURE_ROUGH_DIELECTRIC)
 /* A rough dielectric (Walter et al. 2007, eqs. 15-21, with GGX, height-correlated G and Heitz's
  * visible normals, as pbrt-v4's DielectricBxDF): wo.z > 0, eta = n(other side) / n(wo's side).
@@ -208,6 +213,34 @@ CB_FN real cbRoughDielectric(Vec3 wo, Vec3 wi, real eta, real alpha, int adjoint
     *pdfRev = isfinite(rev) ? rev : 0.0f;
     return f;
 }
+
+/* A direction from a rough dielectric's visible normals (wo.z > 0, eta as cbRoughDielectric's):
+ * reflected about the sampled microfacet or refracted through it, Fresnel choosing by uLobe when
+ * both lobes are allowed; false where the choice has no direction (total internal reflection,
+ * a reflection below the surface or a refraction above it: masking). */
+CB_FN bool cbRoughDielectricDirection(Vec3 wo, real eta, real alpha, real u0, real u1, real uLobe,
+                                      int lobes, Vec3* wi, bool* through) {
+    Vec3 wm = ggxSampleVisibleNormal(wo, alpha, u0, u1);
+    real dotOm = vdot(wo, wm);
+    real cosT;
+    real fr = fresnelDielectric(dotOm, eta, &cosT);
+    bool reflect = lobes == CB_LOBES_BOTH ? uLobe < fr : lobes == CB_LOBE_REFLECT;
+    Vec3 w;
+    if (reflect) {
+        w = vsub(vscale(wm, 2.0f * dotOm), wo);
+    } else {
+        if (!(cosT > 0.0f)) return false;
+        /* Snell about wm: the tangential part scales by 1/eta. */
+        w = vsub(vscale(wm, dotOm / eta - cosT), vscale(wo, 1.0f / eta));
+    }
+    real len = vlength(w);
+    if (!(len > 0.0f)) return false;
+    w = vscale(w, 1.0f / len);
+    if (reflect != (w.z > 0.0f)) return false;
+    *wi = w;
+    *through = !reflect;
+    return true;
+}
 #endif
 
 #if CB_HAS(CB_FEATURE_COATED_DIFFUSE)
@@ -244,9 +277,36 @@ CB_FN real layerTransmittance(real thickness, real cosTheta) {
     return thickness > 1.17549435e-38f ? exp(-thickness / fabs(cosTheta)) : 1.0f;
 }
 
-#define CB_COAT_REFLECT 1
-#define CB_COAT_TRANSMIT 2
-#define CB_COAT_BOTH 3
+/* The rough coat's f and its pdf restricted to `lobes` (DielectricBxDF::f and PDF), wo from
+ * either side; 0 for a smooth coat, whose lobes are deltas. */
+CB_FN real coatEval(Vec3 wo, Vec3 wi, real eta, real alpha, int lobes, int adjoint, real* pdf) {
+    *pdf = 0.0f;
+#if CB_HAS(CB_FEATURE_ROUGH_DIELECTRIC)
+    if (alpha > 0.0f) {
+        real flip = wo.z > 0.0f ? 1.0f : -1.0f;
+        real etap = wo.z > 0.0f ? eta : 1.0f / eta;
+        Vec3 lo = vec3(wo.x, wo.y, wo.z * flip), li = vec3(wi.x, wi.y, wi.z * flip);
+        real fwd, rev, fr;
+        real value = cbRoughDielectric(lo, li, etap, alpha, adjoint, &fwd, &rev, &fr);
+        bool through = li.z < 0.0f;
+        real lobe = through ? 1.0f - fr : fr;
+        real allowedR = (lobes & CB_LOBE_REFLECT) ? fr : 0.0f;
+        real allowedT = (lobes & CB_LOBE_TRANSMIT) ? 1.0f - fr : 0.0f;
+        if (!(value > 0.0f) || !(lobe > 0.0f) ||
+            !(lobes & (through ? CB_LOBE_TRANSMIT : CB_LOBE_REFLECT)))
+            return 0.0f;
+        *pdf = fwd / (allowedR + allowedT);
+        return value;
+    }
+#endif
+    (void)wo;
+    (void)wi;
+    (void)eta;
+    (void)alpha;
+    (void)lobes;
+    (void)adjoint;
+    return 0.0f;
+}
 
 /* One scattering at the coat, pbrt-v4's DielectricBxDF::Sample_f restricted to `lobes`, from w's
  * side (w.z > 0: outside, relative index eta; below: 1 / eta): *wi, f (without the cosine; a
@@ -263,32 +323,13 @@ CB_FN bool coatSample(Vec3 w, real eta, real alpha, int lobes, real uc, real u0,
     bool through;
 #if CB_HAS(CB_FEATURE_ROUGH_DIELECTRIC)
     if (alpha > 0.0f) {
-        Vec3 wm = ggxSampleVisibleNormal(wo, alpha, u0, u1);
-        real dotOm = vdot(wo, wm);
-        real fr = fresnelDielectric(dotOm, etap, &cosT);
-        real pr = (lobes & CB_COAT_REFLECT) ? fr : 0.0f;
-        real pt = (lobes & CB_COAT_TRANSMIT) ? 1.0f - fr : 0.0f;
-        if (!(pr + pt > 0.0f)) return false;
-        through = !(uc * (pr + pt) < pr);
-        if (!through) {
-            out = vsub(vscale(wm, 2.0f * dotOm), wo);
-        } else {
-            if (!(cosT > 0.0f)) return false;
-            out = vsub(vscale(wm, dotOm / etap - cosT), vscale(wo, 1.0f / etap));
-        }
-        real len = vlength(out);
-        if (!(len > 0.0f)) return false;
-        out = vscale(out, 1.0f / len);
-        if (through == (out.z > 0.0f) || out.z == 0.0f) return false;
-        /* f and the pdf from the half vector of (wo, out), as coatEval computes them; the pdf
-         * divided by the lobe's Fresnel probability and multiplied by its restricted one. */
-        real fwd, rev, frAtWm;
-        value = cbRoughDielectric(wo, out, etap, alpha, adjoint, &fwd, &rev, &frAtWm);
-        real lobe = through ? 1.0f - frAtWm : frAtWm;
-        real allowedR = (lobes & CB_COAT_REFLECT) ? frAtWm : 0.0f;
-        real allowedT = (lobes & CB_COAT_TRANSMIT) ? 1.0f - frAtWm : 0.0f;
-        if (!(value > 0.0f) || !(lobe > 0.0f)) return false;
-        density = fwd / lobe * (lobe / (allowedR + allowedT));
+        /* With both lobes allowed Fresnel chooses as the full interface does; with one, that one.
+         */
+        if (!cbRoughDielectricDirection(wo, etap, alpha, u0, u1, uc, lobes, &out, &through) ||
+            out.z == 0.0f)
+            return false;
+        /* f and the pdf from the half vector of (wo, out), as coatEval computes them. */
+        value = coatEval(wo, out, etap, alpha, lobes, adjoint, &density);
     } else
 #endif
     {
@@ -296,8 +337,8 @@ CB_FN bool coatSample(Vec3 w, real eta, real alpha, int lobes, real uc, real u0,
         (void)u1;
         (void)alpha;
         real fr = fresnelDielectric(wo.z, etap, &cosT);
-        real pr = (lobes & CB_COAT_REFLECT) ? fr : 0.0f;
-        real pt = (lobes & CB_COAT_TRANSMIT) && cosT > 0.0f ? 1.0f - fr : 0.0f;
+        real pr = (lobes & CB_LOBE_REFLECT) ? fr : 0.0f;
+        real pt = (lobes & CB_LOBE_TRANSMIT) && cosT > 0.0f ? 1.0f - fr : 0.0f;
         if (!(pr + pt > 0.0f)) return false;
         through = !(uc * (pr + pt) < pr);
         if (!through) {
@@ -317,37 +358,6 @@ CB_FN bool coatSample(Vec3 w, real eta, real alpha, int lobes, real uc, real u0,
     return isfinite(value) && value > 0.0f && density > 0.0f;
 }
 
-/* The rough coat's f and its pdf restricted to `lobes` (DielectricBxDF::f and PDF), wo from
- * either side; 0 for a smooth coat, whose lobes are deltas. */
-CB_FN real coatEval(Vec3 wo, Vec3 wi, real eta, real alpha, int lobes, int adjoint, real* pdf) {
-    *pdf = 0.0f;
-#if CB_HAS(CB_FEATURE_ROUGH_DIELECTRIC)
-    if (alpha > 0.0f) {
-        real flip = wo.z > 0.0f ? 1.0f : -1.0f;
-        real etap = wo.z > 0.0f ? eta : 1.0f / eta;
-        Vec3 lo = vec3(wo.x, wo.y, wo.z * flip), li = vec3(wi.x, wi.y, wi.z * flip);
-        real fwd, rev, fr;
-        real value = cbRoughDielectric(lo, li, etap, alpha, adjoint, &fwd, &rev, &fr);
-        bool through = li.z < 0.0f;
-        real lobe = through ? 1.0f - fr : fr;
-        real allowedR = (lobes & CB_COAT_REFLECT) ? fr : 0.0f;
-        real allowedT = (lobes & CB_COAT_TRANSMIT) ? 1.0f - fr : 0.0f;
-        if (!(value > 0.0f) || !(lobe > 0.0f) ||
-            !(lobes & (through ? CB_COAT_TRANSMIT : CB_COAT_REFLECT)))
-            return 0.0f;
-        *pdf = fwd / (allowedR + allowedT);
-        return value;
-    }
-#endif
-    (void)wo;
-    (void)wi;
-    (void)eta;
-    (void)alpha;
-    (void)lobes;
-    (void)adjoint;
-    return 0.0f;
-}
-
 /* pbrt-v4's pdf estimate (LayeredBxDF::PDF): the coat's own reflection, plus reflection into wi
  * through coat, base and coat, estimated from one walk per layerSamples (for a smooth coat
  * exactly the base's cosine density at wi's refracted direction), mixed 0.9 : 0.1 with the
@@ -361,7 +371,7 @@ CB_FN real coatedDiffusePdf(Material m, Vec3 wo, Vec3 wi) {
     real sum = 0.0f;
     if (wi.z > 0.0f) {
         real pdfTop;
-        coatEval(wo, wi, m.eta, m.alpha, CB_COAT_REFLECT, 0, &pdfTop);
+        coatEval(wo, wi, m.eta, m.alpha, CB_LOBE_REFLECT, 0, &pdfTop);
         sum = (real)m.layerSamples * pdfTop;
         LayerRng rng;
         rng.key = layerHashDirection(layerHashDirection(0xcc9e2d51u, wi), wo);
@@ -372,9 +382,9 @@ CB_FN real coatedDiffusePdf(Material m, Vec3 wo, Vec3 wi) {
             bool t;
             real a0 = layerRngNext(&rng), a1 = layerRngNext(&rng), a2 = layerRngNext(&rng);
             real b0 = layerRngNext(&rng), b1 = layerRngNext(&rng), b2 = layerRngNext(&rng);
-            if (!coatSample(wo, m.eta, m.alpha, CB_COAT_TRANSMIT, a0, a1, a2, 0, &in, &fIn, &pIn,
+            if (!coatSample(wo, m.eta, m.alpha, CB_LOBE_TRANSMIT, a0, a1, a2, 0, &in, &fIn, &pIn,
                             &t) ||
-                !coatSample(wi, m.eta, m.alpha, CB_COAT_TRANSMIT, b0, b1, b2, 1, &exit, &fExit,
+                !coatSample(wi, m.eta, m.alpha, CB_LOBE_TRANSMIT, b0, b1, b2, 1, &exit, &fExit,
                             &pExit, &t))
                 continue;
             if (m.alpha == 0.0f) {
@@ -387,7 +397,7 @@ CB_FN real coatedDiffusePdf(Material m, Vec3 wo, Vec3 wi) {
                 real rPdf = cosineHemispherePdf(-exit.z);
                 sum += powerHeuristic(pExit, rPdf) * rPdf;
                 real tPdf;
-                coatEval(vneg(base), wi, m.eta, m.alpha, CB_COAT_BOTH, 0, &tPdf);
+                coatEval(vneg(base), wi, m.eta, m.alpha, CB_LOBES_BOTH, 0, &tPdf);
                 sum += powerHeuristic(cosineHemispherePdf(base.z), tPdf) * tPdf;
             }
         }
@@ -404,7 +414,7 @@ CB_FN Spectrum coatedDiffuseEval(const SceneView* scene, Material m, Vec3 wo, Ve
                                  int adjoint) {
     if (!(wi.z > 0.0f)) return specZero();
     real pdfTop;
-    real top = coatEval(wo, wi, m.eta, m.alpha, CB_COAT_BOTH, adjoint, &pdfTop);
+    real top = coatEval(wo, wi, m.eta, m.alpha, CB_LOBES_BOTH, adjoint, &pdfTop);
     Spectrum f = specConst(top * (real)m.layerSamples);
     Spectrum rho = specLoad(scene->spectra, m.reflectance);
     bool rough = m.alpha > 0.0f;
@@ -416,11 +426,11 @@ CB_FN Spectrum coatedDiffuseEval(const SceneView* scene, Material m, Vec3 wo, Ve
         real fIn, pIn, fExit, pExit;
         bool t;
         real a0 = layerRngNext(&rng), a1 = layerRngNext(&rng), a2 = layerRngNext(&rng);
-        if (!coatSample(wo, m.eta, m.alpha, CB_COAT_TRANSMIT, a0, a1, a2, adjoint, &w, &fIn, &pIn,
+        if (!coatSample(wo, m.eta, m.alpha, CB_LOBE_TRANSMIT, a0, a1, a2, adjoint, &w, &fIn, &pIn,
                         &t))
             continue;
         real b0 = layerRngNext(&rng), b1 = layerRngNext(&rng), b2 = layerRngNext(&rng);
-        if (!coatSample(wi, m.eta, m.alpha, CB_COAT_TRANSMIT, b0, b1, b2, !adjoint, &exit, &fExit,
+        if (!coatSample(wi, m.eta, m.alpha, CB_LOBE_TRANSMIT, b0, b1, b2, !adjoint, &exit, &fExit,
                         &pExit, &t))
             continue;
         /* What the exit's sample carries back out to wi: its f |cos| / pdf and the layer. */
@@ -442,7 +452,7 @@ CB_FN Spectrum coatedDiffuseEval(const SceneView* scene, Material m, Vec3 wo, Ve
                 Vec3 next;
                 real fr, pr;
                 real c0 = layerRngNext(&rng), c1 = layerRngNext(&rng), c2 = layerRngNext(&rng);
-                if (!coatSample(vneg(w), m.eta, m.alpha, CB_COAT_REFLECT, c0, c1, c2, adjoint,
+                if (!coatSample(vneg(w), m.eta, m.alpha, CB_LOBE_REFLECT, c0, c1, c2, adjoint,
                                 &next, &fr, &pr, &t))
                     break;
                 beta = specScale(beta, fr * fabs(next.z) / pr);
@@ -463,8 +473,8 @@ CB_FN Spectrum coatedDiffuseEval(const SceneView* scene, Material m, Vec3 wo, Ve
                      * disagree, by 7% in albedo at alpha 0.3.) */
                     real pOut, unused;
                     real out =
-                        coatEval(vneg(w), wi, m.eta, m.alpha, CB_COAT_TRANSMIT, adjoint, &unused);
-                    coatEval(wi, vneg(w), m.eta, m.alpha, CB_COAT_TRANSMIT, !adjoint, &pOut);
+                        coatEval(vneg(w), wi, m.eta, m.alpha, CB_LOBE_TRANSMIT, adjoint, &unused);
+                    coatEval(wi, vneg(w), m.eta, m.alpha, CB_LOBE_TRANSMIT, !adjoint, &pOut);
                     if (out > 0.0f)
                         f = specAdd(
                             f, specScale(beta, layerTransmittance(m.thickness, w.z) * out *
@@ -485,7 +495,7 @@ CB_FN bool coatedDiffuseSample(const SceneView* scene, Material m, Vec3 wo, real
     Vec3 w;
     real fFirst, pdf;
     bool through;
-    if (!coatSample(wo, m.eta, m.alpha, CB_COAT_BOTH, uLobe, u0, u1, adjoint, &w, &fFirst, &pdf,
+    if (!coatSample(wo, m.eta, m.alpha, CB_LOBES_BOTH, uLobe, u0, u1, adjoint, &w, &fFirst, &pdf,
                     &through))
         return false;
     Spectrum f = specConst(fFirst);
@@ -531,7 +541,7 @@ CB_FN bool coatedDiffuseSample(const SceneView* scene, Material m, Vec3 wo, real
                 Vec3 next;
                 real fc, pc;
                 real c0 = layerRngNext(&rng), c1 = layerRngNext(&rng), c2 = layerRngNext(&rng);
-                if (!coatSample(vneg(w), m.eta, m.alpha, CB_COAT_BOTH, c0, c1, c2, adjoint, &next,
+                if (!coatSample(vneg(w), m.eta, m.alpha, CB_LOBES_BOTH, c0, c1, c2, adjoint, &next,
                                 &fc, &pc, &left))
                     return false;
                 f = specScale(f, left ? fc : fc * fabs(next.z));
@@ -735,23 +745,11 @@ CB_FN bool cbLobeSample(const SceneView* scene, Material m, Vec3 wo, bool enteri
     if (m.kind == CB_MAT_DIELECTRIC && m.alpha > 0.0f) {
         real eta = entering ? m.eta : 1.0f / m.eta;
         real alpha = fmax(m.alpha, CB_GGX_MIN_ALPHA);
-        Vec3 wm = ggxSampleVisibleNormal(wo, alpha, u0, u1);
-        real dotOm = vdot(wo, wm);
-        real cosT;
-        real fr = fresnelDielectric(dotOm, eta, &cosT);
         Vec3 wi;
-        if (uLobe < fr) {
-            wi = vsub(vscale(wm, 2.0f * dotOm), wo);
-        } else {
-            if (!(cosT > 0.0f)) return false;
-            /* Snell about wm: the tangential part scales by 1/eta. */
-            wi = vsub(vscale(wm, dotOm / eta - cosT), vscale(wo, 1.0f / eta));
-        }
-        real len = vlength(wi);
-        if (!(len > 0.0f)) return false;
-        wi = vscale(wi, 1.0f / len);
-        /* A reflection below the surface or a refraction above it is no path (masking). */
-        if ((uLobe < fr) != (wi.z > 0.0f)) return false;
+        bool through;
+        if (!cbRoughDielectricDirection(wo, eta, alpha, u0, u1, uLobe, CB_LOBES_BOTH, &wi,
+                                        &through))
+            return false;
         /* f and both pdfs from the half vector of (wo, wi), as bsdfEval computes them. */
         real frAtWm;
         real f = cbRoughDielectric(wo, wi, eta, alpha, adjoint, &out->pdf, &out->pdfRev, &frAtWm);
