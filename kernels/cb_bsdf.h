@@ -358,6 +358,25 @@ CB_FN bool coatSample(Vec3 w, real eta, real alpha, int lobes, real uc, real u0,
     return isfinite(value) && value > 0.0f && density > 0.0f;
 }
 
+/* The two refractions that begin a walk through the coat: the way in from wo (transported as
+ * `adjoint`) and the exit's way out toward wi, sampled from wi as the adjoint transport; false
+ * where either has none. */
+typedef struct CoatCrossings {
+    Vec3 in, exit;
+    real fIn, pIn, fExit, pExit;
+} CoatCrossings;
+
+CB_FN bool coatCrossings(Material m, Vec3 wo, Vec3 wi, int adjoint, LayerRng* rng,
+                         CoatCrossings* c) {
+    real a0 = layerRngNext(rng), a1 = layerRngNext(rng), a2 = layerRngNext(rng);
+    real b0 = layerRngNext(rng), b1 = layerRngNext(rng), b2 = layerRngNext(rng);
+    bool through;
+    return coatSample(wo, m.eta, m.alpha, CB_LOBE_TRANSMIT, a0, a1, a2, adjoint, &c->in, &c->fIn,
+                      &c->pIn, &through) &&
+           coatSample(wi, m.eta, m.alpha, CB_LOBE_TRANSMIT, b0, b1, b2, !adjoint, &c->exit,
+                      &c->fExit, &c->pExit, &through);
+}
+
 /* pbrt-v4's pdf estimate (LayeredBxDF::PDF): the coat's own reflection, plus reflection into wi
  * through coat, base and coat, estimated from one walk per layerSamples (for a smooth coat
  * exactly the base's cosine density at wi's refracted direction), mixed 0.9 : 0.1 with the
@@ -377,25 +396,17 @@ CB_FN real coatedDiffusePdf(Material m, Vec3 wo, Vec3 wi) {
         rng.key = layerHashDirection(layerHashDirection(0xcc9e2d51u, wi), wo);
         rng.count = 0u;
         for (int sample = 0; sample < m.layerSamples; ++sample) {
-            Vec3 in, exit;
-            real fIn, pIn, fExit, pExit;
-            bool t;
-            real a0 = layerRngNext(&rng), a1 = layerRngNext(&rng), a2 = layerRngNext(&rng);
-            real b0 = layerRngNext(&rng), b1 = layerRngNext(&rng), b2 = layerRngNext(&rng);
-            if (!coatSample(wo, m.eta, m.alpha, CB_LOBE_TRANSMIT, a0, a1, a2, 0, &in, &fIn, &pIn,
-                            &t) ||
-                !coatSample(wi, m.eta, m.alpha, CB_LOBE_TRANSMIT, b0, b1, b2, 1, &exit, &fExit,
-                            &pExit, &t))
-                continue;
+            CoatCrossings c;
+            if (!coatCrossings(m, wo, wi, 0, &rng, &c)) continue;
             if (m.alpha == 0.0f) {
-                sum += cosineHemispherePdf(-exit.z);
+                sum += cosineHemispherePdf(-c.exit.z);
             } else {
                 /* MIS between the base's density toward the exit's sample and the coat's
                  * density of leaving toward wi after a base sample. */
                 real u0 = layerRngNext(&rng), u1 = layerRngNext(&rng);
                 Vec3 base = sampleCosineHemisphere(u0, u1);
-                real rPdf = cosineHemispherePdf(-exit.z);
-                sum += powerHeuristic(pExit, rPdf) * rPdf;
+                real rPdf = cosineHemispherePdf(-c.exit.z);
+                sum += powerHeuristic(c.pExit, rPdf) * rPdf;
                 real tPdf;
                 coatEval(vneg(base), wi, m.eta, m.alpha, CB_LOBES_BOTH, 0, &tPdf);
                 sum += powerHeuristic(cosineHemispherePdf(base.z), tPdf) * tPdf;
@@ -422,20 +433,14 @@ CB_FN Spectrum coatedDiffuseEval(const SceneView* scene, Material m, Vec3 wo, Ve
     rng.key = layerHashDirection(layerHashDirection(0x1b873593u, wo), wi);
     rng.count = 0u;
     for (int sample = 0; sample < m.layerSamples; ++sample) {
-        Vec3 w, exit;
-        real fIn, pIn, fExit, pExit;
+        CoatCrossings c;
+        if (!coatCrossings(m, wo, wi, adjoint, &rng, &c)) continue;
+        Vec3 w = c.in, exit = c.exit;
+        real pExit = c.pExit;
         bool t;
-        real a0 = layerRngNext(&rng), a1 = layerRngNext(&rng), a2 = layerRngNext(&rng);
-        if (!coatSample(wo, m.eta, m.alpha, CB_LOBE_TRANSMIT, a0, a1, a2, adjoint, &w, &fIn, &pIn,
-                        &t))
-            continue;
-        real b0 = layerRngNext(&rng), b1 = layerRngNext(&rng), b2 = layerRngNext(&rng);
-        if (!coatSample(wi, m.eta, m.alpha, CB_LOBE_TRANSMIT, b0, b1, b2, !adjoint, &exit, &fExit,
-                        &pExit, &t))
-            continue;
         /* What the exit's sample carries back out to wi: its f |cos| / pdf and the layer. */
-        real exitWeight = fExit * fabs(exit.z) / pExit * layerTransmittance(m.thickness, exit.z);
-        Spectrum beta = specConst(fIn * fabs(w.z) / pIn);
+        real exitWeight = c.fExit * fabs(exit.z) / pExit * layerTransmittance(m.thickness, exit.z);
+        Spectrum beta = specConst(c.fIn * fabs(w.z) / c.pIn);
         bool atTop = true;
         for (int depth = 0; depth < m.layerDepth; ++depth) {
             /* pbrt-v4's Russian roulette of the walk. */

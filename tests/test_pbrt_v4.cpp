@@ -730,6 +730,21 @@ BinnedMeans channelMeans(const cb::DeviceScene& scene, cb::ClRuntime& runtime,
                        [](int, int, int c) { return size_t(c); });
 }
 
+// Each channel's mean within 4.5 standard errors over runs, plus relativeFloor of the expected
+// value, and no non-finite sample.
+void checkChannelMeans(const BinnedMeans& b, const std::array<double, 3>& expected,
+                       double relativeFloor) {
+    for (size_t ch = 0; ch < 3; ++ch) {
+        CAPTURE(ch);
+        CAPTURE(expected[ch]);
+        CAPTURE(b.stats.mean[ch]);
+        CAPTURE(b.stats.se[ch]);
+        CHECK(std::fabs(b.stats.mean[ch] - expected[ch]) <=
+              4.5 * b.stats.se[ch] + relativeFloor * expected[ch]);
+    }
+    CHECK(b.nonFinite == 0);
+}
+
 cb::IntegratorSettings methodSettings(const std::string& name) {
     cb::IntegratorSettings s;
     s.name = name;
@@ -1105,17 +1120,9 @@ TEST_CASE("pbrt-v4 conductor: a smooth eta, k plane under a constant sky has rad
         for (const std::string method : kMethods) {
             CAPTURE(method);
             const BinnedMeans b = channelMeans(scene, runtime, methodSettings(method), 4, 700u);
-            const cbtest::RunStats& st = b.stats;
-            for (size_t ch = 0; ch < 3; ++ch) {
-                CAPTURE(ch);
-                CAPTURE(expected[ch]);
-                CAPTURE(st.mean[ch]);
-                CAPTURE(st.se[ch]);
-                // Spectral: the film's rendering of a flat spectrum under the sky's white, 1e-3.
-                CHECK(std::fabs(st.mean[ch] - expected[ch]) <=
-                      4.5 * st.se[ch] + (scene.channels == 3 ? 1e-4 : 2e-3) * expected[ch]);
-            }
-            CHECK(b.nonFinite == 0);
+            // Spectral: the film's rendering of a flat spectrum under the sky's white, 1e-3.
+            checkChannelMeans(b, {expected[0], expected[1], expected[2]},
+                              scene.channels == 3 ? 1e-4 : 2e-3);
         }
     }
 }
@@ -1311,16 +1318,7 @@ TEST_CASE("pbrt-v4 diffusetransmission and thindielectric: a lid on a black box 
             const int estimates = method == "cpt" || method == "cbdpt" ? 64 : 4;
             const BinnedMeans b =
                 channelMeans(scene, runtime, methodSettings(method), estimates, 900u);
-            const cbtest::RunStats& st = b.stats;
-            for (size_t ch = 0; ch < 3; ++ch) {
-                CAPTURE(ch);
-                CAPTURE(c.expected[ch]);
-                CAPTURE(st.mean[ch]);
-                CAPTURE(st.se[ch]);
-                CHECK(std::fabs(st.mean[ch] - c.expected[ch]) <=
-                      4.5 * st.se[ch] + 1e-4 * c.expected[ch]);
-            }
-            CHECK(b.nonFinite == 0);
+            checkChannelMeans(b, c.expected, 1e-4);
         }
     }
 }
@@ -1469,15 +1467,7 @@ TEST_CASE("pbrt-v4 coateddiffuse: a coated lid under a constant sky renders L A(
             const int estimates = method == "cpt" || method == "cbdpt" ? 64 : 4;
             const BinnedMeans b =
                 channelMeans(scene, runtime, methodSettings(method), estimates, 1100u);
-            for (size_t ch = 0; ch < 3; ++ch) {
-                CAPTURE(ch);
-                CAPTURE(expected[ch]);
-                CAPTURE(b.stats.mean[ch]);
-                CAPTURE(b.stats.se[ch]);
-                CHECK(std::fabs(b.stats.mean[ch] - expected[ch]) <=
-                      4.5 * b.stats.se[ch] + 1e-4 * expected[ch]);
-            }
-            CHECK(b.nonFinite == 0);
+            checkChannelMeans(b, expected, 1e-4);
         }
     }
 }
