@@ -359,11 +359,13 @@ CB_FN bool coatSample(Vec3 w, real eta, real alpha, int lobes, real uc, real u0,
 }
 
 /* The two refractions that begin a walk through the coat: the way in from wo (transported as
- * `adjoint`) and the exit's way out toward wi, sampled from wi as the adjoint transport; false
- * where either has none. */
+ * `adjoint`; false where it has none) and the exit's way out toward wi, sampled from wi as the
+ * adjoint transport (hasExit false where that has none, as under total internal reflection at
+ * the sampled microfacet). */
 typedef struct CoatCrossings {
     Vec3 in, exit;
     real fIn, pIn, fExit, pExit;
+    bool hasExit;
 } CoatCrossings;
 
 CB_FN bool coatCrossings(Material m, Vec3 wo, Vec3 wi, int adjoint, LayerRng* rng,
@@ -371,10 +373,10 @@ CB_FN bool coatCrossings(Material m, Vec3 wo, Vec3 wi, int adjoint, LayerRng* rn
     real a0 = layerRngNext(rng), a1 = layerRngNext(rng), a2 = layerRngNext(rng);
     real b0 = layerRngNext(rng), b1 = layerRngNext(rng), b2 = layerRngNext(rng);
     bool through;
+    c->hasExit = coatSample(wi, m.eta, m.alpha, CB_LOBE_TRANSMIT, b0, b1, b2, !adjoint, &c->exit,
+                            &c->fExit, &c->pExit, &through);
     return coatSample(wo, m.eta, m.alpha, CB_LOBE_TRANSMIT, a0, a1, a2, adjoint, &c->in, &c->fIn,
-                      &c->pIn, &through) &&
-           coatSample(wi, m.eta, m.alpha, CB_LOBE_TRANSMIT, b0, b1, b2, !adjoint, &c->exit,
-                      &c->fExit, &c->pExit, &through);
+                      &c->pIn, &through);
 }
 
 /* pbrt-v4's pdf estimate (LayeredBxDF::PDF): the coat's own reflection, plus reflection into wi
@@ -397,7 +399,7 @@ CB_FN real coatedDiffusePdf(Material m, Vec3 wo, Vec3 wi) {
         rng.count = 0u;
         for (int sample = 0; sample < m.layerSamples; ++sample) {
             CoatCrossings c;
-            if (!coatCrossings(m, wo, wi, 0, &rng, &c)) continue;
+            if (!coatCrossings(m, wo, wi, 0, &rng, &c) || !c.hasExit) continue;
             if (m.alpha == 0.0f) {
                 sum += cosineHemispherePdf(-c.exit.z);
             } else {
@@ -438,8 +440,12 @@ CB_FN Spectrum coatedDiffuseEval(const SceneView* scene, Material m, Vec3 wo, Ve
         Vec3 w = c.in, exit = c.exit;
         real pExit = c.pExit;
         bool t;
-        /* What the exit's sample carries back out to wi: its f |cos| / pdf and the layer. */
-        real exitWeight = c.fExit * fabs(exit.z) / pExit * layerTransmittance(m.thickness, exit.z);
+        /* What the exit's sample carries back out to wi: its f |cos| / pdf and the layer. Where
+         * it has none the walk goes on without it, its paths to wi left to the base's samples
+         * through a rough coat (pbrt-v4 drops the walk, which loses those paths). */
+        real exitWeight =
+            c.hasExit ? c.fExit * fabs(exit.z) / pExit * layerTransmittance(m.thickness, exit.z)
+                      : 0.0f;
         Spectrum beta = specConst(c.fIn * fabs(w.z) / c.pIn);
         bool atTop = true;
         for (int depth = 0; depth < m.layerDepth; ++depth) {
@@ -464,7 +470,9 @@ CB_FN Spectrum coatedDiffuseEval(const SceneView* scene, Material m, Vec3 wo, Ve
                 w = next;
             } else {
                 /* Next-event estimation from the base through the exit's sample. */
-                real nee = rough ? powerHeuristic(pExit, cosineHemispherePdf(-exit.z)) : 1.0f;
+                real nee = !c.hasExit ? 0.0f
+                           : rough    ? powerHeuristic(pExit, cosineHemispherePdf(-exit.z))
+                                      : 1.0f;
                 f = specAdd(f, specScale(specMul(beta, rho), CB_INV_PI * exitWeight * nee));
                 real u0 = layerRngNext(&rng), u1 = layerRngNext(&rng);
                 w = sampleCosineHemisphere(u0, u1);

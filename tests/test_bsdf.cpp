@@ -106,6 +106,7 @@ struct Fixture {
     int black, translucent, transmitterOnly, reflectorOnly, mixDiffuseTranslucent;
     int thinGlass, thinLowIndex, mixTranslucentThin, thinTinyIndex, thinHugeIndex;
     int coatedThick, coatedDefault, coatedLowIndex, coatedRough, coatedRoughGold, coatedNearSmooth;
+    int coatedRoughLow;
     Fixture() {
         white = s.spectrum(1.0f, 1.0f, 1.0f);
         tint = s.spectrum(0.8f, 0.6f, 0.4f);
@@ -152,6 +153,7 @@ struct Fixture {
         coatedLowIndex = s.coatedDiffuse(gold, 0.7f, 0.0f, 40, 2); // total reflection inside
         coatedRough = s.coatedDiffuse(tint, 1.5f, 0.1f, 10, 1, 0.3f);
         coatedRoughGold = s.coatedDiffuse(gold, 1.25f, 0.0f, 20, 2, 0.6f);
+        coatedRoughLow = s.coatedDiffuse(gold, 0.8f, 0.0f, 20, 2, 0.6f); // total reflection
         coatedNearSmooth = s.coatedDiffuse(tint, 1.5f, 0.25f, 1000, 1, 2e-3f);
     }
 };
@@ -877,7 +879,8 @@ TEST_CASE("coated diffuse: the walk's albedo and f against the closed form, adjo
 TEST_CASE("coated diffuse, rough coat: sampled and evaluated albedo agree, adjoint, smooth limit") {
     Fixture fx;
     SceneView v = fx.s.view();
-    for (int material : {fx.coatedRough, fx.coatedRoughGold, fx.coatedNearSmooth}) {
+    for (int material :
+         {fx.coatedRough, fx.coatedRoughGold, fx.coatedRoughLow, fx.coatedNearSmooth}) {
         CAPTURE(material);
         for (float cosO : {0.8f, 0.3f, -0.5f}) {
             CAPTURE(cosO);

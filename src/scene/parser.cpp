@@ -1373,14 +1373,6 @@ class Parser {
         if (auto r = pl.spectrum("reflectance", SpectrumRole::Reflectance)) m.reflectance = *r;
         readEta(pl, m);
         readRoughness(pl, m);
-        // A rough coat of index below 1 is refused: its walk's sampling and its evaluation
-        // disagree (tests/test_bsdf.cpp); a smooth one agrees with the closed form.
-        const float alpha = m.remapRoughness ? std::sqrt(m.roughness) : m.roughness;
-        if (alpha >= 1e-3f && m.eta < 1.f)
-            if (const Param* p = pl.peek("eta"))
-                throw SceneError(
-                    p->valueLoc(0),
-                    fmt::format("a rough coat needs \"float eta\" >= 1, got {:g}", m.eta));
         if (const Param* p = pl.peek("thickness")) {
             const double t = *pl.oneFloat("thickness");
             if (!(t >= 0.0))
