@@ -246,13 +246,13 @@ CB_FN bool cbRoughDielectricDirection(Vec3 wo, real eta, real alpha, real u0, re
 #if CB_HAS(CB_FEATURE_COATED_DIFFUSE)
 /* ---- Coated diffuse (pbrt-v4's CoatedDiffuseBxDF) ---------------------------------------------
  * A Lambertian base of reflectance rho under a dielectric coat of index eta, smooth (alpha 0) or
- * GGX-rough, both faces alike, with a layer between them that absorbs exp(-thickness / |cos|)
- * per crossing and does not scatter (pbrt-v4's default albedo 0). Light refracts in through the
- * coat, bounces between base and coat and refracts out. pbrt-v4's LayeredBxDF estimates f by a
- * random walk with next-event estimation through the exit, samples directions by the walk
- * itself (Guo et al. 2018, "Position-free Monte Carlo simulation for arbitrary layered BSDFs";
- * pbrt-v4 sec. 14.3) and gives MIS a pdf estimate mixed with the uniform sphere's; these are the
- * same estimators for this pair of layers. */
+ * GGX-rough (alpha >= 1e-3, as the host stores it), both faces alike, with a layer between them
+ * that absorbs exp(-thickness / |cos|) per crossing and does not scatter (pbrt-v4's default albedo
+ * 0). Light refracts in through the coat, bounces between base and coat and refracts out. pbrt-v4's
+ * LayeredBxDF estimates f by a random walk with next-event estimation through the exit, samples
+ * directions by the walk itself (Guo et al. 2018, "Position-free Monte Carlo simulation for
+ * arbitrary layered BSDFs"; pbrt-v4 sec. 14.3) and gives MIS a pdf estimate mixed with the uniform
+ * sphere's; these are the same estimators for this pair of layers. */
 
 /* The walk's random numbers: a counter hashed under a key made from its arguments, so that an
  * estimate is a deterministic function of them, as pbrt-v4 seeds its RNG with Hash(wo), Hash(wi):
@@ -373,6 +373,9 @@ CB_FN bool coatCrossings(Material m, Vec3 wo, Vec3 wi, int adjoint, LayerRng* rn
     real a0 = layerRngNext(rng), a1 = layerRngNext(rng), a2 = layerRngNext(rng);
     real b0 = layerRngNext(rng), b1 = layerRngNext(rng), b2 = layerRngNext(rng);
     bool through;
+    c->exit = vec3(0.0f, 0.0f, 1.0f);
+    c->fExit = 0.0f;
+    c->pExit = 0.0f;
     c->hasExit = coatSample(wi, m.eta, m.alpha, CB_LOBE_TRANSMIT, b0, b1, b2, !adjoint, &c->exit,
                             &c->fExit, &c->pExit, &through);
     return coatSample(wo, m.eta, m.alpha, CB_LOBE_TRANSMIT, a0, a1, a2, adjoint, &c->in, &c->fIn,
@@ -436,7 +439,8 @@ CB_FN Spectrum coatedDiffuseEval(const SceneView* scene, Material m, Vec3 wo, Ve
     rng.count = 0u;
     for (int sample = 0; sample < m.layerSamples; ++sample) {
         CoatCrossings c;
-        if (!coatCrossings(m, wo, wi, adjoint, &rng, &c)) continue;
+        /* Without a way out a smooth coat's walk has nothing to add. */
+        if (!coatCrossings(m, wo, wi, adjoint, &rng, &c) || (!c.hasExit && !rough)) continue;
         Vec3 w = c.in, exit = c.exit;
         real pExit = c.pExit;
         bool t;

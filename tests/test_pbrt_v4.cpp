@@ -1158,6 +1158,11 @@ TEST_CASE("pbrt-v4 dielectric: roughness makes it rough (alpha = sqrt(roughness)
     CHECK(scene.materials[0].alpha == 0.0f);
     CHECK(contains(scene.featureNames(), "dielectric"));
     CHECK(!contains(scene.featureNames(), "rough-dielectric"));
+    // A coat of eta 1 is no interface (pbrt-v4): smooth whatever its roughness.
+    cb::DeviceScene noCoat = cb::buildDeviceScene(parseSceneString(
+        light + "Material \"coateddiffuse\" \"float roughness\" 0.2 \"float eta\" 1\n" + kTri,
+        "t.pbrt"));
+    CHECK(noCoat.materials[0].alpha == 0.0f);
 }
 
 TEST_CASE("pbrt-v4 dielectric: BDPT, CBDPT and MLT agree with PT with a rough glass sphere" *

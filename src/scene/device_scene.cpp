@@ -321,9 +321,10 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
             out.kind = CB_MAT_COATED_DIFFUSE;
             out.reflectance = spectra.addAlbedo(m.reflectance, 1.f);
             out.eta = m.eta;
-            // pbrt-v4 treats a coat of alpha below 1e-3 as smooth (EffectivelySmooth; the
-            // parser's check of rough coats uses the same bound)
-            out.alpha = alpha < 1e-3f ? 0.f : alpha;
+            // pbrt-v4 treats a coat of alpha below 1e-3 as smooth (EffectivelySmooth), and one
+            // of eta 1 as no interface at all, which the smooth coat's Fresnel gives; the kernels
+            // take a rough coat's alpha >= 1e-3 as given
+            out.alpha = alpha < 1e-3f || m.eta == 1.f ? 0.f : alpha;
             // pbrt-v4 keeps the thickness at least the smallest normal float
             out.thickness = std::max(m.thickness, std::numeric_limits<float>::min());
             out.layerDepth = m.layerDepth;
