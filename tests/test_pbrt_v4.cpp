@@ -1158,11 +1158,27 @@ TEST_CASE("pbrt-v4 dielectric: roughness makes it rough (alpha = sqrt(roughness)
     CHECK(scene.materials[0].alpha == 0.0f);
     CHECK(contains(scene.featureNames(), "dielectric"));
     CHECK(!contains(scene.featureNames(), "rough-dielectric"));
-    // A coat of eta 1 is no interface (pbrt-v4): smooth whatever its roughness.
-    cb::DeviceScene noCoat = cb::buildDeviceScene(parseSceneString(
-        light + "Material \"coateddiffuse\" \"float roughness\" 0.2 \"float eta\" 1\n" + kTri,
-        "t.pbrt"));
-    CHECK(noCoat.materials[0].alpha == 0.0f);
+    // A glass or coat of eta 1 is no interface (pbrt-v4): smooth whatever its roughness (a rough
+    // one's straight transmission has no half vector: it rendered black).
+    for (const char* material :
+         {"dielectric\" \"float eta\" 1", "coateddiffuse\" \"float eta\" 1"}) {
+        CAPTURE(material);
+        const cb::DeviceScene none = cb::buildDeviceScene(parseSceneString(
+            light + "Material \"" + material + " \"float roughness\" 0.2\n" + kTri, "t.pbrt"));
+        CHECK(none.materials[0].alpha == 0.0f);
+        CHECK(!contains(none.featureNames(), "rough-dielectric"));
+    }
+    // Glass of eta 1 passes everything straight through.
+    cb::ClRuntime runtime;
+    const cb::DeviceScene pane = cb::buildDeviceScene(
+        parseSceneString("LookAt 0 1 0  0 0 0  0 0 1\nCamera \"perspective\" \"float fov\" 90\n"
+                         "Film \"rgb\" \"integer xresolution\" 8 \"integer yresolution\" 8\n"
+                         "WorldBegin\nLightSource \"infinite\" \"rgb L\" [0.5 0.5 0.5]\n"
+                         "Material \"dielectric\" \"float eta\" 1 \"float roughness\" 0.2\n"
+                         "Shape \"bilinearmesh\" \"point3 P\" [-2 0 -2  2 0 -2  -2 0 2  2 0 2]\n",
+                         "t.pbrt"));
+    const BinnedMeans b = channelMeans(pane, runtime, methodSettings("pt"), 2, 1200u);
+    checkChannelMeans(b, {0.5, 0.5, 0.5}, 1e-6);
 }
 
 TEST_CASE("pbrt-v4 dielectric: BDPT, CBDPT and MLT agree with PT with a rough glass sphere" *

@@ -300,7 +300,9 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         case MaterialKind::Dielectric:
             out.kind = CB_MAT_DIELECTRIC;
             out.eta = m.eta;
-            out.alpha = alpha;
+            // pbrt-v4 takes eta 1 as no interface, smooth at any roughness: a rough one's
+            // transmission (wi = -wo) has no half vector
+            out.alpha = m.eta == 1.f ? 0.f : alpha;
             break;
         case MaterialKind::Mix:
             out.kind = CB_MAT_MIX;
