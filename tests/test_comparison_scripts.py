@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
 """The comparison scripts' own arithmetic and refusals (docs/pbrt-v4.md, docs/performance.md):
 the emitter mask does not wrap around the image's edges; HDR-FLIP of an image with negative
-values against itself is 0; compare-pbrt fails a non-finite region instead of passing it and
-refuses --grid 0; same-images tells identical renders from different ones and refuses an --only
+values against itself is 0; compare-pbrt fails a non-finite region instead of passing it,
+refuses --grid 0, and reports a --box of the images already there; same-images tells identical renders from different ones and refuses an --only
 that matches nothing; interleave-render refuses two entries of one name and --rounds 0;
 compare-mitsuba refuses --check-seeds 0 before it needs Mitsuba."""
 import os
@@ -63,6 +63,20 @@ with tempfile.TemporaryDirectory() as tmp:
                                                     f"({r.returncode}: {r.stdout[-300:]} {r.stderr[-300:]})")
     r = run(os.path.join(scripts, "compare-pbrt"), *common, "--grid", "0", scene)
     check(r.returncode == 2 and "--grid" in r.stderr, f"--grid 0 refused ({r.stderr[-200:]})")
+    # --box on the images already there: the bottom half, away from the NaN (the PFM's first
+    # row is the image's bottom), against pbrt's 0.5.
+    r = run(os.path.join(scripts, "compare-pbrt"), *common, "--no-render", "--box",
+            "bottom=0,8,16,16", scene)
+    ours = cr.read_exr(os.path.join(tmp, "cp", "box-cbdpt.exr")).astype(np.float64)
+    expected = (ours[8:] @ cr.LUMINANCE).mean() / 0.5
+    line = [x for x in r.stdout.splitlines() if x.strip().startswith("bottom ")]
+    check(r.returncode == 0 and "compare-pbrt: /" not in r.stdout and len(line) == 1
+          and abs(float(line[0].split()[1]) - expected) < 1e-4 * expected,
+          f"--no-render --box bottom reports the bottom half's ratio {expected:.4f} ({r.stdout[-400:]})")
+    r = run(os.path.join(scripts, "compare-pbrt"), *common, "--no-render", "--box",
+            "big=0,0,17,8", scene)
+    check(r.returncode != 0 and "outside the 16x16 image" in r.stderr + r.stdout,
+          f"a box outside the image is refused ({r.stderr[-200:]})")
 
     # same-images: one binary twice is the same; a binary that renders with another sampler
     # is not; an --only that matches no case is an error.
