@@ -10,9 +10,9 @@
  * - f excludes the cosine. A delta sample carries pdf = the discrete probability of its lobe and
  *   f = (lobe weight) / |cos wi|, so f |cos wi| / pdf is always the throughput factor.
  * - adjoint = 0 for radiance transport (eye paths), 1 for importance transport (light paths).
- * - Coated diffuse estimates f and its pdf by a random walk between its two layers (below), as
- *   pbrt-v4 does: bsdfSample's f |cos wi| / pdf is the walk's exact weight, its pdf the same
- *   estimate bsdfEval returns for MIS.
+ * - Coated diffuse and coated conductor estimate f and its pdf by a random walk between their two
+ *   layers (below), as pbrt-v4 does: bsdfSample's f |cos wi| / pdf is the walk's exact weight,
+ *   its pdf the same estimate bsdfEval returns for MIS.
  * - Mix (f = (1-a) f1 + a f2): a non-delta sample returns the full mixture's f and its pdf
  *   (1-a) p1 + a p2 over the non-delta components, so bsdfEval's pdfFwd is exactly the density
  *   of bsdfSample's non-delta directions. A delta sample (a delta component was picked) returns
@@ -57,7 +57,7 @@ CB_FN real fresnelDielectric(real cosI, real eta, real* cosT) {
     return 0.5f * (rs * rs + rp * rp);
 }
 
-#if CB_HAS(CB_FEATURE_CONDUCTOR_FRESNEL)
+#if CB_HAS_CONDUCTOR_FRESNEL
 /* Unpolarised Fresnel reflectance of a conductor of complex index eta + i k under vacuum, at
  * cosI to its normal (Born & Wolf sec. 13.2; the a, b form of Lagarde's "Memo on Fresnel
  * equations", as pbrt-v3's FrConductor), arranged against cancellation: t0 = eta^2 - k^2 -
@@ -137,8 +137,11 @@ CB_FN Spectrum cbConductorFresnel(const SceneView* scene, Material m, Spectrum r
     return reflectance;
 }
 
-/* Torrance-Sparrow with GGX and height-correlated Smith G (Walter et al. 2007, eq. 20), the
- * Fresnel term replaced by the constant tint. Returns the scalar D G / (4 cos_o cos_i) and the
+#endif
+
+#if CB_HAS_GGX_REFLECTION
+/* Torrance-Sparrow with GGX and height-correlated Smith G (Walter et al. 2007, eq. 20) without
+ * its Fresnel term, which the caller multiplies. Returns the scalar D G / (4 cos_o cos_i) and the
  * pdfs of the visible-normal reflection (pdf_vn(wm) / (4 wo.wm), Heitz 2018 eq. 17) both ways;
  * zero everywhere when not finite (both directions in the grazing limit). */
 CB_FN real cbGgxReflection(Vec3 wo, Vec3 wi, Vec3 wm, real alpha, real* pdfFwd, real* pdfRev) {
@@ -156,6 +159,24 @@ CB_FN real cbGgxReflection(Vec3 wo, Vec3 wi, Vec3 wm, real alpha, real* pdfFwd, 
     *pdfFwd = fwd;
     *pdfRev = rev;
     return value;
+}
+
+/* wo (wo.z > 0) mirrored about a microfacet normal *wm sampled from GGX's visible normals
+ * (Heitz 2018), with cbGgxReflection's value and pdfs; false below the surface. D cancels in
+ * f cos / pdf only if both use the sampled wm, not the recomputed half vector (which loses
+ * precision at tiny alpha). */
+CB_FN bool cbGgxReflectionSample(Vec3 wo, real alpha, real u0, real u1, Vec3* wi, Vec3* wm,
+                                 real* value, real* pdfFwd, real* pdfRev) {
+    Vec3 m = ggxSampleVisibleNormal(wo, alpha, u0, u1);
+    Vec3 w = vsub(vscale(m, 2.0f * vdot(wo, m)), wo);
+    real len = vlength(w);
+    if (!(len > 0.0f)) return false;
+    w = vscale(w, 1.0f / len);
+    if (!(w.z > 0.0f)) return false;
+    *value = cbGgxReflection(wo, w, m, alpha, pdfFwd, pdfRev);
+    *wi = w;
+    *wm = m;
+    return *pdfFwd > 0.0f;
 }
 #endif
 
@@ -243,16 +264,17 @@ CB_FN bool cbRoughDielectricDirection(Vec3 wo, real eta, real alpha, real u0, re
 }
 #endif
 
-#if CB_HAS(CB_FEATURE_COATED_DIFFUSE)
-/* ---- Coated diffuse (pbrt-v4's CoatedDiffuseBxDF) ---------------------------------------------
- * A Lambertian base of reflectance rho under a dielectric coat of index eta, smooth (alpha 0) or
- * GGX-rough (alpha >= 1e-3, as the host stores it), both faces alike, with a layer between them
- * that absorbs exp(-thickness / |cos|) per crossing and does not scatter (pbrt-v4's default albedo
- * 0). Light refracts in through the coat, bounces between base and coat and refracts out. pbrt-v4's
+#if CB_HAS_LAYERED
+/* ---- Layered materials (pbrt-v4's CoatedDiffuseBxDF and CoatedConductorBxDF) ----------------
+ * A base under a dielectric coat of index eta, smooth (alpha 0) or GGX-rough (alpha >= 1e-3, as
+ * the host stores it), both faces alike, with a layer between them that absorbs
+ * exp(-thickness / |cos|) per crossing and does not scatter (pbrt-v4's default albedo 0). The base
+ * is Lambertian (coated diffuse) or a conductor, smooth or GGX-rough (coated conductor). Light
+ * refracts in through the coat, bounces between base and coat and refracts out. pbrt-v4's
  * LayeredBxDF estimates f by a random walk with next-event estimation through the exit, samples
  * directions by the walk itself (Guo et al. 2018, "Position-free Monte Carlo simulation for
  * arbitrary layered BSDFs"; pbrt-v4 sec. 14.3) and gives MIS a pdf estimate mixed with the uniform
- * sphere's; these are the same estimators for this pair of layers. */
+ * sphere's; these are the same estimators for these pairs of layers. */
 
 /* The walk's random numbers: a counter hashed under a key made from its arguments, so that an
  * estimate is a deterministic function of them, as pbrt-v4 seeds its RNG with Hash(wo), Hash(wi):
@@ -358,6 +380,103 @@ CB_FN bool coatSample(Vec3 w, real eta, real alpha, int lobes, real uc, real u0,
     return isfinite(value) && value > 0.0f && density > 0.0f;
 }
 
+/* The base under the coat, its spectra read once per estimate: a Lambertian reflectance rho, or a
+ * conductor's complex index eta + i k relative to the coat's (pbrt-v4 divides both by the coat's
+ * eta; a "reflectance" r, clamped to [0, 0.9999], is eta 1, k 2 sqrt(r) / sqrt(1 - r), whose
+ * Fresnel reflectance at normal incidence is r: pbrt-v4's CoatedConductorMaterial). */
+typedef struct LayerBase {
+    Spectrum a, b; /* rho; or eta and k */
+    real alpha;    /* a conductor's GGX alpha, 0 for a smooth one (a delta) */
+    int conductor;
+} LayerBase;
+
+CB_FN LayerBase layerBaseLoad(const SceneView* scene, Material m) {
+    LayerBase base;
+    base.a = specLoad(scene->spectra, m.reflectance);
+    base.b = base.a;
+    base.alpha = 0.0f;
+    base.conductor = 0;
+#if CB_HAS(CB_FEATURE_COATED_CONDUCTOR)
+    if (m.kind == CB_MAT_COATED_CONDUCTOR) {
+        base.conductor = 1;
+        base.alpha = m.baseAlpha;
+        if (m.secondSpectrum >= 0) base.b = specLoad(scene->spectra, m.secondSpectrum);
+        for (int c = 0; c < CB_CHANNELS; ++c) {
+            if (m.secondSpectrum < 0) {
+                real r = cbClamp(base.a.c[c], 0.0f, 0.9999f);
+                base.a.c[c] = 1.0f;
+                base.b.c[c] = 2.0f * sqrt(r) / sqrt(1.0f - r);
+            }
+            base.a.c[c] /= m.eta;
+            base.b.c[c] /= m.eta;
+        }
+    }
+#endif
+    return base;
+}
+
+CB_FN bool layerBaseIsDelta(LayerBase base) {
+    return base.conductor && base.alpha == 0.0f;
+}
+
+#if CB_HAS(CB_FEATURE_COATED_CONDUCTOR)
+CB_FN Spectrum layerBaseFresnel(LayerBase base, real cosH) {
+    Spectrum f;
+    for (int c = 0; c < CB_CHANNELS; ++c)
+        f.c[c] = fresnelConductor(cosH, base.a.c[c], base.b.c[c]);
+    return f;
+}
+#endif
+
+/* The base's f (without the cosine) for wo, wi above it, and the density of layerBaseSample
+ * choosing wi; 0 for a smooth conductor, whose reflection is a delta. */
+CB_FN Spectrum layerBaseEval(LayerBase base, Vec3 wo, Vec3 wi, real* pdf) {
+    *pdf = 0.0f;
+    if (!(wi.z > 0.0f)) return specZero();
+#if CB_HAS(CB_FEATURE_COATED_CONDUCTOR)
+    if (base.conductor) {
+        Vec3 h = vadd(wo, wi);
+        real len = vlength(h);
+        if (base.alpha == 0.0f || !(len > 0.0f)) return specZero();
+        Vec3 wm = vscale(h, 1.0f / len);
+        real rev;
+        real value = cbGgxReflection(wo, wi, wm, base.alpha, pdf, &rev);
+        return specScale(layerBaseFresnel(base, vdot(wo, wm)), value);
+    }
+#endif
+    (void)wo;
+    *pdf = cosineHemispherePdf(wi.z);
+    return specScale(base.a, CB_INV_PI);
+}
+
+/* A direction *wi from the base for wo above it, with f (without the cosine; a smooth
+ * conductor's delta as f |cos| = its Fresnel reflectance) and the density (the delta's: 1). */
+CB_FN bool layerBaseSample(LayerBase base, Vec3 wo, real u0, real u1, Vec3* wi, Spectrum* f,
+                           real* pdf) {
+#if CB_HAS(CB_FEATURE_COATED_CONDUCTOR)
+    if (base.conductor) {
+        if (!(wo.z > 0.0f)) return false;
+        if (base.alpha == 0.0f) {
+            *wi = vec3(-wo.x, -wo.y, wo.z);
+            *f = specScale(layerBaseFresnel(base, wo.z), 1.0f / wo.z);
+            *pdf = 1.0f;
+            return true;
+        }
+        Vec3 wm;
+        real value, rev;
+        if (!cbGgxReflectionSample(wo, base.alpha, u0, u1, wi, &wm, &value, pdf, &rev))
+            return false;
+        *f = specScale(layerBaseFresnel(base, vdot(wo, wm)), value);
+        return true;
+    }
+#endif
+    (void)wo;
+    *wi = sampleCosineHemisphere(u0, u1);
+    *f = specScale(base.a, CB_INV_PI);
+    *pdf = cosineHemispherePdf(wi->z);
+    return wi->z > 0.0f;
+}
+
 /* The two refractions that begin a walk through the coat: the way in from wo (transported as
  * `adjoint`; false where it has none) and the exit's way out toward wi, sampled from wi as the
  * adjoint transport (hasExit false where that has none, as under total internal reflection at
@@ -384,10 +503,10 @@ CB_FN bool coatCrossings(Material m, Vec3 wo, Vec3 wi, int adjoint, LayerRng* rn
 
 /* pbrt-v4's pdf estimate (LayeredBxDF::PDF): the coat's own reflection, plus reflection into wi
  * through coat, base and coat, estimated from one walk per layerSamples (for a smooth coat
- * exactly the base's cosine density at wi's refracted direction), mixed 0.9 : 0.1 with the
+ * exactly the base's density between the refracted directions), mixed 0.9 : 0.1 with the
  * uniform sphere's density. Both flipped if wo.z < 0. Only for wi on wo's side: the base
  * transmits nothing, and cbLobeEval gives transmission neither f nor pdf. */
-CB_FN real coatedDiffusePdf(Material m, Vec3 wo, Vec3 wi) {
+CB_FN real layeredPdf(LayerBase base, Material m, Vec3 wo, Vec3 wi) {
     if (wo.z < 0.0f) {
         wo = vneg(wo);
         wi = vneg(wi);
@@ -403,18 +522,23 @@ CB_FN real coatedDiffusePdf(Material m, Vec3 wo, Vec3 wi) {
         for (int sample = 0; sample < m.layerSamples; ++sample) {
             CoatCrossings c;
             if (!coatCrossings(m, wo, wi, 0, &rng, &c) || !c.hasExit) continue;
+            real rPdf;
+            layerBaseEval(base, vneg(c.in), vneg(c.exit), &rPdf);
             if (m.alpha == 0.0f) {
-                sum += cosineHemispherePdf(-c.exit.z);
+                sum += rPdf;
             } else {
                 /* MIS between the base's density toward the exit's sample and the coat's
-                 * density of leaving toward wi after a base sample. */
+                 * density of leaving toward wi after a base sample (the latter alone after a
+                 * smooth conductor's delta). */
+                bool baseDelta = layerBaseIsDelta(base);
+                if (!baseDelta) sum += powerHeuristic(c.pExit, rPdf) * rPdf;
                 real u0 = layerRngNext(&rng), u1 = layerRngNext(&rng);
-                Vec3 base = sampleCosineHemisphere(u0, u1);
-                real rPdf = cosineHemispherePdf(-c.exit.z);
-                sum += powerHeuristic(c.pExit, rPdf) * rPdf;
-                real tPdf;
-                coatEval(vneg(base), wi, m.eta, m.alpha, CB_LOBES_BOTH, 0, &tPdf);
-                sum += powerHeuristic(cosineHemispherePdf(base.z), tPdf) * tPdf;
+                Vec3 up;
+                Spectrum fBase;
+                real upPdf, tPdf;
+                if (!layerBaseSample(base, vneg(c.in), u0, u1, &up, &fBase, &upPdf)) continue;
+                coatEval(vneg(up), wi, m.eta, m.alpha, CB_LOBES_BOTH, 0, &tPdf);
+                sum += baseDelta ? tPdf : powerHeuristic(upPdf, tPdf) * tPdf;
             }
         }
     }
@@ -426,14 +550,12 @@ CB_FN real coatedDiffusePdf(Material m, Vec3 wo, Vec3 wi) {
  * exit's sampled way out to wi (and, through a rough coat, also toward wi from the base's
  * sample, the two combined by the power heuristic). The exit is sampled as the adjoint, so f for
  * radiance equals f(wi, wo) for importance. */
-CB_FN Spectrum coatedDiffuseEval(const SceneView* scene, Material m, Vec3 wo, Vec3 wi,
-                                 int adjoint) {
+CB_FN Spectrum layeredEval(LayerBase base, Material m, Vec3 wo, Vec3 wi, int adjoint) {
     if (!(wi.z > 0.0f)) return specZero();
     real pdfTop;
     real top = coatEval(wo, wi, m.eta, m.alpha, CB_LOBES_BOTH, adjoint, &pdfTop);
     Spectrum f = specConst(top * (real)m.layerSamples);
-    Spectrum rho = specLoad(scene->spectra, m.reflectance);
-    bool rough = m.alpha > 0.0f;
+    bool rough = m.alpha > 0.0f, baseDelta = layerBaseIsDelta(base);
     LayerRng rng;
     rng.key = layerHashDirection(layerHashDirection(0x1b873593u, wo), wi);
     rng.count = 0u;
@@ -474,28 +596,34 @@ CB_FN Spectrum coatedDiffuseEval(const SceneView* scene, Material m, Vec3 wo, Ve
                 w = next;
             } else {
                 /* Next-event estimation from the base through the exit's sample. */
-                real nee = !c.hasExit ? 0.0f
-                           : rough    ? powerHeuristic(pExit, cosineHemispherePdf(-exit.z))
-                                      : 1.0f;
-                f = specAdd(f, specScale(specMul(beta, rho), CB_INV_PI * exitWeight * nee));
+                if (c.hasExit && !baseDelta) {
+                    real pBase;
+                    Spectrum fBase = layerBaseEval(base, vneg(w), vneg(exit), &pBase);
+                    real nee = rough ? powerHeuristic(pExit, pBase) : 1.0f;
+                    f = specAdd(f, specScale(specMul(beta, fBase), exitWeight * nee));
+                }
+                Vec3 up;
+                Spectrum fBase;
+                real pBase;
                 real u0 = layerRngNext(&rng), u1 = layerRngNext(&rng);
-                w = sampleCosineHemisphere(u0, u1);
-                if (!(w.z > 0.0f)) break;
-                beta = specMul(beta, rho); /* f cos / pdf of the cosine-sampled base */
+                if (!layerBaseSample(base, vneg(w), u0, u1, &up, &fBase, &pBase)) break;
+                w = up;
+                beta = specMul(beta, specScale(fBase, w.z / pBase));
                 if (rough) {
                     /* ... and through the coat from the base's sample straight to wi, weighed
                      * against the exit's sample, whose density of reaching the base along w is
                      * that of sampling -w from wi. (pbrt-v4 weighs it with the density of
                      * sampling wi from -w instead; with that weight f and the walk's sampling
-                     * disagree, by 7% in albedo at alpha 0.3.) */
+                     * disagree, by 7% in albedo at alpha 0.3.) After a smooth conductor's delta
+                     * this is the only way out. */
                     real pOut, unused;
                     real out =
                         coatEval(vneg(w), wi, m.eta, m.alpha, CB_LOBE_TRANSMIT, adjoint, &unused);
                     coatEval(wi, vneg(w), m.eta, m.alpha, CB_LOBE_TRANSMIT, !adjoint, &pOut);
+                    real weight = baseDelta ? 1.0f : powerHeuristic(pBase, pOut);
                     if (out > 0.0f)
-                        f = specAdd(
-                            f, specScale(beta, layerTransmittance(m.thickness, w.z) * out *
-                                                   powerHeuristic(cosineHemispherePdf(w.z), pOut)));
+                        f = specAdd(f, specScale(beta, layerTransmittance(m.thickness, w.z) * out *
+                                                           weight));
                 }
             }
         }
@@ -506,9 +634,9 @@ CB_FN Spectrum coatedDiffuseEval(const SceneView* scene, Material m, Vec3 wo, Ve
 /* A direction by the walk itself (LayeredBxDF::Sample_f), wo.z > 0: the coat reflects (a delta
  * for a smooth coat) or the walk refracts in and bounces between base and coat until it leaves,
  * its weight f |cos| / pdf exact. A non-delta sample then carries the pdf estimate of
- * coatedDiffusePdf, f scaled so that the weight is kept. */
-CB_FN bool coatedDiffuseSample(const SceneView* scene, Material m, Vec3 wo, real u0, real u1,
-                               real uLobe, int adjoint, BsdfSample* out) {
+ * layeredPdf, f scaled so that the weight is kept. */
+CB_FN bool layeredSample(LayerBase base, Material m, Vec3 wo, real u0, real u1, real uLobe,
+                         int adjoint, BsdfSample* out) {
     Vec3 w;
     real fFirst, pdf;
     bool through;
@@ -527,7 +655,6 @@ CB_FN bool coatedDiffuseSample(const SceneView* scene, Material m, Vec3 wo, real
         }
     } else {
         f = specScale(f, fabs(w.z));
-        Spectrum rho = specLoad(scene->spectra, m.reflectance);
         LayerRng rng;
         rng.key = cbHashCombine(
             cbHashCombine(cbHashCombine(layerHashDirection(0x85ebca6bu, wo), cbFloatBits(uLobe)),
@@ -547,12 +674,14 @@ CB_FN bool coatedDiffuseSample(const SceneView* scene, Material m, Vec3 wo, real
             f = specScale(f, layerTransmittance(m.thickness, w.z));
             if (!atTop) {
                 real v0 = layerRngNext(&rng), v1 = layerRngNext(&rng);
-                Vec3 wb = sampleCosineHemisphere(v0, v1);
-                if (!(wb.z > 0.0f)) return false;
-                /* f *= rho / pi, pdf *= cos / pi, then the cosine of the new direction. */
-                f = specScale(specMul(f, rho), CB_INV_PI * wb.z);
-                pdf *= cosineHemispherePdf(wb.z);
-                w = wb;
+                Vec3 up;
+                Spectrum fBase;
+                real pBase;
+                if (!layerBaseSample(base, vneg(w), v0, v1, &up, &fBase, &pBase)) return false;
+                /* f and pdf of the base, then the cosine of the new direction. */
+                f = specMul(f, specScale(fBase, up.z));
+                pdf *= pBase;
+                w = up;
             } else {
                 /* At the coat from inside: reflection or the way out. */
                 Vec3 next;
@@ -568,14 +697,23 @@ CB_FN bool coatedDiffuseSample(const SceneView* scene, Material m, Vec3 wo, real
         }
         if (!left) return false;
         out->wi = w;
+        if (m.alpha == 0.0f && layerBaseIsDelta(base)) {
+            /* Smooth coat over a smooth conductor: every way out is the mirror direction, a
+             * delta whose weight is the walk's (its reverse choice taken as equally likely). */
+            out->isDelta = 1;
+            out->f = f;
+            out->pdf = pdf;
+            out->pdfRev = pdf;
+            return specIsFinite(f) && pdf > 0.0f && w.z > 0.0f;
+        }
     }
     /* A non-delta sample, reflected by a rough coat or out of the walk: pbrt-v4's integrators
      * weigh it by the pdf estimate (pdfIsProportional), keeping f |cos| / pdf. */
-    real pdfEstimate = coatedDiffusePdf(m, wo, out->wi);
+    real pdfEstimate = layeredPdf(base, m, wo, out->wi);
     out->isDelta = 0;
     out->f = specScale(f, pdfEstimate / pdf);
     out->pdf = pdfEstimate;
-    out->pdfRev = coatedDiffusePdf(m, out->wi, wo);
+    out->pdfRev = layeredPdf(base, m, out->wi, wo);
     return specIsFinite(out->f) && pdf > 0.0f && out->wi.z > 0.0f;
 }
 #endif
@@ -610,12 +748,13 @@ CB_FN Spectrum cbLobeEval(const SceneView* scene, Material m, Vec3 wo, Vec3 wi, 
                          CB_INV_PI);
     }
 #endif
-#if CB_HAS(CB_FEATURE_COATED_DIFFUSE)
-    if (m.kind == CB_MAT_COATED_DIFFUSE) {
+#if CB_HAS_LAYERED
+    if (m.kind == CB_MAT_COATED_DIFFUSE || m.kind == CB_MAT_COATED_CONDUCTOR) {
         if (!(wi.z > 0.0f)) return specZero();
-        *pdfFwd = coatedDiffusePdf(m, wo, wi);
-        *pdfRev = coatedDiffusePdf(m, wi, wo);
-        return coatedDiffuseEval(scene, m, wo, wi, adjoint);
+        LayerBase base = layerBaseLoad(scene, m);
+        *pdfFwd = layeredPdf(base, m, wo, wi);
+        *pdfRev = layeredPdf(base, m, wi, wo);
+        return layeredEval(base, m, wo, wi, adjoint);
     }
 #endif
 #if CB_HAS(CB_FEATURE_CONDUCTOR)
@@ -650,6 +789,10 @@ CB_FN bool cbLobeIsDeltaOnly(Material m) {
 #if CB_HAS(CB_FEATURE_THIN_DIELECTRIC)
     if (m.kind == CB_MAT_THIN_DIELECTRIC) return true;
 #endif
+#if CB_HAS(CB_FEATURE_COATED_CONDUCTOR)
+    /* A smooth coat over a smooth conductor reflects only into the mirror direction. */
+    if (m.kind == CB_MAT_COATED_CONDUCTOR) return m.alpha == 0.0f && m.baseAlpha == 0.0f;
+#endif
 #if CB_HAS(CB_FEATURE_CONDUCTOR)
     if (m.kind == CB_MAT_CONDUCTOR) return m.alpha == 0.0f;
 #endif
@@ -670,6 +813,9 @@ CB_FN real cbLobeSpecularity(Material m) {
 #endif
 #if CB_HAS(CB_FEATURE_CONDUCTOR)
     if (m.kind == CB_MAT_CONDUCTOR) return 1.0f;
+#endif
+#if CB_HAS(CB_FEATURE_COATED_CONDUCTOR)
+    if (m.kind == CB_MAT_COATED_CONDUCTOR) return 1.0f; /* as the conductor it coats */
 #endif
 #if CB_HAS(CB_FEATURE_DIELECTRIC)
     if (m.kind == CB_MAT_DIELECTRIC) return 1.0f;
@@ -710,9 +856,9 @@ CB_FN bool cbLobeSample(const SceneView* scene, Material m, Vec3 wo, bool enteri
         return out->pdf > 0.0f;
     }
 #endif
-#if CB_HAS(CB_FEATURE_COATED_DIFFUSE)
-    if (m.kind == CB_MAT_COATED_DIFFUSE)
-        return coatedDiffuseSample(scene, m, wo, u0, u1, uLobe, adjoint, out);
+#if CB_HAS_LAYERED
+    if (m.kind == CB_MAT_COATED_DIFFUSE || m.kind == CB_MAT_COATED_CONDUCTOR)
+        return layeredSample(layerBaseLoad(scene, m), m, wo, u0, u1, uLobe, adjoint, out);
 #endif
 #if CB_HAS(CB_FEATURE_THIN_DIELECTRIC)
     if (m.kind == CB_MAT_THIN_DIELECTRIC) {
@@ -741,18 +887,11 @@ CB_FN bool cbLobeSample(const SceneView* scene, Material m, Vec3 wo, bool enteri
             out->isDelta = 1;
             return isfinite(out->f.c[0]);
         }
-        real alpha = cbConductorAlpha(m);
-        Vec3 wm = ggxSampleVisibleNormal(wo, alpha, u0, u1);
-        /* Mirror wo about the sampled microfacet normal. */
-        Vec3 wi = vsub(vscale(wm, 2.0f * vdot(wo, wm)), wo);
-        real len = vlength(wi);
-        if (!(len > 0.0f)) return false;
-        wi = vscale(wi, 1.0f / len);
-        if (!(wi.z > 0.0f)) return false;
-        /* D cancels in f cos / pdf only if both use the sampled wm, not the recomputed half
-         * vector (which loses precision at tiny alpha). */
-        real value = cbGgxReflection(wo, wi, wm, alpha, &out->pdf, &out->pdfRev);
-        if (!(out->pdf > 0.0f)) return false;
+        Vec3 wi, wm;
+        real value;
+        if (!cbGgxReflectionSample(wo, cbConductorAlpha(m), u0, u1, &wi, &wm, &value, &out->pdf,
+                                   &out->pdfRev))
+            return false;
         out->wi = wi;
         out->f = specScale(cbConductorFresnel(scene, m, r, vdot(wo, wm)), value);
         return true;
@@ -925,8 +1064,8 @@ CB_FN bool bsdfReadsLobeSample(const SceneView* scene, int material) {
 #if CB_HAS(CB_FEATURE_THIN_DIELECTRIC)
     if (kind == CB_MAT_THIN_DIELECTRIC) return true;
 #endif
-#if CB_HAS(CB_FEATURE_COATED_DIFFUSE)
-    if (kind == CB_MAT_COATED_DIFFUSE) return true;
+#if CB_HAS_LAYERED
+    if (kind == CB_MAT_COATED_DIFFUSE || kind == CB_MAT_COATED_CONDUCTOR) return true;
 #endif
     return false;
 }

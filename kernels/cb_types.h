@@ -74,7 +74,8 @@ typedef struct SurfacePoint {
 #define CB_MAT_MIX 3        /* mixture of two non-mix materials: second with probability amount */
 #define CB_MAT_DIFFUSE_TRANSMISSION 4 /* Lambertian reflection and transmission (pbrt-v4's) */
 #define CB_MAT_THIN_DIELECTRIC 5      /* a thin glass sheet (pbrt-v4's "thindielectric") */
-#define CB_MAT_COATED_DIFFUSE 6       /* Lambertian under a smooth dielectric coat (pbrt-v4's) */
+#define CB_MAT_COATED_DIFFUSE 6       /* Lambertian under a dielectric coat (pbrt-v4's) */
+#define CB_MAT_COATED_CONDUCTOR 7     /* a conductor under a dielectric coat (pbrt-v4's) */
 
 /* Feature bits: the scene's material kinds and light kinds, passed to the kernel build as
  * -DCB_FEATURES=... so that unused code is compiled out (each scene compiles only what it uses). */
@@ -89,16 +90,23 @@ typedef struct SurfacePoint {
 #define CB_FEATURE_AREA_LIGHT (1u << 8)
 #define CB_FEATURE_POINT_LIGHT (1u << 9)
 #define CB_FEATURE_SPHERES (1u << 10)
-#define CB_FEATURE_SPOT_LIGHT (1u << 11)     /* point lights with a cone (pbrt-v4's "spot") */
-#define CB_FEATURE_DISTANT_LIGHT (1u << 12)  /* pbrt-v4's "distant": a delta in direction */
-#define CB_FEATURE_INFINITE_LIGHT (1u << 13) /* pbrt-v4's "infinite" with a constant L */
-#define CB_FEATURE_THIN_LENS (1u << 14)      /* a camera with a lens radius (depth of field) */
-#define CB_FEATURE_COATED_DIFFUSE (1u << 15) /* pbrt-v4's layered "coateddiffuse" */
+#define CB_FEATURE_SPOT_LIGHT (1u << 11)       /* point lights with a cone (pbrt-v4's "spot") */
+#define CB_FEATURE_DISTANT_LIGHT (1u << 12)    /* pbrt-v4's "distant": a delta in direction */
+#define CB_FEATURE_INFINITE_LIGHT (1u << 13)   /* pbrt-v4's "infinite" with a constant L */
+#define CB_FEATURE_THIN_LENS (1u << 14)        /* a camera with a lens radius (depth of field) */
+#define CB_FEATURE_COATED_DIFFUSE (1u << 15)   /* pbrt-v4's layered "coateddiffuse" */
+#define CB_FEATURE_COATED_CONDUCTOR (1u << 16) /* pbrt-v4's layered "coatedconductor" */
 
 #ifndef CB_FEATURES
 #define CB_FEATURES 0xffffffffu
 #endif
 #define CB_HAS(feature) ((CB_FEATURES & (feature)) != 0u)
+/* Code shared by several kinds: the layered materials' random walk, the GGX reflection lobe and
+ * the conductor Fresnel equations (a coated conductor's base uses both). */
+#define CB_HAS_LAYERED (CB_HAS(CB_FEATURE_COATED_DIFFUSE) || CB_HAS(CB_FEATURE_COATED_CONDUCTOR))
+#define CB_HAS_GGX_REFLECTION (CB_HAS(CB_FEATURE_CONDUCTOR) || CB_HAS(CB_FEATURE_COATED_CONDUCTOR))
+#define CB_HAS_CONDUCTOR_FRESNEL                                                                   \
+    (CB_HAS(CB_FEATURE_CONDUCTOR_FRESNEL) || CB_HAS(CB_FEATURE_COATED_CONDUCTOR))
 
 typedef struct Material {
     int kind;        /* CB_MAT_* */
@@ -112,13 +120,15 @@ typedef struct Material {
      * `reflectance` then holding eta's (CB_FEATURE_CONDUCTOR_FRESNEL; -1: `reflectance` is a
      * constant Fresnel tint). CB_MAT_DIFFUSE_TRANSMISSION: the transmittance. */
     int secondSpectrum;
-    /* CB_MAT_COATED_DIFFUSE (`reflectance` the base's, `eta` the coat's): the layer's thickness
-     * in mean free paths, the random walk's longest path and its walks per estimate (pbrt-v4's
-     * "thickness", "maxdepth", "nsamples"). */
+    /* CB_MAT_COATED_DIFFUSE and CB_MAT_COATED_CONDUCTOR (`eta` and `alpha` the coat's;
+     * `reflectance` the diffuse base's, or the conductor's eta with `secondSpectrum` its k, or,
+     * where that is -1, its normal-incidence reflectance): the layer's thickness in mean free
+     * paths, the random walk's longest path and its walks per estimate (pbrt-v4's "thickness",
+     * "maxdepth", "nsamples"), and the conductor base's GGX alpha (0: smooth). */
     real thickness;
     int layerDepth;
     int layerSamples;
-    int pad;
+    real baseAlpha;
 } Material;
 
 /* ---- Lights ------------------------------------------------------------------------------- */

@@ -1,9 +1,11 @@
-// Closed forms of smooth dielectric interfaces in double, apart from the kernels' float code:
-// Fresnel, and pbrt-v4's coated diffuse (a Lambertian base under a smooth coat with an absorbing
-// layer) as its random walk of a given depth estimates it.
+// Closed forms of smooth interfaces in double, apart from the kernels' float code: dielectric
+// and conductor Fresnel, and pbrt-v4's coated diffuse (a Lambertian base under a smooth coat
+// with an absorbing layer) and coated conductor (both layers smooth) as their random walks of a
+// given depth estimate them.
 #pragma once
 
 #include <cmath>
+#include <complex>
 
 namespace cbtest {
 
@@ -15,6 +17,42 @@ inline double dielectricFresnel(double cosI, double eta) {
     const double rs = (cosI - eta * cosT) / (cosI + eta * cosT);
     const double rp = (eta * cosI - cosT) / (eta * cosI + cosT);
     return 0.5 * (rs * rs + rp * rp);
+}
+
+// Conductor Fresnel from the complex amplitudes (Born & Wolf sec. 13.2), written apart from the
+// kernels' real a, b form: eta + i k the conductor's index relative to the medium of incidence.
+inline double conductorFresnel(double cosI, double eta, double k) {
+    using C = std::complex<double>;
+    const C n(eta, k);
+    const C cosT = std::sqrt(C(1.0) - C(1.0 - cosI * cosI) / (n * n));
+    const C rs = (C(cosI) - n * cosT) / (C(cosI) + n * cosT);
+    const C rp = (n * C(cosI) - cosT) / (n * C(cosI) + cosT);
+    return 0.5 * (std::norm(rs) + std::norm(rp));
+}
+
+// A smooth conductor of index eta + i k (in vacuum) under a smooth coat of index coatEta: every
+// way out is the mirror direction. The coat reflects R(mu); T = 1 - R refracts in to mu', the
+// layer passes tau = exp(-thickness / mu') each way, the conductor reflects F(mu') at its index
+// relative to the coat's, and back at the coat the walk leaves with T (Stokes: the inside
+// reflectance at mu' is R(mu)) or goes down again with R; the radiance's coatEta^2 in and out
+// cancel. A walk of an even maxdepth d leaves at most d / 2 times. For a conductor given by its
+// normal-incidence reflectance r instead, pbrt-v4 takes eta 1, k 2 sqrt(r) / sqrt(1 - r).
+inline double smoothCoatedConductorAlbedo(double cosO, double coatEta, double eta, double k,
+                                          double thickness, int maxDepth) {
+    const double r = dielectricFresnel(cosO, coatEta);
+    const double cos2Inside = 1.0 - (1.0 - cosO * cosO) / (coatEta * coatEta);
+    if (cos2Inside <= 0.0) return r;
+    const double muInside = std::sqrt(cos2Inside);
+    const double tau2 = std::exp(-2.0 * thickness / muInside);
+    const double base = conductorFresnel(muInside, eta / coatEta, k / coatEta);
+    double sum = 0.0, term = 1.0;
+    for (int exit = 0; exit < maxDepth / 2; ++exit, term *= r * base * tau2)
+        sum += term;
+    return r + (1.0 - r) * (1.0 - r) * tau2 * base * sum;
+}
+
+inline double conductorKFromReflectance(double reflectance) {
+    return 2.0 * std::sqrt(reflectance) / std::sqrt(1.0 - reflectance);
 }
 
 // The coated diffuse of base reflectance rho, coat index eta and layer `thickness`: the coat

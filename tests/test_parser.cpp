@@ -568,8 +568,8 @@ TEST_CASE("parser: unsupported types are rejected") {
                 "unsupported light \"goniometric\"");
     expectError(w + "AreaLightSource \"projection\"\n", "t.pbrt:2:17", "unsupported area light");
     expectError("Film \"gbuffer\"\n", "t.pbrt:1:6", "unsupported film \"gbuffer\"");
-    expectError(w + "Material \"coatedconductor\"\n", "t.pbrt:2:10",
-                "unsupported material type \"coatedconductor\"");
+    expectError(w + "Material \"measured\"\n", "t.pbrt:2:10",
+                "unsupported material type \"measured\"");
     expectError(w + "MakeNamedMaterial \"a\" \"string type\" \"hair\"\n", "t.pbrt:2:37",
                 "unsupported material type \"hair\"");
 }

@@ -16,6 +16,7 @@
 #include <filesystem>
 #include <fmt/format.h>
 #include <fstream>
+#include <functional>
 #include <limits>
 #include <string>
 #include <unistd.h>
@@ -1161,10 +1162,13 @@ TEST_CASE("pbrt-v4 dielectric: roughness makes it rough (alpha = sqrt(roughness)
     // A glass or coat of eta 1 is no interface (pbrt-v4): smooth whatever its roughness (a rough
     // one's straight transmission has no half vector: it rendered black).
     for (const char* material :
-         {"dielectric\" \"float eta\" 1", "coateddiffuse\" \"float eta\" 1"}) {
+         {"dielectric\" \"float eta\" 1", "coateddiffuse\" \"float eta\" 1",
+          "coatedconductor\" \"rgb reflectance\" [0.5 0.5 0.5] \"float interface.eta\" 1"}) {
         CAPTURE(material);
         const cb::DeviceScene none = cb::buildDeviceScene(parseSceneString(
-            light + "Material \"" + material + " \"float roughness\" 0.2\n" + kTri, "t.pbrt"));
+            light + "Material \"" + material + " \"float " +
+                (contains(material, "interface") ? "interface." : "") + "roughness\" 0.2\n" + kTri,
+            "t.pbrt"));
         CHECK(none.materials[0].alpha == 0.0f);
         CHECK(!contains(none.featureNames(), "rough-dielectric"));
     }
@@ -1252,8 +1256,9 @@ TEST_CASE("pbrt-v4 diffusetransmission and thindielectric: parameters, defaults,
                 {"t.pbrt:2:39: \"float eta\" must be > 0, got 0"});
     expectError("WorldBegin\nMaterial \"thindielectric\" \"float roughness\" 0.1\n",
                 {"t.pbrt:2:", "roughness"});
-    expectError("WorldBegin\nMaterial \"coatedconductor\"\n",
-                {"t.pbrt:2:", "thindielectric, diffusetransmission, coateddiffuse"});
+    expectError(
+        "WorldBegin\nMaterial \"subsurface\"\n",
+        {"t.pbrt:2:", "thindielectric, diffusetransmission, coateddiffuse, coatedconductor"});
 }
 
 namespace {
@@ -1439,48 +1444,67 @@ TEST_CASE("pbrt-v4 coateddiffuse: parameters, defaults, refusals") {
 }
 
 // The closed black box of the lid test above with a coated lid, seen from above under a
-// constant sky: every pixel is L A(theta) (cbtest::CoatedDiffuseReference), theta its angle to the
-// lid's normal.
-// pbrt-v4's default depth 10 (five visits to the base) and a deep walk (1000), a thick and a
-// vanishing layer, two indices.
-TEST_CASE("pbrt-v4 coateddiffuse: a coated lid under a constant sky renders L A(theta), every "
-          "method" *
+// constant sky: every pixel is L A(theta) per channel, theta its angle to the lid's normal. The
+// coated diffuse's A is cbtest::CoatedDiffuseReference's: pbrt-v4's default depth 10 (five visits
+// to the base) and a deep walk (1000), a thick and a vanishing layer, two indices. The coated
+// conductor's, both layers smooth, is cbtest::smoothCoatedConductorAlbedo: a conductor given by
+// its reflectance and one by eta and k, under a coat of index above and below 1.
+TEST_CASE("pbrt-v4 coateddiffuse and coatedconductor: a coated lid under a constant sky renders "
+          "L A(theta), every method" *
           doctest::test_suite("statistical")) {
     cb::ClRuntime runtime;
     const double radiance = 0.8, rho[3] = {0.8, 0.5, 0.2};
+    const double eta[3] = {0.2, 0.9, 1.4}, k[3] = {3.0, 2.5, 1.9};
     struct Case {
-        double eta, thickness;
-        int maxDepth;
+        std::string material;
+        std::function<double(int channel, double cosTheta)> albedo;
     };
-    const Case cases[] = {{1.5, 0.25, 10}, {1.33, 0.0, 1000}};
+    auto coatedDiffuse = [&](double coatEta, double thickness, int maxDepth) {
+        return Case{fmt::format("Material \"coateddiffuse\" \"rgb reflectance\" [0.8 0.5 0.2] "
+                                "\"float eta\" {} \"float thickness\" {} \"integer maxdepth\" {}\n",
+                                coatEta, thickness, maxDepth),
+                    [=](int ch, double c) {
+                        return cbtest::CoatedDiffuseReference(rho[ch], coatEta, thickness, maxDepth)
+                            .albedo(c);
+                    }};
+    };
+    const Case cases[] = {
+        coatedDiffuse(1.5, 0.25, 10),
+        coatedDiffuse(1.33, 0.0, 1000),
+        {"Material \"coatedconductor\" \"rgb reflectance\" [0.8 0.5 0.2] "
+         "\"float interface.eta\" 1.5 \"float thickness\" 0.25\n",
+         [&](int ch, double c) {
+             return cbtest::smoothCoatedConductorAlbedo(
+                 c, 1.5, 1.0, cbtest::conductorKFromReflectance(rho[ch]), 0.25, 10);
+         }},
+        {"Material \"coatedconductor\" \"rgb conductor.eta\" [0.2 0.9 1.4] "
+         "\"rgb conductor.k\" [3 2.5 1.9] \"float interface.eta\" 0.8 \"float thickness\" 0 "
+         "\"integer maxdepth\" 1000\n",
+         [&](int ch, double c) {
+             return cbtest::smoothCoatedConductorAlbedo(c, 0.8, eta[ch], k[ch], 0.0, 1000);
+         }}};
     for (const Case& c : cases) {
-        CAPTURE(c.eta);
-        CAPTURE(c.thickness);
-        CAPTURE(c.maxDepth);
+        CAPTURE(c.material);
         std::array<double, 3> expected{};
         const int n = 200;
         for (int ch = 0; ch < 3; ++ch) {
-            const cbtest::CoatedDiffuseReference coat(rho[ch], c.eta, c.thickness, c.maxDepth);
             double sum = 0.0;
             for (int j = 0; j < n; ++j)
                 for (int i = 0; i < n; ++i) {
                     const double x = -1 + (i + 0.5) * 2.0 / n, y = -1 + (j + 0.5) * 2.0 / n;
-                    sum += coat.albedo(1.0 / std::sqrt(1 + x * x + y * y));
+                    sum += c.albedo(ch, 1.0 / std::sqrt(1 + x * x + y * y));
                 }
             expected[size_t(ch)] = radiance * sum / (double(n) * n);
         }
         const std::string text =
-            fmt::format("LookAt 0 1 0  0 0 0  0 0 1\nCamera \"perspective\" \"float fov\" 90\n"
-                        "Film \"rgb\" \"integer xresolution\" 16 \"integer yresolution\" 16\n"
-                        "WorldBegin\nLightSource \"infinite\" \"rgb L\" [0.8 0.8 0.8]\n"
-                        "Material \"diffuse\" \"rgb reflectance\" [0 0 0]\n"
-                        "Shape \"trianglemesh\" \"point3 P\" [-2 -1 -2  2 -1 -2  2 -1 2  -2 -1 2  "
-                        "-2 0 -2  2 0 -2  2 0 2  -2 0 2] \"integer indices\" [0 1 2  0 2 3  0 1 5  "
-                        "0 5 4  1 2 6  1 6 5  2 3 7  2 7 6  3 0 4  3 4 7]\n"
-                        "Material \"coateddiffuse\" \"rgb reflectance\" [0.8 0.5 0.2] "
-                        "\"float eta\" {} \"float thickness\" {} \"integer maxdepth\" {}\n"
-                        "Shape \"bilinearmesh\" \"point3 P\" [-2 0 -2  2 0 -2  -2 0 2  2 0 2]\n",
-                        c.eta, c.thickness, c.maxDepth);
+            "LookAt 0 1 0  0 0 0  0 0 1\nCamera \"perspective\" \"float fov\" 90\n"
+            "Film \"rgb\" \"integer xresolution\" 16 \"integer yresolution\" 16\n"
+            "WorldBegin\nLightSource \"infinite\" \"rgb L\" [0.8 0.8 0.8]\n"
+            "Material \"diffuse\" \"rgb reflectance\" [0 0 0]\n"
+            "Shape \"trianglemesh\" \"point3 P\" [-2 -1 -2  2 -1 -2  2 -1 2  -2 -1 2  "
+            "-2 0 -2  2 0 -2  2 0 2  -2 0 2] \"integer indices\" [0 1 2  0 2 3  0 1 5  "
+            "0 5 4  1 2 6  1 6 5  2 3 7  2 7 6  3 0 4  3 4 7]\n" +
+            c.material + "Shape \"bilinearmesh\" \"point3 P\" [-2 0 -2  2 0 -2  -2 0 2  2 0 2]\n";
         const cb::DeviceScene scene = cb::buildDeviceScene(parseSceneString(text, "t.pbrt"));
         for (const std::string method : kMethods) {
             CAPTURE(method);
@@ -1503,6 +1527,107 @@ TEST_CASE("pbrt-v4 coateddiffuse: BDPT, CBDPT and MLT agree with PT" *
                             "-1.5 0.01 1  1.5 0.01 1]\nAttributeEnd\n"
                             "AttributeBegin\nMaterial \"coateddiffuse\" \"rgb reflectance\" "
                             "[0.2 0.5 0.7] \"float eta\" 1.4 \"float roughness\" 0.05\n"
+                            "Translate 0.8 0.3 -0.4\nShape \"sphere\" \"float radius\" 0.3\n"
+                            "AttributeEnd\n");
+}
+
+TEST_CASE("pbrt-v4 coatedconductor: parameters, defaults, refusals") {
+    const std::string light = "WorldBegin\nLightSource \"point\"\n";
+    // pbrt-v4's defaults: interface eta 1.5, both layers smooth, thickness 0.01, maxdepth 10,
+    // nsamples 1; its default conductor (copper's measured spectra) is refused below.
+    auto s = parseSceneString(
+        light + "Material \"coatedconductor\" \"rgb reflectance\" [0.9 0.5 0.2]\n" + kTri +
+            "Material \"coatedconductor\" \"rgb conductor.eta\" [0.2 0.9 1.4] "
+            "\"rgb conductor.k\" [3 2.5 1.9] \"float interface.eta\" 1.33 "
+            "\"float interface.roughness\" 0.09 \"float conductor.roughness\" 0.16 "
+            "\"float thickness\" 0.5 \"integer maxdepth\" 4 \"integer nsamples\" 3 "
+            "\"rgb albedo\" [0 0 0] \"float g\" 0.3\n" +
+            kTri +
+            "Material \"coatedconductor\" \"rgb reflectance\" [0.5 0.5 0.5] "
+            "\"float conductor.uroughness\" 0.04 \"float conductor.vroughness\" 0.04 "
+            "\"bool remaproughness\" false\n" +
+            kTri,
+        "t.pbrt");
+    REQUIRE(s.materials.size() == 3);
+    CHECK(s.materials[0].kind == cb::MaterialKind::CoatedConductor);
+    CHECK(s.materials[0].eta == 1.5f);
+    CHECK(s.materials[0].thickness == 0.01f);
+    CHECK(s.materials[0].layerDepth == 10);
+    CHECK(s.materials[0].layerSamples == 1);
+    cb::DeviceScene scene = cb::buildDeviceScene(s);
+    REQUIRE(scene.channels == 3);
+    CHECK(contains(scene.featureNames(), "coated-conductor"));
+    CHECK(contains(scene.featureNames(), "rough-dielectric"));
+    CHECK(!contains(scene.featureNames(), "coated-diffuse"));
+    const cbk::Material& plain = scene.materials[0];
+    CHECK(plain.kind == CB_MAT_COATED_CONDUCTOR);
+    CHECK(plain.alpha == 0.0f);
+    CHECK(plain.baseAlpha == 0.0f);
+    CHECK(plain.secondSpectrum == -1);
+    CHECK(scene.spectra[size_t(plain.reflectance * 3 + 2)] == doctest::Approx(0.2f));
+    const cbk::Material& given = scene.materials[1];
+    CHECK(given.eta == 1.33f);
+    CHECK(given.alpha == doctest::Approx(0.3f));
+    CHECK(given.baseAlpha == doctest::Approx(0.4f));
+    CHECK(given.thickness == 0.5f);
+    CHECK(given.layerDepth == 4);
+    CHECK(given.layerSamples == 3);
+    CHECK(scene.spectra[size_t(given.reflectance * 3)] == doctest::Approx(0.2f));
+    CHECK(scene.spectra[size_t(given.secondSpectrum * 3 + 1)] == doctest::Approx(2.5f));
+    CHECK(scene.materials[2].baseAlpha == doctest::Approx(0.04f)); // not remapped
+    // Only scenes with the material compile it; a smooth coat needs no rough interface.
+    const cb::DeviceScene smooth = cb::buildDeviceScene(parseSceneString(
+        light + "Material \"coatedconductor\" \"rgb reflectance\" [0.9 0.5 0.2]\n" + kTri,
+        "t.pbrt"));
+    CHECK(contains(smooth.featureNames(), "coated-conductor"));
+    CHECK(!contains(smooth.featureNames(), "rough-dielectric"));
+    CHECK(!contains(smooth.featureNames(), "conductor-fresnel"));
+    expectError(
+        light + "Material \"coatedconductor\"\n",
+        {"t.pbrt:3:", "coatedconductor needs \"reflectance\", or \"conductor.eta\"", "copper"});
+    expectError(light + "Material \"coatedconductor\" \"rgb conductor.eta\" [1 1 1]\n",
+                {"t.pbrt:3:", "without \"conductor.k\""});
+    expectError(light + "Material \"coatedconductor\" \"rgb reflectance\" [0.5 0.5 0.5] "
+                        "\"rgb conductor.k\" [1 1 1]\n",
+                {"t.pbrt:3:", "not both"});
+    expectError(light + "Material \"coatedconductor\" \"rgb reflectance\" [0.5 0.5 0.5] "
+                        "\"float conductor.uroughness\" 0.1\n",
+                {"t.pbrt:3:", "anisotropic roughness (conductor.uroughness != "
+                              "conductor.vroughness)"});
+    expectError(light + "Material \"coatedconductor\" \"rgb reflectance\" [0.5 0.5 0.5] "
+                        "\"float interface.roughness\" -1\n",
+                {"t.pbrt:3:", "interface.roughness must be >= 0, got -1"});
+    expectError(light + "Material \"coatedconductor\" \"rgb reflectance\" [0.5 0.5 0.5] "
+                        "\"spectrum interface.eta\" [400 1.5 700 1.4]\n",
+                {"t.pbrt:3:", "spectrally varying dielectric \"interface.eta\""});
+    expectError(light + "Material \"coatedconductor\" \"rgb reflectance\" [0.5 0.5 0.5] "
+                        "\"float interface.eta\" 0\n",
+                {"t.pbrt:3:", "\"float interface.eta\" must be > 0, got 0"});
+    expectError(light + "Material \"coatedconductor\" \"rgb reflectance\" [0.5 0.5 0.5] "
+                        "\"rgb albedo\" [0.5 0.5 0.5]\n",
+                {"t.pbrt:3:", "scattering layer (coatedconductor"});
+    expectError(light + "Material \"coatedconductor\" \"rgb reflectance\" [0.5 0.5 0.5] "
+                        "\"float eta\" 1.5\n",
+                {"t.pbrt:3:", "eta"});
+    expectError(light + "MakeNamedMaterial \"c\" \"string type\" \"coatedconductor\" "
+                        "\"rgb reflectance\" [0.5 0.5 0.5]\n"
+                        "MakeNamedMaterial \"d\" \"string type\" \"diffuse\"\n"
+                        "Material \"mix\" \"string materials\" [\"c\" \"d\"]\n",
+                {"t.pbrt:5:", "a mix with coatedconductor is not supported"});
+}
+
+TEST_CASE("pbrt-v4 coatedconductor: BDPT, CBDPT and MLT agree with PT" *
+          doctest::test_suite("statistical")) {
+    // A floor of rough gold under a smooth coat, a sphere of a smooth conductor under a rough
+    // coat.
+    checkMethodsAgreeWithPt(kDiskLight,
+                            "AttributeBegin\nMaterial \"coatedconductor\" \"rgb conductor.eta\" "
+                            "[0.17 0.43 1.5] \"rgb conductor.k\" [3.15 2.45 1.88] "
+                            "\"float conductor.roughness\" 0.1\n"
+                            "Shape \"bilinearmesh\" \"point3 P\" [-1.5 0.01 -1.5  1.5 0.01 -1.5  "
+                            "-1.5 0.01 1  1.5 0.01 1]\nAttributeEnd\n"
+                            "AttributeBegin\nMaterial \"coatedconductor\" \"rgb reflectance\" "
+                            "[0.9 0.6 0.3] \"float interface.roughness\" 0.05\n"
                             "Translate 0.8 0.3 -0.4\nShape \"sphere\" \"float radius\" 0.3\n"
                             "AttributeEnd\n");
 }

@@ -104,7 +104,7 @@ template <class Visit> void forEachField(cbk::Material& s, Visit&& visit) {
     visit(s.thickness);
     visit(s.layerDepth);
     visit(s.layerSamples);
-    visit(s.pad);
+    visit(s.baseAlpha);
 }
 template <class Visit> void forEachField(cbk::Light& s, Visit&& visit) {
     visit(s.kind);

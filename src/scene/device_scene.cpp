@@ -211,6 +211,8 @@ unsigned materialFeature(MaterialKind kind) {
         return CB_FEATURE_THIN_DIELECTRIC;
     case MaterialKind::CoatedDiffuse:
         return CB_FEATURE_COATED_DIFFUSE;
+    case MaterialKind::CoatedConductor:
+        return CB_FEATURE_COATED_CONDUCTOR;
     }
     return 0;
 }
@@ -320,18 +322,29 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
             out.eta = m.eta;
             break;
         case MaterialKind::CoatedDiffuse:
-            out.kind = CB_MAT_COATED_DIFFUSE;
-            out.reflectance = spectra.addAlbedo(m.reflectance, 1.f);
+        case MaterialKind::CoatedConductor: {
+            const bool conductor = m.kind == MaterialKind::CoatedConductor;
+            out.kind = conductor ? CB_MAT_COATED_CONDUCTOR : CB_MAT_COATED_DIFFUSE;
+            if (conductor && m.conductorEta && m.conductorK) {
+                out.reflectance = spectra.add(*m.conductorEta, 1.f);
+                out.secondSpectrum = spectra.add(*m.conductorK, 1.f);
+            } else {
+                out.reflectance = spectra.addAlbedo(m.reflectance, 1.f);
+            }
             out.eta = m.eta;
             // pbrt-v4 treats a coat of alpha below 1e-3 as smooth (EffectivelySmooth), and one
             // of eta 1 as no interface at all, which the smooth coat's Fresnel gives; the kernels
-            // take a rough coat's alpha >= 1e-3 as given
+            // take a rough coat's alpha >= 1e-3 as given. The conductor's alpha alike.
             out.alpha = alpha < 1e-3f || m.eta == 1.f ? 0.f : alpha;
+            const float baseAlpha =
+                m.remapRoughness ? std::sqrt(std::max(m.baseRoughness, 0.f)) : m.baseRoughness;
+            out.baseAlpha = baseAlpha < 1e-3f ? 0.f : baseAlpha;
             // pbrt-v4 keeps the thickness at least the smallest normal float
             out.thickness = std::max(m.thickness, std::numeric_limits<float>::min());
             out.layerDepth = m.layerDepth;
             out.layerSamples = m.layerSamples;
             break;
+        }
         }
         scene.materials.push_back(out);
         if (materialUsed[i]) {
@@ -339,7 +352,8 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
             if (out.kind == CB_MAT_CONDUCTOR && out.secondSpectrum >= 0)
                 scene.features |= CB_FEATURE_CONDUCTOR_FRESNEL;
             // a rough coat scatters as a rough dielectric interface
-            if ((out.kind == CB_MAT_DIELECTRIC || out.kind == CB_MAT_COATED_DIFFUSE) &&
+            if ((out.kind == CB_MAT_DIELECTRIC || out.kind == CB_MAT_COATED_DIFFUSE ||
+                 out.kind == CB_MAT_COATED_CONDUCTOR) &&
                 out.alpha > 0.f)
                 scene.features |= CB_FEATURE_ROUGH_DIELECTRIC;
         }
@@ -570,6 +584,7 @@ std::string DeviceScene::featureNames() const {
     add(CB_FEATURE_DIFFUSE_TRANSMISSION, "diffuse-transmission");
     add(CB_FEATURE_THIN_DIELECTRIC, "thin-dielectric");
     add(CB_FEATURE_COATED_DIFFUSE, "coated-diffuse");
+    add(CB_FEATURE_COATED_CONDUCTOR, "coated-conductor");
     add(CB_FEATURE_AREA_LIGHT, "area-light");
     add(CB_FEATURE_POINT_LIGHT, "point-light");
     add(CB_FEATURE_SPHERES, "spheres");

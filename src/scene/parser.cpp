@@ -1306,9 +1306,13 @@ class Parser {
             throw SceneError(where, "mix of mix is not supported (\"" + name + "\" is a mix)");
         // A mix's sample is weighed by the mixture's pdf, which needs each part's exact density;
         // the coat's is an estimate (pbrt-v4 instead picks one part per point).
-        if (scene_.materials[static_cast<size_t>(material)].kind == MaterialKind::CoatedDiffuse)
-            throw SceneError(where, "a mix with coateddiffuse is not supported (\"" + name +
-                                        "\" is coateddiffuse)");
+        const MaterialKind kind = scene_.materials[static_cast<size_t>(material)].kind;
+        if (kind == MaterialKind::CoatedDiffuse || kind == MaterialKind::CoatedConductor) {
+            const char* type =
+                kind == MaterialKind::CoatedDiffuse ? "coateddiffuse" : "coatedconductor";
+            throw SceneError(
+                where, fmt::format("a mix with {0} is not supported (\"{1}\" is {0})", type, name));
+        }
         return material;
     }
 
@@ -1326,44 +1330,84 @@ class Parser {
     }
 
     // pbrt-v4's "roughness", or "uroughness" and "vroughness" (defaulting to "roughness", which
-    // defaults to 0; cbdpt's GGX is isotropic, so the two must be equal), and "remaproughness".
-    static void readRoughness(ParamList& pl, MaterialDesc& m) {
-        const Param* pr = pl.peek("roughness");
-        const std::optional<double> rough = pl.oneFloat("roughness");
-        const std::optional<double> ur = pl.oneFloat("uroughness");
-        const std::optional<double> vr = pl.oneFloat("vroughness");
+    // defaults to 0; cbdpt's GGX is isotropic, so the two must be equal), and "remaproughness";
+    // a coated conductor's names begin with "interface." or "conductor.".
+    static void readRoughness(ParamList& pl, MaterialDesc& m, const std::string& prefix = "",
+                              float MaterialDesc::*field = &MaterialDesc::roughness) {
+        const std::string name = prefix + "roughness", uName = prefix + "uroughness",
+                          vName = prefix + "vroughness";
+        const Param* pr = pl.peek(name);
+        const std::optional<double> rough = pl.oneFloat(name);
+        const std::optional<double> ur = pl.oneFloat(uName);
+        const std::optional<double> vr = pl.oneFloat(vName);
         // pbrt-v4: u/v roughness default to "roughness", which defaults to 0.
         const double u = ur ? *ur : (rough ? *rough : 0.0);
         const double v = vr ? *vr : (rough ? *rough : 0.0);
         if (rough && ur && vr)
-            throw SceneError(pr->where, "\"roughness\" is overridden by \"uroughness\" and "
-                                        "\"vroughness\"; give one or the other");
+            throw SceneError(pr->where, fmt::format("\"{}\" is overridden by \"{}\" and \"{}\"; "
+                                                    "give one or the other",
+                                                    name, uName, vName));
         if (u != v) {
-            const Param* pu = pl.peek(ur ? "uroughness" : "vroughness");
-            throw SceneError(pu->where, "anisotropic roughness (uroughness != vroughness) is "
-                                        "not supported");
+            const Param* pu = pl.peek(ur ? uName : vName);
+            throw SceneError(pu->where, fmt::format("anisotropic roughness ({} != {}) is not "
+                                                    "supported",
+                                                    uName, vName));
         }
         if (u < 0.0) {
-            const Param* p = pl.peek(ur ? "uroughness" : vr ? "vroughness" : "roughness");
-            throw SceneError(p->where, "roughness must be >= 0");
+            const Param* p = pl.peek(ur ? uName : vr ? vName : name);
+            throw SceneError(p->where, fmt::format("{} must be >= 0, got {:g}", p->name, u));
         }
-        m.roughness = static_cast<float>(u);
+        m.*field = static_cast<float>(u);
         if (auto remap = pl.oneBool("remaproughness")) m.remapRoughness = *remap;
     }
 
-    // A dielectric's or thin dielectric's "float eta" (pbrt-v4's default 1.5); a spectrally
-    // varying index would need a wavelength per path, which cbdpt's bins do not have.
-    static void readEta(ParamList& pl, MaterialDesc& m) {
-        const Param* p = pl.peek("eta");
+    // A dielectric's, thin dielectric's or coat's "float eta" (pbrt-v4's default 1.5; a coated
+    // conductor's "interface.eta"); a spectrally varying index would need a wavelength per path,
+    // which cbdpt's bins do not have.
+    static void readEta(ParamList& pl, MaterialDesc& m, const std::string& name = "eta") {
+        const Param* p = pl.peek(name);
         if (!p) return;
         if (p->type == "spectrum")
-            throw SceneError(p->where, "spectrally varying dielectric \"eta\" is not "
-                                       "supported; give \"float eta\"");
-        const double eta = *pl.oneFloat("eta");
+            throw SceneError(p->where, fmt::format("spectrally varying dielectric \"{0}\" is not "
+                                                   "supported; give \"float {0}\"",
+                                                   name));
+        const double eta = *pl.oneFloat(name);
         if (!(eta > 0.0))
             throw SceneError(p->valueLoc(0),
-                             fmt::format("\"float eta\" must be > 0, got {:g}", eta));
+                             fmt::format("\"float {}\" must be > 0, got {:g}", name, eta));
         m.eta = static_cast<float>(eta);
+    }
+
+    // A conductor's "reflectance", or its complex index "eta" + i "k" (pbrt-v4's
+    // ConductorMaterial; a coated conductor's "conductor.eta" and "conductor.k").
+    static void readConductorSpectra(ParamList& pl, MaterialDesc& m, const SourceLocation& where,
+                                     const std::string& type, const std::string& prefix) {
+        const std::string etaName = prefix + "eta", kName = prefix + "k";
+        const Param* pEta = pl.peek(etaName);
+        const Param* pK = pl.peek(kName);
+        if (const Param* pr = pl.peek("reflectance"); pr && (pEta || pK))
+            throw SceneError(pEta ? pEta->where : pK->where,
+                             fmt::format("{} takes \"reflectance\" or \"{}\" and \"{}\", not both "
+                                         "(as pbrt-v4)",
+                                         type, etaName, kName));
+        if (pEta || pK) {
+            if (!pEta || !pK)
+                throw SceneError(pEta ? pEta->where : pK->where,
+                                 fmt::format("{} has \"{}\" without \"{}\"; give both (pbrt-v4's "
+                                             "default, copper's measured spectra, is not built "
+                                             "into cbdpt)",
+                                             type, pEta ? etaName : kName, pEta ? kName : etaName));
+            m.conductorEta = pl.spectrum(etaName, SpectrumRole::ConductorIndex);
+            m.conductorK = pl.spectrum(kName, SpectrumRole::ConductorIndex);
+        } else {
+            auto r = pl.spectrum("reflectance", SpectrumRole::Reflectance);
+            if (!r)
+                throw SceneError(where, fmt::format("{} needs \"reflectance\", or \"{}\" and "
+                                                    "\"{}\" (pbrt-v4's default, copper's "
+                                                    "measured spectra, is not built into cbdpt)",
+                                                    type, etaName, kName));
+            m.reflectance = *r;
+        }
     }
 
     // pbrt-v4's "coateddiffuse": a diffuse base under a dielectric coat, smooth or rough, with a
@@ -1373,6 +1417,23 @@ class Parser {
         if (auto r = pl.spectrum("reflectance", SpectrumRole::Reflectance)) m.reflectance = *r;
         readEta(pl, m);
         readRoughness(pl, m);
+        readLayer(pl, m, "coateddiffuse");
+    }
+
+    // pbrt-v4's "coatedconductor": a conductor, smooth or rough, under a dielectric coat,
+    // smooth or rough, the layer between them as coateddiffuse's.
+    static void readCoatedConductor(ParamList& pl, MaterialDesc& m, const SourceLocation& where) {
+        m.kind = MaterialKind::CoatedConductor;
+        readConductorSpectra(pl, m, where, "coatedconductor", "conductor.");
+        readEta(pl, m, "interface.eta");
+        readRoughness(pl, m, "interface.");
+        readRoughness(pl, m, "conductor.", &MaterialDesc::baseRoughness);
+        readLayer(pl, m, "coatedconductor");
+    }
+
+    // The layer of the coated materials: "thickness", the walk's "maxdepth" and "nsamples",
+    // and a medium that does not scatter.
+    static void readLayer(ParamList& pl, MaterialDesc& m, const char* type) {
         if (const Param* p = pl.peek("thickness")) {
             const double t = *pl.oneFloat("thickness");
             if (!(t >= 0.0))
@@ -1404,8 +1465,9 @@ class Parser {
                 for (const auto& sample : albedo->samples)
                     zero = zero && sample.second == 0.f;
             if (!zero)
-                throw SceneError(p->where, "a scattering layer (coateddiffuse \"albedo\" > 0) "
-                                           "is not supported; give albedo 0");
+                throw SceneError(p->where, fmt::format("a scattering layer ({} \"albedo\" > 0) is "
+                                                       "not supported; give albedo 0",
+                                                       type));
         }
         if (pl.peek("g")) {
             const double g = *pl.oneFloat("g");
@@ -1423,30 +1485,7 @@ class Parser {
             if (auto r = pl.spectrum("reflectance", SpectrumRole::Reflectance)) m.reflectance = *r;
         } else if (type == "conductor") {
             m.kind = MaterialKind::Conductor;
-            // pbrt-v4's ConductorMaterial: "reflectance", or the complex index "eta" + i "k".
-            const Param* pEta = pl.peek("eta");
-            const Param* pK = pl.peek("k");
-            if (const Param* pr = pl.peek("reflectance"); pr && (pEta || pK))
-                throw SceneError(pEta ? pEta->where : pK->where,
-                                 "conductor takes \"reflectance\" or \"eta\" and \"k\", not "
-                                 "both (as pbrt-v4)");
-            if (pEta || pK) {
-                if (!pEta || !pK)
-                    throw SceneError(pEta ? pEta->where : pK->where,
-                                     std::string("conductor has \"") + (pEta ? "eta" : "k") +
-                                         "\" without \"" + (pEta ? "k" : "eta") +
-                                         "\"; give both (pbrt-v4's default, copper's measured "
-                                         "spectra, is not built into cbdpt)");
-                m.conductorEta = pl.spectrum("eta", SpectrumRole::ConductorIndex);
-                m.conductorK = pl.spectrum("k", SpectrumRole::ConductorIndex);
-            } else {
-                auto r = pl.spectrum("reflectance", SpectrumRole::Reflectance);
-                if (!r)
-                    throw SceneError(where, "conductor needs \"reflectance\", or \"eta\" and "
-                                            "\"k\" (pbrt-v4's default, copper's measured "
-                                            "spectra, is not built into cbdpt)");
-                m.reflectance = *r;
-            }
+            readConductorSpectra(pl, m, where, type, "");
             readRoughness(pl, m);
         } else if (type == "dielectric") {
             m.kind = MaterialKind::Dielectric;
@@ -1466,6 +1505,8 @@ class Parser {
             if (pl.peek("scale")) m.scale = static_cast<float>(*pl.oneFloat("scale"));
         } else if (type == "coateddiffuse") {
             readCoatedDiffuse(pl, m);
+        } else if (type == "coatedconductor") {
+            readCoatedConductor(pl, m, where);
         } else if (type == "mix") {
             m.kind = MaterialKind::Mix;
             const Param* mats = pl.stringList("materials");
@@ -1490,10 +1531,10 @@ class Parser {
                 m.amount = static_cast<float>(a);
             }
         } else {
-            throw SceneError(typeLoc,
-                             "unsupported material type \"" + type +
-                                 "\" (cbdpt supports diffuse, conductor, dielectric, "
-                                 "thindielectric, diffusetransmission, coateddiffuse, mix)");
+            throw SceneError(typeLoc, "unsupported material type \"" + type +
+                                          "\" (cbdpt supports diffuse, conductor, dielectric, "
+                                          "thindielectric, diffusetransmission, coateddiffuse, "
+                                          "coatedconductor, mix)");
         }
         pl.finish();
         scene_.materials.push_back(std::move(m));

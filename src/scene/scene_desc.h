@@ -55,7 +55,8 @@ enum class MaterialKind {
     Mix,
     DiffuseTransmission,
     ThinDielectric,
-    CoatedDiffuse
+    CoatedDiffuse,
+    CoatedConductor
 };
 
 struct MaterialDesc {
@@ -70,11 +71,12 @@ struct MaterialDesc {
     // conductor given "eta" and "k" instead of "reflectance": its complex index of refraction,
     // with pbrt-v4's Fresnel equations (cb_bsdf.h, fresnelConductor)
     std::optional<SpectrumValue> conductorEta, conductorK;
-    float roughness = 0.f;      // conductor and dielectric: as written in the file
+    float roughness = 0.f;      // conductor, dielectric and coats: as written in the file
+    float baseRoughness = 0.f;  // coated conductor: the conductor's ("conductor.roughness")
     bool remapRoughness = true; // pbrt-v4: alpha = sqrt(roughness) by default
-    float eta = 1.5f;           // dielectric, thin dielectric and the coat of coated diffuse
-    // coated diffuse (pbrt-v4's defaults): the layer between coat and base in mean free paths,
-    // the random walk's longest path and its walks per estimate
+    float eta = 1.5f;           // dielectric, thin dielectric and the coats
+    // coated diffuse and coated conductor (pbrt-v4's defaults): the layer between coat and base in
+    // mean free paths, the random walk's longest path and its walks per estimate
     float thickness = 0.01f;
     int layerDepth = 10;
     int layerSamples = 1;

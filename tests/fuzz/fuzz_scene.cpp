@@ -64,6 +64,7 @@ void checkScene(const cb::SceneDesc& s) {
         if (m.layerDepth < 0 || m.layerDepth > 1000) broken("coat maxdepth");
         if (m.layerSamples < 1 || m.layerSamples > 1000) broken("coat nsamples");
         if (!std::isfinite(m.roughness) || m.roughness < 0.f) broken("roughness");
+        if (!std::isfinite(m.baseRoughness) || m.baseRoughness < 0.f) broken("conductor roughness");
         if (!std::isfinite(m.eta) || !(m.eta > 0.f)) broken("eta");
         if (!(m.amount >= 0.f && m.amount <= 1.f)) broken("mix amount");
         if (m.kind == cb::MaterialKind::Mix)
