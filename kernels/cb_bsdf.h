@@ -267,10 +267,11 @@ CB_FN bool cbRoughDielectricDirection(Vec3 wo, real eta, real alpha, real u0, re
 #if CB_HAS_LAYERED
 /* ---- Layered materials (pbrt-v4's CoatedDiffuseBxDF and CoatedConductorBxDF) ----------------
  * A base under a dielectric coat of index eta, smooth (alpha 0) or GGX-rough (alpha >= 1e-3, as
- * the host stores it), both faces alike, with a layer between them that absorbs
- * exp(-thickness / |cos|) per crossing and does not scatter (pbrt-v4's default albedo 0). The base
- * is Lambertian (coated diffuse) or a conductor, smooth or GGX-rough (coated conductor). Light
- * refracts in through the coat, bounces between base and coat and refracts out. pbrt-v4's
+ * the host stores it), both faces alike, with a layer between them of `thickness` mean free
+ * paths that absorbs (exp(-thickness / |cos|) per crossing; pbrt-v4's default albedo 0) or also
+ * scatters, by a Henyey-Greenstein phase function. The base is Lambertian (coated diffuse) or a
+ * conductor, smooth or GGX-rough (coated conductor). Light refracts in through the coat, bounces
+ * between base and coat (scattering in the layer between) and refracts out. pbrt-v4's
  * LayeredBxDF estimates f by a random walk with next-event estimation through the exit, samples
  * directions by the walk itself (Guo et al. 2018, "Position-free Monte Carlo simulation for
  * arbitrary layered BSDFs"; pbrt-v4 sec. 14.3) and gives MIS a pdf estimate mixed with the uniform
@@ -380,14 +381,17 @@ CB_FN bool coatSample(Vec3 w, real eta, real alpha, int lobes, real uc, real u0,
     return isfinite(value) && value > 0.0f && density > 0.0f;
 }
 
-/* The base under the coat, its spectra read once per estimate: a Lambertian reflectance rho, or a
- * conductor's complex index eta + i k relative to the coat's (pbrt-v4 divides both by the coat's
- * eta; a "reflectance" r, clamped to [0, 0.9999], is eta 1, k 2 sqrt(r) / sqrt(1 - r), whose
- * Fresnel reflectance at normal incidence is r: pbrt-v4's CoatedConductorMaterial). */
+/* What lies under the coat, its spectra read once per estimate: the base, a Lambertian
+ * reflectance rho or a conductor's complex index eta + i k relative to the coat's (pbrt-v4
+ * divides both by the coat's eta; a "reflectance" r, clamped to [0, 0.9999], is eta 1,
+ * k 2 sqrt(r) / sqrt(1 - r), whose Fresnel reflectance at normal incidence is r: pbrt-v4's
+ * CoatedConductorMaterial), and the layer's single-scattering albedo where it scatters. */
 typedef struct LayerBase {
     Spectrum a, b; /* rho; or eta and k */
     real alpha;    /* a conductor's GGX alpha, 0 for a smooth one (a delta) */
     int conductor;
+    Spectrum albedo;
+    int scatters;
 } LayerBase;
 
 CB_FN LayerBase layerBaseLoad(const SceneView* scene, Material m) {
@@ -396,6 +400,8 @@ CB_FN LayerBase layerBaseLoad(const SceneView* scene, Material m) {
     base.b = base.a;
     base.alpha = 0.0f;
     base.conductor = 0;
+    base.scatters = m.layerAlbedo >= 0;
+    base.albedo = base.scatters ? specLoad(scene->spectra, m.layerAlbedo) : specZero();
 #if CB_HAS(CB_FEATURE_COATED_CONDUCTOR)
     if (m.kind == CB_MAT_COATED_CONDUCTOR) {
         base.conductor = 1;
@@ -477,6 +483,67 @@ CB_FN bool layerBaseSample(LayerBase base, Vec3 wo, real u0, real u1, Vec3* wi, 
     return wi->z > 0.0f;
 }
 
+/* The Henyey-Greenstein phase function of asymmetry g at mu, the cosine between the propagation
+ * directions before and after scattering (g > 0 scatters forward; pbrt-v4's HGPhaseFunction). */
+CB_FN real layerPhase(real mu, real g) {
+    real denom = 1.0f + g * g - 2.0f * g * mu;
+    return CB_INV_4PI * (1.0f - g * g) / (denom * cbSafeSqrt(denom));
+}
+
+/* A propagation direction after scattering from w, mu by inverting the phase function's
+ * distribution, mu = (1 + g^2 - ((1 - g^2) / (1 - g + 2 g u))^2) / (2 g); its density in *pdf. */
+CB_FN Vec3 layerPhaseSample(Vec3 w, real g, real u0, real u1, real* pdf) {
+    real mu;
+    if (fabs(g) < 1e-3f) {
+        mu = 1.0f - 2.0f * u0;
+    } else {
+        real s = (1.0f - g * g) / (1.0f - g + 2.0f * g * u0);
+        mu = (1.0f + g * g - s * s) / (2.0f * g);
+    }
+    mu = cbClamp(mu, -1.0f, 1.0f);
+    real r = cbSafeSqrt(1.0f - mu * mu);
+    *pdf = layerPhase(mu, g);
+    return frameToWorld(frameFromNormal(w),
+                        vec3(r * cbCosPi(2.0f * u1), r * cbSinPi(2.0f * u1), mu));
+}
+
+/* A free flight in the layer (extinction 1 per unit of thickness) from height z along w: where
+ * it scatters, or, where that is beyond the layer, the interface it reaches (0 the base,
+ * thickness the coat), with the probability of getting there. */
+CB_FN real layerFlight(real z, Vec3 w, real thickness, real u) {
+    real dz = -log(1.0f - u) * fabs(w.z);
+    real next = w.z > 0.0f ? z + dz : z - dz;
+    return cbClamp(next, 0.0f, thickness);
+}
+
+#if CB_HAS(CB_FEATURE_COATED_CONDUCTOR)
+/* Between a smooth coat and a smooth conductor, the light scattered at height z toward the exit's
+ * sample (inside, direction exit) reaches it straight up, or down over the mirror; either way it
+ * may go round again, reflected by the coat (R, from inside) and the base (F), tau^2 per round,
+ * as often as the walk's depth allows after step `depth` (one step per interface). Returns the
+ * phase function times the transmittance to the exit, summed over these delta chains, which
+ * the walk's sampling takes but pbrt-v4's f, looking only straight up, leaves out. */
+CB_FN Spectrum layerMirrorChains(LayerBase base, Material m, Vec3 w, Vec3 exit, real z, int depth) {
+    real mu = fabs(exit.z), cosT;
+    real rIn = fresnelDielectric(mu, 1.0f / m.eta, &cosT);
+    real tau = exp(-m.thickness / mu);
+    Spectrum fBase = layerBaseFresnel(base, mu);
+    Vec3 up = vneg(exit), down = vec3(-exit.x, -exit.y, exit.z);
+    int upRounds = (m.layerDepth - depth) / 2, downRounds = (m.layerDepth - depth - 1) / 2;
+    real viaUp = layerPhase(vdot(w, up), m.layerG) * exp(-(m.thickness - z) / mu);
+    real viaDown = layerPhase(vdot(w, down), m.layerG) * exp(-z / mu) * tau;
+    Spectrum out;
+    for (int c = 0; c < CB_CHANNELS; ++c) {
+        real q = rIn * fBase.c[c] * tau * tau; /* one round: coat, base, both ways through */
+        real sumUp = q < 1.0f ? (1.0f - pow(q, (real)upRounds)) / (1.0f - q) : (real)upRounds;
+        real sumDown =
+            q < 1.0f ? (1.0f - pow(q, (real)downRounds)) / (1.0f - q) : (real)downRounds;
+        out.c[c] = viaUp * sumUp + viaDown * fBase.c[c] * sumDown;
+    }
+    return out;
+}
+#endif
+
 /* The two refractions that begin a walk through the coat: the way in from wo (transported as
  * `adjoint`; false where it has none) and the exit's way out toward wi, sampled from wi as the
  * adjoint transport (hasExit false where that has none, as under total internal reflection at
@@ -521,24 +588,27 @@ CB_FN real layeredPdf(LayerBase base, Material m, Vec3 wo, Vec3 wi) {
         rng.count = 0u;
         for (int sample = 0; sample < m.layerSamples; ++sample) {
             CoatCrossings c;
-            if (!coatCrossings(m, wo, wi, 0, &rng, &c) || !c.hasExit) continue;
-            real rPdf;
-            layerBaseEval(base, vneg(c.in), vneg(c.exit), &rPdf);
+            /* As in layeredEval, a rough coat's walk without the exit's sample keeps its way out
+             * from the base's sample. */
+            if (!coatCrossings(m, wo, wi, 0, &rng, &c) || (!c.hasExit && m.alpha == 0.0f)) continue;
+            real rPdf = 0.0f;
+            if (c.hasExit) layerBaseEval(base, vneg(c.in), vneg(c.exit), &rPdf);
             if (m.alpha == 0.0f) {
                 sum += rPdf;
             } else {
                 /* MIS between the base's density toward the exit's sample and the coat's
                  * density of leaving toward wi after a base sample (the latter alone after a
-                 * smooth conductor's delta). */
+                 * smooth conductor's delta), weighed as layeredEval weighs them. */
                 bool baseDelta = layerBaseIsDelta(base);
                 if (!baseDelta) sum += powerHeuristic(c.pExit, rPdf) * rPdf;
                 real u0 = layerRngNext(&rng), u1 = layerRngNext(&rng);
                 Vec3 up;
                 Spectrum fBase;
-                real upPdf, tPdf;
+                real upPdf, tPdf, pOut;
                 if (!layerBaseSample(base, vneg(c.in), u0, u1, &up, &fBase, &upPdf)) continue;
                 coatEval(vneg(up), wi, m.eta, m.alpha, CB_LOBES_BOTH, 0, &tPdf);
-                sum += baseDelta ? tPdf : powerHeuristic(upPdf, tPdf) * tPdf;
+                coatEval(wi, vneg(up), m.eta, m.alpha, CB_LOBE_TRANSMIT, 1, &pOut);
+                sum += baseDelta ? tPdf : powerHeuristic(upPdf, pOut) * tPdf;
             }
         }
     }
@@ -574,6 +644,7 @@ CB_FN Spectrum layeredEval(LayerBase base, Material m, Vec3 wo, Vec3 wi, int adj
                       : 0.0f;
         Spectrum beta = specConst(c.fIn * fabs(w.z) / c.pIn);
         bool atTop = true;
+        real z = m.thickness; /* the walk's height: the coat at thickness, the base at 0 */
         for (int depth = 0; depth < m.layerDepth; ++depth) {
             /* pbrt-v4's Russian roulette of the walk. */
             real largest = specMaxComponent(beta);
@@ -582,8 +653,49 @@ CB_FN Spectrum layeredEval(LayerBase base, Material m, Vec3 wo, Vec3 wi, int adj
                 if (layerRngNext(&rng) < q) break;
                 beta = specScale(beta, 1.0f / (1.0f - q));
             }
-            atTop = !atTop;
-            beta = specScale(beta, layerTransmittance(m.thickness, w.z));
+            if (base.scatters) {
+                real next = layerFlight(z, w, m.thickness, layerRngNext(&rng));
+                if (next == z) continue;
+                if (next > 0.0f && next < m.thickness) {
+                    /* Scattered in the layer: next-event estimation through the exit's sample
+                     * (pbrt-v4), then the phase function's direction and, through a rough coat,
+                     * from it straight out to wi, weighed against the exit's sample as from
+                     * the base. */
+                    real pPhase;
+                    if (c.hasExit) {
+                        real pNee = layerPhase(vdot(w, vneg(exit)), m.layerG);
+                        real nee = rough ? powerHeuristic(pExit, pNee) : 1.0f;
+                        real mu = fabs(exit.z);
+                        Spectrum toExit = specConst(pNee * nee * exp(-(m.thickness - next) / mu));
+#if CB_HAS(CB_FEATURE_COATED_CONDUCTOR)
+                        if (!rough && baseDelta)
+                            toExit = layerMirrorChains(base, m, w, exit, next, depth);
+#endif
+                        f = specAdd(f, specScale(specMul(specMul(beta, base.albedo), toExit),
+                                                 c.fExit / pExit));
+                    }
+                    real u0 = layerRngNext(&rng), u1 = layerRngNext(&rng);
+                    w = layerPhaseSample(w, m.layerG, u0, u1, &pPhase);
+                    beta = specMul(beta, base.albedo); /* p / pdf = 1 */
+                    z = next;
+                    if (rough && w.z > 0.0f) {
+                        real pOut, unused;
+                        real out = coatEval(vneg(w), wi, m.eta, m.alpha, CB_LOBE_TRANSMIT, adjoint,
+                                            &unused);
+                        coatEval(wi, vneg(w), m.eta, m.alpha, CB_LOBE_TRANSMIT, !adjoint, &pOut);
+                        if (out > 0.0f)
+                            f = specAdd(f, specScale(beta, exp(-(m.thickness - z) / w.z) * out *
+                                                               powerHeuristic(pPhase, pOut)));
+                    }
+                    continue;
+                }
+                /* Through the layer to an interface, with the probability of getting there. */
+                z = next;
+                atTop = z == m.thickness;
+            } else {
+                atTop = !atTop;
+                beta = specScale(beta, layerTransmittance(m.thickness, w.z));
+            }
             if (atTop) {
                 /* Back at the coat from inside: only its reflection keeps the walk inside. */
                 Vec3 next;
@@ -662,6 +774,9 @@ CB_FN bool layeredSample(LayerBase base, Material m, Vec3 wo, real u0, real u1, 
             cbFloatBits(u1));
         rng.count = 0u;
         bool atTop = true, left = false;
+        /* Only a walk through smooth layers that never scatters leaves in a delta. */
+        bool specular = m.alpha == 0.0f && layerBaseIsDelta(base);
+        real z = m.thickness;
         for (int depth = 0; depth < m.layerDepth && !left; ++depth) {
             real rrWeight = specMaxComponent(f) / pdf;
             if (depth > 3 && rrWeight < 0.25f) {
@@ -670,8 +785,25 @@ CB_FN bool layeredSample(LayerBase base, Material m, Vec3 wo, real u0, real u1, 
                 pdf *= 1.0f - q;
             }
             if (w.z == 0.0f) return false;
-            atTop = !atTop;
-            f = specScale(f, layerTransmittance(m.thickness, w.z));
+            if (base.scatters) {
+                real next = layerFlight(z, w, m.thickness, layerRngNext(&rng));
+                if (next == z) return false;
+                if (next > 0.0f && next < m.thickness) {
+                    real pPhase;
+                    real p0 = layerRngNext(&rng), p1 = layerRngNext(&rng);
+                    w = layerPhaseSample(w, m.layerG, p0, p1, &pPhase);
+                    f = specScale(specMul(f, base.albedo), pPhase);
+                    pdf *= pPhase;
+                    specular = false;
+                    z = next;
+                    continue;
+                }
+                z = next;
+                atTop = z == m.thickness;
+            } else {
+                atTop = !atTop;
+                f = specScale(f, layerTransmittance(m.thickness, w.z));
+            }
             if (!atTop) {
                 real v0 = layerRngNext(&rng), v1 = layerRngNext(&rng);
                 Vec3 up;
@@ -697,7 +829,7 @@ CB_FN bool layeredSample(LayerBase base, Material m, Vec3 wo, real u0, real u1, 
         }
         if (!left) return false;
         out->wi = w;
-        if (m.alpha == 0.0f && layerBaseIsDelta(base)) {
+        if (specular) {
             /* Smooth coat over a smooth conductor: every way out is the mirror direction, a
              * delta whose weight is the walk's (its reverse choice taken as equally likely). */
             out->isDelta = 1;
@@ -790,8 +922,10 @@ CB_FN bool cbLobeIsDeltaOnly(Material m) {
     if (m.kind == CB_MAT_THIN_DIELECTRIC) return true;
 #endif
 #if CB_HAS(CB_FEATURE_COATED_CONDUCTOR)
-    /* A smooth coat over a smooth conductor reflects only into the mirror direction. */
-    if (m.kind == CB_MAT_COATED_CONDUCTOR) return m.alpha == 0.0f && m.baseAlpha == 0.0f;
+    /* A smooth coat over a smooth conductor reflects only into the mirror direction, unless the
+     * layer between them scatters. */
+    if (m.kind == CB_MAT_COATED_CONDUCTOR)
+        return m.alpha == 0.0f && m.baseAlpha == 0.0f && m.layerAlbedo < 0;
 #endif
 #if CB_HAS(CB_FEATURE_CONDUCTOR)
     if (m.kind == CB_MAT_CONDUCTOR) return m.alpha == 0.0f;

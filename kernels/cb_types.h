@@ -124,11 +124,15 @@ typedef struct Material {
      * `reflectance` the diffuse base's, or the conductor's eta with `secondSpectrum` its k, or,
      * where that is -1, its normal-incidence reflectance): the layer's thickness in mean free
      * paths, the random walk's longest path and its walks per estimate (pbrt-v4's "thickness",
-     * "maxdepth", "nsamples"), and the conductor base's GGX alpha (0: smooth). */
+     * "maxdepth", "nsamples"), the conductor base's GGX alpha (0: smooth), and the layer's
+     * single-scattering albedo (a spectrum's index, -1 where it does not scatter) and its
+     * Henyey-Greenstein asymmetry g ("albedo", "g"). */
     real thickness;
     int layerDepth;
     int layerSamples;
     real baseAlpha;
+    int layerAlbedo;
+    real layerG;
 } Material;
 
 /* ---- Lights ------------------------------------------------------------------------------- */

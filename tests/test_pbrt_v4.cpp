@@ -1423,8 +1423,18 @@ TEST_CASE("pbrt-v4 coateddiffuse: parameters, defaults, refusals") {
     expectError(light + "Material \"coateddiffuse\" \"float uroughness\" 0.1 "
                         "\"float vroughness\" 0.2\n",
                 {"t.pbrt:3:", "anisotropic"});
-    expectError(light + "Material \"coateddiffuse\" \"rgb albedo\" [0.5 0.5 0.5]\n",
-                {"t.pbrt:3:", "scattering layer"});
+    // A scattering layer: its albedo (0, pbrt-v4's default, does not scatter) and g in (-1, 1).
+    const cb::DeviceScene scattering = cb::buildDeviceScene(parseSceneString(
+        light + "Material \"coateddiffuse\" \"rgb albedo\" [0.5 0.25 0] \"float g\" -0.4\n" + kTri,
+        "t.pbrt"));
+    REQUIRE(scattering.materials[0].layerAlbedo >= 0);
+    CHECK(scattering.spectra[size_t(scattering.materials[0].layerAlbedo * 3 + 1)] ==
+          doctest::Approx(0.25f));
+    CHECK(scattering.materials[0].layerG == -0.4f);
+    CHECK(scene.materials[1].layerAlbedo == -1);
+    CHECK(scene.materials[1].layerG == 0.3f);
+    expectError(light + "Material \"coateddiffuse\" \"rgb albedo\" [0.5 0.5 0.5] \"float g\" 1\n",
+                {"t.pbrt:3:", "\"float g\" must be in (-1, 1), got 1"});
     expectError(light + "Material \"coateddiffuse\" \"float thickness\" -1\n",
                 {"t.pbrt:3:", "\"float thickness\" must be >= 0, got -1"});
     expectError(light + "Material \"coateddiffuse\" \"integer maxdepth\" -1\n",
@@ -1581,7 +1591,6 @@ TEST_CASE("pbrt-v4 coatedconductor: parameters, defaults, refusals") {
         "t.pbrt"));
     CHECK(contains(smooth.featureNames(), "coated-conductor"));
     CHECK(!contains(smooth.featureNames(), "rough-dielectric"));
-    CHECK(!contains(smooth.featureNames(), "conductor-fresnel"));
     expectError(
         light + "Material \"coatedconductor\"\n",
         {"t.pbrt:3:", "coatedconductor needs \"reflectance\", or \"conductor.eta\"", "copper"});
@@ -1601,14 +1610,17 @@ TEST_CASE("pbrt-v4 coatedconductor: parameters, defaults, refusals") {
                         "\"spectrum interface.eta\" [400 1.5 700 1.4]\n",
                 {"t.pbrt:3:", "spectrally varying dielectric \"interface.eta\""});
     expectError(light + "Material \"coatedconductor\" \"rgb reflectance\" [0.5 0.5 0.5] "
+                        "\"rgb interface.eta\" [1.5 1.5 1.5]\n",
+                {"t.pbrt:3:", "spectrally varying dielectric \"interface.eta\""});
+    expectError(light + "Material \"coatedconductor\" \"rgb reflectance\" [0.5 0.5 0.5] "
                         "\"float interface.eta\" 0\n",
                 {"t.pbrt:3:", "\"float interface.eta\" must be > 0, got 0"});
     expectError(light + "Material \"coatedconductor\" \"rgb reflectance\" [0.5 0.5 0.5] "
-                        "\"rgb albedo\" [0.5 0.5 0.5]\n",
-                {"t.pbrt:3:", "scattering layer (coatedconductor"});
+                        "\"rgb albedo\" [0.5 0.5 0.5] \"float g\" -1\n",
+                {"t.pbrt:3:", "\"float g\" must be in (-1, 1), got -1"});
     expectError(light + "Material \"coatedconductor\" \"rgb reflectance\" [0.5 0.5 0.5] "
                         "\"float eta\" 1.5\n",
-                {"t.pbrt:3:", "eta"});
+                {"t.pbrt:3:", "unknown or unsupported parameter \"float eta\""});
     expectError(light + "MakeNamedMaterial \"c\" \"string type\" \"coatedconductor\" "
                         "\"rgb reflectance\" [0.5 0.5 0.5]\n"
                         "MakeNamedMaterial \"d\" \"string type\" \"diffuse\"\n"
@@ -1619,7 +1631,8 @@ TEST_CASE("pbrt-v4 coatedconductor: parameters, defaults, refusals") {
 TEST_CASE("pbrt-v4 coatedconductor: BDPT, CBDPT and MLT agree with PT" *
           doctest::test_suite("statistical")) {
     // A floor of rough gold under a smooth coat, a sphere of a smooth conductor under a rough
-    // coat.
+    // coat, and a smaller one of a smooth conductor under a smooth coat over a layer that
+    // scatters (its paths over the mirror).
     checkMethodsAgreeWithPt(kDiskLight,
                             "AttributeBegin\nMaterial \"coatedconductor\" \"rgb conductor.eta\" "
                             "[0.17 0.43 1.5] \"rgb conductor.k\" [3.15 2.45 1.88] "
@@ -1629,6 +1642,11 @@ TEST_CASE("pbrt-v4 coatedconductor: BDPT, CBDPT and MLT agree with PT" *
                             "AttributeBegin\nMaterial \"coatedconductor\" \"rgb reflectance\" "
                             "[0.9 0.6 0.3] \"float interface.roughness\" 0.05\n"
                             "Translate 0.8 0.3 -0.4\nShape \"sphere\" \"float radius\" 0.3\n"
+                            "AttributeEnd\n"
+                            "AttributeBegin\nMaterial \"coatedconductor\" \"rgb reflectance\" "
+                            "[0.8 0.8 0.8] \"rgb albedo\" [0.9 0.7 0.4] \"float g\" 0.4 "
+                            "\"float thickness\" 0.5\n"
+                            "Translate -0.7 0.25 -0.6\nShape \"sphere\" \"float radius\" 0.25\n"
                             "AttributeEnd\n");
 }
 

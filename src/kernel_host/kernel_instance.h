@@ -105,6 +105,8 @@ template <class Visit> void forEachField(cbk::Material& s, Visit&& visit) {
     visit(s.layerDepth);
     visit(s.layerSamples);
     visit(s.baseAlpha);
+    visit(s.layerAlbedo);
+    visit(s.layerG);
 }
 template <class Visit> void forEachField(cbk::Light& s, Visit&& visit) {
     visit(s.kind);

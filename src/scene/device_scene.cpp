@@ -15,7 +15,7 @@
 namespace cb {
 
 static_assert(sizeof(cbk::Primitive) == 48, "Primitive must match the OpenCL layout");
-static_assert(sizeof(cbk::Material) == 48, "Material must match the OpenCL layout");
+static_assert(sizeof(cbk::Material) == 56, "Material must match the OpenCL layout");
 static_assert(sizeof(cbk::Light) == 64, "Light must match the OpenCL layout");
 static_assert(sizeof(cbk::Camera) == 128, "Camera must match the OpenCL layout");
 
@@ -280,6 +280,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         out.reflectance = oneSpectrum;
         out.mixFirst = out.mixSecond = -1;
         out.secondSpectrum = -1;
+        out.layerAlbedo = -1;
         // GGX alpha of conductors and dielectrics; pbrt-v4 maps roughness r to sqrt(r).
         const float alpha = m.remapRoughness ? std::sqrt(std::max(m.roughness, 0.f)) : m.roughness;
         switch (m.kind) {
@@ -343,6 +344,8 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
             out.thickness = std::max(m.thickness, std::numeric_limits<float>::min());
             out.layerDepth = m.layerDepth;
             out.layerSamples = m.layerSamples;
+            if (m.layerAlbedo) out.layerAlbedo = spectra.addAlbedo(*m.layerAlbedo, 1.f);
+            out.layerG = m.layerG;
             break;
         }
         }

@@ -1367,7 +1367,7 @@ class Parser {
     static void readEta(ParamList& pl, MaterialDesc& m, const std::string& name = "eta") {
         const Param* p = pl.peek(name);
         if (!p) return;
-        if (p->type == "spectrum")
+        if (p->type == "spectrum" || p->type == "rgb" || p->type == "blackbody")
             throw SceneError(p->where, fmt::format("spectrally varying dielectric \"{0}\" is not "
                                                    "supported; give \"float {0}\"",
                                                    name));
@@ -1417,7 +1417,7 @@ class Parser {
         if (auto r = pl.spectrum("reflectance", SpectrumRole::Reflectance)) m.reflectance = *r;
         readEta(pl, m);
         readRoughness(pl, m);
-        readLayer(pl, m, "coateddiffuse");
+        readLayer(pl, m);
     }
 
     // pbrt-v4's "coatedconductor": a conductor, smooth or rough, under a dielectric coat,
@@ -1428,12 +1428,12 @@ class Parser {
         readEta(pl, m, "interface.eta");
         readRoughness(pl, m, "interface.");
         readRoughness(pl, m, "conductor.", &MaterialDesc::baseRoughness);
-        readLayer(pl, m, "coatedconductor");
+        readLayer(pl, m);
     }
 
     // The layer of the coated materials: "thickness", the walk's "maxdepth" and "nsamples",
-    // and a medium that does not scatter.
-    static void readLayer(ParamList& pl, MaterialDesc& m, const char* type) {
+    // and the medium's "albedo" and "g".
+    static void readLayer(ParamList& pl, MaterialDesc& m) {
         if (const Param* p = pl.peek("thickness")) {
             const double t = *pl.oneFloat("thickness");
             if (!(t >= 0.0))
@@ -1455,23 +1455,22 @@ class Parser {
                                  fmt::format("\"integer nsamples\" must be in [1, 1000], got {}",
                                              m.layerSamples));
         }
-        // A scattering layer (albedo > 0, with its phase function's g) is not implemented; the
-        // default albedo 0 makes g irrelevant, which pbrt-v4 then ignores too.
-        if (const Param* p = pl.peek("albedo")) {
-            const std::optional<SpectrumValue> albedo =
-                pl.spectrum("albedo", SpectrumRole::Reflectance);
-            bool zero = albedo->isRgb ? albedo->rgb == std::array<float, 3>{0.f, 0.f, 0.f} : true;
-            if (!albedo->isRgb)
-                for (const auto& sample : albedo->samples)
+        // The layer scatters where its single-scattering albedo is not 0 (pbrt-v4's default),
+        // by a Henyey-Greenstein phase function of asymmetry g; g = +-1 would be a delta.
+        if (pl.peek("albedo")) {
+            SpectrumValue albedo = *pl.spectrum("albedo", SpectrumRole::Reflectance);
+            bool zero = albedo.isRgb ? albedo.rgb == std::array<float, 3>{0.f, 0.f, 0.f} : true;
+            if (!albedo.isRgb)
+                for (const auto& sample : albedo.samples)
                     zero = zero && sample.second == 0.f;
-            if (!zero)
-                throw SceneError(p->where, fmt::format("a scattering layer ({} \"albedo\" > 0) is "
-                                                       "not supported; give albedo 0",
-                                                       type));
+            if (!zero) m.layerAlbedo = std::move(albedo);
         }
-        if (pl.peek("g")) {
+        if (const Param* p = pl.peek("g")) {
             const double g = *pl.oneFloat("g");
-            (void)g;
+            if (!(g > -1.0 && g < 1.0))
+                throw SceneError(p->valueLoc(0),
+                                 fmt::format("\"float g\" must be in (-1, 1), got {:g}", g));
+            m.layerG = static_cast<float>(g);
         }
     }
 

@@ -80,6 +80,9 @@ struct MaterialDesc {
     float thickness = 0.01f;
     int layerDepth = 10;
     int layerSamples = 1;
+    // the layer's single-scattering albedo where not 0, and its Henyey-Greenstein asymmetry
+    std::optional<SpectrumValue> layerAlbedo;
+    float layerG = 0.f;
     std::array<int, 2> mix{-1, -1}; // mix: indices into SceneDesc::materials
     float amount = 0.5f;            // mix: probability of choosing mix[1] (pbrt-v4 semantics)
     SourceLocation where;
