@@ -1370,6 +1370,18 @@ TEST_CASE("pbrt-v4 diffusetransmission and thindielectric: BDPT, CBDPT and MLT a
                             "-0.5 0.4 0  0.5 0.4 0]\nAttributeEnd\n");
 }
 
+namespace {
+
+// A coated material's coat index and layer as parsed (MaterialDesc) or on the device (Material).
+template <class M> void checkLayer(const M& m, float eta, float thickness, int depth, int samples) {
+    CHECK(m.eta == eta);
+    CHECK(m.thickness == thickness);
+    CHECK(m.layerDepth == depth);
+    CHECK(m.layerSamples == samples);
+}
+
+} // namespace
+
 TEST_CASE("pbrt-v4 coateddiffuse: parameters, defaults, refusals") {
     const std::string light = "WorldBegin\nLightSource \"point\"\n";
     // pbrt-v4's defaults: reflectance 0.5, eta 1.5, thickness 0.01, maxdepth 10, nsamples 1.
@@ -1382,19 +1394,13 @@ TEST_CASE("pbrt-v4 coateddiffuse: parameters, defaults, refusals") {
                               "t.pbrt");
     REQUIRE(s.materials.size() == 2);
     CHECK(s.materials[0].kind == cb::MaterialKind::CoatedDiffuse);
-    CHECK(s.materials[0].eta == 1.5f);
-    CHECK(s.materials[0].thickness == 0.01f);
-    CHECK(s.materials[0].layerDepth == 10);
-    CHECK(s.materials[0].layerSamples == 1);
+    checkLayer(s.materials[0], 1.5f, 0.01f, 10, 1);
     cb::DeviceScene scene = cb::buildDeviceScene(s);
     REQUIRE(scene.channels == 3);
     CHECK(contains(scene.featureNames(), "coated-diffuse"));
     const cbk::Material& given = scene.materials[1];
     CHECK(given.kind == CB_MAT_COATED_DIFFUSE);
-    CHECK(given.eta == 1.33f);
-    CHECK(given.thickness == 0.5f);
-    CHECK(given.layerDepth == 4);
-    CHECK(given.layerSamples == 3);
+    checkLayer(given, 1.33f, 0.5f, 4, 3);
     CHECK(scene.spectra[size_t(given.reflectance * 3)] == doctest::Approx(0.9f));
     CHECK(scene.spectra[size_t(scene.materials[0].reflectance * 3 + 1)] == doctest::Approx(0.5f));
     // Only scenes with a coat compile it.
@@ -1560,10 +1566,7 @@ TEST_CASE("pbrt-v4 coatedconductor: parameters, defaults, refusals") {
         "t.pbrt");
     REQUIRE(s.materials.size() == 3);
     CHECK(s.materials[0].kind == cb::MaterialKind::CoatedConductor);
-    CHECK(s.materials[0].eta == 1.5f);
-    CHECK(s.materials[0].thickness == 0.01f);
-    CHECK(s.materials[0].layerDepth == 10);
-    CHECK(s.materials[0].layerSamples == 1);
+    checkLayer(s.materials[0], 1.5f, 0.01f, 10, 1);
     cb::DeviceScene scene = cb::buildDeviceScene(s);
     REQUIRE(scene.channels == 3);
     CHECK(contains(scene.featureNames(), "coated-conductor"));
@@ -1576,12 +1579,9 @@ TEST_CASE("pbrt-v4 coatedconductor: parameters, defaults, refusals") {
     CHECK(plain.secondSpectrum == -1);
     CHECK(scene.spectra[size_t(plain.reflectance * 3 + 2)] == doctest::Approx(0.2f));
     const cbk::Material& given = scene.materials[1];
-    CHECK(given.eta == 1.33f);
+    checkLayer(given, 1.33f, 0.5f, 4, 3);
     CHECK(given.alpha == doctest::Approx(0.3f));
     CHECK(given.baseAlpha == doctest::Approx(0.4f));
-    CHECK(given.thickness == 0.5f);
-    CHECK(given.layerDepth == 4);
-    CHECK(given.layerSamples == 3);
     CHECK(scene.spectra[size_t(given.reflectance * 3)] == doctest::Approx(0.2f));
     CHECK(scene.spectra[size_t(given.secondSpectrum * 3 + 1)] == doctest::Approx(2.5f));
     CHECK(scene.materials[2].baseAlpha == doctest::Approx(0.04f)); // not remapped
