@@ -484,8 +484,15 @@ CB_FN bool layerBaseSample(LayerBase base, Vec3 wo, real u0, real u1, Vec3* wi, 
 }
 
 /* The Henyey-Greenstein phase function of asymmetry g at mu, the cosine between the propagation
- * directions before and after scattering (g > 0 scatters forward; pbrt-v4's HGPhaseFunction). */
+ * directions before and after scattering (g > 0 scatters forward; pbrt-v4's HGPhaseFunction). g
+ * is kept within 0.99 of 0, as pbrt-v4 keeps it: closer to +-1 the float inversion below drifts
+ * from this density. Below 1e-3 it is 0, the uniform sphere the inversion then samples. */
+CB_FN real layerPhaseG(real g) {
+    return fabs(g) < 1e-3f ? 0.0f : cbClamp(g, -0.99f, 0.99f);
+}
+
 CB_FN real layerPhase(real mu, real g) {
+    g = layerPhaseG(g);
     real denom = 1.0f + g * g - 2.0f * g * mu;
     return CB_INV_4PI * (1.0f - g * g) / (denom * cbSafeSqrt(denom));
 }
@@ -494,7 +501,8 @@ CB_FN real layerPhase(real mu, real g) {
  * distribution, mu = (1 + g^2 - ((1 - g^2) / (1 - g + 2 g u))^2) / (2 g); its density in *pdf. */
 CB_FN Vec3 layerPhaseSample(Vec3 w, real g, real u0, real u1, real* pdf) {
     real mu;
-    if (fabs(g) < 1e-3f) {
+    g = layerPhaseG(g);
+    if (g == 0.0f) {
         mu = 1.0f - 2.0f * u0;
     } else {
         real s = (1.0f - g * g) / (1.0f - g + 2.0f * g * u0);
@@ -520,24 +528,24 @@ CB_FN real layerFlight(real z, Vec3 w, real thickness, real u) {
 /* Between a smooth coat and a smooth conductor, the light scattered at height z toward the exit's
  * sample (inside, direction exit) reaches it straight up, or down over the mirror; either way it
  * may go round again, reflected by the coat (R, from inside) and the base (F), tau^2 per round,
- * as often as the walk's depth allows after step `depth` (one step per interface). Returns the
- * phase function times the transmittance to the exit, summed over these delta chains, which
- * the walk's sampling takes but pbrt-v4's f, looking only straight up, leaves out. */
+ * as often as the walk's depth allows after step `depth` (one step per interface; the step to
+ * the exit free, as for every next-event estimate of pbrt-v4's f). Returns the phase function
+ * times the transmittance to the exit, summed over these delta chains, which the walk's
+ * sampling takes but pbrt-v4's f, looking only straight up, leaves out. */
 CB_FN Spectrum layerMirrorChains(LayerBase base, Material m, Vec3 w, Vec3 exit, real z, int depth) {
     real mu = fabs(exit.z), cosT;
     real rIn = fresnelDielectric(mu, 1.0f / m.eta, &cosT);
     real tau = exp(-m.thickness / mu);
     Spectrum fBase = layerBaseFresnel(base, mu);
     Vec3 up = vneg(exit), down = vec3(-exit.x, -exit.y, exit.z);
-    int upRounds = (m.layerDepth - depth) / 2, downRounds = (m.layerDepth - depth - 1) / 2;
+    int upRounds = (m.layerDepth - depth + 1) / 2, downRounds = (m.layerDepth - depth) / 2;
     real viaUp = layerPhase(vdot(w, up), m.layerG) * exp(-(m.thickness - z) / mu);
     real viaDown = layerPhase(vdot(w, down), m.layerG) * exp(-z / mu) * tau;
     Spectrum out;
     for (int c = 0; c < CB_CHANNELS; ++c) {
         real q = rIn * fBase.c[c] * tau * tau; /* one round: coat, base, both ways through */
         real sumUp = q < 1.0f ? (1.0f - pow(q, (real)upRounds)) / (1.0f - q) : (real)upRounds;
-        real sumDown =
-            q < 1.0f ? (1.0f - pow(q, (real)downRounds)) / (1.0f - q) : (real)downRounds;
+        real sumDown = q < 1.0f ? (1.0f - pow(q, (real)downRounds)) / (1.0f - q) : (real)downRounds;
         out.c[c] = viaUp * sumUp + viaDown * fBase.c[c] * sumDown;
     }
     return out;
@@ -949,7 +957,8 @@ CB_FN real cbLobeSpecularity(Material m) {
     if (m.kind == CB_MAT_CONDUCTOR) return 1.0f;
 #endif
 #if CB_HAS(CB_FEATURE_COATED_CONDUCTOR)
-    if (m.kind == CB_MAT_COATED_CONDUCTOR) return 1.0f; /* as the conductor it coats */
+    /* As the conductor it coats, unless its layer scatters (diffuse, as coated diffuse). */
+    if (m.kind == CB_MAT_COATED_CONDUCTOR) return m.layerAlbedo < 0 ? 1.0f : 0.0f;
 #endif
 #if CB_HAS(CB_FEATURE_DIELECTRIC)
     if (m.kind == CB_MAT_DIELECTRIC) return 1.0f;

@@ -11,6 +11,7 @@
 #include "scene/transform.h"
 #include "spectral/spectral.h"
 
+#include <algorithm>
 #include <cctype>
 #include <charconv>
 #include <cmath>
@@ -1456,7 +1457,8 @@ class Parser {
                                              m.layerSamples));
         }
         // The layer scatters where its single-scattering albedo is not 0 (pbrt-v4's default),
-        // by a Henyey-Greenstein phase function of asymmetry g; g = +-1 would be a delta.
+        // by a Henyey-Greenstein phase function of asymmetry g, clamped to [-1, 1] as pbrt-v4
+        // (the kernels keep it within 0.99, as pbrt-v4's phase function does).
         if (pl.peek("albedo")) {
             SpectrumValue albedo = *pl.spectrum("albedo", SpectrumRole::Reflectance);
             bool zero = albedo.isRgb ? albedo.rgb == std::array<float, 3>{0.f, 0.f, 0.f} : true;
@@ -1465,12 +1467,8 @@ class Parser {
                     zero = zero && sample.second == 0.f;
             if (!zero) m.layerAlbedo = std::move(albedo);
         }
-        if (const Param* p = pl.peek("g")) {
-            const double g = *pl.oneFloat("g");
-            if (!(g > -1.0 && g < 1.0))
-                throw SceneError(p->valueLoc(0),
-                                 fmt::format("\"float g\" must be in (-1, 1), got {:g}", g));
-            m.layerG = static_cast<float>(g);
+        if (pl.peek("g")) {
+            m.layerG = static_cast<float>(std::clamp(*pl.oneFloat("g"), -1.0, 1.0));
         }
     }
 

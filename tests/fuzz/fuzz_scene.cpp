@@ -63,7 +63,7 @@ void checkScene(const cb::SceneDesc& s) {
         if (!(m.thickness >= 0.f && std::isfinite(m.thickness))) broken("coat thickness");
         if (m.layerDepth < 0 || m.layerDepth > 1000) broken("coat maxdepth");
         if (m.layerSamples < 1 || m.layerSamples > 1000) broken("coat nsamples");
-        if (!(m.layerG > -1.f && m.layerG < 1.f)) broken("coat g");
+        if (!(m.layerG >= -1.f && m.layerG <= 1.f)) broken("coat g");
         if (m.layerAlbedo) checkSpectrum(*m.layerAlbedo, true, "coat albedo");
         if (!std::isfinite(m.roughness) || m.roughness < 0.f) broken("roughness");
         if (!std::isfinite(m.baseRoughness) || m.baseRoughness < 0.f) broken("conductor roughness");
