@@ -281,8 +281,11 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         out.mixFirst = out.mixSecond = -1;
         out.secondSpectrum = -1;
         out.layerAlbedo = -1;
-        // GGX alpha of conductors and dielectrics; pbrt-v4 maps roughness r to sqrt(r).
-        const float alpha = m.remapRoughness ? std::sqrt(std::max(m.roughness, 0.f)) : m.roughness;
+        // GGX alpha of conductors, dielectrics and coats; pbrt-v4 maps roughness r to sqrt(r).
+        auto ggxAlpha = [&m](float roughness) {
+            return m.remapRoughness ? std::sqrt(std::max(roughness, 0.f)) : roughness;
+        };
+        const float alpha = ggxAlpha(m.roughness);
         switch (m.kind) {
         case MaterialKind::Diffuse:
             out.kind = CB_MAT_DIFFUSE;
@@ -337,8 +340,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
             // of eta 1 as no interface at all, which the smooth coat's Fresnel gives; the kernels
             // take a rough coat's alpha >= 1e-3 as given. The conductor's alpha alike.
             out.alpha = alpha < 1e-3f || m.eta == 1.f ? 0.f : alpha;
-            const float baseAlpha =
-                m.remapRoughness ? std::sqrt(std::max(m.baseRoughness, 0.f)) : m.baseRoughness;
+            const float baseAlpha = ggxAlpha(m.baseRoughness);
             out.baseAlpha = baseAlpha < 1e-3f ? 0.f : baseAlpha;
             // pbrt-v4 keeps the thickness at least the smallest normal float
             out.thickness = std::max(m.thickness, std::numeric_limits<float>::min());
