@@ -8,6 +8,7 @@
 #include "layered_reference.h"
 #include "scene/scene_desc.h"
 #include "scene_builders.h"
+#include "spectral/named_spectra.h"
 #include "spectral/spectral.h"
 #include "test_render_util.h"
 
@@ -1006,15 +1007,39 @@ TEST_CASE("pbrt-v4 conductor: eta and k, or reflectance, and what is refused") {
     CHECK(scene.materials[0].secondSpectrum == -1);
     CHECK(contains(scene.featureNames(), "conductor"));
     CHECK(!contains(scene.featureNames(), "conductor-fresnel"));
-    // Refused, each at its line: both forms, one of eta and k (pbrt-v4 would fill in copper's
-    // measured spectra, which cbdpt does not have), neither, negative or huge values, named
-    // spectra.
+    // pbrt-v4's default for a missing eta or k, and for a conductor given neither: copper's
+    // measured spectra (metal-Cu-eta, metal-Cu-k), which render spectrally.
+    using Samples = std::vector<std::pair<float, float>>;
+    const Samples cuEta = cb::toPiecewiseLinear(*cb::findNamedSpectrum("metal-Cu-eta"));
+    const Samples cuK = cb::toPiecewiseLinear(*cb::findNamedSpectrum("metal-Cu-k"));
+    auto parsed = parseSceneString("WorldBegin\nMaterial \"conductor\"\n" + kTri, "t.pbrt");
+    REQUIRE(parsed.materials.size() == 1);
+    CHECK(parsed.materials[0].conductorEta->samples == cuEta);
+    CHECK(parsed.materials[0].conductorK->samples == cuK);
+    CHECK(parsed.usesSpectra);
+    parsed = parseSceneString(
+        "WorldBegin\nMaterial \"conductor\" \"rgb eta\" [0.2 0.9 1.1]\n" + kTri, "t.pbrt");
+    CHECK(parsed.materials[0].conductorEta->isRgb);
+    CHECK(parsed.materials[0].conductorK->samples == cuK);
+    parsed =
+        parseSceneString("WorldBegin\nMaterial \"conductor\" \"rgb k\" [1 1 1]\n" + kTri, "t.pbrt");
+    CHECK(parsed.materials[0].conductorEta->samples == cuEta);
+    CHECK(parsed.materials[0].conductorK->isRgb);
+    // pbrt-v4's named spectra in place of numbers.
+    parsed = parseSceneString("WorldBegin\nLightSource \"point\"\nMaterial \"conductor\" "
+                              "\"spectrum eta\" \"metal-Au-eta\" \"spectrum k\" \"metal-Au-k\"\n" +
+                                  kTri,
+                              "t.pbrt");
+    CHECK(parsed.materials[0].conductorEta->samples ==
+          cb::toPiecewiseLinear(*cb::findNamedSpectrum("metal-Au-eta")));
+    CHECK(parsed.materials[0].conductorK->samples ==
+          cb::toPiecewiseLinear(*cb::findNamedSpectrum("metal-Au-k")));
+    scene = cb::buildDeviceScene(parsed);
+    CHECK(scene.channels == cb::kSpectralBins);
+    CHECK(contains(scene.featureNames(), "conductor-fresnel"));
+    // Refused, each at its line: both forms, negative or huge values, names cbdpt lacks.
     expectError("WorldBegin\n\nMaterial \"conductor\" \"rgb reflectance\" [0.9 0.8 0.7] " + gold,
                 {"t.pbrt:3:", "not both"});
-    expectError("WorldBegin\nMaterial \"conductor\" \"rgb eta\" [0.2 0.9 1.1]\n",
-                {"t.pbrt:2:", "without \"k\"", "copper"});
-    expectError("WorldBegin\nMaterial \"conductor\" \"rgb k\" [1 1 1]\n", {"without \"eta\""});
-    expectError("WorldBegin\nMaterial \"conductor\"\n", {"copper"});
     expectError("WorldBegin\nMaterial \"conductor\" \"rgb eta\" [0.2 -0.9 1.1] \"rgb k\" [1 1 1]\n",
                 {"negative"});
     expectError("WorldBegin\nMaterial \"conductor\" \"rgb eta\" [1 1 1] \"rgb k\" [1 2e6 1]\n",
@@ -1024,9 +1049,12 @@ TEST_CASE("pbrt-v4 conductor: eta and k, or reflectance, and what is refused") {
     expectError("WorldBegin\nMaterial \"conductor\" \"spectrum eta\" [450 1 700 1] "
                 "\"spectrum k\" [400 1 700 1]\n",
                 {"t.pbrt:2:22", "covers 450-700 nm", "must cover 400-700 nm"});
-    expectError("WorldBegin\nMaterial \"conductor\" \"spectrum eta\" \"metal-Au-eta\" "
+    expectError("WorldBegin\nMaterial \"conductor\" \"spectrum eta\" \"metal-Pt-eta\" "
                 "\"spectrum k\" \"metal-Au-k\"\n",
-                {"metal-Au-eta"});
+                {"t.pbrt:2:37", "no spectrum file \"metal-Pt-eta\"", "metal-Au-eta", "glass-*"});
+    // A named conductor spectrum is no reflectance.
+    expectError("WorldBegin\nMaterial \"diffuse\" \"spectrum reflectance\" \"metal-Cu-eta\"\n",
+                {"t.pbrt:2:43", "must be <= 1"});
 }
 
 TEST_CASE("pbrt-v4: spectrum files, found beside the file that names them, with '#' comments") {
@@ -1051,7 +1079,7 @@ TEST_CASE("pbrt-v4: spectrum files, found beside the file that names them, with 
     CHECK(std::count_if(s.sourceFiles.begin(), s.sourceFiles.end(), [](const std::string& f) {
               return f.size() > 4 && f.compare(f.size() - 4, 4, ".spd") == 0;
           }) == 2);
-    // Errors at the file's own line and column; a missing file names pbrt-v4's named spectra.
+    // Errors at the file's own line and column.
     auto errorIn = [&](const std::string& spd) {
         std::ofstream(dir / "bad.spd") << spd;
         std::ofstream(dir / "bad.pbrt")
@@ -1069,11 +1097,13 @@ TEST_CASE("pbrt-v4: spectrum files, found beside the file that names them, with 
     CHECK(contains(errorIn("400 0.5 550\n"), "bad.spd: parameter \"spectrum reflectance\""));
     CHECK(contains(errorIn("# nothing\n"), "holds no (wavelength, value) pairs"));
     CHECK(contains(errorIn("500 0.5 400 0.5\n"), "bad.spd:1:9: wavelengths must be strictly"));
-    const std::string named = errorOf("WorldBegin\nMaterial \"conductor\" \"spectrum eta\" "
-                                      "\"metal-Au-eta\" \"spectrum k\" \"metal-Au-k\"\n");
-    CHECK(contains(named, "t.pbrt:2:37"));
-    CHECK(contains(named, "no spectrum file \"metal-Au-eta\""));
-    CHECK(contains(named, "named spectra"));
+    // pbrt-v4 looks a name up among its named spectra first: a file of that name is not read.
+    std::ofstream(dir / "metal-Ag-k") << "400 1 700 1\n";
+    std::ofstream(dir / "silver.pbrt") << "WorldBegin\nMaterial \"conductor\" \"spectrum eta\" "
+                                          "\"metal-Ag-eta\" \"spectrum k\" \"metal-Ag-k\"\n"
+                                       << kTri;
+    CHECK(cb::parseSceneFile((dir / "silver.pbrt").string()).materials[0].conductorK->samples ==
+          cb::toPiecewiseLinear(*cb::findNamedSpectrum("metal-Ag-k")));
     std::filesystem::remove_all(dir);
 }
 
@@ -1557,7 +1587,7 @@ TEST_CASE("pbrt-v4 coateddiffuse: BDPT, CBDPT and MLT agree with PT" *
 TEST_CASE("pbrt-v4 coatedconductor: parameters, defaults, refusals") {
     const std::string light = "WorldBegin\nLightSource \"point\"\n";
     // pbrt-v4's defaults: interface eta 1.5, both layers smooth, thickness 0.01, maxdepth 10,
-    // nsamples 1; its default conductor (copper's measured spectra) is refused below.
+    // nsamples 1; its default conductor is copper's measured spectra (below).
     auto s = parseSceneString(
         light + "Material \"coatedconductor\" \"rgb reflectance\" [0.9 0.5 0.2]\n" + kTri +
             "Material \"coatedconductor\" \"rgb conductor.eta\" [0.2 0.9 1.4] "
@@ -1598,11 +1628,16 @@ TEST_CASE("pbrt-v4 coatedconductor: parameters, defaults, refusals") {
         "t.pbrt"));
     CHECK(contains(smooth.featureNames(), "coated-conductor"));
     CHECK(!contains(smooth.featureNames(), "rough-dielectric"));
-    expectError(
-        light + "Material \"coatedconductor\"\n",
-        {"t.pbrt:3:", "coatedconductor needs \"reflectance\", or \"conductor.eta\"", "copper"});
-    expectError(light + "Material \"coatedconductor\" \"rgb conductor.eta\" [1 1 1]\n",
-                {"t.pbrt:3:", "without \"conductor.k\""});
+    // pbrt-v4's default conductor under the coat, and for a missing conductor.k: copper's.
+    const auto copperUnder =
+        parseSceneString(light + "Material \"coatedconductor\"\n" + kTri +
+                             "Material \"coatedconductor\" \"rgb conductor.eta\" [1 1 1]\n" + kTri,
+                         "t.pbrt");
+    const auto cuK = cb::toPiecewiseLinear(*cb::findNamedSpectrum("metal-Cu-k"));
+    CHECK(copperUnder.materials[0].conductorEta->samples ==
+          cb::toPiecewiseLinear(*cb::findNamedSpectrum("metal-Cu-eta")));
+    CHECK(copperUnder.materials[0].conductorK->samples == cuK);
+    CHECK(copperUnder.materials[1].conductorK->samples == cuK);
     expectError(light + "Material \"coatedconductor\" \"rgb reflectance\" [0.5 0.5 0.5] "
                         "\"rgb conductor.k\" [1 1 1]\n",
                 {"t.pbrt:3:", "not both"});

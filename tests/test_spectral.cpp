@@ -1,6 +1,7 @@
 // Spectral module (src/spectral) and the data of scenes/cornell-box.pbrt.
 #include <doctest/doctest.h>
 
+#include "spectral/named_spectra.h"
 #include "spectral/spectral.h"
 
 #include <algorithm>
@@ -363,4 +364,62 @@ TEST_CASE("spectral: an emission converted to RGB is what the spectral film reco
             CHECK(rgb[size_t(c)] == doctest::Approx(v).epsilon(1e-5));
         }
     }
+}
+
+TEST_CASE("named spectra: pbrt-v4's metal-* names, measured data over 360-830 nm") {
+    std::vector<std::string> names;
+    for (const NamedSpectrum& s : namedSpectra()) {
+        CAPTURE(s.name);
+        names.emplace_back(s.name);
+        CHECK(findNamedSpectrum(s.name) == &s);
+        REQUIRE(s.pairs.size() % 2 == 0);
+        REQUIRE(s.pairs.size() >= 8);
+        for (size_t i = 0; i < s.pairs.size(); i += 2) {
+            CHECK(std::isfinite(s.pairs[i + 1]));
+            CHECK(s.pairs[i + 1] >= 0.0);
+            if (i > 0) CHECK(s.pairs[i] > s.pairs[i - 2]);
+        }
+        // pbrt-v4's film samples 360-830 nm; the data run to the first sample past each end.
+        CHECK(s.pairs.front() <= 360.0);
+        CHECK(s.pairs[s.pairs.size() - 2] >= 830.0);
+        CHECK(s.pairs[s.pairs.size() - 2] < 1500.0); // nanometres, not micrometres
+        const std::string_view stem = s.name.substr(0, s.name.rfind('-'));
+        const std::string_view part = s.name.substr(stem.size());
+        CHECK((part == "-eta" || part == "-k"));
+        CHECK(findNamedSpectrum(std::string(stem) + (part == "-eta" ? "-k" : "-eta")) != nullptr);
+    }
+    CHECK(names.size() == 12);
+    CHECK(findNamedSpectrum("metal-Xx-eta") == nullptr);
+    CHECK(findNamedSpectrum("glass-BK7") == nullptr);
+    CHECK(namedSpectrumNames().find("metal-CuZn-k") != std::string::npos);
+
+    // Normal-incidence reflectance ((n - 1)^2 + k^2) / ((n + 1)^2 + k^2) against handbook values
+    // (Palik; Johnson & Christy 1972): gold and copper dark in the blue and bright in the red,
+    // silver and aluminium bright throughout. Catches swapped columns, metals or units.
+    auto reflectance = [](const char* metal, double nm) {
+        const auto eta = toPiecewiseLinear(*findNamedSpectrum(std::string(metal) + "-eta"));
+        const auto k = toPiecewiseLinear(*findNamedSpectrum(std::string(metal) + "-k"));
+        const double n = evalPiecewiseLinear(eta, nm), kk = evalPiecewiseLinear(k, nm);
+        return ((n - 1) * (n - 1) + kk * kk) / ((n + 1) * (n + 1) + kk * kk);
+    };
+    CHECK(reflectance("metal-Au", 450) > 0.3);
+    CHECK(reflectance("metal-Au", 450) < 0.45);
+    CHECK(reflectance("metal-Au", 650) > 0.9);
+    CHECK(reflectance("metal-Cu", 450) > 0.5);
+    CHECK(reflectance("metal-Cu", 450) < 0.65);
+    CHECK(reflectance("metal-Cu", 650) > 0.9);
+    CHECK(reflectance("metal-CuZn", 450) < reflectance("metal-CuZn", 650));
+    CHECK(reflectance("metal-CuZn", 650) > 0.8);
+    for (double nm = 400; nm <= 700; nm += 25) {
+        CAPTURE(nm);
+        CHECK(reflectance("metal-Ag", nm) > 0.85);
+        CHECK(reflectance("metal-Al", nm) > 0.88);
+        CHECK(reflectance("metal-Al", nm) < 0.94);
+    }
+    CHECK(reflectance("metal-Ag", 650) > 0.95);
+    // Magnesium oxide is a transparent dielectric: k near 0, n_D = 1.7355 at 589.3 nm.
+    const auto mgoK = toPiecewiseLinear(*findNamedSpectrum("metal-MgO-k"));
+    CHECK(std::all_of(mgoK.begin(), mgoK.end(), [](auto p) { return p.second < 1e-4f; }));
+    CHECK(evalPiecewiseLinear(toPiecewiseLinear(*findNamedSpectrum("metal-MgO-eta")), 589.3) ==
+          doctest::Approx(1.7355).epsilon(0.003));
 }

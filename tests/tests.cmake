@@ -59,6 +59,8 @@ set_tests_properties(compare_mitsuba PROPERTIES TIMEOUT 300)
 # The comparison scripts' arithmetic (emitter mask, FLIP) and refusals, with stand-in renderers.
 add_test(NAME comparison_scripts COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_comparison_scripts.py $<TARGET_FILE:cbdpt> ${CMAKE_SOURCE_DIR})
 set_tests_properties(comparison_scripts PROPERTIES TIMEOUT 300)
+# scripts/named-spectra on a small database: the table it writes, --check, its refusals.
+add_test(NAME named_spectra COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_named_spectra.py ${CMAKE_SOURCE_DIR})
 # Every repository path the README and docs/ name exists (docs describe the present).
 add_test(NAME docs_paths COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_docs_paths.py ${CMAKE_SOURCE_DIR})
 # pyflakes finds nothing in the Python of scripts/ and tests/ (warnings on, no warnings).

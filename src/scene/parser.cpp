@@ -9,6 +9,7 @@
 #include "scene/ply.h"
 #include "scene/scene_desc.h"
 #include "scene/transform.h"
+#include "spectral/named_spectra.h"
 #include "spectral/spectral.h"
 
 #include <algorithm>
@@ -307,12 +308,18 @@ class ParamList {
             scene_.usesSpectra = true;
             Param fromFile;
             if (p->kind == Param::Kind::String) {
-                if (p->size() != 1) wrongCount(*p, "one spectrum file name");
-                if (!spectrumFiles_)
+                if (p->size() != 1) wrongCount(*p, "one spectrum name or file name");
+                // pbrt-v4 looks a name up among its named spectra before it reads a file.
+                if (const NamedSpectrum* named = findNamedSpectrum(p->strings[0]))
+                    fromFile = namedSpectrumParam(*p, *named);
+                else if (!spectrumFiles_)
                     throw SceneError(p->where, "parameter " + p->decl() +
                                                    ": spectrum files are not read here; give "
-                                                   "[wavelength value ...] pairs");
-                fromFile = spectrumFiles_(*p);
+                                                   "[wavelength value ...] pairs or one of the "
+                                                   "named spectra " +
+                                                   namedSpectrumNames());
+                else
+                    fromFile = spectrumFiles_(*p);
                 p = &fromFile;
             }
             if (p->kind != Param::Kind::Number)
@@ -352,6 +359,26 @@ class ParamList {
             s.rgb[i] = static_cast<float>(p->numbers[i]);
         }
         return s;
+    }
+
+    // A default that pbrt-v4 gives as a named spectrum; measured spectra render spectrally, as
+    // a spectrum parameter does.
+    SpectrumValue namedDefault(std::string_view name) {
+        scene_.usesSpectra = true;
+        SpectrumValue s;
+        s.isRgb = false;
+        s.samples = toPiecewiseLinear(*findNamedSpectrum(name));
+        return s;
+    }
+
+    // A built-in named spectrum in place of the parameter's name: its pairs, each at the name.
+    static Param namedSpectrumParam(const Param& p, const NamedSpectrum& named) {
+        Param out = p;
+        out.kind = Param::Kind::Number;
+        out.strings.clear();
+        out.numbers.assign(named.pairs.begin(), named.pairs.end());
+        out.valuePos.assign(named.pairs.size(), p.valuePos[0]);
+        return out;
     }
 
     // Every parameter must have been consumed: an unknown name is an error, never ignored.
@@ -635,9 +662,11 @@ class Parser {
             tried += " " + c;
         throw SceneError(where, "parameter " + p.decl() + ": no spectrum file \"" + name +
                                     "\" (tried" + tried +
-                                    "); pbrt-v4's named spectra (\"metal-Au-eta\", "
-                                    "\"glass-BK7\", ...) are not built into cbdpt: give "
-                                    "[wavelength value ...] pairs or a file of them");
+                                    ") and no built-in spectrum of that name (cbdpt has " +
+                                    namedSpectrumNames() +
+                                    "; pbrt-v4's glass-*, stdillum-*, metal-TiO2-* and camera "
+                                    "spectra are not built in): give [wavelength value ...] "
+                                    "pairs or a file of them");
     }
 
     // A bare capitalised word that is not a number ("Infinity" is one) is a directive name:
@@ -1381,8 +1410,8 @@ class Parser {
 
     // A conductor's "reflectance", or its complex index "eta" + i "k" (pbrt-v4's
     // ConductorMaterial; a coated conductor's "conductor.eta" and "conductor.k").
-    static void readConductorSpectra(ParamList& pl, MaterialDesc& m, const SourceLocation& where,
-                                     const std::string& type, const std::string& prefix) {
+    static void readConductorSpectra(ParamList& pl, MaterialDesc& m, const std::string& type,
+                                     const std::string& prefix) {
         const std::string etaName = prefix + "eta", kName = prefix + "k";
         const Param* pEta = pl.peek(etaName);
         const Param* pK = pl.peek(kName);
@@ -1391,23 +1420,14 @@ class Parser {
                              fmt::format("{} takes \"reflectance\" or \"{}\" and \"{}\", not both "
                                          "(as pbrt-v4)",
                                          type, etaName, kName));
-        if (pEta || pK) {
-            if (!pEta || !pK)
-                throw SceneError(pEta ? pEta->where : pK->where,
-                                 fmt::format("{} has \"{}\" without \"{}\"; give both (pbrt-v4's "
-                                             "default, copper's measured spectra, is not built "
-                                             "into cbdpt)",
-                                             type, pEta ? etaName : kName, pEta ? kName : etaName));
-            m.conductorEta = pl.spectrum(etaName, SpectrumRole::ConductorIndex);
-            m.conductorK = pl.spectrum(kName, SpectrumRole::ConductorIndex);
+        if (pEta || pK || !pl.peek("reflectance")) {
+            // pbrt-v4's default for either: copper's measured spectra.
+            m.conductorEta = pEta ? pl.spectrum(etaName, SpectrumRole::ConductorIndex)
+                                  : pl.namedDefault("metal-Cu-eta");
+            m.conductorK = pK ? pl.spectrum(kName, SpectrumRole::ConductorIndex)
+                              : pl.namedDefault("metal-Cu-k");
         } else {
-            auto r = pl.spectrum("reflectance", SpectrumRole::Reflectance);
-            if (!r)
-                throw SceneError(where, fmt::format("{} needs \"reflectance\", or \"{}\" and "
-                                                    "\"{}\" (pbrt-v4's default, copper's "
-                                                    "measured spectra, is not built into cbdpt)",
-                                                    type, etaName, kName));
-            m.reflectance = *r;
+            m.reflectance = *pl.spectrum("reflectance", SpectrumRole::Reflectance);
         }
     }
 
@@ -1423,9 +1443,9 @@ class Parser {
 
     // pbrt-v4's "coatedconductor": a conductor, smooth or rough, under a dielectric coat,
     // smooth or rough, the layer between them as coateddiffuse's.
-    static void readCoatedConductor(ParamList& pl, MaterialDesc& m, const SourceLocation& where) {
+    static void readCoatedConductor(ParamList& pl, MaterialDesc& m) {
         m.kind = MaterialKind::CoatedConductor;
-        readConductorSpectra(pl, m, where, "coatedconductor", "conductor.");
+        readConductorSpectra(pl, m, "coatedconductor", "conductor.");
         readEta(pl, m, "interface.eta");
         readRoughness(pl, m, "interface.");
         readRoughness(pl, m, "conductor.", &MaterialDesc::baseRoughness);
@@ -1482,7 +1502,7 @@ class Parser {
             if (auto r = pl.spectrum("reflectance", SpectrumRole::Reflectance)) m.reflectance = *r;
         } else if (type == "conductor") {
             m.kind = MaterialKind::Conductor;
-            readConductorSpectra(pl, m, where, type, "");
+            readConductorSpectra(pl, m, type, "");
             readRoughness(pl, m);
         } else if (type == "dielectric") {
             m.kind = MaterialKind::Dielectric;
@@ -1503,7 +1523,7 @@ class Parser {
         } else if (type == "coateddiffuse") {
             readCoatedDiffuse(pl, m);
         } else if (type == "coatedconductor") {
-            readCoatedConductor(pl, m, where);
+            readCoatedConductor(pl, m);
         } else if (type == "mix") {
             m.kind = MaterialKind::Mix;
             const Param* mats = pl.stringList("materials");

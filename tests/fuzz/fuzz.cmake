@@ -11,6 +11,8 @@ add_library(cbdpt_fuzz_scene OBJECT ${CMAKE_SOURCE_DIR}/src/scene/parser.cpp
                                     ${CMAKE_SOURCE_DIR}/src/scene/ply.cpp
                                     ${CMAKE_SOURCE_DIR}/src/scene/scene_error.cpp
                                     ${CMAKE_SOURCE_DIR}/src/io/files.cpp
+                                    ${CMAKE_SOURCE_DIR}/src/spectral/named_spectra.cpp
+                                    ${CMAKE_SOURCE_DIR}/src/spectral/named_spectra_data.cpp
                                     ${CMAKE_SOURCE_DIR}/src/spectral/spectral.cpp)
 target_include_directories(cbdpt_fuzz_scene PUBLIC ${CMAKE_SOURCE_DIR}/src)
 target_link_libraries(cbdpt_fuzz_scene PUBLIC fmt::fmt)
