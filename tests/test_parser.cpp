@@ -510,8 +510,8 @@ TEST_CASE("parser: parameter errors name the parameter") {
     expectError(w + "Shape \"sphere\" \"float radius\" -1\n", "t.pbrt:2:16", "must be > 0");
     expectError(w + "Material \"diffuse\" \"texture reflectance\" \"checks\"\n", "t.pbrt:2:20",
                 "textures are not supported");
-    expectError(w + "Material \"diffuse\" \"blackbody reflectance\" 3000\n", "t.pbrt:2:20",
-                "blackbody");
+    expectError(w + "Material \"diffuse\" \"blackbody reflectance\" [3000 1]\n", "t.pbrt:2:20",
+                "expects one temperature in kelvin, got 2");
     expectError(w + "Material \"diffuse\" \"rgb reflectance\" [0.5 0.5]\n", "t.pbrt:2:20",
                 "expects exactly 3 values, got 2");
     expectError(w + "Material \"diffuse\" \"rgb reflectance\" [0.5 1.5 0.5]\n", "t.pbrt:2:43",

@@ -372,6 +372,38 @@ TEST_CASE("pbrt-v4: light spectra are divided by their luminance integral") {
                  "zero luminance"));
 }
 
+TEST_CASE("pbrt-v4: blackbody spectra, Planck's law at a temperature, lights normalised") {
+    const auto s = parseSceneString("WorldBegin\n"
+                                    "AreaLightSource \"diffuse\" \"blackbody L\" 2700 "
+                                    "\"float scale\" 3\n" +
+                                        kTri + "LightSource \"point\" \"blackbody I\" [6500]\n",
+                                    "t.pbrt");
+    CHECK(s.usesSpectra);
+    REQUIRE(!s.areaLights[0].radiance.isRgb);
+    CHECK(s.areaLights[0].radiance.samples == cb::blackbody(2700.0));
+    CHECK(s.pointLights[0].intensity.samples == cb::blackbody(6500.0));
+    // As any light spectrum: divided by its luminance integral, so its luminance is its scale.
+    CHECK(s.areaLights[0].scale ==
+          doctest::Approx(3.0 / cb::photometricIntegral(cb::blackbody(2700.0))).epsilon(1e-6));
+    // One temperature in kelvin (pbrt-v3's [T scale] is refused, as pbrt-v4 without --upgrade).
+    CHECK(contains(errorOf("WorldBegin\nLightSource \"point\" \"blackbody I\" [3000 2]\n"),
+                   "t.pbrt:2:21: parameter \"blackbody I\" of LightSource \"point\" expects one "
+                   "temperature in kelvin, got 2"));
+    CHECK(contains(errorOf("WorldBegin\nLightSource \"point\" \"blackbody I\" -5\n"),
+                   "t.pbrt:2:35: parameter \"blackbody I\" must be a temperature in (0, 1e+09] "
+                   "kelvin, got -5"));
+    CHECK(contains(errorOf("WorldBegin\nLightSource \"point\" \"blackbody I\" 1e10\n"),
+                   "(0, 1e+09]"));
+    CHECK(contains(errorOf("WorldBegin\nLightSource \"point\" \"blackbody I\" \"hot\"\n"),
+                   "expects a temperature in kelvin"));
+    // A temperature with no visible light leaves nothing to normalise.
+    CHECK(contains(errorOf("WorldBegin\nLightSource \"point\" \"blackbody I\" 1\n"),
+                   "zero luminance"));
+    // A dielectric's eta stays one number.
+    CHECK(contains(errorOf("WorldBegin\nMaterial \"dielectric\" \"blackbody eta\" 3000\n"),
+                   "spectrally varying"));
+}
+
 TEST_CASE("pbrt-v4: the thesis Cornell box keeps its luminance through the light's scale") {
     const auto s = cb::parseSceneFile(std::string(CBDPT_SOURCE_DIR) + "/scenes/cornell-box.pbrt");
     REQUIRE(s.areaLights.size() == 2);

@@ -423,3 +423,26 @@ TEST_CASE("named spectra: pbrt-v4's metal-* names, measured data over 360-830 nm
     CHECK(evalPiecewiseLinear(toPiecewiseLinear(*findNamedSpectrum("metal-MgO-eta")), 589.3) ==
           doctest::Approx(1.7355).epsilon(0.003));
 }
+
+TEST_CASE("spectral: blackbody is Planck's law normalised to its peak, 360-830 nm") {
+    // Planck's law in ratios needs only c2 = h c / k (pbrt-v4's constants: 1.4387773e-2 m K).
+    const double c2 = 6.62606957e-34 * 299792458.0 / 1.3806488e-23 * 1e9; // nm K
+    auto planckRatio = [c2](double a, double b, double kelvin) {          // B(a) / B(b)
+        return std::pow(b / a, 5) * std::expm1(c2 / (b * kelvin)) / std::expm1(c2 / (a * kelvin));
+    };
+    for (double kelvin : {1000.0, 2856.0, 5000.0, 6504.0, 20000.0}) {
+        CAPTURE(kelvin);
+        const PiecewiseLinear s = blackbody(kelvin);
+        REQUIRE(s.size() == 471);
+        CHECK(s.front().first == 360.0f);
+        CHECK(s.back().first == 830.0f);
+        const double peakNm = 2.8977721e6 / kelvin; // Wien's displacement law
+        for (const auto& [nm, v] : s) {
+            CHECK(v <= 1.0f + 1e-6f);
+            CHECK(v == doctest::Approx(planckRatio(nm, peakNm, kelvin)).epsilon(1e-5));
+        }
+    }
+    // 5000 K peaks at 579.6 nm, inside the range: the samples there are the peak's 1.
+    const PiecewiseLinear s5000 = blackbody(5000.0);
+    CHECK(evalPiecewiseLinear(s5000, 579.6) == doctest::Approx(1.0).epsilon(1e-5));
+}

@@ -212,6 +212,8 @@ bool knownParamType(const std::string& t) {
 enum class SpectrumRole { Reflectance, Emission, ConductorIndex };
 // fresnelConductor's float arithmetic stays finite to about 1e9; no material comes near 1e6.
 constexpr double kMaxConductorIndex = 1e6;
+// Planck's law stays finite in double far beyond; no light comes near.
+constexpr double kMaxBlackbodyKelvin = 1e9;
 
 class ParamList {
   public:
@@ -301,9 +303,26 @@ class ParamList {
     }
 
     std::optional<SpectrumValue> spectrum(const std::string& name, SpectrumRole role) {
-        const Param* p = lookup(name, {"rgb", "spectrum"});
+        const Param* p = lookup(name, {"rgb", "spectrum", "blackbody"});
         if (!p) return std::nullopt;
         SpectrumValue s;
+        if (p->type == "blackbody") {
+            // pbrt-v4's BlackbodySpectrum: one temperature, Planck's law normalised to its peak.
+            if (p->kind != Param::Kind::Number)
+                throw SceneError(p->valueLoc(0),
+                                 "parameter " + p->decl() + " expects a temperature in kelvin");
+            if (p->size() != 1) wrongCount(*p, "one temperature in kelvin");
+            const double kelvin = p->numbers[0];
+            if (!(kelvin > 0.0 && kelvin <= kMaxBlackbodyKelvin))
+                throw SceneError(p->valueLoc(0),
+                                 fmt::format("parameter {} must be a temperature "
+                                             "in (0, {:g}] kelvin, got {:g}",
+                                             p->decl(), kMaxBlackbodyKelvin, kelvin));
+            scene_.usesSpectra = true;
+            s.isRgb = false;
+            s.samples = blackbody(kelvin);
+            return s;
+        }
         if (p->type == "spectrum") {
             scene_.usesSpectra = true;
             Param fromFile;
@@ -420,11 +439,17 @@ class ParamList {
                     return &p;
                 }
             std::string expected;
-            for (const char* t : types)
-                expected += (expected.empty() ? "\"" : " or \"") + std::string(t) + "\"";
+            const size_t count = types.size();
+            size_t i = 0;
+            for (const char* t : types) {
+                if (i > 0) expected += i + 1 == count ? " or " : ", ";
+                expected += '"';
+                expected += t;
+                expected += '"';
+                ++i;
+            }
             std::string why;
             if (p.type == "texture") why = " (textures are not supported)";
-            if (p.type == "blackbody") why = " (blackbody spectra are not supported)";
             throw SceneError(p.where, "parameter \"" + name + "\" of " + owner_ +
                                           " must have type " + expected + ", not \"" + p.type +
                                           "\"" + why);

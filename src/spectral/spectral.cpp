@@ -451,6 +451,14 @@ Mat3 filmXyzToRgb(const FilmColour& film) {
 
 } // namespace
 
+PiecewiseLinear blackbody(double kelvin) {
+    const double peak = planck(2.8977721e6 / kelvin, kelvin); // Wien: lambda_max T in nm K
+    PiecewiseLinear out;
+    for (int nm = 360; nm <= 830; ++nm)
+        out.emplace_back(static_cast<float>(nm), static_cast<float>(planck(nm, kelvin) / peak));
+    return out;
+}
+
 std::array<double, 2> whiteBalanceChromaticity(double kelvin) {
     const double cct = kelvin * 1.4388 / 1.4380;
     if (cct < 4000.0) {

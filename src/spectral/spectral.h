@@ -31,6 +31,10 @@ double evalPiecewiseLinear(const PiecewiseLinear& s, double nm);
 // Exact integral of s over [a, b] (a <= b), nm * value units.
 double integratePiecewiseLinear(const PiecewiseLinear& s, double a, double b);
 
+// pbrt-v4's BlackbodySpectrum: Planck's law at `kelvin` (> 0) normalised to 1 at its peak
+// (Wien's displacement law), sampled every nanometre over 360-830 nm.
+PiecewiseLinear blackbody(double kelvin);
+
 // Exact mean of s over each 18.75 nm bin. Throws std::invalid_argument if the wavelengths are
 // not strictly increasing or a value is not finite.
 std::array<float, kSpectralBins> binSpectrum(const PiecewiseLinear& s);
