@@ -567,7 +567,7 @@ TEST_CASE("parser: unsupported types are rejected") {
     expectError(w + "LightSource \"goniometric\"\n", "t.pbrt:2:13",
                 "unsupported light \"goniometric\"");
     expectError(w + "AreaLightSource \"projection\"\n", "t.pbrt:2:17", "unsupported area light");
-    expectError("Film \"gbuffer\"\n", "t.pbrt:1:6", "unsupported film \"gbuffer\"");
+    expectError("Film \"spectral\"\n", "t.pbrt:1:6", "unsupported film \"spectral\"");
     expectError(w + "Material \"measured\"\n", "t.pbrt:2:10",
                 "unsupported material type \"measured\"");
     expectError(w + "MakeNamedMaterial \"a\" \"string type\" \"hair\"\n", "t.pbrt:2:37",

@@ -343,6 +343,21 @@ TEST_CASE("pbrt-v4: rgb film colour parameters and the camera's shutter") {
     CHECK(contains(errorOf("Film \"rgb\" \"float maxcomponentvalue\" 10\nWorldBegin\n"),
                    "maxcomponentvalue"));
     CHECK(contains(errorOf("Film \"rgb\" \"float iso\" 0\nWorldBegin\n"), "iso"));
+    // pbrt-v4's "gbuffer" film: the rgb film's image (and parameters) plus geometry channels,
+    // which cbdpt does not write (a note says so).
+    s = parseSceneString("Film \"gbuffer\" \"integer xresolution\" 20 \"float iso\" 200 "
+                         "\"string coordinatesystem\" \"world\" \"string filename\" \"g.exr\"\n"
+                         "WorldBegin\n",
+                         "t.pbrt");
+    CHECK(s.film.width == 20);
+    CHECK(s.film.iso == 200.0);
+    CHECK(s.film.filename == "g.exr");
+    REQUIRE(s.notes.size() == 1);
+    CHECK(contains(s.notes[0], "t.pbrt:1: Film \"gbuffer\" renders as \"rgb\""));
+    CHECK(contains(errorOf("Film \"gbuffer\" \"string coordinatesystem\" \"screen\"\nWorldBegin\n"),
+                   "t.pbrt:1:42: unknown \"string coordinatesystem\" \"screen\""));
+    CHECK(contains(errorOf("Film \"gbuffer\" \"float gamma\" 2\nWorldBegin\n"),
+                   "unknown or unsupported parameter \"float gamma\" for Film \"gbuffer\""));
 }
 
 TEST_CASE("pbrt-v4: light spectra are divided by their luminance integral") {

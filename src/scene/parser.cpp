@@ -1299,10 +1299,24 @@ class Parser {
         if (haveFilm_) throw SceneError(t.where, "second Film directive");
         haveFilm_ = true;
         const Token type = quoted(t, "a film type");
-        if (type.text != "rgb")
+        if (type.text != "rgb" && type.text != "gbuffer")
             throw SceneError(type.where, "unsupported film \"" + type.text +
-                                             "\" (cbdpt supports \"rgb\" only)");
-        ParamList pl = params("Film \"rgb\"");
+                                             "\" (cbdpt supports \"rgb\" and \"gbuffer\")");
+        ParamList pl = params("Film \"" + type.text + "\"");
+        if (type.text == "gbuffer") {
+            // pbrt-v4's GBufferFilm: the RGB film's image plus geometry channels.
+            if (const Param* p = pl.peek("coordinatesystem")) {
+                const std::string system = *pl.oneString("coordinatesystem");
+                if (system != "camera" && system != "world")
+                    throw SceneError(p->valueLoc(0), "unknown \"string coordinatesystem\" \"" +
+                                                         system +
+                                                         "\" (pbrt-v4 expects \"camera\" or "
+                                                         "\"world\")");
+            }
+            note(type.where, "gbuffer",
+                 "Film \"gbuffer\" renders as \"rgb\": the same image, without pbrt-v4's "
+                 "G-buffer channels (albedo, normals, positions, depth)");
+        }
         FilmDesc& f = scene_.film;
         for (const char* axis : {"xresolution", "yresolution"}) {
             const Param* p = pl.peek(axis);
