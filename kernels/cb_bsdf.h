@@ -185,6 +185,34 @@ CB_FN bool cbGgxReflectionSample(Vec3 wo, real alpha, real u0, real u1, Vec3* wi
 #define CB_LOBE_TRANSMIT 2
 #define CB_LOBES_BOTH 3
 
+/* A smooth dielectric interface's delta sample from above it (wo.z > 0, eta the index below over
+ * the index above): Fresnel chooses reflection or refraction among the allowed `lobes` by u (total
+ * internal reflection leaves reflection). *f is the lobe's weight over |cos wi| (a delta's
+ * f |cos|), *pdf its probability among the allowed lobes. Transmitted radiance is divided by
+ * eta^2, importance is not (Veach 1997, sec. 5.2), which is what makes the adjoint BSDF differ. */
+CB_FN bool smoothDielectricSample(Vec3 wo, real eta, int lobes, real u, int adjoint, Vec3* wi,
+                                  real* f, real* pdf, bool* transmitted) {
+    real cosT;
+    real fr = fresnelDielectric(wo.z, eta, &cosT);
+    real pr = (lobes & CB_LOBE_REFLECT) ? fr : 0.0f;
+    real pt = (lobes & CB_LOBE_TRANSMIT) && cosT > 0.0f ? 1.0f - fr : 0.0f;
+    /* Both lobes' probabilities sum to 1: not summed, which would round. */
+    real total = lobes == CB_LOBES_BOTH && cosT > 0.0f ? 1.0f : pr + pt;
+    if (!(total > 0.0f)) return false;
+    *transmitted = !(u * total < pr);
+    if (!*transmitted) {
+        *wi = vec3(-wo.x, -wo.y, wo.z);
+        *f = fr / wo.z;
+        *pdf = pr / total;
+    } else {
+        /* Snell in vector form: the tangential part scales by 1/eta. */
+        *wi = vnormalize(vec3(-wo.x / eta, -wo.y / eta, -cosT));
+        *f = (1.0f - fr) * (adjoint ? 1.0f : 1.0f / (eta * eta)) / cosT;
+        *pdf = pt / total;
+    }
+    return isfinite(*f) && *pdf > 0.0f;
+}
+
 #if CB_HAS(CB_FEATURE_ROUGH_DIELECTRIC)
 /* A rough dielectric (Walter et al. 2007, eqs. 15-21, with GGX, height-correlated G and Heitz's
  * visible normals, as pbrt-v4's DielectricBxDF): wo.z > 0, eta = n(other side) / n(wo's side).
@@ -342,7 +370,7 @@ CB_FN bool coatSample(Vec3 w, real eta, real alpha, int lobes, real uc, real u0,
     real etap = w.z > 0.0f ? eta : 1.0f / eta;
     Vec3 wo = vec3(w.x, w.y, fabs(w.z));
     Vec3 out;
-    real value, density, cosT;
+    real value, density;
     bool through;
 #if CB_HAS(CB_FEATURE_ROUGH_DIELECTRIC)
     if (alpha > 0.0f) {
@@ -359,20 +387,8 @@ CB_FN bool coatSample(Vec3 w, real eta, real alpha, int lobes, real uc, real u0,
         (void)u0;
         (void)u1;
         (void)alpha;
-        real fr = fresnelDielectric(wo.z, etap, &cosT);
-        real pr = (lobes & CB_LOBE_REFLECT) ? fr : 0.0f;
-        real pt = (lobes & CB_LOBE_TRANSMIT) && cosT > 0.0f ? 1.0f - fr : 0.0f;
-        if (!(pr + pt > 0.0f)) return false;
-        through = !(uc * (pr + pt) < pr);
-        if (!through) {
-            out = vec3(-wo.x, -wo.y, wo.z);
-            value = fr / wo.z;
-            density = pr / (pr + pt);
-        } else {
-            out = vnormalize(vec3(-wo.x / etap, -wo.y / etap, -cosT));
-            value = (adjoint ? 1.0f - fr : (1.0f - fr) / (etap * etap)) / cosT;
-            density = pt / (pr + pt);
-        }
+        if (!smoothDielectricSample(wo, etap, lobes, uc, adjoint, &out, &value, &density, &through))
+            return false;
     }
     *wi = vec3(out.x, out.y, out.z * flip);
     *f = value;
@@ -1065,29 +1081,17 @@ CB_FN bool cbLobeSample(const SceneView* scene, Material m, Vec3 wo, bool enteri
 #if CB_HAS(CB_FEATURE_DIELECTRIC)
     if (m.kind == CB_MAT_DIELECTRIC) {
         real eta = entering ? m.eta : 1.0f / m.eta;
-        real cosT;
-        real fr = fresnelDielectric(wo.z, eta, &cosT);
+        real f;
+        bool through;
         out->isDelta = 1;
-        if (uLobe < fr) {
-            out->wi = vec3(-wo.x, -wo.y, wo.z);
-            out->f = specConst(fr / wo.z);
-            out->pdf = fr;
-            out->pdfRev = fr; /* the same angle on the same side */
-        } else {
-            /* Snell in vector form: the tangential part scales by 1/eta. */
-            Vec3 wi = vec3(-wo.x / eta, -wo.y / eta, -cosT);
-            if (!(cosT > 0.0f)) return false;
-            out->wi = vnormalize(wi);
-            /* Radiance is compressed by (eta_t/eta_i)^2 crossing into the denser side; importance
-             * is not (Veach 1997, sec. 5.2), which is what makes the adjoint BSDF differ. */
-            real scale = adjoint ? 1.0f : 1.0f / (eta * eta);
-            out->f = specConst((1.0f - fr) * scale / cosT);
-            out->pdf = 1.0f - fr;
-            /* Fresnel is symmetric in the two sides (Stokes), so the reverse choice has the same
-             * probability. */
-            out->pdfRev = 1.0f - fr;
-        }
-        return isfinite(out->f.c[0]) && out->pdf > 0.0f;
+        if (!smoothDielectricSample(wo, eta, CB_LOBES_BOTH, uLobe, adjoint, &out->wi, &f, &out->pdf,
+                                    &through))
+            return false;
+        out->f = specConst(f);
+        /* The reverse choice sees the same angle (reflection) or the same Fresnel term (Stokes:
+         * it is symmetric in the two sides), so it has the same probability. */
+        out->pdfRev = out->pdf;
+        return true;
     }
 #endif
     (void)scene;
