@@ -21,6 +21,7 @@
 #include <limits>
 #include <string>
 #include <unistd.h>
+#include <zlib.h>
 
 using cb::parseSceneString;
 using cb::SceneError;
@@ -1102,6 +1103,73 @@ TEST_CASE("pbrt-v4 conductor: eta and k, or reflectance, and what is refused") {
     // A named conductor spectrum is no reflectance.
     expectError("WorldBegin\nMaterial \"diffuse\" \"spectrum reflectance\" \"metal-Cu-eta\"\n",
                 {"t.pbrt:2:43", "must be <= 1"});
+}
+
+// gzip framing of `text` (one member), as `gzip` writes it.
+std::string gzipped(const std::string& text) {
+    z_stream zs{};
+    REQUIRE(deflateInit2(&zs, Z_BEST_COMPRESSION, Z_DEFLATED, 16 + MAX_WBITS, 8,
+                         Z_DEFAULT_STRATEGY) == Z_OK);
+    std::string out(deflateBound(&zs, static_cast<uLong>(text.size())) + 32, '\0');
+    zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(text.data()));
+    zs.avail_in = static_cast<uInt>(text.size());
+    zs.next_out = reinterpret_cast<Bytef*>(out.data());
+    zs.avail_out = static_cast<uInt>(out.size());
+    REQUIRE(deflate(&zs, Z_FINISH) == Z_STREAM_END);
+    out.resize(zs.total_out);
+    deflateEnd(&zs);
+    return out;
+}
+
+TEST_CASE("pbrt-v4: scene files named .gz are read as gzip-compressed text") {
+    const auto dir =
+        std::filesystem::temp_directory_path() / ("cbdpt-gz-" + std::to_string(::getpid()));
+    std::filesystem::create_directories(dir);
+    auto write = [&](const std::string& name, const std::string& bytes) {
+        std::ofstream(dir / name, std::ios::binary) << bytes;
+        return (dir / name).string();
+    };
+    const std::string part = "Shape \"trianglemesh\" \"point3 P\" [0 0 0 2 0 0 0 2 0]\n";
+    const std::string main = "WorldBegin\nLightSource \"point\"\n" + kTri +
+                             "Include \"part.pbrt.gz\"\nImport \"plain.pbrt\"\n";
+    write("part.pbrt.gz", gzipped(part));
+    write("plain.pbrt", "Import \"two.pbrt.gz\"\n");
+    // Two members, as `cat a.gz b.gz` makes them: read as their concatenation.
+    write("two.pbrt.gz", gzipped(kTri) + gzipped(part));
+    const auto s = cb::parseSceneFile(write("main.pbrt.gz", gzipped(main)));
+    REQUIRE(s.meshes.size() == 4);
+    CHECK(s.meshes[1].positions[1] == std::array<double, 3>{2, 0, 0});
+    CHECK(s.meshes[3].positions[1] == std::array<double, 3>{2, 0, 0});
+    CHECK(s.sourceFiles.size() == 4);
+    auto errorIn = [&](const std::string& bytes) {
+        try {
+            cb::parseSceneFile(write("bad.pbrt.gz", bytes));
+        } catch (const SceneError& e) {
+            return std::string(e.what());
+        }
+        return std::string();
+    };
+    const std::string bad = (dir / "bad.pbrt.gz").string();
+    CHECK(contains(errorIn(main), "cannot decompress \"" + bad + "\": not gzip data"));
+    const std::string whole = gzipped(main);
+    CHECK(contains(errorIn(whole.substr(0, whole.size() - 12)), "truncated"));
+    std::string corrupt = whole;
+    corrupt[12] = static_cast<char>(corrupt[12] ^ 0x55);
+    corrupt[13] = static_cast<char>(corrupt[13] ^ 0x55);
+    CHECK(contains(errorIn(corrupt), "at compressed byte"));
+    CHECK(contains(errorIn(whole + "garbage"), "cannot decompress"));
+    // What is decompressed must still be a scene.
+    CHECK(contains(errorIn(gzipped("\x89PNG\r\n\x1a\n\0\0")), "PNG"));
+    // An included file names its Include.
+    write("inc.pbrt", "WorldBegin\nInclude \"bad.pbrt.gz\"\n");
+    write("bad.pbrt.gz", "not compressed");
+    try {
+        cb::parseSceneFile((dir / "inc.pbrt").string());
+        CHECK(false);
+    } catch (const SceneError& e) {
+        CHECK(contains(e.what(), "inc.pbrt:2:9: cannot decompress"));
+    }
+    std::filesystem::remove_all(dir);
 }
 
 TEST_CASE("pbrt-v4: spectrum files, found beside the file that names them, with '#' comments") {

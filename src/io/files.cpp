@@ -9,9 +9,11 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <limits>
 #include <stdexcept>
 #include <unistd.h>
 #include <vector>
+#include <zlib.h>
 
 namespace cb {
 
@@ -27,6 +29,42 @@ bool tryReadWholeFile(const std::string& path, std::string& bytes) {
         return false;
     }
     return !f.bad();
+}
+
+std::string gunzip(const std::string& bytes) {
+    if (bytes.size() < 2 || bytes[0] != '\x1f' || bytes[1] != '\x8b')
+        throw std::invalid_argument("not gzip data (no gzip header)");
+    if (bytes.size() > std::numeric_limits<uInt>::max())
+        throw std::invalid_argument("larger than zlib reads in one piece (4 GiB)");
+    z_stream zs{};
+    // 16 + MAX_WBITS: gzip framing only.
+    if (inflateInit2(&zs, 16 + MAX_WBITS) != Z_OK)
+        throw std::runtime_error("zlib could not start decompressing");
+    std::string out;
+    std::vector<char> chunk(1 << 16);
+    zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(bytes.data()));
+    zs.avail_in = static_cast<uInt>(bytes.size());
+    int status = Z_OK;
+    for (;;) {
+        zs.next_out = reinterpret_cast<Bytef*>(chunk.data());
+        zs.avail_out = static_cast<uInt>(chunk.size());
+        status = inflate(&zs, Z_NO_FLUSH);
+        out.append(chunk.data(), chunk.size() - zs.avail_out);
+        if (status == Z_STREAM_END) {
+            if (zs.avail_in == 0) break;
+            inflateReset(&zs); // the next of concatenated members, as gzip -d reads them
+            continue;
+        }
+        if (status == Z_OK) continue;
+        const std::string why = status == Z_BUF_ERROR ? "truncated (it ends inside a member)"
+                                : zs.msg              ? std::string(zs.msg)
+                                                      : "zlib error " + std::to_string(status);
+        const auto at = zs.total_in;
+        inflateEnd(&zs);
+        throw std::invalid_argument(fmt::format("{} at compressed byte {}", why, at));
+    }
+    inflateEnd(&zs);
+    return out;
 }
 
 std::string unreadableReason(const std::string& path) {

@@ -12,6 +12,10 @@ bool tryReadWholeFile(const std::string& path, std::string& bytes);
 // The whole file at `path`; throws std::runtime_error "cannot read WHAT PATH: reason" otherwise.
 std::string readWholeFile(const std::string& path, const std::string& what);
 
+// The data of gzip-compressed `bytes` (one or more members, RFC 1952); throws
+// std::invalid_argument naming what is wrong ("not gzip data", "truncated", zlib's reason).
+std::string gunzip(const std::string& bytes);
+
 // Why `path` cannot be read, for a message: "no such file", "it is a folder, not a file", or the
 // system's reason ("Permission denied").
 std::string unreadableReason(const std::string& path);

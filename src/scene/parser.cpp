@@ -525,6 +525,16 @@ void requireText(const std::string& bytes, const SourceLocation& where, const st
         throw SceneError(where, "\"" + path + "\" is " + what + ", not a pbrt scene (text)");
 }
 
+// pbrt-v4 reads a scene file whose name ends in ".gz" as gzip-compressed text.
+void decompressIfGzipped(std::string& bytes, const std::string& path, const SourceLocation& where) {
+    if (fs::path(path).extension() != ".gz") return;
+    try {
+        bytes = gunzip(bytes);
+    } catch (const std::exception& e) {
+        throw SceneError(where, "cannot decompress \"" + path + "\": " + e.what());
+    }
+}
+
 fs::path canonicalKey(const std::string& path) {
     std::error_code ec;
     fs::path p = fs::weakly_canonical(fs::path(path), ec);
@@ -2260,6 +2270,7 @@ class Parser {
             if (!tryReadWholeFile(path, text))
                 throw SceneError(name.where, "cannot read included file \"" + path +
                                                  "\": " + unreadableReason(path));
+            decompressIfGzipped(text, path, name.where);
             requireText(text, name.where, path);
             scene_.sourceFiles.push_back(path);
             files_.push_back(std::make_unique<SourceFile>(
@@ -2331,6 +2342,7 @@ SceneDesc parseSceneFile(const std::string& path) {
     if (!tryReadWholeFile(path, text))
         throw SceneError(SourceLocation{path, 0, 0},
                          "cannot read the scene file: " + unreadableReason(path));
+    decompressIfGzipped(text, path, SourceLocation{path, 0, 0});
     SceneDesc scene = parseSceneString(text, path);
     scene.sourceFiles.insert(scene.sourceFiles.begin(), path);
     return scene;

@@ -15,7 +15,7 @@ add_library(cbdpt_fuzz_scene OBJECT ${CMAKE_SOURCE_DIR}/src/scene/parser.cpp
                                     ${CMAKE_SOURCE_DIR}/src/spectral/named_spectra_data.cpp
                                     ${CMAKE_SOURCE_DIR}/src/spectral/spectral.cpp)
 target_include_directories(cbdpt_fuzz_scene PUBLIC ${CMAKE_SOURCE_DIR}/src)
-target_link_libraries(cbdpt_fuzz_scene PUBLIC fmt::fmt)
+target_link_libraries(cbdpt_fuzz_scene PUBLIC fmt::fmt ZLIB::ZLIB)
 # The library gets fuzzer-no-link: libFuzzer's main() is linked into each target only.
 target_compile_options(cbdpt_fuzz_scene PUBLIC -fsanitize=fuzzer-no-link,address,undefined
                        -fno-sanitize-recover=all -fno-omit-frame-pointer -g)
