@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """scripts/named-spectra on a small database of the refractiveindex.info layout: it writes each
 metal's eta and k from 360-830 nm plus one sample beyond each end, in nanometres, in the order
-of its table; --check tells the written file from a changed one; --against-pbrt reports 0 for
+of its table, and each glass's index at 587.6 nm; --check tells the written file from a changed one; --against-pbrt reports 0 for
 data equal to pbrt-v4's tables and more for others; a missing dataset, wavelengths
 that do not increase, a dataset short of 360-830 nm and a formula dataset are refused with the
 file (and line) named."""
@@ -36,6 +36,11 @@ def make_database(folder, override=None):
         path = Path(folder) / "database" / "data" / relative
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(dataset(rows), encoding="utf-8")
+    for i, (name, relative) in enumerate(generator.GLASSES):
+        path = Path(folder) / "database" / "data" / relative
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(f"DATA:\n  - type: formula 2\n    coefficients: 0 1 0\n"
+                        f"PROPERTIES:\n    nd: 1.5{i + 1}\n    Vd: 64\n", encoding="utf-8")
     if override:
         relative, text = override
         (Path(folder) / "database" / "data" / relative).write_text(text, encoding="utf-8")
@@ -62,6 +67,9 @@ with tempfile.TemporaryDirectory() as tmp:
     check(names == [f"{stem}-{part}" for stem, _ in generator.DATASETS for part in ("eta", "k")],
           f"every name in the table's order: {names}")
     check("A. Author. A Journal 1 (2000)" in text, "the reference, without its HTML")
+    check('{"glass-BAF10", 1.51, "SCHOTT N-BAF10"},' in text
+          and '{"glass-BK7", 1.52, "SCHOTT N-BK7"},' in text,
+          "each glass's nd and catalogue name")
     r = run("--database", db, "--out", out, "--check")
     check(r.returncode == 0 and "matches" in r.stdout, f"--check: unchanged ({r.stdout})")
     Path(out).write_text(text.replace("1.3", "1.31"))
@@ -95,6 +103,8 @@ with tempfile.TemporaryDirectory() as tmp:
         ((gold, dataset([(0.4, 1, 1), (0.9, 1, 1)])), "must cover 360-830 nm"),
         ((gold, dataset([(0.3, 1, -1), (0.9, 1, 1)])), "Olmon-ts.yml:7: wavelength must be > 0"),
         ((gold, "DATA:\n  - type: formula 2\n    coefficients: 1 2\n"), "found: formula 2"),
+        (("specs/schott/optical/SF5.yml", "PROPERTIES:\n    Vd: 32\n"),
+         "SF5.yml: expected PROPERTIES nd"),
     ]
     for i, (override, message) in enumerate(refusals):
         folder = os.path.join(tmp, f"bad{i}")

@@ -389,6 +389,16 @@ TEST_CASE("named spectra: pbrt-v4's metal-* names, measured data over 360-830 nm
         CHECK(findNamedSpectrum(std::string(stem) + (part == "-eta" ? "-k" : "-eta")) != nullptr);
     }
     CHECK(names.size() == 12);
+    // pbrt-v4's glasses, by their index at 587.6 nm (SCHOTT's catalogue): crown to dense flint.
+    CHECK(namedGlasses().size() == 7);
+    for (const NamedGlass& g : namedGlasses()) {
+        CAPTURE(g.name);
+        CHECK(findNamedGlass(g.name) == &g);
+        CHECK(g.nd > 1.45);
+        CHECK(g.nd < 1.9);
+    }
+    CHECK(findNamedGlass("glass-BK7")->nd == 1.5168);
+    CHECK(findNamedGlass("glass-F11")->nd > findNamedGlass("glass-F5")->nd);
     CHECK(findNamedSpectrum("metal-Xx-eta") == nullptr);
     CHECK(findNamedSpectrum("glass-BK7") == nullptr);
     CHECK(namedSpectrumNames().find("metal-CuZn-k") != std::string::npos);

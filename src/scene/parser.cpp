@@ -1446,6 +1446,13 @@ class Parser {
     static void readEta(ParamList& pl, MaterialDesc& m, const std::string& name = "eta") {
         const Param* p = pl.peek(name);
         if (!p) return;
+        if (p->type == "spectrum" && p->kind == Param::Kind::String && p->size() == 1)
+            if (const NamedGlass* g = findNamedGlass(p->strings[0]))
+                throw SceneError(p->valueLoc(0),
+                                 fmt::format("\"{}\" is a dispersive index (pbrt-v4 follows one "
+                                             "wavelength through it), which cbdpt's dielectrics "
+                                             "do not take; give \"float {}\" {} ({} at 587.6 nm)",
+                                             g->name, name, g->nd, g->glass));
         if (p->type == "spectrum" || p->type == "rgb" || p->type == "blackbody")
             throw SceneError(p->where, fmt::format("spectrally varying dielectric \"{0}\" is not "
                                                    "supported; give \"float {0}\"",

@@ -8,6 +8,12 @@ const NamedSpectrum* findNamedSpectrum(std::string_view name) {
     return nullptr;
 }
 
+const NamedGlass* findNamedGlass(std::string_view name) {
+    for (const NamedGlass& g : namedGlasses())
+        if (g.name == name) return &g;
+    return nullptr;
+}
+
 std::string namedSpectrumNames() {
     std::string out;
     for (const NamedSpectrum& s : namedSpectra())

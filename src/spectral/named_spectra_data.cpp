@@ -193,5 +193,18 @@ std::span<const NamedSpectrum> namedSpectra() {
     return table;
 }
 
+std::span<const NamedGlass> namedGlasses() {
+    static constexpr NamedGlass table[] = {
+        {"glass-BAF10", 1.67003, "SCHOTT N-BAF10"},
+        {"glass-BK7", 1.5168, "SCHOTT N-BK7"},
+        {"glass-F5", 1.6727, "SCHOTT SF5"},
+        {"glass-F10", 1.72825, "SCHOTT SF10"},
+        {"glass-F11", 1.78472, "SCHOTT SF11"},
+        {"glass-FK51A", 1.48656, "SCHOTT N-FK51A"},
+        {"glass-LASF9", 1.85025, "SCHOTT N-LASF9"},
+    };
+    return table;
+}
+
 } // namespace cb
 // clang-format on
