@@ -525,8 +525,8 @@ TEST_CASE("parser: parameter errors name the parameter") {
     expectError(w + "AreaLightSource \"diffuse\" \"bool twosided\" [true false]\n", "t.pbrt:2:27",
                 "exactly 1 value");
     expectError(w + "AreaLightSource \"diffuse\" \"float scale\" -2\n", "t.pbrt:2:27", ">= 0");
-    expectError(w + "AreaLightSource \"diffuse\" \"float power\" 10\n", "t.pbrt:2:27",
-                "\"float power\" on an area light is not supported");
+    expectError(w + "AreaLightSource \"diffuse\" \"float power\" [1 2]\n", "t.pbrt:2:27",
+                "exactly 1 value");
     expectError(w + "LightSource \"point\" \"point3 from\" [1 2]\n", "t.pbrt:2:21",
                 "a multiple of 3 values");
     expectError(w + "LightSource \"point\" \"point3 from\" [1 2 3 4 5 6]\n", "t.pbrt:2:21",

@@ -19,6 +19,7 @@
 #include <fstream>
 #include <functional>
 #include <limits>
+#include <set>
 #include <string>
 #include <unistd.h>
 #include <zlib.h>
@@ -492,6 +493,52 @@ TEST_CASE("pbrt-v4 spot light: parameters, normalisation and power") {
                    "conedeltaangle"));
     CHECK(contains(errorOf("WorldBegin\nScale 1 2 1\nLightSource \"spot\"\n"), "similarity"));
     CHECK(contains(errorOf("WorldBegin\nLightSource \"goniometric\"\n"), "\"distant\""));
+}
+
+TEST_CASE("pbrt-v4 area light power: each shape emits it, radiance power / (pi area)") {
+    // pbrt-v4's DiffuseAreaLight::Create scales each shape's radiance by power / (pi A), A the
+    // shape's Area() (twice for two-sided): every triangle of a mesh is a shape, a bilinear
+    // patch one, a sphere or disk one measured in object space.
+    const std::string rgbLight = "AreaLightSource \"diffuse\" \"rgb L\" [1 1 1] ";
+    const auto scene = cb::buildDeviceScene(
+        parseSceneString(
+            "WorldBegin\nAttributeBegin\n" + rgbLight +
+                "\"float power\" 10\n"
+                "Shape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0  0 0 5 2 0 5 0 2 5] "
+                "\"integer indices\" [0 1 2 3 4 5]\n"
+                "Shape \"bilinearmesh\" \"point3 P\" [0 0 9  2 0 9  0 3 9  2 3 9]\n"
+                "Shape \"disk\" \"float radius\" 1\nAttributeEnd\n"
+                "AttributeBegin\n" +
+                rgbLight +
+                "\"float power\" 10 \"bool twosided\" true \"float scale\" 3\n"
+                "Translate 5 0 0\nScale 2 2 2\nShape \"sphere\" \"float radius\" 0.5\n"
+                "AttributeEnd\nAttributeBegin\n" +
+                rgbLight + "\"float power\" -1\nTranslate -5 0 0\nShape \"sphere\"\n" +
+                "AttributeEnd\n",
+            "t.pbrt"),
+        cb::ChannelMode::Rgb);
+    std::vector<double> radiance;
+    for (const auto& light : scene.lights)
+        radiance.push_back(scene.spectra[size_t(light.emission) * 3 + 1]);
+    // 2 triangles, 2 of the patch, 256 of the disk, 2 spheres.
+    REQUIRE(radiance.size() == 262);
+    std::sort(radiance.begin(), radiance.end());
+    std::vector<double> expected{10.0 / (M_PI * 0.5), 10.0 / (M_PI * 2.0)};
+    expected.insert(expected.end(), 2, 10.0 / (M_PI * 6.0));
+    expected.insert(expected.end(), 256, 10.0 / (M_PI * M_PI));
+    // Two-sided, scale 3, radius 0.5 in object space (pbrt-v4's area; the world's is 4 times).
+    expected.push_back(3.0 * 10.0 / (2.0 * M_PI * M_PI));
+    expected.push_back(1.0); // power <= 0 is none
+    std::sort(expected.begin(), expected.end());
+    for (size_t i = 0; i < expected.size(); ++i) {
+        CAPTURE(i);
+        CHECK(radiance[i] == doctest::Approx(expected[i]).epsilon(1e-6));
+    }
+    // One spectrum per shape area: the disk's 256 triangles share one.
+    std::set<int> entries;
+    for (const auto& light : scene.lights)
+        entries.insert(light.emission);
+    CHECK(entries.size() == 6);
 }
 
 TEST_CASE("pbrt-v4 light power: lights are picked in proportion to their Phi") {

@@ -10,6 +10,7 @@
 #include <cmath>
 #include <fmt/format.h>
 #include <limits>
+#include <map>
 #include <numeric>
 
 namespace cb {
@@ -369,11 +370,17 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
     // In double: a bright, large light's power can pass the float range while its radiance and
     // area fit, and an infinite power made every pick probability NaN (a black image).
     std::vector<double> lightPower;
-    std::vector<int> emissionEntry(desc.areaLights.size(), -1); // one spectrum per AreaLightSource
-    auto addAreaLight = [&](int areaLight, float area) {
+    // One spectrum per AreaLightSource, and per shape area where "power" sets the radiance.
+    std::map<std::pair<int, double>, int> emissionEntry;
+    auto addAreaLight = [&](int areaLight, float area, double shapeArea) {
         const AreaLightDesc& al = desc.areaLights[size_t(areaLight)];
-        int& entry = emissionEntry[size_t(areaLight)];
-        if (entry < 0) entry = spectra.addEmission(al.radiance, al.scale, al.where);
+        // pbrt-v4's DiffuseAreaLight::Create: power / (pi area of the shape, both sides if so).
+        const double powerScale =
+            al.power > 0.0 ? al.power / ((al.twoSided ? 2.0 : 1.0) * M_PI * shapeArea) : 1.0;
+        int& entry = emissionEntry.try_emplace({areaLight, al.power > 0.0 ? shapeArea : 0.0}, -1)
+                         .first->second;
+        if (entry < 0)
+            entry = spectra.addEmission(al.radiance, float(al.scale * powerScale), al.where);
         cbk::Light light{};
         light.kind = CB_LIGHT_AREA;
         light.primitive = -1; // set once the BVH has placed the primitive
@@ -427,7 +434,11 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
                 ++scene.droppedDegenerateTriangles; // zero area once rounded to float
                 continue;
             }
-            if (mesh.areaLight >= 0) prim.light = addAreaLight(mesh.areaLight, float(area));
+            if (mesh.areaLight >= 0) {
+                const size_t index = size_t(&tri - mesh.triangles.data());
+                const double shapeArea = mesh.shapeArea.empty() ? area : mesh.shapeArea[index];
+                prim.light = addAreaLight(mesh.areaLight, float(area), shapeArea);
+            }
             primitives.push_back(prim);
             ++scene.triangleCount;
         }
@@ -444,7 +455,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         requireInFloatRange(sphere.center, sphere.radius, scene.origin, sphere.where, "a sphere");
         if (sphere.areaLight >= 0) {
             float area = float(4.0 * M_PI * double(sphere.radius) * sphere.radius);
-            prim.light = addAreaLight(sphere.areaLight, area);
+            prim.light = addAreaLight(sphere.areaLight, area, sphere.shapeArea);
         }
         primitives.push_back(prim);
         scene.features |= CB_FEATURE_SPHERES;

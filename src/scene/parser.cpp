@@ -1625,11 +1625,8 @@ class Parser {
         if (auto l = pl.spectrum("L", SpectrumRole::Emission)) a.radiance = *l;
         a.scale = static_cast<float>(scaleParam(pl) / photometric(a.radiance, pl.peek("L")));
         if (auto two = pl.oneBool("twosided")) a.twoSided = *two;
-        if (const Param* p = pl.peek("power"); p && *pl.oneFloat("power") > 0.0)
-            // pbrt-v4 divides "power" by each shape's own area (each triangle of a mesh is a
-            // light of that power); cbdpt keeps one emission per AreaLightSource.
-            throw SceneError(p->where, "\"float power\" on an area light is not supported; "
-                                       "give \"scale\" instead");
+        // As pbrt-v4: per shape (each triangle of a mesh is one), <= 0 meaning none.
+        if (auto power = pl.oneFloat("power")) a.power = std::max(*power, 0.0);
         pl.finish();
         scene_.areaLights.push_back(std::move(a));
         state_.areaLight = static_cast<int>(scene_.areaLights.size()) - 1;
@@ -1988,6 +1985,7 @@ class Parser {
         ignoreSurfaceParameterisation(pl, t.where);
         pl.finish();
         std::vector<std::array<unsigned, 3>> tris;
+        std::vector<double> patchArea; // per triangle
         for (const auto& q : patches) {
             const auto &p00 = pos[q[0]], &p10 = pos[q[1]], &p01 = pos[q[2]], &p11 = pos[q[3]];
             // Planar when p11 lies in the plane of the other three (relative to the patch size).
@@ -2017,8 +2015,17 @@ class Parser {
                             "The corners are p00 p10 p01 p11, so p11 is opposite p00");
             tris.push_back({q[0], q[1], q[3]});
             tris.push_back({q[0], q[3], q[2]});
+            // pbrt-v4's BilinearPatch::Area, of the patch in world space: both triangles'.
+            const Mat4& m = state_.ctm;
+            const Vec3d w00 = m.point(p00), w10 = m.point(p10), w01 = m.point(p01),
+                        w11 = m.point(p11);
+            const Vec3d c1 = vecCross(vecSub(w10, w00), vecSub(w11, w00));
+            const Vec3d c2 = vecCross(vecSub(w11, w00), vecSub(w01, w00));
+            const double area = 0.5 * (std::sqrt(vecDot(c1, c1)) + std::sqrt(vecDot(c2, c2)));
+            patchArea.push_back(area);
+            patchArea.push_back(area);
         }
-        addMesh(t.where, pos, std::move(tris), normals);
+        addMesh(t.where, pos, std::move(tris), normals, patchArea);
     }
 
     // Ring segments of a full disk; a partial one (phimax < 360) gets its share, at least 4.
@@ -2086,7 +2093,10 @@ class Parser {
             for (int i = 0; i < segments; ++i)
                 triangle(centre, unsigned(i), next(i));
         }
-        addMesh(t.where, pos, std::move(tris), {});
+        // pbrt-v4's Disk::Area, in object space (as pbrt-v4 divides a light's power by it).
+        const double area = 0.5 * phiMax * (radius * radius - inner * inner);
+        const size_t count = tris.size();
+        addMesh(t.where, pos, std::move(tris), {}, std::vector<double>(count, area));
     }
 
     // The CTM's scale factor; an error unless the CTM is a similarity (only those keep a sphere
@@ -2132,6 +2142,7 @@ class Parser {
         s.reverseOrientation = state_.reverseOrientation != (m.det3() < 0.0);
         s.material = currentMaterial();
         s.areaLight = state_.areaLight;
+        s.shapeArea = 4.0 * M_PI * radius * radius;
         scene_.spheres.push_back(s);
     }
 
@@ -2140,9 +2151,12 @@ class Parser {
     // negated when ReverseOrientation XOR the CTM swaps handedness, then - if per-vertex normals
     // are given - flipped to face them (pbrt does this per hit with the interpolated normal; we
     // use the triangle's centroid normal, the same for any consistent normal field).
+    // shapeArea: per triangle of `tris`, the area of the pbrt-v4 shape it belongs to; empty when
+    // each triangle is its own shape.
     void addMesh(const SourceLocation& where, const std::vector<std::array<double, 3>>& objPos,
                  std::vector<std::array<unsigned, 3>> tris,
-                 const std::vector<std::array<double, 3>>& objNormals) {
+                 const std::vector<std::array<double, 3>>& objNormals,
+                 const std::vector<double>& shapeArea = {}) {
         requireAffine(where);
         const Mat4& m = state_.ctm;
         TriangleMeshDesc mesh;
@@ -2159,9 +2173,12 @@ class Parser {
                     c = -c;
         }
         const bool flip = state_.reverseOrientation != (det < 0.0);
+        const bool powered =
+            state_.areaLight >= 0 && scene_.areaLights[size_t(state_.areaLight)].power > 0.0;
         long dropped = 0;
         mesh.triangles.reserve(tris.size());
-        for (auto tri : tris) {
+        for (size_t t = 0; t < tris.size(); ++t) {
+            auto tri = tris[t];
             const auto& p0 = mesh.positions[tri[0]];
             const auto& p1 = mesh.positions[tri[1]];
             const auto& p2 = mesh.positions[tri[2]];
@@ -2171,6 +2188,9 @@ class Parser {
                 ++dropped;
                 continue;
             }
+            if (powered)
+                mesh.shapeArea.push_back(shapeArea.empty() ? 0.5 * std::sqrt(vecDot(c, c))
+                                                           : shapeArea[t]);
             bool reverse = flip;
             if (!n.empty()) {
                 Vec3d ns;

@@ -96,6 +96,9 @@ struct AreaLightDesc {
     SpectrumValue radiance = SpectrumValue::constant(1.f); // "L"
     float scale = 1.f;
     bool twoSided = false;
+    // pbrt-v4's "power" (> 0; 0: not given): each shape the light is bound to emits this
+    // luminous power, its radiance scaled by power / ((twoSided ? 2 : 1) pi area of that shape).
+    double power = 0.0;
     SourceLocation where;
 };
 
@@ -106,6 +109,9 @@ struct TriangleMeshDesc {
     std::vector<std::array<unsigned, 3>> triangles;
     int material = -1;
     int areaLight = -1; // index into SceneDesc::areaLights, or -1
+    // Per triangle, the area of the pbrt-v4 shape it belongs to (its own, a bilinear patch's, a
+    // disk's in object space): what a "power" light divides by. Empty: each triangle's own.
+    std::vector<double> shapeArea;
     SourceLocation where;
 };
 
@@ -115,6 +121,7 @@ struct SphereDesc {
     bool reverseOrientation = false;             // normals point inward
     int material = -1;
     int areaLight = -1;
+    double shapeArea = 0.0; // pbrt-v4's Sphere::Area(): 4 pi times the object-space radius^2
     SourceLocation where;
 };
 
