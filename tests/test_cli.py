@@ -403,6 +403,20 @@ with tempfile.TemporaryDirectory() as tmp:
             check(bool(np.all(np.abs(a - b) < 5 * se)) and float(a.mean()) > 0.01,
                   f"{integrator} crop {name} half matches the full film's pixels ({a} vs {b}, "
                   f"standard error {se})")
+    # The file's Film "cropwindow" is the default crop; at another --width/--height, the same
+    # fractions of the new film.
+    windowed = os.path.join(tmp, "windowed.pbrt")
+    with open(windowed, "w") as f:
+        f.write('Film "rgb" "integer xresolution" 64 "integer yresolution" 64 '
+                '"float cropwindow" [0.1 0.6 0.5 1]\nWorldBegin\nLightSource "point"\n'
+                'Shape "sphere" "float radius" 0.5\n')
+    for size, bounds in ((["-q"], [7, 39, 32, 64]),
+                         (["--width", "32", "--height", "32", "-q"], [4, 20, 16, 32])):
+        r = run("render", windowed, "-o", os.path.join(tmp, "w.exr"), "--spp", "1",
+                "--stats", stats, *size)
+        s = json.load(open(stats)) if r.returncode == 0 else {}
+        check(r.returncode == 0 and s.get("pixel_bounds") == bounds,
+              f"the file's crop window {size}: {s.get('pixel_bounds')} ({r.stderr.strip()})")
     # compare refuses two crops of the same size over different film pixels.
     other = os.path.join(tmp, "crop2.exr")
     r = run("render", scene, "-o", other, "--cropwindow", "0.4", "0.9", "0.5", "1", *common)

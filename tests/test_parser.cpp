@@ -538,7 +538,9 @@ TEST_CASE("parser: parameter errors name the parameter") {
     expectError("Camera \"perspective\" \"float fov\" 180\n", "t.pbrt:1:22", "(0, 180)");
     expectError("Camera \"perspective\" \"float lensradius\" -0.1\n", "t.pbrt:1:41",
                 "\"float lensradius\" must be in [0, 1e6], got -0.1");
-    expectError("Camera \"perspective\" \"float screenwindow\" [-1 1 -1 1]\n", "t.pbrt:1:22",
+    expectError("Camera \"perspective\" \"float screenwindow\" [-1 1 -1]\n", "t.pbrt:1:22",
+                "expects a multiple of 4 values");
+    expectError("Camera \"perspective\" \"float focus\" 2\n", "t.pbrt:1:22",
                 "unknown or unsupported parameter");
 }
 

@@ -5,6 +5,7 @@
 #include <doctest/doctest.h>
 
 #include "cb_bsdf.h"
+#include "cb_camera.h"
 #include "layered_reference.h"
 #include "scene/scene_desc.h"
 #include "scene_builders.h"
@@ -1849,6 +1850,85 @@ TEST_CASE("pbrt-v4 coatedconductor: BDPT, CBDPT and MLT agree with PT" *
                             "\"float thickness\" 0.5\n"
                             "Translate -0.7 0.25 -0.6\nShape \"sphere\" \"float radius\" 0.25\n"
                             "AttributeEnd\n");
+}
+
+TEST_CASE("pbrt-v4 film crop window and pixel bounds, camera screen window and frame") {
+    const std::string light = "WorldBegin\nLightSource \"point\"\n";
+    auto film = [&](const std::string& params) {
+        return parseSceneString("Film \"rgb\" \"integer xresolution\" 100 "
+                                "\"integer yresolution\" 50 " +
+                                    params + "\n" + light,
+                                "t.pbrt")
+            .film;
+    };
+    // pbrt-v4's FilmBaseParameters: pixels [ceil(W x0), ceil(W x1)) x [ceil(H y0), ceil(H y1)).
+    auto f = film("\"float cropwindow\" [0.105 0.5 0.2 1]");
+    CHECK(f.pixelBounds == std::array<int, 4>{11, 50, 10, 50});
+    // "pixelbounds" win over "cropwindow"; kept as fractions for another resolution.
+    f = film("\"float cropwindow\" [0 1 0 1] \"integer pixelbounds\" [10 60 5 45]");
+    CHECK(f.pixelBounds == std::array<int, 4>{10, 60, 5, 45});
+    REQUIRE(f.cropWindow);
+    CHECK(cb::cropWindowPixels(200, 100, *f.cropWindow) == std::array<int, 4>{20, 120, 10, 90});
+    const cb::DeviceScene cropped = cb::buildDeviceScene(
+        parseSceneString("Film \"rgb\" \"integer xresolution\" 100 \"integer yresolution\" 50 "
+                         "\"integer pixelbounds\" [10 60 5 45]\n" +
+                             light,
+                         "t.pbrt"));
+    CHECK(cropped.camera.width == 50);
+    CHECK(cropped.camera.height == 40);
+    CHECK(contains(errorOf("Film \"rgb\" \"integer xresolution\" 100 \"integer yresolution\" 50 "
+                           "\"integer pixelbounds\" [10 160 5 45]\n"),
+                   "t.pbrt:1:63: \"integer pixelbounds\" 10 160 5 45 must be x0 x1 y0 y1 with 0 "
+                   "<= x0 < x1 <= 100"));
+    CHECK(contains(errorOf("Film \"rgb\" \"float cropwindow\" [0.5 0.5 0 1]\n"),
+                   "t.pbrt:1:12: \"float cropwindow\" 0.5 0.5 0 1: must be x0 x1 y0 y1"));
+    CHECK(contains(errorOf("Film \"rgb\" \"float cropwindow\" [0 1 0]\n"),
+                   "expects a multiple of 4 values"));
+    // "diagonal" sizes only pbrt-v4's realistic camera's sensor.
+    const auto noted = parseSceneString("Film \"rgb\" \"float diagonal\" 50\n" + light, "t.pbrt");
+    REQUIRE(noted.notes.size() == 1);
+    CHECK(contains(noted.notes[0], "\"float diagonal\" is not used"));
+
+    // The screen window, in units of tan(fov / 2): [-a, a] x [-1, 1] for the frame aspect ratio
+    // a > 1, or "screenwindow" itself; rays through the raster corners go where it says.
+    const double t = std::tan(40.0 * M_PI / 360.0);
+    auto camera = [&](const std::string& params) {
+        return cb::buildDeviceScene(
+                   parseSceneString("Camera \"perspective\" \"float fov\" 40 " + params +
+                                        "\nFilm \"rgb\" \"integer xresolution\" 64 "
+                                        "\"integer yresolution\" 32\n" +
+                                        light,
+                                    "t.pbrt"))
+            .camera;
+    };
+    auto corner = [](const cbk::Camera& c, float x, float y) {
+        const cbk::Ray r = cbk::cameraGenerateRay(&c, x, y, cbk::vec3(0, 0, 0));
+        const cbk::Vec3 d = cbk::affineTransformVector(c.worldToCamera, r.d);
+        return std::array<double, 2>{d.x / d.z, d.y / d.z};
+    };
+    const cbk::Camera plain = camera("");
+    CHECK(corner(plain, 0, 0)[0] == doctest::Approx(-2 * t));
+    CHECK(corner(plain, 0, 0)[1] == doctest::Approx(t));
+    const cbk::Camera frame = camera("\"float frameaspectratio\" 0.5");
+    CHECK(corner(frame, 0, 0)[0] == doctest::Approx(-t));
+    CHECK(corner(frame, 64, 32)[1] == doctest::Approx(-2 * t));
+    const cbk::Camera window = camera("\"float screenwindow\" [-0.5 1.5 0 1]");
+    CHECK(corner(window, 0, 0)[0] == doctest::Approx(-0.5 * t));
+    CHECK(corner(window, 0, 0)[1] == doctest::Approx(t));
+    CHECK(corner(window, 64, 32)[0] == doctest::Approx(1.5 * t));
+    CHECK(corner(window, 64, 32)[1] == doctest::Approx(0.0).epsilon(1e-6));
+    // Projecting back lands on the same raster point (BDPT's light tracing uses it).
+    float rx = 0, ry = 0;
+    REQUIRE(cbk::cameraProjectPoint(
+        &window, cbk::vec3(0, 0, 0),
+        cbk::affineTransformPoint(window.cameraToWorld,
+                                  cbk::vec3(float(1.0 * t), float(0.5 * t), 1)),
+        &rx, &ry));
+    CHECK(rx == doctest::Approx(48.0f));
+    CHECK(ry == doctest::Approx(16.0f));
+    CHECK(
+        contains(errorOf("Camera \"perspective\" \"float screenwindow\" [1 -1 0 1]\n"), "x0 < x1"));
+    CHECK(contains(errorOf("Camera \"perspective\" \"float frameaspectratio\" 0\n"), "> 0"));
 }
 
 TEST_CASE("pbrt-v4 thin lens: lensradius and focaldistance, and what is refused") {

@@ -218,6 +218,7 @@ void RenderJob::applyQuick() {
 void RenderJob::readSceneDescription() {
     desc_ = cb::parseSceneFile(o_.scene);
     applySceneDefaults();
+    const int fileWidth = desc_.film.width, fileHeight = desc_.film.height;
     if (o_.width > 0) desc_.film.width = o_.width;
     if (o_.height > 0) desc_.film.height = o_.height;
     if (o_.quick) applyQuick();
@@ -225,6 +226,12 @@ void RenderJob::readSceneDescription() {
         desc_.film.pixelBounds = cb::cropWindowPixels(
             desc_.film.width, desc_.film.height,
             {o_.cropWindow[0], o_.cropWindow[1], o_.cropWindow[2], o_.cropWindow[3]});
+    else if (desc_.film.cropWindow &&
+             (desc_.film.width != fileWidth || desc_.film.height != fileHeight))
+        // The file's window in pixels of its own resolution: the same fractions of the new one.
+        desc_.film.pixelBounds =
+            cb::cropWindowPixels(desc_.film.width, desc_.film.height, *desc_.film.cropWindow,
+                                 o_.scene + ": Film's crop window");
     // Refuse absurd requests before any allocation.
     const long long pixels = (long long)desc_.film.width * desc_.film.height;
     if (desc_.film.width <= 0 || desc_.film.height <= 0 || desc_.film.width > 32768 ||

@@ -130,8 +130,8 @@ void cropCamera(cbk::Camera& camera, const std::array<int, 4>& bounds,
                                      x1, y0, y1, camera.width, camera.height));
     const double w = camera.width, h = camera.height;
     const double tanX = camera.tanHalfFovX, tanY = camera.tanHalfFovY;
-    camera.screenCenterX = float((double(x0 + x1) / w - 1.0) * tanX);
-    camera.screenCenterY = float((1.0 - double(y0 + y1) / h) * tanY);
+    camera.screenCenterX = float(camera.screenCenterX + (double(x0 + x1) / w - 1.0) * tanX);
+    camera.screenCenterY = float(camera.screenCenterY + (1.0 - double(y0 + y1) / h) * tanY);
     camera.tanHalfFovX = float(tanX * double(x1 - x0) / w);
     camera.tanHalfFovY = float(tanY * double(y1 - y0) / h);
     camera.width = x1 - x0;
@@ -163,11 +163,18 @@ cbk::Camera makeCamera(const SceneDesc& desc, const std::array<double, 3>& origi
             camera.worldToCamera[r * 4 + c] = float(w2c[size_t(r * 4 + c)]);
             camera.cameraToWorld[r * 4 + c] = float(c2w[size_t(r * 4 + c)]);
         }
-    // pbrt-v4: the field of view spans the shorter image axis.
+    // pbrt-v4: the field of view spans the shorter side of the screen window, which is the frame
+    // aspect ratio's (the film's unless "frameaspectratio" is given) or "screenwindow".
     double tanHalf = std::tan(double(fov) * M_PI / 360.0);
-    double aspect = double(film.width) / double(film.height);
+    double aspect = desc.camera.frameAspectRatio.value_or(double(film.width) / double(film.height));
     camera.tanHalfFovX = float(aspect >= 1.0 ? tanHalf * aspect : tanHalf);
     camera.tanHalfFovY = float(aspect >= 1.0 ? tanHalf : tanHalf / aspect);
+    if (const auto& s = desc.camera.screenWindow) {
+        camera.tanHalfFovX = float(tanHalf * ((*s)[1] - (*s)[0]) / 2.0);
+        camera.tanHalfFovY = float(tanHalf * ((*s)[3] - (*s)[2]) / 2.0);
+        camera.screenCenterX = float(tanHalf * ((*s)[0] + (*s)[1]) / 2.0);
+        camera.screenCenterY = float(tanHalf * ((*s)[2] + (*s)[3]) / 2.0);
+    }
     camera.width = film.width;
     camera.height = film.height;
     camera.lensRadius = desc.camera.lensRadius;
@@ -219,25 +226,6 @@ unsigned materialFeature(MaterialKind kind) {
 }
 
 } // namespace
-
-std::array<int, 4> cropWindowPixels(int width, int height, const std::array<double, 4>& crop) {
-    const auto [x0, x1, y0, y1] = crop;
-    for (double f : crop)
-        if (!(f >= 0.0 && f <= 1.0))
-            throw std::invalid_argument(fmt::format(
-                "--cropwindow {} {} {} {}: each value must be in [0, 1]", x0, x1, y0, y1));
-    if (!(x0 < x1 && y0 < y1))
-        throw std::invalid_argument(
-            fmt::format("--cropwindow {} {} {} {}: must be x0 x1 y0 y1 with x0 < x1 and y0 < y1",
-                        x0, x1, y0, y1));
-    const std::array<int, 4> pixels = {int(std::ceil(width * x0)), int(std::ceil(width * x1)),
-                                       int(std::ceil(height * y0)), int(std::ceil(height * y1))};
-    if (pixels[0] >= pixels[1] || pixels[2] >= pixels[3])
-        throw std::invalid_argument(
-            fmt::format("--cropwindow {} {} {} {} holds no pixel of the {}x{} film", x0, x1, y0, y1,
-                        width, height));
-    return pixels;
-}
 
 DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
     DeviceScene scene;

@@ -52,10 +52,5 @@ struct DeviceScene {
 // (proportional to emitted power) and the camera. Throws SceneError for scenes that cannot be
 // rendered (e.g. no lights, invalid film size).
 DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode = ChannelMode::Auto);
-// pbrt-v4's crop window: fractions x0, x1, y0, y1 of the film, 0 <= x0 < x1 <= 1 and the same
-// for y, as pixel bounds [ceil(W x0), ceil(W x1)) x [ceil(H y0), ceil(H y1)). Throws
-// std::invalid_argument when a fraction is outside [0, 1], the window is reversed or it holds
-// no pixel.
-std::array<int, 4> cropWindowPixels(int width, int height, const std::array<double, 4>& crop);
 
 } // namespace cb

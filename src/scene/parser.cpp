@@ -400,6 +400,11 @@ class ParamList {
         return out;
     }
 
+    [[noreturn]] void wrongCount(const Param& p, const std::string& expected) const {
+        throw SceneError(p.where, "parameter " + p.decl() + " of " + owner_ + " expects " +
+                                      expected + ", got " + std::to_string(p.size()));
+    }
+
     // Every parameter must have been consumed: an unknown name is an error, never ignored.
     void finish() const {
         for (const Param& p : params_)
@@ -455,11 +460,6 @@ class ParamList {
                                           "\"" + why);
         }
         return nullptr;
-    }
-
-    [[noreturn]] void wrongCount(const Param& p, const std::string& expected) const {
-        throw SceneError(p.where, "parameter " + p.decl() + " of " + owner_ + " expects " +
-                                      expected + ", got " + std::to_string(p.size()));
     }
 
     static void checkFitsFloat(const Param& p, size_t i) {
@@ -960,6 +960,24 @@ class Parser {
                 throw SceneError(p->where, "\"float fov\" must be in (0, 180) degrees");
             cam.fovDegrees = static_cast<float>(fov);
         }
+        if (const Param* p = pl.peek("frameaspectratio")) {
+            const double a = *pl.oneFloat("frameaspectratio");
+            if (!(a > 0.0))
+                throw SceneError(
+                    p->valueLoc(0),
+                    fmt::format("\"float frameaspectratio\" must be > 0, got {:g}", a));
+            cam.frameAspectRatio = a;
+        }
+        if (const Param* p = pl.numeric("screenwindow", "float", 4)) {
+            if (p->size() != 4) pl.wrongCount(*p, "4 values x0 x1 y0 y1");
+            const auto& w = p->numbers;
+            if (!(w[0] < w[1] && w[2] < w[3]))
+                throw SceneError(p->where, fmt::format("\"float screenwindow\" {:g} {:g} {:g} {:g} "
+                                                       "must be x0 x1 y0 y1 with x0 < x1 and y0 < "
+                                                       "y1",
+                                                       w[0], w[1], w[2], w[3]));
+            cam.screenWindow = std::array<double, 4>{w[0], w[1], w[2], w[3]};
+        }
         // The film's exposure time is the shutter interval (pbrt-v4's CameraBase).
         const double open = pl.oneFloat("shutteropen").value_or(0.0);
         const double close = pl.oneFloat("shutterclose").value_or(1.0);
@@ -1362,6 +1380,11 @@ class Parser {
             f.saveFp16 = *fp16;
             f.saveFp16Given = true;
         }
+        filmWindow(pl, f);
+        if (pl.ignore("diagonal", {"float"}))
+            note(type.where, "diagonal",
+                 "Film \"float diagonal\" is not used: only pbrt-v4's realistic camera reads the "
+                 "sensor's size");
         if (const Param* p = pl.peek("maxcomponentvalue")) {
             // pbrt-v4 clamps each sample's sensor RGB; cbdpt's estimates sum whole paths per
             // pixel, so only the default (no clamp) has the same meaning.
@@ -1371,6 +1394,41 @@ class Parser {
                                            "is not supported; remove it to render unclamped");
         }
         pl.finish();
+    }
+
+    // pbrt-v4's "cropwindow" fractions, or its "pixelbounds" (which win over them, as pbrt-v4's
+    // FilmBaseParameters): the pixels rendered, into an image of their size.
+    static void filmWindow(ParamList& pl, FilmDesc& f) {
+        const Param* crop = pl.numeric("cropwindow", "float", 4);
+        const Param* bounds = pl.numeric("pixelbounds", "integer", 4);
+        if (crop) {
+            if (crop->size() != 4) pl.wrongCount(*crop, "4 values x0 x1 y0 y1");
+            const auto& c = crop->numbers;
+            f.cropWindow = std::array<double, 4>{c[0], c[1], c[2], c[3]};
+        }
+        if (bounds) {
+            if (bounds->size() != 4) pl.wrongCount(*bounds, "4 values x0 x1 y0 y1");
+            std::array<int, 4> b{};
+            for (size_t i = 0; i < 4; ++i)
+                b[i] = static_cast<int>(bounds->numbers[i]);
+            if (!(0 <= b[0] && b[0] < b[1] && b[1] <= f.width && 0 <= b[2] && b[2] < b[3] &&
+                  b[3] <= f.height))
+                throw SceneError(bounds->where,
+                                 fmt::format("\"integer pixelbounds\" {} {} {} {} must be x0 x1 "
+                                             "y0 y1 with 0 <= x0 < x1 <= {} and 0 <= y0 < y1 <= {} "
+                                             "(the film's resolution)",
+                                             b[0], b[1], b[2], b[3], f.width, f.height));
+            f.pixelBounds = b;
+            f.cropWindow = std::array<double, 4>{double(b[0]) / f.width, double(b[1]) / f.width,
+                                                 double(b[2]) / f.height, double(b[3]) / f.height};
+        } else if (crop) {
+            try {
+                f.pixelBounds =
+                    cropWindowPixels(f.width, f.height, *f.cropWindow, "\"float cropwindow\"");
+            } catch (const std::invalid_argument& e) {
+                throw SceneError(crop->where, e.what());
+            }
+        }
     }
 
     int findNamedMaterial(const std::string& name) const {
@@ -2355,6 +2413,24 @@ class Parser {
 };
 
 } // namespace
+
+std::array<int, 4> cropWindowPixels(int width, int height, const std::array<double, 4>& crop,
+                                    const std::string& label) {
+    const auto [x0, x1, y0, y1] = crop;
+    for (double f : crop)
+        if (!(f >= 0.0 && f <= 1.0))
+            throw std::invalid_argument(
+                fmt::format("{} {} {} {} {}: each value must be in [0, 1]", label, x0, x1, y0, y1));
+    if (!(x0 < x1 && y0 < y1))
+        throw std::invalid_argument(fmt::format(
+            "{} {} {} {} {}: must be x0 x1 y0 y1 with x0 < x1 and y0 < y1", label, x0, x1, y0, y1));
+    const std::array<int, 4> pixels = {int(std::ceil(width * x0)), int(std::ceil(width * x1)),
+                                       int(std::ceil(height * y0)), int(std::ceil(height * y1))};
+    if (pixels[0] >= pixels[1] || pixels[2] >= pixels[3])
+        throw std::invalid_argument(fmt::format("{} {} {} {} {} holds no pixel of the {}x{} film",
+                                                label, x0, x1, y0, y1, width, height));
+    return pixels;
+}
 
 SceneDesc parseSceneString(const std::string& text, const std::string& virtualPath) {
     requireText(text, SourceLocation{virtualPath, 0, 0}, virtualPath);

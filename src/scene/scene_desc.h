@@ -161,6 +161,11 @@ struct CameraDesc {
     // focalDistance (pbrt-v4's default 1e6)
     float lensRadius = 0.f;
     float focalDistance = 1e6f;
+    // pbrt-v4's screen window, x0 x1 y0 y1 in units of the tangent of half the field of view:
+    // "screenwindow", else [-a, a] x [-1, 1] for a frame aspect ratio a > 1 ([-1, 1] x [-1/a, 1/a]
+    // otherwise), a the "frameaspectratio" or the film's width / height.
+    std::optional<double> frameAspectRatio;
+    std::optional<std::array<double, 4>> screenWindow;
     SourceLocation where;
 };
 
@@ -175,10 +180,19 @@ struct FilmDesc {
     bool saveFp16 = true;      // pbrt-v4's default: half-float EXR
     bool saveFp16Given = false;
     // pbrt's pixel bounds x0, x1, y0, y1: only pixels [x0, x1) x [y0, y1) of the film are
-    // rendered, into an image of that size (cropWindowPixels in device_scene.h). Absent: the whole
-    // film.
+    // rendered, into an image of that size (cropWindowPixels). Absent: the whole film.
     std::optional<std::array<int, 4>> pixelBounds;
+    // The file's "cropwindow" (or its "pixelbounds" as fractions of its resolution): what the
+    // pixel bounds become when the command line changes the resolution.
+    std::optional<std::array<double, 4>> cropWindow;
 };
+
+// pbrt-v4's crop window: fractions x0, x1, y0, y1 of the film, 0 <= x0 < x1 <= 1 and the same
+// for y, as pixel bounds [ceil(W x0), ceil(W x1)) x [ceil(H y0), ceil(H y1)). Throws
+// std::invalid_argument, its message starting with `label` (where the window came from), when a
+// fraction is outside [0, 1], the window is reversed or it holds no pixel.
+std::array<int, 4> cropWindowPixels(int width, int height, const std::array<double, 4>& crop,
+                                    const std::string& label = "--cropwindow");
 
 // pbrt-v4's Sampler and Integrator lines: cbdpt's defaults for the render (the command line
 // overrides them).
