@@ -1931,6 +1931,30 @@ TEST_CASE("pbrt-v4 film crop window and pixel bounds, camera screen window and f
     CHECK(contains(errorOf("Camera \"perspective\" \"float frameaspectratio\" 0\n"), "> 0"));
 }
 
+TEST_CASE("pbrt-v4 shape alpha: 1 is opaque, 0 invisible, between refused") {
+    const std::string shapes[] = {
+        "Shape \"sphere\" ",
+        "Shape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0] ",
+        "Shape \"bilinearmesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0 1 1 0] ",
+        "Shape \"disk\" ",
+    };
+    for (const std::string& shape : shapes) {
+        CAPTURE(shape);
+        const auto opaque = parseSceneString(
+            "WorldBegin\nLightSource \"point\"\n" + shape + "\"float alpha\" 1\n", "t.pbrt");
+        CHECK(opaque.meshes.size() + opaque.spheres.size() == 1);
+        const auto hidden = parseSceneString(
+            "WorldBegin\nLightSource \"point\"\n" + shape + "\"float alpha\" 0\n", "t.pbrt");
+        CHECK(hidden.meshes.size() + hidden.spheres.size() == 0);
+        REQUIRE(hidden.notes.size() == 1);
+        CHECK(contains(hidden.notes[0], "t.pbrt:3: a shape of \"float alpha\" 0 is invisible"));
+        CHECK(contains(errorOf("WorldBegin\n" + shape + "\"float alpha\" 0.5\n"),
+                       "\"float alpha\" 0.5: a partly transparent shape"));
+    }
+    CHECK(contains(errorOf("WorldBegin\nShape \"sphere\" \"texture alpha\" \"leaf\"\n"),
+                   "textures are not supported"));
+}
+
 TEST_CASE("pbrt-v4 thin lens: lensradius and focaldistance, and what is refused") {
     auto s = parseSceneString("Camera \"perspective\" \"float lensradius\" 0.25 "
                               "\"float focaldistance\" 3\nWorldBegin\nLightSource \"point\"\n",

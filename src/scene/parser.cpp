@@ -1902,6 +1902,25 @@ class Parser {
         return defaultMaterial_;
     }
 
+    // A shape's constant "float alpha": pbrt-v4 renders >= 1 opaque (the default) and skips
+    // every hit on a shape of alpha <= 0, light included; between, its hits are kept at random
+    // (stochastic transparency), which cbdpt does not do. True: the shape is not there.
+    bool alphaHidden(ParamList& pl, const Token& t) {
+        const Param* p = pl.peek("alpha");
+        if (!p) return false;
+        const double alpha = *pl.oneFloat("alpha");
+        if (alpha >= 1.0) return false;
+        if (alpha > 0.0)
+            throw SceneError(p->valueLoc(0),
+                             fmt::format("\"float alpha\" {:g}: a partly transparent shape "
+                                         "(pbrt-v4 keeps its hits at random) is not supported; "
+                                         "alpha 1 is opaque, 0 invisible",
+                                         alpha));
+        note(t.where, "alpha-zero",
+             "a shape of \"float alpha\" 0 is invisible (pbrt-v4 skips its hits): not added");
+        return true;
+    }
+
     void shape(const Token& t) {
         const Token type = quoted(t, "a shape type");
         if (type.text == "sphere") {
@@ -1911,8 +1930,9 @@ class Parser {
                 radius = *pl.oneFloat("radius");
                 if (!(radius > 0.0)) throw SceneError(p->where, "\"float radius\" must be > 0");
             }
+            const bool hidden = alphaHidden(pl, t);
             pl.finish();
-            sphere(t.where, radius);
+            if (!hidden) sphere(t.where, radius);
         } else if (type.text == "trianglemesh") {
             ParamList pl = params("Shape \"trianglemesh\"");
             const Param* P = pl.numeric("P", "point3", 3);
@@ -1951,8 +1971,9 @@ class Parser {
                     normals[i] = {N->numbers[3 * i], N->numbers[3 * i + 1], N->numbers[3 * i + 2]};
             }
             ignoreSurfaceParameterisation(pl, t.where);
+            const bool hidden = alphaHidden(pl, t);
             pl.finish();
-            addMesh(t.where, pos, std::move(tris), normals);
+            if (!hidden) addMesh(t.where, pos, std::move(tris), normals);
         } else if (type.text == "bilinearmesh") {
             bilinearMesh(t);
         } else if (type.text == "disk") {
@@ -1962,7 +1983,9 @@ class Parser {
             const Param* fp = pl.peek("filename");
             const std::optional<std::string> file = pl.oneString("filename");
             if (!file) throw SceneError(t.where, "plymesh needs \"string filename\"");
+            const bool hidden = alphaHidden(pl, t);
             pl.finish();
+            if (hidden) return;
             const std::string path = resolveModel(*file, fp->valueLoc(0));
             scene_.sourceFiles.push_back(path);
             PlyMesh ply;
@@ -2041,6 +2064,7 @@ class Parser {
                 normals[i] = {N->numbers[3 * i], N->numbers[3 * i + 1], N->numbers[3 * i + 2]};
         }
         ignoreSurfaceParameterisation(pl, t.where);
+        const bool hidden = alphaHidden(pl, t);
         pl.finish();
         std::vector<std::array<unsigned, 3>> tris;
         std::vector<double> patchArea; // per triangle
@@ -2083,7 +2107,7 @@ class Parser {
             patchArea.push_back(area);
             patchArea.push_back(area);
         }
-        addMesh(t.where, pos, std::move(tris), normals, patchArea);
+        if (!hidden) addMesh(t.where, pos, std::move(tris), normals, patchArea);
     }
 
     // Ring segments of a full disk; a partial one (phimax < 360) gets its share, at least 4.
@@ -2111,6 +2135,7 @@ class Parser {
             throw SceneError(ip->where, "\"float innerradius\" must be in [0, radius)");
         if (!(phimax > 0.0 && phimax <= 360.0))
             throw SceneError(pp->where, "\"float phimax\" must be in (0, 360] degrees");
+        const bool hidden = alphaHidden(pl, t);
         pl.finish();
         const double phiMax = phimax * M_PI / 180.0;
         const int segments = std::max(4, int(std::ceil(kDiskSegments * phimax / 360.0 - 1e-9)));
@@ -2154,7 +2179,7 @@ class Parser {
         // pbrt-v4's Disk::Area, in object space (as pbrt-v4 divides a light's power by it).
         const double area = 0.5 * phiMax * (radius * radius - inner * inner);
         const size_t count = tris.size();
-        addMesh(t.where, pos, std::move(tris), {}, std::vector<double>(count, area));
+        if (!hidden) addMesh(t.where, pos, std::move(tris), {}, std::vector<double>(count, area));
     }
 
     // The CTM's scale factor; an error unless the CTM is a similarity (only those keep a sphere
