@@ -1931,6 +1931,45 @@ TEST_CASE("pbrt-v4 film crop window and pixel bounds, camera screen window and f
     CHECK(contains(errorOf("Camera \"perspective\" \"float frameaspectratio\" 0\n"), "> 0"));
 }
 
+TEST_CASE("pbrt-v4 Attribute: defaults for later shapes, lights and materials, scoped") {
+    const auto s = parseSceneString(
+        "WorldBegin\n"
+        "Attribute \"shape\" \"float radius\" 0.25\n"
+        "Attribute \"light\" \"float scale\" 2\n"
+        "Attribute \"material\" \"rgb reflectance\" [0.1 0.2 0.3]\n"
+        "LightSource \"point\"\n"
+        "LightSource \"point\" \"float scale\" 5\n"
+        "Material \"diffuse\"\n"
+        "Shape \"sphere\"\n"
+        "Shape \"sphere\" \"float radius\" 2\n"
+        // A radius is no trianglemesh parameter: attributes may go unused.
+        "Shape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0]\n"
+        "AttributeBegin\nAttribute \"shape\" \"float radius\" 3\nShape \"sphere\"\n"
+        "AttributeEnd\n"
+        "Shape \"sphere\"\n"
+        "Material \"diffuse\" \"rgb reflectance\" [0.5 0.5 0.5]\n"
+        "Shape \"sphere\"\n",
+        "t.pbrt");
+    REQUIRE(s.spheres.size() == 5);
+    CHECK(s.spheres[0].radius == 0.25f);
+    CHECK(s.spheres[1].radius == 2.0f);  // its own parameter wins
+    CHECK(s.spheres[2].radius == 3.0f);  // the latest Attribute wins
+    CHECK(s.spheres[3].radius == 0.25f); // AttributeEnd restores the earlier one
+    CHECK(s.meshes.size() == 1);
+    REQUIRE(s.pointLights.size() == 2);
+    CHECK(s.pointLights[0].scale == doctest::Approx(2.0));
+    CHECK(s.pointLights[1].scale == doctest::Approx(5.0));
+    REQUIRE(s.materials.size() == 2);
+    CHECK(s.materials[0].reflectance.rgb == std::array<float, 3>{0.1f, 0.2f, 0.3f});
+    CHECK(s.materials[1].reflectance.rgb == std::array<float, 3>{0.5f, 0.5f, 0.5f});
+    // An attribute's value is checked where a directive reads it, at the Attribute's line.
+    CHECK(contains(errorOf("WorldBegin\nAttribute \"shape\" \"float radius\" -1\n"
+                           "Shape \"sphere\"\n"),
+                   "t.pbrt:2:19: \"float radius\" must be > 0"));
+    CHECK(contains(errorOf("WorldBegin\nAttribute \"camera\" \"float fov\" 30\n"),
+                   "t.pbrt:2:11: unknown Attribute target \"camera\""));
+}
+
 TEST_CASE("pbrt-v4 shape alpha: 1 is opaque, 0 invisible, between refused") {
     const std::string shapes[] = {
         "Shape \"sphere\" ",

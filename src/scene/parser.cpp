@@ -405,6 +405,18 @@ class ParamList {
                                       expected + ", got " + std::to_string(p.size()));
     }
 
+    // pbrt-v4's Attribute parameters of this directive's kind: looked up after its own, the
+    // latest first, and never reported unused (pbrt-v4's mayBeUnused).
+    void addAttributes(const std::vector<Param>& attributes) {
+        for (auto a = attributes.rbegin(); a != attributes.rend(); ++a) {
+            params_.push_back(*a);
+            params_.back().used = true;
+        }
+    }
+
+    // The parameters as read (for Attribute, which keeps them for later directives).
+    std::vector<Param> release() { return std::move(params_); }
+
     // Every parameter must have been consumed: an unknown name is an error, never ignored.
     void finish() const {
         for (const Param& p : params_)
@@ -500,6 +512,9 @@ struct GraphicsState {
     // (kLaterMaterial)
     int material = -1;
     int areaLight = -1;
+    // pbrt-v4's Attribute "shape" / "light" / "material" / ... parameters: defaults for the
+    // directives of that kind, in the order given.
+    std::map<std::string, std::vector<Param>> attributes;
     SourceLocation openedAt; // of the AttributeBegin that saved this state
     std::string openedBy;    // that directive: AttributeBegin, TransformBegin or ObjectBegin
 };
@@ -659,6 +674,29 @@ class Parser {
         }
         return ParamList(std::move(list), owner, scene_,
                          [this](const Param& p) { return readSpectrumFile(p); });
+    }
+
+    // A directive's parameters followed by the Attribute parameters of its kind ("shape",
+    // "light", "material").
+    ParamList params(const std::string& owner, const char* kind) {
+        ParamList pl = params(owner);
+        if (auto a = state_.attributes.find(kind); a != state_.attributes.end())
+            pl.addAttributes(a->second);
+        return pl;
+    }
+
+    // pbrt-v4's Attribute "target" params: defaults for later directives of that kind, kept in
+    // the graphics state (so AttributeBegin/End scope them).
+    void attribute(const Token& t) {
+        const Token target = quoted(t, "an attribute target");
+        const char* const kinds[] = {"shape", "light", "material", "medium", "texture"};
+        if (std::find(std::begin(kinds), std::end(kinds), target.text) == std::end(kinds))
+            throw SceneError(target.where, "unknown Attribute target \"" + target.text +
+                                               "\" (pbrt-v4's are \"shape\", \"light\", "
+                                               "\"material\", \"medium\" and \"texture\")");
+        ParamList pl = params("Attribute \"" + target.text + "\"");
+        for (Param& p : pl.release())
+            state_.attributes[target.text].push_back(std::move(p));
     }
 
     // pbrt-v4's spectrum files: whitespace-separated (wavelength, value) pairs with '#' comments,
@@ -847,12 +885,12 @@ class Parser {
         } else if (d == "Material") {
             requireWorld(t);
             const Token type = quoted(t, "a material type");
-            ParamList pl = params("Material \"" + type.text + "\"");
+            ParamList pl = params("Material \"" + type.text + "\"", "material");
             state_.material = makeMaterial(type.text, type.where, pl, "", t.where);
         } else if (d == "MakeNamedMaterial") {
             requireWorld(t);
             const Token name = quoted(t, "a material name");
-            ParamList pl = params("MakeNamedMaterial \"" + name.text + "\"");
+            ParamList pl = params("MakeNamedMaterial \"" + name.text + "\"", "material");
             for (const MaterialDesc& m : scene_.materials)
                 if (!m.name.empty() && m.name == name.text)
                     throw SceneError(name.where, "named material \"" + name.text +
@@ -926,11 +964,13 @@ class Parser {
             objectEnd(t);
         } else if (d == "ObjectInstance") {
             objectInstance(t);
+        } else if (d == "Attribute") {
+            attribute(t);
         } else if (d == "WorldEnd") {
             throw SceneError(t.where, "WorldEnd is pbrt-v3 syntax and not part of pbrt-v4");
         } else {
-            for (const char* known : {"ActiveTransform", "Attribute", "MakeNamedMedium",
-                                      "MediumInterface", "Texture", "TransformTimes"})
+            for (const char* known : {"ActiveTransform", "MakeNamedMedium", "MediumInterface",
+                                      "Texture", "TransformTimes"})
                 if (d == known)
                     throw SceneError(t.where, "pbrt-v4 directive '" + d +
                                                   "' is not supported by cbdpt (see "
@@ -1677,7 +1717,7 @@ class Parser {
         if (type.text != "diffuse")
             throw SceneError(type.where, "unsupported area light \"" + type.text +
                                              "\" (cbdpt supports \"diffuse\" only)");
-        ParamList pl = params("AreaLightSource \"diffuse\"");
+        ParamList pl = params("AreaLightSource \"diffuse\"", "light");
         AreaLightDesc a;
         a.where = t.where;
         if (auto l = pl.spectrum("L", SpectrumRole::Emission)) a.radiance = *l;
@@ -1721,7 +1761,7 @@ class Parser {
                              "unsupported light \"" + type.text +
                                  "\" (cbdpt supports \"point\", \"spot\", \"distant\" and "
                                  "\"infinite\" with a constant \"L\")");
-        ParamList pl = params("LightSource \"" + type.text + "\"");
+        ParamList pl = params("LightSource \"" + type.text + "\"", "light");
         PointLightDesc l;
         l.where = t.where;
         if (auto i = pl.spectrum("I", SpectrumRole::Emission)) l.intensity = *i;
@@ -1777,7 +1817,7 @@ class Parser {
     // "illuminance" where given (the illuminance on a surface facing the light); the light shines
     // from the CTM applied to the vector from - to.
     void distantLight(const Token& t) {
-        ParamList pl = params("LightSource \"distant\"");
+        ParamList pl = params("LightSource \"distant\"", "light");
         DistantLightDesc l;
         l.where = t.where;
         if (auto v = pl.spectrum("L", SpectrumRole::Emission)) l.radiance = *v;
@@ -1818,7 +1858,7 @@ class Parser {
     // to luminance 1, times scale, times illuminance / pi where given (the illuminance of the
     // upper hemisphere on an upward-facing surface).
     void infiniteLight(const Token& t) {
-        ParamList pl = params("LightSource \"infinite\"");
+        ParamList pl = params("LightSource \"infinite\"", "light");
         for (const char* name : {"filename", "portal"})
             if (const Param* p = pl.peek(name))
                 throw SceneError(p->where,
@@ -1924,7 +1964,7 @@ class Parser {
     void shape(const Token& t) {
         const Token type = quoted(t, "a shape type");
         if (type.text == "sphere") {
-            ParamList pl = params("Shape \"sphere\"");
+            ParamList pl = params("Shape \"sphere\"", "shape");
             double radius = 1.0;
             if (const Param* p = pl.peek("radius")) {
                 radius = *pl.oneFloat("radius");
@@ -1934,7 +1974,7 @@ class Parser {
             pl.finish();
             if (!hidden) sphere(t.where, radius);
         } else if (type.text == "trianglemesh") {
-            ParamList pl = params("Shape \"trianglemesh\"");
+            ParamList pl = params("Shape \"trianglemesh\"", "shape");
             const Param* P = pl.numeric("P", "point3", 3);
             if (!P) throw SceneError(t.where, "trianglemesh needs \"point3 P\"");
             const size_t nv = P->size() / 3;
@@ -1979,7 +2019,7 @@ class Parser {
         } else if (type.text == "disk") {
             disk(t);
         } else if (type.text == "plymesh") {
-            ParamList pl = params("Shape \"plymesh\"");
+            ParamList pl = params("Shape \"plymesh\"", "shape");
             const Param* fp = pl.peek("filename");
             const std::optional<std::string> file = pl.oneString("filename");
             if (!file) throw SceneError(t.where, "plymesh needs \"string filename\"");
@@ -2029,7 +2069,7 @@ class Parser {
     // (p00, p10, p11) and (p00, p11, p01), whose winding normal is pbrt's cross(dpdu, dpdv); a
     // curved one is not representable with triangles and is an error.
     void bilinearMesh(const Token& t) {
-        ParamList pl = params("Shape \"bilinearmesh\"");
+        ParamList pl = params("Shape \"bilinearmesh\"", "shape");
         const Param* P = pl.numeric("P", "point3", 3);
         if (!P) throw SceneError(t.where, "bilinearmesh needs \"point3 P\"");
         const size_t nv = P->size() / 3;
@@ -2120,7 +2160,7 @@ class Parser {
     // that the polygon's area is the disk's exactly: emitted power and every integral over the
     // surface match; only the outline differs (by at most dphi^2 / 12 of the radius).
     void disk(const Token& t) {
-        ParamList pl = params("Shape \"disk\"");
+        ParamList pl = params("Shape \"disk\"", "shape");
         auto get = [&](const char* name, double fallback) {
             const Param* p = pl.peek(name);
             return std::pair{p ? *pl.oneFloat(name) : fallback, p};
