@@ -1942,6 +1942,11 @@ class Parser {
         return defaultMaterial_;
     }
 
+    // Whether the current area light is given by "power", which needs each shape's area.
+    bool poweredAreaLight() const {
+        return state_.areaLight >= 0 && scene_.areaLights[size_t(state_.areaLight)].power > 0.0;
+    }
+
     // A shape's constant "float alpha": pbrt-v4 renders >= 1 opaque (the default) and skips
     // every hit on a shape of alpha <= 0, light included; between, its hits are kept at random
     // (stochastic transparency), which cbdpt does not do. True: the shape is not there.
@@ -2137,15 +2142,16 @@ class Parser {
                             "The corners are p00 p10 p01 p11, so p11 is opposite p00");
             tris.push_back({q[0], q[1], q[3]});
             tris.push_back({q[0], q[3], q[2]});
-            // pbrt-v4's BilinearPatch::Area, of the patch in world space: both triangles'.
-            const Mat4& m = state_.ctm;
-            const Vec3d w00 = m.point(p00), w10 = m.point(p10), w01 = m.point(p01),
-                        w11 = m.point(p11);
-            const Vec3d c1 = vecCross(vecSub(w10, w00), vecSub(w11, w00));
-            const Vec3d c2 = vecCross(vecSub(w11, w00), vecSub(w01, w00));
-            const double area = 0.5 * (std::sqrt(vecDot(c1, c1)) + std::sqrt(vecDot(c2, c2)));
-            patchArea.push_back(area);
-            patchArea.push_back(area);
+            if (poweredAreaLight()) {
+                // pbrt-v4's BilinearPatch::Area, of the patch in world space: both triangles'.
+                const Mat4& m = state_.ctm;
+                const Vec3d w00 = m.point(p00), w10 = m.point(p10), w01 = m.point(p01),
+                            w11 = m.point(p11);
+                const Vec3d c1 = vecCross(vecSub(w10, w00), vecSub(w11, w00));
+                const Vec3d c2 = vecCross(vecSub(w11, w00), vecSub(w01, w00));
+                const double area = 0.5 * (std::sqrt(vecDot(c1, c1)) + std::sqrt(vecDot(c2, c2)));
+                patchArea.insert(patchArea.end(), 2, area);
+            }
         }
         if (!hidden) addMesh(t.where, pos, std::move(tris), normals, patchArea);
     }
@@ -2218,8 +2224,8 @@ class Parser {
         }
         // pbrt-v4's Disk::Area, in object space (as pbrt-v4 divides a light's power by it).
         const double area = 0.5 * phiMax * (radius * radius - inner * inner);
-        const size_t count = tris.size();
-        if (!hidden) addMesh(t.where, pos, std::move(tris), {}, std::vector<double>(count, area));
+        std::vector<double> diskArea(poweredAreaLight() ? tris.size() : 0, area);
+        if (!hidden) addMesh(t.where, pos, std::move(tris), {}, diskArea);
     }
 
     // The CTM's scale factor; an error unless the CTM is a similarity (only those keep a sphere
@@ -2274,8 +2280,8 @@ class Parser {
     // negated when ReverseOrientation XOR the CTM swaps handedness, then - if per-vertex normals
     // are given - flipped to face them (pbrt does this per hit with the interpolated normal; we
     // use the triangle's centroid normal, the same for any consistent normal field).
-    // shapeArea: per triangle of `tris`, the area of the pbrt-v4 shape it belongs to; empty when
-    // each triangle is its own shape.
+    // shapeArea: per triangle of `tris`, the area of the pbrt-v4 shape it belongs to, given for
+    // a powered area light only; empty when each triangle is its own shape.
     void addMesh(const SourceLocation& where, const std::vector<std::array<double, 3>>& objPos,
                  std::vector<std::array<unsigned, 3>> tris,
                  const std::vector<std::array<double, 3>>& objNormals,
@@ -2296,8 +2302,7 @@ class Parser {
                     c = -c;
         }
         const bool flip = state_.reverseOrientation != (det < 0.0);
-        const bool powered =
-            state_.areaLight >= 0 && scene_.areaLights[size_t(state_.areaLight)].power > 0.0;
+        const bool powered = poweredAreaLight();
         long dropped = 0;
         mesh.triangles.reserve(tris.size());
         for (size_t t = 0; t < tris.size(); ++t) {
