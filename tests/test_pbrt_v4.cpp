@@ -7,6 +7,7 @@
 #include "cb_bsdf.h"
 #include "cb_camera.h"
 #include "layered_reference.h"
+#include "method_checks.h"
 #include "scene/scene_desc.h"
 #include "scene_builders.h"
 #include "spectral/named_spectra.h"
@@ -27,6 +28,7 @@
 
 using cb::parseSceneString;
 using cb::SceneError;
+using namespace cbtest::method_checks;
 
 namespace {
 
@@ -763,105 +765,6 @@ TEST_CASE("pbrt-v4 disk light: irradiance on a plane against the analytic image 
     checkPtAndBdptImageMean(scene, runtime, expected, 5, 2e-4);
 }
 
-namespace {
-
-// The mean of each bin of pixel channels (binOf(x, y, channel): a bin below `bins`, or `bins`
-// for none) over `estimates` estimates, per run of seeds seed, seed + 1, ...: the checks use the
-// spread over runs, so that methods whose pixels share samples (CPT, CBDPT) or chains (MLT) are
-// judged fairly.
-struct BinnedMeans {
-    cbtest::RunStats stats;
-    long nonFinite = 0;
-};
-
-template <class BinOf>
-BinnedMeans binnedMeans(const cb::DeviceScene& scene, cb::ClRuntime& runtime,
-                        cb::IntegratorSettings settings, int runs, int estimates,
-                        std::uint32_t seed, size_t bins, BinOf binOf) {
-    const int w = scene.camera.width, h = scene.camera.height;
-    std::vector<double> members(bins, 0.0);
-    for (int y = 0; y < h; ++y)
-        for (int x = 0; x < w; ++x)
-            for (int c = 0; c < 3; ++c)
-                if (const size_t b = binOf(x, y, c); b < bins) members[b] += 1.0;
-    BinnedMeans out;
-    std::vector<std::vector<double>> all;
-    std::vector<float> rgb;
-    for (int r = 0; r < runs; ++r) {
-        settings.seed = seed + std::uint32_t(r);
-        auto integrator = cb::makeIntegrator(settings, scene, runtime);
-        std::vector<double> sum(bins, 0.0);
-        for (int e = 0; e < estimates; ++e) {
-            integrator->renderEstimate(std::uint32_t(e), rgb);
-            for (int y = 0; y < h; ++y)
-                for (int x = 0; x < w; ++x)
-                    for (int c = 0; c < 3; ++c)
-                        if (const size_t b = binOf(x, y, c); b < bins)
-                            sum[b] += rgb[3 * size_t(y * w + x) + size_t(c)];
-        }
-        for (size_t b = 0; b < bins; ++b)
-            sum[b] /= members[b] * estimates;
-        all.push_back(sum);
-        out.nonFinite += integrator->nonFiniteSamples();
-    }
-    out.stats = cbtest::summarizeRuns(all);
-    return out;
-}
-
-// The image mean (all channels) and its standard error over runs.
-struct MethodMean {
-    double mean = 0.0, se = 0.0;
-    long nonFinite = 0;
-};
-
-MethodMean methodMean(const cb::DeviceScene& scene, cb::ClRuntime& runtime,
-                      cb::IntegratorSettings settings, int runs, int estimates) {
-    const BinnedMeans b = binnedMeans(scene, runtime, settings, runs, estimates, 100u, 1,
-                                      [](int, int, int) { return size_t(0); });
-    return {b.stats.mean[0], b.stats.se[0], b.nonFinite};
-}
-
-// Per channel, for images whose expected value is known per channel.
-BinnedMeans channelMeans(const cb::DeviceScene& scene, cb::ClRuntime& runtime,
-                         cb::IntegratorSettings settings, int estimates, std::uint32_t seed) {
-    return binnedMeans(scene, runtime, settings, 6, estimates, seed, 3,
-                       [](int, int, int c) { return size_t(c); });
-}
-
-// Each channel's mean within 4.5 standard errors over runs, plus relativeFloor of the expected
-// value, and no non-finite sample.
-void checkChannelMeans(const BinnedMeans& b, const std::array<double, 3>& expected,
-                       double relativeFloor) {
-    for (size_t ch = 0; ch < 3; ++ch) {
-        CAPTURE(ch);
-        CAPTURE(expected[ch]);
-        CAPTURE(b.stats.mean[ch]);
-        CAPTURE(b.stats.se[ch]);
-        CHECK(std::fabs(b.stats.mean[ch] - expected[ch]) <=
-              4.5 * b.stats.se[ch] + relativeFloor * expected[ch]);
-    }
-    CHECK(b.nonFinite == 0);
-}
-
-cb::IntegratorSettings methodSettings(const std::string& name) {
-    cb::IntegratorSettings s;
-    s.name = name;
-    s.maxPathVertices = 4;
-    s.coherenceTile = 4;
-    s.mltChains = 64;
-    s.mltBootstrap = 4096;
-    return s;
-}
-
-const char* const kMethods[] = {"pt", "cpt", "bdpt", "cbdpt", "mlt"};
-
-// The area light of checkMethodsAgreeWithPt's scenes: a disk above the block, facing down.
-const std::string kDiskLight = "AttributeBegin\nAreaLightSource \"diffuse\" \"rgb L\" [4 4 4]\n"
-                               "Translate -0.5 1.5 0\nRotate 90 1 0 0\n"
-                               "Shape \"disk\" \"float radius\" 0.3\nAttributeEnd\n";
-
-} // namespace
-
 TEST_CASE("pbrt-v4 distant light: parameters, normalisation and direction") {
     auto s =
         parseSceneString("WorldBegin\nRotate 90 0 0 1\n"
@@ -927,57 +830,6 @@ TEST_CASE("pbrt-v4 distant light: a diffuse plane has radiance rho / pi E cos th
         CHECK(m.nonFinite == 0);
     }
 }
-
-namespace {
-
-// BDPT, CBDPT and MLT against PT where every strategy matters: a floor, a wall and a floating
-// block between them under `light` (shadows, interreflection up to 5 vertices). The mean over
-// each cell of a 3 x 3 grid must agree within 4.5 combined standard errors (spread over runs).
-void checkMethodsAgreeWithPt(const std::string& light, const std::string& extra = "",
-                             const std::string& cameraParameters = "") {
-    cb::ClRuntime runtime;
-    const std::string text =
-        "LookAt 0 2 -3  0 0.3 0  0 1 0\nCamera \"perspective\" \"float fov\" 50 " +
-        cameraParameters +
-        "\n"
-        "Film \"rgb\" \"integer xresolution\" 24 \"integer yresolution\" 24\nWorldBegin\n" +
-        light +
-        "Material \"diffuse\" \"rgb reflectance\" [0.7 0.7 0.7]\n"
-        "Shape \"bilinearmesh\" \"point3 P\" [-2 0 -2  2 0 -2  -2 0 2  2 0 2]\n"
-        "Shape \"bilinearmesh\" \"point3 P\" [-2 0 1  2 0 1  -2 2 1  2 2 1]\n"
-        "AttributeBegin\nTranslate 0 0.6 0\nScale 0.4 0.3 0.4\n"
-        "Shape \"trianglemesh\" \"point3 P\" [-1 -1 -1  1 -1 -1  1 1 -1  -1 1 -1  -1 -1 1  1 -1 1 "
-        " 1 1 1  -1 1 1] \"integer indices\" [0 2 1  0 3 2  4 5 6  4 6 7  0 1 5  0 5 4  2 3 7 "
-        " 2 7 6  0 4 7  0 7 3  1 2 6  1 6 5]\nAttributeEnd\n" +
-        extra;
-    const cb::DeviceScene scene = cb::buildDeviceScene(parseSceneString(text, "t.pbrt"));
-    const int w = scene.camera.width, h = scene.camera.height;
-    auto cells = [&](cb::IntegratorSettings settings, int runs, int estimates) {
-        return binnedMeans(scene, runtime, settings, runs, estimates, 500u, 9,
-                           [&](int x, int y, int) { return size_t((3 * y / h) * 3 + 3 * x / w); })
-            .stats;
-    };
-    cb::IntegratorSettings pt = methodSettings("pt");
-    pt.maxPathVertices = 0;
-    pt.eyeVertices = 5;
-    const cbtest::RunStats reference = cells(pt, 8, 16);
-    for (const std::string method : {"bdpt", "cbdpt", "mlt"}) {
-        CAPTURE(method);
-        cb::IntegratorSettings s = methodSettings(method);
-        s.maxPathVertices = 5;
-        const cbtest::RunStats r = cells(s, 8, method == "mlt" ? 16 : 8);
-        for (size_t c = 0; c < 9; ++c) {
-            CAPTURE(c);
-            CAPTURE(r.mean[c]);
-            CAPTURE(reference.mean[c]);
-            const double se = std::sqrt(r.se[c] * r.se[c] + reference.se[c] * reference.se[c]);
-            CAPTURE(se);
-            CHECK(std::fabs(r.mean[c] - reference.mean[c]) <= 4.5 * se);
-        }
-    }
-}
-
-} // namespace
 
 TEST_CASE("pbrt-v4 distant light: BDPT, CBDPT and MLT agree with PT per region" *
           doctest::test_suite("statistical")) {
