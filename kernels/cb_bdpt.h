@@ -243,7 +243,8 @@ CB_FN PathVertex bdptCameraVertex(const Camera* camera, Vec3 lens) {
  * for area lights, intensity for point lights). */
 CB_FN Spectrum bdptLightEmission(const SceneView* scene, const PathVertex* v, Vec3 w) {
     if (v->type == CB_VERTEX_POINT_LIGHT) return pointLightIntensity(scene, v->light, w);
-    if (pvAtInfinity(v)) return specLoad(scene->spectra, scene->lights[v->light].emission);
+    if (v->type == CB_VERTEX_DISTANT_LIGHT)
+        return specLoad(scene->spectra, scene->lights[v->light].emission);
     return lightEmittedRadiance(scene, v->light, pvN(v), w);
 }
 
@@ -427,17 +428,19 @@ CB_FN int bdptLightSubpath(const SceneView* scene, SampleStream stream, int maxV
     sampleAt2(stream, CB_LIGHT_DIM_DIRECTION, &u0, &u1);
     Vec3 w;
     if (v->type == CB_VERTEX_INFINITE_LIGHT) {
-        /* A uniform direction, the origin on the beam's disk (pbrt-v4's
-         * UniformInfiniteLight::SampleLe). pdfFwd becomes the solid-angle density with which
-         * next-event estimation picks this direction, the MIS recursion's y0 for s = 0; light[1]
-         * gets the planar density times |cos|. */
+        /* A direction as next-event estimation samples it, the origin on the beam's disk
+         * (pbrt-v4's UniformInfiniteLight::SampleLe and ImageInfiniteLight::SampleLe). pdfFwd
+         * becomes that direction's solid-angle density, the MIS recursion's y0 for s = 0;
+         * light[1] gets the planar density times |cos|. */
         CB_GLOBAL const Light* infinite = &scene->lights[ls.light];
-        w = sampleUniformSphere(u0, u1);
+        real pdfDir;
+        w = vneg(infiniteLightSample(scene, infinite, u0, u1, &pdfDir));
+        if (!(pdfDir > 0.0f)) return 1;
         cbStore3(v->p, lightBeamOrigin(infinite, vneg(w), uPoint0, uPoint1));
         cbStore3(v->n, w);
-        v->pdfFwd = ls.pdfPick * uniformSpherePdf();
+        v->pdfFwd = ls.pdfPick * pdfDir;
         Spectrum le = bdptLightEmission(scene, v, w);
-        Spectrum beta = specScale(le, 1.0f / (ls.pdfPick * ls.pdfArea * uniformSpherePdf()));
+        Spectrum beta = specScale(le, 1.0f / (ls.pdfPick * ls.pdfArea * pdfDir));
         int count = bdptRandomWalk(scene, spawnRay(pvSurfacePoint(v), w), beta, 1.0f, 1, false,
                                    stream, CB_LIGHT_DIM_FIRST_BOUNCE, light, 1, maxVertices, rays);
         if (count > 1) light[1].pdfFwd = ls.pdfArea * pvAbsCos(&light[1], w);
@@ -675,8 +678,9 @@ CB_FN bool bdptConnectUnoccluded(const SceneView* scene, const Camera* camera,
             /* It escaped to the infinite light: next-event estimation's direction density and
              * the light subpath's planar one at eye[t-2] (pbrt-v4's PdfLightOrigin, PdfLight). */
             CB_GLOBAL const Light* infinite = &scene->lights[pt->light];
-            out->contribution = specMul(pt->beta, specLoad(scene->spectra, infinite->emission));
-            out->ptPdfRev = infinite->pickProbability * uniformSpherePdf();
+            Vec3 toLight = vneg(vec3FromArray(pt->wo));
+            out->contribution = specMul(pt->beta, infiniteLightRadiance(scene, infinite, toLight));
+            out->ptPdfRev = infinite->pickProbability * infiniteLightPdf(scene, infinite, toLight);
             out->ptMinusPdfRev = bdptLightDirectionPdf(scene, pt, vec3FromArray(pt->wo)) *
                                  pvAbsCos(&eye[t - 2], vec3FromArray(pt->wo));
             return true;

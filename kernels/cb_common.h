@@ -46,6 +46,8 @@ typedef CB_REAL real;
 #ifndef CB_KERNEL_SIDE
 typedef std::uint32_t uint;
 typedef std::uint64_t ulong;
+using std::atan2;
+using std::copysign;
 using std::cos;
 using std::exp;
 using std::fabs;

@@ -60,6 +60,96 @@ CB_FN int lightInfinite(const SceneView* scene) {
     return -1;
 }
 
+/* ---- The infinite light: constant, or pbrt-v4's equal-area image ----------------------------- */
+
+#if CB_HAS(CB_FEATURE_IMAGE_LIGHT)
+/* Unit world direction w in the image light's frame (worldFromLight is a rotation: its
+ * transpose is its inverse). */
+CB_FN Vec3 imageLightFrameDirection(CB_GLOBAL const Light* light, Vec3 w) {
+    CB_GLOBAL const real* m = light->worldFromLight;
+    return vec3(m[0] * w.x + m[3] * w.y + m[6] * w.z, m[1] * w.x + m[4] * w.y + m[7] * w.z,
+                m[2] * w.x + m[5] * w.y + m[8] * w.z);
+}
+
+/* The pixel (y * imageSize + x) whose radiance arrives from unit world direction toLight: the
+ * one holding the direction's equal-area square point (pbrt-v4's nearest lookup, ImageLe). */
+CB_FN int imageLightPixel(CB_GLOBAL const Light* light, Vec3 toLight) {
+    real s, t;
+    equalAreaSphereToSquare(imageLightFrameDirection(light, toLight), &s, &t);
+    int n = light->imageSize;
+    int x = (int)(s * (real)n);
+    int y = (int)(t * (real)n);
+    x = x < 0 ? 0 : (x > n - 1 ? n - 1 : x);
+    y = y < 0 ? 0 : (y > n - 1 ? n - 1 : y);
+    return y * n + x;
+}
+
+/* The image light's sampling tables, at lightTables[imageTable]: the CDF over the image's rows
+ * (imageSize + 1 values), then each row's CDF over its pixels (imageSize + 1 values each), by
+ * the pixels' mean radiance. Pixel (x, y) is chosen with probability (row y's share) times (x's
+ * share in row y); its directions have that times the pixel count over 4 pi as their solid-angle
+ * density, the map being equal-area. */
+CB_FN real imageLightPixelPdf(const SceneView* scene, CB_GLOBAL const Light* light, int pixel) {
+    int n = light->imageSize;
+    int x = pixel % n;
+    int y = pixel / n;
+    CB_GLOBAL const real* rows = scene->lightTables + light->imageTable;
+    CB_GLOBAL const real* row = rows + (n + 1) * (1 + y);
+    return (rows[y + 1] - rows[y]) * (row[x + 1] - row[x]) * ((real)n * (real)n) * CB_INV_4PI;
+}
+#endif
+
+/* Radiance the infinite light sends from unit world direction toLight. */
+CB_FN Spectrum infiniteLightRadiance(const SceneView* scene, CB_GLOBAL const Light* light,
+                                     Vec3 toLight) {
+#if CB_HAS(CB_FEATURE_IMAGE_LIGHT)
+    if (light->imageSize > 0)
+        return specLoad(scene->spectra, light->emission + imageLightPixel(light, toLight));
+#else
+    (void)toLight;
+#endif
+    return specLoad(scene->spectra, light->emission);
+}
+
+/* Solid-angle density with which infiniteLightSample produces unit direction toLight. */
+CB_FN real infiniteLightPdf(const SceneView* scene, CB_GLOBAL const Light* light, Vec3 toLight) {
+#if CB_HAS(CB_FEATURE_IMAGE_LIGHT)
+    if (light->imageSize > 0)
+        return imageLightPixelPdf(scene, light, imageLightPixel(light, toLight));
+#else
+    (void)scene;
+    (void)light;
+    (void)toLight;
+#endif
+    return uniformSpherePdf();
+}
+
+/* A unit direction toward the infinite light and its solid-angle density *pdf: uniform, or for
+ * an image a pixel by the tables (u1 the row, u0 the pixel in it), then a uniform point of the
+ * pixel mapped to the sphere (pbrt-v4's ImageInfiniteLight::SampleLi with its complete
+ * distribution). *pdf is evaluated at the direction, as for a direction found by an escaped
+ * ray, so that both agree where rounding moves a point across a pixel's edge. */
+CB_FN Vec3 infiniteLightSample(const SceneView* scene, CB_GLOBAL const Light* light, real u0,
+                               real u1, real* pdf) {
+#if CB_HAS(CB_FEATURE_IMAGE_LIGHT)
+    if (light->imageSize > 0) {
+        int n = light->imageSize;
+        CB_GLOBAL const real* rows = scene->lightTables + light->imageTable;
+        real dy, dx;
+        int y = sampleCdf(rows, n, u1, &dy);
+        int x = sampleCdf(rows + (n + 1) * (1 + y), n, u0, &dx);
+        Vec3 v = equalAreaSquareToSphere(((real)x + dx) / (real)n, ((real)y + dy) / (real)n);
+        CB_GLOBAL const real* m = light->worldFromLight;
+        Vec3 w = vec3(m[0] * v.x + m[1] * v.y + m[2] * v.z, m[3] * v.x + m[4] * v.y + m[5] * v.z,
+                      m[6] * v.x + m[7] * v.y + m[8] * v.z);
+        *pdf = infiniteLightPdf(scene, light, w);
+        return w;
+    }
+#endif
+    *pdf = uniformSpherePdf();
+    return sampleUniformSphere(u0, u1);
+}
+
 /* Area of the emitting primitive, its uniform point and the point's error bound. */
 CB_FN void lightSamplePoint(const SceneView* scene, int lightIndex, real u0, real u1,
                             LightSample* out) {
@@ -192,19 +282,20 @@ CB_FN bool lightSampleFrom(const SceneView* scene, Vec3 ref, real uChoice, real 
 #endif
 #if CB_HAS(CB_FEATURE_INFINITE_LIGHT)
     if (scene->lights[lightIndex].kind == CB_LIGHT_INFINITE) {
-        /* A uniform direction, to a point beyond the bounding sphere: pdfSolidAngle is its
-         * density (pdfArea too, so that 1 / (pdfPick pdfArea) is the sample's weight). */
+        /* A direction, to a point beyond the bounding sphere: pdfSolidAngle is its density
+         * (pdfArea too, so that 1 / (pdfPick pdfArea) is the sample's weight). */
         CB_GLOBAL const Light* infinite = &scene->lights[lightIndex];
-        Vec3 w = sampleUniformSphere(u0, u1);
+        real pdfW;
+        Vec3 w = infiniteLightSample(scene, infinite, u0, u1, &pdfW);
         out->light = lightIndex;
         out->pdfPick = infinite->pickProbability;
-        out->pdfSolidAngle = uniformSpherePdf();
+        out->pdfSolidAngle = pdfW;
         out->p = vmadd(ref, w, 2.0f * infinite->sceneRadius);
         out->pError = vec3(0.0f, 0.0f, 0.0f);
         out->n = vec3(0.0f, 0.0f, 0.0f);
         out->isDelta = 0;
-        out->pdfArea = uniformSpherePdf();
-        return out->pdfPick > 0.0f;
+        out->pdfArea = pdfW;
+        return out->pdfPick > 0.0f && pdfW > 0.0f;
     }
 #endif
     real conePdf = lightConePdf(scene, lightIndex, ref);
@@ -262,12 +353,13 @@ CB_FN real lightPdfSolidAngleFrom(const SceneView* scene, int lightIndex, Vec3 r
     return light->pickProbability / light->area * dist2 / cosLight;
 }
 
-/* Radiance leaving an area light with front normal n in direction w (unit). One-sided lights
- * emit only to the side n points to. */
+/* Radiance leaving an area light with front normal n in direction w (unit), or arriving from
+ * the infinite light travelling in direction w. One-sided lights emit only to the side n points
+ * to. */
 CB_FN Spectrum lightEmittedRadiance(const SceneView* scene, int lightIndex, Vec3 n, Vec3 w) {
     CB_GLOBAL const Light* light = &scene->lights[lightIndex];
 #if CB_HAS(CB_FEATURE_INFINITE_LIGHT)
-    if (light->kind == CB_LIGHT_INFINITE) return specLoad(scene->spectra, light->emission);
+    if (light->kind == CB_LIGHT_INFINITE) return infiniteLightRadiance(scene, light, vneg(w));
 #endif
     if (!light->twoSided && vdot(n, w) <= 0.0f) return specZero();
     return specLoad(scene->spectra, light->emission);

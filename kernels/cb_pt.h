@@ -69,15 +69,16 @@ CB_FN bool ptPathVertex(const SceneView* scene, PtPath* path, Ray* ray, bool fou
     if (!found) {
 #if CB_HAS(CB_FEATURE_INFINITE_LIGHT)
         /* The escaped ray sees the infinite light, weighed against next-event estimation's
-         * uniform directions. */
+         * directions. */
         int infinite = lightInfinite(scene);
         if (infinite >= 0) {
+            CB_GLOBAL const Light* light = &scene->lights[infinite];
             real weight = 1.0f;
             if (!path->previousDelta)
                 weight =
                     powerHeuristic(path->previousPdfW,
-                                   scene->lights[infinite].pickProbability * uniformSpherePdf());
-            Spectrum le = specLoad(scene->spectra, scene->lights[infinite].emission);
+                                   light->pickProbability * infiniteLightPdf(scene, light, ray->d));
+            Spectrum le = infiniteLightRadiance(scene, light, ray->d);
             path->radiance =
                 specAdd(path->radiance, specScale(specMul(path->throughput, le), weight));
         }

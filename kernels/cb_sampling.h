@@ -68,6 +68,72 @@ CB_FN real uniformHemispherePdf(void) {
     return CB_INV_2PI;
 }
 
+/* ---- pbrt-v4's equal-area octahedral map ----------------------------------------------------- */
+
+/* Clarberg 2008, "Fast Equal-Area Mapping of the (Hemi)Sphere using SIMD": the unit square onto
+ * the unit sphere with every region keeping its share of the area, so that a density p over the
+ * square is p / (4 pi) per steradian. In [-1,1]^2 the diamond |u| + |v| <= 1 is the northern
+ * hemisphere (centre +z), the four corners the southern one (-z), |u| + |v| = r (r^2 = 1 - |z|
+ * north) and the azimuth is linear along each diamond edge. pbrt-v4's image lights use it. */
+CB_FN Vec3 equalAreaSquareToSphere(real s, real t) {
+    real u = 2.0f * s - 1.0f;
+    real v = 2.0f * t - 1.0f;
+    real au = fabs(u);
+    real av = fabs(v);
+    real signedDistance = 1.0f - (au + av); /* from the equator; > 0 in the north */
+    real r = 1.0f - fabs(signedDistance);
+    /* The azimuth in the quadrant, in units of pi/2: 0 on the u axis, 1 on the v axis. */
+    real phi = r == 0.0f ? 0.5f : 0.5f * ((av - au) / r + 1.0f);
+    real z = copysign(1.0f - r * r, signedDistance);
+    real radial = r * cbSafeSqrt(2.0f - r * r); /* sqrt(1 - z^2) */
+    return vec3(copysign(radial * cbCosPi(0.5f * phi), u),
+                copysign(radial * cbSinPi(0.5f * phi), v), z);
+}
+
+/* The inverse of equalAreaSquareToSphere for a unit direction d: its point (*s, *t) of the unit
+ * square. */
+CB_FN void equalAreaSphereToSquare(Vec3 d, real* s, real* t) {
+    real ax = fabs(d.x);
+    real ay = fabs(d.y);
+    real r = cbSafeSqrt(1.0f - fabs(d.z));
+    real big = fmax(ax, ay);
+    real small = fmin(ax, ay);
+    /* The azimuth in units of pi/2, from the nearer of the x and y axes, then from x. */
+    real phi = big == 0.0f ? 0.0f : atan2(small, big) * (2.0f * CB_INV_PI);
+    if (ax < ay) phi = 1.0f - phi;
+    real v = phi * r;
+    real u = r - v;
+    if (d.z < 0.0f) {
+        /* The south: the diamond's edge point mirrored out to the corner triangle. */
+        real northU = u;
+        u = 1.0f - v;
+        v = 1.0f - northU;
+    }
+    *s = 0.5f * (copysign(u, d.x) + 1.0f);
+    *t = 0.5f * (copysign(v, d.y) + 1.0f);
+}
+
+/* ---- Tabulated distributions ----------------------------------------------------------------- */
+
+/* Inverts the CDF of `count` intervals, cdf[0] = 0 <= cdf[1] <= ... <= cdf[count] = 1: the last
+ * interval i with cdf[i] <= u (never an empty one, for u < 1) and u's position inside it, in
+ * [0, 1), in *within. Interval i is chosen with probability cdf[i+1] - cdf[i] exactly, which is
+ * the density its users divide by. */
+CB_FN int sampleCdf(CB_GLOBAL const real* cdf, int count, real u, real* within) {
+    int lo = 0;
+    int hi = count - 1;
+    while (lo < hi) {
+        int mid = (lo + hi + 1) / 2;
+        if (cdf[mid] <= u)
+            lo = mid;
+        else
+            hi = mid - 1;
+    }
+    real width = cdf[lo + 1] - cdf[lo];
+    *within = width > 0.0f ? fmin((u - cdf[lo]) / width, 0.99999994f) : 0.0f;
+    return lo;
+}
+
 /* Heitz 2019, "A Low-Distortion Map Between Triangle and Square": each half of the square maps
  * linearly (Jacobian 1/2) onto the triangle, and the two halves agree on the diagonal, so the map
  * is continuous and uniform by area. Returns barycentrics with b0 + b1 + b2 = 1. */

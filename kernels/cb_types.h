@@ -96,6 +96,7 @@ typedef struct SurfacePoint {
 #define CB_FEATURE_THIN_LENS (1u << 14)        /* a camera with a lens radius (depth of field) */
 #define CB_FEATURE_COATED_DIFFUSE (1u << 15)   /* pbrt-v4's layered "coateddiffuse" */
 #define CB_FEATURE_COATED_CONDUCTOR (1u << 16) /* pbrt-v4's layered "coatedconductor" */
+#define CB_FEATURE_IMAGE_LIGHT (1u << 17) /* an "infinite" light given by an equal-area image */
 
 #ifndef CB_FEATURES
 #define CB_FEATURES 0xffffffffu
@@ -151,7 +152,11 @@ typedef struct Material {
  * sceneRadius) perpendicular to `axis`, outside the sphere (pbrt-v4's DistantLight::SampleLe).
  * An infinite light sends radiance `emission` from every direction; a scene has at most one,
  * and it is the last light, so that escaped rays find it at once. Its light subpaths start on
- * the disk perpendicular to their direction (pbrt-v4's UniformInfiniteLight::SampleLe). */
+ * the disk perpendicular to their direction (pbrt-v4's UniformInfiniteLight::SampleLe). An
+ * infinite light given by an image (imageSize > 0, pbrt-v4's ImageInfiniteLight) sends pixel
+ * p's radiance, spectra entry emission + p, from the directions that pbrt-v4's equal-area
+ * octahedral map takes to that pixel in the light's frame (worldFromLight); its sampling tables
+ * start at lightTables[imageTable] (cb_lights.h, imageLightTables). */
 typedef struct Light {
     int kind;         /* CB_LIGHT_* */
     int primitive;    /* CB_LIGHT_AREA: the emitting primitive */
@@ -164,7 +169,10 @@ typedef struct Light {
     real spotCosStart;    /* full intensity inside this cosine of the angle to the axis */
     real spotCosEnd;      /* zero outside it; below -1: not a spot (uniform point light) */
     real axis[3]; /* unit: a spot's cone axis; CB_LIGHT_DISTANT: the direction toward the light */
-    real sceneRadius; /* distant, infinite: the radius of the scene's bounding sphere */
+    real sceneRadius;       /* distant, infinite: the radius of the scene's bounding sphere */
+    real worldFromLight[9]; /* image light: row-major rotation from the light's frame to world */
+    int imageSize;          /* image light: the square image's side in pixels; 0 otherwise */
+    int imageTable;         /* image light: offset of its sampling tables in lightTables */
 } Light;
 
 /* ---- Camera ------------------------------------------------------------------------------- */
@@ -211,7 +219,8 @@ typedef struct SceneView {
     CB_GLOBAL const Primitive* primitives;
     CB_GLOBAL const Material* materials;
     CB_GLOBAL const Light* lights;
-    CB_GLOBAL const real* spectra; /* CB_CHANNELS floats per entry */
+    CB_GLOBAL const real* spectra;     /* CB_CHANNELS floats per entry */
+    CB_GLOBAL const real* lightTables; /* image lights' sampling tables (Light.imageTable) */
     int lightCount;
 } SceneView;
 
@@ -221,7 +230,8 @@ typedef struct SceneView {
 #define CB_SCENE_KERNEL_PARAMS                                                                     \
     __global const struct BvhNodeWide *nodes, __global const TrianglePack *packs,                  \
         __global const Primitive *primitives, __global const Material *materials,                  \
-        __global const Light *lights, __global const real *spectra, int lightCount
+        __global const Light *lights, __global const real *spectra,                                \
+        __global const real *lightTables, int lightCount
 #define CB_SCENE_VIEW(view)                                                                        \
     SceneView view;                                                                                \
     view.nodes = nodes;                                                                            \
@@ -230,6 +240,7 @@ typedef struct SceneView {
     view.materials = materials;                                                                    \
     view.lights = lights;                                                                          \
     view.spectra = spectra;                                                                        \
+    view.lightTables = lightTables;                                                                \
     view.lightCount = lightCount
 #endif
 

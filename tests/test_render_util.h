@@ -19,6 +19,7 @@ inline cbk::SceneView hostView(const cb::DeviceScene& s) {
     v.materials = s.materials.data();
     v.lights = s.lights.data();
     v.spectra = s.spectra.data();
+    v.lightTables = s.lightTables.data();
     v.lightCount = int(s.lights.size());
     return v;
 }

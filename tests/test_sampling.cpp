@@ -17,7 +17,7 @@ using cbtest::kPi;
 namespace {
 
 // Chi-square tests in this file share one family-wise level of 1% (Sidak).
-constexpr int kChi2Tests = 16;
+constexpr int kChi2Tests = 18;
 const double kLevel = cbtest::sidak(0.01, kChi2Tests);
 
 struct Uniform {
@@ -150,6 +150,88 @@ TEST_CASE("uniform sphere and hemisphere: densities integrate to 1 and match the
     INFO(r2.message);
     CHECK(r2.passed);
     CHECK(integral == doctest::Approx(1.0).epsilon(1e-6));
+}
+
+TEST_CASE("equal-area map: uniform square points are uniform directions, and it inverts") {
+    // Equal area: the square's uniform points must land uniformly on the sphere.
+    auto r = sphereChi2([](float u0, float u1) { return equalAreaSquareToSphere(u0, u1); },
+                        [](Vec3) { return uniformSpherePdf(); }, 300000, 21);
+    INFO(r.message);
+    CHECK(r.passed);
+    // pbrt-v4's layout (Clarberg): the centre is +z, the corners -z, the edges' midpoints the
+    // horizon's axes, u toward +x and v toward +y; a mirrored or rotated map fails here.
+    struct Pin {
+        float s, t, x, y, z;
+    };
+    for (const Pin& p : {Pin{0.5f, 0.5f, 0, 0, 1}, Pin{0.f, 0.f, 0, 0, -1}, Pin{1.f, 1.f, 0, 0, -1},
+                         Pin{1.f, 0.5f, 1, 0, 0}, Pin{0.f, 0.5f, -1, 0, 0}, Pin{0.5f, 1.f, 0, 1, 0},
+                         Pin{0.5f, 0.f, 0, -1, 0}, Pin{0.75f, 0.75f, 0.7071068f, 0.7071068f, 0}}) {
+        CAPTURE(p.s);
+        CAPTURE(p.t);
+        const Vec3 w = equalAreaSquareToSphere(p.s, p.t);
+        CHECK(w.x == doctest::Approx(p.x).epsilon(1e-6));
+        CHECK(w.y == doctest::Approx(p.y).epsilon(1e-6));
+        CHECK(w.z == doctest::Approx(p.z).epsilon(1e-6));
+    }
+    // z = 1 - r^2 north of the equator, r = |u| + |v| in [-1,1]^2.
+    CHECK(equalAreaSquareToSphere(0.6f, 0.55f).z == doctest::Approx(1.0 - 0.3 * 0.3).epsilon(1e-6));
+    // Round trip over a grid that avoids the seams, every direction of unit length.
+    double worst = 0.0;
+    for (int i = 0; i < 101; ++i)
+        for (int j = 0; j < 101; ++j) {
+            const float s = (float(i) + 0.37f) / 101.f, t = (float(j) + 0.61f) / 101.f;
+            const Vec3 w = equalAreaSquareToSphere(s, t);
+            CHECK(std::fabs(vlength2(w) - 1.f) < 1e-5f);
+            float s2, t2;
+            equalAreaSphereToSquare(w, &s2, &t2);
+            worst = std::max({worst, double(std::fabs(s2 - s)), double(std::fabs(t2 - t))});
+        }
+    CHECK(worst < 2e-6);
+}
+
+TEST_CASE("tabulated CDF: each interval with its probability, empty ones never") {
+    // Weights 0, 2, 0, 0, 1, 5, 0 (the last and the first empty).
+    const std::vector<float> cdf{0.f, 0.f, 0.25f, 0.25f, 0.25f, 0.375f, 1.f, 1.f};
+    const int count = int(cdf.size()) - 1;
+    std::vector<double> observed(size_t(count), 0.0), expected(size_t(count), 0.0);
+    Uniform u(22);
+    constexpr int kSamples = 200000;
+    double withinSum = 0.0;
+    for (int i = 0; i < kSamples; ++i) {
+        float within = -1.f;
+        const int k = sampleCdf(cdf.data(), count, u(), &within);
+        REQUIRE(k >= 0);
+        REQUIRE(k < count);
+        CHECK(cdf[size_t(k) + 1] > cdf[size_t(k)]);
+        CHECK(within >= 0.f);
+        CHECK(within < 1.f);
+        observed[size_t(k)] += 1.0;
+        withinSum += within;
+    }
+    for (int k = 0; k < count; ++k)
+        expected[size_t(k)] = double(cdf[size_t(k) + 1] - cdf[size_t(k)]) * kSamples;
+    // chi2Test needs expected counts > 0: compare the non-empty intervals.
+    std::vector<double> o, e;
+    for (int k = 0; k < count; ++k)
+        if (expected[size_t(k)] > 0.0) {
+            o.push_back(observed[size_t(k)]);
+            e.push_back(expected[size_t(k)]);
+        } else {
+            CHECK(observed[size_t(k)] == 0.0);
+        }
+    auto r = cbtest::chi2Test(o, e, kLevel);
+    INFO(r.message);
+    CHECK(r.passed);
+    // The position within the interval is uniform: mean 1/2 (standard error 0.29 / sqrt(n)).
+    CHECK(withinSum / kSamples == doctest::Approx(0.5).epsilon(0.01));
+    // The edges: u = 0 skips the empty first interval, u just below 1 the empty last one, and a
+    // value on a boundary belongs to the interval it starts.
+    float within = 0.f;
+    CHECK(sampleCdf(cdf.data(), count, 0.f, &within) == 1);
+    CHECK(within == 0.f);
+    CHECK(sampleCdf(cdf.data(), count, 0.99999994f, &within) == 5);
+    CHECK(sampleCdf(cdf.data(), count, 0.25f, &within) == 4);
+    CHECK(sampleCdf(cdf.data(), count, 0.375f, &within) == 5);
 }
 
 TEST_CASE("uniform triangle: barycentrics uniform by area, continuous across the diagonal") {

@@ -9,6 +9,7 @@
 #include <ImfInputFile.h>
 #include <ImfIntAttribute.h>
 #include <ImfOutputFile.h>
+#include <ImfStandardAttributes.h>
 #include <ImfStdIO.h>
 #include <ImfStringAttribute.h>
 #include <png.h>
@@ -23,6 +24,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <stdexcept>
 #include <unistd.h>
 
@@ -120,6 +122,93 @@ bool readExrLayer(const std::string& path, const std::string& layer, RgbImage& o
     } catch (const std::exception& e) {
         throw std::runtime_error("cannot read " + path + ": " + e.what());
     }
+}
+
+namespace {
+
+// The EXR's primaries and white point, if the header gives them and they are not sRGB's (Rec.
+// 709 primaries, D65 white): pbrt-v4 reads such a file in its own colour space.
+std::optional<std::string> nonSrgbChromaticities(const std::string& path) {
+    Imf::InputFile file(path.c_str());
+    if (!Imf::hasChromaticities(file.header())) return std::nullopt;
+    const Imf::Chromaticities c = Imf::chromaticities(file.header());
+    const Imf::Chromaticities srgb; // OpenEXR's default: Rec. 709 with D65
+    const Imath::V2f given[4] = {c.red, c.green, c.blue, c.white};
+    const Imath::V2f expected[4] = {srgb.red, srgb.green, srgb.blue, srgb.white};
+    for (int i = 0; i < 4; ++i)
+        if (std::fabs(given[i].x - expected[i].x) > 1e-3f ||
+            std::fabs(given[i].y - expected[i].y) > 1e-3f)
+            return fmt::format("red ({}, {}) green ({}, {}) blue ({}, {}) white ({}, {})", c.red.x,
+                               c.red.y, c.green.x, c.green.y, c.blue.x, c.blue.y, c.white.x,
+                               c.white.y);
+    return std::nullopt;
+}
+
+// The sRGB transfer function's inverse (IEC 61966-2-1).
+float srgbToLinear(float v) {
+    return v <= 0.04045f ? v / 12.92f : std::pow((v + 0.055f) / 1.055f, 2.4f);
+}
+
+RgbImage readPng(const std::string& path) {
+    png_image png{};
+    png.version = PNG_IMAGE_VERSION;
+    if (!png_image_begin_read_from_file(&png, path.c_str()))
+        throw std::runtime_error("cannot read " + path + ": " + png.message);
+    // 8-bit files stay sRGB-encoded and are decoded exactly below, as pbrt-v4 decodes them;
+    // 16-bit files come linear (libpng applies their gamma), with alpha premultiplied.
+    const bool sixteenBit = (png.format & PNG_FORMAT_FLAG_LINEAR) != 0;
+    const bool alpha = (png.format & PNG_FORMAT_FLAG_ALPHA) != 0;
+    png.format = sixteenBit ? (alpha ? PNG_FORMAT_LINEAR_RGB_ALPHA : PNG_FORMAT_LINEAR_RGB)
+                            : (alpha ? PNG_FORMAT_RGBA : PNG_FORMAT_RGB);
+    const int channels = alpha ? 4 : 3;
+    RgbImage out(int(png.width), int(png.height));
+    const size_t count = size_t(png.width) * size_t(png.height);
+    bool ok;
+    if (sixteenBit) {
+        std::vector<png_uint_16> data(count * size_t(channels));
+        ok = png_image_finish_read(&png, nullptr, data.data(), 0, nullptr) != 0;
+        for (size_t i = 0; ok && i < count; ++i) {
+            const float a = alpha ? float(data[i * 4 + 3]) : 65535.f;
+            for (size_t c = 0; c < 3; ++c)
+                out.rgb[i * 3 + c] = a > 0.f ? float(data[i * size_t(channels) + c]) / a : 0.f;
+        }
+    } else {
+        std::vector<png_byte> data(count * size_t(channels));
+        ok = png_image_finish_read(&png, nullptr, data.data(), 0, nullptr) != 0;
+        for (size_t i = 0; ok && i < count; ++i)
+            for (size_t c = 0; c < 3; ++c)
+                out.rgb[i * 3 + c] = srgbToLinear(float(data[i * size_t(channels) + c]) / 255.f);
+    }
+    if (!ok) {
+        const std::string message = png.message;
+        png_image_free(&png);
+        throw std::runtime_error("cannot read " + path + ": " + message);
+    }
+    return out;
+}
+
+} // namespace
+
+RgbImage readRgbImage(const std::string& path) {
+    std::string extension = std::filesystem::path(path).extension().string();
+    std::transform(extension.begin(), extension.end(), extension.begin(),
+                   [](unsigned char c) { return char(std::tolower(c)); });
+    if (extension == ".png") return readPng(path);
+    if (extension != ".exr")
+        throw std::runtime_error("cannot read " + path + ": cbdpt reads OpenEXR (.exr) and PNG " +
+                                 "(.png) images, not \"" + extension + "\" files");
+    RgbImage image = readExr(path);
+    std::optional<std::string> primaries;
+    try {
+        primaries = nonSrgbChromaticities(path);
+    } catch (const std::exception& e) {
+        throw std::runtime_error("cannot read " + path + ": " + e.what());
+    }
+    if (primaries)
+        throw std::runtime_error("cannot use " + path + ": its chromaticities (" + *primaries +
+                                 ") are not sRGB's; cbdpt reads images in sRGB (Rec. 709 " +
+                                 "primaries, D65 white) only");
+    return image;
 }
 
 ExrAttributes readExrAttributes(const std::string& path) {

@@ -43,6 +43,10 @@ void writeExr(const std::string& path, const std::vector<ExrLayer>& layers,
 RgbImage readExr(const std::string& path);
 // Reads layer `name` ("" for R, G, B); false if the file lacks any of its three channels.
 bool readExrLayer(const std::string& path, const std::string& name, RgbImage& out);
+// A linear RGB image from an OpenEXR file (R, G, B channels; sRGB primaries, or none given) or a
+// PNG (8-bit sRGB-encoded, decoded; 16-bit by its gamma; alpha ignored): what pbrt-v4's image
+// lights read. std::runtime_error naming the file otherwise.
+RgbImage readRgbImage(const std::string& path);
 // The header's string, int and double attributes (others, e.g. OpenEXR's own, are skipped).
 ExrAttributes readExrAttributes(const std::string& path);
 

@@ -10,11 +10,18 @@ SceneBuffers::SceneBuffers(ClRuntime& runtime, const DeviceScene& scene)
       materials(uploadArray(runtime, "scene materials", scene.materials)),
       lights(uploadArray(runtime, "scene lights", scene.lights)),
       spectra(uploadArray(runtime, "scene spectra", scene.spectra)),
+      lightTables(uploadArray(runtime, "image lights' sampling tables", scene.lightTables)),
       toRgb(uploadArray(runtime, "spectrum-to-RGB matrix", scene.toRgb)),
       lightCount(int(scene.lights.size())) {}
 
 void SceneBuffers::addKernelArguments(KernelArguments& args) const {
-    args.add(nodes).add(packs).add(primitives).add(materials).add(lights).add(spectra);
+    args.add(nodes)
+        .add(packs)
+        .add(primitives)
+        .add(materials)
+        .add(lights)
+        .add(spectra)
+        .add(lightTables);
     args.add(lightCount);
 }
 

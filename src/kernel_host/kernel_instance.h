@@ -121,6 +121,9 @@ template <class Visit> void forEachField(cbk::Light& s, Visit&& visit) {
     visit(s.spotCosEnd);
     visit(s.axis);
     visit(s.sceneRadius);
+    visit(s.worldFromLight);
+    visit(s.imageSize);
+    visit(s.imageTable);
 }
 template <class Visit> void forEachField(cbk::Camera& s, Visit&& visit) {
     visit(s.cameraToWorld);
@@ -206,6 +209,7 @@ struct HostScene {
     std::vector<cbk::Material> materials;
     std::vector<cbk::Light> lights;
     std::vector<cbk::real> spectra;
+    std::vector<cbk::real> lightTables;
     std::vector<cbk::real> toRgb; // 3 x CB_CHANNELS
     cbk::Camera camera{};
     cbk::SceneView view{}; // points into the vectors above
@@ -227,6 +231,7 @@ struct HostScene {
             loadSceneArray<cbk::Light>(scene.lights, scene.lightCount, scene.lightBytes, "Light");
         camera = loadSceneArray<cbk::Camera>(scene.camera, 1, scene.cameraBytes, "Camera")[0];
         spectra.assign(scene.spectra, scene.spectra + scene.spectraCount);
+        lightTables.assign(scene.lightTables, scene.lightTables + scene.lightTableCount);
         toRgb.assign(scene.toRgb, scene.toRgb + 3 * CB_CHANNELS);
         view.nodes = nodes.data();
         view.packs = packs.data();
@@ -234,6 +239,7 @@ struct HostScene {
         view.materials = materials.data();
         view.lights = lights.data();
         view.spectra = spectra.data();
+        view.lightTables = lightTables.data();
         view.lightCount = int(lights.size());
     }
     HostScene(const HostScene&) = delete;

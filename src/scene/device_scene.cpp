@@ -17,7 +17,7 @@ namespace cb {
 
 static_assert(sizeof(cbk::Primitive) == 48, "Primitive must match the OpenCL layout");
 static_assert(sizeof(cbk::Material) == 56, "Material must match the OpenCL layout");
-static_assert(sizeof(cbk::Light) == 64, "Light must match the OpenCL layout");
+static_assert(sizeof(cbk::Light) == 108, "Light must match the OpenCL layout");
 static_assert(sizeof(cbk::Camera) == 128, "Camera must match the OpenCL layout");
 
 namespace {
@@ -80,6 +80,47 @@ class SpectraTable {
     int channels_;
     std::vector<float>& data_;
 };
+
+// An image light's pixels as emission entries (pixel p at the returned index + p, negative
+// components clamped to zero as pbrt-v4's ImageLe clamps them) and its sampling tables appended
+// to `tables` (cb_lights.h, imageLightPixelPdf): each row's CDF over its pixels and the CDF over
+// rows, by the entries' mean, accumulated in double. *meanRadiance: the mean over pixels.
+int addImageLight(const InfiniteLightDesc& il, SpectraTable& spectra, std::vector<float>& tables,
+                  double& meanRadiance) {
+    const size_t n = size_t(il.imageSize);
+    int first = -1;
+    std::vector<double> weight(n * n);
+    for (size_t p = 0; p < n * n; ++p) {
+        SpectrumValue rgb;
+        for (size_t c = 0; c < 3; ++c)
+            rgb.rgb[c] = std::max(il.imageRgb[3 * p + c], 0.f);
+        const int entry = spectra.addEmission(rgb, il.scale, il.where);
+        if (first < 0) first = entry;
+        weight[p] = spectra.average(entry);
+    }
+    // A CDF of `count` weights, rounded to float with its last value exactly 1; uniform when
+    // every weight is zero (those intervals are then never chosen through the row CDF).
+    auto appendCdf = [&](const double* w, size_t count) {
+        const double total = std::accumulate(w, w + count, 0.0);
+        double running = 0.0;
+        tables.push_back(0.f);
+        for (size_t i = 0; i < count; ++i) {
+            running += total > 0.0 ? w[i] : 1.0;
+            tables.push_back(float(running / (total > 0.0 ? total : double(count))));
+        }
+        tables.back() = 1.f;
+    };
+    std::vector<double> rowSums(n);
+    for (size_t y = 0; y < n; ++y)
+        rowSums[y] = std::accumulate(&weight[y * n], &weight[y * n] + n, 0.0);
+    if (!tables.empty())
+        throw std::logic_error("addImageLight: one image light, its tables at offset 0");
+    appendCdf(rowSums.data(), n);
+    for (size_t y = 0; y < n; ++y)
+        appendCdf(&weight[y * n], n);
+    meanRadiance = std::accumulate(rowSums.begin(), rowSums.end(), 0.0) / double(n * n);
+    return first;
+}
 
 // The camera position in world space (double), used as the origin of the device scene.
 std::array<double, 3> cameraPosition(const SceneDesc& desc) {
@@ -474,8 +515,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
     // Distant lights: their subpaths start on a disk of the bounding sphere of the geometry
     // (pbrt-v4's sceneBounds.BoundingSphere), whose area also gives their power, pi R^2 L.
     // A light at infinity (distant, infinite): kind, emission and the bounding sphere.
-    auto lightAtInfinity = [&](int kind, const SpectrumValue& radiance, float scale,
-                               const SourceLocation& where) {
+    auto lightAtInfinity = [&](int kind, int emission, const SourceLocation& where) {
         if (!(lo[0] <= hi[0]))
             throw SceneError(where, "a distant or infinite light needs geometry to light (the "
                                     "scene has no shapes)");
@@ -488,7 +528,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         cbk::Light light{};
         light.kind = kind;
         light.primitive = -1;
-        light.emission = spectra.addEmission(radiance, scale, where);
+        light.emission = emission;
         toDevice(centre, light.position);
         // Rounded up, so that the float sphere still holds the geometry; never 0 (a flat scene
         // seen edge-on still needs a disk).
@@ -497,7 +537,8 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         return light;
     };
     for (const auto& dl : desc.distantLights) {
-        cbk::Light light = lightAtInfinity(CB_LIGHT_DISTANT, dl.radiance, dl.scale, dl.where);
+        cbk::Light light = lightAtInfinity(
+            CB_LIGHT_DISTANT, spectra.addEmission(dl.radiance, dl.scale, dl.where), dl.where);
         for (size_t a = 0; a < 3; ++a)
             light.axis[a] = float(dl.direction[a]);
         lightPower.push_back(spectra.average(light.emission) * M_PI * double(light.sceneRadius) *
@@ -506,13 +547,29 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         scene.features |= CB_FEATURE_DISTANT_LIGHT;
     }
     // The infinite light is the last light (the kernels find it there, cb_types.h); its power
-    // is pbrt-v4's UniformInfiniteLight::Phi, 4 pi^2 R^2 L.
+    // is pbrt-v4's UniformInfiniteLight::Phi and ImageInfiniteLight::Phi, 4 pi^2 R^2 times the
+    // mean radiance over directions.
     if (desc.infiniteLights.size() > 1)
         throw SceneError(desc.infiniteLights[1].where, "cbdpt supports one infinite light");
     for (const auto& il : desc.infiniteLights) {
-        cbk::Light light = lightAtInfinity(CB_LIGHT_INFINITE, il.radiance, il.scale, il.where);
-        lightPower.push_back(spectra.average(light.emission) * 4.0 * M_PI * M_PI *
-                             double(light.sceneRadius) * light.sceneRadius);
+        double meanRadiance = 0.0;
+        int emission = 0;
+        if (il.imageSize > 0) {
+            emission = addImageLight(il, spectra, scene.lightTables, meanRadiance);
+            scene.features |= CB_FEATURE_IMAGE_LIGHT;
+        } else {
+            emission = spectra.addEmission(il.radiance, il.scale, il.where);
+            meanRadiance = spectra.average(emission);
+        }
+        cbk::Light light = lightAtInfinity(CB_LIGHT_INFINITE, emission, il.where);
+        if (il.imageSize > 0) {
+            light.imageSize = il.imageSize;
+            light.imageTable = 0;
+            for (size_t i = 0; i < 9; ++i)
+                light.worldFromLight[i] = float(il.worldFromLight[i]);
+        }
+        lightPower.push_back(meanRadiance * 4.0 * M_PI * M_PI * double(light.sceneRadius) *
+                             light.sceneRadius);
         scene.lights.push_back(light);
         scene.features |= CB_FEATURE_INFINITE_LIGHT;
     }
@@ -595,6 +652,7 @@ std::string DeviceScene::featureNames() const {
     add(CB_FEATURE_SPOT_LIGHT, "spot-light");
     add(CB_FEATURE_DISTANT_LIGHT, "distant-light");
     add(CB_FEATURE_INFINITE_LIGHT, "infinite-light");
+    add(CB_FEATURE_IMAGE_LIGHT, "image-light");
     add(CB_FEATURE_THIN_LENS, "thin-lens");
     names += channels == 16 ? " spectral-16" : " rgb";
     return names;
@@ -618,6 +676,8 @@ SceneBytes sceneBytes(const DeviceScene& scene) {
     raw.lightCount = scene.lights.size();
     raw.lightBytes = sizeof(cbk::Light);
     raw.spectra = scene.spectra.data();
+    raw.lightTables = scene.lightTables.data();
+    raw.lightTableCount = scene.lightTables.size();
     raw.spectraCount = scene.spectra.size();
     raw.toRgb = scene.toRgb.data();
     raw.camera = &scene.camera;

@@ -26,8 +26,9 @@ struct DeviceScene {
     std::string wideSettingsWhy;  // and the estimates that chose them (describeChoice)
     std::vector<cbk::Material> materials;
     std::vector<cbk::Light> lights;
-    std::vector<float> spectra; // `channels` floats per entry
-    std::vector<float> toRgb;   // 3 x channels, row-major: linear sRGB from channels
+    std::vector<float> spectra;     // `channels` floats per entry
+    std::vector<float> lightTables; // image lights' sampling tables (cb_lights.h)
+    std::vector<float> toRgb;       // 3 x channels, row-major: linear sRGB from channels
     cbk::Camera camera{};
     // Device coordinates are world coordinates minus this point (the camera position, clamped
     // to the scene's bounds): see buildDeviceScene.

@@ -5,6 +5,7 @@
 // orientation, material, area light) saved and restored by AttributeBegin/AttributeEnd. Unlike
 // pbrt, nothing is ever ignored with a warning: anything outside the subset is a SceneError
 // that points at the offending token.
+#include "image/image.h"
 #include "io/files.h"
 #include "scene/ply.h"
 #include "scene/scene_desc.h"
@@ -29,6 +30,8 @@
 #include <string_view>
 
 #include <fmt/format.h>
+
+#include "cb_sampling.h"
 
 namespace cb {
 namespace {
@@ -1854,26 +1857,41 @@ class Parser {
         scene_.distantLights.push_back(std::move(l));
     }
 
-    // pbrt-v4's UniformInfiniteLight (Light::Create, "infinite" without an image): L normalised
-    // to luminance 1, times scale, times illuminance / pi where given (the illuminance of the
-    // upper hemisphere on an upward-facing surface).
+    // pbrt-v4's infinite light (Light::Create): UniformInfiniteLight, L normalised to luminance
+    // 1, or with "string filename" ImageInfiniteLight, its RGB pixels emitting as "rgb L" does;
+    // times scale, times illuminance over the light's illuminance at an upward-facing surface
+    // (+z in the light's frame) where given.
     void infiniteLight(const Token& t) {
         ParamList pl = params("LightSource \"infinite\"", "light");
-        for (const char* name : {"filename", "portal"})
-            if (const Param* p = pl.peek(name))
-                throw SceneError(p->where,
-                                 "LightSource \"infinite\" with " + p->decl() +
-                                     " is not supported: cbdpt renders a constant environment "
-                                     "only, given as \"rgb L\" or \"spectrum L\" (with "
-                                     "\"float scale\" or \"float illuminance\")");
+        if (const Param* p = pl.peek("portal"))
+            throw SceneError(p->where, "LightSource \"infinite\" with " + p->decl() +
+                                           " is not supported: cbdpt renders a constant "
+                                           "environment or an image, without portals");
         InfiniteLightDesc l;
         l.where = t.where;
+        const Param* fileParam = pl.peek("filename");
+        const std::string file = fileParam ? *pl.oneString("filename") : std::string();
+        if (!file.empty()) {
+            if (const Param* p = pl.peek("L"))
+                throw SceneError(p->where, "LightSource \"infinite\" takes \"L\" or \"string "
+                                           "filename\", not both (as pbrt-v4)");
+            readEnvironmentImage(file, fileParam->valueLoc(0), l);
+            l.worldFromLight = rotationOfCtm(t.where);
+        }
         if (auto v = pl.spectrum("L", SpectrumRole::Emission)) l.radiance = *v;
-        double scale = scaleParam(pl) / photometric(l.radiance, pl.peek("L"));
+        double scale =
+            scaleParam(pl) / (l.imageSize > 0 ? 1.0 : photometric(l.radiance, pl.peek("L")));
         if (const Param* p = pl.peek("illuminance")) {
             const double e = *pl.oneFloat("illuminance");
             if (e < 0.0) throw SceneError(p->where, "\"float illuminance\" must be >= 0");
-            if (e > 0.0) scale *= e / M_PI; // pbrt-v4 ignores values <= 0
+            // pbrt-v4 ignores values <= 0; a constant sky of luminance 1 gives pi.
+            const double unitIlluminance = l.imageSize > 0 ? imageIlluminance(l) : M_PI;
+            if (e > 0.0 && !(unitIlluminance > 0.0))
+                throw SceneError(p->where, "\"float illuminance\" " + fmt::format("{:g}", e) +
+                                               ": the image \"" + l.imagePath +
+                                               "\" sends no light to an upward-facing surface "
+                                               "(+z in the light's frame) to scale");
+            if (e > 0.0) scale *= e / unitIlluminance;
         }
         l.scale = static_cast<float>(scale);
         pl.finish();
@@ -1882,6 +1900,88 @@ class Parser {
                                       "(the first is at " +
                                           scene_.infiniteLights[0].where.str() + ")");
         scene_.infiniteLights.push_back(std::move(l));
+    }
+
+    // The image of pbrt-v4's ImageInfiniteLight: square (its equal-area map), finite values.
+    void readEnvironmentImage(const std::string& file, const SourceLocation& where,
+                              InfiniteLightDesc& l) {
+        const std::vector<std::string> candidates = nearbyPaths(file);
+        auto found = std::find_if(candidates.begin(), candidates.end(),
+                                  [](const std::string& c) { return fs::is_regular_file(c); });
+        if (found == candidates.end()) {
+            std::string tried;
+            for (const std::string& c : candidates)
+                tried += " " + c;
+            throw SceneError(where, "no image file \"" + file + "\" (tried" + tried + ")");
+        }
+        RgbImage image;
+        try {
+            image = readRgbImage(*found);
+        } catch (const std::exception& e) {
+            throw SceneError(where, e.what());
+        }
+        if (image.width != image.height || image.width < 1)
+            throw SceneError(where, fmt::format("the infinite light's image {} is {} x {}; "
+                                                "pbrt-v4's equal-area environment maps are "
+                                                "square",
+                                                *found, image.width, image.height));
+        for (size_t i = 0; i < image.rgb.size(); ++i)
+            if (!std::isfinite(image.rgb[i]))
+                throw SceneError(where, fmt::format("the infinite light's image {} has a {} at "
+                                                    "pixel ({}, {}); a light needs finite values",
+                                                    *found, image.rgb[i], (i / 3) % image.width,
+                                                    (i / 3) / image.width));
+        scene_.sourceFiles.push_back(*found);
+        l.imagePath = *found;
+        l.imageSize = image.width;
+        l.imageRgb = std::move(image.rgb);
+    }
+
+    // The image's illuminance at a surface facing +z in the light's frame, per unit scale:
+    // luminance times cos theta over the pixels whose centre lies above the horizon, each pixel
+    // 4 pi / N^2 sr. (pbrt-v4 weighs each pixel 2 pi / N^2, which makes its image lights twice
+    // as bright as the illuminance they are given.)
+    static double imageIlluminance(const InfiniteLightDesc& l) {
+        const int n = l.imageSize;
+        double sum = 0.0;
+        for (int y = 0; y < n; ++y)
+            for (int x = 0; x < n; ++x) {
+                const cbk::Vec3 w = cbk::equalAreaSquareToSphere((float(x) + 0.5f) / float(n),
+                                                                 (float(y) + 0.5f) / float(n));
+                if (!(w.z > 0.f)) continue;
+                const float* rgb = &l.imageRgb[3 * (size_t(y) * size_t(n) + size_t(x))];
+                sum += (0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2]) * double(w.z);
+            }
+        return sum * 4.0 * M_PI / (double(n) * double(n));
+    }
+
+    // The CTM's linear part with its uniform scale divided out: directions in a light's frame
+    // go to world by a rotation (a mirror allowed), which keeps the image map equal-area.
+    std::array<double, 9> rotationOfCtm(const SourceLocation& where) const {
+        requireAffine(where);
+        const Mat4& m = state_.ctm;
+        std::array<double, 3> norms{};
+        for (int c = 0; c < 3; ++c)
+            norms[size_t(c)] = std::sqrt(m(0, c) * m(0, c) + m(1, c) * m(1, c) + m(2, c) * m(2, c));
+        const double scale = norms[0];
+        bool similarity = scale > 0.0 && std::isfinite(scale);
+        for (int a = 0; a < 3 && similarity; ++a)
+            for (int b = 0; b < 3; ++b) {
+                double dot = 0.0;
+                for (int r = 0; r < 3; ++r)
+                    dot += m(r, a) * m(r, b);
+                if (std::fabs(dot - (a == b ? scale * scale : 0.0)) > 1e-6 * scale * scale)
+                    similarity = false;
+            }
+        if (!similarity)
+            throw SceneError(where, "the infinite light's transform (the CTM at its LightSource) "
+                                    "must be a rotation, optionally with a mirror or a uniform "
+                                    "scale: it maps the image's directions to world");
+        std::array<double, 9> r{};
+        for (int row = 0; row < 3; ++row)
+            for (int c = 0; c < 3; ++c)
+                r[size_t(row * 3 + c)] = m(row, c) / scale;
+        return r;
     }
 
     void requireAffine(const SourceLocation& where) const {

@@ -22,6 +22,8 @@ struct SceneBytes {
     std::size_t lightCount, lightBytes;
     const float* spectra;
     std::size_t spectraCount;
+    const float* lightTables;
+    std::size_t lightTableCount;
     const float* toRgb; // 3 x channels
     const void* camera;
     std::size_t cameraBytes;

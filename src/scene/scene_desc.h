@@ -145,10 +145,20 @@ struct DistantLightDesc {
     SourceLocation where;
 };
 
-// LightSource "infinite" with a constant L: radiance L * scale from every direction.
+// LightSource "infinite": radiance L * scale from every direction, or with "string filename"
+// pbrt-v4's ImageInfiniteLight: the image's pixel (RGB emission times scale) seen in each
+// direction through pbrt-v4's equal-area octahedral map, in the light's frame.
 struct InfiniteLightDesc {
     SpectrumValue radiance = SpectrumValue::constant(1.f); // "L"
     float scale = 1.f;
+    // The image: linear RGB, imageSize x imageSize, row-major, top row first (pbrt-v4's v = 0);
+    // imageSize 0 for a constant L.
+    int imageSize = 0;
+    std::vector<float> imageRgb;
+    std::string imagePath;
+    // The rotation from the light's frame to world, row-major: the CTM at the LightSource with
+    // its uniform scale divided out.
+    std::array<double, 9> worldFromLight{1, 0, 0, 0, 1, 0, 0, 0, 1};
     SourceLocation where;
 };
 

@@ -1,0 +1,351 @@
+// pbrt-v4's image infinite light (LightSource "infinite" "string filename"): the image read from
+// EXR and PNG, its frame, its sampling tables and densities, and every method's image of a
+// diffuse plane under it against the irradiance integrated here (docs/pbrt-v4.md).
+#include <doctest/doctest.h>
+
+#include "cb_lights.h"
+#include "chi2.h"
+#include "image/image.h"
+#include "method_checks.h"
+#include "scene/scene_desc.h"
+#include "test_render_util.h"
+
+#include <ImfChannelList.h>
+#include <ImfFrameBuffer.h>
+#include <ImfHeader.h>
+#include <ImfOutputFile.h>
+#include <ImfStandardAttributes.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <string>
+#include <unistd.h>
+#include <vector>
+
+using cb::parseSceneString;
+using cb::SceneError;
+using namespace cbtest::method_checks;
+namespace fs = std::filesystem;
+
+namespace {
+
+fs::path tempDir() {
+    const fs::path d =
+        fs::temp_directory_path() / ("cbdpt-image-light-" + std::to_string(::getpid()));
+    fs::create_directories(d);
+    return d;
+}
+
+// Removes tempDir() when a test case ends, passed or not.
+struct TempDirCleanup {
+    ~TempDirCleanup() {
+        std::error_code ignored;
+        fs::remove_all(tempDir(), ignored);
+    }
+};
+
+// An image whose pixel (x, y) is value(x, y, channel), written as EXR.
+template <class Value> std::string writeImage(const std::string& name, int w, int h, Value value) {
+    cb::RgbImage image(w, h);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+            for (int c = 0; c < 3; ++c)
+                image.rgb[3 * size_t(y * w + x) + size_t(c)] = value(x, y, c);
+    const std::string path = (tempDir() / name).string();
+    cb::writeExr(path, image);
+    return path;
+}
+
+// A scene in the temporary folder (so that relative image names resolve there).
+cb::SceneDesc parseInTemp(const std::string& text) {
+    return parseSceneString(text, (tempDir() / "t.pbrt").string());
+}
+
+std::string errorOf(const std::string& text) {
+    try {
+        parseInTemp(text);
+    } catch (const SceneError& e) {
+        return e.what();
+    }
+    return "";
+}
+
+bool contains(const std::string& s, const std::string& part) {
+    return s.find(part) != std::string::npos;
+}
+
+} // namespace
+
+TEST_CASE("pbrt-v4 image light: the image, its frame, its normalisation, and what is refused") {
+    TempDirCleanup cleanup;
+    writeImage("ramp.exr", 4, 4, [](int x, int y, int c) { return float(10 * y + x) + 0.25f * c; });
+    auto s = parseInTemp("WorldBegin\nAttributeBegin\nRotate -90 1 0 0\nLightSource \"infinite\" "
+                         "\"string filename\" \"ramp.exr\" \"float scale\" 2\nAttributeEnd\n");
+    REQUIRE(s.infiniteLights.size() == 1);
+    const cb::InfiniteLightDesc& l = s.infiniteLights[0];
+    CHECK(l.imageSize == 4);
+    REQUIRE(l.imageRgb.size() == 48);
+    CHECK(l.imageRgb[3 * (2 * 4 + 3) + 1] == 23.25f); // pixel (3, 2), green; top row first
+    CHECK(l.scale == 2.f);
+    CHECK(contains(l.imagePath, "ramp.exr"));
+    CHECK(std::count(s.sourceFiles.begin(), s.sourceFiles.end(), l.imagePath) == 1);
+    // Rotate -90 about x takes the map's +z to world +y and its +y to world -z.
+    const std::array<double, 9> expected{1, 0, 0, 0, 0, 1, 0, -1, 0};
+    for (size_t i = 0; i < 9; ++i)
+        CHECK(l.worldFromLight[i] == doctest::Approx(expected[i]).epsilon(1e-12));
+    // A mirror with a uniform scale is a rotation's equal: the scale is divided out.
+    s = parseInTemp("WorldBegin\nScale -2 2 2\nLightSource \"infinite\" \"string filename\" "
+                    "\"ramp.exr\"\n");
+    CHECK(s.infiniteLights[0].worldFromLight[0] == doctest::Approx(-1.0));
+    CHECK(s.infiniteLights[0].worldFromLight[4] == doctest::Approx(1.0));
+
+    // Illuminance: a constant image of 1 at 4 x 4 has pixel centres above the horizon only in
+    // the inner four (|u| + |v| = 1/2 in [-1,1]^2, so cos = 1 - 1/4), each 4 pi / 16 sr: 3 pi / 4
+    // per unit scale; E = 3 makes the scale 4 / pi.
+    writeImage("one4.exr", 4, 4, [](int, int, int) { return 1.f; });
+    s = parseInTemp("WorldBegin\nLightSource \"infinite\" \"string filename\" \"one4.exr\" "
+                    "\"float illuminance\" 3\n");
+    CHECK(s.infiniteLights[0].scale == doctest::Approx(4.0 / M_PI).epsilon(1e-6));
+    // Finer, the sum tends to the hemisphere's pi.
+    writeImage("one64.exr", 64, 64, [](int, int, int) { return 1.f; });
+    s = parseInTemp("WorldBegin\nLightSource \"infinite\" \"string filename\" \"one64.exr\" "
+                    "\"float illuminance\" 2\n");
+    CHECK(s.infiniteLights[0].scale * M_PI == doctest::Approx(2.0).epsilon(0.02));
+    // At 2 x 2 every centre lies on the horizon: nothing to scale.
+    writeImage("one2.exr", 2, 2, [](int, int, int) { return 1.f; });
+    CHECK(contains(errorOf("WorldBegin\nLightSource \"infinite\" \"string filename\" \"one2.exr\" "
+                           "\"float illuminance\" 2\n"),
+                   "sends no light to an upward-facing surface"));
+
+    // PNG: 8-bit values are sRGB-encoded and decoded exactly.
+    cb::writePng8((tempDir() / "grey.png").string(), 2, 2,
+                  {0, 0, 0, 128, 128, 128, 255, 255, 255, 10, 20, 30});
+    s = parseInTemp("WorldBegin\nLightSource \"infinite\" \"string filename\" \"grey.png\"\n");
+    REQUIRE(s.infiniteLights[0].imageRgb.size() == 12);
+    CHECK(s.infiniteLights[0].imageRgb[0] == 0.f);
+    CHECK(s.infiniteLights[0].imageRgb[3] == doctest::Approx(0.2158605).epsilon(1e-5));
+    CHECK(s.infiniteLights[0].imageRgb[6] == doctest::Approx(1.0).epsilon(1e-6));
+    CHECK(s.infiniteLights[0].imageRgb[9] == doctest::Approx(10.0 / 255 / 12.92).epsilon(1e-5));
+
+    // Refusals, each naming the line and what was expected.
+    const std::string both = errorOf("WorldBegin\n\nLightSource \"infinite\" \"string filename\" "
+                                     "\"ramp.exr\" \"rgb L\" [1 1 1]\n");
+    CHECK(contains(both, ":3:"));
+    CHECK(contains(both, "not both"));
+    const std::string missing =
+        errorOf("WorldBegin\nLightSource \"infinite\" \"string filename\" \"none.exr\"\n");
+    CHECK(contains(missing, ":2:"));
+    CHECK(contains(missing, "no image file \"none.exr\""));
+    writeImage("wide.exr", 4, 2, [](int, int, int) { return 1.f; });
+    CHECK(
+        contains(errorOf("WorldBegin\nLightSource \"infinite\" \"string filename\" \"wide.exr\"\n"),
+                 "is 4 x 2"));
+    writeImage("nan.exr", 2, 2, [](int x, int y, int c) {
+        return x == 1 && y == 0 && c == 2 ? std::nanf("") : 1.f;
+    });
+    const std::string nan =
+        errorOf("WorldBegin\nLightSource \"infinite\" \"string filename\" \"nan.exr\"\n");
+    CHECK(contains(nan, "pixel (1, 0)"));
+    CHECK(contains(nan, "finite"));
+    std::ofstream(tempDir() / "sky.hdr") << "#?RADIANCE\n";
+    CHECK(
+        contains(errorOf("WorldBegin\nLightSource \"infinite\" \"string filename\" \"sky.hdr\"\n"),
+                 "OpenEXR (.exr) and PNG (.png)"));
+    std::ofstream(tempDir() / "broken.exr") << "not an exr";
+    CHECK(contains(errorOf("WorldBegin\nLightSource \"infinite\" \"string filename\" "
+                           "\"broken.exr\"\n"),
+                   "cannot read"));
+    const std::string sheared = errorOf("WorldBegin\nScale 1 2 1\nLightSource \"infinite\" "
+                                        "\"string filename\" \"ramp.exr\"\n");
+    CHECK(contains(sheared, ":3:"));
+    CHECK(contains(sheared, "must be a rotation"));
+    CHECK(contains(errorOf("WorldBegin\nLightSource \"infinite\" \"string filename\" \"ramp.exr\" "
+                           "\"point3 portal\" [0 0 0 1 0 0 1 1 0 0 1 0]\n"),
+                   "portal"));
+
+    // An EXR in another colour space (here Rec. 2020's primaries) is refused.
+    {
+        const std::string path = (tempDir() / "rec2020.exr").string();
+        Imf::Header header(2, 2);
+        Imf::addChromaticities(header, Imf::Chromaticities({0.708f, 0.292f}, {0.170f, 0.797f},
+                                                           {0.131f, 0.046f}, {0.3127f, 0.3290f}));
+        std::vector<float> pixels(4, 1.f);
+        Imf::FrameBuffer fb;
+        for (const char* name : {"R", "G", "B"}) {
+            header.channels().insert(name, Imf::Channel(Imf::FLOAT));
+            fb.insert(name, Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(pixels.data()),
+                                       sizeof(float), 2 * sizeof(float)));
+        }
+        Imf::OutputFile file(path.c_str(), header);
+        file.setFrameBuffer(fb);
+        file.writePixels(2);
+    }
+    const std::string rec2020 =
+        errorOf("WorldBegin\nLightSource \"infinite\" \"string filename\" \"rec2020.exr\"\n");
+    CHECK(contains(rec2020, "not sRGB's"));
+    CHECK(contains(rec2020, "0.708"));
+}
+
+TEST_CASE("pbrt-v4 image light: sampling tables, densities and radiance by pixel") {
+    TempDirCleanup cleanup;
+    // 2 x 2, grey: pixels 1, 0 (top row), 3, 4, times scale 0.5.
+    const float values[4] = {1.f, 0.f, 3.f, 4.f};
+    writeImage("tables.exr", 2, 2, [&](int x, int y, int) { return values[2 * y + x]; });
+    const cb::DeviceScene scene = cb::buildDeviceScene(parseInTemp(
+        "WorldBegin\nLightSource \"infinite\" \"string filename\" \"tables.exr\" \"float scale\" "
+        "0.5\nShape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0]\n"));
+    CHECK(contains(scene.featureNames(), "image-light"));
+    REQUIRE(scene.lights.size() == 1);
+    const cbk::Light& light = scene.lights[0];
+    CHECK(light.kind == CB_LIGHT_INFINITE);
+    CHECK(light.imageSize == 2);
+    // Rows by their sums 1 and 7, then each row's pixels.
+    const std::vector<float> expectedTables{0.f, 0.125f, 1.f, 0.f, 1.f, 1.f, 0.f, 3.f / 7.f, 1.f};
+    REQUIRE(scene.lightTables.size() == expectedTables.size());
+    for (size_t i = 0; i < expectedTables.size(); ++i)
+        CHECK(scene.lightTables[i] == doctest::Approx(expectedTables[i]).epsilon(1e-7));
+    const cbk::SceneView view = cbtest::hostView(scene);
+    double total = 0.0;
+    for (int p = 0; p < 4; ++p) {
+        CAPTURE(p);
+        const double pdf = cbk::imageLightPixelPdf(&view, &light, p);
+        CHECK(pdf == doctest::Approx(values[p] / 8.0 * 4.0 / (4.0 * M_PI)).epsilon(1e-6));
+        total += pdf * 4.0 * M_PI / 4.0; // each pixel covers 4 pi / 4 sr
+        CHECK(scene.spectra[size_t(3 * (light.emission + p))] == 0.5f * values[p]);
+    }
+    CHECK(total == doctest::Approx(1.0).epsilon(1e-6));
+
+    // Sampled directions: never the black pixel, each pixel as often as its share, the density
+    // returned the one evaluated at the direction, the radiance there its pixel's.
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<float> uniform(0.f, 1.f);
+    std::vector<double> observed(4, 0.0);
+    constexpr int kSamples = 40000;
+    for (int i = 0; i < kSamples; ++i) {
+        float pdf = 0.f;
+        const cbk::Vec3 w =
+            cbk::infiniteLightSample(&view, &light, uniform(rng), uniform(rng), &pdf);
+        const int p = cbk::imageLightPixel(&light, w);
+        observed[size_t(p)] += 1.0;
+        CHECK(pdf == cbk::infiniteLightPdf(&view, &light, w));
+        CHECK(cbk::infiniteLightRadiance(&view, &light, w).c[0] == 0.5f * values[p]);
+    }
+    CHECK(observed[1] == 0.0);
+    std::vector<double> o{observed[0], observed[2], observed[3]};
+    std::vector<double> e{kSamples / 8.0, 3 * kSamples / 8.0, 4 * kSamples / 8.0};
+    auto r = cbtest::chi2Test(o, e, 0.01);
+    INFO(r.message);
+    CHECK(r.passed);
+
+    // A constant infinite light keeps the uniform code: no image feature, no tables.
+    const cb::DeviceScene uniformSky = cb::buildDeviceScene(
+        parseInTemp("WorldBegin\nLightSource \"infinite\"\nShape \"trianglemesh\" \"point3 P\" "
+                    "[0 0 0 1 0 0 0 1 0]\n"));
+    CHECK(!contains(uniformSky.featureNames(), "image-light"));
+    CHECK(uniformSky.lightTables.empty());
+}
+
+namespace {
+
+// 16 x 16 sky (map frame): a blue-to-white gradient by elevation, brown ground, and a sun, a 2 x 2
+// block 200 times brighter, so that every method must sample the map by its radiance.
+float skyValue(int x, int y, int c) {
+    const double u = (x + 0.5) / 8.0 - 1.0, v = (y + 0.5) / 8.0 - 1.0;
+    if ((x == 11 || x == 12) && (y == 5 || y == 6)) return c == 2 ? 150.f : 200.f;
+    if (std::fabs(u) + std::fabs(v) > 1.0) return c == 0 ? 0.3f : (c == 1 ? 0.2f : 0.1f);
+    const double t = std::fabs(u) + std::fabs(v);
+    const double zenith[3] = {0.2, 0.4, 1.0}, horizon[3] = {0.9, 0.9, 1.0};
+    return float(zenith[c] * (1 - t) + horizon[c] * t);
+}
+
+// Irradiance at a surface facing the map's +z, per channel: the radiance of each pixel times the
+// integral of cos over its part of the upper hemisphere, by 64 x 64 sub-cells of 4 pi / (16^2
+// 64^2) sr each through the equal-area map.
+std::array<double, 3> skyIrradiance(double scale) {
+    std::array<double, 3> e{};
+    constexpr int kSub = 64;
+    const double cell = 4.0 * M_PI / (256.0 * kSub * kSub);
+    for (int y = 0; y < 16; ++y)
+        for (int x = 0; x < 16; ++x) {
+            double cosSum = 0.0;
+            for (int j = 0; j < kSub; ++j)
+                for (int i = 0; i < kSub; ++i) {
+                    const cbk::Vec3 w = cbk::equalAreaSquareToSphere(
+                        (x + (i + 0.5f) / kSub) / 16.f, (y + (j + 0.5f) / kSub) / 16.f);
+                    cosSum += std::max(0.0, double(w.z));
+                }
+            for (int c = 0; c < 3; ++c)
+                e[size_t(c)] += scale * skyValue(x, y, c) * cosSum * cell;
+        }
+    return e;
+}
+
+} // namespace
+
+// A diffuse plane under the sky map turned so that its +z is world +y: radiance rho E / pi per
+// channel, from escaped rays, next-event estimation by the map's tables, light subpaths from
+// the beam's disk, and their MIS weights.
+TEST_CASE("pbrt-v4 image light: a diffuse plane has radiance rho E / pi, every method" *
+          doctest::test_suite("statistical")) {
+    TempDirCleanup cleanup;
+    writeImage("sky16.exr", 16, 16, skyValue);
+    cb::ClRuntime runtime;
+    const double rho = 0.5, scale = 0.4;
+    const cb::DeviceScene scene = cb::buildDeviceScene(parseInTemp(
+        "LookAt 0 1 0  0 0 0  0 0 1\nCamera \"perspective\" \"float fov\" 60\n"
+        "Film \"rgb\" \"integer xresolution\" 16 \"integer yresolution\" 16\nWorldBegin\n"
+        "AttributeBegin\nRotate -90 1 0 0\nLightSource \"infinite\" \"string filename\" "
+        "\"sky16.exr\" \"float scale\" 0.4\nAttributeEnd\n"
+        "Material \"diffuse\" \"rgb reflectance\" [0.5 0.5 0.5]\n"
+        "Shape \"bilinearmesh\" \"point3 P\" [-10 0 -10  10 0 -10  -10 0 10  10 0 10]\n"));
+    const std::array<double, 3> e = skyIrradiance(scale);
+    const std::array<double, 3> expected{rho * e[0] / M_PI, rho * e[1] / M_PI, rho * e[2] / M_PI};
+    for (const std::string method : kMethods) {
+        CAPTURE(method);
+        checkChannelMeans(channelMeans(scene, runtime, methodSettings(method), 6, 300u), expected,
+                          1e-4);
+    }
+}
+
+// Each of BDPT's three strategies for those paths alone, unweighted, must render the same plane:
+// the eye path's escape (s = 0), next-event estimation by the tables (s = 1) and light tracing
+// from the beam's disk (s = 2, t = 1); then all three under their MIS weights. The plane fills
+// the bounding sphere's disk, so that light tracing is about as good as next-event estimation
+// here and a wrong density in its weights shows.
+TEST_CASE("pbrt-v4 image light: each BDPT strategy alone renders the plane's rho E / pi" *
+          doctest::test_suite("statistical")) {
+    TempDirCleanup cleanup;
+    writeImage("sky16.exr", 16, 16, skyValue);
+    cb::ClRuntime runtime;
+    const double rho = 0.5, scale = 0.4;
+    const cb::DeviceScene scene = cb::buildDeviceScene(parseInTemp(
+        "LookAt 0 1 0  0 0 0  0 0 1\nCamera \"perspective\" \"float fov\" 90\n"
+        "Film \"rgb\" \"integer xresolution\" 16 \"integer yresolution\" 16\nWorldBegin\n"
+        "AttributeBegin\nRotate -90 1 0 0\nLightSource \"infinite\" \"string filename\" "
+        "\"sky16.exr\" \"float scale\" 0.4\nAttributeEnd\n"
+        "Material \"diffuse\" \"rgb reflectance\" [0.5 0.5 0.5]\n"
+        "Shape \"bilinearmesh\" \"point3 P\" [-1 0 -1  1 0 -1  -1 0 1  1 0 1]\n"));
+    const std::array<double, 3> e = skyIrradiance(scale);
+    const std::array<double, 3> expected{rho * e[0] / M_PI, rho * e[1] / M_PI, rho * e[2] / M_PI};
+    for (const auto& [s, t, estimates] :
+         {std::array<int, 3>{0, 3, 16}, std::array<int, 3>{1, 2, 16}, std::array<int, 3>{2, 1, 64},
+          std::array<int, 3>{-1, -1, 16}}) {
+        CAPTURE(s);
+        CAPTURE(t);
+        cb::IntegratorSettings settings = methodSettings("bdpt");
+        settings.debugS = s;
+        settings.debugT = t;
+        checkChannelMeans(channelMeans(scene, runtime, settings, estimates, 400u), expected, 1e-4);
+    }
+}
+
+TEST_CASE("pbrt-v4 image light: BDPT, CBDPT and MLT agree with PT per region" *
+          doctest::test_suite("statistical")) {
+    TempDirCleanup cleanup;
+    const std::string sky = writeImage("sky16.exr", 16, 16, skyValue);
+    checkMethodsAgreeWithPt("AttributeBegin\nRotate -90 1 0 0\nLightSource \"infinite\" "
+                            "\"string filename\" \"" +
+                            sky + "\" \"float scale\" 0.4\nAttributeEnd\n");
+}
