@@ -249,12 +249,12 @@ CB_FN Spectrum bdptLightEmission(const SceneView* scene, const PathVertex* v, Ve
 }
 
 /* Solid-angle density with which bdptLightSubpath emits in unit direction w from light vertex v
- * (cosine-weighted per side; uniform sphere for point lights). For a light at infinity, whose
- * direction is given, the density of the ray's position across the beam instead, 1 / (pi R^2):
- * times |cos| at the vertex the ray reaches, with no distance falloff, it is that vertex's area
- * density (pbrt-v4's Vertex::PdfLight). */
+ * (cosine-weighted per side; for point lights uniform, or a goniometric light's tables). For a
+ * light at infinity, whose direction is given, the density of the ray's position across the beam
+ * instead, 1 / (pi R^2): times |cos| at the vertex the ray reaches, with no distance falloff, it is
+ * that vertex's area density (pbrt-v4's Vertex::PdfLight). */
 CB_FN real bdptLightDirectionPdf(const SceneView* scene, const PathVertex* v, Vec3 w) {
-    if (v->type == CB_VERTEX_POINT_LIGHT) return uniformSpherePdf();
+    if (v->type == CB_VERTEX_POINT_LIGHT) return pointLightDirectionPdf(scene, v->light, w);
     if (pvAtInfinity(v)) {
         real radius = scene->lights[v->light].sceneRadius;
         return 1.0f / (CB_PI * radius * radius);
@@ -459,7 +459,8 @@ CB_FN int bdptLightSubpath(const SceneView* scene, SampleStream stream, int maxV
         return count;
     }
     if (ls.isDelta) {
-        w = sampleUniformSphere(u0, u1);
+        real pdfPointDir;
+        w = pointLightSampleDirection(scene, ls.light, u0, u1, &pdfPointDir);
     } else {
         Vec3 n = ls.n;
         if (scene->lights[ls.light].twoSided && sampleAt(stream, CB_LIGHT_DIM_SIDE) < 0.5f)

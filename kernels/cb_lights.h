@@ -97,6 +97,26 @@ CB_FN real imageLightPixelPdf(const SceneView* scene, CB_GLOBAL const Light* lig
     CB_GLOBAL const real* row = rows + (n + 1) * (1 + y);
     return (rows[y + 1] - rows[y]) * (row[x + 1] - row[x]) * ((real)n * (real)n) * CB_INV_4PI;
 }
+
+/* A unit world direction of the image light by its tables (u1 the row, u0 the pixel in it), a
+ * uniform point of the pixel mapped to the sphere (pbrt-v4's PiecewiseConstant2D::Sample and
+ * EqualAreaSquareToSphere), and *pdf its solid-angle density, evaluated at the direction as for
+ * a direction found otherwise, so that both agree where rounding moves a point across a
+ * pixel's edge. */
+CB_FN Vec3 imageLightSample(const SceneView* scene, CB_GLOBAL const Light* light, real u0, real u1,
+                            real* pdf) {
+    int n = light->imageSize;
+    CB_GLOBAL const real* rows = scene->lightTables + light->imageTable;
+    real dy, dx;
+    int y = sampleCdf(rows, n, u1, &dy);
+    int x = sampleCdf(rows + (n + 1) * (1 + y), n, u0, &dx);
+    Vec3 v = equalAreaSquareToSphere(((real)x + dx) / (real)n, ((real)y + dy) / (real)n);
+    CB_GLOBAL const real* m = light->worldFromLight;
+    Vec3 w = vec3(m[0] * v.x + m[1] * v.y + m[2] * v.z, m[3] * v.x + m[4] * v.y + m[5] * v.z,
+                  m[6] * v.x + m[7] * v.y + m[8] * v.z);
+    *pdf = imageLightPixelPdf(scene, light, imageLightPixel(light, w));
+    return w;
+}
 #endif
 
 /* Radiance the infinite light sends from unit world direction toLight. */
@@ -124,30 +144,46 @@ CB_FN real infiniteLightPdf(const SceneView* scene, CB_GLOBAL const Light* light
     return uniformSpherePdf();
 }
 
-/* A unit direction toward the infinite light and its solid-angle density *pdf: uniform, or for
- * an image a pixel by the tables (u1 the row, u0 the pixel in it), then a uniform point of the
- * pixel mapped to the sphere (pbrt-v4's ImageInfiniteLight::SampleLi with its complete
- * distribution). *pdf is evaluated at the direction, as for a direction found by an escaped
- * ray, so that both agree where rounding moves a point across a pixel's edge. */
+/* A unit direction toward the infinite light and its solid-angle density *pdf: uniform, or by
+ * the image's tables (pbrt-v4's ImageInfiniteLight::SampleLi with its complete distribution). */
 CB_FN Vec3 infiniteLightSample(const SceneView* scene, CB_GLOBAL const Light* light, real u0,
                                real u1, real* pdf) {
 #if CB_HAS(CB_FEATURE_IMAGE_LIGHT)
-    if (light->imageSize > 0) {
-        int n = light->imageSize;
-        CB_GLOBAL const real* rows = scene->lightTables + light->imageTable;
-        real dy, dx;
-        int y = sampleCdf(rows, n, u1, &dy);
-        int x = sampleCdf(rows + (n + 1) * (1 + y), n, u0, &dx);
-        Vec3 v = equalAreaSquareToSphere(((real)x + dx) / (real)n, ((real)y + dy) / (real)n);
-        CB_GLOBAL const real* m = light->worldFromLight;
-        Vec3 w = vec3(m[0] * v.x + m[1] * v.y + m[2] * v.z, m[3] * v.x + m[4] * v.y + m[5] * v.z,
-                      m[6] * v.x + m[7] * v.y + m[8] * v.z);
-        *pdf = infiniteLightPdf(scene, light, w);
-        return w;
-    }
+    if (light->imageSize > 0) return imageLightSample(scene, light, u0, u1, pdf);
+#else
+    (void)scene;
+    (void)light;
 #endif
     *pdf = uniformSpherePdf();
     return sampleUniformSphere(u0, u1);
+}
+
+/* The direction a point light's subpath leaves in, and its solid-angle density: uniform, or for
+ * a goniometric light by its image's tables (pbrt-v4's GoniometricLight::SampleLe). */
+CB_FN Vec3 pointLightSampleDirection(const SceneView* scene, int lightIndex, real u0, real u1,
+                                     real* pdf) {
+#if CB_HAS(CB_FEATURE_IMAGE_LIGHT)
+    CB_GLOBAL const Light* light = &scene->lights[lightIndex];
+    if (light->imageSize > 0) return imageLightSample(scene, light, u0, u1, pdf);
+#else
+    (void)scene;
+    (void)lightIndex;
+#endif
+    *pdf = uniformSpherePdf();
+    return sampleUniformSphere(u0, u1);
+}
+
+/* Solid-angle density with which pointLightSampleDirection produces unit direction w. */
+CB_FN real pointLightDirectionPdf(const SceneView* scene, int lightIndex, Vec3 w) {
+#if CB_HAS(CB_FEATURE_IMAGE_LIGHT)
+    CB_GLOBAL const Light* light = &scene->lights[lightIndex];
+    if (light->imageSize > 0) return imageLightPixelPdf(scene, light, imageLightPixel(light, w));
+#else
+    (void)scene;
+    (void)lightIndex;
+    (void)w;
+#endif
+    return uniformSpherePdf();
 }
 
 /* Area of the emitting primitive, its uniform point and the point's error bound. */
@@ -365,10 +401,15 @@ CB_FN Spectrum lightEmittedRadiance(const SceneView* scene, int lightIndex, Vec3
     return specLoad(scene->spectra, light->emission);
 }
 
-/* Intensity a point light sends in unit direction w: uniform, or for a spot light pbrt-v4's
- * SmoothStep(cosEnd, cosStart, cos theta) falloff from its axis. */
+/* Intensity a point light sends in unit direction w: uniform, for a spot light pbrt-v4's
+ * SmoothStep(cosEnd, cosStart, cos theta) falloff from its axis, for a goniometric light its
+ * image's pixel in that direction (pbrt-v4's GoniometricLight::I). */
 CB_FN Spectrum pointLightIntensity(const SceneView* scene, int lightIndex, Vec3 w) {
     CB_GLOBAL const Light* light = &scene->lights[lightIndex];
+#if CB_HAS(CB_FEATURE_IMAGE_LIGHT)
+    if (light->imageSize > 0)
+        return specLoad(scene->spectra, light->emission + imageLightPixel(light, w));
+#endif
     Spectrum intensity = specLoad(scene->spectra, light->emission);
 #if CB_HAS(CB_FEATURE_SPOT_LIGHT)
     if (light->spotCosEnd >= -1.0f) {

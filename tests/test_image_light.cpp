@@ -3,6 +3,7 @@
 // diffuse plane under it against the irradiance integrated here (docs/pbrt-v4.md).
 #include <doctest/doctest.h>
 
+#include "cb_camera.h"
 #include "cb_lights.h"
 #include "chi2.h"
 #include "image/image.h"
@@ -85,12 +86,12 @@ TEST_CASE("pbrt-v4 image light: the image, its frame, its normalisation, and wha
                          "\"string filename\" \"ramp.exr\" \"float scale\" 2\nAttributeEnd\n");
     REQUIRE(s.infiniteLights.size() == 1);
     const cb::InfiniteLightDesc& l = s.infiniteLights[0];
-    CHECK(l.imageSize == 4);
-    REQUIRE(l.imageRgb.size() == 48);
-    CHECK(l.imageRgb[3 * (2 * 4 + 3) + 1] == 23.25f); // pixel (3, 2), green; top row first
+    CHECK(l.image.size == 4);
+    REQUIRE(l.image.rgb.size() == 48);
+    CHECK(l.image.rgb[3 * (2 * 4 + 3) + 1] == 23.25f); // pixel (3, 2), green; top row first
     CHECK(l.scale == 2.f);
-    CHECK(contains(l.imagePath, "ramp.exr"));
-    CHECK(std::count(s.sourceFiles.begin(), s.sourceFiles.end(), l.imagePath) == 1);
+    CHECK(contains(l.image.path, "ramp.exr"));
+    CHECK(std::count(s.sourceFiles.begin(), s.sourceFiles.end(), l.image.path) == 1);
     // Rotate -90 about x takes the map's +z to world +y and its +y to world -z.
     const std::array<double, 9> expected{1, 0, 0, 0, 0, 1, 0, -1, 0};
     for (size_t i = 0; i < 9; ++i)
@@ -123,11 +124,11 @@ TEST_CASE("pbrt-v4 image light: the image, its frame, its normalisation, and wha
     cb::writePng8((tempDir() / "grey.png").string(), 2, 2,
                   {0, 0, 0, 128, 128, 128, 255, 255, 255, 10, 20, 30});
     s = parseInTemp("WorldBegin\nLightSource \"infinite\" \"string filename\" \"grey.png\"\n");
-    REQUIRE(s.infiniteLights[0].imageRgb.size() == 12);
-    CHECK(s.infiniteLights[0].imageRgb[0] == 0.f);
-    CHECK(s.infiniteLights[0].imageRgb[3] == doctest::Approx(0.2158605).epsilon(1e-5));
-    CHECK(s.infiniteLights[0].imageRgb[6] == doctest::Approx(1.0).epsilon(1e-6));
-    CHECK(s.infiniteLights[0].imageRgb[9] == doctest::Approx(10.0 / 255 / 12.92).epsilon(1e-5));
+    REQUIRE(s.infiniteLights[0].image.rgb.size() == 12);
+    CHECK(s.infiniteLights[0].image.rgb[0] == 0.f);
+    CHECK(s.infiniteLights[0].image.rgb[3] == doctest::Approx(0.2158605).epsilon(1e-5));
+    CHECK(s.infiniteLights[0].image.rgb[6] == doctest::Approx(1.0).epsilon(1e-6));
+    CHECK(s.infiniteLights[0].image.rgb[9] == doctest::Approx(10.0 / 255 / 12.92).epsilon(1e-5));
 
     // Refusals, each naming the line and what was expected.
     const std::string both = errorOf("WorldBegin\n\nLightSource \"infinite\" \"string filename\" "
@@ -160,7 +161,7 @@ TEST_CASE("pbrt-v4 image light: the image, its frame, its normalisation, and wha
     const std::string sheared = errorOf("WorldBegin\nScale 1 2 1\nLightSource \"infinite\" "
                                         "\"string filename\" \"ramp.exr\"\n");
     CHECK(contains(sheared, ":3:"));
-    CHECK(contains(sheared, "must be a rotation"));
+    CHECK(contains(sheared, "must be a similarity"));
     CHECK(contains(errorOf("WorldBegin\nLightSource \"infinite\" \"string filename\" \"ramp.exr\" "
                            "\"point3 portal\" [0 0 0 1 0 0 1 1 0 0 1 0]\n"),
                    "portal"));
@@ -348,4 +349,135 @@ TEST_CASE("pbrt-v4 image light: BDPT, CBDPT and MLT agree with PT per region" *
     checkMethodsAgreeWithPt("AttributeBegin\nRotate -90 1 0 0\nLightSource \"infinite\" "
                             "\"string filename\" \"" +
                             sky + "\" \"float scale\" 0.4\nAttributeEnd\n");
+}
+
+TEST_CASE("pbrt-v4 goniometric light: its image, frame, power, and what is refused") {
+    TempDirCleanup cleanup;
+    writeImage("gonio.exr", 4, 4, [](int x, int y, int c) { return float(x + 4 * y) + c; });
+    auto s = parseInTemp("WorldBegin\nTranslate 1 2 3\nLightSource \"goniometric\" \"string "
+                         "filename\" \"gonio.exr\" \"float scale\" 2\n");
+    REQUIRE(s.pointLights.size() == 1);
+    const cb::PointLightDesc& l = s.pointLights[0];
+    CHECK(l.position == std::array<double, 3>{1, 2, 3});
+    CHECK(l.image.size == 4);
+    CHECK(l.scale == 2.f);
+    CHECK(!l.spot);
+    // pbrt-v4 swaps the light frame's y and z: the map's +z is world +y.
+    const std::array<double, 9> swapped{1, 0, 0, 0, 0, 1, 0, 1, 0};
+    for (size_t i = 0; i < 9; ++i)
+        CHECK(l.worldFromLight[i] == doctest::Approx(swapped[i]));
+    // Power: 4 pi times the pixels' mean of R, G, B (here 8.5) per unit scale.
+    s = parseInTemp("WorldBegin\nLightSource \"goniometric\" \"string filename\" \"gonio.exr\" "
+                    "\"float power\" 100\n");
+    CHECK(s.pointLights[0].scale == doctest::Approx(100.0 / (4.0 * M_PI * 8.5)).epsilon(1e-6));
+    // The device scene: I times each pixel's mean, by pixel, with tables.
+    const cb::DeviceScene scene = cb::buildDeviceScene(parseInTemp(
+        "WorldBegin\nLightSource \"goniometric\" \"string filename\" \"gonio.exr\" "
+        "\"rgb I\" [1 1 1]\nShape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0]\n"));
+    CHECK(contains(scene.featureNames(), "image-light"));
+    CHECK(contains(scene.featureNames(), "point-light"));
+    const cbk::Light& light = scene.lights[0];
+    CHECK(light.imageSize == 4);
+    for (int p = 0; p < 16; ++p)
+        CHECK(scene.spectra[size_t(3 * (light.emission + p))] == doctest::Approx(p + 1.0));
+    const cbk::SceneView view = cbtest::hostView(scene);
+    // The intensity straight up (world +y, the map's +z, its centre: pixel (2, 2) of 4 x 4).
+    CHECK(cbk::pointLightIntensity(&view, 0, cbk::vec3(0, 1, 0)).c[0] == doctest::Approx(11.0));
+    CHECK(cbk::pointLightDirectionPdf(&view, 0, cbk::vec3(0, 1, 0)) ==
+          doctest::Approx(11.0 / (16 * 8.5) * 16 / (4 * M_PI)));
+
+    const std::string none = errorOf("WorldBegin\n\nLightSource \"goniometric\"\n");
+    CHECK(contains(none, ":3:"));
+    CHECK(contains(none, "needs \"string filename\""));
+    writeImage("black.exr", 2, 2, [](int, int, int) { return 0.f; });
+    CHECK(contains(errorOf("WorldBegin\nLightSource \"goniometric\" \"string filename\" "
+                           "\"black.exr\" \"float power\" 5\n"),
+                   "is black"));
+    CHECK(contains(errorOf("WorldBegin\nScale 1 1 2\nLightSource \"goniometric\" \"string "
+                           "filename\" \"gonio.exr\"\n"),
+                   "a goniometric light's transformation must be a similarity"));
+    CHECK(contains(errorOf("WorldBegin\nLightSource \"goniometric\" \"string filename\" "
+                           "\"gonio.exr\" \"point3 from\" [0 0 0]\n"),
+                   "from"));
+}
+
+namespace {
+
+// A goniometric light 1 above a diffuse plane (rho 0.5), seen from 3 above: each pixel's mean
+// radiance rho / pi I(w) cos / d^2 at the plane point its rays reach, from 8 x 8 rays per
+// pixel through cbk::cameraGenerateRay; per cell of a 3 x 3 grid and channel (binOf's order).
+std::vector<double> goniometricPlaneCells(const cb::DeviceScene& scene) {
+    const cbk::SceneView view = cbtest::hostView(scene);
+    const cbk::Light& light = scene.lights[0];
+    const int w = scene.camera.width, h = scene.camera.height;
+    const double planeY = -scene.origin[1];
+    std::vector<double> sum(27, 0.0), count(27, 0.0);
+    constexpr int kSub = 8;
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+            for (int j = 0; j < kSub; ++j)
+                for (int i = 0; i < kSub; ++i) {
+                    const cbk::Ray ray = cbk::cameraGenerateRay(
+                        &scene.camera, float(x) + (i + 0.5f) / kSub, float(y) + (j + 0.5f) / kSub,
+                        cbk::vec3(0.f, 0.f, 0.f));
+                    const double t = (planeY - ray.o.y) / ray.d.y;
+                    const double p[3] = {ray.o.x + t * ray.d.x, planeY, ray.o.z + t * ray.d.z};
+                    double d[3], d2 = 0.0;
+                    for (int a = 0; a < 3; ++a) {
+                        d[a] = p[a] - light.position[a];
+                        d2 += d[a] * d[a];
+                    }
+                    const double dist = std::sqrt(d2);
+                    const cbk::Vec3 out =
+                        cbk::vec3(float(d[0] / dist), float(d[1] / dist), float(d[2] / dist));
+                    const cbk::Spectrum intensity = cbk::pointLightIntensity(&view, 0, out);
+                    const double cosPlane = -d[1] / dist;
+                    const size_t cell = size_t((3 * y / h) * 3 + 3 * x / w);
+                    for (size_t c = 0; c < 3; ++c) {
+                        sum[cell * 3 + c] += 0.5 / M_PI * intensity.c[c] * cosPlane / d2;
+                        count[cell * 3 + c] += 1.0;
+                    }
+                }
+    for (size_t k = 0; k < 27; ++k)
+        sum[k] /= count[k];
+    return sum;
+}
+
+} // namespace
+
+// Every method against that integral, per cell and channel: the light's frame (pbrt-v4's swapped
+// y and z under a rotation), its pixels' intensity, and light subpaths leaving by its tables.
+TEST_CASE("pbrt-v4 goniometric light: a diffuse plane below it, every method" *
+          doctest::test_suite("statistical")) {
+    TempDirCleanup cleanup;
+    // Bright toward the map's +u (x) and +v (y), dark elsewhere, a ramp within.
+    writeImage("gonio16.exr", 16, 16, [](int x, int y, int c) {
+        return (x >= 8 ? 3.f : 0.2f) * (y >= 6 ? 2.f : 0.5f) * (1.f + 0.1f * float(x)) *
+               (c == 1 ? 0.8f : 1.f);
+    });
+    cb::ClRuntime runtime;
+    const cb::DeviceScene scene = cb::buildDeviceScene(parseInTemp(
+        "LookAt 0 3 0  0 0 0  0 0 1\nCamera \"perspective\" \"float fov\" 60\n"
+        "Film \"rgb\" \"integer xresolution\" 18 \"integer yresolution\" 18\nWorldBegin\n"
+        "AttributeBegin\nTranslate 0 1 0\nRotate 120 1 0 0\nRotate 30 0 1 0\n"
+        "LightSource \"goniometric\" \"string filename\" \"gonio16.exr\" \"float scale\" 3\n"
+        "AttributeEnd\nMaterial \"diffuse\" \"rgb reflectance\" [0.5 0.5 0.5]\n"
+        "Shape \"bilinearmesh\" \"point3 P\" [-10 0 -10  10 0 -10  -10 0 10  10 0 10]\n"));
+    const std::vector<double> expected = goniometricPlaneCells(scene);
+    const int w = scene.camera.width, h = scene.camera.height;
+    for (const std::string method : kMethods) {
+        CAPTURE(method);
+        const BinnedMeans b = binnedMeans(
+            scene, runtime, methodSettings(method), 8, method == "mlt" ? 32 : 8, 600u, 27,
+            [&](int x, int y, int c) { return size_t(((3 * y / h) * 3 + 3 * x / w) * 3 + c); });
+        for (size_t k = 0; k < 27; ++k) {
+            CAPTURE(k);
+            CAPTURE(expected[k]);
+            CAPTURE(b.stats.mean[k]);
+            CAPTURE(b.stats.se[k]);
+            CHECK(std::fabs(b.stats.mean[k] - expected[k]) <=
+                  4.5 * b.stats.se[k] + 3e-3 * expected[k]);
+        }
+        CHECK(b.nonFinite == 0);
+    }
 }

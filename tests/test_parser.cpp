@@ -566,8 +566,8 @@ TEST_CASE("parser: unsupported types are rejected") {
     const std::string w = kWorld;
     expectError(w + "Shape \"cylinder\"\n", "t.pbrt:2:7", "unsupported shape \"cylinder\"");
     expectError("Camera \"orthographic\"\n", "t.pbrt:1:8", "unsupported camera \"orthographic\"");
-    expectError(w + "LightSource \"goniometric\"\n", "t.pbrt:2:13",
-                "unsupported light \"goniometric\"");
+    expectError(w + "LightSource \"projection\"\n", "t.pbrt:2:13",
+                "unsupported light \"projection\"");
     expectError(w + "AreaLightSource \"projection\"\n", "t.pbrt:2:17", "unsupported area light");
     expectError("Film \"spectral\"\n", "t.pbrt:1:6", "unsupported film \"spectral\"");
     expectError(w + "Material \"measured\"\n", "t.pbrt:2:10",

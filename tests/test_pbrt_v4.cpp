@@ -495,7 +495,7 @@ TEST_CASE("pbrt-v4 spot light: parameters, normalisation and power") {
     CHECK(contains(errorOf("WorldBegin\nLightSource \"spot\" \"float conedeltaangle\" 40\n"),
                    "conedeltaangle"));
     CHECK(contains(errorOf("WorldBegin\nScale 1 2 1\nLightSource \"spot\"\n"), "similarity"));
-    CHECK(contains(errorOf("WorldBegin\nLightSource \"goniometric\"\n"), "\"distant\""));
+    CHECK(contains(errorOf("WorldBegin\nLightSource \"projection\"\n"), "\"distant\""));
 }
 
 TEST_CASE("pbrt-v4 area light power: each shape emits it, radiance power / (pi area)") {

@@ -55,9 +55,9 @@ void printScene(const std::string& scenePath) {
                desc.pointLights.size() - size_t(spots), spots, desc.distantLights.size(),
                desc.infiniteLights.size());
     for (const cb::InfiniteLightDesc& l : desc.infiniteLights)
-        if (l.imageSize > 0)
-            fmt::print("  environment      {} ({} x {} pixels, equal-area)\n", l.imagePath,
-                       l.imageSize, l.imageSize);
+        if (l.image.size > 0)
+            fmt::print("  environment      {} ({} x {} pixels, equal-area)\n", l.image.path,
+                       l.image.size, l.image.size);
     fmt::print("  materials        {}\n", scene.materials.size());
     fmt::print("  bounding box     ({:.4g}, {:.4g}, {:.4g}) - ({:.4g}, {:.4g}, {:.4g})\n",
                scene.boundsMin[0], scene.boundsMin[1], scene.boundsMin[2], scene.boundsMax[0],

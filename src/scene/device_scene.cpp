@@ -81,20 +81,18 @@ class SpectraTable {
     std::vector<float>& data_;
 };
 
-// An image light's pixels as emission entries (pixel p at the returned index + p, negative
-// components clamped to zero as pbrt-v4's ImageLe clamps them) and its sampling tables appended
-// to `tables` (cb_lights.h, imageLightPixelPdf): each row's CDF over its pixels and the CDF over
-// rows, by the entries' mean, accumulated in double. *meanRadiance: the mean over pixels.
-int addImageLight(const InfiniteLightDesc& il, SpectraTable& spectra, std::vector<float>& tables,
-                  double& meanRadiance) {
-    const size_t n = size_t(il.imageSize);
+// An image light's pixels as emission entries, pixel p's at the returned index + p:
+// emission(p) adds it and returns its entry. Its sampling tables are appended to `tables` at
+// *tableOffset (cb_lights.h, imageLightPixelPdf): the CDF over rows, then each row's CDF over
+// its pixels, by the entries' mean, accumulated in double. *meanEmission: the mean over pixels.
+template <class AddPixel>
+int addImagePixels(int size, SpectraTable& spectra, AddPixel emission, std::vector<float>& tables,
+                   int* tableOffset, double* meanEmission) {
+    const size_t n = size_t(size);
     int first = -1;
     std::vector<double> weight(n * n);
     for (size_t p = 0; p < n * n; ++p) {
-        SpectrumValue rgb;
-        for (size_t c = 0; c < 3; ++c)
-            rgb.rgb[c] = std::max(il.imageRgb[3 * p + c], 0.f);
-        const int entry = spectra.addEmission(rgb, il.scale, il.where);
+        const int entry = emission(p);
         if (first < 0) first = entry;
         weight[p] = spectra.average(entry);
     }
@@ -113,13 +111,20 @@ int addImageLight(const InfiniteLightDesc& il, SpectraTable& spectra, std::vecto
     std::vector<double> rowSums(n);
     for (size_t y = 0; y < n; ++y)
         rowSums[y] = std::accumulate(&weight[y * n], &weight[y * n] + n, 0.0);
-    if (!tables.empty())
-        throw std::logic_error("addImageLight: one image light, its tables at offset 0");
+    *tableOffset = int(tables.size());
     appendCdf(rowSums.data(), n);
     for (size_t y = 0; y < n; ++y)
         appendCdf(&weight[y * n], n);
-    meanRadiance = std::accumulate(rowSums.begin(), rowSums.end(), 0.0) / double(n * n);
+    *meanEmission = std::accumulate(rowSums.begin(), rowSums.end(), 0.0) / double(n * n);
     return first;
+}
+
+// The light's image fields: its size, tables and frame.
+void setLightImage(cbk::Light& light, int size, int table, const std::array<double, 9>& frame) {
+    light.imageSize = size;
+    light.imageTable = table;
+    for (size_t i = 0; i < 9; ++i)
+        light.worldFromLight[i] = float(frame[i]);
 }
 
 // The camera position in world space (double), used as the origin of the device scene.
@@ -494,7 +499,6 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         cbk::Light light{};
         light.kind = CB_LIGHT_POINT;
         light.primitive = -1;
-        light.emission = spectra.addEmission(pl.intensity, pl.scale, pl.where);
         toDevice(pl.position, light.position);
         light.spotCosEnd = -2.f;
         // A unit-intensity point light emits 4 pi; a spot 2 pi (1 - (cosStart + cosEnd) / 2)
@@ -508,7 +512,24 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
             solidAngle = 2.f * float(M_PI) * (1.f - 0.5f * (pl.spotCosStart + pl.spotCosEnd));
             scene.features |= CB_FEATURE_SPOT_LIGHT;
         }
-        lightPower.push_back(spectra.average(light.emission) * solidAngle);
+        double meanIntensity = 0.0;
+        if (pl.image.size > 0) {
+            // A goniometric light: I times each pixel's mean of R, G, B (clamped to zero).
+            auto pixel = [&](size_t p) {
+                const float* rgb = &pl.image.rgb[3 * p];
+                const float grey = std::max((rgb[0] + rgb[1] + rgb[2]) / 3.f, 0.f);
+                return spectra.addEmission(pl.intensity, pl.scale * grey, pl.where);
+            };
+            int table = 0;
+            light.emission = addImagePixels(pl.image.size, spectra, pixel, scene.lightTables,
+                                            &table, &meanIntensity);
+            setLightImage(light, pl.image.size, table, pl.worldFromLight);
+            scene.features |= CB_FEATURE_IMAGE_LIGHT;
+        } else {
+            light.emission = spectra.addEmission(pl.intensity, pl.scale, pl.where);
+            meanIntensity = spectra.average(light.emission);
+        }
+        lightPower.push_back(meanIntensity * solidAngle);
         scene.lights.push_back(light);
         scene.features |= CB_FEATURE_POINT_LIGHT;
     }
@@ -553,21 +574,25 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         throw SceneError(desc.infiniteLights[1].where, "cbdpt supports one infinite light");
     for (const auto& il : desc.infiniteLights) {
         double meanRadiance = 0.0;
-        int emission = 0;
-        if (il.imageSize > 0) {
-            emission = addImageLight(il, spectra, scene.lightTables, meanRadiance);
+        int emission = 0, table = 0;
+        if (il.image.size > 0) {
+            // Each pixel's RGB as "rgb L", negative components clamped to zero as pbrt-v4's
+            // ImageLe clamps them.
+            auto pixel = [&](size_t p) {
+                SpectrumValue rgb;
+                for (size_t c = 0; c < 3; ++c)
+                    rgb.rgb[c] = std::max(il.image.rgb[3 * p + c], 0.f);
+                return spectra.addEmission(rgb, il.scale, il.where);
+            };
+            emission = addImagePixels(il.image.size, spectra, pixel, scene.lightTables, &table,
+                                      &meanRadiance);
             scene.features |= CB_FEATURE_IMAGE_LIGHT;
         } else {
             emission = spectra.addEmission(il.radiance, il.scale, il.where);
             meanRadiance = spectra.average(emission);
         }
         cbk::Light light = lightAtInfinity(CB_LIGHT_INFINITE, emission, il.where);
-        if (il.imageSize > 0) {
-            light.imageSize = il.imageSize;
-            light.imageTable = 0;
-            for (size_t i = 0; i < 9; ++i)
-                light.worldFromLight[i] = float(il.worldFromLight[i]);
-        }
+        if (il.image.size > 0) setLightImage(light, il.image.size, table, il.worldFromLight);
         lightPower.push_back(meanRadiance * 4.0 * M_PI * M_PI * double(light.sceneRadius) *
                              light.sceneRadius);
         scene.lights.push_back(light);

@@ -1759,16 +1759,14 @@ class Parser {
         const bool spot = type.text == "spot";
         if (type.text == "distant") return distantLight(t);
         if (type.text == "infinite") return infiniteLight(t);
+        if (type.text == "goniometric") return goniometricLight(t);
         if (type.text != "point" && !spot)
-            throw SceneError(type.where,
-                             "unsupported light \"" + type.text +
-                                 "\" (cbdpt supports \"point\", \"spot\", \"distant\" and "
-                                 "\"infinite\" with a constant \"L\")");
+            throw SceneError(type.where, "unsupported light \"" + type.text +
+                                             "\" (cbdpt supports \"point\", \"spot\", "
+                                             "\"goniometric\", \"distant\" and \"infinite\")");
         ParamList pl = params("LightSource \"" + type.text + "\"", "light");
-        PointLightDesc l;
-        l.where = t.where;
-        if (auto i = pl.spectrum("I", SpectrumRole::Emission)) l.intensity = *i;
-        double scale = scaleParam(pl) / photometric(l.intensity, pl.peek("I"));
+        double scale = 1.0;
+        PointLightDesc l = pointLightIntensity(t, pl, scale);
         std::array<double, 3> from{0, 0, 0}, to{0, 0, 1};
         for (auto [name, value] : {std::pair{"from", &from}, std::pair{"to", &to}}) {
             if (!spot && std::string(name) == "to") continue;
@@ -1813,6 +1811,54 @@ class Parser {
         requireAffine(t.where);
         const auto w = state_.ctm.point(from);
         l.position = checkedPoint(w, t.where, "light position");
+        scene_.pointLights.push_back(std::move(l));
+    }
+
+    // A point light's "I" (default the illuminant) and, in *scale, its "scale" over I's
+    // luminance integral, as pbrt-v4 normalises point, spot and goniometric lights.
+    PointLightDesc pointLightIntensity(const Token& t, ParamList& pl, double& scale) {
+        PointLightDesc l;
+        l.where = t.where;
+        if (auto i = pl.spectrum("I", SpectrumRole::Emission)) l.intensity = *i;
+        scale = scaleParam(pl) / photometric(l.intensity, pl.peek("I"));
+        return l;
+    }
+
+    // pbrt-v4's GoniometricLight::Create: a point light at the CTM's origin whose intensity I
+    // (normalised to luminance 1) times scale is weighted by the image's pixel, the mean of its
+    // R, G, B, in each direction of the light's frame: the CTM with y and z swapped, as pbrt-v4
+    // swaps them. "power" over 4 pi times the pixels' mean.
+    void goniometricLight(const Token& t) {
+        ParamList pl = params("LightSource \"goniometric\"", "light");
+        double scale = 1.0;
+        PointLightDesc l = pointLightIntensity(t, pl, scale);
+        const Param* fileParam = pl.peek("filename");
+        const std::string file = fileParam ? *pl.oneString("filename") : std::string();
+        if (file.empty())
+            throw SceneError(t.where, "LightSource \"goniometric\" needs \"string filename\", "
+                                      "the image of its emission (pbrt-v4 warns and emits "
+                                      "nothing without one)");
+        l.image = readLightImage(file, fileParam->valueLoc(0), "the goniometric light's");
+        double sum = 0.0;
+        for (size_t p = 0; 3 * p < l.image.rgb.size(); ++p)
+            sum += (l.image.rgb[3 * p] + l.image.rgb[3 * p + 1] + l.image.rgb[3 * p + 2]) / 3.0;
+        if (const Param* p = pl.peek("power")) {
+            const double power = *pl.oneFloat("power");
+            const double unitPower = 4.0 * M_PI * sum / (double(l.image.size) * l.image.size);
+            if (power > 0.0 && !(unitPower > 0.0))
+                throw SceneError(p->where, "\"float power\": the image \"" + l.image.path +
+                                               "\" is black, so no scale gives it power");
+            if (power > 0.0) scale *= power / unitPower;
+        }
+        l.scale = static_cast<float>(scale);
+        pl.finish();
+        const std::array<double, 9> r = rotationOfCtm(t.where, "a goniometric light's");
+        for (size_t row = 0; row < 3; ++row) {
+            l.worldFromLight[row * 3 + 0] = r[row * 3 + 0];
+            l.worldFromLight[row * 3 + 1] = r[row * 3 + 2];
+            l.worldFromLight[row * 3 + 2] = r[row * 3 + 1];
+        }
+        l.position = checkedPoint(state_.ctm.point({0, 0, 0}), t.where, "light position");
         scene_.pointLights.push_back(std::move(l));
     }
 
@@ -1875,20 +1921,20 @@ class Parser {
             if (const Param* p = pl.peek("L"))
                 throw SceneError(p->where, "LightSource \"infinite\" takes \"L\" or \"string "
                                            "filename\", not both (as pbrt-v4)");
-            readEnvironmentImage(file, fileParam->valueLoc(0), l);
-            l.worldFromLight = rotationOfCtm(t.where);
+            l.image = readLightImage(file, fileParam->valueLoc(0), "the infinite light's");
+            l.worldFromLight = rotationOfCtm(t.where, "an image infinite light's");
         }
         if (auto v = pl.spectrum("L", SpectrumRole::Emission)) l.radiance = *v;
         double scale =
-            scaleParam(pl) / (l.imageSize > 0 ? 1.0 : photometric(l.radiance, pl.peek("L")));
+            scaleParam(pl) / (l.image.size > 0 ? 1.0 : photometric(l.radiance, pl.peek("L")));
         if (const Param* p = pl.peek("illuminance")) {
             const double e = *pl.oneFloat("illuminance");
             if (e < 0.0) throw SceneError(p->where, "\"float illuminance\" must be >= 0");
             // pbrt-v4 ignores values <= 0; a constant sky of luminance 1 gives pi.
-            const double unitIlluminance = l.imageSize > 0 ? imageIlluminance(l) : M_PI;
+            const double unitIlluminance = l.image.size > 0 ? imageIlluminance(l.image) : M_PI;
             if (e > 0.0 && !(unitIlluminance > 0.0))
                 throw SceneError(p->where, "\"float illuminance\" " + fmt::format("{:g}", e) +
-                                               ": the image \"" + l.imagePath +
+                                               ": the image \"" + l.image.path +
                                                "\" sends no light to an upward-facing surface "
                                                "(+z in the light's frame) to scale");
             if (e > 0.0) scale *= e / unitIlluminance;
@@ -1902,9 +1948,10 @@ class Parser {
         scene_.infiniteLights.push_back(std::move(l));
     }
 
-    // The image of pbrt-v4's ImageInfiniteLight: square (its equal-area map), finite values.
-    void readEnvironmentImage(const std::string& file, const SourceLocation& where,
-                              InfiniteLightDesc& l) {
+    // The image of pbrt-v4's ImageInfiniteLight and GoniometricLight: square (its equal-area
+    // map), finite values; `whose` names the light in errors ("the infinite light's").
+    LightImage readLightImage(const std::string& file, const SourceLocation& where,
+                              const std::string& whose) {
         const std::vector<std::string> candidates = nearbyPaths(file);
         auto found = std::find_if(candidates.begin(), candidates.end(),
                                   [](const std::string& c) { return fs::is_regular_file(c); });
@@ -1921,35 +1968,36 @@ class Parser {
             throw SceneError(where, e.what());
         }
         if (image.width != image.height || image.width < 1)
-            throw SceneError(where, fmt::format("the infinite light's image {} is {} x {}; "
-                                                "pbrt-v4's equal-area environment maps are "
-                                                "square",
-                                                *found, image.width, image.height));
+            throw SceneError(where, fmt::format("{} image {} is {} x {}; pbrt-v4's equal-area "
+                                                "maps are square",
+                                                whose, *found, image.width, image.height));
         for (size_t i = 0; i < image.rgb.size(); ++i)
             if (!std::isfinite(image.rgb[i]))
-                throw SceneError(where, fmt::format("the infinite light's image {} has a {} at "
-                                                    "pixel ({}, {}); a light needs finite values",
-                                                    *found, image.rgb[i], (i / 3) % image.width,
-                                                    (i / 3) / image.width));
+                throw SceneError(where, fmt::format("{} image {} has a {} at pixel ({}, {}); a "
+                                                    "light needs finite values",
+                                                    whose, *found, image.rgb[i],
+                                                    (i / 3) % image.width, (i / 3) / image.width));
         scene_.sourceFiles.push_back(*found);
-        l.imagePath = *found;
-        l.imageSize = image.width;
-        l.imageRgb = std::move(image.rgb);
+        LightImage out;
+        out.path = *found;
+        out.size = image.width;
+        out.rgb = std::move(image.rgb);
+        return out;
     }
 
     // The image's illuminance at a surface facing +z in the light's frame, per unit scale:
     // luminance times cos theta over the pixels whose centre lies above the horizon, each pixel
     // 4 pi / N^2 sr. (pbrt-v4 weighs each pixel 2 pi / N^2, which makes its image lights twice
     // as bright as the illuminance they are given.)
-    static double imageIlluminance(const InfiniteLightDesc& l) {
-        const int n = l.imageSize;
+    static double imageIlluminance(const LightImage& image) {
+        const int n = image.size;
         double sum = 0.0;
         for (int y = 0; y < n; ++y)
             for (int x = 0; x < n; ++x) {
                 const cbk::Vec3 w = cbk::equalAreaSquareToSphere((float(x) + 0.5f) / float(n),
                                                                  (float(y) + 0.5f) / float(n));
                 if (!(w.z > 0.f)) continue;
-                const float* rgb = &l.imageRgb[3 * (size_t(y) * size_t(n) + size_t(x))];
+                const float* rgb = &image.rgb[3 * (size_t(y) * size_t(n) + size_t(x))];
                 sum += (0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2]) * double(w.z);
             }
         return sum * 4.0 * M_PI / (double(n) * double(n));
@@ -1957,26 +2005,9 @@ class Parser {
 
     // The CTM's linear part with its uniform scale divided out: directions in a light's frame
     // go to world by a rotation (a mirror allowed), which keeps the image map equal-area.
-    std::array<double, 9> rotationOfCtm(const SourceLocation& where) const {
-        requireAffine(where);
+    std::array<double, 9> rotationOfCtm(const SourceLocation& where, const char* whose) const {
+        const double scale = similarityScale(where, whose);
         const Mat4& m = state_.ctm;
-        std::array<double, 3> norms{};
-        for (int c = 0; c < 3; ++c)
-            norms[size_t(c)] = std::sqrt(m(0, c) * m(0, c) + m(1, c) * m(1, c) + m(2, c) * m(2, c));
-        const double scale = norms[0];
-        bool similarity = scale > 0.0 && std::isfinite(scale);
-        for (int a = 0; a < 3 && similarity; ++a)
-            for (int b = 0; b < 3; ++b) {
-                double dot = 0.0;
-                for (int r = 0; r < 3; ++r)
-                    dot += m(r, a) * m(r, b);
-                if (std::fabs(dot - (a == b ? scale * scale : 0.0)) > 1e-6 * scale * scale)
-                    similarity = false;
-            }
-        if (!similarity)
-            throw SceneError(where, "the infinite light's transform (the CTM at its LightSource) "
-                                    "must be a rotation, optionally with a mirror or a uniform "
-                                    "scale: it maps the image's directions to world");
         std::array<double, 9> r{};
         for (int row = 0; row < 3; ++row)
             for (int c = 0; c < 3; ++c)

@@ -125,6 +125,14 @@ struct SphereDesc {
     SourceLocation where;
 };
 
+// An image of pbrt-v4's lights ("infinite", "goniometric"): square, in pbrt-v4's equal-area
+// octahedral layout, linear RGB, row-major, top row first (pbrt-v4's v = 0).
+struct LightImage {
+    int size = 0; // pixels per side; 0: no image
+    std::vector<float> rgb;
+    std::string path;
+};
+
 struct PointLightDesc {
     std::array<double, 3> position{0.0, 0.0, 0.0};          // world space
     SpectrumValue intensity = SpectrumValue::constant(1.f); // "I"
@@ -133,6 +141,10 @@ struct PointLightDesc {
     bool spot = false;
     std::array<double, 3> spotAxis{0.0, 0.0, 1.0}; // world space, unit
     float spotCosStart = 1.f, spotCosEnd = 1.f;
+    // LightSource "goniometric": intensity I * scale times the image's pixel (its RGB mean) in
+    // each direction of the light's frame (worldFromLight, pbrt-v4's with y and z swapped).
+    LightImage image;
+    std::array<double, 9> worldFromLight{1, 0, 0, 0, 1, 0, 0, 0, 1};
     SourceLocation where;
 };
 
@@ -151,11 +163,7 @@ struct DistantLightDesc {
 struct InfiniteLightDesc {
     SpectrumValue radiance = SpectrumValue::constant(1.f); // "L"
     float scale = 1.f;
-    // The image: linear RGB, imageSize x imageSize, row-major, top row first (pbrt-v4's v = 0);
-    // imageSize 0 for a constant L.
-    int imageSize = 0;
-    std::vector<float> imageRgb;
-    std::string imagePath;
+    LightImage image; // size 0 for a constant L
     // The rotation from the light's frame to world, row-major: the CTM at the LightSource with
     // its uniform scale divided out.
     std::array<double, 9> worldFromLight{1, 0, 0, 0, 1, 0, 0, 0, 1};

@@ -86,6 +86,24 @@ void checkScene(const cb::SceneDesc& s) {
         for (double c : l.position)
             if (!finiteFloat(c)) broken("point light position");
     }
+    for (const cb::InfiniteLightDesc& l : s.infiniteLights) {
+        checkSpectrum(l.radiance, false, "infinite light L");
+        if (!std::isfinite(l.scale) || l.scale < 0.f) broken("infinite light scale");
+        if (l.image.size < 0 || l.image.rgb.size() != 3 * static_cast<size_t>(l.image.size) *
+                                                          static_cast<size_t>(l.image.size))
+            broken("infinite light image size");
+        for (float v : l.image.rgb)
+            if (!std::isfinite(v)) broken("infinite light pixel");
+        // The light's frame must be a rotation (the image map stays equal-area).
+        for (int a = 0; a < 3; ++a)
+            for (int b = 0; b < 3; ++b) {
+                double dot = 0.0;
+                for (int r = 0; r < 3; ++r)
+                    dot += l.worldFromLight[static_cast<size_t>(r * 3 + a)] *
+                           l.worldFromLight[static_cast<size_t>(r * 3 + b)];
+                if (!(std::fabs(dot - (a == b ? 1.0 : 0.0)) < 1e-5)) broken("infinite light frame");
+            }
+    }
     for (const cb::SphereDesc& sp : s.spheres) {
         for (double c : sp.center)
             if (!finiteFloat(c)) broken("sphere centre");
