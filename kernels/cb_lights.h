@@ -98,6 +98,34 @@ CB_FN real imageLightPixelPdf(const SceneView* scene, CB_GLOBAL const Light* lig
     return (rows[y + 1] - rows[y]) * (row[x + 1] - row[x]) * ((real)n * (real)n) * CB_INV_4PI;
 }
 
+/* The emission of the image light's pixel p, from the pixel values after its tables
+ * (lightTables[imageTable + (imageSize + 1)^2 ...]): an infinite light's pixel holds its RGB
+ * times scale, three values, which it emits as "rgb L" does (in spectral scenes Smits's spectrum
+ * of it, from the basis at spectra entries emission .. emission + 6, times the white illuminant
+ * at entry emission + 7: rgbIlluminantSpectrum); a goniometric light's holds one grey value, which
+ * weights its intensity entry. */
+CB_FN Spectrum imageLightPixelEmission(const SceneView* scene, CB_GLOBAL const Light* light,
+                                       int pixel) {
+    int n = light->imageSize;
+    CB_GLOBAL const real* pixels = scene->lightTables + light->imageTable + (n + 1) * (n + 1);
+    if (light->kind == CB_LIGHT_POINT)
+        return specScale(specLoad(scene->spectra, light->emission), pixels[pixel]);
+    CB_GLOBAL const real* rgb = pixels + 3 * pixel;
+#if CB_CHANNELS == 3
+    Spectrum s;
+    s.c[0] = rgb[0];
+    s.c[1] = rgb[1];
+    s.c[2] = rgb[2];
+    return s;
+#else
+    SmitsSplit k = smitsSplit(rgb[0], rgb[1], rgb[2]);
+    Spectrum s = specScale(specLoad(scene->spectra, light->emission), k.white);
+    s = specMadd(s, specLoad(scene->spectra, light->emission + k.secondary), k.secondaryWeight);
+    s = specMadd(s, specLoad(scene->spectra, light->emission + k.primary), k.primaryWeight);
+    return specMul(s, specLoad(scene->spectra, light->emission + 7));
+#endif
+}
+
 /* A unit world direction of the image light by its tables (u1 the row, u0 the pixel in it), a
  * uniform point of the pixel mapped to the sphere (pbrt-v4's PiecewiseConstant2D::Sample and
  * EqualAreaSquareToSphere), and *pdf its solid-angle density, evaluated at the direction as for
@@ -124,7 +152,7 @@ CB_FN Spectrum infiniteLightRadiance(const SceneView* scene, CB_GLOBAL const Lig
                                      Vec3 toLight) {
 #if CB_HAS(CB_FEATURE_IMAGE_LIGHT)
     if (light->imageSize > 0)
-        return specLoad(scene->spectra, light->emission + imageLightPixel(light, toLight));
+        return imageLightPixelEmission(scene, light, imageLightPixel(light, toLight));
 #else
     (void)toLight;
 #endif
@@ -408,7 +436,7 @@ CB_FN Spectrum pointLightIntensity(const SceneView* scene, int lightIndex, Vec3 
     CB_GLOBAL const Light* light = &scene->lights[lightIndex];
 #if CB_HAS(CB_FEATURE_IMAGE_LIGHT)
     if (light->imageSize > 0)
-        return specLoad(scene->spectra, light->emission + imageLightPixel(light, w));
+        return imageLightPixelEmission(scene, light, imageLightPixel(light, w));
 #endif
     Spectrum intensity = specLoad(scene->spectra, light->emission);
 #if CB_HAS(CB_FEATURE_SPOT_LIGHT)

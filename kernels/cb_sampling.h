@@ -118,7 +118,8 @@ CB_FN void equalAreaSphereToSquare(Vec3 d, real* s, real* t) {
 /* Inverts the CDF of `count` intervals, cdf[0] = 0 <= cdf[1] <= ... <= cdf[count] = 1: the last
  * interval i with cdf[i] <= u (never an empty one, for u < 1) and u's position inside it, in
  * [0, 1), in *within. Interval i is chosen with probability cdf[i+1] - cdf[i] exactly, which is
- * the density its users divide by. */
+ * the density its users divide by. Unlike the warps above it is continuous in u only within an
+ * interval: a coherence tile's shared u picks one interval for the whole tile. */
 CB_FN int sampleCdf(CB_GLOBAL const real* cdf, int count, real u, real* within) {
     int lo = 0;
     int hi = count - 1;

@@ -59,6 +59,42 @@ CB_FN Spectrum specMadd(Spectrum a, Spectrum b, real s) {
         a.c[i] += b.c[i] * s;
     return a;
 }
+/* Smits 1999 ("An RGB-to-spectrum conversion for reflectances"), section 3: rgb, negative
+ * components clamped to zero, as the smallest component times white, the gap to the middle one
+ * times the secondary made of the two larger primaries, the gap to the largest times that
+ * primary. Indices into the basis of smitsBasis() (src/spectral/spectral.h): white 0, cyan 1,
+ * magenta 2, yellow 3, red 4, green 5, blue 6. The host's rgbToSpectrum and the image lights'
+ * pixels (cb_lights.h) combine the basis with these weights. */
+typedef struct SmitsSplit {
+    real white;
+    int secondary;
+    real secondaryWeight;
+    int primary;
+    real primaryWeight;
+} SmitsSplit;
+
+CB_FN SmitsSplit smitsSplitOf(int secondary, int primary, real white, real secondaryWeight,
+                              real primaryWeight) {
+    SmitsSplit k;
+    k.white = white;
+    k.secondary = secondary;
+    k.secondaryWeight = secondaryWeight;
+    k.primary = primary;
+    k.primaryWeight = primaryWeight;
+    return k;
+}
+
+CB_FN SmitsSplit smitsSplit(real red, real green, real blue) {
+    real r = fmax(red, 0.0f);
+    real g = fmax(green, 0.0f);
+    real b = fmax(blue, 0.0f);
+    if (r <= g && r <= b)
+        return g <= b ? smitsSplitOf(1, 6, r, g - r, b - g) : smitsSplitOf(1, 5, r, b - r, g - b);
+    if (g <= r && g <= b)
+        return r <= b ? smitsSplitOf(2, 6, g, r - g, b - r) : smitsSplitOf(2, 4, g, b - g, r - b);
+    return r <= g ? smitsSplitOf(3, 5, b, r - b, g - r) : smitsSplitOf(3, 4, b, g - b, r - g);
+}
+
 CB_FN real specMaxComponent(Spectrum a) {
     real m = a.c[0];
     for (int i = 1; i < CB_CHANNELS; ++i)

@@ -154,9 +154,10 @@ typedef struct Material {
  * and it is the last light, so that escaped rays find it at once. Its light subpaths start on
  * the disk perpendicular to their direction (pbrt-v4's UniformInfiniteLight::SampleLe). An
  * infinite light given by an image (imageSize > 0, pbrt-v4's ImageInfiniteLight) sends pixel
- * p's radiance, spectra entry emission + p, from the directions that pbrt-v4's equal-area
- * octahedral map takes to that pixel in the light's frame (worldFromLight); its sampling tables
- * start at lightTables[imageTable] (cb_lights.h, imageLightTables). */
+ * p's radiance from the directions that pbrt-v4's equal-area octahedral map takes to that pixel
+ * in the light's frame (worldFromLight); a goniometric light (a point light with an image)
+ * weights its intensity so. The image's sampling tables and pixel values start at
+ * lightTables[imageTable] (cb_lights.h, imageLightPixelPdf and imageLightPixelEmission). */
 typedef struct Light {
     int kind;         /* CB_LIGHT_* */
     int primitive;    /* CB_LIGHT_AREA: the emitting primitive */

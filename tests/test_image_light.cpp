@@ -9,7 +9,10 @@
 #include "image/image.h"
 #include "method_checks.h"
 #include "scene/scene_desc.h"
+#include "spectral/spectral.h"
 #include "test_render_util.h"
+
+#include <fmt/format.h>
 
 #include <ImfChannelList.h>
 #include <ImfFrameBuffer.h>
@@ -158,6 +161,18 @@ TEST_CASE("pbrt-v4 image light: the image, its frame, its normalisation, and wha
     CHECK(contains(errorOf("WorldBegin\nLightSource \"infinite\" \"string filename\" "
                            "\"broken.exr\"\n"),
                    "cannot read"));
+    // A pixel times the scale beyond the float range is refused when the scene is built.
+    writeImage("huge.exr", 2, 2, [](int x, int, int) { return x == 1 ? 1e30f : 1.f; });
+    try {
+        cb::buildDeviceScene(parseInTemp("WorldBegin\nLightSource \"infinite\" \"string "
+                                         "filename\" \"huge.exr\" \"float scale\" 1e20\n" +
+                                         std::string("Shape \"trianglemesh\" \"point3 P\" "
+                                                     "[0 0 0 1 0 0 0 1 0]\n")));
+        FAIL("a pixel of 1e30 times scale 1e20 was accepted");
+    } catch (const SceneError& e) {
+        CHECK(contains(e.what(), "pixel (1, 0)"));
+        CHECK(contains(e.what(), "exceeds the float range"));
+    }
     const std::string sheared = errorOf("WorldBegin\nScale 1 2 1\nLightSource \"infinite\" "
                                         "\"string filename\" \"ramp.exr\"\n");
     CHECK(contains(sheared, ":3:"));
@@ -202,8 +217,10 @@ TEST_CASE("pbrt-v4 image light: sampling tables, densities and radiance by pixel
     const cbk::Light& light = scene.lights[0];
     CHECK(light.kind == CB_LIGHT_INFINITE);
     CHECK(light.imageSize == 2);
-    // Rows by their sums 1 and 7, then each row's pixels.
-    const std::vector<float> expectedTables{0.f, 0.125f, 1.f, 0.f, 1.f, 1.f, 0.f, 3.f / 7.f, 1.f};
+    // Rows by their sums 1 and 7, then each row's pixels, then the pixels' RGB times scale.
+    const std::vector<float> expectedTables{0.f,       0.125f, 1.f,  0.f,  1.f,  1.f, 0.f,
+                                            3.f / 7.f, 1.f,    0.5f, 0.5f, 0.5f, 0.f, 0.f,
+                                            0.f,       1.5f,   1.5f, 1.5f, 2.f,  2.f, 2.f};
     REQUIRE(scene.lightTables.size() == expectedTables.size());
     for (size_t i = 0; i < expectedTables.size(); ++i)
         CHECK(scene.lightTables[i] == doctest::Approx(expectedTables[i]).epsilon(1e-7));
@@ -214,7 +231,7 @@ TEST_CASE("pbrt-v4 image light: sampling tables, densities and radiance by pixel
         const double pdf = cbk::imageLightPixelPdf(&view, &light, p);
         CHECK(pdf == doctest::Approx(values[p] / 8.0 * 4.0 / (4.0 * M_PI)).epsilon(1e-6));
         total += pdf * 4.0 * M_PI / 4.0; // each pixel covers 4 pi / 4 sr
-        CHECK(scene.spectra[size_t(3 * (light.emission + p))] == 0.5f * values[p]);
+        CHECK(cbk::imageLightPixelEmission(&view, &light, p).c[1] == 0.5f * values[p]);
     }
     CHECK(total == doctest::Approx(1.0).epsilon(1e-6));
 
@@ -248,6 +265,41 @@ TEST_CASE("pbrt-v4 image light: sampling tables, densities and radiance by pixel
     CHECK(uniformSky.lightTables.empty());
 }
 
+// Extreme maps: an all-black one (its tables fall back to uniform, it is never chosen beside
+// another light, and it renders black without NaN) and a 1 x 1 one (one pixel over the whole
+// sphere: a constant sky of density 1 / 4 pi).
+TEST_CASE("pbrt-v4 image light: a black map and a one-pixel map") {
+    TempDirCleanup cleanup;
+    writeImage("black4.exr", 4, 4, [](int, int, int) { return 0.f; });
+    const std::string tri = "Shape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0]\n";
+    cb::DeviceScene black = cb::buildDeviceScene(parseInTemp(
+        "WorldBegin\nLightSource \"point\" \"point3 from\" [0 0 1]\nLightSource \"infinite\" "
+        "\"string filename\" \"black4.exr\"\n" +
+        tri));
+    REQUIRE(black.lights.size() == 2);
+    CHECK(black.lights[1].pickProbability == 0.f);
+    const cbk::SceneView view = cbtest::hostView(black);
+    const cbk::Light& sky = black.lights[1];
+    for (int p = 0; p < 16; ++p) {
+        CHECK(cbk::imageLightPixelPdf(&view, &sky, p) ==
+              doctest::Approx(1.0 / (4.0 * M_PI)).epsilon(1e-6));
+        CHECK(specIsBlack(cbk::imageLightPixelEmission(&view, &sky, p)));
+    }
+    writeImage("one1.exr", 1, 1, [](int, int, int c) { return float(c + 1); });
+    const cb::DeviceScene one = cb::buildDeviceScene(parseInTemp(
+        "WorldBegin\nLightSource \"infinite\" \"string filename\" \"one1.exr\"\n" + tri));
+    const cbk::SceneView oneView = cbtest::hostView(one);
+    for (const cbk::Vec3 w : {cbk::vec3(0, 0, 1), cbk::vec3(0, 0, -1), cbk::vec3(0.6f, -0.8f, 0)}) {
+        CHECK(cbk::infiniteLightPdf(&oneView, &one.lights[0], w) ==
+              doctest::Approx(1.0 / (4.0 * M_PI)).epsilon(1e-6));
+        CHECK(cbk::infiniteLightRadiance(&oneView, &one.lights[0], w).c[2] == 3.f);
+    }
+    float pdf = 0.f;
+    const cbk::Vec3 w = cbk::infiniteLightSample(&oneView, &one.lights[0], 0.3f, 0.9f, &pdf);
+    CHECK(std::fabs(cbk::vlength2(w) - 1.f) < 1e-5f);
+    CHECK(pdf == doctest::Approx(1.0 / (4.0 * M_PI)).epsilon(1e-6));
+}
+
 namespace {
 
 // 16 x 16 sky (map frame): a blue-to-white gradient by elevation, brown ground, and a sun, a 2 x 2
@@ -261,10 +313,10 @@ float skyValue(int x, int y, int c) {
     return float(zenith[c] * (1 - t) + horizon[c] * t);
 }
 
-// Irradiance at a surface facing the map's +z, per channel: the radiance of each pixel times the
-// integral of cos over its part of the upper hemisphere, by 64 x 64 sub-cells of 4 pi / (16^2
-// 64^2) sr each through the equal-area map.
-std::array<double, 3> skyIrradiance(double scale) {
+// Irradiance at a surface facing the map's +z, per channel: each pixel's film RGB (pixelRgb(x, y))
+// times the integral of cos over its part of the upper hemisphere, by 64 x 64 sub-cells of 4 pi /
+// (16^2 64^2) sr each through the equal-area map.
+template <class PixelRgb> std::array<double, 3> skyIrradiance(PixelRgb pixelRgb) {
     std::array<double, 3> e{};
     constexpr int kSub = 64;
     const double cell = 4.0 * M_PI / (256.0 * kSub * kSub);
@@ -277,32 +329,60 @@ std::array<double, 3> skyIrradiance(double scale) {
                         (x + (i + 0.5f) / kSub) / 16.f, (y + (j + 0.5f) / kSub) / 16.f);
                     cosSum += std::max(0.0, double(w.z));
                 }
-            for (int c = 0; c < 3; ++c)
-                e[size_t(c)] += scale * skyValue(x, y, c) * cosSum * cell;
+            const std::array<double, 3> rgb = pixelRgb(x, y);
+            for (size_t c = 0; c < 3; ++c)
+                e[c] += rgb[c] * cosSum * cell;
         }
     return e;
 }
 
 } // namespace
 
-// A diffuse plane under the sky map turned so that its +z is world +y: radiance rho E / pi per
-// channel, from escaped rays, next-event estimation by the map's tables, light subpaths from
-// the beam's disk, and their MIS weights.
+namespace {
+
+constexpr double kPlaneRho = 0.5, kSkyScale = 0.4;
+
+// A diffuse plane (rho 0.5) of half-width `half` at y = 0 under sky16.exr (scale 0.4) turned so
+// that its +z is world +y, seen from 1 above with `fov` degrees.
+cb::DeviceScene planeUnderSky(int fov, int half, cb::ChannelMode mode = cb::ChannelMode::Auto) {
+    writeImage("sky16.exr", 16, 16, skyValue);
+    return cb::buildDeviceScene(
+        parseInTemp(fmt::format(
+            "LookAt 0 1 0  0 0 0  0 0 1\nCamera \"perspective\" \"float fov\" {0}\n"
+            "Film \"rgb\" \"integer xresolution\" 16 \"integer yresolution\" 16\nWorldBegin\n"
+            "AttributeBegin\nRotate -90 1 0 0\nLightSource \"infinite\" \"string filename\" "
+            "\"sky16.exr\" \"float scale\" 0.4\nAttributeEnd\n"
+            "Material \"diffuse\" \"rgb reflectance\" [0.5 0.5 0.5]\n"
+            "Shape \"bilinearmesh\" \"point3 P\" [-{1} 0 -{1}  {1} 0 -{1}  -{1} 0 {1}  {1} 0 "
+            "{1}]\n",
+            fov, half)),
+        mode);
+}
+
+// The plane's radiance rho E / pi per channel, each sky pixel seen as filmRgb(its RGB times scale).
+template <class FilmRgb> std::array<double, 3> planeRadiance(FilmRgb filmRgb) {
+    const std::array<double, 3> e = skyIrradiance([&](int x, int y) {
+        return filmRgb(std::array<float, 3>{float(kSkyScale * skyValue(x, y, 0)),
+                                            float(kSkyScale * skyValue(x, y, 1)),
+                                            float(kSkyScale * skyValue(x, y, 2))});
+    });
+    return {kPlaneRho * e[0] / M_PI, kPlaneRho * e[1] / M_PI, kPlaneRho * e[2] / M_PI};
+}
+
+std::array<double, 3> asRgb(const std::array<float, 3>& rgb) {
+    return {rgb[0], rgb[1], rgb[2]};
+}
+
+} // namespace
+
+// The plane under the sky: radiance rho E / pi per channel, from escaped rays, next-event
+// estimation by the map's tables, light subpaths from the beam's disk, and their MIS weights.
 TEST_CASE("pbrt-v4 image light: a diffuse plane has radiance rho E / pi, every method" *
           doctest::test_suite("statistical")) {
     TempDirCleanup cleanup;
-    writeImage("sky16.exr", 16, 16, skyValue);
     cb::ClRuntime runtime;
-    const double rho = 0.5, scale = 0.4;
-    const cb::DeviceScene scene = cb::buildDeviceScene(parseInTemp(
-        "LookAt 0 1 0  0 0 0  0 0 1\nCamera \"perspective\" \"float fov\" 60\n"
-        "Film \"rgb\" \"integer xresolution\" 16 \"integer yresolution\" 16\nWorldBegin\n"
-        "AttributeBegin\nRotate -90 1 0 0\nLightSource \"infinite\" \"string filename\" "
-        "\"sky16.exr\" \"float scale\" 0.4\nAttributeEnd\n"
-        "Material \"diffuse\" \"rgb reflectance\" [0.5 0.5 0.5]\n"
-        "Shape \"bilinearmesh\" \"point3 P\" [-10 0 -10  10 0 -10  -10 0 10  10 0 10]\n"));
-    const std::array<double, 3> e = skyIrradiance(scale);
-    const std::array<double, 3> expected{rho * e[0] / M_PI, rho * e[1] / M_PI, rho * e[2] / M_PI};
+    const cb::DeviceScene scene = planeUnderSky(60, 10);
+    const std::array<double, 3> expected = planeRadiance(asRgb);
     for (const std::string method : kMethods) {
         CAPTURE(method);
         checkChannelMeans(channelMeans(scene, runtime, methodSettings(method), 6, 300u), expected,
@@ -318,18 +398,9 @@ TEST_CASE("pbrt-v4 image light: a diffuse plane has radiance rho E / pi, every m
 TEST_CASE("pbrt-v4 image light: each BDPT strategy alone renders the plane's rho E / pi" *
           doctest::test_suite("statistical")) {
     TempDirCleanup cleanup;
-    writeImage("sky16.exr", 16, 16, skyValue);
     cb::ClRuntime runtime;
-    const double rho = 0.5, scale = 0.4;
-    const cb::DeviceScene scene = cb::buildDeviceScene(parseInTemp(
-        "LookAt 0 1 0  0 0 0  0 0 1\nCamera \"perspective\" \"float fov\" 90\n"
-        "Film \"rgb\" \"integer xresolution\" 16 \"integer yresolution\" 16\nWorldBegin\n"
-        "AttributeBegin\nRotate -90 1 0 0\nLightSource \"infinite\" \"string filename\" "
-        "\"sky16.exr\" \"float scale\" 0.4\nAttributeEnd\n"
-        "Material \"diffuse\" \"rgb reflectance\" [0.5 0.5 0.5]\n"
-        "Shape \"bilinearmesh\" \"point3 P\" [-1 0 -1  1 0 -1  -1 0 1  1 0 1]\n"));
-    const std::array<double, 3> e = skyIrradiance(scale);
-    const std::array<double, 3> expected{rho * e[0] / M_PI, rho * e[1] / M_PI, rho * e[2] / M_PI};
+    const cb::DeviceScene scene = planeUnderSky(90, 1);
+    const std::array<double, 3> expected = planeRadiance(asRgb);
     for (const auto& [s, t, estimates] :
          {std::array<int, 3>{0, 3, 16}, std::array<int, 3>{1, 2, 16}, std::array<int, 3>{2, 1, 64},
           std::array<int, 3>{-1, -1, 16}}) {
@@ -339,6 +410,30 @@ TEST_CASE("pbrt-v4 image light: each BDPT strategy alone renders the plane's rho
         settings.debugS = s;
         settings.debugT = t;
         checkChannelMeans(channelMeans(scene, runtime, settings, estimates, 400u), expected, 1e-4);
+    }
+}
+
+// The same plane rendered in spectra: each pixel emits Smits's spectrum of its RGB times the white
+// illuminant, made in the kernels from the basis (rgbIlluminantSpectrum on the host); the film
+// sees that spectrum's RGB through its own matrix (DeviceScene::toRgb, 3 x 16).
+TEST_CASE("pbrt-v4 image light: in a spectral scene, the plane under the pixels' spectra" *
+          doctest::test_suite("statistical")) {
+    TempDirCleanup cleanup;
+    cb::ClRuntime runtime;
+    const cb::DeviceScene scene = planeUnderSky(60, 10, cb::ChannelMode::Spectral);
+    REQUIRE(scene.channels == 16);
+    const std::array<double, 3> expected = planeRadiance([&](const std::array<float, 3>& rgb) {
+        const std::array<float, 16> bins = cb::rgbIlluminantSpectrum(rgb);
+        std::array<double, 3> film{};
+        for (size_t c = 0; c < 3; ++c)
+            for (size_t i = 0; i < 16; ++i)
+                film[c] += double(scene.toRgb[c * 16 + i]) * bins[i];
+        return film;
+    });
+    for (const std::string method : {"pt", "bdpt", "cbdpt"}) {
+        CAPTURE(method);
+        checkChannelMeans(channelMeans(scene, runtime, methodSettings(method), 4, 500u), expected,
+                          1e-4);
     }
 }
 
@@ -378,9 +473,12 @@ TEST_CASE("pbrt-v4 goniometric light: its image, frame, power, and what is refus
     CHECK(contains(scene.featureNames(), "point-light"));
     const cbk::Light& light = scene.lights[0];
     CHECK(light.imageSize == 4);
-    for (int p = 0; p < 16; ++p)
-        CHECK(scene.spectra[size_t(3 * (light.emission + p))] == doctest::Approx(p + 1.0));
+    CHECK(scene.spectra[size_t(3 * light.emission)] == 1.f);
     const cbk::SceneView view = cbtest::hostView(scene);
+    for (int p = 0; p < 16; ++p) {
+        CHECK(scene.lightTables[size_t(light.imageTable + 25 + p)] == doctest::Approx(p + 1.0));
+        CHECK(cbk::imageLightPixelEmission(&view, &light, p).c[2] == doctest::Approx(p + 1.0));
+    }
     // The intensity straight up (world +y, the map's +z, its centre: pixel (2, 2) of 4 x 4).
     CHECK(cbk::pointLightIntensity(&view, 0, cbk::vec3(0, 1, 0)).c[0] == doctest::Approx(11.0));
     CHECK(cbk::pointLightDirectionPdf(&view, 0, cbk::vec3(0, 1, 0)) ==

@@ -69,6 +69,19 @@ class SpectraTable {
                                                     scale));
         return index;
     }
+    // Raw bins (spectral scenes only): the image lights' Smits basis and illuminant.
+    int addBins(const std::array<float, kSpectralBins>& bins) {
+        if (channels_ != kSpectralBins) throw std::logic_error("SpectraTable::addBins: RGB table");
+        const int index = int(data_.size()) / channels_;
+        data_.insert(data_.end(), bins.begin(), bins.end());
+        return index;
+    }
+    double maxComponent(int index) const {
+        double m = 0.0;
+        for (int i = 0; i < channels_; ++i)
+            m = std::max(m, double(data_[size_t(index * channels_ + i)]));
+        return m;
+    }
     double average(int index) const {
         double sum = 0.0; // in double: entries near the float maximum must not sum to +Inf
         for (int i = 0; i < channels_; ++i)
@@ -81,21 +94,13 @@ class SpectraTable {
     std::vector<float>& data_;
 };
 
-// An image light's pixels as emission entries, pixel p's at the returned index + p:
-// emission(p) adds it and returns its entry. Its sampling tables are appended to `tables` at
-// *tableOffset (cb_lights.h, imageLightPixelPdf): the CDF over rows, then each row's CDF over
-// its pixels, by the entries' mean, accumulated in double. *meanEmission: the mean over pixels.
-template <class AddPixel>
-int addImagePixels(int size, SpectraTable& spectra, AddPixel emission, std::vector<float>& tables,
-                   int* tableOffset, double* meanEmission) {
+// An image light's sampling tables and pixel values, appended to `tables` at the returned
+// offset (cb_lights.h, imageLightPixelPdf, imageLightPixelEmission): the CDF over rows, then each
+// row's CDF over its pixels, by `weight` (each pixel's mean emission), accumulated in double,
+// then `pixels`, the values the kernels read.
+int appendImageTables(int size, const std::vector<double>& weight, const std::vector<float>& pixels,
+                      std::vector<float>& tables) {
     const size_t n = size_t(size);
-    int first = -1;
-    std::vector<double> weight(n * n);
-    for (size_t p = 0; p < n * n; ++p) {
-        const int entry = emission(p);
-        if (first < 0) first = entry;
-        weight[p] = spectra.average(entry);
-    }
     // A CDF of `count` weights, rounded to float with its last value exactly 1; uniform when
     // every weight is zero (those intervals are then never chosen through the row CDF).
     auto appendCdf = [&](const double* w, size_t count) {
@@ -111,12 +116,26 @@ int addImagePixels(int size, SpectraTable& spectra, AddPixel emission, std::vect
     std::vector<double> rowSums(n);
     for (size_t y = 0; y < n; ++y)
         rowSums[y] = std::accumulate(&weight[y * n], &weight[y * n] + n, 0.0);
-    *tableOffset = int(tables.size());
+    const int offset = int(tables.size());
+    tables.reserve(tables.size() + (n + 1) * (n + 1) + pixels.size());
     appendCdf(rowSums.data(), n);
     for (size_t y = 0; y < n; ++y)
         appendCdf(&weight[y * n], n);
-    *meanEmission = std::accumulate(rowSums.begin(), rowSums.end(), 0.0) / double(n * n);
-    return first;
+    tables.insert(tables.end(), pixels.begin(), pixels.end());
+    return offset;
+}
+
+// An image light's pixel value (clamped to zero, as pbrt-v4's ImageLe clamps it) times what its
+// light multiplies it by (`factor`, named by `what`), which must stay a float.
+float scaledPixel(double value, double factor, const char* what, const LightImage& image,
+                  size_t pixel, const SourceLocation& where) {
+    const float v = float(std::max(value, 0.0) * factor);
+    if (!std::isfinite(v))
+        throw SceneError(where, fmt::format("the light's image {} at pixel ({}, {}), {:g}, times "
+                                            "{} {:g} exceeds the float range (3.4e38)",
+                                            image.path, pixel % size_t(image.size),
+                                            pixel / size_t(image.size), value, what, factor));
+    return v;
 }
 
 // The light's image fields: its size, tables and frame.
@@ -514,15 +533,24 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         }
         double meanIntensity = 0.0;
         if (pl.image.size > 0) {
-            // A goniometric light: I times each pixel's mean of R, G, B (clamped to zero).
-            auto pixel = [&](size_t p) {
+            // A goniometric light: its intensity entry times each pixel's mean of R, G, B
+            // (clamped to zero), one float per pixel.
+            light.emission = spectra.addEmission(pl.intensity, pl.scale, pl.where);
+            const double unitMean = spectra.average(light.emission);
+            const double unitMax = spectra.maxComponent(light.emission);
+            const size_t count = size_t(pl.image.size) * size_t(pl.image.size);
+            std::vector<double> weight(count);
+            std::vector<float> pixels(count);
+            for (size_t p = 0; p < count; ++p) {
                 const float* rgb = &pl.image.rgb[3 * p];
-                const float grey = std::max((rgb[0] + rgb[1] + rgb[2]) / 3.f, 0.f);
-                return spectra.addEmission(pl.intensity, pl.scale * grey, pl.where);
-            };
-            int table = 0;
-            light.emission = addImagePixels(pl.image.size, spectra, pixel, scene.lightTables,
-                                            &table, &meanIntensity);
+                const double grey = (double(rgb[0]) + rgb[1] + rgb[2]) / 3.0;
+                // The kernels multiply the intensity entry by it: the product must be a float.
+                scaledPixel(grey, unitMax, "its intensity", pl.image, p, pl.where);
+                pixels[p] = float(std::max(grey, 0.0));
+                weight[p] = unitMean * pixels[p];
+                meanIntensity += weight[p] / double(count);
+            }
+            const int table = appendImageTables(pl.image.size, weight, pixels, scene.lightTables);
             setLightImage(light, pl.image.size, table, pl.worldFromLight);
             scene.features |= CB_FEATURE_IMAGE_LIGHT;
         } else {
@@ -576,16 +604,36 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         double meanRadiance = 0.0;
         int emission = 0, table = 0;
         if (il.image.size > 0) {
-            // Each pixel's RGB as "rgb L", negative components clamped to zero as pbrt-v4's
-            // ImageLe clamps them.
-            auto pixel = [&](size_t p) {
-                SpectrumValue rgb;
+            // Each pixel's RGB times scale, negative components clamped to zero as pbrt-v4's
+            // ImageLe clamps them, emitted as "rgb L": in spectral scenes the kernels make its
+            // spectrum from Smits's basis and the white illuminant, 8 entries (rgbToSpectrum
+            // and rgbIlluminantSpectrum), so that a pixel costs 3 floats, not 16.
+            const size_t count = size_t(il.image.size) * size_t(il.image.size);
+            std::vector<double> weight(count);
+            std::vector<float> pixels(3 * count);
+            for (size_t p = 0; p < count; ++p) {
+                std::array<float, 3> rgb{};
                 for (size_t c = 0; c < 3; ++c)
-                    rgb.rgb[c] = std::max(il.image.rgb[3 * p + c], 0.f);
-                return spectra.addEmission(rgb, il.scale, il.where);
-            };
-            emission = addImagePixels(il.image.size, spectra, pixel, scene.lightTables, &table,
-                                      &meanRadiance);
+                    rgb[c] = pixels[3 * p + c] =
+                        scaledPixel(il.image.rgb[3 * p + c], il.scale, "its \"float scale\"",
+                                    il.image, p, il.where);
+                if (scene.channels == kSpectralBins) {
+                    const auto bins = rgbIlluminantSpectrum(rgb);
+                    weight[p] = std::accumulate(bins.begin(), bins.end(), 0.0) / kSpectralBins;
+                } else {
+                    weight[p] = (double(rgb[0]) + rgb[1] + rgb[2]) / 3.0;
+                }
+                meanRadiance += weight[p] / double(count);
+            }
+            emission = -1; // RGB scenes read the pixels alone
+            if (scene.channels == kSpectralBins) {
+                const auto& basis = smitsBasis();
+                emission = spectra.addBins(basis[0]);
+                for (size_t k = 1; k < basis.size(); ++k)
+                    spectra.addBins(basis[k]);
+                spectra.addBins(whiteIlluminantBins()); // entry emission + 7
+            }
+            table = appendImageTables(il.image.size, weight, pixels, scene.lightTables);
             scene.features |= CB_FEATURE_IMAGE_LIGHT;
         } else {
             emission = spectra.addEmission(il.radiance, il.scale, il.where);

@@ -1,5 +1,7 @@
 #include "spectral/spectral.h"
 
+#include "cb_spectrum.h"
+
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
@@ -364,30 +366,14 @@ const std::array<std::array<float, kSpectralBins>, 7>& smitsBasis() {
 }
 
 std::array<float, kSpectralBins> rgbToSpectrum(std::array<float, 3> rgb) {
-    // Smits 1999, section 3: the smallest component times white, the gap to the middle one times
-    // the secondary made of the two larger primaries, the gap to the largest times that primary.
-    // Negative components have no reflectance meaning and are clamped to zero.
+    // Smits's weights (cb_spectrum.h, shared with the image lights' pixels); negative components
+    // have no reflectance meaning and are clamped to zero.
     const auto& basis = smitsBasis();
-    enum { White, Cyan, Magenta, Yellow, Red, Green, Blue };
-    const float r = std::max(rgb[0], 0.f), g = std::max(rgb[1], 0.f), b = std::max(rgb[2], 0.f);
-    // (white weight, secondary, its weight, primary, its weight)
-    struct Split {
-        float cw;
-        int secondary;
-        float c2;
-        int primary;
-        float c1;
-    };
-    Split k{};
-    if (r <= g && r <= b)
-        k = g <= b ? Split{r, Cyan, g - r, Blue, b - g} : Split{r, Cyan, b - r, Green, g - b};
-    else if (g <= r && g <= b)
-        k = r <= b ? Split{g, Magenta, r - g, Blue, b - r} : Split{g, Magenta, b - g, Red, r - b};
-    else
-        k = r <= g ? Split{b, Yellow, r - b, Green, g - r} : Split{b, Yellow, g - b, Red, r - g};
+    const cbk::SmitsSplit k = cbk::smitsSplit(rgb[0], rgb[1], rgb[2]);
     std::array<float, kSpectralBins> out{};
     for (int i = 0; i < kSpectralBins; ++i)
-        out[i] = k.cw * basis[White][i] + k.c2 * basis[k.secondary][i] + k.c1 * basis[k.primary][i];
+        out[i] = k.white * basis[0][i] + k.secondaryWeight * basis[size_t(k.secondary)][i] +
+                 k.primaryWeight * basis[size_t(k.primary)][i];
     return out;
 }
 
