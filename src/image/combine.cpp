@@ -26,10 +26,6 @@ std::string describe(const CombineInput& in) {
                        in.record.seed, in.record.estimates);
 }
 
-double luminance(const float* rgb) {
-    return 0.2126 * double(rgb[0]) + 0.7152 * double(rgb[1]) + 0.0722 * double(rgb[2]);
-}
-
 // Box mean of `values` over (2 radius + 1)^2 pixels, clipped at the borders, per channel.
 std::vector<double> boxMean(const std::vector<double>& values, int width, int height, int radius) {
     if (radius <= 0) return values;
@@ -255,7 +251,7 @@ RgbImage jointBilateralFilter(const RgbImage& values, const RgbImage& guide, dou
     std::vector<double> g(size_t(w) * size_t(h));
     double guideMean = 0.0;
     for (size_t p = 0; p < g.size(); ++p) {
-        g[p] = std::max(0.0, luminance(&guide.rgb[3 * p]));
+        g[p] = std::max(0.0, rec709Luminance(&guide.rgb[3 * p]));
         guideMean += g[p] / double(g.size());
     }
     // Keeps the range kernel finite on black pixels.

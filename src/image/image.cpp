@@ -189,6 +189,10 @@ RgbImage readPng(const std::string& path) {
 
 } // namespace
 
+double rec709Luminance(const float* rgb) {
+    return 0.2126 * double(rgb[0]) + 0.7152 * double(rgb[1]) + 0.0722 * double(rgb[2]);
+}
+
 RgbImage readRgbImage(const std::string& path) {
     std::string extension = std::filesystem::path(path).extension().string();
     std::transform(extension.begin(), extension.end(), extension.begin(),

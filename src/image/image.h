@@ -43,6 +43,9 @@ void writeExr(const std::string& path, const std::vector<ExrLayer>& layers,
 RgbImage readExr(const std::string& path);
 // Reads layer `name` ("" for R, G, B); false if the file lacks any of its three channels.
 bool readExrLayer(const std::string& path, const std::string& name, RgbImage& out);
+// Luminance Y of linear sRGB (Rec. 709 primaries, D65): 0.2126 R + 0.7152 G + 0.0722 B, in double.
+double rec709Luminance(const float* rgb);
+
 // A linear RGB image from an OpenEXR file (R, G, B channels; sRGB primaries, or none given) or a
 // PNG (8-bit sRGB-encoded, decoded; 16-bit by its gamma; alpha ignored): what pbrt-v4's image
 // lights read. std::runtime_error naming the file otherwise.

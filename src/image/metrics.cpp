@@ -113,12 +113,9 @@ std::vector<std::uint8_t> relativeErrorColourMap(const RgbImage& image, const Rg
     if (!(scale > 0.0)) throw std::invalid_argument("the colour-map scale must be positive");
     const size_t n = size_t(image.width) * size_t(image.height);
     std::vector<std::uint8_t> out(3 * n, 0);
-    auto luminance = [](const float* p) {
-        return 0.2126 * double(p[0]) + 0.7152 * double(p[1]) + 0.0722 * double(p[2]);
-    };
     for (size_t i = 0; i < n; ++i) {
-        const double l = luminance(&image.rgb[3 * i]);
-        const double lr = luminance(&reference.rgb[3 * i]);
+        const double l = rec709Luminance(&image.rgb[3 * i]);
+        const double lr = rec709Luminance(&reference.rgb[3 * i]);
         if (!std::isfinite(l) || !std::isfinite(lr)) continue; // black: no error to show
         double e = (l - lr) / (std::abs(lr) + kRelMseEpsilon);
         if (!std::isfinite(e)) e = l > lr ? scale : -scale; // overflow of finite values

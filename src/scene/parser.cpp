@@ -1998,7 +1998,7 @@ class Parser {
                                                                  (float(y) + 0.5f) / float(n));
                 if (!(w.z > 0.f)) continue;
                 const float* rgb = &image.rgb[3 * (size_t(y) * size_t(n) + size_t(x))];
-                sum += (0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2]) * double(w.z);
+                sum += rec709Luminance(rgb) * double(w.z);
             }
         return sum * 4.0 * M_PI / (double(n) * double(n));
     }
