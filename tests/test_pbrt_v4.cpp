@@ -1990,15 +1990,7 @@ TEST_CASE("pbrt-v4 thin lens: a defocused occluder's profile, BDPT, CBDPT and ML
     CHECK(reference.mean[16] > 0.05 * reference.mean[4]);
     for (const std::string method : {"bdpt", "cbdpt", "mlt"}) {
         CAPTURE(method);
-        const cbtest::RunStats r = columns(methodSettings(method), 8, method == "bdpt" ? 16 : 32);
-        for (size_t c = 0; c < size_t(w); ++c) {
-            CAPTURE(c);
-            CAPTURE(r.mean[c]);
-            CAPTURE(reference.mean[c]);
-            const double se = std::sqrt(r.se[c] * r.se[c] + reference.se[c] * reference.se[c]);
-            CAPTURE(se);
-            CHECK(std::fabs(r.mean[c] - reference.mean[c]) <= 4.5 * se);
-        }
+        checkRunsAgree(columns(methodSettings(method), 8, method == "bdpt" ? 16 : 32), reference);
     }
 }
 
@@ -2036,14 +2028,7 @@ TEST_CASE("pbrt-v4 thin lens: a defocused caustic, CBDPT's light tracing against
     const cbtest::RunStats r = ringMeans(cbdpt, 1024);
     // The blurred caustic: the inner rings brighter than the floor around the sphere's shadow.
     CHECK(reference.mean[0] > 1.5 * reference.mean[rings - 1]);
-    for (size_t k = 0; k < size_t(rings); ++k) {
-        CAPTURE(k);
-        CAPTURE(r.mean[k]);
-        CAPTURE(reference.mean[k]);
-        const double se = std::sqrt(r.se[k] * r.se[k] + reference.se[k] * reference.se[k]);
-        CAPTURE(se);
-        CHECK(std::fabs(r.mean[k] - reference.mean[k]) <= 4.5 * se);
-    }
+    checkRunsAgree(r, reference);
 }
 
 // The comparison scenes of docs/pbrt-v4.md are read by pbrt-v4 unedited; each must also be a
