@@ -17,6 +17,12 @@ add_test(NAME cli COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_cli.py $<TARGET
 # writes a scene that renders.
 add_test(NAME big_scene COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_big_scene.py $<TARGET_FILE:cbdpt> ${CMAKE_SOURCE_DIR})
 
+# The image lights' comparison images are scripts/make-sky's (docs/pbrt-v4.md).
+add_test(NAME sky_reproducible COMMAND python3 ${CMAKE_SOURCE_DIR}/scripts/make-sky --check
+         ${CMAKE_SOURCE_DIR}/scenes/pbrt-v4/textures/sky.exr)
+add_test(NAME beam_reproducible COMMAND python3 ${CMAKE_SOURCE_DIR}/scripts/make-sky --check
+         ${CMAKE_SOURCE_DIR}/scenes/pbrt-v4/textures/beam.exr --size 64 --sun 20)
+
 # Thesis scene data: the grille/cage/lamp PLYs reproduce byte for byte from
 # scripts/make-meshes, are closed and outward, match docs/scenes.md, and every scene file
 # references existing files and keeps its objects and lights inside the Cornell box.
