@@ -458,16 +458,17 @@ CB_FN int bdptLightSubpath(const SceneView* scene, SampleStream stream, int maxV
         if (count > 1) light[1].pdfFwd = ls.pdfArea * pvAbsCos(&light[1], w);
         return count;
     }
+    real pdfDir;
     if (ls.isDelta) {
-        real pdfPointDir;
-        w = pointLightSampleDirection(scene, ls.light, u0, u1, &pdfPointDir);
+        /* Its density as sampled, which bdptLightDirectionPdf would look up again. */
+        w = pointLightSampleDirection(scene, ls.light, u0, u1, &pdfDir);
     } else {
         Vec3 n = ls.n;
         if (scene->lights[ls.light].twoSided && sampleAt(stream, CB_LIGHT_DIM_SIDE) < 0.5f)
             n = vneg(n);
         w = frameToWorld(frameFromNormal(n), sampleCosineHemisphere(u0, u1));
+        pdfDir = bdptLightDirectionPdf(scene, v, w);
     }
-    real pdfDir = bdptLightDirectionPdf(scene, v, w);
     if (!(pdfDir > 0.0f)) return 1;
     Spectrum le = bdptLightEmission(scene, v, w);
     if (specIsBlack(le)) return 1;
@@ -680,8 +681,10 @@ CB_FN bool bdptConnectUnoccluded(const SceneView* scene, const Camera* camera,
              * the light subpath's planar one at eye[t-2] (pbrt-v4's PdfLightOrigin, PdfLight). */
             CB_GLOBAL const Light* infinite = &scene->lights[pt->light];
             Vec3 toLight = vneg(vec3FromArray(pt->wo));
-            out->contribution = specMul(pt->beta, infiniteLightRadiance(scene, infinite, toLight));
-            out->ptPdfRev = infinite->pickProbability * infiniteLightPdf(scene, infinite, toLight);
+            real pdfLightW;
+            out->contribution =
+                specMul(pt->beta, infiniteLightRadiancePdf(scene, infinite, toLight, &pdfLightW));
+            out->ptPdfRev = infinite->pickProbability * pdfLightW;
             out->ptMinusPdfRev = bdptLightDirectionPdf(scene, pt, vec3FromArray(pt->wo)) *
                                  pvAbsCos(&eye[t - 2], vec3FromArray(pt->wo));
             return true;

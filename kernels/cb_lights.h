@@ -159,17 +159,22 @@ CB_FN Spectrum infiniteLightRadiance(const SceneView* scene, CB_GLOBAL const Lig
     return specLoad(scene->spectra, light->emission);
 }
 
-/* Solid-angle density with which infiniteLightSample produces unit direction toLight. */
-CB_FN real infiniteLightPdf(const SceneView* scene, CB_GLOBAL const Light* light, Vec3 toLight) {
+/* Radiance the infinite light sends from unit world direction toLight and, in *pdf, the
+ * solid-angle density with which infiniteLightSample produces that direction: an escaped ray's
+ * emission and its MIS density from one lookup of the image's pixel. */
+CB_FN Spectrum infiniteLightRadiancePdf(const SceneView* scene, CB_GLOBAL const Light* light,
+                                        Vec3 toLight, real* pdf) {
 #if CB_HAS(CB_FEATURE_IMAGE_LIGHT)
-    if (light->imageSize > 0)
-        return imageLightPixelPdf(scene, light, imageLightPixel(light, toLight));
+    if (light->imageSize > 0) {
+        int pixel = imageLightPixel(light, toLight);
+        *pdf = imageLightPixelPdf(scene, light, pixel);
+        return imageLightPixelEmission(scene, light, pixel);
+    }
 #else
-    (void)scene;
-    (void)light;
     (void)toLight;
 #endif
-    return uniformSpherePdf();
+    *pdf = uniformSpherePdf();
+    return specLoad(scene->spectra, light->emission);
 }
 
 /* A unit direction toward the infinite light and its solid-angle density *pdf: uniform, or by

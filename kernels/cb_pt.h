@@ -73,12 +73,11 @@ CB_FN bool ptPathVertex(const SceneView* scene, PtPath* path, Ray* ray, bool fou
         int infinite = lightInfinite(scene);
         if (infinite >= 0) {
             CB_GLOBAL const Light* light = &scene->lights[infinite];
+            real pdfLightW;
+            Spectrum le = infiniteLightRadiancePdf(scene, light, ray->d, &pdfLightW);
             real weight = 1.0f;
             if (!path->previousDelta)
-                weight =
-                    powerHeuristic(path->previousPdfW,
-                                   light->pickProbability * infiniteLightPdf(scene, light, ray->d));
-            Spectrum le = infiniteLightRadiance(scene, light, ray->d);
+                weight = powerHeuristic(path->previousPdfW, light->pickProbability * pdfLightW);
             path->radiance =
                 specAdd(path->radiance, specScale(specMul(path->throughput, le), weight));
         }

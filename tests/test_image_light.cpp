@@ -247,7 +247,10 @@ TEST_CASE("pbrt-v4 image light: sampling tables, densities and radiance by pixel
             cbk::infiniteLightSample(&view, &light, uniform(rng), uniform(rng), &pdf);
         const int p = cbk::imageLightPixel(&light, w);
         observed[size_t(p)] += 1.0;
-        CHECK(pdf == cbk::infiniteLightPdf(&view, &light, w));
+        float pdfAt = 0.f;
+        const cbk::Spectrum radiance = cbk::infiniteLightRadiancePdf(&view, &light, w, &pdfAt);
+        CHECK(pdf == pdfAt);
+        CHECK(radiance.c[0] == 0.5f * values[p]);
         CHECK(cbk::infiniteLightRadiance(&view, &light, w).c[0] == 0.5f * values[p]);
     }
     CHECK(observed[1] == 0.0);
@@ -290,8 +293,9 @@ TEST_CASE("pbrt-v4 image light: a black map and a one-pixel map") {
         "WorldBegin\nLightSource \"infinite\" \"string filename\" \"one1.exr\"\n" + tri));
     const cbk::SceneView oneView = cbtest::hostView(one);
     for (const cbk::Vec3 w : {cbk::vec3(0, 0, 1), cbk::vec3(0, 0, -1), cbk::vec3(0.6f, -0.8f, 0)}) {
-        CHECK(cbk::infiniteLightPdf(&oneView, &one.lights[0], w) ==
-              doctest::Approx(1.0 / (4.0 * M_PI)).epsilon(1e-6));
+        float pdfAt = 0.f;
+        cbk::infiniteLightRadiancePdf(&oneView, &one.lights[0], w, &pdfAt);
+        CHECK(pdfAt == doctest::Approx(1.0 / (4.0 * M_PI)).epsilon(1e-6));
         CHECK(cbk::infiniteLightRadiance(&oneView, &one.lights[0], w).c[2] == 3.f);
     }
     float pdf = 0.f;
