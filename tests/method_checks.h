@@ -126,20 +126,22 @@ inline const std::string kDiskLight =
     "Shape \"disk\" \"float radius\" 0.3\nAttributeEnd\n";
 
 // BDPT, CBDPT and MLT against PT where every strategy matters: a floor, a wall and a floating
-// block between them under `light` (shadows, interreflection up to 5 vertices). The mean over
+// block between them, all of `material`, under `light` (shadows, interreflection up to 5
+// vertices). The mean over
 // each cell of a 3 x 3 grid must agree within 4.5 combined standard errors, spread over 16 runs:
 // with 8 (Student's t, 7 degrees of freedom) a correct method fails one of the 27 cells in about
 // 1 of 14 seeds, with 16 in 1 of 88.
-inline void checkMethodsAgreeWithPt(const std::string& light, const std::string& extra = "",
-                                    const std::string& cameraParameters = "") {
+inline void checkMethodsAgreeWithPt(
+    const std::string& light, const std::string& extra = "",
+    const std::string& cameraParameters = "",
+    const std::string& material = "Material \"diffuse\" \"rgb reflectance\" [0.7 0.7 0.7]\n") {
     cb::ClRuntime runtime;
     const std::string text =
         "LookAt 0 2 -3  0 0.3 0  0 1 0\nCamera \"perspective\" \"float fov\" 50 " +
         cameraParameters +
         "\n"
         "Film \"rgb\" \"integer xresolution\" 24 \"integer yresolution\" 24\nWorldBegin\n" +
-        light +
-        "Material \"diffuse\" \"rgb reflectance\" [0.7 0.7 0.7]\n"
+        light + material +
         "Shape \"bilinearmesh\" \"point3 P\" [-2 0 -2  2 0 -2  -2 0 2  2 0 2]\n"
         "Shape \"bilinearmesh\" \"point3 P\" [-2 0 1  2 0 1  -2 2 1  2 2 1]\n"
         "AttributeBegin\nTranslate 0 0.6 0\nScale 0.4 0.3 0.4\n"

@@ -9,6 +9,7 @@
 #include "image/image.h"
 #include "method_checks.h"
 #include "scene/scene_desc.h"
+#include "scene_files.h"
 #include "spectral/spectral.h"
 #include "test_render_util.h"
 
@@ -21,66 +22,15 @@
 #include <ImfStandardAttributes.h>
 
 #include <cmath>
-#include <filesystem>
 #include <fstream>
 #include <random>
 #include <string>
-#include <unistd.h>
 #include <vector>
 
 using cb::parseSceneString;
 using cb::SceneError;
 using namespace cbtest::method_checks;
-namespace fs = std::filesystem;
-
-namespace {
-
-fs::path tempDir() {
-    const fs::path d =
-        fs::temp_directory_path() / ("cbdpt-image-light-" + std::to_string(::getpid()));
-    fs::create_directories(d);
-    return d;
-}
-
-// Removes tempDir() when a test case ends, passed or not.
-struct TempDirCleanup {
-    ~TempDirCleanup() {
-        std::error_code ignored;
-        fs::remove_all(tempDir(), ignored);
-    }
-};
-
-// An image whose pixel (x, y) is value(x, y, channel), written as EXR.
-template <class Value> std::string writeImage(const std::string& name, int w, int h, Value value) {
-    cb::RgbImage image(w, h);
-    for (int y = 0; y < h; ++y)
-        for (int x = 0; x < w; ++x)
-            for (int c = 0; c < 3; ++c)
-                image.rgb[3 * size_t(y * w + x) + size_t(c)] = value(x, y, c);
-    const std::string path = (tempDir() / name).string();
-    cb::writeExr(path, image);
-    return path;
-}
-
-// A scene in the temporary folder (so that relative image names resolve there).
-cb::SceneDesc parseInTemp(const std::string& text) {
-    return parseSceneString(text, (tempDir() / "t.pbrt").string());
-}
-
-std::string errorOf(const std::string& text) {
-    try {
-        parseInTemp(text);
-    } catch (const SceneError& e) {
-        return e.what();
-    }
-    return "";
-}
-
-bool contains(const std::string& s, const std::string& part) {
-    return s.find(part) != std::string::npos;
-}
-
-} // namespace
+using namespace cbtest::scene_files;
 
 TEST_CASE("pbrt-v4 image light: the image, its frame, its normalisation, and what is refused") {
     TempDirCleanup cleanup;

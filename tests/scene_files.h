@@ -1,0 +1,60 @@
+// Scene files written by a test case: images and scene text in a temporary folder, so that the
+// scene's relative file names resolve there, removed when the case ends.
+#pragma once
+
+#include "image/image.h"
+#include "scene/scene_desc.h"
+
+#include <filesystem>
+#include <string>
+#include <system_error>
+#include <unistd.h>
+
+namespace cbtest::scene_files {
+
+inline std::filesystem::path tempDir() {
+    const std::filesystem::path d = std::filesystem::temp_directory_path() /
+                                    ("cbdpt-scene-files-" + std::to_string(::getpid()));
+    std::filesystem::create_directories(d);
+    return d;
+}
+
+// Removes tempDir() when a test case ends, passed or not.
+struct TempDirCleanup {
+    ~TempDirCleanup() {
+        std::error_code ignored;
+        std::filesystem::remove_all(tempDir(), ignored);
+    }
+};
+
+// An image whose pixel (x, y) is value(x, y, channel), written as EXR.
+template <class Value> std::string writeImage(const std::string& name, int w, int h, Value value) {
+    cb::RgbImage image(w, h);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+            for (int c = 0; c < 3; ++c)
+                image.rgb[3 * size_t(y * w + x) + size_t(c)] = value(x, y, c);
+    const std::string path = (tempDir() / name).string();
+    cb::writeExr(path, image);
+    return path;
+}
+
+// A scene in the temporary folder (so that relative image names resolve there).
+inline cb::SceneDesc parseInTemp(const std::string& text) {
+    return cb::parseSceneString(text, (tempDir() / "t.pbrt").string());
+}
+
+inline std::string errorOf(const std::string& text) {
+    try {
+        parseInTemp(text);
+    } catch (const cb::SceneError& e) {
+        return e.what();
+    }
+    return "";
+}
+
+inline bool contains(const std::string& s, const std::string& part) {
+    return s.find(part) != std::string::npos;
+}
+
+} // namespace cbtest::scene_files
