@@ -67,7 +67,7 @@ typedef struct PathVertex {
     int delta;   /* scattered onward by a delta lobe: no connection can be made here */
     real pdfFwd; /* area measure; light[0]: light pick x point density; eye[0]: 1 */
     real pdfRev; /* area measure */
-    real pad0, pad1;
+    real uv[2];  /* surfaces: texture coordinates (SurfacePoint.uv) */
     Spectrum
         beta; /* subpath throughput / pdf up to this vertex (light[0]: 1/pdfFwd, Le excluded) */
     real pad[CB_PATH_VERTEX_PAD];
@@ -148,6 +148,12 @@ CB_FN Vec3 pvP(const PathVertex* v) {
 CB_FN Vec3 pvN(const PathVertex* v) {
     return vec3FromArray(v->n);
 }
+CB_FN TexCoord pvUv(const PathVertex* v) {
+    TexCoord c;
+    c.u = v->uv[0];
+    c.v = v->uv[1];
+    return c;
+}
 CB_FN void cbStore3(real* dst, Vec3 v) {
     dst[0] = v.x;
     dst[1] = v.y;
@@ -193,6 +199,7 @@ CB_FN SurfacePoint pvSurfacePoint(const PathVertex* v) {
     sp.primitive = -1;
     sp.material = v->material;
     sp.light = v->light;
+    sp.uv = pvUv(v);
     return sp;
 }
 
@@ -230,7 +237,7 @@ CB_FN PathVertex bdptCameraVertex(const Camera* camera, Vec3 lens) {
     v.delta = 0;
     v.pdfFwd = 1.0f;
     v.pdfRev = 0.0f;
-    v.pad0 = v.pad1 = 0.0f;
+    v.uv[0] = v.uv[1] = 0.0f;
     v.beta = specConst(1.0f);
     for (int i = 0; i < CB_PATH_VERTEX_PAD; ++i)
         v.pad[i] = 0.0f;
@@ -290,7 +297,7 @@ CB_FN int bdptWalkStep(const SceneView* scene, bool found, Hit hit, Ray* ray, Sp
         v->delta = 0;
         v->pdfFwd = *pdfW;
         v->pdfRev = 0.0f;
-        v->pad0 = v->pad1 = 0.0f;
+        v->uv[0] = v->uv[1] = 0.0f;
         for (int i = 0; i < CB_PATH_VERTEX_PAD; ++i)
             v->pad[i] = 0.0f;
         v->beta = *beta;
@@ -306,7 +313,8 @@ CB_FN int bdptWalkStep(const SceneView* scene, bool found, Hit hit, Ray* ray, Sp
     v->light = sp.light;
     v->delta = 0;
     v->pdfRev = 0.0f;
-    v->pad0 = v->pad1 = 0.0f;
+    v->uv[0] = sp.uv.u;
+    v->uv[1] = sp.uv.v;
     for (int i = 0; i < CB_PATH_VERTEX_PAD; ++i)
         v->pad[i] = 0.0f;
     v->beta = *beta;
@@ -320,7 +328,7 @@ CB_FN int bdptWalkStep(const SceneView* scene, bool found, Hit hit, Ray* ray, Sp
     sampleAt2(stream, base + CB_SLOT_BSDF_DIRECTION, &u0, &u1);
     real uLobe =
         bsdfReadsLobeSample(scene, sp.material) ? sampleAt(stream, base + CB_SLOT_BSDF_LOBE) : 0.0f;
-    if (!bsdfSample(scene, sp.material, frameFromNormal(sp.ng), vneg(ray->d), u0, u1, uLobe,
+    if (!bsdfSample(scene, sp.material, sp.uv, frameFromNormal(sp.ng), vneg(ray->d), u0, u1, uLobe,
                     adjoint, &bs))
         return 1;
     if (!(bs.pdf > 0.0f) || specIsBlack(bs.f)) return 1;
@@ -403,7 +411,7 @@ CB_FN void bdptSetLightVertex(const SceneView* scene, PathVertex* v, const Light
     v->delta = 0;
     v->pdfFwd = pdfFwd;
     v->pdfRev = 0.0f;
-    v->pad0 = v->pad1 = 0.0f;
+    v->uv[0] = v->uv[1] = 0.0f;
     for (int i = 0; i < CB_PATH_VERTEX_PAD; ++i)
         v->pad[i] = 0.0f;
     v->beta = specConst(1.0f / pdfFwd);
@@ -719,8 +727,8 @@ CB_FN bool bdptConnectUnoccluded(const SceneView* scene, const Camera* camera,
         real we = cameraImportance(camera, vneg(w), &pdfCamDir);
         if (!(we > 0.0f)) return false;
         real pdfFwd, pdfRev;
-        Spectrum f = bsdfEval(scene, qs->material, frameFromNormal(pvN(qs)), vec3FromArray(qs->wo),
-                              w, 1, &pdfFwd, &pdfRev);
+        Spectrum f = bsdfEval(scene, qs->material, pvUv(qs), frameFromNormal(pvN(qs)),
+                              vec3FromArray(qs->wo), w, 1, &pdfFwd, &pdfRev);
         if (specIsBlack(f)) return false;
         Vec3 forward = pvN(&eye[0]);
         real cosCam = vdot(vneg(w), forward);
@@ -740,8 +748,8 @@ CB_FN bool bdptConnectUnoccluded(const SceneView* scene, const Camera* camera,
     if (!(dist2 > 0.0f)) return false;
     Vec3 w = vscale(d, 1.0f / sqrt(dist2)); /* pt -> qs */
     real ptFwd, ptRev;
-    Spectrum fPt = bsdfEval(scene, pt->material, frameFromNormal(pvN(pt)), vec3FromArray(pt->wo), w,
-                            0, &ptFwd, &ptRev);
+    Spectrum fPt = bsdfEval(scene, pt->material, pvUv(pt), frameFromNormal(pvN(pt)),
+                            vec3FromArray(pt->wo), w, 0, &ptFwd, &ptRev);
     if (specIsBlack(fPt)) return false;
     Spectrum fQs;
     real qsFwd, qsRev = 0.0f;
@@ -749,8 +757,8 @@ CB_FN bool bdptConnectUnoccluded(const SceneView* scene, const Camera* camera,
         fQs = bdptLightEmission(scene, qs, vneg(w));
         qsFwd = bdptLightDirectionPdf(scene, qs, vneg(w));
     } else {
-        fQs = bsdfEval(scene, qs->material, frameFromNormal(pvN(qs)), vec3FromArray(qs->wo),
-                       vneg(w), 1, &qsFwd, &qsRev);
+        fQs = bsdfEval(scene, qs->material, pvUv(qs), frameFromNormal(pvN(qs)),
+                       vec3FromArray(qs->wo), vneg(w), 1, &qsFwd, &qsRev);
     }
     if (specIsBlack(fQs)) return false;
     /* A light at infinity has no distance falloff (its radiance arrives undiminished). */

@@ -26,6 +26,7 @@
 #include "cb_rng.h"
 #include "cb_sampling.h"
 #include "cb_spectrum.h"
+#include "cb_texture.h"
 #include "cb_types.h"
 
 CB_BEGIN_NAMESPACE
@@ -98,6 +99,16 @@ CB_FN real thinDielectricReflectance(real cosO, real eta) {
     return 2.0f * r / (1.0f + r);
 }
 #endif
+
+/* A diffuse or coated diffuse material's reflectance at texture coordinates uv: its image
+ * texture's there, or its constant spectrum. */
+CB_FN Spectrum materialReflectance(const SceneView* scene, Material m, TexCoord uv) {
+#if CB_HAS(CB_FEATURE_TEXTURE)
+    if (m.reflectanceTexture >= 0) return textureReflectance(scene, m.reflectanceTexture, uv);
+#endif
+    (void)uv;
+    return specLoad(scene->spectra, m.reflectance);
+}
 
 #if CB_HAS(CB_FEATURE_DIFFUSE_TRANSMISSION)
 /* The probability that a diffuse transmitter's sample reflects: its reflectance's largest
@@ -410,9 +421,9 @@ typedef struct LayerBase {
     int scatters;
 } LayerBase;
 
-CB_FN LayerBase layerBaseLoad(const SceneView* scene, Material m) {
+CB_FN LayerBase layerBaseLoad(const SceneView* scene, Material m, TexCoord uv) {
     LayerBase base;
-    base.a = specLoad(scene->spectra, m.reflectance);
+    base.a = materialReflectance(scene, m, uv);
     base.b = base.a;
     base.alpha = 0.0f;
     base.conductor = 0;
@@ -880,8 +891,8 @@ CB_FN bool layeredSample(LayerBase base, Material m, Vec3 wo, real u0, real u1, 
 
 /* Non-delta part of a non-mix material. wo.z > 0 (flipped local frame); `entering` says whether
  * wo is on the side frame.n points to, adjoint as bsdfEval's. */
-CB_FN Spectrum cbLobeEval(const SceneView* scene, Material m, Vec3 wo, Vec3 wi, bool entering,
-                          int adjoint, real* pdfFwd, real* pdfRev) {
+CB_FN Spectrum cbLobeEval(const SceneView* scene, Material m, TexCoord uv, Vec3 wo, Vec3 wi,
+                          bool entering, int adjoint, real* pdfFwd, real* pdfRev) {
     *pdfFwd = 0.0f;
     *pdfRev = 0.0f;
     (void)entering;
@@ -891,7 +902,7 @@ CB_FN Spectrum cbLobeEval(const SceneView* scene, Material m, Vec3 wo, Vec3 wi, 
         if (!(wi.z > 0.0f)) return specZero();
         *pdfFwd = cosineHemispherePdf(wi.z);
         *pdfRev = cosineHemispherePdf(wo.z);
-        return specScale(specLoad(scene->spectra, m.reflectance), CB_INV_PI);
+        return specScale(materialReflectance(scene, m, uv), CB_INV_PI);
     }
 #endif
 #if CB_HAS(CB_FEATURE_DIFFUSE_TRANSMISSION)
@@ -911,7 +922,7 @@ CB_FN Spectrum cbLobeEval(const SceneView* scene, Material m, Vec3 wo, Vec3 wi, 
 #if CB_HAS_LAYERED
     if (m.kind == CB_MAT_COATED_DIFFUSE || m.kind == CB_MAT_COATED_CONDUCTOR) {
         if (!(wi.z > 0.0f)) return specZero();
-        LayerBase base = layerBaseLoad(scene, m);
+        LayerBase base = layerBaseLoad(scene, m, uv);
         *pdfFwd = layeredPdf(base, m, wo, wi);
         *pdfRev = layeredPdf(base, m, wi, wo);
         return layeredEval(base, m, wo, wi, adjoint);
@@ -940,6 +951,7 @@ CB_FN Spectrum cbLobeEval(const SceneView* scene, Material m, Vec3 wo, Vec3 wi, 
 #endif
     (void)scene;
     (void)m;
+    (void)uv;
     (void)wo;
     (void)wi;
     return specZero();
@@ -990,15 +1002,16 @@ CB_FN real cbLobeSpecularity(Material m) {
 /* Sample a non-mix material; wo.z > 0 in the flipped local frame, `entering` says whether wo is on
  * the side frame.n points to (the dielectric's outside). out->wi is local (flipped). Non-delta
  * results carry only this lobe's own f and pdfs. */
-CB_FN bool cbLobeSample(const SceneView* scene, Material m, Vec3 wo, bool entering, real u0,
-                        real u1, real uLobe, int adjoint, BsdfSample* out) {
+CB_FN bool cbLobeSample(const SceneView* scene, Material m, TexCoord uv, Vec3 wo, bool entering,
+                        real u0, real u1, real uLobe, int adjoint, BsdfSample* out) {
     out->isDelta = 0;
+    (void)uv;
 #if CB_HAS(CB_FEATURE_DIFFUSE)
     if (m.kind == CB_MAT_DIFFUSE) {
         Vec3 wi = sampleCosineHemisphere(u0, u1);
         if (!(wi.z > 0.0f)) return false;
         out->wi = wi;
-        out->f = specScale(specLoad(scene->spectra, m.reflectance), CB_INV_PI);
+        out->f = specScale(materialReflectance(scene, m, uv), CB_INV_PI);
         out->pdf = cosineHemispherePdf(wi.z);
         out->pdfRev = cosineHemispherePdf(wo.z);
         return true;
@@ -1021,7 +1034,7 @@ CB_FN bool cbLobeSample(const SceneView* scene, Material m, Vec3 wo, bool enteri
 #endif
 #if CB_HAS_LAYERED
     if (m.kind == CB_MAT_COATED_DIFFUSE || m.kind == CB_MAT_COATED_CONDUCTOR)
-        return layeredSample(layerBaseLoad(scene, m), m, wo, u0, u1, uLobe, adjoint, out);
+        return layeredSample(layerBaseLoad(scene, m, uv), m, wo, u0, u1, uLobe, adjoint, out);
 #endif
 #if CB_HAS(CB_FEATURE_THIN_DIELECTRIC)
     if (m.kind == CB_MAT_THIN_DIELECTRIC) {
@@ -1114,8 +1127,10 @@ CB_FN Vec3 cbToFlippedLocal(Frame frame, Vec3 w, real flip) {
     return vec3(l.x, l.y, l.z * flip);
 }
 
-CB_FN Spectrum bsdfEval(const SceneView* scene, int material, Frame frame, Vec3 wo, Vec3 wi,
-                        int adjoint, real* pdfFwd, real* pdfRev) {
+/* The BSDF of `material` at a surface point of texture coordinates uv (its textured
+ * reflectance's) and shading frame `frame`. */
+CB_FN Spectrum bsdfEval(const SceneView* scene, int material, TexCoord uv, Frame frame, Vec3 wo,
+                        Vec3 wi, int adjoint, real* pdfFwd, real* pdfRev) {
     /* adjoint: only dielectric transmission (its radiance scaling) depends on it */
     *pdfFwd = 0.0f;
     *pdfRev = 0.0f;
@@ -1130,20 +1145,20 @@ CB_FN Spectrum bsdfEval(const SceneView* scene, int material, Frame frame, Vec3 
     if (m.kind == CB_MAT_MIX) {
         real a = m.mixAmount;
         real p1f, p1r, p2f, p2r;
-        Spectrum f1 =
-            cbLobeEval(scene, scene->materials[m.mixFirst], lo, li, entering, adjoint, &p1f, &p1r);
-        Spectrum f2 =
-            cbLobeEval(scene, scene->materials[m.mixSecond], lo, li, entering, adjoint, &p2f, &p2r);
+        Spectrum f1 = cbLobeEval(scene, scene->materials[m.mixFirst], uv, lo, li, entering, adjoint,
+                                 &p1f, &p1r);
+        Spectrum f2 = cbLobeEval(scene, scene->materials[m.mixSecond], uv, lo, li, entering,
+                                 adjoint, &p2f, &p2r);
         *pdfFwd = (1.0f - a) * p1f + a * p2f;
         *pdfRev = (1.0f - a) * p1r + a * p2r;
         return specAdd(specScale(f1, 1.0f - a), specScale(f2, a));
     }
 #endif
-    return cbLobeEval(scene, m, lo, li, entering, adjoint, pdfFwd, pdfRev);
+    return cbLobeEval(scene, m, uv, lo, li, entering, adjoint, pdfFwd, pdfRev);
 }
 
-CB_FN bool bsdfSample(const SceneView* scene, int material, Frame frame, Vec3 wo, real u0, real u1,
-                      real uLobe, int adjoint, BsdfSample* out) {
+CB_FN bool bsdfSample(const SceneView* scene, int material, TexCoord uv, Frame frame, Vec3 wo,
+                      real u0, real u1, real uLobe, int adjoint, BsdfSample* out) {
     real cosO = vdot(wo, frame.n);
     if (cosO == 0.0f || !isfinite(cosO)) return false;
     real flip = cosO > 0.0f ? 1.0f : -1.0f;
@@ -1161,16 +1176,16 @@ CB_FN bool bsdfSample(const SceneView* scene, int material, Frame frame, Vec3 wo
         real uRest = second ? uLobe / a : (uLobe - a) / (1.0f - a);
         uRest = cbClamp(uRest, 0.0f, 0.99999994f);
         Material c = scene->materials[second ? m.mixSecond : m.mixFirst];
-        if (!cbLobeSample(scene, c, lo, entering, u0, u1, uRest, adjoint, &s)) return false;
+        if (!cbLobeSample(scene, c, uv, lo, entering, u0, u1, uRest, adjoint, &s)) return false;
         if (s.isDelta) {
             s.f = specScale(s.f, pick);
             s.pdf *= pick;
             s.pdfRev *= pick;
         } else {
             real p1f, p1r, p2f, p2r;
-            Spectrum f1 = cbLobeEval(scene, scene->materials[m.mixFirst], lo, s.wi, entering,
+            Spectrum f1 = cbLobeEval(scene, scene->materials[m.mixFirst], uv, lo, s.wi, entering,
                                      adjoint, &p1f, &p1r);
-            Spectrum f2 = cbLobeEval(scene, scene->materials[m.mixSecond], lo, s.wi, entering,
+            Spectrum f2 = cbLobeEval(scene, scene->materials[m.mixSecond], uv, lo, s.wi, entering,
                                      adjoint, &p2f, &p2r);
             s.f = specAdd(specScale(f1, 1.0f - a), specScale(f2, a));
             s.pdf = (1.0f - a) * p1f + a * p2f;
@@ -1180,7 +1195,7 @@ CB_FN bool bsdfSample(const SceneView* scene, int material, Frame frame, Vec3 wo
     } else
 #endif
     {
-        if (!cbLobeSample(scene, m, lo, entering, u0, u1, uLobe, adjoint, &s)) return false;
+        if (!cbLobeSample(scene, m, uv, lo, entering, u0, u1, uLobe, adjoint, &s)) return false;
     }
     s.wi = frameToWorld(frame, vec3(s.wi.x, s.wi.y, s.wi.z * flip));
     *out = s;

@@ -7,6 +7,7 @@
 #ifndef CB_INTERSECT_H
 #define CB_INTERSECT_H
 
+#include "cb_texture.h"
 #include "cb_types.h"
 
 /* No fused multiply-adds in this file: OpenCL C lets the compiler contract a * b - c * d into
@@ -462,6 +463,8 @@ CB_FN SurfacePoint surfacePointFromHit(const SceneView* scene, Ray ray, Hit hit)
     sp.primitive = hit.primitive;
     sp.material = prim->material;
     sp.light = prim->light;
+    sp.uv.u = 0.0f;
+    sp.uv.v = 0.0f;
     (void)ray; /* only spheres need the ray */
 #if CB_HAS(CB_FEATURE_SPHERES)
     if (prim->kind == CB_PRIM_SPHERE) {
@@ -488,6 +491,10 @@ CB_FN SurfacePoint surfacePointFromHit(const SceneView* scene, Ray ray, Hit hit)
     /* pbrt 3rd ed. sec. 3.9.4 (triangles, barycentric interpolation): gamma(7) sum |b_i p_i|. */
     sp.pError = vscale(vadd(vadd(vabs(w0), vabs(w1)), vabs(w2)), cbGamma(7));
     sp.ng = triangleNormal(p0, p1, p2);
+#if CB_HAS(CB_FEATURE_TEXTURE)
+    /* (Host views of untextured scenes, such as the BVH choice's, have no texture buffer.) */
+    if (scene->textures) sp.uv = triangleTexCoord(scene, hit.primitive, hit.b1, hit.b2);
+#endif
     return sp;
 }
 

@@ -118,10 +118,7 @@ CB_FN Spectrum imageLightPixelEmission(const SceneView* scene, CB_GLOBAL const L
     s.c[2] = rgb[2];
     return s;
 #else
-    SmitsSplit k = smitsSplit(rgb[0], rgb[1], rgb[2]);
-    Spectrum s = specScale(specLoad(scene->spectra, light->emission), k.white);
-    s = specMadd(s, specLoad(scene->spectra, light->emission + k.secondary), k.secondaryWeight);
-    s = specMadd(s, specLoad(scene->spectra, light->emission + k.primary), k.primaryWeight);
+    Spectrum s = smitsSpectrum(scene->spectra, light->emission, rgb[0], rgb[1], rgb[2]);
     return specMul(s, specLoad(scene->spectra, light->emission + 7));
 #endif
 }

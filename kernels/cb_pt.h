@@ -133,7 +133,8 @@ CB_FN bool ptPathVertex(const SceneView* scene, PtPath* path, Ray* ray, bool fou
             }
             if (!specIsBlack(emitted) && pdfLightW > 0.0f && isfinite(pdfLightW)) {
                 real pdfBsdfW, pdfRev;
-                Spectrum f = bsdfEval(scene, sp.material, frame, wo, wi, 0, &pdfBsdfW, &pdfRev);
+                Spectrum f =
+                    bsdfEval(scene, sp.material, sp.uv, frame, wo, wi, 0, &pdfBsdfW, &pdfRev);
                 if (!specIsBlack(f)) {
                     *shadow = spawnRayTo(sp, ls.p, ls.pError, ls.n, shadowTMax);
                     real weight = ls.isDelta ? 1.0f : powerHeuristic(pdfLightW, pdfBsdfW);
@@ -153,7 +154,7 @@ CB_FN bool ptPathVertex(const SceneView* scene, PtPath* path, Ray* ray, bool fou
     real uLobe = bsdfReadsLobeSample(scene, sp.material)
                      ? sampleAt(stream, bounceDimension(bounce, CB_SLOT_BSDF_LOBE))
                      : 0.0f;
-    if (!bsdfSample(scene, sp.material, frame, wo, u0, u1, uLobe, 0, &bs)) return false;
+    if (!bsdfSample(scene, sp.material, sp.uv, frame, wo, u0, u1, uLobe, 0, &bs)) return false;
     if (bs.pdf <= 0.0f || specIsBlack(bs.f)) return false;
     path->throughput = specMul(path->throughput, specScale(bs.f, vabsdot(bs.wi, sp.ng) / bs.pdf));
     path->previousPdfW = bs.pdf;

@@ -95,6 +95,17 @@ CB_FN SmitsSplit smitsSplit(real red, real green, real blue) {
     return r <= g ? smitsSplitOf(3, 5, b, r - b, g - r) : smitsSplitOf(3, 4, b, g - b, r - g);
 }
 
+/* Smits's spectrum of (red, green, blue) from his basis at spectra entries basis .. basis + 6
+ * (white, cyan, magenta, yellow, red, green, blue): the kernels' copy of the host's
+ * rgbToSpectrum, for RGB values stored as RGB (image lights' pixels, image textures). */
+CB_FN Spectrum smitsSpectrum(CB_GLOBAL const real* spectra, int basis, real red, real green,
+                             real blue) {
+    SmitsSplit k = smitsSplit(red, green, blue);
+    Spectrum s = specScale(specLoad(spectra, basis), k.white);
+    s = specMadd(s, specLoad(spectra, basis + k.secondary), k.secondaryWeight);
+    return specMadd(s, specLoad(spectra, basis + k.primary), k.primaryWeight);
+}
+
 CB_FN real specMaxComponent(Spectrum a) {
     real m = a.c[0];
     for (int i = 1; i < CB_CHANNELS; ++i)

@@ -57,6 +57,11 @@ typedef struct Hit {
 
 /* Where a ray hit, with the error bound needed to spawn new rays without self-intersection
  * (pbrt-v4's conservative floating-point error bounds: no scene-scale epsilon). */
+/* Texture coordinates (pbrt-v4's uv) of a surface point. */
+typedef struct TexCoord {
+    real u, v;
+} TexCoord;
+
 typedef struct SurfacePoint {
     Vec3 p;      /* the hit point */
     Vec3 pError; /* per-axis absolute bound on the error of p */
@@ -64,6 +69,7 @@ typedef struct SurfacePoint {
     int primitive;
     int material;
     int light;
+    TexCoord uv; /* CB_FEATURE_TEXTURE: interpolated from the triangle's vertices; else 0 */
 } SurfacePoint;
 
 /* ---- Materials ---------------------------------------------------------------------------- */
@@ -97,6 +103,7 @@ typedef struct SurfacePoint {
 #define CB_FEATURE_COATED_DIFFUSE (1u << 15)   /* pbrt-v4's layered "coateddiffuse" */
 #define CB_FEATURE_COATED_CONDUCTOR (1u << 16) /* pbrt-v4's layered "coatedconductor" */
 #define CB_FEATURE_IMAGE_LIGHT (1u << 17) /* an "infinite" light given by an equal-area image */
+#define CB_FEATURE_TEXTURE (1u << 18) /* a reflectance given by an image (pbrt-v4's "imagemap") */
 
 #ifndef CB_FEATURES
 #define CB_FEATURES 0xffffffffu
@@ -134,6 +141,9 @@ typedef struct Material {
     real baseAlpha;
     int layerAlbedo;
     real layerG;
+    /* CB_FEATURE_TEXTURE: the offset in `textures` of the image texture that gives the diffuse,
+     * coated diffuse or diffuse transmission reflectance in place of `reflectance`; -1: none. */
+    int reflectanceTexture;
 } Material;
 
 /* ---- Lights ------------------------------------------------------------------------------- */
@@ -222,6 +232,9 @@ typedef struct SceneView {
     CB_GLOBAL const Light* lights;
     CB_GLOBAL const real* spectra;     /* CB_CHANNELS floats per entry */
     CB_GLOBAL const real* lightTables; /* image lights' sampling tables (Light.imageTable) */
+    /* CB_FEATURE_TEXTURE: per primitive its vertices' texture coordinates (u0 v0 u1 v1 u2 v2),
+     * then the image textures (cb_texture.h) */
+    CB_GLOBAL const real* textures;
     int lightCount;
 } SceneView;
 
@@ -232,7 +245,7 @@ typedef struct SceneView {
     __global const struct BvhNodeWide *nodes, __global const TrianglePack *packs,                  \
         __global const Primitive *primitives, __global const Material *materials,                  \
         __global const Light *lights, __global const real *spectra,                                \
-        __global const real *lightTables, int lightCount
+        __global const real *lightTables, __global const real *textures, int lightCount
 #define CB_SCENE_VIEW(view)                                                                        \
     SceneView view;                                                                                \
     view.nodes = nodes;                                                                            \
@@ -242,6 +255,7 @@ typedef struct SceneView {
     view.lights = lights;                                                                          \
     view.spectra = spectra;                                                                        \
     view.lightTables = lightTables;                                                                \
+    view.textures = textures;                                                                      \
     view.lightCount = lightCount
 #endif
 

@@ -80,19 +80,26 @@ inline BinnedMeans channelMeans(const cb::DeviceScene& scene, cb::ClRuntime& run
                        [](int, int, int c) { return size_t(c); });
 }
 
-// Each channel's mean within 4.5 standard errors over runs, plus relativeFloor of the expected
+// Each bin's mean within 4.5 standard errors over runs, plus relativeFloor of the expected
 // value, and no non-finite sample.
-inline void checkChannelMeans(const BinnedMeans& b, const std::array<double, 3>& expected,
-                              double relativeFloor) {
-    for (size_t ch = 0; ch < 3; ++ch) {
-        CAPTURE(ch);
-        CAPTURE(expected[ch]);
-        CAPTURE(b.stats.mean[ch]);
-        CAPTURE(b.stats.se[ch]);
-        CHECK(std::fabs(b.stats.mean[ch] - expected[ch]) <=
-              4.5 * b.stats.se[ch] + relativeFloor * expected[ch]);
+template <size_t Bins>
+void checkBinMeans(const BinnedMeans& b, const std::array<double, Bins>& expected,
+                   double relativeFloor) {
+    for (size_t bin = 0; bin < Bins; ++bin) {
+        CAPTURE(bin);
+        CAPTURE(expected[bin]);
+        CAPTURE(b.stats.mean[bin]);
+        CAPTURE(b.stats.se[bin]);
+        CHECK(std::fabs(b.stats.mean[bin] - expected[bin]) <=
+              4.5 * b.stats.se[bin] + relativeFloor * expected[bin]);
     }
     CHECK(b.nonFinite == 0);
+}
+
+// The same for channelMeans' three channels.
+inline void checkChannelMeans(const BinnedMeans& b, const std::array<double, 3>& expected,
+                              double relativeFloor) {
+    checkBinMeans(b, expected, relativeFloor);
 }
 
 inline cb::IntegratorSettings methodSettings(const std::string& name) {

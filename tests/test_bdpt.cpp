@@ -233,7 +233,8 @@ double oracleStep(const cbk::SceneView& scene, const cbk::Camera& camera, const 
         int beyond = to > from ? from - 1 : from + 1;
         Vec3 wo = dirTo(a, path.y[size_t(beyond)]);
         float fwd, rev;
-        cbk::bsdfEval(&scene, a.material, cbk::frameFromNormal(cbk::pvN(&a)), wo, w, 0, &fwd, &rev);
+        cbk::bsdfEval(&scene, a.material, cbk::pvUv(&a), cbk::frameFromNormal(cbk::pvN(&a)), wo, w,
+                      0, &fwd, &rev);
         pdfW = fwd;
     }
     Vec3 d = cbk::vsub(cbk::pvP(&b), cbk::pvP(&a));

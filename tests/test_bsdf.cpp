@@ -60,6 +60,7 @@ struct TestScene {
         m.mixAmount = amount;
         m.secondSpectrum = -1;
         m.layerAlbedo = -1;
+        m.reflectanceTexture = -1;
         materials.push_back(m);
         return static_cast<int>(materials.size()) - 1;
     }
@@ -192,6 +193,8 @@ struct Fixture {
 };
 
 const Frame kFrame = frameFromNormal(vnormalize(vec3(0.3f, -0.5f, 0.8f)));
+// Texture coordinates for bsdfEval and bsdfSample: these materials are untextured.
+const TexCoord kNoUv{0.0f, 0.0f};
 
 Vec3 localDir(float cosTheta, float phi) {
     float sinTheta = std::sqrt(std::max(0.0f, 1.0f - cosTheta * cosTheta));
@@ -249,7 +252,7 @@ SamplerCheck checkSampler(const SceneView& scene, int material, Vec3 wo, double 
         float u0 = u(), u1 = u(), ul = u();
         BsdfSample s;
         double w = 0.0;
-        if (!bsdfSample(&scene, material, kFrame, wo, u0, u1, ul, adjoint, &s)) {
+        if (!bsdfSample(&scene, material, kNoUv, kFrame, wo, u0, u1, ul, adjoint, &s)) {
             observed[hist.cells() + 1] += 1.0;
         } else {
             w = s.f.c[0] * std::fabs(vdot(s.wi, kFrame.n)) / s.pdf;
@@ -259,7 +262,8 @@ SamplerCheck checkSampler(const SceneView& scene, int material, Vec3 wo, double 
                 observed[hist.cell(frameToLocal(kFrame, s.wi))] += 1.0;
                 if (i % 16 == 0) {
                     float pf, pr;
-                    Spectrum f = bsdfEval(&scene, material, kFrame, wo, s.wi, adjoint, &pf, &pr);
+                    Spectrum f =
+                        bsdfEval(&scene, material, kNoUv, kFrame, wo, s.wi, adjoint, &pf, &pr);
                     out.worstSampleVsEval = std::max({out.worstSampleVsEval, rel(f.c[0], s.f.c[0]),
                                                       rel(pf, s.pdf), rel(pr, s.pdfRev)});
                 }
@@ -275,15 +279,15 @@ SamplerCheck checkSampler(const SceneView& scene, int material, Vec3 wo, double 
     std::vector<double> expected = hist.integrate(
         [&](Vec3 wl) {
             float pf, pr;
-            bsdfEval(&scene, material, kFrame, wo, frameToWorld(kFrame, wl), 0, &pf, &pr);
+            bsdfEval(&scene, material, kNoUv, kFrame, wo, frameToWorld(kFrame, wl), 0, &pf, &pr);
             return static_cast<double>(pf);
         },
         quadrature);
     std::vector<double> albedo = hist.integrate(
         [&](Vec3 wl) {
             float pf, pr;
-            Spectrum f =
-                bsdfEval(&scene, material, kFrame, wo, frameToWorld(kFrame, wl), adjoint, &pf, &pr);
+            Spectrum f = bsdfEval(&scene, material, kNoUv, kFrame, wo, frameToWorld(kFrame, wl),
+                                  adjoint, &pf, &pr);
             return static_cast<double>(f.c[0]) * std::fabs(wl.z);
         },
         2);
@@ -338,7 +342,7 @@ TEST_CASE("diffuse: sampling matches pdf, pdf and albedo integrate to 1, two-sid
     for (int i = 0; i < 1000; ++i) {
         Vec3 wo = worldDir(i % 2 ? 0.4f : -0.4f, 0.1f * i);
         BsdfSample s;
-        REQUIRE(bsdfSample(&v, fx.diffuseTint, kFrame, wo, u(), u(), u(), 0, &s));
+        REQUIRE(bsdfSample(&v, fx.diffuseTint, kNoUv, kFrame, wo, u(), u(), u(), 0, &s));
         CHECK(vdot(s.wi, kFrame.n) * vdot(wo, kFrame.n) > 0.0f);
         double w = s.f.c[1] * vabsdot(s.wi, kFrame.n) / s.pdf;
         CHECK(w == doctest::Approx(0.6).epsilon(1e-5));
@@ -400,8 +404,8 @@ TEST_CASE("reflection BSDFs are reciprocal and pdfRev is the swapped pdfFwd") {
             Vec3 a = frameToWorld(kFrame, sampleUniformSphere(u(), u()));
             Vec3 b = frameToWorld(kFrame, sampleUniformSphere(u(), u()));
             float pab, rab, pba, rba;
-            Spectrum fab = bsdfEval(&v, m, kFrame, a, b, 0, &pab, &rab);
-            Spectrum fba = bsdfEval(&v, m, kFrame, b, a, 0, &pba, &rba);
+            Spectrum fab = bsdfEval(&v, m, kNoUv, kFrame, a, b, 0, &pab, &rab);
+            Spectrum fba = bsdfEval(&v, m, kNoUv, kFrame, b, a, 0, &pba, &rba);
             bool sameSide = vdot(a, kFrame.n) * vdot(b, kFrame.n) > 0.0f;
             INFO("material " << m);
             if (!sameSide) {
@@ -476,7 +480,7 @@ TEST_CASE("Fresnel conductor: mirror and rough lobes carry F(wo . wm) per channe
     for (float c : {1.0f, 0.7f, 0.2f, 0.02f, -0.5f}) {
         Vec3 wo = worldDir(c, 1.0f);
         BsdfSample s;
-        REQUIRE(bsdfSample(&v, fx.goldFresnelMirror, kFrame, wo, 0.3f, 0.8f, 0.5f, 0, &s));
+        REQUIRE(bsdfSample(&v, fx.goldFresnelMirror, kNoUv, kFrame, wo, 0.3f, 0.8f, 0.5f, 0, &s));
         CHECK(s.isDelta == 1);
         const float cosI = vabsdot(s.wi, kFrame.n);
         for (int ch = 0; ch < 3; ++ch)
@@ -490,10 +494,10 @@ TEST_CASE("Fresnel conductor: mirror and rough lobes carry F(wo . wm) per channe
     for (int i = 0; i < 2000; ++i) {
         Vec3 wo = worldDir(0.05f + 0.95f * u(), 6.28f * u());
         BsdfSample s;
-        if (!bsdfSample(&v, fx.goldFresnelRough, kFrame, wo, u(), u(), u(), 0, &s)) continue;
+        if (!bsdfSample(&v, fx.goldFresnelRough, kNoUv, kFrame, wo, u(), u(), u(), 0, &s)) continue;
         float pf, pr, pf1, pr1;
-        Spectrum f = bsdfEval(&v, fx.goldFresnelRough, kFrame, wo, s.wi, 0, &pf, &pr);
-        Spectrum one = bsdfEval(&v, fx.rough03, kFrame, wo, s.wi, 0, &pf1, &pr1);
+        Spectrum f = bsdfEval(&v, fx.goldFresnelRough, kNoUv, kFrame, wo, s.wi, 0, &pf, &pr);
+        Spectrum one = bsdfEval(&v, fx.rough03, kNoUv, kFrame, wo, s.wi, 0, &pf1, &pr1);
         const Vec3 h = vnormalize(vadd(wo, s.wi));
         const double cosH = std::fabs(vdot(wo, h));
         for (int ch = 0; ch < 3; ++ch) {
@@ -634,7 +638,7 @@ TEST_CASE("rough dielectric of alpha 1e-4: Fresnel's split and Snell's direction
         int reflections = 0, off = 0, n = 20000;
         for (int i = 0; i < n; ++i) {
             BsdfSample s;
-            REQUIRE(bsdfSample(&v, fx.roughGlassTiny, kFrame, wo, u(), u(), u(), 0, &s));
+            REQUIRE(bsdfSample(&v, fx.roughGlassTiny, kNoUv, kFrame, wo, u(), u(), u(), 0, &s));
             CHECK(s.isDelta == 0);
             const float cosI = vdot(s.wi, kFrame.n);
             if (cosI * c > 0.0f) {
@@ -669,8 +673,8 @@ TEST_CASE("diffuse transmission: sampling matches pdf on both sides, albedo R + 
         Vec3 a = frameToWorld(kFrame, sampleUniformSphere(u(), u()));
         Vec3 b = frameToWorld(kFrame, sampleUniformSphere(u(), u()));
         float pab, rab, pba, rba;
-        Spectrum fab = bsdfEval(&v, fx.translucent, kFrame, a, b, i % 2, &pab, &rab);
-        Spectrum fba = bsdfEval(&v, fx.translucent, kFrame, b, a, 0, &pba, &rba);
+        Spectrum fab = bsdfEval(&v, fx.translucent, kNoUv, kFrame, a, b, i % 2, &pab, &rab);
+        Spectrum fba = bsdfEval(&v, fx.translucent, kNoUv, kFrame, b, a, 0, &pba, &rba);
         bool sameSide = vdot(a, kFrame.n) * vdot(b, kFrame.n) > 0.0f;
         across += sameSide ? 0 : 1;
         const float expected[2][3] = {{0.35f, 0.45f, 0.1f}, {0.5f, 0.3f, 0.2f}};
@@ -691,14 +695,14 @@ TEST_CASE("diffuse transmission: sampling matches pdf on both sides, albedo R + 
         for (int i = 0; i < 500; ++i) {
             Vec3 wo = worldDir(i % 2 ? 0.6f : -0.3f, 0.2f * i);
             BsdfSample s;
-            REQUIRE(bsdfSample(&v, m, kFrame, wo, w(), w(), w(), 0, &s));
+            REQUIRE(bsdfSample(&v, m, kNoUv, kFrame, wo, w(), w(), w(), 0, &s));
             bool transmitted = vdot(s.wi, kFrame.n) * vdot(wo, kFrame.n) < 0.0f;
             CHECK(transmitted == (m == fx.transmitterOnly));
             double weight = s.f.c[1] * vabsdot(s.wi, kFrame.n) / s.pdf;
             CHECK(weight == doctest::Approx(0.6).epsilon(1e-5));
             float pf, pr;
             Vec3 mirrored = vsub(s.wi, vscale(kFrame.n, 2.0f * vdot(s.wi, kFrame.n)));
-            CHECK(specIsBlack(bsdfEval(&v, m, kFrame, wo, mirrored, 0, &pf, &pr)));
+            CHECK(specIsBlack(bsdfEval(&v, m, kNoUv, kFrame, wo, mirrored, 0, &pf, &pr)));
             CHECK(pf == 0.0f);
         }
     }
@@ -708,7 +712,8 @@ TEST_CASE("diffuse transmission: sampling matches pdf on both sides, albedo R + 
     int blackMaterial = blackScene.diffuseTransmission(none, none);
     SceneView bv = blackScene.view();
     BsdfSample s;
-    CHECK(!bsdfSample(&bv, blackMaterial, kFrame, worldDir(0.5f, 0.0f), 0.3f, 0.3f, 0.3f, 0, &s));
+    CHECK(!bsdfSample(&bv, blackMaterial, kNoUv, kFrame, worldDir(0.5f, 0.0f), 0.3f, 0.3f, 0.3f, 0,
+                      &s));
     CHECK(materialSpecularity(&v, fx.translucent) == 0.0f);
     CHECK(bsdfReadsLobeSample(&v, fx.translucent));
 }
@@ -729,7 +734,7 @@ TEST_CASE("thin dielectric: the sheet's reflectance from both sides, straight tr
             Vec3 wo = worldDir(c, 0.4f);
             BsdfSample s;
             // uLobe just below and at the reflectance picks reflection, then transmission.
-            REQUIRE(bsdfSample(&v, m, kFrame, wo, 0.5f, 0.5f, float(sheet) * 0.999f, 0, &s));
+            REQUIRE(bsdfSample(&v, m, kNoUv, kFrame, wo, 0.5f, 0.5f, float(sheet) * 0.999f, 0, &s));
             CHECK(s.isDelta == 1);
             CHECK(s.pdf == doctest::Approx(sheet).epsilon(2e-6));
             CHECK(s.pdfRev == s.pdf);
@@ -738,8 +743,8 @@ TEST_CASE("thin dielectric: the sheet's reflectance from both sides, straight tr
             CHECK(s.f.c[2] * vabsdot(s.wi, kFrame.n) / s.pdf == doctest::Approx(1.0).epsilon(1e-5));
             if (sheet < 0.999) {
                 for (int adjoint = 0; adjoint < 2; ++adjoint) {
-                    REQUIRE(bsdfSample(&v, m, kFrame, wo, 0.5f, 0.5f, float(sheet) * 1.001f + 1e-4f,
-                                       adjoint, &s));
+                    REQUIRE(bsdfSample(&v, m, kNoUv, kFrame, wo, 0.5f, 0.5f,
+                                       float(sheet) * 1.001f + 1e-4f, adjoint, &s));
                     CHECK(s.pdf == doctest::Approx(1.0 - sheet).epsilon(2e-5));
                     CHECK(s.pdfRev == s.pdf);
                     // Unbent, and no eta^2: the same medium on both sides.
@@ -760,13 +765,14 @@ TEST_CASE("thin dielectric: the sheet's reflectance from both sides, straight tr
     const int n = 100000;
     for (int i = 0; i < n; ++i) {
         BsdfSample s;
-        REQUIRE(bsdfSample(&v, fx.thinGlass, kFrame, wo, u(), u(), u(), 0, &s));
+        REQUIRE(bsdfSample(&v, fx.thinGlass, kNoUv, kFrame, wo, u(), u(), u(), 0, &s));
         reflected += vdot(s.wi, kFrame.n) > 0.0f ? 1 : 0;
     }
     CHECK(std::fabs(reflected / double(n) - expected) <
           5.0 * std::sqrt(expected * (1 - expected) / n));
     float pf, pr;
-    CHECK(specIsBlack(bsdfEval(&v, fx.thinGlass, kFrame, wo, vscale(wo, -1.0f), 0, &pf, &pr)));
+    CHECK(
+        specIsBlack(bsdfEval(&v, fx.thinGlass, kNoUv, kFrame, wo, vscale(wo, -1.0f), 0, &pf, &pr)));
     CHECK(!materialHasNonDelta(&v, fx.thinGlass));
     CHECK(materialHasNonDelta(&v, fx.mixTranslucentThin));
     CHECK(materialSpecularity(&v, fx.thinGlass) == 1.0f);
@@ -807,7 +813,7 @@ TEST_CASE("coated diffuse: the walk's albedo and f against the closed form, adjo
             for (int i = 0; i < n; ++i) {
                 BsdfSample s;
                 double w = 0.0;
-                if (bsdfSample(&v, c.material, kFrame, wo, u(), u(), u(), i % 2, &s)) {
+                if (bsdfSample(&v, c.material, kNoUv, kFrame, wo, u(), u(), u(), i % 2, &s)) {
                     w = s.f.c[0] * vabsdot(s.wi, kFrame.n) / s.pdf;
                     deltas += s.isDelta;
                     if (!s.isDelta) {
@@ -819,7 +825,7 @@ TEST_CASE("coated diffuse: the walk's albedo and f against the closed form, adjo
                     wrongSide += vdot(s.wi, kFrame.n) * cosO <= 0.0f;
                     if (!s.isDelta && i % 8 == 0) {
                         float pf, pr;
-                        bsdfEval(&v, c.material, kFrame, wo, s.wi, i % 2, &pf, &pr);
+                        bsdfEval(&v, c.material, kNoUv, kFrame, wo, s.wi, i % 2, &pf, &pr);
                         worstPdf = std::max({worstPdf, rel(pf, s.pdf), rel(pr, s.pdfRev)});
                     }
                 }
@@ -868,8 +874,8 @@ TEST_CASE("coated diffuse: the walk's albedo and f against the closed form, adjo
             const Vec3 wo = worldDir(cosO, 6.28f * u()), wi = worldDir(cosI, 6.28f * u());
             const double expected = ref.meanF(std::fabs(cosO), std::fabs(cosI));
             float pf, pr;
-            const Spectrum f = bsdfEval(&v, c.material, kFrame, wo, wi, 0, &pf, &pr);
-            const Spectrum fAdjoint = bsdfEval(&v, c.material, kFrame, wi, wo, 1, &pf, &pr);
+            const Spectrum f = bsdfEval(&v, c.material, kNoUv, kFrame, wo, wi, 0, &pf, &pr);
+            const Spectrum fAdjoint = bsdfEval(&v, c.material, kNoUv, kFrame, wi, wo, 1, &pf, &pr);
             CHECK(specIsFinite(f));
             if (expected == 0.0) { // total internal reflection keeps wo or wi out
                 CHECK(specIsBlack(f));
@@ -882,7 +888,7 @@ TEST_CASE("coated diffuse: the walk's albedo and f against the closed form, adjo
                 ratio2[k] += q * q;
             }
             const Vec3 below = worldDir(-cosI, 1.0f);
-            CHECK(specIsBlack(bsdfEval(&v, c.material, kFrame, wo, below, 0, &pf, &pr)));
+            CHECK(specIsBlack(bsdfEval(&v, c.material, kNoUv, kFrame, wo, below, 0, &pf, &pr)));
         }
         REQUIRE(counted > pairs / 20); // eta 0.7 refracts only within 44 degrees of the normal
         for (int k = 0; k < 2; ++k) {
@@ -928,7 +934,8 @@ TEST_CASE("coated conductor, smooth layers: a mirror delta of the closed form's 
             int nonDelta = 0, offMirror = 0;
             for (int i = 0; i < n; ++i) {
                 BsdfSample s;
-                if (!bsdfSample(&v, c.material, kFrame, wo, u(), u(), u(), i % 2, &s)) continue;
+                if (!bsdfSample(&v, c.material, kNoUv, kFrame, wo, u(), u(), u(), i % 2, &s))
+                    continue;
                 nonDelta += !s.isDelta;
                 offMirror += angleBetween(s.wi, mirror) > 1e-3;
                 for (int ch = 0; ch < 3; ++ch) {
@@ -956,7 +963,7 @@ TEST_CASE("coated conductor, smooth layers: a mirror delta of the closed form's 
             // Every pair evaluates to 0: the whole BSDF is the delta.
             float pf, pr;
             CHECK(specIsBlack(
-                bsdfEval(&v, c.material, kFrame, wo, worldDir(cosO, 2.0f), 0, &pf, &pr)));
+                bsdfEval(&v, c.material, kNoUv, kFrame, wo, worldDir(cosO, 2.0f), 0, &pf, &pr)));
         }
     }
     // A reflectance r reflects r at normal incidence without a coat (eta 1, thickness 0).
@@ -965,7 +972,7 @@ TEST_CASE("coated conductor, smooth layers: a mirror delta of the closed form's 
     const int m = bare.coatedConductor(r, -1, 1.0f, 0.0f, 10, 1, 0.0f, 0.0f);
     SceneView bv = bare.view();
     BsdfSample s;
-    REQUIRE(bsdfSample(&bv, m, kFrame, kFrame.n, 0.5f, 0.5f, 0.5f, 0, &s));
+    REQUIRE(bsdfSample(&bv, m, kNoUv, kFrame, kFrame.n, 0.5f, 0.5f, 0.5f, 0, &s));
     const float weight[3] = {0.3f, 0.6f, 0.95f};
     for (int ch = 0; ch < 3; ++ch)
         CHECK(s.f.c[ch] / s.pdf == doctest::Approx(weight[ch]).epsilon(1e-5));
@@ -987,8 +994,8 @@ TEST_CASE("coated conductor under no coat: the rough conductor's f and albedo") 
         const Vec3 wo = worldDir(side * (0.1f + 0.9f * u()), 6.28f * u());
         const Vec3 wi = worldDir(side * (0.1f + 0.9f * u()), 6.28f * u());
         float pf, pr;
-        const Spectrum a = bsdfEval(&v, plain, kFrame, wo, wi, i % 4 < 2, &pf, &pr);
-        const Spectrum b = bsdfEval(&v, coated, kFrame, wo, wi, i % 4 < 2, &pf, &pr);
+        const Spectrum a = bsdfEval(&v, plain, kNoUv, kFrame, wo, wi, i % 4 < 2, &pf, &pr);
+        const Spectrum b = bsdfEval(&v, coated, kNoUv, kFrame, wo, wi, i % 4 < 2, &pf, &pr);
         for (int ch = 0; ch < 3; ++ch)
             if (a.c[ch] > 1e-3f) worst = std::max(worst, rel(a.c[ch], b.c[ch]));
     }
@@ -1005,7 +1012,8 @@ TEST_CASE("coated conductor under no coat: the rough conductor's f and albedo") 
             for (int i = 0; i < n; ++i) {
                 BsdfSample bs;
                 double x = 0.0;
-                if (bsdfSample(&v, which ? coated : plain, kFrame, wo, w(), w(), w(), 0, &bs))
+                if (bsdfSample(&v, which ? coated : plain, kNoUv, kFrame, wo, w(), w(), w(), 0,
+                               &bs))
                     x = bs.f.c[1] * vabsdot(bs.wi, kFrame.n) / bs.pdf;
                 sum += x;
                 sum2 += x * x;
@@ -1106,7 +1114,7 @@ TEST_CASE("coated diffuse with a scattering layer: the walk's albedo against a s
             for (int i = 0; i < n; ++i) {
                 BsdfSample bs;
                 double x = 0.0;
-                if (bsdfSample(&v, m, kFrame, wo, u(), u(), u(), i % 2, &bs))
+                if (bsdfSample(&v, m, kNoUv, kFrame, wo, u(), u(), u(), i % 2, &bs))
                     x = bs.f.c[0] * vabsdot(bs.wi, kFrame.n) / bs.pdf;
                 sum += x;
                 sum2 += x * x;
@@ -1154,7 +1162,7 @@ TEST_CASE("coated diffuse and conductor, rough layers: sampled and evaluated alb
             for (int i = 0; i < n; ++i) {
                 BsdfSample s;
                 double w = 0.0;
-                if (bsdfSample(&v, material, kFrame, wo, u(), u(), u(), i % 2, &s)) {
+                if (bsdfSample(&v, material, kNoUv, kFrame, wo, u(), u(), u(), i % 2, &s)) {
                     wrongSide += vdot(s.wi, kFrame.n) * cosO <= 0.0f;
                     CHECK(s.pdf > 0.0f);
                     deltas += s.isDelta;
@@ -1168,7 +1176,7 @@ TEST_CASE("coated diffuse and conductor, rough layers: sampled and evaluated alb
                     // keyed by the directions' bits, which the world-space round trip changes).
                     if (!s.isDelta && mat.alpha == 0.0f && i % 8 == 0) {
                         float pf, pr;
-                        bsdfEval(&v, material, kFrame, wo, s.wi, i % 2, &pf, &pr);
+                        bsdfEval(&v, material, kNoUv, kFrame, wo, s.wi, i % 2, &pf, &pr);
                         worstPdf = std::max({worstPdf, rel(pf, s.pdf), rel(pr, s.pdfRev)});
                     }
                     if (!s.isDelta) { // bsdfEval's f has no delta
@@ -1189,8 +1197,8 @@ TEST_CASE("coated diffuse and conductor, rough layers: sampled and evaluated alb
                 Vec3 l = sampleCosineHemisphere(u(), u());
                 if (cosO < 0.0f) l.z = -l.z;
                 float pf, pr;
-                const double e = M_PI * bsdfEval(&v, material, kFrame, wo, frameToWorld(kFrame, l),
-                                                 i % 2, &pf, &pr)
+                const double e = M_PI * bsdfEval(&v, material, kNoUv, kFrame, wo,
+                                                 frameToWorld(kFrame, l), i % 2, &pf, &pr)
                                             .c[0];
                 esum += e;
                 esum2 += e * e;
@@ -1263,8 +1271,8 @@ TEST_CASE("coated diffuse and conductor, rough layers: sampled and evaluated alb
             const Vec3 wo = worldDir(side * (0.6f + 0.4f * u()), 6.28f * u());
             const Vec3 wi = worldDir(side * (0.05f + 0.35f * u()), 6.28f * u());
             float pf, pr;
-            const double f = bsdfEval(&v, material, kFrame, wo, wi, 0, &pf, &pr).c[0];
-            const double fAdjoint = bsdfEval(&v, material, kFrame, wi, wo, 1, &pf, &pr).c[0];
+            const double f = bsdfEval(&v, material, kNoUv, kFrame, wo, wi, 0, &pf, &pr).c[0];
+            const double fAdjoint = bsdfEval(&v, material, kNoUv, kFrame, wi, wo, 1, &pf, &pr).c[0];
             CHECK(std::isfinite(pf));
             diff += f - fAdjoint;
             diff2 += (f - fAdjoint) * (f - fAdjoint);
@@ -1285,7 +1293,7 @@ TEST_CASE("perfect mirror: exact reflection, tint as throughput, delta contract"
     for (float c : {1.0f, 0.7f, 0.05f, -0.3f}) {
         Vec3 wo = worldDir(c, 2.0f);
         BsdfSample s;
-        REQUIRE(bsdfSample(&v, fx.mirror, kFrame, wo, 0.3f, 0.8f, 0.5f, 0, &s));
+        REQUIRE(bsdfSample(&v, fx.mirror, kNoUv, kFrame, wo, 0.3f, 0.8f, 0.5f, 0, &s));
         Vec3 expected = vsub(vscale(kFrame.n, 2.0f * vdot(wo, kFrame.n)), wo);
         CHECK(vlength(vsub(s.wi, expected)) < 1e-6f);
         CHECK(s.isDelta == 1);
@@ -1295,7 +1303,7 @@ TEST_CASE("perfect mirror: exact reflection, tint as throughput, delta contract"
         CHECK(s.f.c[0] * cosI / s.pdf == doctest::Approx(0.8).epsilon(1e-5));
         CHECK(s.f.c[2] * cosI / s.pdf == doctest::Approx(0.4).epsilon(1e-5));
         float pf, pr;
-        CHECK(specIsBlack(bsdfEval(&v, fx.mirror, kFrame, wo, expected, 0, &pf, &pr)));
+        CHECK(specIsBlack(bsdfEval(&v, fx.mirror, kNoUv, kFrame, wo, expected, 0, &pf, &pr)));
         CHECK(pf == 0.0f);
         CHECK(pr == 0.0f);
     }
@@ -1311,14 +1319,14 @@ TEST_CASE("dielectric: normal-incidence Fresnel, Snell's law, TIR, adjoint scali
         for (float side : {1.0f, -1.0f}) {
             Vec3 wo = vscale(kFrame.n, side);
             BsdfSample s;
-            REQUIRE(
-                bsdfSample(&v, m, kFrame, wo, 0.5f, 0.5f, static_cast<float>(f0) * 0.99f, 0, &s));
+            REQUIRE(bsdfSample(&v, m, kNoUv, kFrame, wo, 0.5f, 0.5f, static_cast<float>(f0) * 0.99f,
+                               0, &s));
             CHECK(s.isDelta == 1);
             CHECK(s.pdf == doctest::Approx(f0).epsilon(1e-5));
             CHECK(vlength(vsub(s.wi, wo)) < 1e-6f);
             CHECK(s.f.c[0] * vabsdot(s.wi, kFrame.n) / s.pdf == doctest::Approx(1.0).epsilon(1e-5));
-            REQUIRE(
-                bsdfSample(&v, m, kFrame, wo, 0.5f, 0.5f, static_cast<float>(f0) * 1.01f, 0, &s));
+            REQUIRE(bsdfSample(&v, m, kNoUv, kFrame, wo, 0.5f, 0.5f, static_cast<float>(f0) * 1.01f,
+                               0, &s));
             CHECK(s.pdf == doctest::Approx(1.0 - f0).epsilon(1e-5));
             CHECK(vlength(vadd(s.wi, wo)) < 1e-6f);
             // Radiance: 1/eta_rel^2 on the way in (eta_rel = eta), eta^2 on the way out.
@@ -1335,7 +1343,7 @@ TEST_CASE("dielectric: normal-incidence Fresnel, Snell's law, TIR, adjoint scali
                 double sinO = std::sqrt(1.0 - cosO * cosO);
                 double fr = fresnelRef(cosO, etaRel);
                 BsdfSample r, t0, t1;
-                REQUIRE(bsdfSample(&v, m, kFrame, wo, 0.5f, 0.5f, 0.0f, 0, &r));
+                REQUIRE(bsdfSample(&v, m, kNoUv, kFrame, wo, 0.5f, 0.5f, 0.0f, 0, &r));
                 CHECK(r.pdf == doctest::Approx(fr).epsilon(1e-5));
                 CHECK(r.pdfRev == doctest::Approx(fr).epsilon(1e-5));
                 CHECK(vlength(vsub(r.wi, vsub(vscale(kFrame.n, 2.0f * vdot(wo, kFrame.n)), wo))) <
@@ -1343,13 +1351,13 @@ TEST_CASE("dielectric: normal-incidence Fresnel, Snell's law, TIR, adjoint scali
                 if (sinO / etaRel >= 1.0) {
                     // Total internal reflection: every lobe number reflects.
                     CHECK(fr == 1.0);
-                    REQUIRE(bsdfSample(&v, m, kFrame, wo, 0.5f, 0.5f, 0.99999994f, 0, &t0));
+                    REQUIRE(bsdfSample(&v, m, kNoUv, kFrame, wo, 0.5f, 0.5f, 0.99999994f, 0, &t0));
                     CHECK(t0.pdf == 1.0f);
                     CHECK(vdot(t0.wi, kFrame.n) * vdot(wo, kFrame.n) > 0.0f);
                     continue;
                 }
-                REQUIRE(bsdfSample(&v, m, kFrame, wo, 0.5f, 0.5f, 0.99999994f, 0, &t0));
-                REQUIRE(bsdfSample(&v, m, kFrame, wo, 0.5f, 0.5f, 0.99999994f, 1, &t1));
+                REQUIRE(bsdfSample(&v, m, kNoUv, kFrame, wo, 0.5f, 0.5f, 0.99999994f, 0, &t0));
+                REQUIRE(bsdfSample(&v, m, kNoUv, kFrame, wo, 0.5f, 0.5f, 0.99999994f, 1, &t1));
                 CHECK(t0.pdf == doctest::Approx(1.0 - fr).epsilon(1e-5));
                 // Snell: eta_i sin_i = eta_t sin_t, in the plane of wo and n, other side.
                 double cosT = vdot(t0.wi, kFrame.n);
@@ -1368,8 +1376,8 @@ TEST_CASE("dielectric: normal-incidence Fresnel, Snell's law, TIR, adjoint scali
 
         // A smooth dielectric has nothing for bsdfEval or next-event estimation.
         float pf, pr;
-        CHECK(specIsBlack(
-            bsdfEval(&v, m, kFrame, worldDir(0.5f, 0.0f), worldDir(-0.5f, kPi), 0, &pf, &pr)));
+        CHECK(specIsBlack(bsdfEval(&v, m, kNoUv, kFrame, worldDir(0.5f, 0.0f), worldDir(-0.5f, kPi),
+                                   0, &pf, &pr)));
         CHECK(pf == 0.0f);
         CHECK(!materialHasNonDelta(&v, m));
     }
@@ -1385,7 +1393,7 @@ TEST_CASE("dielectric: reflect/refract frequency matches Fresnel") {
         int reflected = 0;
         for (int i = 0; i < n; ++i) {
             BsdfSample s;
-            REQUIRE(bsdfSample(&v, fx.glass, kFrame, wo, u(), u(), u(), 0, &s));
+            REQUIRE(bsdfSample(&v, fx.glass, kNoUv, kFrame, wo, u(), u(), u(), 0, &s));
             if (vdot(s.wi, kFrame.n) > 0.0f) ++reflected;
         }
         double fr = fresnelRef(cosO, 1.5);
@@ -1404,7 +1412,7 @@ TEST_CASE("mix: component frequencies follow the amount, delta contract, specula
     int deltaCount = 0, glassReflect = 0;
     for (int i = 0; i < n; ++i) {
         BsdfSample s;
-        REQUIRE(bsdfSample(&v, fx.mixDiffuseGlass, kFrame, wo, u(), u(), u(), 0, &s));
+        REQUIRE(bsdfSample(&v, fx.mixDiffuseGlass, kNoUv, kFrame, wo, u(), u(), u(), 0, &s));
         if (!s.isDelta) continue;
         ++deltaCount;
         if (vdot(s.wi, kFrame.n) > 0.0f) {
@@ -1427,7 +1435,7 @@ TEST_CASE("mix: component frequencies follow the amount, delta contract, specula
     int mirrorCount = 0;
     for (int i = 0; i < n; ++i) {
         BsdfSample s;
-        REQUIRE(bsdfSample(&v, fx.mixDragon, kFrame, wo, u(), u(), u(), 0, &s));
+        REQUIRE(bsdfSample(&v, fx.mixDragon, kNoUv, kFrame, wo, u(), u(), u(), 0, &s));
         double w = s.f.c[2] * vabsdot(s.wi, kFrame.n) / s.pdf;
         CHECK(w == doctest::Approx(0.18).epsilon(1e-4));
         if (s.isDelta) {
@@ -1443,8 +1451,8 @@ TEST_CASE("mix: component frequencies follow the amount, delta contract, specula
 
     // A mix of two delta materials has nothing to evaluate.
     float pf, pr2;
-    CHECK(specIsBlack(
-        bsdfEval(&v, fx.mixMirrorGlass, kFrame, wo, worldDir(0.6f, 0.2f + kPi), 0, &pf, &pr2)));
+    CHECK(specIsBlack(bsdfEval(&v, fx.mixMirrorGlass, kNoUv, kFrame, wo, worldDir(0.6f, 0.2f + kPi),
+                               0, &pf, &pr2)));
     CHECK(pf == 0.0f);
 
     CHECK(materialSpecularity(&v, fx.diffuse) == 0.0f);
@@ -1476,7 +1484,7 @@ TEST_CASE(
         const int n = 20000;
         for (int i = 0; i < n; ++i) {
             BsdfSample s;
-            if (!bsdfSample(&v, fx.tiny, kFrame, wo, u(), u(), u(), 0, &s)) continue;
+            if (!bsdfSample(&v, fx.tiny, kNoUv, kFrame, wo, u(), u(), u(), 0, &s)) continue;
             ++valid;
             REQUIRE(std::isfinite(s.pdf));
             REQUIRE(std::isfinite(s.pdfRev));
@@ -1490,7 +1498,7 @@ TEST_CASE(
             REQUIRE(w <= 1.0 + 1e-3);
             REQUIRE(w >= 0.0);
             float pf, pr;
-            Spectrum f = bsdfEval(&v, fx.tiny, kFrame, wo, s.wi, 0, &pf, &pr);
+            Spectrum f = bsdfEval(&v, fx.tiny, kNoUv, kFrame, wo, s.wi, 0, &pf, &pr);
             REQUIRE(specIsFinite(f));
             REQUIRE(std::isfinite(pf));
             REQUIRE(std::isfinite(pr));
@@ -1521,7 +1529,8 @@ TEST_CASE("no NaN or Inf from any material at grazing, tangent and extreme input
                 Vec3 wo = frameToWorld(frame, lo);
                 for (Vec3 li : locals) {
                     float pf, pr;
-                    Spectrum f = bsdfEval(&v, m, frame, wo, frameToWorld(frame, li), 0, &pf, &pr);
+                    Spectrum f =
+                        bsdfEval(&v, m, kNoUv, frame, wo, frameToWorld(frame, li), 0, &pf, &pr);
                     REQUIRE(specIsFinite(f));
                     REQUIRE(std::isfinite(pf));
                     REQUIRE(std::isfinite(pr));
@@ -1534,7 +1543,7 @@ TEST_CASE("no NaN or Inf from any material at grazing, tangent and extreme input
                     float ul = i < 16 ? us[(i + 1) % 4] : u();
                     for (int adjoint = 0; adjoint < 2; ++adjoint) {
                         BsdfSample s;
-                        if (!bsdfSample(&v, m, frame, wo, u0, u1, ul, adjoint, &s)) continue;
+                        if (!bsdfSample(&v, m, kNoUv, frame, wo, u0, u1, ul, adjoint, &s)) continue;
                         INFO("material " << m << " wo.z " << lo.z);
                         REQUIRE(specIsFinite(s.f));
                         REQUIRE(std::isfinite(s.pdf));
@@ -1550,10 +1559,10 @@ TEST_CASE("no NaN or Inf from any material at grazing, tangent and extreme input
     Frame up = frames[1];
     BsdfSample s;
     for (int m = 0; m < static_cast<int>(fx.s.materials.size()); ++m) {
-        CHECK(!bsdfSample(&v, m, up, vec3(1.0f, 0.0f, 0.0f), 0.3f, 0.3f, 0.3f, 0, &s));
+        CHECK(!bsdfSample(&v, m, kNoUv, up, vec3(1.0f, 0.0f, 0.0f), 0.3f, 0.3f, 0.3f, 0, &s));
         float pf, pr;
-        CHECK(specIsBlack(
-            bsdfEval(&v, m, up, vec3(1.0f, 0.0f, 0.0f), vec3(0.0f, 0.0f, 1.0f), 0, &pf, &pr)));
+        CHECK(specIsBlack(bsdfEval(&v, m, kNoUv, up, vec3(1.0f, 0.0f, 0.0f), vec3(0.0f, 0.0f, 1.0f),
+                                   0, &pf, &pr)));
     }
 }
 
@@ -1576,13 +1585,16 @@ __kernel void bsdfProbe(__global const Material* materials, __global const float
     sv.materials = materials;
     sv.lights = 0;
     sv.spectra = spectra;
+    sv.textures = 0; /* the probe's materials are untextured */
     sv.lightCount = 0;
+    TexCoord noUv;
+    noUv.u = noUv.v = 0.0f;
     Frame frame = frameFromNormal(vnormalize(vec3(p[3], p[4], p[5])));
     Vec3 wo = vec3(p[0], p[1], p[2]);
     int material = (int)p[12];
     int adjoint = (int)p[13];
     BsdfSample s;
-    bool ok = bsdfSample(&sv, material, frame, wo, p[6], p[7], p[8], adjoint, &s);
+    bool ok = bsdfSample(&sv, material, noUv, frame, wo, p[6], p[7], p[8], adjoint, &s);
     o[0] = ok ? 1.0f : 0.0f;
     o[1] = ok ? s.wi.x : 0.0f;
     o[2] = ok ? s.wi.y : 0.0f;
@@ -1592,7 +1604,7 @@ __kernel void bsdfProbe(__global const Material* materials, __global const float
     o[6] = ok ? (float)s.isDelta : 0.0f;
     for (int c = 0; c < CB_CHANNELS; ++c) o[8 + c] = ok ? s.f.c[c] : 0.0f;
     float pf, pr;
-    Spectrum f = bsdfEval(&sv, material, frame, wo, vec3(p[9], p[10], p[11]), adjoint, &pf, &pr);
+    Spectrum f = bsdfEval(&sv, material, noUv, frame, wo, vec3(p[9], p[10], p[11]), adjoint, &pf, &pr);
     for (int c = 0; c < CB_CHANNELS; ++c) o[8 + CB_CHANNELS + c] = f.c[c];
     o[8 + 2 * CB_CHANNELS] = pf;
     o[8 + 2 * CB_CHANNELS + 1] = pr;
@@ -1683,7 +1695,7 @@ void compareWithHost(const SceneView& v, const float* in, const float* o) {
     Vec3 wo = vec3(in[0], in[1], in[2]);
     int material = static_cast<int>(in[12]), adjoint = static_cast<int>(in[13]);
     BsdfSample s;
-    bool ok = bsdfSample(&v, material, frame, wo, in[6], in[7], in[8], adjoint, &s);
+    bool ok = bsdfSample(&v, material, kNoUv, frame, wo, in[6], in[7], in[8], adjoint, &s);
     INFO("material " << material << " adjoint " << adjoint);
     REQUIRE((o[0] == 1.0f) == ok);
     if (ok) {
@@ -1697,7 +1709,8 @@ void compareWithHost(const SceneView& v, const float* in, const float* o) {
             CHECK(closeRel(o[8 + c], s.f.c[c % 3]));
     }
     float pf, pr;
-    Spectrum f = bsdfEval(&v, material, frame, wo, vec3(in[9], in[10], in[11]), adjoint, &pf, &pr);
+    Spectrum f =
+        bsdfEval(&v, material, kNoUv, frame, wo, vec3(in[9], in[10], in[11]), adjoint, &pf, &pr);
     for (int c = 0; c < kDeviceChannels; ++c)
         CHECK(closeRel(o[8 + kDeviceChannels + c], f.c[c % 3]));
     CHECK(closeRel(o[8 + 2 * kDeviceChannels], pf));

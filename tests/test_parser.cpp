@@ -508,8 +508,10 @@ TEST_CASE("parser: parameter errors name the parameter") {
     expectError(w + "Shape \"sphere\" \"float radius\" [1 \"a\"]\n", "t.pbrt:2:34",
                 "mixed value types");
     expectError(w + "Shape \"sphere\" \"float radius\" -1\n", "t.pbrt:2:16", "must be > 0");
-    expectError(w + "Material \"diffuse\" \"texture reflectance\" \"checks\"\n", "t.pbrt:2:20",
-                "textures are not supported");
+    expectError(w + "Material \"conductor\" \"texture reflectance\" \"checks\"\n", "t.pbrt:2:22",
+                "textures as the \"reflectance\" of diffuse and coateddiffuse materials only");
+    expectError(w + "Material \"diffuse\" \"texture reflectance\" \"checks\"\n", "t.pbrt:2:42",
+                "names no texture \"checks\"");
     expectError(w + "Material \"diffuse\" \"blackbody reflectance\" [3000 1]\n", "t.pbrt:2:20",
                 "expects one temperature in kelvin, got 2");
     expectError(w + "Material \"diffuse\" \"rgb reflectance\" [0.5 0.5]\n", "t.pbrt:2:20",

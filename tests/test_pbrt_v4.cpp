@@ -173,16 +173,19 @@ TEST_CASE("pbrt-v4: Import reads the file's shapes like Include") {
     std::filesystem::remove_all(dir);
 }
 
-TEST_CASE("pbrt-v4: uv and S on a mesh are ignored and reported once") {
+TEST_CASE("pbrt-v4: uv on a mesh is read, S ignored and reported once") {
     const auto s = parseSceneString(
         "WorldBegin\n"
         "Shape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0] \"point2 uv\" [0 0 1 0 0 1]\n"
         "Shape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0] \"vector3 S\" [1 0 0 1 0 0 1 0 "
         "0]\n",
         "t.pbrt");
-    CHECK(s.meshes.size() == 2);
+    REQUIRE(s.meshes.size() == 2);
+    CHECK(s.meshes[0].cornerUv == std::vector<std::array<float, 6>>{{0, 0, 1, 0, 0, 1}});
+    CHECK(s.meshes[1].cornerUv.empty());
     REQUIRE(s.notes.size() == 1);
-    CHECK(contains(s.notes[0], "t.pbrt:2"));
+    CHECK(contains(s.notes[0], "t.pbrt:3"));
+    CHECK(contains(s.notes[0], "\"vector3 S\" is ignored"));
 }
 
 TEST_CASE("pbrt-v4: planar bilinear patches become two triangles facing pbrt's normal") {
@@ -1842,7 +1845,7 @@ TEST_CASE("pbrt-v4 shape alpha: 1 is opaque, 0 invisible, between refused") {
                        "\"float alpha\" 0.5: a partly transparent shape"));
     }
     CHECK(contains(errorOf("WorldBegin\nShape \"sphere\" \"texture alpha\" \"leaf\"\n"),
-                   "textures are not supported"));
+                   "reflectance\" of diffuse and coateddiffuse materials only"));
 }
 
 TEST_CASE("pbrt-v4 thin lens: lensradius and focaldistance, and what is refused") {

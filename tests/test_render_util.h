@@ -20,6 +20,7 @@ inline cbk::SceneView hostView(const cb::DeviceScene& s) {
     v.lights = s.lights.data();
     v.spectra = s.spectra.data();
     v.lightTables = s.lightTables.data();
+    v.textures = s.textures.data();
     v.lightCount = int(s.lights.size());
     return v;
 }

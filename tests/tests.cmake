@@ -22,6 +22,8 @@ add_test(NAME sky_reproducible COMMAND python3 ${CMAKE_SOURCE_DIR}/scripts/make-
          ${CMAKE_SOURCE_DIR}/scenes/pbrt-v4/textures/sky.exr)
 add_test(NAME beam_reproducible COMMAND python3 ${CMAKE_SOURCE_DIR}/scripts/make-sky --check
          ${CMAKE_SOURCE_DIR}/scenes/pbrt-v4/textures/beam.exr --size 64 --sun 20)
+add_test(NAME textures_reproducible COMMAND python3 ${CMAKE_SOURCE_DIR}/scripts/make-texture --check
+         ${CMAKE_SOURCE_DIR}/scenes/pbrt-v4/textures)
 
 # Thesis scene data: the grille/cage/lamp PLYs reproduce byte for byte from
 # scripts/make-meshes, are closed and outward, match docs/scenes.md, and every scene file

@@ -149,12 +149,12 @@ float srgbToLinear(float v) {
     return v <= 0.04045f ? v / 12.92f : std::pow((v + 0.055f) / 1.055f, 2.4f);
 }
 
-RgbImage readPng(const std::string& path) {
+RgbImage readPng(const std::string& path, ByteEncoding encoding) {
     png_image png{};
     png.version = PNG_IMAGE_VERSION;
     if (!png_image_begin_read_from_file(&png, path.c_str()))
         throw std::runtime_error("cannot read " + path + ": " + png.message);
-    // 8-bit files stay sRGB-encoded and are decoded exactly below, as pbrt-v4 decodes them;
+    // 8-bit files stay encoded and are decoded below, as pbrt-v4 decodes them;
     // 16-bit files come linear (libpng applies their gamma), with alpha premultiplied.
     const bool sixteenBit = (png.format & PNG_FORMAT_FLAG_LINEAR) != 0;
     const bool alpha = (png.format & PNG_FORMAT_FLAG_ALPHA) != 0;
@@ -176,8 +176,12 @@ RgbImage readPng(const std::string& path) {
         std::vector<png_byte> data(count * size_t(channels));
         ok = png_image_finish_read(&png, nullptr, data.data(), 0, nullptr) != 0;
         for (size_t i = 0; ok && i < count; ++i)
-            for (size_t c = 0; c < 3; ++c)
-                out.rgb[i * 3 + c] = srgbToLinear(float(data[i * size_t(channels) + c]) / 255.f);
+            for (size_t c = 0; c < 3; ++c) {
+                const float v = float(data[i * size_t(channels) + c]) / 255.f;
+                out.rgb[i * 3 + c] = encoding.srgb           ? srgbToLinear(v)
+                                     : encoding.gamma == 1.f ? v
+                                                             : std::pow(v, encoding.gamma);
+            }
     }
     if (!ok) {
         const std::string message = png.message;
@@ -193,11 +197,11 @@ double rec709Luminance(const float* rgb) {
     return 0.2126 * double(rgb[0]) + 0.7152 * double(rgb[1]) + 0.0722 * double(rgb[2]);
 }
 
-RgbImage readRgbImage(const std::string& path) {
+RgbImage readRgbImage(const std::string& path, ByteEncoding byteEncoding) {
     std::string extension = std::filesystem::path(path).extension().string();
     std::transform(extension.begin(), extension.end(), extension.begin(),
                    [](unsigned char c) { return char(std::tolower(c)); });
-    if (extension == ".png") return readPng(path);
+    if (extension == ".png") return readPng(path, byteEncoding);
     if (extension != ".exr")
         throw std::runtime_error("cannot read " + path + ": cbdpt reads OpenEXR (.exr) and PNG " +
                                  "(.png) images, not \"" + extension + "\" files");

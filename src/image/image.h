@@ -47,9 +47,14 @@ bool readExrLayer(const std::string& path, const std::string& name, RgbImage& ou
 double rec709Luminance(const float* rgb);
 
 // A linear RGB image from an OpenEXR file (R, G, B channels; sRGB primaries, or none given) or a
-// PNG (8-bit sRGB-encoded, decoded; 16-bit by its gamma; alpha ignored): what pbrt-v4's image
-// lights read. std::runtime_error naming the file otherwise.
-RgbImage readRgbImage(const std::string& path);
+// PNG (8-bit decoded by `byteEncoding`; 16-bit by its gamma; alpha ignored): what pbrt-v4's image
+// lights and image textures read. std::runtime_error naming the file otherwise.
+// pbrt-v4's "encoding" of 8-bit values v / 255: the sRGB curve, or v^gamma ("linear": gamma 1).
+struct ByteEncoding {
+    bool srgb = true;
+    float gamma = 1.f;
+};
+RgbImage readRgbImage(const std::string& path, ByteEncoding byteEncoding = {});
 // The header's string, int and double attributes (others, e.g. OpenEXR's own, are skipped).
 ExrAttributes readExrAttributes(const std::string& path);
 

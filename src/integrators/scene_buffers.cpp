@@ -11,6 +11,7 @@ SceneBuffers::SceneBuffers(ClRuntime& runtime, const DeviceScene& scene)
       lights(uploadArray(runtime, "scene lights", scene.lights)),
       spectra(uploadArray(runtime, "scene spectra", scene.spectra)),
       lightTables(uploadArray(runtime, "image lights' sampling tables", scene.lightTables)),
+      textures(uploadArray(runtime, "texture coordinates and image textures", scene.textures)),
       toRgb(uploadArray(runtime, "spectrum-to-RGB matrix", scene.toRgb)),
       lightCount(int(scene.lights.size())) {}
 
@@ -21,7 +22,8 @@ void SceneBuffers::addKernelArguments(KernelArguments& args) const {
         .add(materials)
         .add(lights)
         .add(spectra)
-        .add(lightTables);
+        .add(lightTables)
+        .add(textures);
     args.add(lightCount);
 }
 

@@ -40,10 +40,10 @@ class KernelArguments {
 struct SceneBuffers {
     SceneBuffers(ClRuntime& runtime, const DeviceScene& scene);
 
-    // Adds the eight CB_SCENE_KERNEL_PARAMS arguments.
+    // Adds the nine CB_SCENE_KERNEL_PARAMS arguments.
     void addKernelArguments(KernelArguments& args) const;
 
-    cl::Buffer nodes, packs, primitives, materials, lights, spectra, lightTables;
+    cl::Buffer nodes, packs, primitives, materials, lights, spectra, lightTables, textures;
     cl::Buffer toRgb; // 3 x channels matrix, passed separately by the kernels that need it
     int lightCount = 0;
 };

@@ -107,6 +107,7 @@ template <class Visit> void forEachField(cbk::Material& s, Visit&& visit) {
     visit(s.baseAlpha);
     visit(s.layerAlbedo);
     visit(s.layerG);
+    visit(s.reflectanceTexture);
 }
 template <class Visit> void forEachField(cbk::Light& s, Visit&& visit) {
     visit(s.kind);
@@ -210,6 +211,7 @@ struct HostScene {
     std::vector<cbk::Light> lights;
     std::vector<cbk::real> spectra;
     std::vector<cbk::real> lightTables;
+    std::vector<cbk::real> textures;
     std::vector<cbk::real> toRgb; // 3 x CB_CHANNELS
     cbk::Camera camera{};
     cbk::SceneView view{}; // points into the vectors above
@@ -232,6 +234,7 @@ struct HostScene {
         camera = loadSceneArray<cbk::Camera>(scene.camera, 1, scene.cameraBytes, "Camera")[0];
         spectra.assign(scene.spectra, scene.spectra + scene.spectraCount);
         lightTables.assign(scene.lightTables, scene.lightTables + scene.lightTableCount);
+        textures.assign(scene.textures, scene.textures + scene.textureCount);
         toRgb.assign(scene.toRgb, scene.toRgb + 3 * CB_CHANNELS);
         view.nodes = nodes.data();
         view.packs = packs.data();
@@ -240,6 +243,7 @@ struct HostScene {
         view.lights = lights.data();
         view.spectra = spectra.data();
         view.lightTables = lightTables.data();
+        view.textures = textures.data();
         view.lightCount = int(lights.size());
     }
     HostScene(const HostScene&) = delete;

@@ -5,6 +5,7 @@
 #include "spectral/spectral.h"
 
 #include "cb_camera.h"
+#include "cb_texture.h"
 
 #include <algorithm>
 #include <cmath>
@@ -16,7 +17,7 @@
 namespace cb {
 
 static_assert(sizeof(cbk::Primitive) == 48, "Primitive must match the OpenCL layout");
-static_assert(sizeof(cbk::Material) == 56, "Material must match the OpenCL layout");
+static_assert(sizeof(cbk::Material) == 60, "Material must match the OpenCL layout");
 static_assert(sizeof(cbk::Light) == 108, "Light must match the OpenCL layout");
 static_assert(sizeof(cbk::Camera) == 128, "Camera must match the OpenCL layout");
 
@@ -327,6 +328,47 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
     for (const auto& sphere : desc.spheres)
         markUsed(sphere.material);
 
+    // Image textures (cb_texture.h): each one a material uses, once, at an offset into the
+    // images that follow the primitives' texture coordinates in `textures` (fixed up below).
+    auto textured = [&](int m) {
+        if (m < 0) return false;
+        const MaterialDesc& md = desc.materials[size_t(m)];
+        bool any = md.reflectanceTexture >= 0;
+        for (int c : md.mix)
+            any = any || (c >= 0 && desc.materials[size_t(c)].reflectanceTexture >= 0);
+        return any;
+    };
+    std::vector<float> images;
+    std::map<int, int> imageOffset; // SceneDesc::textures index -> offset in `images`
+    int smitsBasisEntry = -1;
+    auto addTexture = [&](int index) {
+        if (auto it = imageOffset.find(index); it != imageOffset.end()) return it->second;
+        const TextureDesc& t = desc.textures[size_t(index)];
+        if (scene.channels == kSpectralBins && smitsBasisEntry < 0) {
+            const auto& basis = smitsBasis();
+            smitsBasisEntry = spectra.addBins(basis[0]);
+            for (size_t k = 1; k < basis.size(); ++k)
+                spectra.addBins(basis[k]);
+        }
+        const int offset = int(images.size());
+        float header[CB_TEXTURE_HEADER] = {};
+        header[CB_TEXTURE_WIDTH] = float(t.width);
+        header[CB_TEXTURE_HEIGHT] = float(t.height);
+        header[CB_TEXTURE_WRAP] = float(t.wrap == TextureDesc::Wrap::Black   ? CB_WRAP_BLACK
+                                        : t.wrap == TextureDesc::Wrap::Clamp ? CB_WRAP_CLAMP
+                                                                             : CB_WRAP_REPEAT);
+        header[CB_TEXTURE_FILTER] = float(t.nearest ? CB_FILTER_POINT : CB_FILTER_BILINEAR);
+        header[CB_TEXTURE_USCALE] = t.mapping[0];
+        header[CB_TEXTURE_VSCALE] = t.mapping[1];
+        header[CB_TEXTURE_UDELTA] = t.mapping[2];
+        header[CB_TEXTURE_VDELTA] = t.mapping[3];
+        header[CB_TEXTURE_BASIS] = float(smitsBasisEntry);
+        images.insert(images.end(), header, header + CB_TEXTURE_HEADER);
+        images.insert(images.end(), t.rgb.begin(), t.rgb.end());
+        imageOffset[index] = offset;
+        return offset;
+    };
+
     int oneSpectrum = spectra.add(SpectrumValue::constant(1.f), 1.f);
     for (size_t i = 0; i < desc.materials.size(); ++i) {
         const MaterialDesc& m = desc.materials[i];
@@ -335,6 +377,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         out.mixFirst = out.mixSecond = -1;
         out.secondSpectrum = -1;
         out.layerAlbedo = -1;
+        out.reflectanceTexture = -1;
         // GGX alpha of conductors, dielectrics and coats; pbrt-v4 maps roughness r to sqrt(r).
         auto ggxAlpha = [&m](float roughness) {
             return m.remapRoughness ? std::sqrt(std::max(roughness, 0.f)) : roughness;
@@ -405,6 +448,10 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
             break;
         }
         }
+        if (materialUsed[i] && m.reflectanceTexture >= 0) {
+            out.reflectanceTexture = addTexture(m.reflectanceTexture);
+            scene.features |= CB_FEATURE_TEXTURE;
+        }
         scene.materials.push_back(out);
         if (materialUsed[i]) {
             scene.features |= materialFeature(m.kind);
@@ -455,7 +502,17 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         }
     };
 
+    const bool texturing = (scene.features & CB_FEATURE_TEXTURE) != 0;
+    std::vector<std::array<float, 6>> primitiveUv; // texturing: per primitive, as `primitives`
+    auto requireTexCoords = [&](int material, const std::string& none,
+                                const SourceLocation& where) {
+        if (!texturing || !textured(material) || none.empty()) return;
+        throw SceneError(where, "this shape's material has a \"texture reflectance\", which "
+                                "needs texture coordinates, and cbdpt gives none to " +
+                                    none);
+    };
     for (const auto& mesh : desc.meshes) {
+        requireTexCoords(mesh.material, mesh.noTexCoords, mesh.where);
         scene.vertexCount += long(mesh.positions.size());
         for (const auto& p : mesh.positions) {
             grow(p, 0.f);
@@ -493,10 +550,16 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
                 prim.light = addAreaLight(mesh.areaLight, float(area), shapeArea);
             }
             primitives.push_back(prim);
+            if (texturing) {
+                const size_t index = size_t(&tri - mesh.triangles.data());
+                primitiveUv.push_back(mesh.cornerUv.empty() ? kDefaultCornerUv
+                                                            : mesh.cornerUv[index]);
+            }
             ++scene.triangleCount;
         }
     }
     for (const auto& sphere : desc.spheres) {
+        requireTexCoords(sphere.material, "a sphere", sphere.where);
         cbk::Primitive prim{};
         prim.kind = CB_PRIM_SPHERE;
         prim.material = sphere.material;
@@ -511,6 +574,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
             prim.light = addAreaLight(sphere.areaLight, area, sphere.shapeArea);
         }
         primitives.push_back(prim);
+        if (texturing) primitiveUv.push_back({});
         scene.features |= CB_FEATURE_SPHERES;
         ++scene.sphereCount;
     }
@@ -695,6 +759,24 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
     for (size_t i = 0; i < scene.lights.size(); ++i)
         if (scene.lights[i].kind == CB_LIGHT_AREA && scene.lights[i].primitive < 0)
             throw std::logic_error("area light lost its primitive in the BVH build");
+    if (texturing) {
+        // The primitives' texture coordinates in leaf order, then the images, whose offsets
+        // the materials held relative to the images' start.
+        const size_t uvCount = 6 * scene.bvh.primitives.size();
+        if (uvCount + images.size() > size_t(std::numeric_limits<int>::max()))
+            throw SceneError(SourceLocation{desc.path, 0, 0},
+                             fmt::format("the textures and texture coordinates take {} floats; "
+                                         "the kernels index at most 2^31 - 1",
+                                         uvCount + images.size()));
+        scene.textures.reserve(uvCount + images.size());
+        for (int original : scene.bvh.originalIndex) {
+            const auto& uv = primitiveUv[size_t(original)];
+            scene.textures.insert(scene.textures.end(), uv.begin(), uv.end());
+        }
+        scene.textures.insert(scene.textures.end(), images.begin(), images.end());
+        for (cbk::Material& m : scene.materials)
+            if (m.reflectanceTexture >= 0) m.reflectanceTexture += int(uvCount);
+    }
     return scene;
 }
 
@@ -726,6 +808,7 @@ std::string DeviceScene::featureNames() const {
     add(CB_FEATURE_DISTANT_LIGHT, "distant-light");
     add(CB_FEATURE_INFINITE_LIGHT, "infinite-light");
     add(CB_FEATURE_IMAGE_LIGHT, "image-light");
+    add(CB_FEATURE_TEXTURE, "texture");
     add(CB_FEATURE_THIN_LENS, "thin-lens");
     names += channels == 16 ? " spectral-16" : " rgb";
     return names;
@@ -751,6 +834,8 @@ SceneBytes sceneBytes(const DeviceScene& scene) {
     raw.spectra = scene.spectra.data();
     raw.lightTables = scene.lightTables.data();
     raw.lightTableCount = scene.lightTables.size();
+    raw.textures = scene.textures.data();
+    raw.textureCount = scene.textures.size();
     raw.spectraCount = scene.spectra.size();
     raw.toRgb = scene.toRgb.data();
     raw.camera = &scene.camera;

@@ -28,7 +28,10 @@ struct DeviceScene {
     std::vector<cbk::Light> lights;
     std::vector<float> spectra;     // `channels` floats per entry
     std::vector<float> lightTables; // image lights' sampling tables (cb_lights.h)
-    std::vector<float> toRgb;       // 3 x channels, row-major: linear sRGB from channels
+    // Texture scenes: per primitive (leaf order) its vertices' uv, then the image textures
+    // (cb_texture.h); empty otherwise.
+    std::vector<float> textures;
+    std::vector<float> toRgb; // 3 x channels, row-major: linear sRGB from channels
     cbk::Camera camera{};
     // Device coordinates are world coordinates minus this point (the camera position, clamped
     // to the scene's bounds): see buildDeviceScene.

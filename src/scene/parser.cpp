@@ -271,6 +271,17 @@ class ParamList {
         throw SceneError(p->valueLoc(0), "parameter " + p->decl() + " expects true or false");
     }
 
+    // A "texture" parameter: the name of the texture it refers to.
+    std::optional<std::string> oneTexture(const std::string& name) {
+        const Param* p = lookup(name, {"texture"});
+        if (!p) return std::nullopt;
+        if (p->kind != Param::Kind::String)
+            throw SceneError(p->valueLoc(0),
+                             "parameter " + p->decl() + " expects a texture's name in quotes");
+        if (p->size() != 1) wrongCount(*p, "exactly 1 value");
+        return p->strings[0];
+    }
+
     std::optional<std::string> oneString(const std::string& name) {
         const Param* p = stringList(name);
         if (!p) return std::nullopt;
@@ -469,7 +480,9 @@ class ParamList {
                 ++i;
             }
             std::string why;
-            if (p.type == "texture") why = " (textures are not supported)";
+            if (p.type == "texture")
+                why = " (cbdpt reads textures as the \"reflectance\" of diffuse and "
+                      "coateddiffuse materials only)";
             throw SceneError(p.where, "parameter \"" + name + "\" of " + owner_ +
                                           " must have type " + expected + ", not \"" + p.type +
                                           "\"" + why);
@@ -885,6 +898,9 @@ class Parser {
                                               "\"; use ObjectEnd");
             state_ = stack_.back();
             stack_.pop_back();
+        } else if (d == "Texture") {
+            requireWorld(t);
+            texture(t);
         } else if (d == "Material") {
             requireWorld(t);
             const Token type = quoted(t, "a material type");
@@ -972,8 +988,8 @@ class Parser {
         } else if (d == "WorldEnd") {
             throw SceneError(t.where, "WorldEnd is pbrt-v3 syntax and not part of pbrt-v4");
         } else {
-            for (const char* known : {"ActiveTransform", "MakeNamedMedium", "MediumInterface",
-                                      "Texture", "TransformTimes"})
+            for (const char* known :
+                 {"ActiveTransform", "MakeNamedMedium", "MediumInterface", "TransformTimes"})
                 if (d == known)
                     throw SceneError(t.where, "pbrt-v4 directive '" + d +
                                                   "' is not supported by cbdpt (see "
@@ -1196,7 +1212,8 @@ class Parser {
             {"disablewavelengthjitter", Kind::Bool, "uses the same wavelengths for every sample",
              true},
             {"forcediffuse", Kind::Bool, "renders every material as diffuse", true},
-            {"disabletexturefiltering", Kind::Bool, "point-samples textures", false},
+            {"disabletexturefiltering", Kind::Bool,
+             "looks textures up at the hit point, unfiltered, as cbdpt always does", false},
             {"displacementedgescale", Kind::Float, "sets displacement tessellation", false},
             {"msereferenceimage", Kind::String, "reports the error against an image", false},
             {"msereferenceout", Kind::String, "writes the error against an image", false},
@@ -1258,6 +1275,8 @@ class Parser {
                                                   value.text + "\" (camera, cameraworld or world)");
             break;
         }
+        if (std::string(opt->name) == "disabletexturefiltering")
+            textureFilteringDisabled_ = value.text == "true";
         if (opt->changesImage && value.text == "true")
             throw SceneError(name.where, what + " true is not supported: pbrt-v4 then " +
                                              opt->effect + ", which cbdpt does not implement");
@@ -1350,8 +1369,8 @@ class Parser {
                 p = checkedPoint(m.point(p), where, "an instanced vertex position");
             // A mirroring instance keeps each surface's side (its normal is transformed too).
             if (m.det3() < 0.0)
-                for (auto& tri : mesh.triangles)
-                    std::swap(tri[1], tri[2]);
+                for (size_t t = 0; t < mesh.triangles.size(); ++t)
+                    mesh.reverseTriangle(t);
             scene_.meshes.push_back(std::move(mesh));
         }
         for (const SphereDesc& src : object.spheres) {
@@ -1592,7 +1611,8 @@ class Parser {
     // layer between them that absorbs (cb_bsdf.h). cbdpt's layer does not scatter.
     static void readCoatedDiffuse(ParamList& pl, MaterialDesc& m) {
         m.kind = MaterialKind::CoatedDiffuse;
-        if (auto r = pl.spectrum("reflectance", SpectrumRole::Reflectance)) m.reflectance = *r;
+        if (m.reflectanceTexture < 0)
+            if (auto r = pl.spectrum("reflectance", SpectrumRole::Reflectance)) m.reflectance = *r;
         readEta(pl, m);
         readRoughness(pl, m);
         readLayer(pl, m);
@@ -1656,7 +1676,10 @@ class Parser {
         m.where = where;
         if (type == "diffuse") {
             m.kind = MaterialKind::Diffuse;
-            if (auto r = pl.spectrum("reflectance", SpectrumRole::Reflectance)) m.reflectance = *r;
+            m.reflectanceTexture = reflectanceTexture(pl);
+            if (m.reflectanceTexture < 0)
+                if (auto r = pl.spectrum("reflectance", SpectrumRole::Reflectance))
+                    m.reflectance = *r;
         } else if (type == "conductor") {
             m.kind = MaterialKind::Conductor;
             readConductorSpectra(pl, m, type, "");
@@ -1678,6 +1701,7 @@ class Parser {
             // makes the surface black).
             if (pl.peek("scale")) m.scale = static_cast<float>(*pl.oneFloat("scale"));
         } else if (type == "coateddiffuse") {
+            m.reflectanceTexture = reflectanceTexture(pl);
             readCoatedDiffuse(pl, m);
         } else if (type == "coatedconductor") {
             readCoatedConductor(pl, m);
@@ -1952,6 +1976,28 @@ class Parser {
     // map), finite values; `whose` names the light in errors ("the infinite light's").
     LightImage readLightImage(const std::string& file, const SourceLocation& where,
                               const std::string& whose) {
+        const std::string path = findImageFile(file, where);
+        RgbImage image = readImageAt(path, where);
+        if (image.width != image.height || image.width < 1)
+            throw SceneError(where, fmt::format("{} image {} is {} x {}; pbrt-v4's equal-area "
+                                                "maps are square",
+                                                whose, path, image.width, image.height));
+        for (size_t i = 0; i < image.rgb.size(); ++i)
+            if (!std::isfinite(image.rgb[i]))
+                throw SceneError(where, fmt::format("{} image {} has a {} at pixel ({}, {}); a "
+                                                    "light needs finite values",
+                                                    whose, path, image.rgb[i],
+                                                    (i / 3) % image.width, (i / 3) / image.width));
+        LightImage out;
+        out.path = path;
+        out.size = image.width;
+        out.rgb = std::move(image.rgb);
+        return out;
+    }
+
+    // The path of image file `file` (relative to the scene file's folder, then the models'), an
+    // error naming the places tried when there is none; the file joins the scene's sources.
+    std::string findImageFile(const std::string& file, const SourceLocation& where) {
         const std::vector<std::string> candidates = nearbyPaths(file);
         auto found = std::find_if(candidates.begin(), candidates.end(),
                                   [](const std::string& c) { return fs::is_regular_file(c); });
@@ -1961,28 +2007,163 @@ class Parser {
                 tried += " " + c;
             throw SceneError(where, "no image file \"" + file + "\" (tried" + tried + ")");
         }
-        RgbImage image;
+        scene_.sourceFiles.push_back(*found);
+        return *found;
+    }
+
+    static RgbImage readImageAt(const std::string& path, const SourceLocation& where,
+                                ByteEncoding encoding = {}) {
         try {
-            image = readRgbImage(*found);
+            return readRgbImage(path, encoding);
         } catch (const std::exception& e) {
             throw SceneError(where, e.what());
         }
-        if (image.width != image.height || image.width < 1)
-            throw SceneError(where, fmt::format("{} image {} is {} x {}; pbrt-v4's equal-area "
-                                                "maps are square",
-                                                whose, *found, image.width, image.height));
-        for (size_t i = 0; i < image.rgb.size(); ++i)
-            if (!std::isfinite(image.rgb[i]))
-                throw SceneError(where, fmt::format("{} image {} has a {} at pixel ({}, {}); a "
-                                                    "light needs finite values",
-                                                    whose, *found, image.rgb[i],
-                                                    (i / 3) % image.width, (i / 3) / image.width));
-        scene_.sourceFiles.push_back(*found);
-        LightImage out;
-        out.path = *found;
-        out.size = image.width;
-        out.rgb = std::move(image.rgb);
-        return out;
+    }
+
+    // pbrt-v4's Texture directive. A "spectrum" "imagemap" texture is read now (pbrt-v4's
+    // ImageTexture); other textures are recorded with why cbdpt cannot render them, an error
+    // only where a material uses one (files often define textures they never use).
+    void texture(const Token& t) {
+        const Token name = quoted(t, "a texture name");
+        const Token type = quoted(t, "a texture type (\"spectrum\" or \"float\")");
+        const Token cls = quoted(t, "a texture class");
+        if (type.text != "spectrum" && type.text != "float")
+            throw SceneError(type.where, "texture type must be \"spectrum\" or \"float\", not \"" +
+                                             type.text + "\"");
+        ParamList pl = params("Texture \"" + name.text + "\"", "texture");
+        auto& names = type.text == "spectrum" ? spectrumTextures_ : floatTextures_;
+        if (auto it = names.find(name.text); it != names.end())
+            throw SceneError(name.where, "texture \"" + name.text +
+                                             "\" redefined (first defined at " +
+                                             it->second.where.str() + ")");
+        NamedTexture entry;
+        entry.where = t.where;
+        if (type.text == "spectrum" && cls.text == "imagemap") {
+            entry.index = int(scene_.textures.size());
+            scene_.textures.push_back(readImageTexture(pl, name.text, t.where));
+        } else {
+            entry.unsupported = "the " + type.text + " texture \"" + name.text + "\" of class \"" +
+                                cls.text + "\" (" + t.where.str() +
+                                "): cbdpt renders \"spectrum\" \"imagemap\" textures only";
+            pl.takeRest();
+        }
+        names[name.text] = entry;
+    }
+
+    // The parameters of pbrt-v4's "imagemap" and the image they name, "scale" and "invert"
+    // applied to every texel (linear, so the same before or after bilinear interpolation).
+    TextureDesc readImageTexture(ParamList& pl, const std::string& name,
+                                 const SourceLocation& where) {
+        TextureDesc tex;
+        tex.name = name;
+        tex.where = where;
+        const Param* fileParam = pl.peek("filename");
+        const std::optional<std::string> file = pl.oneString("filename");
+        if (!file)
+            throw SceneError(where, "imagemap texture \"" + name + "\" needs \"string filename\"");
+        ByteEncoding encoding;
+        if (const Param* p = pl.peek("encoding")) {
+            const std::string e = *pl.oneString("encoding");
+            float gamma = 0.f;
+            if (e == "linear") {
+                encoding.srgb = false;
+            } else if (e.rfind("gamma ", 0) == 0 &&
+                       std::from_chars(e.data() + 6, e.data() + e.size(), gamma).ec ==
+                           std::errc{} &&
+                       gamma > 0.f && std::isfinite(gamma)) {
+                encoding.srgb = false;
+                encoding.gamma = gamma;
+            } else if (e != "sRGB") {
+                throw SceneError(p->valueLoc(0), "\"string encoding\" must be \"sRGB\", \"linear\" "
+                                                 "or \"gamma <value > 0>\", not \"" +
+                                                     e + "\"");
+            }
+        }
+        const double scale = pl.peek("scale") ? *pl.oneFloat("scale") : 1.0;
+        const bool invert = pl.oneBool("invert").value_or(false);
+        if (const Param* p = pl.peek("filter")) {
+            const std::string f = *pl.oneString("filter");
+            if (f == "point") {
+                tex.nearest = true;
+            } else if (f != "bilinear" && f != "trilinear" && f != "ewa" && f != "EWA") {
+                throw SceneError(p->valueLoc(0), "\"string filter\" must be \"bilinear\", "
+                                                 "\"point\", \"trilinear\" or \"ewa\", not \"" +
+                                                     f + "\"");
+            }
+        }
+        pl.ignore("maxanisotropy", {"float"});
+        // With the option, each of pbrt-v4's filters but "point" is bilinear at full resolution.
+        if (!textureFilteringDisabled_)
+            note(where, "texture-filter",
+                 "pbrt-v4 filters image textures over each ray's footprint (MIP maps) unless "
+                 "Option \"disabletexturefiltering\" is true; cbdpt looks them up at the hit "
+                 "point (bilinear, or \"point\": the nearest texel) and antialiases by its pixel "
+                 "samples, so where a texture is minified pbrt-v4's image is the blurrier");
+        if (const Param* p = pl.peek("wrap")) {
+            const std::string w = *pl.oneString("wrap");
+            if (w == "black")
+                tex.wrap = TextureDesc::Wrap::Black;
+            else if (w == "clamp")
+                tex.wrap = TextureDesc::Wrap::Clamp;
+            else if (w != "repeat")
+                throw SceneError(p->valueLoc(0), "\"string wrap\" must be \"repeat\", \"black\" or "
+                                                 "\"clamp\" (cbdpt's), not \"" +
+                                                     w + "\"");
+        }
+        if (const Param* p = pl.peek("mapping")) {
+            const std::string m = *pl.oneString("mapping");
+            if (m != "uv")
+                throw SceneError(p->valueLoc(0), "texture mapping \"" + m +
+                                                     "\" is not supported: cbdpt maps textures "
+                                                     "by the shapes' (u, v) (\"uv\") only");
+        }
+        const char* const mappingNames[] = {"uscale", "vscale", "udelta", "vdelta"};
+        for (size_t i = 0; i < 4; ++i)
+            if (pl.peek(mappingNames[i]))
+                tex.mapping[i] = static_cast<float>(*pl.oneFloat(mappingNames[i]));
+        pl.finish();
+        const SourceLocation fileWhere = fileParam->valueLoc(0);
+        tex.path = findImageFile(*file, fileWhere);
+        RgbImage image = readImageAt(tex.path, fileWhere, encoding);
+        if (image.width < 1 || image.height < 1)
+            throw SceneError(fileWhere, "texture image " + tex.path + " has no pixels");
+        for (size_t i = 0; i < image.rgb.size(); ++i) {
+            const double v = invert ? 1.0 - scale * image.rgb[i] : scale * image.rgb[i];
+            if (!std::isfinite(image.rgb[i]) || !std::isfinite(float(v)))
+                throw SceneError(fileWhere,
+                                 fmt::format("texture image {} has {} at pixel ({}, {}) (times "
+                                             "\"float scale\" {:g}); a texture needs finite values",
+                                             tex.path, image.rgb[i], (i / 3) % size_t(image.width),
+                                             (i / 3) / size_t(image.width), scale));
+            image.rgb[i] = float(v);
+        }
+        tex.width = image.width;
+        tex.height = image.height;
+        tex.rgb = std::move(image.rgb);
+        return tex;
+    }
+
+    // "texture reflectance" of diffuse and coated diffuse materials: the named spectrum
+    // texture's index in scene_.textures; -1 when the reflectance is not a texture.
+    int reflectanceTexture(ParamList& pl) {
+        const Param* p = pl.peek("reflectance");
+        if (!p || p->type != "texture") return -1;
+        const std::string name = *pl.oneTexture("reflectance");
+        auto it = spectrumTextures_.find(name);
+        if (it == spectrumTextures_.end()) {
+            const bool isFloat = floatTextures_.count(name) != 0;
+            throw SceneError(p->valueLoc(0), "\"texture reflectance\" names " +
+                                                 (isFloat ? "a float texture \"" + name +
+                                                                "\"; a reflectance needs a "
+                                                                "\"spectrum\" texture"
+                                                          : "no texture \"" + name +
+                                                                "\" (no Texture directive "
+                                                                "before it defines one)"));
+        }
+        if (it->second.index < 0)
+            throw SceneError(p->valueLoc(0),
+                             "\"texture reflectance\" names " + it->second.unsupported);
+        return it->second.index;
     }
 
     // The image's illuminance at a surface facing +z in the light's frame, per unit scale:
@@ -2146,10 +2327,11 @@ class Parser {
                 for (size_t i = 0; i < nv; ++i)
                     normals[i] = {N->numbers[3 * i], N->numbers[3 * i + 1], N->numbers[3 * i + 2]};
             }
-            ignoreSurfaceParameterisation(pl, t.where);
+            std::vector<std::array<float, 6>> cornerUv = cornersOf(tris, vertexTexCoords(pl, nv));
+            ignoreTangents(pl, t.where);
             const bool hidden = alphaHidden(pl, t);
             pl.finish();
-            if (!hidden) addMesh(t.where, pos, std::move(tris), normals);
+            if (!hidden) addMesh(t.where, pos, std::move(tris), normals, {}, std::move(cornerUv));
         } else if (type.text == "bilinearmesh") {
             bilinearMesh(t);
         } else if (type.text == "disk") {
@@ -2182,7 +2364,8 @@ class Parser {
             std::vector<std::array<double, 3>> normals(ply.normals.size());
             for (size_t i = 0; i < normals.size(); ++i)
                 normals[i] = {ply.normals[i][0], ply.normals[i][1], ply.normals[i][2]};
-            addMesh(t.where, pos, std::move(ply.triangles), normals);
+            std::vector<std::array<float, 6>> cornerUv = cornersOf(ply.triangles, ply.uv);
+            addMesh(t.where, pos, std::move(ply.triangles), normals, {}, std::move(cornerUv));
         } else {
             throw SceneError(type.where, "unsupported shape \"" + type.text +
                                              "\" (cbdpt supports trianglemesh, bilinearmesh "
@@ -2190,15 +2373,45 @@ class Parser {
         }
     }
 
-    // "point2 uv" and "vector3 S" only feed textures and anisotropic shading frames, which
-    // cbdpt's untextured materials do not have.
-    void ignoreSurfaceParameterisation(ParamList& pl, const SourceLocation& where) {
-        const bool uv = pl.ignore("uv", {"point2"});
-        const bool tangents = pl.ignore("S", {"vector3"});
-        if (uv || tangents)
-            note(where, "uv",
-                 "\"point2 uv\" and \"vector3 S\" are ignored: cbdpt's materials "
-                 "are untextured and shade with geometric normals");
+    // "vector3 S" only feeds anisotropic shading frames, which cbdpt's materials do not have.
+    void ignoreTangents(ParamList& pl, const SourceLocation& where) {
+        if (pl.ignore("S", {"vector3"}))
+            note(where, "tangents",
+                 "\"vector3 S\" is ignored: cbdpt shades with geometric normals");
+    }
+
+    // "point2 uv": texture coordinates, one (u, v) per vertex; empty when not given.
+    static std::vector<std::array<float, 2>> vertexTexCoords(ParamList& pl, size_t vertexCount) {
+        const Param* uv = pl.numeric("uv", "point2", 2);
+        if (!uv) return {};
+        if (uv->size() != 2 * vertexCount)
+            throw SceneError(uv->where, fmt::format("\"point2 uv\" needs one (u, v) per vertex "
+                                                    "({}), got {}",
+                                                    vertexCount, uv->size() / 2));
+        std::vector<std::array<float, 2>> out(vertexCount);
+        for (size_t i = 0; i < uv->size(); ++i) {
+            const float v = static_cast<float>(uv->numbers[i]);
+            if (!std::isfinite(v))
+                throw SceneError(uv->valueLoc(i), "texture coordinate " +
+                                                      fmt::format("{:g}", uv->numbers[i]) +
+                                                      " is not a finite float");
+            out[i / 2][i % 2] = v;
+        }
+        return out;
+    }
+
+    // Each triangle's corners' (u, v) from per-vertex ones; empty when there are none.
+    static std::vector<std::array<float, 6>>
+    cornersOf(const std::vector<std::array<unsigned, 3>>& tris,
+              const std::vector<std::array<float, 2>>& uv) {
+        if (uv.empty()) return {};
+        std::vector<std::array<float, 6>> out(tris.size());
+        for (size_t t = 0; t < tris.size(); ++t)
+            for (size_t k = 0; k < 3; ++k) {
+                out[t][2 * k] = uv[tris[t][k]][0];
+                out[t][2 * k + 1] = uv[tris[t][k]][1];
+            }
+        return out;
     }
 
     // pbrt-v4's bilinear patches (p00, p10, p01, p11). A planar patch is exactly the two triangles
@@ -2239,10 +2452,14 @@ class Parser {
             for (size_t i = 0; i < nv; ++i)
                 normals[i] = {N->numbers[3 * i], N->numbers[3 * i + 1], N->numbers[3 * i + 2]};
         }
-        ignoreSurfaceParameterisation(pl, t.where);
+        // pbrt-v4's patch (u, v) at p00, p10, p01, p11 when "uv" is not given.
+        std::vector<std::array<float, 2>> uv = vertexTexCoords(pl, nv);
+        ignoreTangents(pl, t.where);
         const bool hidden = alphaHidden(pl, t);
         pl.finish();
         std::vector<std::array<unsigned, 3>> tris;
+        std::vector<std::array<float, 6>> cornerUv;
+        std::string noTexCoords;
         std::vector<double> patchArea; // per triangle
         for (const auto& q : patches) {
             const auto &p00 = pos[q[0]], &p10 = pos[q[1]], &p01 = pos[q[2]], &p11 = pos[q[3]];
@@ -2273,6 +2490,16 @@ class Parser {
                             "The corners are p00 p10 p01 p11, so p11 is opposite p00");
             tris.push_back({q[0], q[1], q[3]});
             tris.push_back({q[0], q[3], q[2]});
+            const std::array<float, 2> patchUv[4] = {
+                {0.f, 0.f}, {1.f, 0.f}, {0.f, 1.f}, {1.f, 1.f}};
+            auto at = [&](size_t corner) { return uv.empty() ? patchUv[corner] : uv[q[corner]]; };
+            cornerUv.push_back({at(0)[0], at(0)[1], at(1)[0], at(1)[1], at(3)[0], at(3)[1]});
+            cornerUv.push_back({at(0)[0], at(0)[1], at(3)[0], at(3)[1], at(2)[0], at(2)[1]});
+            // The patch's (u, v) is linear over its two triangles only on a parallelogram.
+            const Vec3d skew = vecSub(d, a); // p00 + p11 - p10 - p01
+            if (vecDot(skew, skew) > 1e-12 * (vecDot(a, a) + vecDot(b, b)))
+                noTexCoords = "a bilinear patch that is not a parallelogram (its (u, v) is not "
+                              "linear over the two triangles cbdpt renders it as)";
             if (poweredAreaLight()) {
                 // pbrt-v4's BilinearPatch::Area, of the patch in world space: both triangles'.
                 const Mat4& m = state_.ctm;
@@ -2284,7 +2511,9 @@ class Parser {
                 patchArea.insert(patchArea.end(), 2, area);
             }
         }
-        if (!hidden) addMesh(t.where, pos, std::move(tris), normals, patchArea);
+        if (!hidden)
+            addMesh(t.where, pos, std::move(tris), normals, patchArea, std::move(cornerUv),
+                    noTexCoords);
     }
 
     // Ring segments of a full disk; a partial one (phimax < 360) gets its share, at least 4.
@@ -2356,7 +2585,10 @@ class Parser {
         // pbrt-v4's Disk::Area, in object space (as pbrt-v4 divides a light's power by it).
         const double area = 0.5 * phiMax * (radius * radius - inner * inner);
         std::vector<double> diskArea(poweredAreaLight() ? tris.size() : 0, area);
-        if (!hidden) addMesh(t.where, pos, std::move(tris), {}, diskArea);
+        if (!hidden)
+            addMesh(t.where, pos, std::move(tris), {}, diskArea, {},
+                    "a disk (its polar (u, v) is not linear over the triangles cbdpt renders it "
+                    "as)");
     }
 
     // The CTM's scale factor; an error unless the CTM is a similarity (only those keep a sphere
@@ -2416,7 +2648,9 @@ class Parser {
     void addMesh(const SourceLocation& where, const std::vector<std::array<double, 3>>& objPos,
                  std::vector<std::array<unsigned, 3>> tris,
                  const std::vector<std::array<double, 3>>& objNormals,
-                 const std::vector<double>& shapeArea = {}) {
+                 const std::vector<double>& shapeArea = {},
+                 const std::vector<std::array<float, 6>>& cornerUv = {},
+                 const std::string& noTexCoords = {}) {
         requireAffine(where);
         const Mat4& m = state_.ctm;
         TriangleMeshDesc mesh;
@@ -2436,6 +2670,9 @@ class Parser {
         const bool powered = poweredAreaLight();
         long dropped = 0;
         mesh.triangles.reserve(tris.size());
+        mesh.noTexCoords = noTexCoords;
+        if (!cornerUv.empty()) mesh.cornerUv.reserve(tris.size());
+        std::vector<size_t> reversed; // kept triangles whose other side faces out
         for (size_t t = 0; t < tris.size(); ++t) {
             auto tri = tris[t];
             const auto& p0 = mesh.positions[tri[0]];
@@ -2459,9 +2696,12 @@ class Parser {
                 const double d = sign * vecDot(c, ns);
                 if (d < 0.0) reverse = !reverse;
             }
-            if (reverse) std::swap(tri[1], tri[2]);
+            if (reverse) reversed.push_back(mesh.triangles.size());
             mesh.triangles.push_back(tri);
+            if (!cornerUv.empty()) mesh.cornerUv.push_back(cornerUv[t]);
         }
+        for (size_t t : reversed)
+            mesh.reverseTriangle(t);
         if (dropped > 0) {
             scene_.droppedDegenerateTriangles += dropped;
             std::cerr << "warning: " << where.file << ":" << where.line << ": dropped " << dropped
@@ -2597,6 +2837,15 @@ class Parser {
         SourceLocation where;
     };
     std::vector<LaterMixPart> laterMixParts_;
+    // pbrt-v4's named textures, "spectrum" and "float" each a name space of its own: the index
+    // in scene_.textures, or (index -1) why cbdpt cannot use it, an error only where one is.
+    struct NamedTexture {
+        int index = -1;
+        std::string unsupported;
+        SourceLocation where;
+    };
+    std::map<std::string, NamedTexture> spectrumTextures_, floatTextures_;
+    bool textureFilteringDisabled_ = false; // Option "disabletexturefiltering" true
     std::set<std::string> notedKinds_;
     std::map<std::string, Mat4> namedCoordinateSystems_;
     std::map<std::string, SourceLocation> importedCoordinateSystems_; // defined inside an Import

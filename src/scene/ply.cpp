@@ -372,15 +372,22 @@ PlyMesh readPlyFromMemory(const std::string& bytes, const std::string& path) {
     if (!vertexEl) throw headerError(line, "no 'element vertex'");
     if (!faceEl) throw headerError(line, "no 'element face' (point clouds are not supported)");
 
-    int ix = -1, iy = -1, iz = -1, inx = -1, iny = -1, inz = -1;
+    int ix = -1, iy = -1, iz = -1, inx = -1, iny = -1, inz = -1, iu = -1, iv = -1;
     for (size_t i = 0; i < vertexEl->props.size(); ++i) {
         const Property& p = vertexEl->props[i];
+        // Texture coordinates under any of the names pbrt-v4's reader accepts.
+        const bool u =
+            p.name == "u" || p.name == "s" || p.name == "texture_u" || p.name == "texture_s";
+        const bool v =
+            p.name == "v" || p.name == "t" || p.name == "texture_v" || p.name == "texture_t";
         int* slot = p.name == "x"    ? &ix
                     : p.name == "y"  ? &iy
                     : p.name == "z"  ? &iz
                     : p.name == "nx" ? &inx
                     : p.name == "ny" ? &iny
                     : p.name == "nz" ? &inz
+                    : u              ? &iu
+                    : v              ? &iv
                                      : nullptr;
         if (!slot) continue;
         if (p.isList) throw headerError(p.line, "vertex property '" + p.name + "' is a list");
@@ -389,6 +396,7 @@ PlyMesh readPlyFromMemory(const std::string& bytes, const std::string& path) {
     if (ix < 0 || iy < 0 || iz < 0)
         throw headerError(vertexEl->line, "vertex element lacks x, y or z");
     const bool haveNormals = inx >= 0 && iny >= 0 && inz >= 0;
+    const bool haveUv = iu >= 0 && iv >= 0;
     int iIndices = -1;
     for (size_t i = 0; i < faceEl->props.size(); ++i) {
         const Property& p = faceEl->props[i];
@@ -436,6 +444,7 @@ PlyMesh readPlyFromMemory(const std::string& bytes, const std::string& path) {
         if (isVertex) {
             mesh.positions.reserve(static_cast<size_t>(e.count));
             if (haveNormals) mesh.normals.reserve(static_cast<size_t>(e.count));
+            if (haveUv) mesh.uv.reserve(static_cast<size_t>(e.count));
         }
         if (isFace) mesh.triangles.reserve(static_cast<size_t>(e.count));
         std::vector<double> scalars(e.props.size(), 0.0);
@@ -502,6 +511,13 @@ PlyMesh readPlyFromMemory(const std::string& bytes, const std::string& path) {
                             in.fail("vertex normal is not a finite float");
                     mesh.normals.push_back({static_cast<float>(nn[0]), static_cast<float>(nn[1]),
                                             static_cast<float>(nn[2])});
+                }
+                if (haveUv) {
+                    const std::array<double, 2> uv{scalars[iu], scalars[iv]};
+                    for (double c : uv)
+                        if (!std::isfinite(c) || std::fabs(c) > std::numeric_limits<float>::max())
+                            in.fail("vertex texture coordinate is not a finite float");
+                    mesh.uv.push_back({static_cast<float>(uv[0]), static_cast<float>(uv[1])});
                 }
             }
         }

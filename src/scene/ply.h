@@ -16,6 +16,9 @@ struct PlyMesh {
     // Per-vertex normals when the vertex element has nx, ny and nz, else empty. cbdpt shades
     // flat; the scene parser only uses these to orient faces as pbrt-v4 does.
     std::vector<std::array<float, 3>> normals;
+    // Per-vertex texture coordinates when the vertex element has u and v (or s and t,
+    // texture_u and texture_v, texture_s and texture_t, as pbrt-v4 reads them), else empty.
+    std::vector<std::array<float, 2>> uv;
     // Faces of more than 4 vertices, skipped as pbrt-v4 skips them (with a warning).
     unsigned long long skippedFaces = 0;
 };

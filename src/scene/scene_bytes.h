@@ -24,6 +24,8 @@ struct SceneBytes {
     std::size_t spectraCount;
     const float* lightTables;
     std::size_t lightTableCount;
+    const float* textures;
+    std::size_t textureCount;
     const float* toRgb; // 3 x channels
     const void* camera;
     std::size_t cameraBytes;

@@ -83,6 +83,9 @@ struct MaterialDesc {
     // the layer's single-scattering albedo where not 0, and its Henyey-Greenstein asymmetry
     std::optional<SpectrumValue> layerAlbedo;
     float layerG = 0.f;
+    // diffuse and coated diffuse: "texture reflectance", an index into SceneDesc::textures that
+    // replaces `reflectance`; -1: none
+    int reflectanceTexture = -1;
     std::array<int, 2> mix{-1, -1}; // mix: indices into SceneDesc::materials
     float amount = 0.5f;            // mix: probability of choosing mix[1] (pbrt-v4 semantics)
     SourceLocation where;
@@ -102,6 +105,9 @@ struct AreaLightDesc {
     SourceLocation where;
 };
 
+// pbrt-v4's (u, v) at a triangle's three corners when its shape gives none.
+inline constexpr std::array<float, 6> kDefaultCornerUv{0.f, 0.f, 1.f, 0.f, 1.f, 1.f};
+
 // World-space positions are kept in double: the device scene subtracts the camera position before
 // rounding to float (camera-relative rendering), so a scene far from the origin keeps its detail.
 struct TriangleMeshDesc {
@@ -112,7 +118,23 @@ struct TriangleMeshDesc {
     // Per triangle, the area of the pbrt-v4 shape it belongs to (its own, a bilinear patch's, a
     // disk's in object space): what a "power" light divides by. Empty: each triangle's own.
     std::vector<double> shapeArea;
+    // Per triangle, its corners' texture coordinates (u0 v0 u1 v1 u2 v2). Empty: pbrt-v4's
+    // default for a triangle, (0,0) (1,0) (1,1), unless `noTexCoords` says why the shape has none
+    // in cbdpt (a disk's polar coordinates are not linear over its triangles).
+    std::vector<std::array<float, 6>> cornerUv;
+    std::string noTexCoords;
     SourceLocation where;
+
+    // Swaps triangle t's corners 1 and 2, so that its other side faces out; their (u, v) go
+    // with them (pbrt-v4's default made explicit for every triangle where there was none).
+    void reverseTriangle(size_t t) {
+        std::swap(triangles[t][1], triangles[t][2]);
+        if (cornerUv.empty() && noTexCoords.empty())
+            cornerUv.assign(triangles.size(), kDefaultCornerUv);
+        if (cornerUv.empty()) return;
+        std::swap(cornerUv[t][2], cornerUv[t][4]);
+        std::swap(cornerUv[t][3], cornerUv[t][5]);
+    }
 };
 
 struct SphereDesc {
@@ -167,6 +189,22 @@ struct InfiniteLightDesc {
     // The rotation from the light's frame to world, row-major: the CTM at the LightSource with
     // its uniform scale divided out.
     std::array<double, 9> worldFromLight{1, 0, 0, 0, 1, 0, 0, 0, 1};
+    SourceLocation where;
+};
+
+// pbrt-v4's Texture "name" "spectrum" "imagemap": an image of linear RGB texels (its "scale"
+// and "invert" applied), looked up at a surface point's texture coordinates (u, v) through
+// pbrt-v4's "uv" mapping, s = uscale u + udelta, t = vscale v + vdelta, with t running up the
+// image (kernels/cb_texture.h).
+struct TextureDesc {
+    enum class Wrap { Repeat, Black, Clamp };
+    std::string name;
+    int width = 0, height = 0;
+    std::vector<float> rgb; // row-major, top row first
+    std::string path;
+    Wrap wrap = Wrap::Repeat;
+    bool nearest = false; // "point" filter: the nearest texel, not bilinear
+    std::array<float, 4> mapping{1.f, 1.f, 0.f, 0.f}; // uscale, vscale, udelta, vdelta
     SourceLocation where;
 };
 
@@ -243,6 +281,7 @@ struct SceneDesc {
     std::vector<PointLightDesc> pointLights;
     std::vector<DistantLightDesc> distantLights;
     std::vector<InfiniteLightDesc> infiniteLights; // at most one
+    std::vector<TextureDesc> textures;             // those a material uses
     bool usesSpectra = false; // any parameter was given as `spectrum` (render spectrally)
     long droppedDegenerateTriangles = 0; // zero-area triangles removed at load
 };

@@ -14,7 +14,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     try {
         const cb::PlyMesh mesh = cb::readPlyFromMemory(bytes, "fuzz.ply");
         // A mesh that loads must be usable as loaded: finite coordinates, every index names a
-        // vertex, normals (if any) one per vertex.
+        // vertex, normals and texture coordinates (if any) one per vertex.
         for (const auto& p : mesh.positions)
             for (float c : p)
                 if (!std::isfinite(c)) __builtin_trap();
@@ -25,6 +25,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
             for (unsigned i : t)
                 if (i >= mesh.positions.size()) __builtin_trap();
         if (!mesh.normals.empty() && mesh.normals.size() != mesh.positions.size()) __builtin_trap();
+        for (const auto& uv : mesh.uv)
+            for (float c : uv)
+                if (!std::isfinite(c)) __builtin_trap();
+        if (!mesh.uv.empty() && mesh.uv.size() != mesh.positions.size()) __builtin_trap();
     } catch (const cb::SceneError&) {
     }
     return 0;

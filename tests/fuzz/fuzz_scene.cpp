@@ -69,6 +69,7 @@ void checkScene(const cb::SceneDesc& s) {
         if (!std::isfinite(m.baseRoughness) || m.baseRoughness < 0.f) broken("conductor roughness");
         if (!std::isfinite(m.eta) || !(m.eta > 0.f)) broken("eta");
         if (!(m.amount >= 0.f && m.amount <= 1.f)) broken("mix amount");
+        checkIndex(m.reflectanceTexture, s.textures.size(), true, "reflectance texture");
         if (m.kind == cb::MaterialKind::Mix)
             for (int i : m.mix) {
                 checkIndex(i, nm, false, "mix component index");
@@ -122,6 +123,20 @@ void checkScene(const cb::SceneDesc& s) {
         }
         checkIndex(m.material, nm, false, "mesh material");
         checkIndex(m.areaLight, nl, true, "mesh area light");
+        if (!m.cornerUv.empty() && m.cornerUv.size() != m.triangles.size())
+            broken("texture coordinates not one per triangle");
+        for (const auto& uv : m.cornerUv)
+            for (float c : uv)
+                if (!std::isfinite(c)) broken("texture coordinate");
+    }
+    for (const cb::TextureDesc& t : s.textures) {
+        if (t.width < 1 || t.height < 1 ||
+            t.rgb.size() != 3 * static_cast<size_t>(t.width) * static_cast<size_t>(t.height))
+            broken("texture size");
+        for (float v : t.rgb)
+            if (!std::isfinite(v)) broken("texel");
+        for (float v : t.mapping)
+            if (!std::isfinite(v)) broken("texture mapping");
     }
     if (s.droppedDegenerateTriangles < 0) broken("negative dropped-triangle count");
 }

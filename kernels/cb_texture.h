@@ -1,0 +1,123 @@
+/* cb_texture.h - pbrt-v4's image textures ("imagemap") as reflectances: texture coordinates of
+ * a triangle's hit point and the texture's value there, shared by the kernels and the host.
+ *
+ * The `textures` buffer holds, per primitive, its three vertices' (u, v), then each texture at
+ * the offset its materials name: a header of CB_TEXTURE_HEADER values (below) and the texels'
+ * linear RGB, row-major, top row first, with the texture's "scale" and "invert" applied
+ * (both commute with bilinear interpolation). */
+#ifndef CB_TEXTURE_H
+#define CB_TEXTURE_H
+
+#include "cb_spectrum.h"
+#include "cb_types.h"
+
+CB_BEGIN_NAMESPACE
+
+#define CB_TEXTURE_WIDTH 0
+#define CB_TEXTURE_HEIGHT 1
+#define CB_TEXTURE_WRAP 2   /* CB_WRAP_* */
+#define CB_TEXTURE_FILTER 3 /* CB_FILTER_* */
+#define CB_TEXTURE_USCALE 4 /* pbrt-v4's UVMapping: s = uscale u + udelta */
+#define CB_TEXTURE_VSCALE 5 /* t = vscale v + vdelta */
+#define CB_TEXTURE_UDELTA 6
+#define CB_TEXTURE_VDELTA 7
+#define CB_TEXTURE_BASIS 8 /* spectral scenes: the spectra entry of Smits's basis (7 entries) */
+#define CB_TEXTURE_HEADER 9
+
+#define CB_WRAP_REPEAT 0
+#define CB_WRAP_BLACK 1
+#define CB_WRAP_CLAMP 2
+
+#define CB_FILTER_BILINEAR 0 /* pbrt-v4's Image::Bilerp at full resolution */
+#define CB_FILTER_POINT 1    /* the nearest texel */
+
+/* Texture coordinates at barycentrics (b1, b2) of triangle `primitive`. */
+CB_FN TexCoord triangleTexCoord(const SceneView* scene, int primitive, real b1, real b2) {
+    CB_GLOBAL const real* uv = scene->textures + 6 * primitive;
+    real b0 = 1.0f - b1 - b2;
+    TexCoord c;
+    c.u = b0 * uv[0] + b1 * uv[2] + b2 * uv[4];
+    c.v = b0 * uv[1] + b1 * uv[3] + b2 * uv[5];
+    return c;
+}
+
+/* Texel (x, y)'s RGB, x and y at most one image size outside the image: wrapped, or black
+ * outside it for CB_WRAP_BLACK (pbrt-v4's RemapPixelCoords). */
+CB_FN Vec3 textureTexel(CB_GLOBAL const real* texture, int x, int y) {
+    int w = (int)texture[CB_TEXTURE_WIDTH];
+    int h = (int)texture[CB_TEXTURE_HEIGHT];
+    int wrap = (int)texture[CB_TEXTURE_WRAP];
+    if (wrap == CB_WRAP_REPEAT) {
+        x = (x + w) % w;
+        y = (y + h) % h;
+    } else if (wrap == CB_WRAP_CLAMP) {
+        x = x < 0 ? 0 : (x >= w ? w - 1 : x);
+        y = y < 0 ? 0 : (y >= h ? h - 1 : y);
+    } else if (x < 0 || x >= w || y < 0 || y >= h) {
+        return vec3(0.0f, 0.0f, 0.0f);
+    }
+    CB_GLOBAL const real* rgb = texture + CB_TEXTURE_HEADER + 3 * (y * w + x);
+    return vec3(rgb[0], rgb[1], rgb[2]);
+}
+
+/* The texture's RGB at texture coordinates uv: pbrt-v4's ImageTexture with its "uv" mapping,
+ * t flipped (image rows run down), bilinear between the four nearest texel centres or the
+ * nearest texel. Coordinates are first brought into one period (repeat) or just outside the
+ * image (black, clamp), which changes no value and keeps texel indices small. */
+CB_FN Vec3 textureRgb(const SceneView* scene, int offset, TexCoord uv) {
+    CB_GLOBAL const real* texture = scene->textures + offset;
+    real w = texture[CB_TEXTURE_WIDTH];
+    real h = texture[CB_TEXTURE_HEIGHT];
+    real s = texture[CB_TEXTURE_USCALE] * uv.u + texture[CB_TEXTURE_UDELTA];
+    real t = 1.0f - (texture[CB_TEXTURE_VSCALE] * uv.v + texture[CB_TEXTURE_VDELTA]);
+    if (!(isfinite(s) && isfinite(t))) return vec3(0.0f, 0.0f, 0.0f);
+    if ((int)texture[CB_TEXTURE_WRAP] == CB_WRAP_REPEAT) {
+        s -= floor(s);
+        t -= floor(t);
+    } else {
+        s = cbClamp(s, -1.0f, 2.0f);
+        t = cbClamp(t, -1.0f, 2.0f);
+    }
+    if ((int)texture[CB_TEXTURE_FILTER] == CB_FILTER_POINT)
+        return textureTexel(texture, (int)floor(s * w), (int)floor(t * h));
+    real x = s * w - 0.5f;
+    real y = t * h - 0.5f;
+    real x0 = floor(x);
+    real y0 = floor(y);
+    real dx = x - x0;
+    real dy = y - y0;
+    int xi = (int)x0;
+    int yi = (int)y0;
+    Vec3 top = vadd(vscale(textureTexel(texture, xi, yi), 1.0f - dx),
+                    vscale(textureTexel(texture, xi + 1, yi), dx));
+    Vec3 bottom = vadd(vscale(textureTexel(texture, xi, yi + 1), 1.0f - dx),
+                       vscale(textureTexel(texture, xi + 1, yi + 1), dx));
+    return vadd(vscale(top, 1.0f - dy), vscale(bottom, dy));
+}
+
+/* The texture as a reflectance: RGB clamped to [0, 1] as pbrt-v4 clamps an albedo texture; in
+ * spectral scenes Smits's spectrum of it, each bin clamped to [0, 1] as the host clamps a
+ * constant reflectance's (SpectraTable::addAlbedo). */
+CB_FN Spectrum textureReflectance(const SceneView* scene, int offset, TexCoord uv) {
+    Vec3 rgb = textureRgb(scene, offset, uv);
+    real r = cbClamp(rgb.x, 0.0f, 1.0f);
+    real g = cbClamp(rgb.y, 0.0f, 1.0f);
+    real b = cbClamp(rgb.z, 0.0f, 1.0f);
+#if CB_CHANNELS == 3
+    Spectrum s;
+    s.c[0] = r;
+    s.c[1] = g;
+    s.c[2] = b;
+    return s;
+#else
+    int basis = (int)scene->textures[offset + CB_TEXTURE_BASIS];
+    Spectrum s = smitsSpectrum(scene->spectra, basis, r, g, b);
+    for (int i = 0; i < CB_CHANNELS; ++i)
+        s.c[i] = cbClamp(s.c[i], 0.0f, 1.0f);
+    return s;
+#endif
+}
+
+CB_END_NAMESPACE
+
+#endif /* CB_TEXTURE_H */

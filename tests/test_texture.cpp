@@ -1,0 +1,556 @@
+// pbrt-v4's image textures (Texture "name" "spectrum" "imagemap") as diffuse and coated diffuse
+// reflectance: the directive and its refusals, the texture coordinates of hit points, the
+// lookups (kernels/cb_texture.h), and every method's image of textured surfaces
+// (docs/pbrt-v4.md).
+#include <doctest/doctest.h>
+
+#include "cb_bvh_wide.h"
+#include "cb_camera.h"
+#include "cb_texture.h"
+#include "method_checks.h"
+#include "scene_files.h"
+#include "spectral/spectral.h"
+#include "test_render_util.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <fstream>
+#include <random>
+#include <string>
+#include <vector>
+
+using namespace cbtest::method_checks;
+using namespace cbtest::scene_files;
+
+namespace {
+
+// A 2 x 2 texture whose texels differ in every channel; (x, y) from the top left.
+float texel(int x, int y, int c) {
+    return 0.1f * float(1 + x + 2 * y) + 0.25f * float(c);
+}
+cbk::Vec3 texelRgb(int x, int y) {
+    return cbk::vec3(texel(x, y, 0), texel(x, y, 1), texel(x, y, 2));
+}
+
+// A scene the device builder accepts, with `body` after WorldBegin.
+cb::SceneDesc sceneDesc(const std::string& body) {
+    return parseInTemp("Film \"rgb\" \"integer xresolution\" 8 \"integer yresolution\" 8\n"
+                       "WorldBegin\nLightSource \"infinite\" \"rgb L\" [1 1 1]\n" +
+                       body);
+}
+cb::DeviceScene deviceScene(const std::string& body) {
+    return cb::buildDeviceScene(sceneDesc(body));
+}
+
+// A small triangle of the current material, at height z (each material must be used to be
+// uploaded).
+std::string triangleAt(int z) {
+    return fmt::format("Shape \"trianglemesh\" \"point3 P\" [0 0 {0} 1 0 {0} 0 1 {0}]\n", z);
+}
+
+void checkRgb(cbk::Vec3 got, cbk::Vec3 expected) {
+    CHECK(got.x == doctest::Approx(expected.x).epsilon(1e-6));
+    CHECK(got.y == doctest::Approx(expected.y).epsilon(1e-6));
+    CHECK(got.z == doctest::Approx(expected.z).epsilon(1e-6));
+}
+
+cbk::TexCoord uvOf(float u, float v) {
+    return cbk::TexCoord{u, v};
+}
+
+} // namespace
+
+TEST_CASE("image textures: the Texture directive, its parameters and what is refused") {
+    TempDirCleanup cleanup;
+    cb::writePng8((tempDir() / "grey.png").string(), 2, 1, {0, 128, 255, 10, 20, 30});
+    auto s = parseInTemp(
+        "WorldBegin\nTexture \"t\" \"spectrum\" \"imagemap\" \"string filename\" \"grey.png\" "
+        "\"float scale\" 0.5 \"bool invert\" true \"string wrap\" \"clamp\" \"string filter\" "
+        "\"point\" \"float uscale\" 2 \"float vdelta\" 0.5 \"float maxanisotropy\" 4\n"
+        "Material \"diffuse\" \"texture reflectance\" \"t\"\n" +
+        triangleAt(0));
+    REQUIRE(s.textures.size() == 1);
+    const cb::TextureDesc& t = s.textures[0];
+    CHECK(t.width == 2);
+    CHECK(t.height == 1);
+    CHECK(t.wrap == cb::TextureDesc::Wrap::Clamp);
+    CHECK(t.nearest);
+    CHECK(t.mapping == std::array<float, 4>{2.f, 1.f, 0.f, 0.5f});
+    REQUIRE(t.rgb.size() == 6);
+    // 8-bit sRGB decoded, then 1 - scale v.
+    CHECK(t.rgb[0] == doctest::Approx(1.0).epsilon(1e-6));
+    CHECK(t.rgb[1] == doctest::Approx(1.0 - 0.5 * 0.2158605).epsilon(1e-5));
+    CHECK(t.rgb[2] == doctest::Approx(0.5).epsilon(1e-6));
+    CHECK(std::count(s.sourceFiles.begin(), s.sourceFiles.end(), t.path) == 1);
+    REQUIRE(s.meshes.size() == 1);
+    CHECK(s.materials[size_t(s.meshes[0].material)].reflectanceTexture == 0);
+    // Without Option "disabletexturefiltering" true, a note says pbrt-v4 filters differently.
+    auto hasNote = [](const cb::SceneDesc& d) {
+        return std::any_of(d.notes.begin(), d.notes.end(),
+                           [](const std::string& n) { return contains(n, "MIP maps"); });
+    };
+    CHECK(hasNote(s));
+    const std::string plain = "Texture \"t\" \"spectrum\" \"imagemap\" \"string filename\" "
+                              "\"grey.png\"\n";
+    CHECK_FALSE(
+        hasNote(parseInTemp("Option \"disabletexturefiltering\" true\nWorldBegin\n" + plain)));
+
+    // "encoding": linear and gamma decode the bytes as pbrt-v4 does.
+    s = parseInTemp("WorldBegin\nTexture \"t\" \"spectrum\" \"imagemap\" \"string filename\" "
+                    "\"grey.png\" \"string encoding\" \"linear\"\n");
+    CHECK(s.textures[0].rgb[1] == doctest::Approx(128.0 / 255.0).epsilon(1e-6));
+    s = parseInTemp("WorldBegin\nTexture \"t\" \"spectrum\" \"imagemap\" \"string filename\" "
+                    "\"grey.png\" \"string encoding\" \"gamma 2.2\"\n");
+    CHECK(s.textures[0].rgb[1] == doctest::Approx(std::pow(128.0 / 255.0, 2.2)).epsilon(1e-5));
+
+    // Textures cbdpt cannot render are an error only where a material uses one.
+    const std::string checkerboard = "Texture \"c\" \"spectrum\" \"checkerboard\" \"float uscale\" "
+                                     "4\nTexture \"r\" \"float\" \"imagemap\" \"string filename\" "
+                                     "\"grey.png\"\n";
+    CHECK_NOTHROW(parseInTemp("WorldBegin\n" + checkerboard));
+    const std::string usedChecker = errorOf("WorldBegin\n" + checkerboard +
+                                            "Material \"diffuse\" \"texture reflectance\" \"c\"\n");
+    CHECK(contains(usedChecker, ":4:"));
+    CHECK(contains(usedChecker, "class \"checkerboard\""));
+    CHECK(contains(usedChecker, ":2")); // where the texture was defined
+    CHECK(contains(errorOf("WorldBegin\n" + checkerboard +
+                           "Material \"diffuse\" \"texture reflectance\" \"r\"\n"),
+                   "a float texture \"r\""));
+    CHECK(contains(errorOf("WorldBegin\nMaterial \"coateddiffuse\" \"texture reflectance\" "
+                           "\"nothing\"\n"),
+                   "no texture \"nothing\""));
+    CHECK(contains(errorOf("WorldBegin\n" + plain + plain), "redefined"));
+    CHECK(contains(
+        errorOf("WorldBegin\n" + plain + "Material \"conductor\" \"texture reflectance\" \"t\"\n"),
+        "diffuse and coateddiffuse materials only"));
+    const std::string missing = errorOf("WorldBegin\n\nTexture \"t\" \"spectrum\" \"imagemap\" "
+                                        "\"string filename\" \"none.png\"\n");
+    CHECK(contains(missing, ":3:"));
+    CHECK(contains(missing, "no image file \"none.png\""));
+    CHECK(contains(errorOf("WorldBegin\nTexture \"t\" \"spectrum\" \"imagemap\"\n"),
+                   "needs \"string filename\""));
+    CHECK(contains(errorOf("WorldBegin\nTexture \"t\" \"color\" \"imagemap\"\n"),
+                   "must be \"spectrum\" or \"float\""));
+    for (const auto& [param, message] :
+         {std::pair{"\"string wrap\" \"octahedralsphere\"", "\"string wrap\" must be"},
+          std::pair{"\"string mapping\" \"spherical\"", "\"uv\") only"},
+          std::pair{"\"string filter\" \"gaussian\"", "\"string filter\" must be"},
+          std::pair{"\"string encoding\" \"gamma -1\"", "\"string encoding\" must be"},
+          std::pair{"\"float udelta\" [1 2]", "exactly 1 value"}}) {
+        CAPTURE(param);
+        CHECK(contains(errorOf("WorldBegin\nTexture \"t\" \"spectrum\" \"imagemap\" \"string "
+                               "filename\" \"grey.png\" " +
+                               std::string(param) + "\n"),
+                       message));
+    }
+    writeImage("nan.exr", 2, 2, [](int x, int y, int) { return x == 1 && y == 1 ? NAN : 0.5f; });
+    const std::string nan = errorOf("WorldBegin\nTexture \"t\" \"spectrum\" \"imagemap\" "
+                                    "\"string filename\" \"nan.exr\"\n");
+    CHECK(contains(nan, "pixel (1, 1)"));
+    CHECK(contains(nan, "finite"));
+
+    // "point2 uv" needs one (u, v) per vertex.
+    CHECK(contains(errorOf("WorldBegin\nShape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0] "
+                           "\"point2 uv\" [0 0 1 0]\n"),
+                   "one (u, v) per vertex (3), got 2"));
+    // A textured material where cbdpt has no texture coordinates is refused when the scene is
+    // built, naming the shape.
+    const std::string textured = plain + "Material \"diffuse\" \"texture reflectance\" \"t\"\n";
+    for (const auto& [shape, message] :
+         {std::pair{"Shape \"sphere\"", "a sphere"}, std::pair{"Shape \"disk\"", "a disk"},
+          std::pair{"Shape \"bilinearmesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0 2 2 0]",
+                    "not a parallelogram"}}) {
+        CAPTURE(shape);
+        try {
+            deviceScene(textured + shape + "\n");
+            FAIL("a textured " << shape << " was accepted");
+        } catch (const cb::SceneError& e) {
+            CHECK(contains(e.what(), "texture reflectance"));
+            CHECK(contains(e.what(), message));
+        }
+        // Untextured, the same shape renders.
+        CHECK_NOTHROW(deviceScene(std::string(shape) + "\n"));
+    }
+}
+
+// The lookup of cb_texture.h on a 2 x 2 texture: pbrt-v4's t = 1 - v (v = 1 is the top row),
+// texel centres at (i + 1/2) / size, and each wrap mode, filter and mapping.
+TEST_CASE("image textures: bilinear and nearest lookups, wrap modes, mapping, clamping") {
+    TempDirCleanup cleanup;
+    writeImage("two.exr", 2, 2, texel);
+    const char* const textures[] = {"\"string wrap\" \"repeat\"",
+                                    "\"string wrap\" \"clamp\"",
+                                    "\"string wrap\" \"black\"",
+                                    "\"string filter\" \"point\"",
+                                    "\"float uscale\" 2 \"float udelta\" 0.25",
+                                    "\"float scale\" 4",
+                                    "\"float scale\" 4 \"bool invert\" true"};
+    std::string body;
+    for (size_t i = 0; i < std::size(textures); ++i)
+        body += fmt::format("Texture \"t{0}\" \"spectrum\" \"imagemap\" \"string filename\" "
+                            "\"two.exr\" {1}\nMaterial \"diffuse\" \"texture reflectance\" "
+                            "\"t{0}\"\n{2}",
+                            i, textures[i], triangleAt(int(i)));
+    const cb::SceneDesc desc = sceneDesc(body);
+    const cb::DeviceScene scene = cb::buildDeviceScene(desc);
+    CHECK((scene.features & CB_FEATURE_TEXTURE) != 0);
+    const cbk::SceneView view = cbtest::hostView(scene);
+    std::vector<int> offset; // per texture, its offset in the scene's `textures`
+    for (const cb::TriangleMeshDesc& mesh : desc.meshes) {
+        offset.push_back(scene.materials[size_t(mesh.material)].reflectanceTexture);
+        REQUIRE(offset.back() >= 0);
+    }
+    auto rgb = [&](size_t texture, float u, float v) {
+        return cbk::textureRgb(&view, offset[texture], uvOf(u, v));
+    };
+    auto mix = [](cbk::Vec3 a, cbk::Vec3 b, float t) {
+        return cbk::vadd(cbk::vscale(a, 1.f - t), cbk::vscale(b, t));
+    };
+    const cbk::Vec3 black = cbk::vec3(0.f, 0.f, 0.f);
+
+    // Repeat, bilinear: texel centres, the middle, the edge between texels 1 and 0, a period on.
+    checkRgb(rgb(0, 0.25f, 0.75f), texelRgb(0, 0)); // top left: v near 1 is the top row
+    checkRgb(rgb(0, 0.75f, 0.25f), texelRgb(1, 1));
+    checkRgb(rgb(0, 0.5f, 0.5f), mix(mix(texelRgb(0, 0), texelRgb(1, 0), 0.5f),
+                                     mix(texelRgb(0, 1), texelRgb(1, 1), 0.5f), 0.5f));
+    checkRgb(rgb(0, 0.f, 0.75f), mix(texelRgb(1, 0), texelRgb(0, 0), 0.5f));
+    checkRgb(rgb(0, 1.25f, -0.25f), texelRgb(0, 0));
+    checkRgb(rgb(0, 0.375f, 0.75f), mix(texelRgb(0, 0), texelRgb(1, 0), 0.25f));
+    // Clamp: the edge texel beyond the image, however far.
+    checkRgb(rgb(1, 0.f, 0.75f), texelRgb(0, 0));
+    checkRgb(rgb(1, -5.f, 0.75f), texelRgb(0, 0));
+    checkRgb(rgb(1, 5.f, -5.f), texelRgb(1, 1));
+    // Black: nothing beyond the image; half of the edge texel at the edge.
+    checkRgb(rgb(2, 0.f, 0.75f), cbk::vscale(texelRgb(0, 0), 0.5f));
+    checkRgb(rgb(2, -5.f, 0.75f), black);
+    checkRgb(rgb(2, 0.5f, 1e30f), black);
+    // Point: the texel the coordinates fall in.
+    checkRgb(rgb(3, 0.49f, 0.75f), texelRgb(0, 0));
+    checkRgb(rgb(3, 0.51f, 0.75f), texelRgb(1, 0));
+    checkRgb(rgb(3, 0.75f, 0.01f), texelRgb(1, 1));
+    checkRgb(rgb(3, -0.25f, 0.99f), texelRgb(1, 0)); // repeat
+    // Mapping: s = 2 u + 0.25.
+    checkRgb(rgb(4, 0.f, 0.75f), texelRgb(0, 0));
+    checkRgb(rgb(4, 0.25f, 0.75f), texelRgb(1, 0));
+    // Scale, invert, and the reflectance's clamp to [0, 1].
+    checkRgb(rgb(5, 0.25f, 0.75f), cbk::vscale(texelRgb(0, 0), 4.f));
+    checkRgb(rgb(6, 0.25f, 0.75f),
+             cbk::vsub(cbk::vec3(1.f, 1.f, 1.f), cbk::vscale(texelRgb(0, 0), 4.f)));
+    const cbk::Spectrum scaled = cbk::textureReflectance(&view, offset[5], uvOf(0.75f, 0.25f));
+    const cbk::Spectrum inverted = cbk::textureReflectance(&view, offset[6], uvOf(0.75f, 0.25f));
+    for (int c = 0; c < 3; ++c) {
+        CHECK(scaled.c[c] == doctest::Approx(std::min(1.f, 4.f * texel(1, 1, c))));
+        CHECK(inverted.c[c] == doctest::Approx(std::max(0.f, 1.f - 4.f * texel(1, 1, c))));
+    }
+    // Coordinates that are not finite, or huge, give a finite value (no texel outside the image
+    // is read: the sanitizer builds would see it).
+    checkRgb(rgb(0, NAN, 0.5f), black);
+    checkRgb(rgb(0, INFINITY, 0.5f), black);
+    for (size_t t = 0; t < std::size(textures); ++t)
+        for (float big : {1e30f, -1e30f, 3e9f, -7.5e6f}) {
+            const cbk::Vec3 c = rgb(t, big, -big);
+            CHECK(std::isfinite(c.x + c.y + c.z));
+        }
+}
+
+// A hit point's (u, v) is the triangle's corners' interpolated at its barycentrics, after the
+// BVH has reordered the primitives and the parser has reordered mirrored triangles' corners.
+TEST_CASE("image textures: texture coordinates at hit points") {
+    TempDirCleanup cleanup;
+    writeImage("two.exr", 2, 2, texel);
+    // A 3 x 3 grid of quads in z = 0 with uv an affine function of the object position.
+    std::string positions, uv, indices;
+    for (int j = 0; j <= 3; ++j)
+        for (int i = 0; i <= 3; ++i) {
+            const double x = -1.0 + 2.0 * i / 3.0, y = -1.0 + 2.0 * j / 3.0;
+            positions += fmt::format("{} {} 0  ", x, y);
+            uv += fmt::format("{} {}  ", 0.5 * x + 0.1, 0.25 * y - 0.3);
+        }
+    for (int j = 0; j < 3; ++j)
+        for (int i = 0; i < 3; ++i) {
+            const int a = 4 * j + i;
+            indices += fmt::format("{} {} {}  {} {} {}  ", a, a + 1, a + 5, a, a + 5, a + 4);
+        }
+    // pbrt-v4's defaults: a triangle without "uv" is (0,0) (1,0) (1,1) at its corners, a
+    // bilinear patch (0,0) (1,0) (0,1) (1,1) at p00 p10 p01 p11; a PLY's "u" and "v".
+    {
+        std::ofstream ply(tempDir() / "uv.ply");
+        ply << "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+               "property float z\nproperty float u\nproperty float v\nelement face 1\n"
+               "property list uchar int vertex_indices\nend_header\n"
+               "0 0 0 0.2 0.4\n1 0 0 0.6 0.4\n0 1 0 0.2 0.9\n3 0 1 2\n";
+    }
+    const std::string body =
+        "Texture \"t\" \"spectrum\" \"imagemap\" \"string filename\" \"two.exr\"\n"
+        "Material \"diffuse\" \"texture reflectance\" \"t\"\n"
+        "AttributeBegin\nTranslate 0.2 0 0\nScale -1 1 1\nShape \"trianglemesh\" \"point3 P\" [" +
+        positions + "] \"integer indices\" [" + indices + "] \"point2 uv\" [" + uv +
+        "]\nAttributeEnd\n"
+        "AttributeBegin\nTranslate 5 0 0\nScale -1 1 1\nShape \"trianglemesh\" \"point3 P\" "
+        "[0 0 0 1 0 0 1 1 0]\nAttributeEnd\n"
+        "AttributeBegin\nTranslate 10 0 0\nShape \"bilinearmesh\" \"point3 P\" "
+        "[0 0 0 2 0 0 0 1 0 2 1 0]\nAttributeEnd\n"
+        "AttributeBegin\nTranslate 15 0 0\nShape \"plymesh\" \"string filename\" \"uv.ply\"\n"
+        "AttributeEnd\n"
+        "ObjectBegin \"tri\"\nShape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 1 1 0] "
+        "\"point2 uv\" [0.1 0.2 0.5 0.2 0.5 0.7]\nObjectEnd\n"
+        "AttributeBegin\nTranslate 20 0 0\nScale -1 1 1\nObjectInstance \"tri\"\nAttributeEnd\n";
+    const cb::DeviceScene scene = deviceScene(body);
+    const cbk::SceneView view = cbtest::hostView(scene);
+    REQUIRE(scene.textures.size() >= 6 * scene.bvh.primitives.size());
+    // World point (X, Y) of each shape and the (u, v) expected there.
+    struct Probe {
+        double x0, x1, y0, y1;
+        std::array<double, 2> (*uv)(double, double);
+    };
+    const Probe probes[] = {
+        {-0.75, 1.15, -0.95, 0.95,
+         [](double X, double Y) {
+             return std::array{0.5 * (0.2 - X) + 0.1, 0.25 * Y - 0.3};
+         }},
+        // Mirrored: object x = 5 - X, and the triangle (0,0) (1,0) (1,1) has uv = (x, y).
+        {4.05, 4.95, 0.01, 0.04,
+         [](double X, double Y) {
+             return std::array{5.0 - X, Y};
+         }},
+        {10.05, 11.95, 0.05, 0.95,
+         [](double X, double Y) {
+             return std::array{(X - 10) / 2, Y};
+         }},
+        {15.05, 15.45, 0.05, 0.45,
+         [](double X, double Y) { return std::array{0.2 + 0.4 * (X - 15), 0.4 + 0.5 * Y}; }},
+        // An instance mirrored by its transform: object x = 20 - X.
+        {19.05, 19.95, 0.01, 0.04,
+         [](double X, double Y) { return std::array{0.1 + 0.4 * (20 - X), 0.2 + 0.5 * Y}; }},
+    };
+    std::mt19937 rng(3u);
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    int hits = 0;
+    for (const Probe& probe : probes)
+        for (int i = 0; i < 200; ++i) {
+            const double X = probe.x0 + (probe.x1 - probe.x0) * unit(rng);
+            double Y = probe.y0 + (probe.y1 - probe.y0) * unit(rng);
+            if (&probe == &probes[1]) Y = std::min(Y, 5.0 - X - 0.01); // inside the triangles
+            if (&probe == &probes[4]) Y = std::min(Y, 20.0 - X - 0.01);
+            cbk::Ray ray;
+            ray.o = cbk::vec3(float(X - scene.origin[0]), float(Y - scene.origin[1]),
+                              float(1.0 - scene.origin[2]));
+            ray.d = cbk::vec3(0.f, 0.f, -1.f);
+            cbk::Hit hit;
+            REQUIRE(cbk::sceneIntersect(&view, ray, CB_INFINITY, &hit));
+            const cbk::SurfacePoint sp = cbk::surfacePointFromHit(&view, ray, hit);
+            const auto expected = probe.uv(X, Y);
+            CAPTURE(X);
+            CAPTURE(Y);
+            CHECK(sp.uv.u == doctest::Approx(expected[0]).epsilon(1e-5).scale(1.0));
+            CHECK(sp.uv.v == doctest::Approx(expected[1]).epsilon(1e-5).scale(1.0));
+            ++hits;
+        }
+    CHECK(hits == 1000);
+}
+
+namespace {
+
+// A plane under a uniform sky of radiance 1, seen from above: its radiance is its reflectance
+// (irradiance pi, rho / pi per unit), here a texture of two texels, the left one on x < 0, seen
+// through the nearest texel; the camera's third of columns on either side sees one texel only.
+const std::array<std::array<float, 3>, 2> kPlaneTexels = {std::array<float, 3>{0.8f, 0.3f, 0.1f},
+                                                          std::array<float, 3>{0.2f, 0.5f, 0.9f}};
+
+cb::DeviceScene texturedPlane(cb::ChannelMode mode) {
+    writeImage("plane.exr", 2, 1,
+               [](int x, int, int c) { return kPlaneTexels[size_t(x)][size_t(c)]; });
+    return cb::buildDeviceScene(
+        parseInTemp(
+            "LookAt 0 0 3  0 0 0  0 1 0\nCamera \"perspective\" \"float fov\" 40\n"
+            "Film \"rgb\" \"integer xresolution\" 24 \"integer yresolution\" 24\n"
+            "WorldBegin\nLightSource \"infinite\" \"rgb L\" [1 1 1]\n"
+            "Texture \"two\" \"spectrum\" \"imagemap\" \"string filename\" \"plane.exr\" "
+            "\"string filter\" \"point\"\n"
+            "Material \"diffuse\" \"texture reflectance\" \"two\"\n"
+            "Shape \"bilinearmesh\" \"point3 P\" [-10 -10 0  10 -10 0  -10 10 0  10 10 0]\n"),
+        mode);
+}
+
+// Bins 0-2: the left third's channels, 3-5: the right third's; kNone elsewhere. Which texel
+// each third sees follows from the camera ray through its middle.
+struct PlaneBins {
+    static constexpr size_t kNone = 6;
+    int width = 0;
+    bool leftIsNegativeX = true;
+    size_t operator()(int x, int, int c) const {
+        if (3 * x < width) return size_t(c);
+        if (3 * x >= 2 * width) return 3 + size_t(c);
+        return kNone;
+    }
+};
+
+PlaneBins planeBins(const cb::DeviceScene& scene) {
+    PlaneBins bins;
+    bins.width = scene.camera.width;
+    const cbk::Ray left =
+        cbk::cameraGenerateRay(&scene.camera, 2.5f, 12.f, cbk::vec3(0.f, 0.f, 0.f));
+    bins.leftIsNegativeX = left.d.x < 0.f;
+    return bins;
+}
+
+// Per bin, the reflectance of the texel that third sees, as the film's RGB (filmRgb).
+template <class FilmRgb>
+std::array<double, 6> planeExpected(const PlaneBins& bins, FilmRgb filmRgb) {
+    std::array<double, 6> out{};
+    for (size_t side = 0; side < 2; ++side) {
+        const size_t texelIndex = (side == 0) == bins.leftIsNegativeX ? 0 : 1;
+        const std::array<double, 3> rgb = filmRgb(kPlaneTexels[texelIndex]);
+        for (size_t c = 0; c < 3; ++c)
+            out[3 * side + c] = rgb[c];
+    }
+    return out;
+}
+
+std::array<double, 3> asDouble(const std::array<float, 3>& rgb) {
+    return {rgb[0], rgb[1], rgb[2]};
+}
+
+// The RGB plane, its bins and their expected values.
+struct PlaneCase {
+    cb::DeviceScene scene;
+    PlaneBins bins;
+    std::array<double, 6> expected{};
+};
+
+PlaneCase rgbPlane() {
+    PlaneCase c{texturedPlane(cb::ChannelMode::Auto), {}, {}};
+    c.bins = planeBins(c.scene);
+    c.expected = planeExpected(c.bins, asDouble);
+    return c;
+}
+
+} // namespace
+
+TEST_CASE("image textures: a textured plane's radiance is its texel's reflectance, every method" *
+          doctest::test_suite("statistical")) {
+    TempDirCleanup cleanup;
+    cb::ClRuntime runtime;
+    const PlaneCase plane = rgbPlane();
+    for (const std::string method : kMethods) {
+        CAPTURE(method);
+        checkBinMeans(
+            binnedMeans(plane.scene, runtime, methodSettings(method), 6, 4, 700u, 6, plane.bins),
+            plane.expected, 1e-4);
+    }
+}
+
+// BDPT's strategies for these paths alone, unweighted, then weighted: the eye path's escape
+// (s = 0), next-event estimation (s = 1) and light tracing (s = 2, t = 1), whose vertex on the
+// plane is a light subpath's and carries its own (u, v) (PathVertex.uv).
+TEST_CASE("image textures: each BDPT strategy alone sees the texels" *
+          doctest::test_suite("statistical")) {
+    TempDirCleanup cleanup;
+    cb::ClRuntime runtime;
+    const PlaneCase plane = rgbPlane();
+    for (const auto& [s, t, estimates] :
+         {std::array<int, 3>{0, 3, 8}, std::array<int, 3>{1, 2, 8}, std::array<int, 3>{2, 1, 64},
+          std::array<int, 3>{-1, -1, 8}}) {
+        CAPTURE(s);
+        CAPTURE(t);
+        cb::IntegratorSettings settings = methodSettings("bdpt");
+        settings.debugS = s;
+        settings.debugT = t;
+        checkBinMeans(
+            binnedMeans(plane.scene, runtime, settings, 6, estimates, 800u, 6, plane.bins),
+            plane.expected, 1e-4);
+    }
+}
+
+// In spectra each texel is Smits's spectrum of its RGB, clamped to [0, 1] per bin, as a constant
+// reflectance is (rgbToSpectrum); the film sees it through its own matrix.
+TEST_CASE("image textures: in a spectral scene, the texels' spectra" *
+          doctest::test_suite("statistical")) {
+    TempDirCleanup cleanup;
+    cb::ClRuntime runtime;
+    const cb::DeviceScene scene = texturedPlane(cb::ChannelMode::Spectral);
+    REQUIRE(scene.channels == 16);
+    const PlaneBins bins = planeBins(scene);
+    const std::array<double, 6> expected =
+        planeExpected(bins, [&](const std::array<float, 3>& rgb) {
+            const std::array<float, 16> bins16 = cb::rgbToSpectrum(rgb);
+            // The sky's "rgb L" [1 1 1] is the illuminant's spectrum of luminance 1.
+            const std::array<float, 16> sky = cb::rgbIlluminantSpectrum({1.f, 1.f, 1.f});
+            std::array<double, 3> film{};
+            for (size_t c = 0; c < 3; ++c)
+                for (size_t i = 0; i < 16; ++i)
+                    film[c] +=
+                        double(scene.toRgb[c * 16 + i]) * std::clamp(bins16[i], 0.f, 1.f) * sky[i];
+            return film;
+        });
+    for (const std::string method : {"pt", "bdpt", "cbdpt", "mlt"}) {
+        CAPTURE(method);
+        checkBinMeans(binnedMeans(scene, runtime, methodSettings(method), 6, 4, 900u, 6, bins),
+                      expected, 1e-4);
+    }
+}
+
+// A texture of one colour is that constant reflectance: the same image, estimate for estimate,
+// for the plain and the coated diffuse, in RGB (where the texel is the constant exactly).
+TEST_CASE("image textures: a one-colour texture renders as that constant reflectance" *
+          doctest::test_suite("statistical")) {
+    TempDirCleanup cleanup;
+    cb::ClRuntime runtime;
+    writeImage("flat.exr", 4, 4, [](int, int, int c) { return 0.25f + 0.25f * float(c); });
+    for (const std::string material : {"diffuse", "coateddiffuse"}) {
+        auto scene = [&](const std::string& reflectance) {
+            return cb::buildDeviceScene(parseInTemp(
+                "LookAt 0 2 -3  0 0.3 0  0 1 0\nCamera \"perspective\" \"float fov\" 50\n"
+                "Film \"rgb\" \"integer xresolution\" 16 \"integer yresolution\" 16\n"
+                "WorldBegin\n" +
+                kDiskLight +
+                "Texture \"flat\" \"spectrum\" \"imagemap\" \"string filename\" \"flat.exr\"\n"
+                "Material \"" +
+                material + "\" " + reflectance +
+                "\nShape \"bilinearmesh\" \"point3 P\" [-2 0 -2  2 0 -2  -2 0 2  2 0 2]\n"
+                "Shape \"bilinearmesh\" \"point3 P\" [-2 0 1  2 0 1  -2 2 1  2 2 1]\n"));
+        };
+        const cb::DeviceScene textured = scene("\"texture reflectance\" \"flat\"");
+        const cb::DeviceScene constant = scene("\"rgb reflectance\" [0.25 0.5 0.75]");
+        REQUIRE((textured.features & CB_FEATURE_TEXTURE) != 0);
+        REQUIRE((constant.features & CB_FEATURE_TEXTURE) == 0);
+        for (const std::string method : kMethods) {
+            CAPTURE(material);
+            CAPTURE(method);
+            cb::IntegratorSettings settings = methodSettings(method);
+            settings.seed = 11u;
+            auto a = cb::makeIntegrator(settings, textured, runtime);
+            auto b = cb::makeIntegrator(settings, constant, runtime);
+            std::vector<float> ra, rb;
+            double largest = 0.0, sum = 0.0;
+            for (std::uint32_t e = 0; e < 2; ++e) {
+                a->renderEstimate(e, ra);
+                b->renderEstimate(e, rb);
+                REQUIRE(ra.size() == rb.size());
+                for (size_t i = 0; i < ra.size(); ++i) {
+                    largest = std::max(largest, double(std::fabs(ra[i] - rb[i])));
+                    sum += rb[i];
+                }
+            }
+            CAPTURE(largest);
+            CHECK(sum > 0.0);
+            CHECK(largest <= 1e-5 * sum / double(ra.size()));
+        }
+    }
+}
+
+TEST_CASE("image textures: BDPT, CBDPT and MLT agree with PT on textured surfaces" *
+          doctest::test_suite("statistical")) {
+    TempDirCleanup cleanup;
+    const std::string checks = writeImage("checks.exr", 8, 8, [](int x, int y, int c) {
+        return (x + y) % 2 ? 0.8f - 0.3f * float(c) : 0.1f + 0.25f * float(c);
+    });
+    checkMethodsAgreeWithPt(kDiskLight, "", "",
+                            "Texture \"checks\" \"spectrum\" \"imagemap\" \"string filename\" \"" +
+                                checks +
+                                "\" \"float uscale\" 3 \"float vscale\" 2\n"
+                                "Material \"diffuse\" \"texture reflectance\" \"checks\"\n");
+}
