@@ -477,6 +477,9 @@ CB_FN SurfacePoint surfacePointFromHit(const SceneView* scene, Ray ray, Hit hit)
         sp.p = vadd(c, pLocal);
         sp.pError = vadd(vscale(vabs(pLocal), cbGamma(5)), vscale(vabs(sp.p), cbGamma(2)));
         sp.ng = vscale(vnormalize(pLocal), prim->p1[1] < 0.0f ? -1.0f : 1.0f);
+#if CB_HAS(CB_FEATURE_TEXTURE)
+        if (scene->textures) sp.uv = sphereTexCoord(scene, hit.primitive, pLocal);
+#endif
         return sp;
     }
 #endif

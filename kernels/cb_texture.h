@@ -1,7 +1,8 @@
 /* cb_texture.h - pbrt-v4's image textures ("imagemap") as reflectances: texture coordinates of
- * a triangle's hit point and the texture's value there, shared by the kernels and the host.
+ * a hit point and the texture's value there, shared by the kernels and the host.
  *
- * The `textures` buffer holds, per primitive, its three vertices' (u, v), then each texture at
+ * The `textures` buffer holds, per primitive, six values: a triangle's three vertices' (u, v), a
+ * sphere's object frame (sphereTexCoord); then each texture at
  * the offset its materials name: a header of CB_TEXTURE_HEADER values (below) and the texels'
  * linear RGB, row-major, top row first, with the texture's "scale" and "invert" applied
  * (both commute with bilinear interpolation). */
@@ -38,6 +39,26 @@ CB_FN TexCoord triangleTexCoord(const SceneView* scene, int primitive, real b1, 
     TexCoord c;
     c.u = b0 * uv[0] + b1 * uv[2] + b2 * uv[4];
     c.v = b0 * uv[1] + b1 * uv[3] + b2 * uv[5];
+    return c;
+}
+
+/* pbrt-v4's sphere (u, v) at pLocal, the hit point minus the centre (world space): phi / 2 pi
+ * and 1 - theta / pi of the point in the sphere's object frame, where u runs from +x toward +y
+ * and v = 1 is the +z pole. The rotation from world to that frame is the quaternion (x, y, z, w)
+ * at textures[6 * primitive], x negated afterwards where the frame is mirrored (entry 4 < 0). */
+CB_FN TexCoord sphereTexCoord(const SceneView* scene, int primitive, Vec3 pLocal) {
+    CB_GLOBAL const real* q = scene->textures + 6 * primitive;
+    Vec3 axis = vec3(q[0], q[1], q[2]);
+    Vec3 t = vscale(vcross(axis, pLocal), 2.0f);
+    Vec3 p = vadd(vadd(pLocal, vscale(t, q[3])), vcross(axis, t));
+    if (q[4] < 0.0f) p.x = -p.x;
+    real r = vlength(p);
+    if (p.x == 0.0f && p.y == 0.0f) p.x = 1e-5f * r; /* pbrt-v4's choice at the poles */
+    real phi = atan2(p.y, p.x);
+    if (phi < 0.0f) phi += 2.0f * CB_PI;
+    TexCoord c;
+    c.u = phi * (0.5f * CB_INV_PI);
+    c.v = 1.0f - acos(cbClamp(p.z / r, -1.0f, 1.0f)) * CB_INV_PI;
     return c;
 }
 

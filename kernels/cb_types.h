@@ -232,8 +232,8 @@ typedef struct SceneView {
     CB_GLOBAL const Light* lights;
     CB_GLOBAL const real* spectra;     /* CB_CHANNELS floats per entry */
     CB_GLOBAL const real* lightTables; /* image lights' sampling tables (Light.imageTable) */
-    /* CB_FEATURE_TEXTURE: per primitive its vertices' texture coordinates (u0 v0 u1 v1 u2 v2),
-     * then the image textures (cb_texture.h) */
+    /* CB_FEATURE_TEXTURE: per primitive 6 values, a triangle's vertices' texture coordinates
+     * (u0 v0 u1 v1 u2 v2) or a sphere's object frame, then the image textures (cb_texture.h) */
     CB_GLOBAL const real* textures;
     int lightCount;
 } SceneView;

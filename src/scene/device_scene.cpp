@@ -23,6 +23,41 @@ static_assert(sizeof(cbk::Camera) == 128, "Camera must match the OpenCL layout")
 
 namespace {
 
+// A sphere's slot in `textures` (cb_texture.h, sphereTexCoord): the quaternion (x, y, z, w) of
+// the rotation from world to its object frame, then -1 where that frame is mirrored (x negated
+// after the rotation), else 1. World from object, W, is orthogonal; a mirrored one is a
+// rotation R times diag(-1, 1, 1), so that object = diag(-1, 1, 1) R^T world.
+std::array<float, 6> sphereFrameSlot(const std::array<double, 9>& w) {
+    const double det = w[0] * (w[4] * w[8] - w[5] * w[7]) - w[1] * (w[3] * w[8] - w[5] * w[6]) +
+                       w[2] * (w[3] * w[7] - w[4] * w[6]);
+    std::array<double, 9> r = w;
+    if (det < 0.0)
+        for (int row = 0; row < 3; ++row)
+            r[size_t(row * 3)] = -r[size_t(row * 3)];
+    // The quaternion of M = R^T (Shepperd 1978: from the largest of the trace and the diagonal).
+    auto m = [&](int i, int j) { return r[size_t(j * 3 + i)]; };
+    double x, y, z, qw;
+    const double trace = m(0, 0) + m(1, 1) + m(2, 2);
+    if (trace > 0.0) {
+        const double s = 2.0 * std::sqrt(trace + 1.0);
+        qw = 0.25 * s, x = (m(2, 1) - m(1, 2)) / s, y = (m(0, 2) - m(2, 0)) / s,
+        z = (m(1, 0) - m(0, 1)) / s;
+    } else if (m(0, 0) > m(1, 1) && m(0, 0) > m(2, 2)) {
+        const double s = 2.0 * std::sqrt(1.0 + m(0, 0) - m(1, 1) - m(2, 2));
+        qw = (m(2, 1) - m(1, 2)) / s, x = 0.25 * s, y = (m(0, 1) + m(1, 0)) / s,
+        z = (m(0, 2) + m(2, 0)) / s;
+    } else if (m(1, 1) > m(2, 2)) {
+        const double s = 2.0 * std::sqrt(1.0 + m(1, 1) - m(0, 0) - m(2, 2));
+        qw = (m(0, 2) - m(2, 0)) / s, x = (m(0, 1) + m(1, 0)) / s, y = 0.25 * s,
+        z = (m(1, 2) + m(2, 1)) / s;
+    } else {
+        const double s = 2.0 * std::sqrt(1.0 + m(2, 2) - m(0, 0) - m(1, 1));
+        qw = (m(1, 0) - m(0, 1)) / s, x = (m(0, 2) + m(2, 0)) / s, y = (m(1, 2) + m(2, 1)) / s,
+        z = 0.25 * s;
+    }
+    return {float(x), float(y), float(z), float(qw), det < 0.0 ? -1.f : 1.f, 0.f};
+}
+
 class SpectraTable {
   public:
     SpectraTable(int channels, std::vector<float>& data) : channels_(channels), data_(data) {}
@@ -559,7 +594,6 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         }
     }
     for (const auto& sphere : desc.spheres) {
-        requireTexCoords(sphere.material, "a sphere", sphere.where);
         cbk::Primitive prim{};
         prim.kind = CB_PRIM_SPHERE;
         prim.material = sphere.material;
@@ -574,7 +608,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
             prim.light = addAreaLight(sphere.areaLight, area, sphere.shapeArea);
         }
         primitives.push_back(prim);
-        if (texturing) primitiveUv.push_back({});
+        if (texturing) primitiveUv.push_back(sphereFrameSlot(sphere.worldFromObject));
         scene.features |= CB_FEATURE_SPHERES;
         ++scene.sphereCount;
     }

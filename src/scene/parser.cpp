@@ -1380,6 +1380,14 @@ class Parser {
             sp.radius = static_cast<float>(src.radius * scale);
             if (!(sp.radius > 0.f) || !std::isfinite(sp.radius))
                 throw SceneError(where, "instanced sphere radius is not a positive float");
+            // The instance's rotation after the definition's.
+            for (int row = 0; row < 3; ++row)
+                for (int c = 0; c < 3; ++c) {
+                    double sum = 0.0;
+                    for (int k = 0; k < 3; ++k)
+                        sum += m(row, k) / scale * src.worldFromObject[size_t(k * 3 + c)];
+                    sp.worldFromObject[size_t(row * 3 + c)] = sum;
+                }
             scene_.spheres.push_back(sp);
         }
     }
@@ -2635,6 +2643,9 @@ class Parser {
         s.material = currentMaterial();
         s.areaLight = state_.areaLight;
         s.shapeArea = 4.0 * M_PI * radius * radius;
+        for (int row = 0; row < 3; ++row)
+            for (int c = 0; c < 3; ++c)
+                s.worldFromObject[size_t(row * 3 + c)] = m(row, c) / scale;
         scene_.spheres.push_back(s);
     }
 
