@@ -1,11 +1,12 @@
 /* cb_texture.h - pbrt-v4's image textures ("imagemap") as reflectances: texture coordinates of
  * a hit point and the texture's value there, shared by the kernels and the host.
  *
- * The `textures` buffer holds, per primitive, six values: a triangle's three vertices' (u, v), a
- * sphere's object frame (sphereTexCoord); then each texture at
- * the offset its materials name: a header of CB_TEXTURE_HEADER values (below) and the texels'
- * linear RGB, row-major, top row first, with the texture's "scale" and "invert" applied
- * (both commute with bilinear interpolation). */
+ * The `textures` buffer holds, per primitive, six values: a triangle's three vertices' (u, v) or
+ * a sphere's object frame (sphereTexCoord); then each texture at the offset its materials name:
+ * a header of CB_TEXTURE_HEADER values (below) and the texels' linear RGB, row-major, top row
+ * first, with the texture's "scale" and "invert" applied (both commute with bilinear
+ * interpolation). pbrt-v4's "constant", "scale" and "checkerboard" textures arrive as such
+ * images too (src/scene/parser.cpp). */
 #ifndef CB_TEXTURE_H
 #define CB_TEXTURE_H
 

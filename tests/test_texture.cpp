@@ -114,16 +114,17 @@ TEST_CASE("image textures: the Texture directive, its parameters and what is ref
     CHECK(s.textures[0].rgb[1] == doctest::Approx(std::pow(128.0 / 255.0, 2.2)).epsilon(1e-5));
 
     // Textures cbdpt cannot render are an error only where a material uses one.
-    const std::string checkerboard = "Texture \"c\" \"spectrum\" \"checkerboard\" \"float uscale\" "
-                                     "4\nTexture \"r\" \"float\" \"imagemap\" \"string filename\" "
-                                     "\"grey.png\"\n";
-    CHECK_NOTHROW(parseInTemp("WorldBegin\n" + checkerboard));
-    const std::string usedChecker = errorOf("WorldBegin\n" + checkerboard +
-                                            "Material \"diffuse\" \"texture reflectance\" \"c\"\n");
-    CHECK(contains(usedChecker, ":4:"));
-    CHECK(contains(usedChecker, "class \"checkerboard\""));
-    CHECK(contains(usedChecker, ":2")); // where the texture was defined
-    CHECK(contains(errorOf("WorldBegin\n" + checkerboard +
+    const std::string unsupportedTextures =
+        "Texture \"c\" \"spectrum\" \"mix\" \"float amount\" "
+        "0.3\nTexture \"r\" \"float\" \"imagemap\" \"string filename\" "
+        "\"grey.png\"\n";
+    CHECK_NOTHROW(parseInTemp("WorldBegin\n" + unsupportedTextures));
+    const std::string usedMix = errorOf("WorldBegin\n" + unsupportedTextures +
+                                        "Material \"diffuse\" \"texture reflectance\" \"c\"\n");
+    CHECK(contains(usedMix, ":4:"));
+    CHECK(contains(usedMix, "class \"mix\""));
+    CHECK(contains(usedMix, ":2")); // where the texture was defined
+    CHECK(contains(errorOf("WorldBegin\n" + unsupportedTextures +
                            "Material \"diffuse\" \"texture reflectance\" \"r\"\n"),
                    "a float texture \"r\""));
     CHECK(contains(errorOf("WorldBegin\nMaterial \"coateddiffuse\" \"texture reflectance\" "
@@ -585,4 +586,78 @@ TEST_CASE("image textures: BDPT, CBDPT and MLT agree with PT on textured surface
                                 checks +
                                 "\" \"float uscale\" 3 \"float vscale\" 2\n"
                                 "Material \"diffuse\" \"texture reflectance\" \"checks\"\n");
+}
+
+// pbrt-v4's "constant", "scale" and 2D "checkerboard" textures of constants become image textures
+// that look up to pbrt-v4's values: checkerboard tex1 where floor(s) + floor(t) is even.
+TEST_CASE("image textures: constant, scale and checkerboard textures") {
+    TempDirCleanup cleanup;
+    writeImage("two.exr", 2, 2, texel);
+    const char* const definitions[] = {
+        "\"constant\" \"rgb value\" [0.2 0.4 0.6]",
+        "\"scale\" \"texture tex\" \"img\" \"float scale\" 0.5",
+        "\"scale\" \"rgb tex\" [0.2 0.4 0.6] \"float scale\" 2",
+        "\"scale\" \"texture tex\" \"t2\" \"float scale\" 0.25", // a scale of a scale
+        "\"checkerboard\" \"float uscale\" 4 \"float vscale\" 2 \"float udelta\" 0.5 "
+        "\"rgb tex1\" [0.9 0.1 0.1] \"rgb tex2\" [0.1 0.1 0.9]"};
+    std::string body =
+        "Texture \"img\" \"spectrum\" \"imagemap\" \"string filename\" \"two.exr\"\n";
+    for (size_t i = 0; i < std::size(definitions); ++i)
+        body += fmt::format("Texture \"t{0}\" \"spectrum\" {1}\nMaterial \"diffuse\" \"texture "
+                            "reflectance\" \"t{0}\"\n{2}",
+                            i, definitions[i], triangleAt(int(i)));
+    const cb::SceneDesc desc = sceneDesc(body);
+    const cb::DeviceScene scene = cb::buildDeviceScene(desc);
+    const cbk::SceneView view = cbtest::hostView(scene);
+    std::vector<int> offset;
+    for (const cb::TriangleMeshDesc& mesh : desc.meshes)
+        offset.push_back(scene.materials[size_t(mesh.material)].reflectanceTexture);
+    auto rgb = [&](size_t texture, float u, float v) {
+        return cbk::textureRgb(&view, offset[texture], uvOf(u, v));
+    };
+    for (float u : {0.1f, 0.7f, -3.3f})
+        checkRgb(rgb(0, u, 0.4f), cbk::vec3(0.2f, 0.4f, 0.6f));
+    checkRgb(rgb(1, 0.25f, 0.75f), cbk::vscale(texelRgb(0, 0), 0.5f));
+    checkRgb(rgb(1, 0.75f, 0.25f), cbk::vscale(texelRgb(1, 1), 0.5f));
+    checkRgb(rgb(2, 0.5f, 0.5f), cbk::vec3(0.4f, 0.8f, 1.2f));
+    checkRgb(rgb(3, 0.5f, 0.5f), cbk::vec3(0.1f, 0.2f, 0.3f));
+    // The checkerboard against pbrt-v4's rule at cell centres and off them, negative included.
+    std::mt19937 rng(5u);
+    std::uniform_real_distribution<float> coordinate(-3.f, 3.f);
+    int tex1 = 0, tex2 = 0;
+    for (int i = 0; i < 400; ++i) {
+        const float u = coordinate(rng), v = coordinate(rng);
+        const double s = 4.0 * u + 0.5, t = 2.0 * v;
+        // Away from the lines between cells, where float rounding may pick either side.
+        if (std::fabs(s - std::round(s)) < 1e-3 || std::fabs(t - std::round(t)) < 1e-3) continue;
+        const bool even = (long(std::floor(s)) + long(std::floor(t))) % 2 == 0;
+        CAPTURE(u);
+        CAPTURE(v);
+        checkRgb(rgb(4, u, v), even ? cbk::vec3(0.9f, 0.1f, 0.1f) : cbk::vec3(0.1f, 0.1f, 0.9f));
+        ++(even ? tex1 : tex2);
+    }
+    CHECK(tex1 > 150);
+    CHECK(tex2 > 150);
+
+    // What cbdpt cannot fold is an error only where a material uses it, saying why.
+    for (const auto& [definition, message] :
+         {std::pair{"\"scale\" \"texture tex\" \"img\" \"texture scale\" \"f\"",
+                    "\"texture scale\" is a float texture"},
+          std::pair{"\"checkerboard\" \"integer dimension\" 3", "three-dimensional"},
+          std::pair{"\"checkerboard\" \"texture tex1\" \"img\"", "\"texture tex1\" is a texture"},
+          std::pair{"\"constant\" \"spectrum value\" [400 0.5 700 0.5]", "is a spectrum"},
+          std::pair{"\"scale\" \"texture tex\" \"m\"", "\"texture tex\" names the spectrum "
+                                                       "texture \"m\" of class \"mix\""},
+          std::pair{"\"mix\"", "\"constant\", \"scale\" and \"checkerboard\" only"}}) {
+        CAPTURE(definition);
+        const std::string defined =
+            "WorldBegin\nTexture \"img\" \"spectrum\" \"imagemap\" \"string filename\" "
+            "\"two.exr\"\nTexture \"m\" \"spectrum\" \"mix\"\nTexture \"x\" \"spectrum\" " +
+            std::string(definition) + "\n";
+        CHECK_NOTHROW(parseInTemp(defined));
+        const std::string error =
+            errorOf(defined + "Material \"diffuse\" \"texture reflectance\" \"x\"\n");
+        CHECK(contains(error, ":5:"));
+        CHECK(contains(error, message));
+    }
 }

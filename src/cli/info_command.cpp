@@ -60,8 +60,8 @@ void printScene(const std::string& scenePath) {
                        l.image.size, l.image.size);
     fmt::print("  materials        {}\n", scene.materials.size());
     for (const cb::TextureDesc& t : desc.textures)
-        fmt::print("  texture          \"{}\": {} ({} x {} texels)\n", t.name, t.path, t.width,
-                   t.height);
+        fmt::print("  texture          \"{}\": {} ({} x {} texels)\n", t.name,
+                   t.path.empty() ? "made of constants" : t.path, t.width, t.height);
     fmt::print("  bounding box     ({:.4g}, {:.4g}, {:.4g}) - ({:.4g}, {:.4g}, {:.4g})\n",
                scene.boundsMin[0], scene.boundsMin[1], scene.boundsMin[2], scene.boundsMax[0],
                scene.boundsMax[1], scene.boundsMax[2]);

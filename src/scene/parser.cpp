@@ -2028,9 +2028,11 @@ class Parser {
         }
     }
 
-    // pbrt-v4's Texture directive. A "spectrum" "imagemap" texture is read now (pbrt-v4's
-    // ImageTexture); other textures are recorded with why cbdpt cannot render them, an error
-    // only where a material uses one (files often define textures they never use).
+    // pbrt-v4's Texture directive. A "spectrum" texture of class "imagemap" is read now (pbrt-v4's
+    // ImageTexture), and "constant", "scale" (of a constant or of such a texture, by a constant)
+    // and the 2D "checkerboard" of two constants become image textures too; other textures are
+    // recorded with why cbdpt cannot render them, an error only where a material uses one (files
+    // often define textures they never use).
     void texture(const Token& t) {
         const Token name = quoted(t, "a texture name");
         const Token type = quoted(t, "a texture type (\"spectrum\" or \"float\")");
@@ -2046,16 +2048,134 @@ class Parser {
                                              it->second.where.str() + ")");
         NamedTexture entry;
         entry.where = t.where;
-        if (type.text == "spectrum" && cls.text == "imagemap") {
+        std::string why = "cbdpt renders \"spectrum\" textures of class \"imagemap\", "
+                          "\"constant\", \"scale\" and \"checkerboard\" only";
+        std::optional<TextureDesc> made;
+        if (type.text == "spectrum") made = spectrumTexture(cls.text, pl, name.text, t.where, why);
+        if (made) {
+            made->name = name.text;
+            made->where = t.where;
             entry.index = int(scene_.textures.size());
-            scene_.textures.push_back(readImageTexture(pl, name.text, t.where));
+            scene_.textures.push_back(std::move(*made));
         } else {
             entry.unsupported = "the " + type.text + " texture \"" + name.text + "\" of class \"" +
-                                cls.text + "\" (" + t.where.str() +
-                                "): cbdpt renders \"spectrum\" \"imagemap\" textures only";
+                                cls.text + "\" (" + t.where.str() + "): " + why;
             pl.takeRest();
         }
         names[name.text] = entry;
+    }
+
+    // A spectrum texture of class `cls` as an image texture, or none with *why set.
+    std::optional<TextureDesc> spectrumTexture(const std::string& cls, ParamList& pl,
+                                               const std::string& name, const SourceLocation& where,
+                                               std::string& why) {
+        if (cls == "imagemap") return readImageTexture(pl, name, where);
+        if (cls == "constant") {
+            std::optional<TextureDesc> tex = constantTexture(pl, "value", 1.f, why);
+            if (tex) pl.finish();
+            return tex;
+        }
+        if (cls == "scale") return scaledTexture(pl, why);
+        if (cls == "checkerboard") return checkerboardTexture(pl, why);
+        return std::nullopt;
+    }
+
+    // A 1 x 1 image texture of the RGB constant `param` (default `fallback` grey); none where the
+    // parameter is a texture or a spectrum.
+    std::optional<TextureDesc> constantTexture(ParamList& pl, const std::string& param,
+                                               float fallback, std::string& why) {
+        if (const Param* p = pl.peek(param); p && p->type == "texture") {
+            why = "its \"texture " + param + "\" is a texture, where cbdpt needs an RGB constant";
+            return std::nullopt;
+        }
+        SpectrumValue value = SpectrumValue::constant(fallback);
+        if (auto v = pl.spectrum(param, SpectrumRole::Reflectance)) value = *v;
+        if (!value.isRgb) {
+            why = "its \"" + param + "\" is a spectrum, where cbdpt's textures hold RGB";
+            return std::nullopt;
+        }
+        TextureDesc tex;
+        tex.width = tex.height = 1;
+        tex.rgb.assign(value.rgb.begin(), value.rgb.end());
+        return tex;
+    }
+
+    // pbrt-v4's SpectrumScaledTexture: "tex" (an RGB constant or a texture cbdpt renders) times
+    // the constant "float scale", folded into the texels.
+    std::optional<TextureDesc> scaledTexture(ParamList& pl, std::string& why) {
+        if (const Param* p = pl.peek("scale"); p && p->type == "texture") {
+            why = "its \"texture scale\" is a float texture, where cbdpt needs a constant";
+            return std::nullopt;
+        }
+        const double scale = pl.peek("scale") ? *pl.oneFloat("scale") : 1.0;
+        std::optional<TextureDesc> tex;
+        if (const Param* p = pl.peek("tex"); p && p->type == "texture") {
+            const std::string inner = *pl.oneTexture("tex");
+            auto it = spectrumTextures_.find(inner);
+            if (it == spectrumTextures_.end())
+                throw SceneError(p->valueLoc(0), "\"texture tex\" names no spectrum texture \"" +
+                                                     inner +
+                                                     "\" (no Texture directive before "
+                                                     "it defines one)");
+            if (it->second.index < 0) {
+                why = "its \"texture tex\" names " + it->second.unsupported;
+                return std::nullopt;
+            }
+            tex = scene_.textures[size_t(it->second.index)];
+        } else {
+            tex = constantTexture(pl, "tex", 1.f, why);
+            if (!tex) return std::nullopt;
+        }
+        pl.finish();
+        for (float& v : tex->rgb) {
+            v = static_cast<float>(scale * v);
+            if (!std::isfinite(v))
+                throw SceneError(pl.peek("scale")->valueLoc(0),
+                                 fmt::format("\"float scale\" {:g} takes a texel beyond the "
+                                             "float range",
+                                             scale));
+        }
+        return tex;
+    }
+
+    // pbrt-v4's 2D "checkerboard" of the constants "tex1" (where floor(s) + floor(t) is even)
+    // and "tex2": a 2 x 2 image looked up at the nearest texel, repeated every 2 (s, t).
+    std::optional<TextureDesc> checkerboardTexture(ParamList& pl, std::string& why) {
+        if (pl.peek("dimension") && *pl.oneInt("dimension") != 2) {
+            why = "it is three-dimensional, where cbdpt maps textures by (u, v)";
+            return std::nullopt;
+        }
+        std::optional<TextureDesc> one = constantTexture(pl, "tex1", 1.f, why);
+        if (!one) return std::nullopt;
+        std::optional<TextureDesc> two = constantTexture(pl, "tex2", 0.f, why);
+        if (!two) return std::nullopt;
+        TextureDesc tex;
+        readUvMapping(pl, tex);
+        pl.finish();
+        for (float& m : tex.mapping)
+            m *= 0.5f;
+        tex.width = tex.height = 2;
+        tex.nearest = true;
+        // Texel x is floor(s) mod 2; the top row (y = 0) has floor(t) odd (t runs up the image).
+        for (const TextureDesc* texel : {&*two, &*one, &*one, &*two})
+            tex.rgb.insert(tex.rgb.end(), texel->rgb.begin(), texel->rgb.end());
+        return tex;
+    }
+
+    // pbrt-v4's "uv" texture mapping: "uscale", "vscale", "udelta", "vdelta"; other mappings
+    // are errors.
+    static void readUvMapping(ParamList& pl, TextureDesc& tex) {
+        if (const Param* p = pl.peek("mapping")) {
+            const std::string m = *pl.oneString("mapping");
+            if (m != "uv")
+                throw SceneError(p->valueLoc(0), "texture mapping \"" + m +
+                                                     "\" is not supported: cbdpt maps textures "
+                                                     "by the shapes' (u, v) (\"uv\") only");
+        }
+        const char* const mappingNames[] = {"uscale", "vscale", "udelta", "vdelta"};
+        for (size_t i = 0; i < 4; ++i)
+            if (pl.peek(mappingNames[i]))
+                tex.mapping[i] = static_cast<float>(*pl.oneFloat(mappingNames[i]));
     }
 
     // The parameters of pbrt-v4's "imagemap" and the image they name, "scale" and "invert"
@@ -2118,17 +2238,7 @@ class Parser {
                                                  "\"clamp\" (cbdpt's), not \"" +
                                                      w + "\"");
         }
-        if (const Param* p = pl.peek("mapping")) {
-            const std::string m = *pl.oneString("mapping");
-            if (m != "uv")
-                throw SceneError(p->valueLoc(0), "texture mapping \"" + m +
-                                                     "\" is not supported: cbdpt maps textures "
-                                                     "by the shapes' (u, v) (\"uv\") only");
-        }
-        const char* const mappingNames[] = {"uscale", "vscale", "udelta", "vdelta"};
-        for (size_t i = 0; i < 4; ++i)
-            if (pl.peek(mappingNames[i]))
-                tex.mapping[i] = static_cast<float>(*pl.oneFloat(mappingNames[i]));
+        readUvMapping(pl, tex);
         pl.finish();
         const SourceLocation fileWhere = fileParam->valueLoc(0);
         tex.path = findImageFile(*file, fileWhere);

@@ -204,7 +204,7 @@ struct TextureDesc {
     std::string name;
     int width = 0, height = 0;
     std::vector<float> rgb; // row-major, top row first
-    std::string path;
+    std::string path;       // the image file; "" for one made of constants (a checkerboard)
     Wrap wrap = Wrap::Repeat;
     bool nearest = false; // "point" filter: the nearest texel, not bilinear
     std::array<float, 4> mapping{1.f, 1.f, 0.f, 0.f}; // uscale, vscale, udelta, vdelta
