@@ -103,10 +103,14 @@ TEST_CASE("pbrt-v4 image light: the image, its frame, its normalisation, and wha
         errorOf("WorldBegin\nLightSource \"infinite\" \"string filename\" \"nan.exr\"\n");
     CHECK(contains(nan, "pixel (1, 0)"));
     CHECK(contains(nan, "finite"));
-    std::ofstream(tempDir() / "sky.hdr") << "#?RADIANCE\n";
+    std::ofstream(tempDir() / "sky.pfm") << "PF\n";
     CHECK(
-        contains(errorOf("WorldBegin\nLightSource \"infinite\" \"string filename\" \"sky.hdr\"\n"),
-                 "OpenEXR (.exr) and PNG (.png)"));
+        contains(errorOf("WorldBegin\nLightSource \"infinite\" \"string filename\" \"sky.pfm\"\n"),
+                 "cbdpt reads OpenEXR (.exr), PNG (.png), Radiance HDR (.hdr)"));
+    std::ofstream(tempDir() / "sky.hdr") << "#?RADIANCE\n";
+    CHECK(contains(errorOf("WorldBegin\nLightSource \"infinite\" \"string filename\" "
+                           "\"sky.hdr\"\n"),
+                   "cannot read"));
     std::ofstream(tempDir() / "broken.exr") << "not an exr";
     CHECK(contains(errorOf("WorldBegin\nLightSource \"infinite\" \"string filename\" "
                            "\"broken.exr\"\n"),

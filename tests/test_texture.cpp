@@ -13,6 +13,7 @@
 #include "test_render_util.h"
 
 #include <fmt/format.h>
+#include <stb_image_write.h>
 
 #include <algorithm>
 #include <array>
@@ -112,6 +113,21 @@ TEST_CASE("image textures: the Texture directive, its parameters and what is ref
     s = parseInTemp("WorldBegin\nTexture \"t\" \"spectrum\" \"imagemap\" \"string filename\" "
                     "\"grey.png\" \"string encoding\" \"gamma 2.2\"\n");
     CHECK(s.textures[0].rgb[1] == doctest::Approx(std::pow(128.0 / 255.0, 2.2)).epsilon(1e-5));
+
+    // The formats pbrt-v4 reads through stb_image: 8-bit from sRGB whatever the "encoding" (as
+    // pbrt-v4), and Radiance HDR's linear floats (exact here: one exponent, whole mantissas).
+    const unsigned char bmp[] = {0, 128, 255, 10, 20, 30};
+    REQUIRE(stbi_write_bmp((tempDir() / "b.bmp").string().c_str(), 2, 1, 3, bmp) != 0);
+    const float hdr[] = {0.5f, 2.f, 8.f, 1.f, 4.f, 0.25f};
+    REQUIRE(stbi_write_hdr((tempDir() / "h.hdr").string().c_str(), 2, 1, 3, hdr) != 0);
+    s = parseInTemp("WorldBegin\nTexture \"b\" \"spectrum\" \"imagemap\" \"string filename\" "
+                    "\"b.bmp\" \"string encoding\" \"linear\"\nTexture \"h\" \"spectrum\" "
+                    "\"imagemap\" \"string filename\" \"h.hdr\"\n");
+    REQUIRE(s.textures.size() == 2);
+    REQUIRE(s.textures[0].rgb.size() == 6);
+    CHECK(s.textures[0].rgb[1] == doctest::Approx(0.2158605).epsilon(1e-5));
+    CHECK(s.textures[0].rgb[5] == doctest::Approx(std::pow((30 / 255.0 + 0.055) / 1.055, 2.4)));
+    CHECK(s.textures[1].rgb == std::vector<float>(std::begin(hdr), std::end(hdr)));
 
     // Textures cbdpt cannot render are an error only where a material uses one.
     const std::string unsupportedTextures =

@@ -13,6 +13,7 @@
 #include <ImfStdIO.h>
 #include <ImfStringAttribute.h>
 #include <png.h>
+#include <stb_image.h>
 
 #include <fmt/format.h>
 
@@ -191,6 +192,22 @@ RgbImage readPng(const std::string& path, ByteEncoding encoding) {
     return out;
 }
 
+// The formats pbrt-v4 reads through stb_image (8-bit values, decoded from sRGB as pbrt-v4 takes
+// them whatever the texture's "encoding"), and Radiance HDR (linear floats, as pbrt-v4's reader).
+RgbImage readStb(const std::string& path, bool hdr) {
+    int w = 0, h = 0, channels = 0;
+    void* data = hdr ? static_cast<void*>(stbi_loadf(path.c_str(), &w, &h, &channels, 3))
+                     : static_cast<void*>(stbi_load(path.c_str(), &w, &h, &channels, 3));
+    if (!data)
+        throw std::runtime_error("cannot read " + path + ": " + std::string(stbi_failure_reason()));
+    RgbImage out(w, h);
+    for (size_t i = 0; i < out.rgb.size(); ++i)
+        out.rgb[i] = hdr ? static_cast<const float*>(data)[i]
+                         : srgbToLinear(float(static_cast<const unsigned char*>(data)[i]) / 255.f);
+    stbi_image_free(data);
+    return out;
+}
+
 } // namespace
 
 double rec709Luminance(const float* rgb) {
@@ -202,9 +219,15 @@ RgbImage readRgbImage(const std::string& path, ByteEncoding byteEncoding) {
     std::transform(extension.begin(), extension.end(), extension.begin(),
                    [](unsigned char c) { return char(std::tolower(c)); });
     if (extension == ".png") return readPng(path, byteEncoding);
+    if (extension == ".hdr") return readStb(path, true);
+    for (const char* stb :
+         {".jpg", ".jpeg", ".tga", ".bmp", ".gif", ".psd", ".pnm", ".ppm", ".pgm"})
+        if (extension == stb) return readStb(path, false);
     if (extension != ".exr")
-        throw std::runtime_error("cannot read " + path + ": cbdpt reads OpenEXR (.exr) and PNG " +
-                                 "(.png) images, not \"" + extension + "\" files");
+        throw std::runtime_error("cannot read " + path + ": cbdpt reads OpenEXR (.exr), PNG " +
+                                 "(.png), Radiance HDR (.hdr) and, as pbrt-v4 does through " +
+                                 "stb_image, JPEG, TGA, BMP, GIF, PSD and PNM images, not \"" +
+                                 extension + "\" files");
     RgbImage image = readExr(path);
     std::optional<std::string> primaries;
     try {
