@@ -147,6 +147,12 @@ TEST_CASE("image textures: the Texture directive, its parameters and what is ref
                            "\"nothing\"\n"),
                    "no texture \"nothing\""));
     CHECK(contains(errorOf("WorldBegin\n" + plain + plain), "redefined"));
+    // As in pbrt-v4, which creates materials once the file is read, a material may name a
+    // texture defined after it.
+    s = parseInTemp("WorldBegin\nMakeNamedMaterial \"m\" \"string type\" \"diffuse\" "
+                    "\"texture reflectance\" \"t\"\n" +
+                    plain + "NamedMaterial \"m\"\n" + triangleAt(0));
+    CHECK(s.materials[size_t(s.meshes[0].material)].reflectanceTexture == 0);
     CHECK(contains(
         errorOf("WorldBegin\n" + plain + "Material \"conductor\" \"texture reflectance\" \"t\"\n"),
         "diffuse and coateddiffuse materials only"));

@@ -605,6 +605,7 @@ class Parser {
         instantiateLaterObjects();
         resolveLaterMaterials();
         resolveLaterMixParts();
+        resolveLaterTextures();
     }
 
   private:
@@ -1619,7 +1620,7 @@ class Parser {
     // layer between them that absorbs (cb_bsdf.h). cbdpt's layer does not scatter.
     static void readCoatedDiffuse(ParamList& pl, MaterialDesc& m) {
         m.kind = MaterialKind::CoatedDiffuse;
-        if (m.reflectanceTexture < 0)
+        if (m.reflectanceTexture == -1)
             if (auto r = pl.spectrum("reflectance", SpectrumRole::Reflectance)) m.reflectance = *r;
         readEta(pl, m);
         readRoughness(pl, m);
@@ -1685,7 +1686,7 @@ class Parser {
         if (type == "diffuse") {
             m.kind = MaterialKind::Diffuse;
             m.reflectanceTexture = reflectanceTexture(pl);
-            if (m.reflectanceTexture < 0)
+            if (m.reflectanceTexture == -1)
                 if (auto r = pl.spectrum("reflectance", SpectrumRole::Reflectance))
                     m.reflectance = *r;
         } else if (type == "conductor") {
@@ -2262,26 +2263,42 @@ class Parser {
     }
 
     // "texture reflectance" of diffuse and coated diffuse materials: the named spectrum
-    // texture's index in scene_.textures; -1 when the reflectance is not a texture.
+    // texture's index in scene_.textures; -1 when the reflectance is not a texture;
+    // kLaterTexture for a name no Texture has defined yet, which pbrt-v4 looks up once the file
+    // is read (resolveLaterTextures).
+    static constexpr int kLaterTexture = -2;
     int reflectanceTexture(ParamList& pl) {
         const Param* p = pl.peek("reflectance");
         if (!p || p->type != "texture") return -1;
         const std::string name = *pl.oneTexture("reflectance");
+        if (!spectrumTextures_.count(name) && !floatTextures_.count(name)) {
+            // makeMaterial adds this material next.
+            laterTextures_.push_back({int(scene_.materials.size()), name, p->valueLoc(0)});
+            return kLaterTexture;
+        }
+        return namedReflectanceTexture(name, p->valueLoc(0));
+    }
+
+    int namedReflectanceTexture(const std::string& name, const SourceLocation& where) const {
         auto it = spectrumTextures_.find(name);
         if (it == spectrumTextures_.end()) {
             const bool isFloat = floatTextures_.count(name) != 0;
-            throw SceneError(p->valueLoc(0), "\"texture reflectance\" names " +
-                                                 (isFloat ? "a float texture \"" + name +
-                                                                "\"; a reflectance needs a "
-                                                                "\"spectrum\" texture"
-                                                          : "no texture \"" + name +
-                                                                "\" (no Texture directive "
-                                                                "before it defines one)"));
+            throw SceneError(where, "\"texture reflectance\" names " +
+                                        (isFloat ? "a float texture \"" + name +
+                                                       "\"; a reflectance needs a \"spectrum\" "
+                                                       "texture"
+                                                 : "no texture \"" + name +
+                                                       "\" (no Texture directive defines it)"));
         }
         if (it->second.index < 0)
-            throw SceneError(p->valueLoc(0),
-                             "\"texture reflectance\" names " + it->second.unsupported);
+            throw SceneError(where, "\"texture reflectance\" names " + it->second.unsupported);
         return it->second.index;
+    }
+
+    void resolveLaterTextures() {
+        for (const LaterTexture& later : laterTextures_)
+            scene_.materials[size_t(later.material)].reflectanceTexture =
+                namedReflectanceTexture(later.name, later.where);
     }
 
     // The image's illuminance at a surface facing +z in the light's frame, per unit scale:
@@ -2958,6 +2975,12 @@ class Parser {
         SourceLocation where;
     };
     std::vector<LaterMixPart> laterMixParts_;
+    struct LaterTexture {
+        int material = -1; // index in scene_.materials
+        std::string name;
+        SourceLocation where;
+    };
+    std::vector<LaterTexture> laterTextures_;
     // pbrt-v4's named textures, "spectrum" and "float" each a name space of its own: the index
     // in scene_.textures, or (index -1) why cbdpt cannot use it, an error only where one is.
     struct NamedTexture {
