@@ -131,15 +131,15 @@ TEST_CASE("image textures: the Texture directive, its parameters and what is ref
 
     // Textures cbdpt cannot render are an error only where a material uses one.
     const std::string unsupportedTextures =
-        "Texture \"c\" \"spectrum\" \"mix\" \"float amount\" "
-        "0.3\nTexture \"r\" \"float\" \"imagemap\" \"string filename\" "
+        "Texture \"c\" \"spectrum\" \"dots\" \"float uscale\" "
+        "4\nTexture \"r\" \"float\" \"imagemap\" \"string filename\" "
         "\"grey.png\"\n";
     CHECK_NOTHROW(parseInTemp("WorldBegin\n" + unsupportedTextures));
-    const std::string usedMix = errorOf("WorldBegin\n" + unsupportedTextures +
-                                        "Material \"diffuse\" \"texture reflectance\" \"c\"\n");
-    CHECK(contains(usedMix, ":4:"));
-    CHECK(contains(usedMix, "class \"mix\""));
-    CHECK(contains(usedMix, ":2")); // where the texture was defined
+    const std::string usedDots = errorOf("WorldBegin\n" + unsupportedTextures +
+                                         "Material \"diffuse\" \"texture reflectance\" \"c\"\n");
+    CHECK(contains(usedDots, ":4:"));
+    CHECK(contains(usedDots, "class \"dots\""));
+    CHECK(contains(usedDots, ":2")); // where the texture was defined
     CHECK(contains(errorOf("WorldBegin\n" + unsupportedTextures +
                            "Material \"diffuse\" \"texture reflectance\" \"r\"\n"),
                    "a float texture \"r\""));
@@ -621,7 +621,11 @@ TEST_CASE("image textures: constant, scale and checkerboard textures") {
         "\"scale\" \"rgb tex\" [0.2 0.4 0.6] \"float scale\" 2",
         "\"scale\" \"texture tex\" \"t2\" \"float scale\" 0.25", // a scale of a scale
         "\"checkerboard\" \"float uscale\" 4 \"float vscale\" 2 \"float udelta\" 0.5 "
-        "\"rgb tex1\" [0.9 0.1 0.1] \"rgb tex2\" [0.1 0.1 0.9]"};
+        "\"rgb tex1\" [0.9 0.1 0.1] \"rgb tex2\" [0.1 0.1 0.9]",
+        "\"mix\" \"rgb tex1\" [0.2 0.4 0.6] \"float amount\" 0.25", // tex2 1
+        "\"mix\" \"texture tex1\" \"img\" \"rgb tex2\" [1 0 0.5] \"float amount\" 0.25",
+        "\"mix\" \"texture tex1\" \"img\" \"texture tex2\" \"t1\"", // two images, amount 0.5
+        "\"mix\" \"rgb tex1\" [0.2 0.4 0.6] \"texture tex2\" \"img\" \"float amount\" 0.75"};
     std::string body =
         "Texture \"img\" \"spectrum\" \"imagemap\" \"string filename\" \"two.exr\"\n";
     for (size_t i = 0; i < std::size(definitions); ++i)
@@ -660,26 +664,53 @@ TEST_CASE("image textures: constant, scale and checkerboard textures") {
     }
     CHECK(tex1 > 150);
     CHECK(tex2 > 150);
+    // Mixes: (1 - amount) tex1 + amount tex2, folded into the texels.
+    auto mixed = [](cbk::Vec3 a, cbk::Vec3 b, float amount) {
+        return cbk::vadd(cbk::vscale(a, 1.f - amount), cbk::vscale(b, amount));
+    };
+    checkRgb(rgb(5, 0.3f, 0.3f),
+             mixed(cbk::vec3(0.2f, 0.4f, 0.6f), cbk::vec3(1.f, 1.f, 1.f), 0.25f));
+    for (const auto& [u, v, x, y] :
+         {std::array{0.25f, 0.75f, 0.f, 0.f}, std::array{0.75f, 0.25f, 1.f, 1.f}}) {
+        const cbk::Vec3 t = texelRgb(int(x), int(y));
+        checkRgb(rgb(6, u, v), mixed(t, cbk::vec3(1.f, 0.f, 0.5f), 0.25f));
+        checkRgb(rgb(7, u, v), mixed(t, cbk::vscale(t, 0.5f), 0.5f));
+        checkRgb(rgb(8, u, v), mixed(cbk::vec3(0.2f, 0.4f, 0.6f), t, 0.75f));
+    }
+    // Between texels too (bilinear interpolation is linear, so folding changes nothing).
+    checkRgb(rgb(6, 0.5f, 0.5f),
+             mixed(cbk::vscale(cbk::vadd(cbk::vadd(texelRgb(0, 0), texelRgb(1, 0)),
+                                         cbk::vadd(texelRgb(0, 1), texelRgb(1, 1))),
+                               0.25f),
+                   cbk::vec3(1.f, 0.f, 0.5f), 0.25f));
 
     // What cbdpt cannot fold is an error only where a material uses it, saying why.
+    writeImage("small.exr", 3, 1, texel);
     for (const auto& [definition, message] :
          {std::pair{"\"scale\" \"texture tex\" \"img\" \"texture scale\" \"f\"",
                     "\"texture scale\" is a float texture"},
           std::pair{"\"checkerboard\" \"integer dimension\" 3", "three-dimensional"},
           std::pair{"\"checkerboard\" \"texture tex1\" \"img\"", "\"texture tex1\" is a texture"},
           std::pair{"\"constant\" \"spectrum value\" [400 0.5 700 0.5]", "is a spectrum"},
-          std::pair{"\"scale\" \"texture tex\" \"m\"", "\"texture tex\" names the spectrum "
-                                                       "texture \"m\" of class \"mix\""},
-          std::pair{"\"mix\"", "\"constant\", \"scale\" and \"checkerboard\" only"}}) {
+          std::pair{"\"scale\" \"texture tex\" \"d\"", "\"texture tex\" names the spectrum "
+                                                       "texture \"d\" of class \"dots\""},
+          std::pair{"\"mix\" \"texture amount\" \"f\"", "\"texture amount\" is a float texture"},
+          std::pair{"\"mix\" \"texture tex1\" \"img\" \"texture tex2\" \"small\"",
+                    "two images of different sizes"},
+          std::pair{"\"mix\" \"texture tex1\" \"edged\"", "black outside itself"},
+          std::pair{"\"dots\"", "\"mix\" and \"checkerboard\" only"}}) {
         CAPTURE(definition);
         const std::string defined =
             "WorldBegin\nTexture \"img\" \"spectrum\" \"imagemap\" \"string filename\" "
-            "\"two.exr\"\nTexture \"m\" \"spectrum\" \"mix\"\nTexture \"x\" \"spectrum\" " +
+            "\"two.exr\"\nTexture \"d\" \"spectrum\" \"dots\"\nTexture \"small\" \"spectrum\" "
+            "\"imagemap\" \"string filename\" \"small.exr\"\nTexture \"edged\" \"spectrum\" "
+            "\"imagemap\" \"string filename\" \"two.exr\" \"string wrap\" \"black\"\n"
+            "Texture \"x\" \"spectrum\" " +
             std::string(definition) + "\n";
         CHECK_NOTHROW(parseInTemp(defined));
         const std::string error =
             errorOf(defined + "Material \"diffuse\" \"texture reflectance\" \"x\"\n");
-        CHECK(contains(error, ":5:"));
+        CHECK(contains(error, ":7:"));
         CHECK(contains(error, message));
     }
 }

@@ -2030,8 +2030,9 @@ class Parser {
     }
 
     // pbrt-v4's Texture directive. A "spectrum" texture of class "imagemap" is read now (pbrt-v4's
-    // ImageTexture), and "constant", "scale" (of a constant or of such a texture, by a constant)
-    // and the 2D "checkerboard" of two constants become image textures too; other textures are
+    // ImageTexture), and "constant", "scale" (of a constant or of such a texture, by a constant),
+    // "mix" (of two such, by a constant) and the 2D "checkerboard" of two constants become image
+    // textures too; other textures are
     // recorded with why cbdpt cannot render them, an error only where a material uses one (files
     // often define textures they never use).
     void texture(const Token& t) {
@@ -2050,7 +2051,7 @@ class Parser {
         NamedTexture entry;
         entry.where = t.where;
         std::string why = "cbdpt renders \"spectrum\" textures of class \"imagemap\", "
-                          "\"constant\", \"scale\" and \"checkerboard\" only";
+                          "\"constant\", \"scale\", \"mix\" and \"checkerboard\" only";
         std::optional<TextureDesc> made;
         if (type.text == "spectrum") made = spectrumTexture(cls.text, pl, name.text, t.where, why);
         if (made) {
@@ -2077,6 +2078,7 @@ class Parser {
             return tex;
         }
         if (cls == "scale") return scaledTexture(pl, why);
+        if (cls == "mix") return mixTexture(pl, why);
         if (cls == "checkerboard") return checkerboardTexture(pl, why);
         return std::nullopt;
     }
@@ -2101,42 +2103,89 @@ class Parser {
         return tex;
     }
 
+    // A texture's float parameter `param` (default `fallback`) where it is a constant; none, with
+    // *why, where it names a float texture.
+    static std::optional<double> constantFloat(ParamList& pl, const std::string& param,
+                                               double fallback, std::string& why) {
+        if (const Param* p = pl.peek(param); p && p->type == "texture") {
+            why = "its \"texture " + param + "\" is a float texture, where cbdpt needs a constant";
+            return std::nullopt;
+        }
+        return pl.peek(param) ? *pl.oneFloat(param) : fallback;
+    }
+
     // pbrt-v4's SpectrumScaledTexture: "tex" (an RGB constant or a texture cbdpt renders) times
     // the constant "float scale", folded into the texels.
     std::optional<TextureDesc> scaledTexture(ParamList& pl, std::string& why) {
-        if (const Param* p = pl.peek("scale"); p && p->type == "texture") {
-            why = "its \"texture scale\" is a float texture, where cbdpt needs a constant";
-            return std::nullopt;
-        }
-        const double scale = pl.peek("scale") ? *pl.oneFloat("scale") : 1.0;
-        std::optional<TextureDesc> tex;
-        if (const Param* p = pl.peek("tex"); p && p->type == "texture") {
-            const std::string inner = *pl.oneTexture("tex");
-            auto it = spectrumTextures_.find(inner);
-            if (it == spectrumTextures_.end())
-                throw SceneError(p->valueLoc(0), "\"texture tex\" names no spectrum texture \"" +
-                                                     inner +
-                                                     "\" (no Texture directive before "
-                                                     "it defines one)");
-            if (it->second.index < 0) {
-                why = "its \"texture tex\" names " + it->second.unsupported;
-                return std::nullopt;
-            }
-            tex = scene_.textures[size_t(it->second.index)];
-        } else {
-            tex = constantTexture(pl, "tex", 1.f, why);
-            if (!tex) return std::nullopt;
-        }
+        const std::optional<double> scale = constantFloat(pl, "scale", 1.0, why);
+        if (!scale) return std::nullopt;
+        std::optional<TextureDesc> tex = textureOperand(pl, "tex", 1.f, why);
+        if (!tex) return std::nullopt;
         pl.finish();
         for (float& v : tex->rgb) {
-            v = static_cast<float>(scale * v);
+            v = static_cast<float>(*scale * v);
             if (!std::isfinite(v))
                 throw SceneError(pl.peek("scale")->valueLoc(0),
                                  fmt::format("\"float scale\" {:g} takes a texel beyond the "
                                              "float range",
-                                             scale));
+                                             *scale));
         }
         return tex;
+    }
+
+    // A spectrum texture's texture-valued parameter `param`: the named texture (defined before,
+    // as pbrt-v4 creates textures in order), or its RGB constant as a 1 x 1 image (default
+    // `fallback` grey); none, with *why, where cbdpt cannot render it.
+    std::optional<TextureDesc> textureOperand(ParamList& pl, const std::string& param,
+                                              float fallback, std::string& why) {
+        const Param* p = pl.peek(param);
+        if (!p || p->type != "texture") return constantTexture(pl, param, fallback, why);
+        const std::string inner = *pl.oneTexture(param);
+        auto it = spectrumTextures_.find(inner);
+        if (it == spectrumTextures_.end())
+            throw SceneError(p->valueLoc(0), "\"texture " + param +
+                                                 "\" names no spectrum texture \"" + inner +
+                                                 "\" (no Texture directive before it defines one)");
+        if (it->second.index < 0) {
+            why = "its \"texture " + param + "\" names " + it->second.unsupported;
+            return std::nullopt;
+        }
+        return scene_.textures[size_t(it->second.index)];
+    }
+
+    // pbrt-v4's MixTexture, (1 - amount) tex1 + amount tex2 for a constant "float amount",
+    // folded into texels: two constants, an image and a constant (which mixes into each texel,
+    // unless the image is black outside, where pbrt-v4 keeps the constant's share), or two
+    // images of one layout (size, wrap, filter, mapping).
+    std::optional<TextureDesc> mixTexture(ParamList& pl, std::string& why) {
+        const std::optional<double> amount = constantFloat(pl, "amount", 0.5, why);
+        if (!amount) return std::nullopt;
+        std::optional<TextureDesc> one = textureOperand(pl, "tex1", 0.f, why);
+        if (!one) return std::nullopt;
+        std::optional<TextureDesc> two = textureOperand(pl, "tex2", 1.f, why);
+        if (!two) return std::nullopt;
+        pl.finish();
+        auto uniform = [](const TextureDesc& t) {
+            return t.width == 1 && t.height == 1 && t.wrap != TextureDesc::Wrap::Black;
+        };
+        const bool oneUniform = uniform(*one), twoUniform = uniform(*two);
+        TextureDesc out = oneUniform ? *two : *one; // the layout the result keeps
+        if (!oneUniform && !twoUniform &&
+            (one->width != two->width || one->height != two->height || one->wrap != two->wrap ||
+             one->nearest != two->nearest || one->mapping != two->mapping)) {
+            why = "it mixes two images of different sizes, wraps, filters or mappings";
+            return std::nullopt;
+        }
+        if ((oneUniform != twoUniform) && out.wrap == TextureDesc::Wrap::Black) {
+            why = "it mixes a constant into an image that is black outside itself";
+            return std::nullopt;
+        }
+        for (size_t i = 0; i < out.rgb.size(); ++i) {
+            const float a = one->rgb[oneUniform ? i % 3 : i];
+            const float b = two->rgb[twoUniform ? i % 3 : i];
+            out.rgb[i] = static_cast<float>((1.0 - *amount) * a + *amount * b);
+        }
+        return out;
     }
 
     // pbrt-v4's 2D "checkerboard" of the constants "tex1" (where floor(s) + floor(t) is even)
