@@ -68,6 +68,8 @@ typedef struct PathVertex {
     real pdfFwd; /* area measure; light[0]: light pick x point density; eye[0]: 1 */
     real pdfRev; /* area measure */
     real uv[2];  /* surfaces: texture coordinates (SurfacePoint.uv) */
+    real ns[3];  /* surfaces: unit shading normal (SurfacePoint.ns); otherwise n */
+    int padNs;   /* keeps beta at a multiple of 16 bytes */
     Spectrum
         beta; /* subpath throughput / pdf up to this vertex (light[0]: 1/pdfFwd, Le excluded) */
     real pad[CB_PATH_VERTEX_PAD];
@@ -148,6 +150,9 @@ CB_FN Vec3 pvP(const PathVertex* v) {
 CB_FN Vec3 pvN(const PathVertex* v) {
     return vec3FromArray(v->n);
 }
+CB_FN Vec3 pvNs(const PathVertex* v) {
+    return vec3FromArray(v->ns);
+}
 CB_FN TexCoord pvUv(const PathVertex* v) {
     TexCoord c;
     c.u = v->uv[0];
@@ -180,6 +185,13 @@ CB_FN real pvAbsCos(const PathVertex* v, Vec3 w) {
     return pvOnSurface(v) ? vabsdot(pvN(v), w) : 1.0f;
 }
 
+/* Shading normals (scatterCos): a light subpath vertex's factor |ns . wo| / |ng . wo| toward
+ * the vertex it came from. The walk puts it in the next vertex's beta; where the subpath ends in
+ * a connection or in light tracing, that step multiplies it in. */
+CB_FN real pvLightSideShading(const PathVertex* v) {
+    return shadingRatio(pvN(v), pvNs(v), vec3FromArray(v->wo));
+}
+
 /* Solid-angle density at `from` of the direction to `to`, as an area density at `to`
  * (Veach 1997, eq. 8.10): times |cos| at `to` / distance^2. */
 CB_FN real pvConvertPdf(real pdfW, Vec3 from, const PathVertex* to) {
@@ -196,6 +208,7 @@ CB_FN SurfacePoint pvSurfacePoint(const PathVertex* v) {
     sp.p = pvP(v);
     sp.pError = vec3FromArray(v->pError);
     sp.ng = pvOnSurface(v) ? pvN(v) : vec3(0.0f, 0.0f, 0.0f);
+    sp.ns = pvOnSurface(v) ? pvNs(v) : vec3(0.0f, 0.0f, 0.0f);
     sp.primitive = -1;
     sp.material = v->material;
     sp.light = v->light;
@@ -229,6 +242,8 @@ CB_FN PathVertex bdptCameraVertex(const Camera* camera, Vec3 lens) {
     PathVertex v;
     cbStore3(v.p, affineTransformPoint(camera->cameraToWorld, lens));
     cbStore3(v.n, vnormalize(affineTransformVector(camera->cameraToWorld, vec3(0.0f, 0.0f, 1.0f))));
+    cbStore3(v.ns, pvN(&v));
+    v.padNs = 0;
     cbStore3(v.pError, vec3(0.0f, 0.0f, 0.0f));
     cbStore3(v.wo, vec3(0.0f, 0.0f, 0.0f));
     v.type = CB_VERTEX_CAMERA;
@@ -289,6 +304,8 @@ CB_FN int bdptWalkStep(const SceneView* scene, bool found, Hit hit, Ray* ray, Sp
         if (infinite < 0) return 0;
         cbStore3(v->p, vmadd(ray->o, ray->d, 2.0f * scene->lights[infinite].sceneRadius));
         cbStore3(v->n, vneg(ray->d));
+        cbStore3(v->ns, vneg(ray->d));
+        v->padNs = 0;
         cbStore3(v->pError, vec3(0.0f, 0.0f, 0.0f));
         cbStore3(v->wo, vneg(ray->d));
         v->type = CB_VERTEX_INFINITE_LIGHT;
@@ -306,6 +323,8 @@ CB_FN int bdptWalkStep(const SceneView* scene, bool found, Hit hit, Ray* ray, Sp
     SurfacePoint sp = surfacePointFromHit(scene, *ray, hit);
     cbStore3(v->p, sp.p);
     cbStore3(v->n, sp.ng);
+    cbStore3(v->ns, sp.ns);
+    v->padNs = 0;
     cbStore3(v->pError, sp.pError);
     cbStore3(v->wo, vneg(ray->d));
     v->type = CB_VERTEX_SURFACE;
@@ -328,11 +347,12 @@ CB_FN int bdptWalkStep(const SceneView* scene, bool found, Hit hit, Ray* ray, Sp
     sampleAt2(stream, base + CB_SLOT_BSDF_DIRECTION, &u0, &u1);
     real uLobe =
         bsdfReadsLobeSample(scene, sp.material) ? sampleAt(stream, base + CB_SLOT_BSDF_LOBE) : 0.0f;
-    if (!bsdfSample(scene, sp.material, sp.uv, frameFromNormal(sp.ng), vneg(ray->d), u0, u1, uLobe,
+    if (!bsdfSample(scene, sp.material, sp.uv, frameFromNormal(sp.ns), vneg(ray->d), u0, u1, uLobe,
                     adjoint, &bs))
         return 1;
     if (!(bs.pdf > 0.0f) || specIsBlack(bs.f)) return 1;
-    *beta = specMul(*beta, specScale(bs.f, vabsdot(bs.wi, sp.ng) / bs.pdf));
+    *beta = specMul(
+        *beta, specScale(bs.f, scatterCos(sp.ng, sp.ns, vneg(ray->d), bs.wi, adjoint) / bs.pdf));
     real pdfFwdW = bs.pdf;
     real pdfRevW = bs.pdfRev;
     if (bs.isDelta) {
@@ -401,6 +421,8 @@ CB_FN void bdptSetLightVertex(const SceneView* scene, PathVertex* v, const Light
                               real pdfFwd) {
     cbStore3(v->p, ls->p);
     cbStore3(v->n, ls->n);
+    cbStore3(v->ns, ls->n);
+    v->padNs = 0;
     cbStore3(v->pError, ls->pError);
     cbStore3(v->wo, vec3(0.0f, 0.0f, 0.0f));
     v->type = ls->isDelta ? CB_VERTEX_POINT_LIGHT : CB_VERTEX_AREA_LIGHT;
@@ -446,6 +468,7 @@ CB_FN int bdptLightSubpath(const SceneView* scene, SampleStream stream, int maxV
         if (!(pdfDir > 0.0f)) return 1;
         cbStore3(v->p, lightBeamOrigin(infinite, vneg(w), uPoint0, uPoint1));
         cbStore3(v->n, w);
+        cbStore3(v->ns, w);
         v->pdfFwd = ls.pdfPick * pdfDir;
         Spectrum le = bdptLightEmission(scene, v, w);
         Spectrum beta = specScale(le, 1.0f / (ls.pdfPick * ls.pdfArea * pdfDir));
@@ -727,12 +750,12 @@ CB_FN bool bdptConnectUnoccluded(const SceneView* scene, const Camera* camera,
         real we = cameraImportance(camera, vneg(w), &pdfCamDir);
         if (!(we > 0.0f)) return false;
         real pdfFwd, pdfRev;
-        Spectrum f = bsdfEval(scene, qs->material, pvUv(qs), frameFromNormal(pvN(qs)),
+        Spectrum f = bsdfEval(scene, qs->material, pvUv(qs), frameFromNormal(pvNs(qs)),
                               vec3FromArray(qs->wo), w, 1, &pdfFwd, &pdfRev);
         if (specIsBlack(f)) return false;
         Vec3 forward = pvN(&eye[0]);
         real cosCam = vdot(vneg(w), forward);
-        real g = cosCam * pvAbsCos(qs, w) / dist2;
+        real g = cosCam * pvAbsCos(qs, w) / dist2 * pvLightSideShading(qs);
         out->contribution = specScale(specMul(qs->beta, f), we * g);
         out->rasterX = rx;
         out->rasterY = ry;
@@ -748,7 +771,7 @@ CB_FN bool bdptConnectUnoccluded(const SceneView* scene, const Camera* camera,
     if (!(dist2 > 0.0f)) return false;
     Vec3 w = vscale(d, 1.0f / sqrt(dist2)); /* pt -> qs */
     real ptFwd, ptRev;
-    Spectrum fPt = bsdfEval(scene, pt->material, pvUv(pt), frameFromNormal(pvN(pt)),
+    Spectrum fPt = bsdfEval(scene, pt->material, pvUv(pt), frameFromNormal(pvNs(pt)),
                             vec3FromArray(pt->wo), w, 0, &ptFwd, &ptRev);
     if (specIsBlack(fPt)) return false;
     Spectrum fQs;
@@ -757,13 +780,14 @@ CB_FN bool bdptConnectUnoccluded(const SceneView* scene, const Camera* camera,
         fQs = bdptLightEmission(scene, qs, vneg(w));
         qsFwd = bdptLightDirectionPdf(scene, qs, vneg(w));
     } else {
-        fQs = bsdfEval(scene, qs->material, pvUv(qs), frameFromNormal(pvN(qs)),
+        fQs = bsdfEval(scene, qs->material, pvUv(qs), frameFromNormal(pvNs(qs)),
                        vec3FromArray(qs->wo), vneg(w), 1, &qsFwd, &qsRev);
     }
     if (specIsBlack(fQs)) return false;
     /* A light at infinity has no distance falloff (its radiance arrives undiminished). */
     real invDist2 = pvAtInfinity(qs) ? 1.0f : 1.0f / dist2;
-    real g = pvAbsCos(pt, w) * pvAbsCos(qs, w) * invDist2;
+    real g = pvAbsCos(pt, w) * pvAbsCos(qs, w) * invDist2 * shadingRatio(pvN(pt), pvNs(pt), w);
+    if (s >= 2) g *= pvLightSideShading(qs);
     out->contribution = specScale(specMul(specMul(qs->beta, fQs), specMul(fPt, pt->beta)), g);
     out->ptPdfRev = qsFwd * pvAbsCos(pt, w) * invDist2;
     out->ptMinusPdfRev = pvConvertPdf(ptRev, pvP(pt), &eye[t - 2]);

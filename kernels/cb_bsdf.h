@@ -1120,6 +1120,35 @@ CB_FN bool cbLobeSample(const SceneView* scene, Material m, TexCoord uv, Vec3 wo
 
 /* ---- Public interface ------------------------------------------------------------------------ */
 
+/* |ns . w| / |ng . w|: what a geometric cosine at a surface point becomes with shading normals;
+ * 1 without them (compiled out), 0 where w is tangent to the surface. */
+CB_FN real shadingRatio(Vec3 ng, Vec3 ns, Vec3 w) {
+#if CB_HAS(CB_FEATURE_SHADING_NORMALS)
+    real c = vabsdot(ng, w);
+    return c > 0.0f ? vabsdot(ns, w) / c : 0.0f;
+#else
+    (void)ng;
+    (void)ns;
+    (void)w;
+    return 1.0f;
+#endif
+}
+
+/* The cosine that multiplies f (evaluated in the frame of ns) where a path scatters from wo to
+ * wi. Veach 1997, sec. 5.3: the integrand takes the shading normal's cosine on the light's side
+ * of each vertex, |ns . wi| when radiance is traced (wi toward the light, as pbrt-v4's path
+ * tracers), and the adjoint BSDF's |ng . wi| |ns . wo| / |ng . wo| when importance is (light
+ * subpaths, wo toward the light; pbrt-v3's CorrectShadingNormal times |ns . wi|), so that both
+ * directions of tracing estimate one integral. With ns = ng both are |ng . wi|. */
+CB_FN real scatterCos(Vec3 ng, Vec3 ns, Vec3 wo, Vec3 wi, int adjoint) {
+    if (adjoint) return vabsdot(ng, wi) * shadingRatio(ng, ns, wo);
+#if CB_HAS(CB_FEATURE_SHADING_NORMALS)
+    return vabsdot(ns, wi);
+#else
+    return vabsdot(ng, wi);
+#endif
+}
+
 /* Local coordinates with z multiplied by flip (+-1): flipping both directions by wo's side lets
  * every lobe assume wo.z > 0, which is how two-sided reflection works. */
 CB_FN Vec3 cbToFlippedLocal(Frame frame, Vec3 w, real flip) {

@@ -477,6 +477,7 @@ CB_FN SurfacePoint surfacePointFromHit(const SceneView* scene, Ray ray, Hit hit)
         sp.p = vadd(c, pLocal);
         sp.pError = vadd(vscale(vabs(pLocal), cbGamma(5)), vscale(vabs(sp.p), cbGamma(2)));
         sp.ng = vscale(vnormalize(pLocal), prim->p1[1] < 0.0f ? -1.0f : 1.0f);
+        sp.ns = sp.ng;
 #if CB_HAS(CB_FEATURE_TEXTURE)
         if (scene->textures) sp.uv = sphereTexCoord(scene, hit.primitive, pLocal);
 #endif
@@ -497,6 +498,22 @@ CB_FN SurfacePoint surfacePointFromHit(const SceneView* scene, Ray ray, Hit hit)
 #if CB_HAS(CB_FEATURE_TEXTURE)
     /* (Host views of untextured scenes, such as the BVH choice's, have no texture buffer.) */
     if (scene->textures) sp.uv = triangleTexCoord(scene, hit.primitive, hit.b1, hit.b2);
+#endif
+    sp.ns = sp.ng;
+#if CB_HAS(CB_FEATURE_SHADING_NORMALS)
+    if (scene->shadingNormals) {
+        /* pbrt-v4's Triangle::InteractionFromIntersection: the vertex normals interpolated by
+         * the barycentrics, ng turned to the side of ns; a triangle without (zeros) keeps ng. */
+        CB_GLOBAL const real* vn = scene->shadingNormals + 9 * hit.primitive;
+        Vec3 ns = vadd(
+            vadd(vscale(vec3FromGlobalArray(vn), b0), vscale(vec3FromGlobalArray(vn + 3), hit.b1)),
+            vscale(vec3FromGlobalArray(vn + 6), hit.b2));
+        real length2 = vlength2(ns);
+        if (length2 > 0.0f && isfinite(length2)) {
+            sp.ns = vscale(ns, 1.0f / sqrt(length2));
+            if (vdot(sp.ns, sp.ng) < 0.0f) sp.ng = vneg(sp.ng);
+        }
+    }
 #endif
     return sp;
 }

@@ -106,7 +106,7 @@ CB_FN bool ptPathVertex(const SceneView* scene, PtPath* path, Ray* ray, bool fou
 #endif
     if (vertex + 1 >= settings.eyeVertices) return false;
 
-    Frame frame = frameFromNormal(sp.ng);
+    Frame frame = frameFromNormal(sp.ns);
 
     /* Next-event estimation: one light point, one shadow ray. */
     if (materialHasNonDelta(scene, sp.material)) {
@@ -138,7 +138,7 @@ CB_FN bool ptPathVertex(const SceneView* scene, PtPath* path, Ray* ray, bool fou
                 if (!specIsBlack(f)) {
                     *shadow = spawnRayTo(sp, ls.p, ls.pError, ls.n, shadowTMax);
                     real weight = ls.isDelta ? 1.0f : powerHeuristic(pdfLightW, pdfBsdfW);
-                    real factor = vabsdot(wi, sp.ng) * weight / pdfLightW;
+                    real factor = scatterCos(sp.ng, sp.ns, wo, wi, 0) * weight / pdfLightW;
                     path->shadowTerm =
                         specScale(specMul(specMul(path->throughput, f), emitted), factor);
                     path->shadowPending = 1;
@@ -156,7 +156,8 @@ CB_FN bool ptPathVertex(const SceneView* scene, PtPath* path, Ray* ray, bool fou
                      : 0.0f;
     if (!bsdfSample(scene, sp.material, sp.uv, frame, wo, u0, u1, uLobe, 0, &bs)) return false;
     if (bs.pdf <= 0.0f || specIsBlack(bs.f)) return false;
-    path->throughput = specMul(path->throughput, specScale(bs.f, vabsdot(bs.wi, sp.ng) / bs.pdf));
+    path->throughput =
+        specMul(path->throughput, specScale(bs.f, scatterCos(sp.ng, sp.ns, wo, bs.wi, 0) / bs.pdf));
     path->previousPdfW = bs.pdf;
     path->previousDelta = bs.isDelta;
     path->previousP = sp.p;

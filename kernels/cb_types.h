@@ -66,6 +66,9 @@ typedef struct SurfacePoint {
     Vec3 p;      /* the hit point */
     Vec3 pError; /* per-axis absolute bound on the error of p */
     Vec3 ng;     /* unit geometric normal (outward / front side) */
+    /* Unit shading normal: CB_FEATURE_SHADING_NORMALS, the triangle's vertex normals interpolated
+     * (ng faces its side, as pbrt-v4's FaceForward); else ng. */
+    Vec3 ns;
     int primitive;
     int material;
     int light;
@@ -104,6 +107,7 @@ typedef struct SurfacePoint {
 #define CB_FEATURE_COATED_CONDUCTOR (1u << 16) /* pbrt-v4's layered "coatedconductor" */
 #define CB_FEATURE_IMAGE_LIGHT (1u << 17) /* an "infinite" light given by an equal-area image */
 #define CB_FEATURE_TEXTURE (1u << 18) /* a reflectance given by an image (pbrt-v4's "imagemap") */
+#define CB_FEATURE_SHADING_NORMALS (1u << 19) /* meshes with vertex normals (pbrt-v4's "N") */
 
 #ifndef CB_FEATURES
 #define CB_FEATURES 0xffffffffu
@@ -235,6 +239,8 @@ typedef struct SceneView {
     /* CB_FEATURE_TEXTURE: per primitive 6 values, a triangle's vertices' texture coordinates
      * (u0 v0 u1 v1 u2 v2) or a sphere's object frame, then the image textures (cb_texture.h) */
     CB_GLOBAL const real* textures;
+    /* CB_FEATURE_SHADING_NORMALS: per primitive 9 values, a triangle's vertex normals */
+    CB_GLOBAL const real* shadingNormals;
     int lightCount;
 } SceneView;
 
@@ -245,7 +251,8 @@ typedef struct SceneView {
     __global const struct BvhNodeWide *nodes, __global const TrianglePack *packs,                  \
         __global const Primitive *primitives, __global const Material *materials,                  \
         __global const Light *lights, __global const real *spectra,                                \
-        __global const real *lightTables, __global const real *textures, int lightCount
+        __global const real *lightTables, __global const real *textures,                           \
+        __global const real *shadingNormals, int lightCount
 #define CB_SCENE_VIEW(view)                                                                        \
     SceneView view;                                                                                \
     view.nodes = nodes;                                                                            \
@@ -256,6 +263,7 @@ typedef struct SceneView {
     view.spectra = spectra;                                                                        \
     view.lightTables = lightTables;                                                                \
     view.textures = textures;                                                                      \
+    view.shadingNormals = shadingNormals;                                                          \
     view.lightCount = lightCount
 #endif
 

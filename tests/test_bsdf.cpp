@@ -1586,6 +1586,7 @@ __kernel void bsdfProbe(__global const Material* materials, __global const float
     sv.lights = 0;
     sv.spectra = spectra;
     sv.textures = 0; /* the probe's materials are untextured */
+    sv.shadingNormals = 0;
     sv.lightCount = 0;
     TexCoord noUv;
     noUv.u = noUv.v = 0.0f;

@@ -21,6 +21,7 @@ inline cbk::SceneView hostView(const cb::DeviceScene& s) {
     v.spectra = s.spectra.data();
     v.lightTables = s.lightTables.data();
     v.textures = s.textures.data();
+    v.shadingNormals = s.shadingNormals.data();
     v.lightCount = int(s.lights.size());
     return v;
 }

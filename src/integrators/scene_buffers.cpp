@@ -12,6 +12,7 @@ SceneBuffers::SceneBuffers(ClRuntime& runtime, const DeviceScene& scene)
       spectra(uploadArray(runtime, "scene spectra", scene.spectra)),
       lightTables(uploadArray(runtime, "image lights' sampling tables", scene.lightTables)),
       textures(uploadArray(runtime, "texture coordinates and image textures", scene.textures)),
+      shadingNormals(uploadArray(runtime, "vertex normals", scene.shadingNormals)),
       toRgb(uploadArray(runtime, "spectrum-to-RGB matrix", scene.toRgb)),
       lightCount(int(scene.lights.size())) {}
 
@@ -23,7 +24,8 @@ void SceneBuffers::addKernelArguments(KernelArguments& args) const {
         .add(lights)
         .add(spectra)
         .add(lightTables)
-        .add(textures);
+        .add(textures)
+        .add(shadingNormals);
     args.add(lightCount);
 }
 

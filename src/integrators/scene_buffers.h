@@ -40,10 +40,11 @@ class KernelArguments {
 struct SceneBuffers {
     SceneBuffers(ClRuntime& runtime, const DeviceScene& scene);
 
-    // Adds the nine CB_SCENE_KERNEL_PARAMS arguments.
+    // Adds the ten CB_SCENE_KERNEL_PARAMS arguments.
     void addKernelArguments(KernelArguments& args) const;
 
-    cl::Buffer nodes, packs, primitives, materials, lights, spectra, lightTables, textures;
+    cl::Buffer nodes, packs, primitives, materials, lights, spectra, lightTables, textures,
+        shadingNormals;
     cl::Buffer toRgb; // 3 x channels matrix, passed separately by the kernels that need it
     int lightCount = 0;
 };

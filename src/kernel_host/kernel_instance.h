@@ -212,6 +212,7 @@ struct HostScene {
     std::vector<cbk::real> spectra;
     std::vector<cbk::real> lightTables;
     std::vector<cbk::real> textures;
+    std::vector<cbk::real> shadingNormals;
     std::vector<cbk::real> toRgb; // 3 x CB_CHANNELS
     cbk::Camera camera{};
     cbk::SceneView view{}; // points into the vectors above
@@ -235,6 +236,8 @@ struct HostScene {
         spectra.assign(scene.spectra, scene.spectra + scene.spectraCount);
         lightTables.assign(scene.lightTables, scene.lightTables + scene.lightTableCount);
         textures.assign(scene.textures, scene.textures + scene.textureCount);
+        shadingNormals.assign(scene.shadingNormals,
+                              scene.shadingNormals + scene.shadingNormalCount);
         toRgb.assign(scene.toRgb, scene.toRgb + 3 * CB_CHANNELS);
         view.nodes = nodes.data();
         view.packs = packs.data();
@@ -244,6 +247,7 @@ struct HostScene {
         view.spectra = spectra.data();
         view.lightTables = lightTables.data();
         view.textures = textures.data();
+        view.shadingNormals = shadingNormals.data();
         view.lightCount = int(lights.size());
     }
     HostScene(const HostScene&) = delete;

@@ -23,6 +23,20 @@ static_assert(sizeof(cbk::Camera) == 128, "Camera must match the OpenCL layout")
 
 namespace {
 
+// A triangle's slot in `shadingNormals`: its corners' normals in the mesh's world space (device
+// coordinates only translate), unnormalised as pbrt-v4 interpolates them; zeros where the mesh
+// has none, or where a normal does not fit a float (the kernel then shades by ng).
+std::array<float, 9> cornerNormals(const TriangleMeshDesc& mesh,
+                                   const std::array<unsigned, 3>& tri) {
+    std::array<float, 9> slot{};
+    if (mesh.normals.empty()) return slot;
+    for (size_t k = 0; k < 3; ++k)
+        for (size_t a = 0; a < 3; ++a)
+            slot[3 * k + a] = float(mesh.normals[tri[k]][a]);
+    if (!std::all_of(slot.begin(), slot.end(), [](float v) { return std::isfinite(v); })) slot = {};
+    return slot;
+}
+
 // A sphere's slot in `textures` (cb_texture.h, sphereTexCoord): the quaternion (x, y, z, w) of
 // the rotation from world to its object frame, then -1 where that frame is mirrored (x negated
 // after the rotation), else 1. World from object, W, is orthogonal; a mirrored one is a
@@ -538,7 +552,12 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
     };
 
     const bool texturing = (scene.features & CB_FEATURE_TEXTURE) != 0;
-    std::vector<std::array<float, 6>> primitiveUv; // texturing: per primitive, as `primitives`
+    const bool shading = std::any_of(desc.meshes.begin(), desc.meshes.end(), [](const auto& m) {
+        return !m.normals.empty() && !m.triangles.empty();
+    });
+    if (shading) scene.features |= CB_FEATURE_SHADING_NORMALS;
+    std::vector<std::array<float, 9>> primitiveNormals; // shading: per primitive, as `primitives`
+    std::vector<std::array<float, 6>> primitiveUv;      // texturing: per primitive, as `primitives`
     auto requireTexCoords = [&](int material, const std::string& none,
                                 const SourceLocation& where) {
         if (!texturing || !textured(material) || none.empty()) return;
@@ -590,6 +609,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
                 primitiveUv.push_back(mesh.cornerUv.empty() ? kDefaultCornerUv
                                                             : mesh.cornerUv[index]);
             }
+            if (shading) primitiveNormals.push_back(cornerNormals(mesh, tri));
             ++scene.triangleCount;
         }
     }
@@ -609,6 +629,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         }
         primitives.push_back(prim);
         if (texturing) primitiveUv.push_back(sphereFrameSlot(sphere.worldFromObject));
+        if (shading) primitiveNormals.push_back({}); // the kernel shades spheres by ng
         scene.features |= CB_FEATURE_SPHERES;
         ++scene.sphereCount;
     }
@@ -793,6 +814,18 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
     for (size_t i = 0; i < scene.lights.size(); ++i)
         if (scene.lights[i].kind == CB_LIGHT_AREA && scene.lights[i].primitive < 0)
             throw std::logic_error("area light lost its primitive in the BVH build");
+    if (shading) {
+        if (9 * scene.bvh.primitives.size() > size_t(std::numeric_limits<int>::max()))
+            throw SceneError(SourceLocation{desc.path, 0, 0},
+                             fmt::format("the vertex normals take {} floats; the kernels index "
+                                         "at most 2^31 - 1",
+                                         9 * scene.bvh.primitives.size()));
+        scene.shadingNormals.reserve(9 * scene.bvh.primitives.size());
+        for (int original : scene.bvh.originalIndex) {
+            const auto& n = primitiveNormals[size_t(original)];
+            scene.shadingNormals.insert(scene.shadingNormals.end(), n.begin(), n.end());
+        }
+    }
     if (texturing) {
         // The primitives' texture coordinates in leaf order, then the images, whose offsets
         // the materials held relative to the images' start.
@@ -843,6 +876,7 @@ std::string DeviceScene::featureNames() const {
     add(CB_FEATURE_INFINITE_LIGHT, "infinite-light");
     add(CB_FEATURE_IMAGE_LIGHT, "image-light");
     add(CB_FEATURE_TEXTURE, "texture");
+    add(CB_FEATURE_SHADING_NORMALS, "shading-normals");
     add(CB_FEATURE_THIN_LENS, "thin-lens");
     names += channels == 16 ? " spectral-16" : " rgb";
     return names;
@@ -870,6 +904,8 @@ SceneBytes sceneBytes(const DeviceScene& scene) {
     raw.lightTableCount = scene.lightTables.size();
     raw.textures = scene.textures.data();
     raw.textureCount = scene.textures.size();
+    raw.shadingNormals = scene.shadingNormals.data();
+    raw.shadingNormalCount = scene.shadingNormals.size();
     raw.spectraCount = scene.spectra.size();
     raw.toRgb = scene.toRgb.data();
     raw.camera = &scene.camera;

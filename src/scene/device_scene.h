@@ -31,6 +31,9 @@ struct DeviceScene {
     // Texture scenes: per primitive (leaf order) its vertices' uv, then the image textures
     // (cb_texture.h); empty otherwise.
     std::vector<float> textures;
+    // Scenes with vertex normals: per primitive (leaf order) its vertices' normals, zeros for a
+    // primitive without; empty otherwise.
+    std::vector<float> shadingNormals;
     std::vector<float> toRgb; // 3 x channels, row-major: linear sRGB from channels
     cbk::Camera camera{};
     // Device coordinates are world coordinates minus this point (the camera position, clamped

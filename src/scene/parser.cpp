@@ -1368,8 +1368,12 @@ class Parser {
             TriangleMeshDesc mesh = src;
             for (auto& p : mesh.positions)
                 p = checkedPoint(m.point(p), where, "an instanced vertex position");
+            const double det = m.det3();
+            for (auto& n : mesh.normals)
+                n = det != 0.0 ? checkedPoint(m.normal(n), where, "an instanced vertex normal")
+                               : std::array<double, 3>{0, 0, 0};
             // A mirroring instance keeps each surface's side (its normal is transformed too).
-            if (m.det3() < 0.0)
+            if (det < 0.0)
                 for (size_t t = 0; t < mesh.triangles.size(); ++t)
                     mesh.reverseTriangle(t);
             scene_.meshes.push_back(std::move(mesh));
@@ -2561,7 +2565,8 @@ class Parser {
     void ignoreTangents(ParamList& pl, const SourceLocation& where) {
         if (pl.ignore("S", {"vector3"}))
             note(where, "tangents",
-                 "\"vector3 S\" is ignored: cbdpt shades with geometric normals");
+                 "\"vector3 S\" is ignored: it turns the shading frame about its normal, "
+                 "which changes none of cbdpt's (isotropic) materials");
     }
 
     // "point2 uv": texture coordinates, one (u, v) per vertex; empty when not given.
@@ -2684,6 +2689,20 @@ class Parser {
             if (vecDot(skew, skew) > 1e-12 * (vecDot(a, a) + vecDot(b, b)))
                 noTexCoords = "a bilinear patch that is not a parallelogram (its (u, v) is not "
                               "linear over the two triangles cbdpt renders it as)";
+            if (!normals.empty()) {
+                // pbrt-v4 interpolates N bilinearly in (u, v); over the two triangles that is
+                // linear only on a parallelogram whose n00 + n11 = n10 + n01.
+                const Vec3d twist = vecSub(vecAdd(normals[q[0]], normals[q[3]]),
+                                           vecAdd(normals[q[1]], normals[q[2]]));
+                double scale = 0.0;
+                for (unsigned corner : q)
+                    scale += vecDot(normals[corner], normals[corner]);
+                if (!noTexCoords.empty() || vecDot(twist, twist) > 1e-12 * scale)
+                    note(t.where, "bilinear-normals",
+                         "a bilinear patch's \"normal N\" is interpolated linearly over each of "
+                         "the two triangles cbdpt renders it as; pbrt-v4 interpolates it "
+                         "bilinearly, which differs inside this patch");
+            }
             if (poweredAreaLight()) {
                 // pbrt-v4's BilinearPatch::Area, of the patch in world space: both triangles'.
                 const Mat4& m = state_.ctm;
@@ -2848,7 +2867,8 @@ class Parser {
         std::vector<std::array<double, 3>> n(objNormals.size());
         const double det = m.det3();
         for (size_t i = 0; i < n.size(); ++i) {
-            n[i] = det != 0.0 ? m.normal(objNormals[i]) : std::array<double, 3>{0, 0, 0};
+            n[i] = det != 0.0 ? checkedPoint(m.normal(objNormals[i]), where, "a vertex normal")
+                              : std::array<double, 3>{0, 0, 0};
             if (state_.reverseOrientation)
                 for (double& c : n[i])
                     c = -c;
@@ -2889,6 +2909,7 @@ class Parser {
         }
         for (size_t t : reversed)
             mesh.reverseTriangle(t);
+        mesh.normals = std::move(n);
         if (dropped > 0) {
             scene_.droppedDegenerateTriangles += dropped;
             std::cerr << "warning: " << where.file << ":" << where.line << ": dropped " << dropped

@@ -26,6 +26,8 @@ struct SceneBytes {
     std::size_t lightTableCount;
     const float* textures;
     std::size_t textureCount;
+    const float* shadingNormals;
+    std::size_t shadingNormalCount;
     const float* toRgb; // 3 x channels
     const void* camera;
     std::size_t cameraBytes;

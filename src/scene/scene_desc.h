@@ -123,6 +123,9 @@ struct TriangleMeshDesc {
     // in cbdpt (a disk's polar coordinates are not linear over its triangles).
     std::vector<std::array<float, 6>> cornerUv;
     std::string noTexCoords;
+    // Per vertex, as `positions`: pbrt-v4's "N" in world space (the normal transform, negated
+    // under ReverseOrientation), which shades the mesh; empty: shaded by geometric normals.
+    std::vector<std::array<double, 3>> normals;
     SourceLocation where;
 
     // Swaps triangle t's corners 1 and 2, so that its other side faces out; their (u, v) go

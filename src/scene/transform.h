@@ -16,6 +16,9 @@ using Vec3d = std::array<double, 3>;
 inline Vec3d vecSub(const Vec3d& a, const Vec3d& b) {
     return {a[0] - b[0], a[1] - b[1], a[2] - b[2]};
 }
+inline Vec3d vecAdd(const Vec3d& a, const Vec3d& b) {
+    return {a[0] + b[0], a[1] + b[1], a[2] + b[2]};
+}
 inline Vec3d vecCross(const Vec3d& a, const Vec3d& b) {
     return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
 }

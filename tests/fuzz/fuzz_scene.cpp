@@ -128,6 +128,11 @@ void checkScene(const cb::SceneDesc& s) {
         for (const auto& uv : m.cornerUv)
             for (float c : uv)
                 if (!std::isfinite(c)) broken("texture coordinate");
+        if (!m.normals.empty() && m.normals.size() != m.positions.size())
+            broken("vertex normals not one per vertex");
+        for (const auto& n : m.normals)
+            for (double c : n)
+                if (!std::isfinite(c)) broken("vertex normal");
     }
     for (const cb::TextureDesc& t : s.textures) {
         if (t.width < 1 || t.height < 1 ||

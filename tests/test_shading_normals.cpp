@@ -1,0 +1,243 @@
+// Meshes shaded by their vertex normals (pbrt-v4's "normal N"): the normals' transforms, the
+// shading normal at hit points (kernels/cb_intersect.h), and every method's estimate of the
+// integral they define (Veach 1997, sec. 5.3; scatterCos in kernels/cb_bsdf.h).
+#include <doctest/doctest.h>
+
+#include "cb_bvh_wide.h"
+#include "method_checks.h"
+#include "scene/scene_desc.h"
+#include "test_render_util.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <random>
+#include <string>
+#include <vector>
+
+using namespace cbtest::method_checks;
+
+namespace {
+
+cb::SceneDesc parse(const std::string& body) {
+    return cb::parseSceneString("Film \"rgb\" \"integer xresolution\" 8 \"integer yresolution\" 8\n"
+                                "WorldBegin\nLightSource \"infinite\" \"rgb L\" [1 1 1]\n" +
+                                    body,
+                                "t.pbrt");
+}
+
+std::array<double, 3> unit(std::array<double, 3> v) {
+    const double l = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    return {v[0] / l, v[1] / l, v[2] / l};
+}
+
+void checkDirection(std::array<double, 3> got, std::array<double, 3> expected, double tolerance) {
+    got = unit(got);
+    expected = unit(expected);
+    for (size_t a = 0; a < 3; ++a)
+        CHECK(got[a] == doctest::Approx(expected[a]).scale(1.0).epsilon(tolerance));
+}
+
+bool hasNote(const cb::SceneDesc& desc, const std::string& part) {
+    return std::any_of(desc.notes.begin(), desc.notes.end(),
+                       [&](const std::string& n) { return n.find(part) != std::string::npos; });
+}
+
+// An octahedron of radius 1 whose vertex normals point out of its vertices: 55 degrees from
+// every face's normal, the strongest shading a convex mesh gets from its normals.
+const std::string kOctahedron =
+    "Shape \"trianglemesh\" \"point3 P\" [1 0 0  -1 0 0  0 1 0  0 -1 0  0 0 1  0 0 -1] "
+    "\"normal N\" [1 0 0  -1 0 0  0 1 0  0 -1 0  0 0 1  0 0 -1] \"integer indices\" "
+    "[0 2 4  2 1 4  1 3 4  3 0 4  2 0 5  1 2 5  3 1 5  0 3 5]\n";
+
+} // namespace
+
+TEST_CASE("shading normals: \"normal N\" in world space, through transforms and instances") {
+    const cb::SceneDesc desc = parse(
+        "AttributeBegin\nScale 2 1 1\nShape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0] "
+        "\"normal N\" [1 0 1  0 1 1  1 1 1]\nAttributeEnd\n"
+        "AttributeBegin\nReverseOrientation\nShape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 "
+        "0 1 0] \"normal N\" [0 0 1  0 0 1  0 0 1]\nAttributeEnd\n"
+        "ObjectBegin \"tri\"\nRotate 90 0 0 1\nShape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 "
+        "0 1 0] \"normal N\" [1 0 1  1 0 1  1 0 1]\nObjectEnd\n"
+        "AttributeBegin\nScale 1 4 1\nObjectInstance \"tri\"\nAttributeEnd\n"
+        "Shape \"trianglemesh\" \"point3 P\" [0 0 5 1 0 5 0 1 5]\n");
+    REQUIRE(desc.meshes.size() == 4);
+    // Normals go through the inverse transpose: diag(1/2, 1, 1) under Scale 2 1 1.
+    REQUIRE(desc.meshes[0].normals.size() == 3);
+    checkDirection(desc.meshes[0].normals[0], {0.5, 0, 1}, 1e-12);
+    checkDirection(desc.meshes[0].normals[1], {0, 1, 1}, 1e-12);
+    checkDirection(desc.meshes[0].normals[2], {0.5, 1, 1}, 1e-12);
+    // ReverseOrientation negates them, as pbrt-v4's TriangleMesh does.
+    checkDirection(desc.meshes[1].normals[0], {0, 0, -1}, 1e-12);
+    // An instance: the definition's rotation, then the instance's scale diag(1, 1/4, 1).
+    checkDirection(desc.meshes[2].normals[0], {0, 0.25, 1}, 1e-12);
+    // No "N": geometric shading.
+    CHECK(desc.meshes[3].normals.empty());
+    CHECK((cb::buildDeviceScene(desc).features & CB_FEATURE_SHADING_NORMALS) != 0);
+    CHECK((cb::buildDeviceScene(parse("Shape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0]\n"))
+               .features &
+           CB_FEATURE_SHADING_NORMALS) == 0);
+
+    // A bilinear patch's normals: linear over its triangles only where n00 + n11 = n10 + n01.
+    const std::string patch = "Shape \"bilinearmesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0 1 1 0] ";
+    CHECK_FALSE(
+        hasNote(parse(patch + "\"normal N\" [0 0 1  0.2 0 1  0 0.2 1  0.2 0.2 1]\n"), "bilinear"));
+    CHECK(hasNote(parse(patch + "\"normal N\" [0 0 1  0.2 0 1  0 0.2 1  0 0 1]\n"),
+                  "interpolated linearly over each of the two triangles"));
+    CHECK(hasNote(parse("Shape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0] "
+                        "\"vector3 S\" [1 0 0  1 0 0  1 0 0]\n"),
+                  "changes none of cbdpt's (isotropic) materials"));
+}
+
+TEST_CASE("shading normals: the interpolated normal at hit points") {
+    // A 4 x 4 grid in z = 0 whose normals are an affine field of the object position, n(x, y)
+    // = (0.3 x, -0.2 y + 0.1, 1): interpolated by the barycentrics it is that field at the hit,
+    // through the CTM's inverse transpose and the BVH's reordering. A mirrored copy, a
+    // triangle without normals and a sphere share the scene.
+    std::string positions, normals, indices;
+    for (int j = 0; j <= 4; ++j)
+        for (int i = 0; i <= 4; ++i) {
+            const double x = -1.0 + 0.5 * i, y = -1.0 + 0.5 * j;
+            positions += fmt::format("{} {} 0  ", x, y);
+            normals += fmt::format("{} {} 1  ", 0.3 * x, -0.2 * y + 0.1);
+        }
+    for (int j = 0; j < 4; ++j)
+        for (int i = 0; i < 4; ++i) {
+            const int a = 5 * j + i;
+            indices += fmt::format("{} {} {}  {} {} {}  ", a, a + 1, a + 6, a, a + 6, a + 5);
+        }
+    const std::string grid = "Shape \"trianglemesh\" \"point3 P\" [" + positions +
+                             "] \"normal N\" [" + normals + "] \"integer indices\" [" + indices +
+                             "]\n";
+    const cb::DeviceScene scene = cb::buildDeviceScene(
+        parse("Material \"diffuse\"\nAttributeBegin\nScale 2 1 1\n" + grid + "AttributeEnd\n" +
+              "AttributeBegin\nTranslate 10 0 0\nScale -1 1 1\n" + grid + "AttributeEnd\n" +
+              "Shape \"trianglemesh\" \"point3 P\" [20 -1 0  22 -1 0  20 1 0]\n"
+              "AttributeBegin\nTranslate 30 0 0\nShape \"sphere\"\nAttributeEnd\n"));
+    REQUIRE((scene.features & CB_FEATURE_SHADING_NORMALS) != 0);
+    REQUIRE(scene.shadingNormals.size() == 9 * scene.bvh.primitives.size());
+    const cbk::SceneView view = cbtest::hostView(scene);
+    struct Probe {
+        double x0, x1;
+        std::array<double, 3> (*normal)(double X, double Y); // expected ns at world (X, Y, 0)
+    };
+    const Probe probes[] = {
+        // Object x = X / 2; the normal transform diag(1/2, 1, 1).
+        {-1.95, 1.95,
+         [](double X, double Y) {
+             return std::array{0.5 * 0.3 * (X / 2), -0.2 * Y + 0.1, 1.0};
+         }},
+        // Mirrored: object x = 10 - X, the normal's x negated.
+        {9.05, 10.95,
+         [](double X, double Y) {
+             return std::array{-0.3 * (10 - X), -0.2 * Y + 0.1, 1.0};
+         }},
+        {20.05, 20.9,
+         [](double, double) {
+             return std::array{0.0, 0.0, 1.0};
+         }},
+        {29.6, 30.4,
+         [](double X, double Y) {
+             const double dx = X - 30, dz = std::sqrt(1 - dx * dx - Y * Y);
+             return std::array{dx, Y, dz};
+         }},
+    };
+    std::mt19937 rng(5u);
+    std::uniform_real_distribution<double> u01(0.0, 1.0);
+    int hits = 0;
+    for (const Probe& probe : probes)
+        for (int i = 0; i < 300; ++i) {
+            const double X = probe.x0 + (probe.x1 - probe.x0) * u01(rng);
+            const double Y = &probe == &probes[2]   ? -0.95 + 0.9 * u01(rng) * (20.95 - X)
+                             : &probe == &probes[3] ? -0.3 + 0.6 * u01(rng)
+                                                    : -0.95 + 1.9 * u01(rng);
+            CAPTURE(X);
+            CAPTURE(Y);
+            cbk::Ray ray;
+            ray.o = cbk::vec3(float(X - scene.origin[0]), float(Y - scene.origin[1]),
+                              float(3.0 - scene.origin[2]));
+            ray.d = cbk::vec3(0.f, 0.f, -1.f);
+            cbk::Hit hit;
+            REQUIRE(cbk::sceneIntersect(&view, ray, CB_INFINITY, &hit));
+            const cbk::SurfacePoint sp = cbk::surfacePointFromHit(&view, ray, hit);
+            checkDirection({sp.ns.x, sp.ns.y, sp.ns.z}, probe.normal(X, Y), 1e-5);
+            CHECK(cbk::vlength(sp.ns) == doctest::Approx(1.0).epsilon(1e-6));
+            // pbrt-v4's FaceForward: the geometric normal on the shading normal's side.
+            CHECK(cbk::vdot(sp.ns, sp.ng) > 0.f);
+            ++hits;
+        }
+    CHECK(hits == 1200);
+}
+
+namespace {
+
+// A plane lit straight from above by a distant light of irradiance pi, seen from above, whose
+// vertex normals all lean 40 degrees from its face's: in the integral the shading normals define
+// (each vertex's f times |ns . w| on the light's side) a diffuse plane of albedo rho has radiance
+// rho cos 40. The geometric cosine in its place, at an eye vertex or in a light subpath's vertex
+// (whose correction |ns . wo| / |ng . wo| is cos 40 here), gives rho. (A uniform sky would not
+// tell them apart: |m . w| over any hemisphere integrates to pi for every unit m.)
+const cb::DeviceScene& tiltedPlane() {
+    static const cb::DeviceScene scene = cb::buildDeviceScene(cb::parseSceneString(
+        "LookAt 0 0 3  0 0 0  0 1 0\nCamera \"perspective\" \"float fov\" 40\n"
+        "Film \"rgb\" \"integer xresolution\" 16 \"integer yresolution\" 16\n"
+        "WorldBegin\nLightSource \"distant\" \"point3 from\" [0 0 1] \"point3 to\" [0 0 0] "
+        "\"rgb L\" [1 1 1] \"float scale\" 3.14159265358979\n"
+        "Material \"diffuse\" \"rgb reflectance\" [0.8 0.5 0.2]\n"
+        "Shape \"trianglemesh\" \"point3 P\" [-10 -10 0  10 -10 0  -10 10 0  10 10 0] "
+        "\"normal N\" [0.642788 0 0.766044  0.642788 0 0.766044  0.642788 0 0.766044  "
+        "0.642788 0 0.766044] \"integer indices\" [0 1 3  0 3 2]\n",
+        "t.pbrt"));
+    return scene;
+}
+
+const double kCos40 = 0.766044443;
+const std::array<double, 3> kPlaneRadiance = {0.8 * kCos40, 0.5 * kCos40, 0.2 * kCos40};
+
+} // namespace
+
+TEST_CASE("shading normals: a tilted-normal plane's radiance, every method" *
+          doctest::test_suite("statistical")) {
+    cb::ClRuntime runtime;
+    const cb::DeviceScene& scene = tiltedPlane();
+    REQUIRE((scene.features & CB_FEATURE_SHADING_NORMALS) != 0);
+    for (const std::string method : kMethods) {
+        CAPTURE(method);
+        checkChannelMeans(channelMeans(scene, runtime, methodSettings(method), 4, 300u),
+                          kPlaneRadiance, 1e-4);
+    }
+}
+
+// Each of BDPT's strategies for these paths alone, unweighted, then both weighted: next-event
+// estimation (s = 1: the connection's shading ratio at the eye vertex) and light tracing (s = 2,
+// t = 1: the light vertex's correction |ns . wo| / |ng . wo|).
+TEST_CASE("shading normals: each BDPT strategy alone sees the tilted plane" *
+          doctest::test_suite("statistical")) {
+    cb::ClRuntime runtime;
+    const cb::DeviceScene& scene = tiltedPlane();
+    for (const auto& [s, t, estimates] : {std::array<int, 3>{1, 2, 8}, std::array<int, 3>{2, 1, 64},
+                                          std::array<int, 3>{-1, -1, 8}}) {
+        CAPTURE(s);
+        CAPTURE(t);
+        cb::IntegratorSettings settings = methodSettings("bdpt");
+        settings.debugS = s;
+        settings.debugT = t;
+        checkChannelMeans(channelMeans(scene, runtime, settings, estimates, 400u), kPlaneRadiance,
+                          1e-4);
+    }
+}
+
+// Light subpaths bounce off smooth-shaded surfaces before they connect (s >= 3), where the
+// correction enters beta: two octahedra shaded as spheres, one of them a light's neighbour.
+TEST_CASE("shading normals: BDPT, CBDPT and MLT agree with PT on smooth-shaded meshes" *
+          doctest::test_suite("statistical")) {
+    checkMethodsAgreeWithPt(kDiskLight,
+                            "AttributeBegin\nTranslate 0.6 0.45 -0.3\nScale 0.45 0.45 0.45\n" +
+                                kOctahedron +
+                                "AttributeEnd\nAttributeBegin\nTranslate -0.9 0.95 0.2\n"
+                                "Scale 0.35 0.35 0.35\n" +
+                                kOctahedron + "AttributeEnd\n");
+}
