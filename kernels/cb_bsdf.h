@@ -1123,7 +1123,7 @@ CB_FN bool cbLobeSample(const SceneView* scene, Material m, TexCoord uv, Vec3 wo
 /* |ns . w| / |ng . w|: what a geometric cosine at a surface point becomes with shading normals;
  * 1 without them (compiled out), 0 where w is tangent to the surface. */
 CB_FN real shadingRatio(Vec3 ng, Vec3 ns, Vec3 w) {
-#if CB_HAS(CB_FEATURE_SHADING_NORMALS)
+#if CB_HAS_SHADING
     real c = vabsdot(ng, w);
     return c > 0.0f ? vabsdot(ns, w) / c : 0.0f;
 #else
@@ -1142,7 +1142,7 @@ CB_FN real shadingRatio(Vec3 ng, Vec3 ns, Vec3 w) {
  * directions of tracing estimate one integral. With ns = ng both are |ng . wi|. */
 CB_FN real scatterCos(Vec3 ng, Vec3 ns, Vec3 wo, Vec3 wi, int adjoint) {
     if (adjoint) return vabsdot(ng, wi) * shadingRatio(ng, ns, wo);
-#if CB_HAS(CB_FEATURE_SHADING_NORMALS)
+#if CB_HAS_SHADING
     return vabsdot(ns, wi);
 #else
     return vabsdot(ng, wi);

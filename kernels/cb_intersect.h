@@ -515,6 +515,13 @@ CB_FN SurfacePoint surfacePointFromHit(const SceneView* scene, Ray ray, Hit hit)
         }
     }
 #endif
+#if CB_HAS(CB_FEATURE_NORMAL_MAP)
+    if (scene->textures) {
+        int normalMap = scene->materials[sp.material].normalMap;
+        if (normalMap >= 0)
+            sp.ns = normalMapNormal(scene, normalMap, hit.primitive, p0, p1, p2, sp);
+    }
+#endif
     return sp;
 }
 

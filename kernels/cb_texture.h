@@ -117,6 +117,43 @@ CB_FN Vec3 textureRgb(const SceneView* scene, int offset, TexCoord uv) {
     return vadd(vscale(top, 1.0f - dy), vscale(bottom, dy));
 }
 
+/* pbrt-v4's CoordinateSystem: a unit vector perpendicular to unit v (the frame's first axis). */
+CB_FN Vec3 coordinateSystemFirst(Vec3 v) {
+    real sign = v.z >= 0.0f ? 1.0f : -1.0f;
+    real a = -1.0f / (sign + v.z);
+    return vec3(1.0f + sign * v.x * v.x * a, sign * v.x * v.y * a, -sign * v.x);
+}
+
+/* The shading normal of a normal-mapped triangle at surface point sp (pbrt-v4's NormalMap and
+ * SetShadingGeometry): the texel 2 rgb - 1, normalised, in the frame whose z is sp.ns and whose
+ * x is dp/du (from the corners' (u, v), pbrt-v4's Triangle) made perpendicular to it, then
+ * turned to ng's side. The texture is read as pbrt-v4 reads normal maps: linear, bilinear,
+ * repeating, v = 1 the top row. */
+CB_FN Vec3 normalMapNormal(const SceneView* scene, int offset, int primitive, Vec3 p0, Vec3 p1,
+                           Vec3 p2, SurfacePoint sp) {
+    CB_GLOBAL const real* uv = scene->textures + 6 * primitive;
+    real du02 = uv[0] - uv[4], dv02 = uv[1] - uv[5];
+    real du12 = uv[2] - uv[4], dv12 = uv[3] - uv[5];
+    real determinant = du02 * dv12 - dv02 * du12;
+    Vec3 dpdu = vec3(0.0f, 0.0f, 0.0f);
+    if (fabs(determinant) >= 1e-9f)
+        dpdu = vscale(vsub(vscale(vsub(p0, p2), dv12), vscale(vsub(p1, p2), dv02)),
+                      1.0f / determinant);
+    if (!(vlength2(dpdu) > 0.0f) || !isfinite(vlength2(dpdu)))
+        dpdu = coordinateSystemFirst(sp.ng); /* degenerate (u, v): any tangent */
+    Vec3 x = vcross(vcross(sp.ns, dpdu), sp.ns);
+    x = vlength2(x) > 0.0f ? vnormalize(x) : coordinateSystemFirst(sp.ns);
+    Vec3 y = vcross(sp.ns, x);
+    Vec3 rgb = textureRgb(scene, offset, sp.uv);
+    Vec3 tangent = vec3(2.0f * rgb.x - 1.0f, 2.0f * rgb.y - 1.0f, 2.0f * rgb.z - 1.0f);
+    real length2 = vlength2(tangent);
+    if (!(length2 > 0.0f) || !isfinite(length2)) return sp.ns;
+    tangent = vscale(tangent, 1.0f / sqrt(length2));
+    Vec3 n = vnormalize(
+        vadd(vadd(vscale(x, tangent.x), vscale(y, tangent.y)), vscale(sp.ns, tangent.z)));
+    return vdot(n, sp.ng) < 0.0f ? vneg(n) : n;
+}
+
 /* The texture as a reflectance: RGB clamped to [0, 1] as pbrt-v4 clamps an albedo texture; in
  * spectral scenes Smits's spectrum of it, each bin clamped to [0, 1] as the host clamps a
  * constant reflectance's (SpectraTable::addAlbedo). */

@@ -67,7 +67,8 @@ typedef struct SurfacePoint {
     Vec3 pError; /* per-axis absolute bound on the error of p */
     Vec3 ng;     /* unit geometric normal (outward / front side) */
     /* Unit shading normal: CB_FEATURE_SHADING_NORMALS, the triangle's vertex normals interpolated
-     * (ng faces its side, as pbrt-v4's FaceForward); else ng. */
+     * (ng faces its side, as pbrt-v4's FaceForward), then CB_FEATURE_NORMAL_MAP, bent by the
+     * material's normal map (normalMapNormal); else ng. */
     Vec3 ns;
     int primitive;
     int material;
@@ -108,6 +109,7 @@ typedef struct SurfacePoint {
 #define CB_FEATURE_IMAGE_LIGHT (1u << 17) /* an "infinite" light given by an equal-area image */
 #define CB_FEATURE_TEXTURE (1u << 18) /* a reflectance given by an image (pbrt-v4's "imagemap") */
 #define CB_FEATURE_SHADING_NORMALS (1u << 19) /* meshes with vertex normals (pbrt-v4's "N") */
+#define CB_FEATURE_NORMAL_MAP (1u << 20)      /* materials with pbrt-v4's "normalmap" */
 
 #ifndef CB_FEATURES
 #define CB_FEATURES 0xffffffffu
@@ -119,6 +121,8 @@ typedef struct SurfacePoint {
 #define CB_HAS_GGX_REFLECTION (CB_HAS(CB_FEATURE_CONDUCTOR) || CB_HAS(CB_FEATURE_COATED_CONDUCTOR))
 #define CB_HAS_CONDUCTOR_FRESNEL                                                                   \
     (CB_HAS(CB_FEATURE_CONDUCTOR_FRESNEL) || CB_HAS(CB_FEATURE_COATED_CONDUCTOR))
+/* Shading normals that can differ from the geometric ones: vertex normals or normal maps. */
+#define CB_HAS_SHADING (CB_HAS(CB_FEATURE_SHADING_NORMALS) || CB_HAS(CB_FEATURE_NORMAL_MAP))
 
 typedef struct Material {
     int kind;        /* CB_MAT_* */
@@ -148,6 +152,9 @@ typedef struct Material {
     /* CB_FEATURE_TEXTURE: the offset in `textures` of the image texture that gives the diffuse,
      * coated diffuse or diffuse transmission reflectance in place of `reflectance`; -1: none. */
     int reflectanceTexture;
+    /* CB_FEATURE_NORMAL_MAP: the offset in `textures` of pbrt-v4's "normalmap", an image whose
+     * texels 2 rgb - 1 are the shading normal in the tangent frame (cb_texture.h); -1: none. */
+    int normalMap;
 } Material;
 
 /* ---- Lights ------------------------------------------------------------------------------- */

@@ -6,6 +6,7 @@
 #include "cb_bvh_wide.h"
 #include "method_checks.h"
 #include "scene/scene_desc.h"
+#include "scene_files.h"
 #include "test_render_util.h"
 
 #include <fmt/format.h>
@@ -13,11 +14,13 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <fstream>
 #include <random>
 #include <string>
 #include <vector>
 
 using namespace cbtest::method_checks;
+using namespace cbtest::scene_files;
 
 namespace {
 
@@ -74,6 +77,21 @@ TEST_CASE("shading normals: \"normal N\" in world space, through transforms and 
     checkDirection(desc.meshes[1].normals[0], {0, 0, -1}, 1e-12);
     // An instance: the definition's rotation, then the instance's scale diag(1, 1/4, 1).
     checkDirection(desc.meshes[2].normals[0], {0, 0.25, 1}, 1e-12);
+    // A PLY's nx ny nz take N's place, through the CTM as well.
+    {
+        TempDirCleanup cleanup;
+        std::ofstream(tempDir() / "n.ply")
+            << "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+               "property float z\nproperty float nx\nproperty float ny\nproperty float nz\n"
+               "element face 1\nproperty list uchar int vertex_indices\nend_header\n"
+               "0 0 0 1 0 1\n1 0 0 0 1 1\n0 1 0 0 0 1\n3 0 1 2\n";
+        const cb::SceneDesc ply = parseInTemp(
+            "WorldBegin\nScale 1 1 2\nShape \"plymesh\" \"string filename\" \"n.ply\"\n");
+        REQUIRE(ply.meshes.size() == 1);
+        REQUIRE(ply.meshes[0].normals.size() == 3);
+        checkDirection(ply.meshes[0].normals[0], {1, 0, 0.5}, 1e-12);
+        checkDirection(ply.meshes[0].normals[1], {0, 1, 0.5}, 1e-12);
+    }
     // No "N": geometric shading.
     CHECK(desc.meshes[3].normals.empty());
     CHECK((cb::buildDeviceScene(desc).features & CB_FEATURE_SHADING_NORMALS) != 0);
@@ -175,22 +193,37 @@ TEST_CASE("shading normals: the interpolated normal at hit points") {
 namespace {
 
 // A plane lit straight from above by a distant light of irradiance pi, seen from above, whose
-// vertex normals all lean 40 degrees from its face's: in the integral the shading normals define
-// (each vertex's f times |ns . w| on the light's side) a diffuse plane of albedo rho has radiance
-// rho cos 40. The geometric cosine in its place, at an eye vertex or in a light subpath's vertex
-// (whose correction |ns . wo| / |ng . wo| is cos 40 here), gives rho. (A uniform sky would not
-// tell them apart: |m . w| over any hemisphere integrates to pi for every unit m.)
-const cb::DeviceScene& tiltedPlane() {
-    static const cb::DeviceScene scene = cb::buildDeviceScene(cb::parseSceneString(
+// shading normals all lean 40 degrees from its face's, given by its vertex normals or by a
+// normal map of one texel: in the integral the shading normals define (each vertex's f times
+// |ns . w| on the light's side) a diffuse plane of albedo rho has radiance rho cos 40. The
+// geometric cosine in its place, at an eye vertex or in a light subpath's vertex (whose
+// correction |ns . wo| / |ng . wo| is cos 40 here), gives rho. (A uniform sky would not tell
+// them apart: |m . w| over any hemisphere integrates to pi for every unit m.)
+cb::DeviceScene tiltedPlane(bool normalMap) {
+    const std::string lean = "0.642788 0 0.766044";
+    std::string shape =
+        "Shape \"trianglemesh\" \"point3 P\" [-10 -10 0  10 -10 0  -10 10 0  10 10 0] "
+        "\"integer indices\" [0 1 3  0 3 2]";
+    std::string material = "Material \"diffuse\" \"rgb reflectance\" [0.8 0.5 0.2]";
+    if (normalMap) {
+        // The texel 2 rgb - 1 is the normal in the frame (dp/du, ns x dp/du, ns): u runs along
+        // -y here, so the normal leans toward -y.
+        writeImage("lean.exr", 1, 1, [](int, int, int c) {
+            return std::array{0.821394f, 0.5f, 0.883022f}[size_t(c)];
+        });
+        material += " \"string normalmap\" \"lean.exr\"";
+        shape += " \"point2 uv\" [1 0  1 1  0 0  0 1]";
+    } else {
+        shape += " \"normal N\" [" + lean + "  " + lean + "  " + lean + "  " + lean + "]";
+    }
+    const cb::DeviceScene scene = cb::buildDeviceScene(parseInTemp(
         "LookAt 0 0 3  0 0 0  0 1 0\nCamera \"perspective\" \"float fov\" 40\n"
         "Film \"rgb\" \"integer xresolution\" 16 \"integer yresolution\" 16\n"
         "WorldBegin\nLightSource \"distant\" \"point3 from\" [0 0 1] \"point3 to\" [0 0 0] "
-        "\"rgb L\" [1 1 1] \"float scale\" 3.14159265358979\n"
-        "Material \"diffuse\" \"rgb reflectance\" [0.8 0.5 0.2]\n"
-        "Shape \"trianglemesh\" \"point3 P\" [-10 -10 0  10 -10 0  -10 10 0  10 10 0] "
-        "\"normal N\" [0.642788 0 0.766044  0.642788 0 0.766044  0.642788 0 0.766044  "
-        "0.642788 0 0.766044] \"integer indices\" [0 1 3  0 3 2]\n",
-        "t.pbrt"));
+        "\"rgb L\" [1 1 1] \"float scale\" 3.14159265358979\n" +
+        material + "\n" + shape + "\n"));
+    REQUIRE((scene.features & (normalMap ? CB_FEATURE_NORMAL_MAP : CB_FEATURE_SHADING_NORMALS)) !=
+            0);
     return scene;
 }
 
@@ -201,13 +234,16 @@ const std::array<double, 3> kPlaneRadiance = {0.8 * kCos40, 0.5 * kCos40, 0.2 * 
 
 TEST_CASE("shading normals: a tilted-normal plane's radiance, every method" *
           doctest::test_suite("statistical")) {
+    TempDirCleanup cleanup;
     cb::ClRuntime runtime;
-    const cb::DeviceScene& scene = tiltedPlane();
-    REQUIRE((scene.features & CB_FEATURE_SHADING_NORMALS) != 0);
-    for (const std::string method : kMethods) {
-        CAPTURE(method);
-        checkChannelMeans(channelMeans(scene, runtime, methodSettings(method), 4, 300u),
-                          kPlaneRadiance, 1e-4);
+    for (const bool normalMap : {false, true}) {
+        const cb::DeviceScene scene = tiltedPlane(normalMap);
+        for (const std::string method : kMethods) {
+            CAPTURE(normalMap);
+            CAPTURE(method);
+            checkChannelMeans(channelMeans(scene, runtime, methodSettings(method), 4, 300u),
+                              kPlaneRadiance, 1e-4);
+        }
     }
 }
 
@@ -216,17 +252,22 @@ TEST_CASE("shading normals: a tilted-normal plane's radiance, every method" *
 // t = 1: the light vertex's correction |ns . wo| / |ng . wo|).
 TEST_CASE("shading normals: each BDPT strategy alone sees the tilted plane" *
           doctest::test_suite("statistical")) {
+    TempDirCleanup cleanup;
     cb::ClRuntime runtime;
-    const cb::DeviceScene& scene = tiltedPlane();
-    for (const auto& [s, t, estimates] : {std::array<int, 3>{1, 2, 8}, std::array<int, 3>{2, 1, 64},
-                                          std::array<int, 3>{-1, -1, 8}}) {
-        CAPTURE(s);
-        CAPTURE(t);
-        cb::IntegratorSettings settings = methodSettings("bdpt");
-        settings.debugS = s;
-        settings.debugT = t;
-        checkChannelMeans(channelMeans(scene, runtime, settings, estimates, 400u), kPlaneRadiance,
-                          1e-4);
+    for (const bool normalMap : {false, true}) {
+        const cb::DeviceScene scene = tiltedPlane(normalMap);
+        for (const auto& [s, t, estimates] :
+             {std::array<int, 3>{1, 2, 8}, std::array<int, 3>{2, 1, 64},
+              std::array<int, 3>{-1, -1, 8}}) {
+            CAPTURE(normalMap);
+            CAPTURE(s);
+            CAPTURE(t);
+            cb::IntegratorSettings settings = methodSettings("bdpt");
+            settings.debugS = s;
+            settings.debugT = t;
+            checkChannelMeans(channelMeans(scene, runtime, settings, estimates, 400u),
+                              kPlaneRadiance, 1e-4);
+        }
     }
 }
 
@@ -240,4 +281,86 @@ TEST_CASE("shading normals: BDPT, CBDPT and MLT agree with PT on smooth-shaded m
                                 "AttributeEnd\nAttributeBegin\nTranslate -0.9 0.95 0.2\n"
                                 "Scale 0.35 0.35 0.35\n" +
                                 kOctahedron + "AttributeEnd\n");
+}
+
+TEST_CASE("normal maps: the mapped normal at hit points, and what is refused") {
+    TempDirCleanup cleanup;
+    // Two texels, the top row (v = 1) leaning along the frame's y, the bottom along its x;
+    // bilinear between their centres (v = 3/4 and 1/4) and repeating, as pbrt-v4's NormalMap.
+    const std::array<std::array<double, 3>, 2> texels = {std::array{0.0, 0.6, 0.8},
+                                                         std::array{0.6, 0.0, 0.8}};
+    writeImage("two.exr", 1, 2, [&](int, int y, int c) {
+        return float(0.5 * (texels[size_t(y)][size_t(c)] + 1.0));
+    });
+    const double lean = 1.0 / std::sqrt(1.09); // the vertex normals (0.3, 0, 1), normalised
+    const cb::DeviceScene scene = cb::buildDeviceScene(parseInTemp(
+        "Film \"rgb\" \"integer xresolution\" 8 \"integer yresolution\" 8\nWorldBegin\n"
+        "LightSource \"infinite\" \"rgb L\" [1 1 1]\n"
+        "Material \"diffuse\" \"string normalmap\" \"two.exr\"\n"
+        // u along +x, v along +y: the frame is (x, y, z).
+        "Shape \"trianglemesh\" \"point3 P\" [0 0 0  1 0 0  0 1 0  1 1 0] \"point2 uv\" "
+        "[0 0  1 0  0 1  1 1] \"integer indices\" [0 1 3  0 3 2]\n"
+        // u along +y, v along +x: the frame is (y, -x, z).
+        "Shape \"trianglemesh\" \"point3 P\" [2 0 0  3 0 0  2 1 0  3 1 0] \"point2 uv\" "
+        "[0 0  0 1  1 0  1 1] \"integer indices\" [0 1 3  0 3 2]\n"
+        // Vertex normals leaning toward +x: z is theirs, x is dp/du = +x made perpendicular.
+        "Shape \"trianglemesh\" \"point3 P\" [4 0 0  5 0 0  4 1 0  5 1 0] \"point2 uv\" "
+        "[0 0  1 0  0 1  1 1] \"normal N\" [0.3 0 1  0.3 0 1  0.3 0 1  0.3 0 1] "
+        "\"integer indices\" [0 1 3  0 3 2]\n"));
+    REQUIRE((scene.features & CB_FEATURE_NORMAL_MAP) != 0);
+    const cbk::SceneView view = cbtest::hostView(scene);
+    auto normalAt = [&](double X, double Y) {
+        cbk::Ray ray;
+        ray.o = cbk::vec3(float(X - scene.origin[0]), float(Y - scene.origin[1]),
+                          float(1.0 - scene.origin[2]));
+        ray.d = cbk::vec3(0.f, 0.f, -1.f);
+        cbk::Hit hit;
+        REQUIRE(cbk::sceneIntersect(&view, ray, CB_INFINITY, &hit));
+        const cbk::SurfacePoint sp = cbk::surfacePointFromHit(&view, ray, hit);
+        CHECK(cbk::vdot(sp.ns, sp.ng) > 0.f);
+        return std::array<double, 3>{sp.ns.x, sp.ns.y, sp.ns.z};
+    };
+    // The tangent-space normal at v: the texels' values interpolated, normalised.
+    auto tangent = [&](double v) {
+        const double w = std::clamp(1.5 - 2.0 * v, 0.0, 1.0); // the bottom row's weight
+        std::array<double, 3> n{};
+        for (size_t a = 0; a < 3; ++a)
+            n[a] = (1.0 - w) * texels[0][a] + w * texels[1][a];
+        return unit(n);
+    };
+    for (const double v : {0.75, 0.25, 0.5, 0.6}) {
+        CAPTURE(v);
+        const auto t = tangent(v);
+        checkDirection(normalAt(0.3, v), {t[0], t[1], t[2]}, 1e-5);
+        checkDirection(normalAt(2.0 + v, 0.3), {-t[1], t[0], t[2]}, 1e-5);
+        // Frame (x', y, n) with n = (0.3, 0, 1) / |.| and x' = (1, 0, -0.3) / |.|.
+        const double nx = 0.3 * lean, nz = lean;
+        checkDirection(normalAt(4.3, v), {t[0] * nz + t[2] * nx, t[1], -t[0] * nx + t[2] * nz},
+                       1e-5);
+    }
+
+    // Refused: a normal map on a sphere (no frame from (u, v) here), in a mix, a missing file.
+    auto buildError = [](const std::string& body) {
+        try {
+            cb::buildDeviceScene(parseInTemp(
+                "WorldBegin\nLightSource \"infinite\"\nMakeNamedMaterial \"bumpy\" \"string type\" "
+                "\"diffuse\" \"string normalmap\" \"two.exr\"\nMakeNamedMaterial \"plain\" "
+                "\"string type\" \"diffuse\"\n" +
+                body));
+        } catch (const cb::SceneError& e) {
+            return std::string(e.what());
+        }
+        return std::string();
+    };
+    CHECK(contains(buildError("NamedMaterial \"bumpy\"\nShape \"sphere\"\n"),
+                   "applies normal maps to triangle meshes only"));
+    CHECK(contains(buildError("Material \"mix\" \"string materials\" [\"bumpy\" \"plain\"]\n"
+                              "Shape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0]\n"),
+                   "a mix of a material with a \"normalmap\" is not supported"));
+    CHECK(contains(errorOf("WorldBegin\nMaterial \"diffuse\" \"string normalmap\" \"none.png\"\n"),
+                   "none.png"));
+    // "" is pbrt-v4's "no normal map".
+    CHECK(parseInTemp("WorldBegin\nMaterial \"diffuse\" \"string normalmap\" \"\"\n")
+              .materials.back()
+              .normalMap == -1);
 }

@@ -108,6 +108,7 @@ template <class Visit> void forEachField(cbk::Material& s, Visit&& visit) {
     visit(s.layerAlbedo);
     visit(s.layerG);
     visit(s.reflectanceTexture);
+    visit(s.normalMap);
 }
 template <class Visit> void forEachField(cbk::Light& s, Visit&& visit) {
     visit(s.kind);

@@ -17,7 +17,7 @@
 namespace cb {
 
 static_assert(sizeof(cbk::Primitive) == 48, "Primitive must match the OpenCL layout");
-static_assert(sizeof(cbk::Material) == 60, "Material must match the OpenCL layout");
+static_assert(sizeof(cbk::Material) == 64, "Material must match the OpenCL layout");
 static_assert(sizeof(cbk::Light) == 108, "Light must match the OpenCL layout");
 static_assert(sizeof(cbk::Camera) == 128, "Camera must match the OpenCL layout");
 
@@ -382,7 +382,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
     auto textured = [&](int m) {
         if (m < 0) return false;
         const MaterialDesc& md = desc.materials[size_t(m)];
-        bool any = md.reflectanceTexture >= 0;
+        bool any = md.reflectanceTexture >= 0 || md.normalMap >= 0;
         for (int c : md.mix)
             any = any || (c >= 0 && desc.materials[size_t(c)].reflectanceTexture >= 0);
         return any;
@@ -427,6 +427,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         out.secondSpectrum = -1;
         out.layerAlbedo = -1;
         out.reflectanceTexture = -1;
+        out.normalMap = -1;
         // GGX alpha of conductors, dielectrics and coats; pbrt-v4 maps roughness r to sqrt(r).
         auto ggxAlpha = [&m](float roughness) {
             return m.remapRoughness ? std::sqrt(std::max(roughness, 0.f)) : roughness;
@@ -501,6 +502,18 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
             out.reflectanceTexture = addTexture(m.reflectanceTexture);
             scene.features |= CB_FEATURE_TEXTURE;
         }
+        if (materialUsed[i] && m.normalMap >= 0) {
+            // The map is looked up at the hit's (u, v), which the texture buffer holds.
+            out.normalMap = addTexture(m.normalMap);
+            scene.features |= CB_FEATURE_TEXTURE | CB_FEATURE_NORMAL_MAP;
+        }
+        if (materialUsed[i] && m.kind == MaterialKind::Mix)
+            for (int c : m.mix)
+                if (c >= 0 && desc.materials[size_t(c)].normalMap >= 0)
+                    throw SceneError(m.where,
+                                     "a mix of a material with a \"normalmap\" is not supported: "
+                                     "pbrt-v4 picks one of the two materials per hit and shades "
+                                     "by its normal map, cbdpt blends their BSDFs at one normal");
         scene.materials.push_back(out);
         if (materialUsed[i]) {
             scene.features |= materialFeature(m.kind);
@@ -561,8 +574,9 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
     auto requireTexCoords = [&](int material, const std::string& none,
                                 const SourceLocation& where) {
         if (!texturing || !textured(material) || none.empty()) return;
-        throw SceneError(where, "this shape's material has a \"texture reflectance\", which "
-                                "needs texture coordinates, and cbdpt gives none to " +
+        throw SceneError(where, "this shape's material has a \"texture reflectance\" or a "
+                                "\"normalmap\", which needs texture coordinates, and cbdpt "
+                                "gives none to " +
                                     none);
     };
     for (const auto& mesh : desc.meshes) {
@@ -614,6 +628,9 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         }
     }
     for (const auto& sphere : desc.spheres) {
+        if (sphere.material >= 0 && desc.materials[size_t(sphere.material)].normalMap >= 0)
+            throw SceneError(sphere.where, "this sphere's material has a \"normalmap\"; cbdpt "
+                                           "applies normal maps to triangle meshes only");
         cbk::Primitive prim{};
         prim.kind = CB_PRIM_SPHERE;
         prim.material = sphere.material;
@@ -841,8 +858,10 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
             scene.textures.insert(scene.textures.end(), uv.begin(), uv.end());
         }
         scene.textures.insert(scene.textures.end(), images.begin(), images.end());
-        for (cbk::Material& m : scene.materials)
+        for (cbk::Material& m : scene.materials) {
             if (m.reflectanceTexture >= 0) m.reflectanceTexture += int(uvCount);
+            if (m.normalMap >= 0) m.normalMap += int(uvCount);
+        }
     }
     return scene;
 }
@@ -877,6 +896,7 @@ std::string DeviceScene::featureNames() const {
     add(CB_FEATURE_IMAGE_LIGHT, "image-light");
     add(CB_FEATURE_TEXTURE, "texture");
     add(CB_FEATURE_SHADING_NORMALS, "shading-normals");
+    add(CB_FEATURE_NORMAL_MAP, "normal-map");
     add(CB_FEATURE_THIN_LENS, "thin-lens");
     names += channels == 16 ? " spectral-16" : " rgb";
     return names;

@@ -1747,6 +1747,7 @@ class Parser {
                                           "thindielectric, diffusetransmission, coateddiffuse, "
                                           "coatedconductor, mix)");
         }
+        if (type != "mix") m.normalMap = normalMap(pl);
         pl.finish();
         scene_.materials.push_back(std::move(m));
         return static_cast<int>(scene_.materials.size()) - 1;
@@ -2313,6 +2314,40 @@ class Parser {
         tex.height = image.height;
         tex.rgb = std::move(image.rgb);
         return tex;
+    }
+
+    // A material's "string normalmap" (pbrt-v4 reads the image linear, whatever its format): an
+    // index into scene_.textures, one per file; -1 for none or "".
+    int normalMap(ParamList& pl) {
+        const Param* p = pl.peek("normalmap");
+        if (!p) return -1;
+        const std::string file = *pl.oneString("normalmap");
+        if (file.empty()) return -1;
+        const SourceLocation at = p->valueLoc(0);
+        const std::string path = findImageFile(file, at);
+        if (auto it = normalMaps_.find(path); it != normalMaps_.end()) return it->second;
+        TextureDesc tex;
+        tex.name = "normal map " + file;
+        tex.where = at;
+        tex.path = path;
+        ByteEncoding linear;
+        linear.srgb = false;
+        RgbImage image = readImageAt(path, at, linear);
+        if (image.width < 1 || image.height < 1)
+            throw SceneError(at, "normal map " + path + " has no pixels");
+        for (size_t i = 0; i < image.rgb.size(); ++i)
+            if (!std::isfinite(image.rgb[i]))
+                throw SceneError(at, fmt::format("normal map {} has {} at pixel ({}, {}); a "
+                                                 "normal map needs finite values",
+                                                 path, image.rgb[i], (i / 3) % size_t(image.width),
+                                                 (i / 3) / size_t(image.width)));
+        tex.width = image.width;
+        tex.height = image.height;
+        tex.rgb = std::move(image.rgb);
+        scene_.textures.push_back(std::move(tex));
+        const int index = int(scene_.textures.size()) - 1;
+        normalMaps_.emplace(path, index);
+        return index;
     }
 
     // "texture reflectance" of diffuse and coated diffuse materials: the named spectrum
@@ -3059,6 +3094,7 @@ class Parser {
         SourceLocation where;
     };
     std::map<std::string, NamedTexture> spectrumTextures_, floatTextures_;
+    std::map<std::string, int> normalMaps_; // image path -> index in scene_.textures
     bool textureFilteringDisabled_ = false; // Option "disabletexturefiltering" true
     std::set<std::string> notedKinds_;
     std::map<std::string, Mat4> namedCoordinateSystems_;

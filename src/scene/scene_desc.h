@@ -86,6 +86,9 @@ struct MaterialDesc {
     // diffuse and coated diffuse: "texture reflectance", an index into SceneDesc::textures that
     // replaces `reflectance`; -1: none
     int reflectanceTexture = -1;
+    // pbrt-v4's "string normalmap": an index into SceneDesc::textures (the image read linear);
+    // -1: none
+    int normalMap = -1;
     std::array<int, 2> mix{-1, -1}; // mix: indices into SceneDesc::materials
     float amount = 0.5f;            // mix: probability of choosing mix[1] (pbrt-v4 semantics)
     SourceLocation where;

@@ -70,6 +70,7 @@ void checkScene(const cb::SceneDesc& s) {
         if (!std::isfinite(m.eta) || !(m.eta > 0.f)) broken("eta");
         if (!(m.amount >= 0.f && m.amount <= 1.f)) broken("mix amount");
         checkIndex(m.reflectanceTexture, s.textures.size(), true, "reflectance texture");
+        checkIndex(m.normalMap, s.textures.size(), true, "normal map");
         if (m.kind == cb::MaterialKind::Mix)
             for (int i : m.mix) {
                 checkIndex(i, nm, false, "mix component index");
