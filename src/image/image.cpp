@@ -265,9 +265,6 @@ float srgbEncode(float linear) {
     linear = std::clamp(linear, 0.f, 1.f);
     return linear <= 0.0031308f ? 12.92f * linear : 1.055f * std::pow(linear, 1.f / 2.4f) - 0.055f;
 }
-float luminance(const float* rgb) {
-    return 0.2126f * rgb[0] + 0.7152f * rgb[1] + 0.0722f * rgb[2];
-}
 } // namespace
 
 std::vector<std::uint8_t> tonemapReinhard(const RgbImage& image, float key) {
@@ -276,19 +273,19 @@ std::vector<std::uint8_t> tonemapReinhard(const RgbImage& image, float key) {
     const double delta = 1e-6;
     double logSum = 0.0;
     for (size_t i = 0; i < n; ++i)
-        logSum += std::log(delta + std::max(0.f, luminance(&image.rgb[3 * i])));
+        logSum += std::log(delta + std::max(0.0, rec709Luminance(&image.rgb[3 * i])));
     const double logAverage = n ? std::exp(logSum / double(n)) : 1.0;
     const double scale = key / logAverage;
     double whiteSquared = 0.0;
     for (size_t i = 0; i < n; ++i) {
-        double l = scale * std::max(0.f, luminance(&image.rgb[3 * i]));
+        double l = scale * std::max(0.0, rec709Luminance(&image.rgb[3 * i]));
         whiteSquared = std::max(whiteSquared, l * l);
     }
     if (whiteSquared <= 0.0) whiteSquared = 1.0;
     std::vector<std::uint8_t> out(3 * n);
     for (size_t i = 0; i < n; ++i) {
         const float* px = &image.rgb[3 * i];
-        double lw = std::max(0.f, luminance(px));
+        double lw = std::max(0.0, rec709Luminance(px));
         double l = scale * lw;
         double ld = l * (1.0 + l / whiteSquared) / (1.0 + l); // eq. 4
         double ratio = lw > 0.0 ? ld / lw : 0.0;
