@@ -121,6 +121,20 @@ CB_FN real cbDiffuseReflectProbability(const SceneView* scene, Material m) {
 }
 #endif
 
+#if CB_HAS(CB_FEATURE_ROUGHNESS_TEXTURE)
+/* A material whose roughness is a float texture, with its GGX alpha at uv: the texture's value
+ * there, remapped as pbrt-v4's "remaproughness", kept at least 1e-3, the threshold below which
+ * the host would have made the lobe smooth (pbrt-v4 renders such points as a smooth lobe). */
+CB_FN Material materialRoughnessAt(const SceneView* scene, Material m, TexCoord uv) {
+    if (m.roughnessTexture < 0 || m.alpha == 0.0f) return m;
+    Vec3 rgb = textureRgb(scene, m.roughnessTexture, uv);
+    real roughness = fmax((rgb.x + rgb.y + rgb.z) * (1.0f / 3.0f), 0.0f);
+    real alpha = m.remapRoughness ? sqrt(roughness) : roughness;
+    m.alpha = fmax(alpha, 1e-3f);
+    return m;
+}
+#endif
+
 /* ---- Per-kind lobes, in the local frame flipped so that wo.z > 0 ----------------------------- */
 
 #if CB_HAS(CB_FEATURE_CONDUCTOR)
@@ -895,6 +909,9 @@ CB_FN Spectrum cbLobeEval(const SceneView* scene, Material m, TexCoord uv, Vec3 
                           bool entering, int adjoint, real* pdfFwd, real* pdfRev) {
     *pdfFwd = 0.0f;
     *pdfRev = 0.0f;
+#if CB_HAS(CB_FEATURE_ROUGHNESS_TEXTURE)
+    m = materialRoughnessAt(scene, m, uv);
+#endif
     (void)entering;
     (void)adjoint;
 #if CB_HAS(CB_FEATURE_DIFFUSE)
@@ -1006,6 +1023,9 @@ CB_FN bool cbLobeSample(const SceneView* scene, Material m, TexCoord uv, Vec3 wo
                         real u0, real u1, real uLobe, int adjoint, BsdfSample* out) {
     out->isDelta = 0;
     (void)uv;
+#if CB_HAS(CB_FEATURE_ROUGHNESS_TEXTURE)
+    m = materialRoughnessAt(scene, m, uv);
+#endif
 #if CB_HAS(CB_FEATURE_DIFFUSE)
     if (m.kind == CB_MAT_DIFFUSE) {
         Vec3 wi = sampleCosineHemisphere(u0, u1);

@@ -108,8 +108,9 @@ typedef struct SurfacePoint {
 #define CB_FEATURE_COATED_CONDUCTOR (1u << 16) /* pbrt-v4's layered "coatedconductor" */
 #define CB_FEATURE_IMAGE_LIGHT (1u << 17) /* an "infinite" light given by an equal-area image */
 #define CB_FEATURE_TEXTURE (1u << 18) /* a reflectance given by an image (pbrt-v4's "imagemap") */
-#define CB_FEATURE_SHADING_NORMALS (1u << 19) /* meshes with vertex normals (pbrt-v4's "N") */
-#define CB_FEATURE_NORMAL_MAP (1u << 20)      /* materials with pbrt-v4's "normalmap" */
+#define CB_FEATURE_SHADING_NORMALS (1u << 19)   /* meshes with vertex normals (pbrt-v4's "N") */
+#define CB_FEATURE_NORMAL_MAP (1u << 20)        /* materials with pbrt-v4's "normalmap" */
+#define CB_FEATURE_ROUGHNESS_TEXTURE (1u << 21) /* a GGX roughness given by a float texture */
 
 #ifndef CB_FEATURES
 #define CB_FEATURES 0xffffffffu
@@ -155,6 +156,12 @@ typedef struct Material {
     /* CB_FEATURE_NORMAL_MAP: the offset in `textures` of pbrt-v4's "normalmap", an image whose
      * texels 2 rgb - 1 are the shading normal in the tangent frame (cb_texture.h); -1: none. */
     int normalMap;
+    /* CB_FEATURE_ROUGHNESS_TEXTURE: the offset in `textures` of the float texture (the mean of
+     * its channels) that gives a conductor's, dielectric's or coat's roughness in place of the
+     * one `alpha` was made from, -1: none; and whether alpha = sqrt(roughness) (pbrt-v4's
+     * "remaproughness"). `alpha` then only says that the lobe is rough. */
+    int roughnessTexture;
+    int remapRoughness;
 } Material;
 
 /* ---- Lights ------------------------------------------------------------------------------- */

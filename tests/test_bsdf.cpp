@@ -61,6 +61,8 @@ struct TestScene {
         m.secondSpectrum = -1;
         m.layerAlbedo = -1;
         m.reflectanceTexture = -1;
+        m.normalMap = -1;
+        m.roughnessTexture = -1;
         materials.push_back(m);
         return static_cast<int>(materials.size()) - 1;
     }

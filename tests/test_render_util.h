@@ -1,10 +1,12 @@
 // Rendering helpers for statistical tests.
 #pragma once
 
+#include "cb_bvh_wide.h"
 #include "integrators/integrator.h"
 #include "scene/device_scene.h"
 
 #include <cmath>
+#include <optional>
 #include <vector>
 
 namespace cbtest {
@@ -24,6 +26,21 @@ inline cbk::SceneView hostView(const cb::DeviceScene& s) {
     v.shadingNormals = s.shadingNormals.data();
     v.lightCount = int(s.lights.size());
     return v;
+}
+
+// The surface point that a ray straight down (-z) from world point (x, y, z) finds in `view`
+// (the host view of `scene`, whose device coordinates are world minus scene.origin); none on a
+// miss.
+inline std::optional<cbk::SurfacePoint> surfaceBelow(const cb::DeviceScene& scene,
+                                                     const cbk::SceneView& view, double x, double y,
+                                                     double z) {
+    cbk::Ray ray;
+    ray.o = cbk::vec3(float(x - scene.origin[0]), float(y - scene.origin[1]),
+                      float(z - scene.origin[2]));
+    ray.d = cbk::vec3(0.f, 0.f, -1.f);
+    cbk::Hit hit;
+    if (!cbk::sceneIntersect(&view, ray, CB_INFINITY, &hit)) return std::nullopt;
+    return cbk::surfacePointFromHit(&view, ray, hit);
 }
 
 struct PooledStats {

@@ -174,13 +174,9 @@ TEST_CASE("shading normals: the interpolated normal at hit points") {
                                                     : -0.95 + 1.9 * u01(rng);
             CAPTURE(X);
             CAPTURE(Y);
-            cbk::Ray ray;
-            ray.o = cbk::vec3(float(X - scene.origin[0]), float(Y - scene.origin[1]),
-                              float(3.0 - scene.origin[2]));
-            ray.d = cbk::vec3(0.f, 0.f, -1.f);
-            cbk::Hit hit;
-            REQUIRE(cbk::sceneIntersect(&view, ray, CB_INFINITY, &hit));
-            const cbk::SurfacePoint sp = cbk::surfacePointFromHit(&view, ray, hit);
+            const auto found = cbtest::surfaceBelow(scene, view, X, Y, 3.0);
+            REQUIRE(found);
+            const cbk::SurfacePoint& sp = *found;
             checkDirection({sp.ns.x, sp.ns.y, sp.ns.z}, probe.normal(X, Y), 1e-5);
             CHECK(cbk::vlength(sp.ns) == doctest::Approx(1.0).epsilon(1e-6));
             // pbrt-v4's FaceForward: the geometric normal on the shading normal's side.
@@ -310,13 +306,9 @@ TEST_CASE("normal maps: the mapped normal at hit points, and what is refused") {
     REQUIRE((scene.features & CB_FEATURE_NORMAL_MAP) != 0);
     const cbk::SceneView view = cbtest::hostView(scene);
     auto normalAt = [&](double X, double Y) {
-        cbk::Ray ray;
-        ray.o = cbk::vec3(float(X - scene.origin[0]), float(Y - scene.origin[1]),
-                          float(1.0 - scene.origin[2]));
-        ray.d = cbk::vec3(0.f, 0.f, -1.f);
-        cbk::Hit hit;
-        REQUIRE(cbk::sceneIntersect(&view, ray, CB_INFINITY, &hit));
-        const cbk::SurfacePoint sp = cbk::surfacePointFromHit(&view, ray, hit);
+        const auto found = cbtest::surfaceBelow(scene, view, X, Y, 1.0);
+        REQUIRE(found);
+        const cbk::SurfacePoint& sp = *found;
         CHECK(cbk::vdot(sp.ns, sp.ng) > 0.f);
         return std::array<double, 3>{sp.ns.x, sp.ns.y, sp.ns.z};
     };

@@ -132,8 +132,8 @@ TEST_CASE("image textures: the Texture directive, its parameters and what is ref
     // Textures cbdpt cannot render are an error only where a material uses one.
     const std::string unsupportedTextures =
         "Texture \"c\" \"spectrum\" \"dots\" \"float uscale\" "
-        "4\nTexture \"r\" \"float\" \"imagemap\" \"string filename\" "
-        "\"grey.png\"\n";
+        "4\nTexture \"r\" \"float\" \"wrinkled\" \"float roughness\" "
+        "0.3\n";
     CHECK_NOTHROW(parseInTemp("WorldBegin\n" + unsupportedTextures));
     const std::string usedDots = errorOf("WorldBegin\n" + unsupportedTextures +
                                          "Material \"diffuse\" \"texture reflectance\" \"c\"\n");
@@ -389,14 +389,10 @@ TEST_CASE("image textures: texture coordinates at hit points") {
             if (&probe == &probes[1]) Y = std::min(Y, 5.0 - X - 0.01); // inside the triangles
             if (&probe == &probes[4]) Y = std::min(Y, 20.0 - X - 0.01);
             const bool onSphere = &probe >= &probes[5];
-            cbk::Ray ray;
-            ray.o = cbk::vec3(float(X - scene.origin[0]), float(Y - scene.origin[1]),
-                              float(1.0 - scene.origin[2]));
             CAPTURE(onSphere);
-            ray.d = cbk::vec3(0.f, 0.f, -1.f);
-            cbk::Hit hit;
-            REQUIRE(cbk::sceneIntersect(&view, ray, CB_INFINITY, &hit));
-            const cbk::SurfacePoint sp = cbk::surfacePointFromHit(&view, ray, hit);
+            const auto found = cbtest::surfaceBelow(scene, view, X, Y, 1.0);
+            REQUIRE(found);
+            const cbk::SurfacePoint& sp = *found;
             const auto expected = probe.uv(X, Y);
             CAPTURE(X);
             CAPTURE(Y);
@@ -548,6 +544,32 @@ TEST_CASE("image textures: in a spectral scene, the texels' spectra" *
     }
 }
 
+// Two scenes that must render the same estimates (a texture of one value and that constant):
+// two estimates of `method` with the same seed, every pixel channel within `relative` of the
+// image mean, the image not black.
+void checkSameEstimates(const cb::DeviceScene& textured, const cb::DeviceScene& constant,
+                        const std::string& method, std::uint32_t seed, double relative,
+                        cb::ClRuntime& runtime) {
+    cb::IntegratorSettings settings = methodSettings(method);
+    settings.seed = seed;
+    auto a = cb::makeIntegrator(settings, textured, runtime);
+    auto b = cb::makeIntegrator(settings, constant, runtime);
+    std::vector<float> ra, rb;
+    double largest = 0.0, sum = 0.0;
+    for (std::uint32_t e = 0; e < 2; ++e) {
+        a->renderEstimate(e, ra);
+        b->renderEstimate(e, rb);
+        REQUIRE(ra.size() == rb.size());
+        for (size_t i = 0; i < ra.size(); ++i) {
+            largest = std::max(largest, double(std::fabs(ra[i] - rb[i])));
+            sum += rb[i];
+        }
+    }
+    CAPTURE(largest);
+    CHECK(sum > 0.0);
+    CHECK(largest <= relative * sum / double(ra.size()));
+}
+
 // A texture of one colour is that constant reflectance: the same image, estimate for estimate,
 // for the plain and the coated diffuse, in RGB (where the texel is the constant exactly).
 TEST_CASE("image textures: a one-colour texture renders as that constant reflectance" *
@@ -575,24 +597,7 @@ TEST_CASE("image textures: a one-colour texture renders as that constant reflect
         for (const std::string method : kMethods) {
             CAPTURE(material);
             CAPTURE(method);
-            cb::IntegratorSettings settings = methodSettings(method);
-            settings.seed = 11u;
-            auto a = cb::makeIntegrator(settings, textured, runtime);
-            auto b = cb::makeIntegrator(settings, constant, runtime);
-            std::vector<float> ra, rb;
-            double largest = 0.0, sum = 0.0;
-            for (std::uint32_t e = 0; e < 2; ++e) {
-                a->renderEstimate(e, ra);
-                b->renderEstimate(e, rb);
-                REQUIRE(ra.size() == rb.size());
-                for (size_t i = 0; i < ra.size(); ++i) {
-                    largest = std::max(largest, double(std::fabs(ra[i] - rb[i])));
-                    sum += rb[i];
-                }
-            }
-            CAPTURE(largest);
-            CHECK(sum > 0.0);
-            CHECK(largest <= 1e-5 * sum / double(ra.size()));
+            checkSameEstimates(textured, constant, method, 11u, 1e-5, runtime);
         }
     }
 }
@@ -712,5 +717,87 @@ TEST_CASE("image textures: constant, scale and checkerboard textures") {
             errorOf(defined + "Material \"diffuse\" \"texture reflectance\" \"x\"\n");
         CHECK(contains(error, ":7:"));
         CHECK(contains(error, message));
+    }
+}
+
+// pbrt-v4's "texture roughness": a float texture (the mean of an image's channels, or a
+// constant) as the GGX roughness of conductors, rough dielectrics and coats, looked up per hit.
+TEST_CASE("roughness textures: float textures, the materials that take them, the refusals") {
+    TempDirCleanup cleanup;
+    writeImage("rough.exr", 2, 1,
+               [](int x, int, int c) { return 0.1f * float(1 + x) + 0.1f * float(c); });
+    const cb::SceneDesc s = parseInTemp(
+        "WorldBegin\nTexture \"r\" \"float\" \"imagemap\" \"string filename\" \"rough.exr\"\n"
+        "Texture \"k\" \"float\" \"constant\" \"float value\" 0.25\n"
+        "Material \"conductor\" \"texture roughness\" \"r\"\n"
+        "Material \"dielectric\" \"texture uroughness\" \"k\" \"texture vroughness\" \"k\" "
+        "\"bool remaproughness\" false\n"
+        "Material \"coateddiffuse\" \"texture roughness\" \"k\"\n"
+        "Material \"coatedconductor\" \"texture interface.roughness\" \"r\"\n");
+    REQUIRE(s.textures.size() == 2);
+    CHECK(s.textures[0].rgb == std::vector<float>{0.1f, 0.2f, 0.3f, 0.2f, 0.3f, 0.4f});
+    CHECK(s.textures[1].rgb == std::vector<float>{0.25f, 0.25f, 0.25f});
+    REQUIRE(s.materials.size() == 4);
+    CHECK(s.materials[0].roughnessTexture == 0);
+    CHECK(s.materials[1].roughnessTexture == 1);
+    CHECK_FALSE(s.materials[1].remapRoughness);
+    CHECK(s.materials[2].roughnessTexture == 1);
+    CHECK(s.materials[3].roughnessTexture == 0);
+
+    const std::string k = "WorldBegin\nTexture \"k\" \"float\" \"constant\" \"float value\" 0.25\n"
+                          "Texture \"w\" \"float\" \"wrinkled\"\n";
+    for (const auto& [material, message] :
+         {std::pair{"\"coatedconductor\" \"texture conductor.roughness\" \"k\"",
+                    "a texture as \"conductor.roughness\" is not supported"},
+          std::pair{"\"conductor\" \"texture uroughness\" \"k\" \"texture vroughness\" \"r\"",
+                    "anisotropic roughness"},
+          std::pair{"\"conductor\" \"texture roughness\" \"k\" \"float uroughness\" 0.1",
+                    "is a number beside the texture"},
+          std::pair{"\"conductor\" \"texture roughness\" \"later\"",
+                    "no float texture \"later\" is defined before this material"},
+          std::pair{"\"conductor\" \"texture roughness\" \"w\"", "class \"wrinkled\""}}) {
+        CAPTURE(material);
+        const std::string error = errorOf(k + "Material " + material + "\n");
+        CHECK(contains(error, ":4:"));
+        CHECK(contains(error, message));
+    }
+}
+
+// A roughness texture of one value renders as that constant roughness: the same estimates, for
+// every textured kind and method (RGB; the texel is the value, so the kernels' alpha is the
+// host's up to the texture's bilinear weights' rounding).
+TEST_CASE("roughness textures: a one-value texture renders as that constant roughness" *
+          doctest::test_suite("statistical")) {
+    TempDirCleanup cleanup;
+    cb::ClRuntime runtime;
+    writeImage("flat.exr", 3, 3, [](int, int, int) { return 0.3f; });
+    for (const std::string material :
+         {"\"conductor\"", "\"conductor\" \"bool remaproughness\" false", "\"dielectric\"",
+          "\"coateddiffuse\"", "\"coatedconductor\""}) {
+        const std::string param =
+            material == "\"coatedconductor\"" ? "interface.roughness" : "roughness";
+        auto scene = [&](const std::string& roughness) {
+            return cb::buildDeviceScene(parseInTemp(
+                "LookAt 0 2 -3  0 0.3 0  0 1 0\nCamera \"perspective\" \"float fov\" 50\n"
+                "Film \"rgb\" \"integer xresolution\" 16 \"integer yresolution\" 16\n"
+                "WorldBegin\n" +
+                kDiskLight +
+                "Texture \"flat\" \"float\" \"imagemap\" \"string filename\" \"flat.exr\"\n"
+                "Material \"diffuse\" \"rgb reflectance\" [0.6 0.5 0.4]\n"
+                "Shape \"bilinearmesh\" \"point3 P\" [-2 0 -2  2 0 -2  -2 0 2  2 0 2]\n"
+                "Material " +
+                material + " " + roughness +
+                "\nShape \"bilinearmesh\" \"point3 P\" [-2 0 1  2 0 1  -2 2 1  2 2 1]\n"
+                "Shape \"trianglemesh\" \"point3 P\" [-0.5 0.2 0  0.5 0.2 0  0 1 -0.3]\n"));
+        };
+        const cb::DeviceScene textured = scene("\"texture " + param + "\" \"flat\"");
+        const cb::DeviceScene constant = scene("\"float " + param + "\" 0.3");
+        REQUIRE((textured.features & CB_FEATURE_ROUGHNESS_TEXTURE) != 0);
+        REQUIRE((constant.features & CB_FEATURE_ROUGHNESS_TEXTURE) == 0);
+        for (const std::string method : kMethods) {
+            CAPTURE(material);
+            CAPTURE(method);
+            checkSameEstimates(textured, constant, method, 7u, 1e-4, runtime);
+        }
     }
 }

@@ -109,6 +109,8 @@ template <class Visit> void forEachField(cbk::Material& s, Visit&& visit) {
     visit(s.layerG);
     visit(s.reflectanceTexture);
     visit(s.normalMap);
+    visit(s.roughnessTexture);
+    visit(s.remapRoughness);
 }
 template <class Visit> void forEachField(cbk::Light& s, Visit&& visit) {
     visit(s.kind);

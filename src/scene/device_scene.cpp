@@ -17,7 +17,7 @@
 namespace cb {
 
 static_assert(sizeof(cbk::Primitive) == 48, "Primitive must match the OpenCL layout");
-static_assert(sizeof(cbk::Material) == 64, "Material must match the OpenCL layout");
+static_assert(sizeof(cbk::Material) == 72, "Material must match the OpenCL layout");
 static_assert(sizeof(cbk::Light) == 108, "Light must match the OpenCL layout");
 static_assert(sizeof(cbk::Camera) == 128, "Camera must match the OpenCL layout");
 
@@ -382,9 +382,12 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
     auto textured = [&](int m) {
         if (m < 0) return false;
         const MaterialDesc& md = desc.materials[size_t(m)];
-        bool any = md.reflectanceTexture >= 0 || md.normalMap >= 0;
+        auto uses = [](const MaterialDesc& d) {
+            return d.reflectanceTexture >= 0 || d.normalMap >= 0 || d.roughnessTexture >= 0;
+        };
+        bool any = uses(md);
         for (int c : md.mix)
-            any = any || (c >= 0 && desc.materials[size_t(c)].reflectanceTexture >= 0);
+            any = any || (c >= 0 && uses(desc.materials[size_t(c)]));
         return any;
     };
     std::vector<float> images;
@@ -428,11 +431,22 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         out.layerAlbedo = -1;
         out.reflectanceTexture = -1;
         out.normalMap = -1;
+        out.roughnessTexture = -1;
+        out.remapRoughness = m.remapRoughness ? 1 : 0;
         // GGX alpha of conductors, dielectrics and coats; pbrt-v4 maps roughness r to sqrt(r).
         auto ggxAlpha = [&m](float roughness) {
             return m.remapRoughness ? std::sqrt(std::max(roughness, 0.f)) : roughness;
         };
-        const float alpha = ggxAlpha(m.roughness);
+        float alpha = ggxAlpha(m.roughness);
+        if (m.roughnessTexture >= 0) {
+            // The lobe is rough: the kernels look alpha up per hit (materialRoughnessAt), at
+            // least 1e-3, which is what alpha holds here.
+            alpha = 1e-3f;
+            if (materialUsed[i]) {
+                out.roughnessTexture = addTexture(m.roughnessTexture);
+                scene.features |= CB_FEATURE_TEXTURE | CB_FEATURE_ROUGHNESS_TEXTURE;
+            }
+        }
         switch (m.kind) {
         case MaterialKind::Diffuse:
             out.kind = CB_MAT_DIFFUSE;
@@ -861,6 +875,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         for (cbk::Material& m : scene.materials) {
             if (m.reflectanceTexture >= 0) m.reflectanceTexture += int(uvCount);
             if (m.normalMap >= 0) m.normalMap += int(uvCount);
+            if (m.roughnessTexture >= 0) m.roughnessTexture += int(uvCount);
         }
     }
     return scene;
@@ -897,6 +912,7 @@ std::string DeviceScene::featureNames() const {
     add(CB_FEATURE_TEXTURE, "texture");
     add(CB_FEATURE_SHADING_NORMALS, "shading-normals");
     add(CB_FEATURE_NORMAL_MAP, "normal-map");
+    add(CB_FEATURE_ROUGHNESS_TEXTURE, "roughness-texture");
     add(CB_FEATURE_THIN_LENS, "thin-lens");
     names += channels == 16 ? " spectral-16" : " rgb";
     return names;

@@ -1544,10 +1544,20 @@ class Parser {
     // pbrt-v4's "roughness", or "uroughness" and "vroughness" (defaulting to "roughness", which
     // defaults to 0; cbdpt's GGX is isotropic, so the two must be equal), and "remaproughness";
     // a coated conductor's names begin with "interface." or "conductor.".
-    static void readRoughness(ParamList& pl, MaterialDesc& m, const std::string& prefix = "",
-                              float MaterialDesc::*field = &MaterialDesc::roughness) {
+    void readRoughness(ParamList& pl, MaterialDesc& m, const std::string& prefix = "",
+                       float MaterialDesc::*field = &MaterialDesc::roughness) {
         const std::string name = prefix + "roughness", uName = prefix + "uroughness",
                           vName = prefix + "vroughness";
+        if (const int texture = roughnessTexture(pl, {name, uName, vName}); texture >= 0) {
+            if (field != &MaterialDesc::roughness)
+                throw SceneError(pl.peek(name) ? pl.peek(name)->where : pl.peek(uName)->where,
+                                 "a texture as \"" + name +
+                                     "\" is not supported (cbdpt reads a float texture as the "
+                                     "roughness of a conductor, a dielectric or a coat)");
+            m.roughnessTexture = texture;
+            if (auto remap = pl.oneBool("remaproughness")) m.remapRoughness = *remap;
+            return;
+        }
         const Param* pr = pl.peek(name);
         const std::optional<double> rough = pl.oneFloat(name);
         const std::optional<double> ur = pl.oneFloat(uName);
@@ -1571,6 +1581,36 @@ class Parser {
         }
         m.*field = static_cast<float>(u);
         if (auto remap = pl.oneBool("remaproughness")) m.remapRoughness = *remap;
+    }
+
+    // pbrt-v4's "texture roughness" (or "texture uroughness" and "vroughness", which must name one
+    // texture: cbdpt's lobes are isotropic): the float texture's index in scene_.textures, -1
+    // where none of `names` is a texture. A number beside the texture is an error.
+    int roughnessTexture(ParamList& pl, const std::array<std::string, 3>& names) {
+        const Param* first = nullptr;
+        std::string texture;
+        for (const std::string& n : names) {
+            const Param* p = pl.peek(n);
+            if (!p || p->type != "texture") continue;
+            const std::string t = *pl.oneTexture(n);
+            if (first && t != texture)
+                throw SceneError(p->where, "anisotropic roughness (\"" + first->name + "\" and \"" +
+                                               n + "\" name two textures) is not supported");
+            if (!first) first = p, texture = t;
+        }
+        if (!first) return -1;
+        for (const std::string& n : names)
+            if (const Param* p = pl.peek(n); p && p->type != "texture")
+                throw SceneError(p->where, "\"" + n + "\" is a number beside the texture of \"" +
+                                               first->name + "\"; give one or the other");
+        const SourceLocation at = first->valueLoc(0);
+        const auto it = floatTextures_.find(texture);
+        if (it == floatTextures_.end())
+            throw SceneError(at, "no float texture \"" + texture +
+                                     "\" is defined before this material (cbdpt reads a texture "
+                                     "roughness from a Texture defined before the material)");
+        if (it->second.index < 0) throw SceneError(at, it->second.unsupported);
+        return it->second.index;
     }
 
     // A dielectric's, thin dielectric's or coat's "float eta" (pbrt-v4's default 1.5; a coated
@@ -1622,7 +1662,7 @@ class Parser {
 
     // pbrt-v4's "coateddiffuse": a diffuse base under a dielectric coat, smooth or rough, with a
     // layer between them that absorbs (cb_bsdf.h). cbdpt's layer does not scatter.
-    static void readCoatedDiffuse(ParamList& pl, MaterialDesc& m) {
+    void readCoatedDiffuse(ParamList& pl, MaterialDesc& m) {
         m.kind = MaterialKind::CoatedDiffuse;
         if (m.reflectanceTexture == -1)
             if (auto r = pl.spectrum("reflectance", SpectrumRole::Reflectance)) m.reflectance = *r;
@@ -1633,7 +1673,7 @@ class Parser {
 
     // pbrt-v4's "coatedconductor": a conductor, smooth or rough, under a dielectric coat,
     // smooth or rough, the layer between them as coateddiffuse's.
-    static void readCoatedConductor(ParamList& pl, MaterialDesc& m) {
+    void readCoatedConductor(ParamList& pl, MaterialDesc& m) {
         m.kind = MaterialKind::CoatedConductor;
         readConductorSpectra(pl, m, "coatedconductor", "conductor.");
         readEta(pl, m, "interface.eta");
@@ -2059,6 +2099,7 @@ class Parser {
                           "\"constant\", \"scale\", \"mix\" and \"checkerboard\" only";
         std::optional<TextureDesc> made;
         if (type.text == "spectrum") made = spectrumTexture(cls.text, pl, name.text, t.where, why);
+        if (type.text == "float") made = floatTexture(cls.text, pl, name.text, t.where, why);
         if (made) {
             made->name = name.text;
             made->where = t.where;
@@ -2085,6 +2126,28 @@ class Parser {
         if (cls == "scale") return scaledTexture(pl, why);
         if (cls == "mix") return mixTexture(pl, why);
         if (cls == "checkerboard") return checkerboardTexture(pl, why);
+        return std::nullopt;
+    }
+
+    // A float texture of class `cls` as an image texture whose value is the mean of its texels'
+    // channels (pbrt-v4's bilinear float lookup of an RGB image), or none with *why set.
+    std::optional<TextureDesc> floatTexture(const std::string& cls, ParamList& pl,
+                                            const std::string& name, const SourceLocation& where,
+                                            std::string& why) {
+        why = "cbdpt renders \"float\" textures of class \"imagemap\" and \"constant\" only";
+        if (cls == "imagemap") return readImageTexture(pl, name, where);
+        if (cls == "constant") {
+            if (const Param* p = pl.peek("value"); p && p->type == "texture") {
+                why = "its \"texture value\" is a texture, where cbdpt needs a number";
+                return std::nullopt;
+            }
+            const float value = float(pl.oneFloat("value").value_or(1.0));
+            pl.finish();
+            TextureDesc tex;
+            tex.width = tex.height = 1;
+            tex.rgb.assign(3, value);
+            return tex;
+        }
         return std::nullopt;
     }
 

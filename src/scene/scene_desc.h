@@ -89,6 +89,9 @@ struct MaterialDesc {
     // pbrt-v4's "string normalmap": an index into SceneDesc::textures (the image read linear);
     // -1: none
     int normalMap = -1;
+    // conductor, dielectric and coats: "texture roughness" (or u/v roughness naming one float
+    // texture), an index into SceneDesc::textures that replaces `roughness`; -1: none
+    int roughnessTexture = -1;
     std::array<int, 2> mix{-1, -1}; // mix: indices into SceneDesc::materials
     float amount = 0.5f;            // mix: probability of choosing mix[1] (pbrt-v4 semantics)
     SourceLocation where;

@@ -71,6 +71,7 @@ void checkScene(const cb::SceneDesc& s) {
         if (!(m.amount >= 0.f && m.amount <= 1.f)) broken("mix amount");
         checkIndex(m.reflectanceTexture, s.textures.size(), true, "reflectance texture");
         checkIndex(m.normalMap, s.textures.size(), true, "normal map");
+        checkIndex(m.roughnessTexture, s.textures.size(), true, "roughness texture");
         if (m.kind == cb::MaterialKind::Mix)
             for (int i : m.mix) {
                 checkIndex(i, nm, false, "mix component index");
