@@ -198,7 +198,8 @@ TEST_CASE("image textures: the Texture directive, its parameters and what is ref
             deviceScene(textured + shape + "\n");
             FAIL("a textured " << shape << " was accepted");
         } catch (const cb::SceneError& e) {
-            CHECK(contains(e.what(), "texture reflectance"));
+            CHECK(contains(e.what(), "a texture (its reflectance"));
+            CHECK(contains(e.what(), "needs texture coordinates"));
             CHECK(contains(e.what(), message));
         }
         // Untextured, the same shape renders.
@@ -761,6 +762,18 @@ TEST_CASE("roughness textures: float textures, the materials that take them, the
         CHECK(contains(error, ":4:"));
         CHECK(contains(error, message));
     }
+    // A disk has no (u, v) in cbdpt to look the roughness up at.
+    std::string diskError;
+    try {
+        cb::buildDeviceScene(parseInTemp(
+            k + "LightSource \"infinite\"\nMaterial \"conductor\" \"texture roughness\" \"k\"\n"
+                "Shape \"disk\"\n"));
+    } catch (const cb::SceneError& e) {
+        diskError = e.what();
+    }
+    CHECK(contains(diskError, ":6:"));
+    CHECK(contains(diskError, "its roughness"));
+    CHECK(contains(diskError, "needs texture coordinates"));
 }
 
 // A roughness texture of one value renders as that constant roughness: the same estimates, for

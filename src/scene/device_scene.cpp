@@ -588,9 +588,9 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
     auto requireTexCoords = [&](int material, const std::string& none,
                                 const SourceLocation& where) {
         if (!texturing || !textured(material) || none.empty()) return;
-        throw SceneError(where, "this shape's material has a \"texture reflectance\" or a "
-                                "\"normalmap\", which needs texture coordinates, and cbdpt "
-                                "gives none to " +
+        throw SceneError(where, "this shape's material has a texture (its reflectance, its "
+                                "roughness or a \"normalmap\"), which needs texture "
+                                "coordinates, and cbdpt gives none to " +
                                     none);
     };
     for (const auto& mesh : desc.meshes) {
