@@ -1,9 +1,10 @@
 /* bdpt.cl - bidirectional path tracing (docs/method.md, BDPT). One work-item per pixel, work-groups
  * are square pixel tiles: each pixel traces a light subpath and an eye subpath into private
  * arrays and combines every (s,t) allowed by the caps. Light-tracing (t = 1) contributions land
- * in other pixels: each pixel records its own (one slot per light vertex, target pixel and
- * RGB) and the host adds them in pixel order, so an estimate is the same bits however the
- * work-items were scheduled (atomic float adds would sum in a different order each run). */
+ * in other pixels: each pixel records its own (one slot per light vertex: raster point and RGB)
+ * and the host adds them, through the pixel filter, in pixel order, so an estimate is the same
+ * bits however the work-items were scheduled (atomic float adds would sum in a different order
+ * each run). */
 #include "cb_bdpt.h"
 #include "cb_kernel.h"
 
@@ -20,9 +21,9 @@
  * function was inlined). */
 static void bdptRenderPixel(const SceneView* scene, const Camera* camera,
                             const BdptSettings* settings, const SamplerSettings* sampler,
-                            uint estimate, __global const float* toRgb, __global int* splatTarget,
-                            __global float* splatRgb, __global float* outRgb, CB_COUNTER_PARAMS,
-                            int x, int y) {
+                            uint estimate, __global const float* toRgb, __global int* splatUsed,
+                            __global float* splatRaster, __global float* splatRgb,
+                            __global float* outRgb, CB_COUNTER_PARAMS, int x, int y) {
     uint pixel = (uint)(y * camera->width + x);
     int rays = 0;
     PathVertex light[CB_MAX_LIGHT_VERTICES];
@@ -32,7 +33,7 @@ static void bdptRenderPixel(const SceneView* scene, const Camera* camera,
         settings->lightVertices, light, &rays);
     SampleStream eyeStream = samplerStream(*sampler, estimate, pixel);
     float rasterX, rasterY;
-    cameraJitteredRaster(eyeStream, x, y, &rasterX, &rasterY);
+    cameraSampleRaster(camera, eyeStream, x, y, &rasterX, &rasterY);
     int nEye = bdptEyeSubpath(scene, camera, rasterX, rasterY, true, eyeStream,
                               settings->eyeVertices, eye, &rays);
 
@@ -40,7 +41,7 @@ static void bdptRenderPixel(const SceneView* scene, const Camera* camera,
     int nonFinite = 0;
     const uint splatBase = pixel * (uint)CB_MAX_LIGHT_VERTICES;
     for (int k = 0; k < CB_MAX_LIGHT_VERTICES; ++k)
-        splatTarget[splatBase + (uint)k] = -1;
+        splatUsed[splatBase + (uint)k] = 0;
     for (int t = 1; t <= nEye; ++t) {
         PathVertex nee[1]; /* s = 1's own light point for eye[t-1] */
         bool haveNee = bdptNeeLightVertex(scene, eyeStream, eye, t, nee);
@@ -56,11 +57,11 @@ static void bdptRenderPixel(const SceneView* scene, const Camera* camera,
             }
             if (t == 1) {
                 Vec3 rgb = specToRgb(c, toRgb);
-                int px = min((int)rx, camera->width - 1);
-                int py = min((int)ry, camera->height - 1);
                 /* s >= 1 when t = 1: slot s - 1 of this pixel's light vertices. */
                 const uint slot = splatBase + (uint)(s - 1);
-                splatTarget[slot] = py * camera->width + px;
+                splatUsed[slot] = 1;
+                splatRaster[2 * slot + 0] = rx;
+                splatRaster[2 * slot + 1] = ry;
                 splatRgb[3 * slot + 0] = rgb.x;
                 splatRgb[3 * slot + 1] = rgb.y;
                 splatRgb[3 * slot + 2] = rgb.z;
@@ -73,10 +74,10 @@ static void bdptRenderPixel(const SceneView* scene, const Camera* camera,
 }
 
 __kernel void renderBdpt(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings), uint estimate,
-                         __global int* splatTarget, __global float* splatRgb,
-                         __global float* outRgb, CB_COUNTER_PARAMS) {
+                         __global int* splatUsed, __global float* splatRaster,
+                         __global float* splatRgb, __global float* outRgb, CB_COUNTER_PARAMS) {
     CB_PIXEL_KERNEL_BEGIN(x, y, scene);
     const BdptSettings settingsCopy = bdptSettingsCopy(settings);
-    bdptRenderPixel(&scene, &camera, &settingsCopy, &samplerCopy, estimate, toRgb, splatTarget,
-                    splatRgb, outRgb, CB_COUNTERS, x, y);
+    bdptRenderPixel(&scene, &camera, &settingsCopy, &samplerCopy, estimate, toRgb, splatUsed,
+                    splatRaster, splatRgb, outRgb, CB_COUNTERS, x, y);
 }

@@ -3,6 +3,7 @@
 #ifndef CB_CAMERA_H
 #define CB_CAMERA_H
 
+#include "cb_filter.h"
 #include "cb_rng.h"
 #include "cb_sampling.h"
 #include "cb_types.h"
@@ -64,18 +65,20 @@ CB_FN Ray cameraGenerateRay(const Camera* camera, real rasterX, real rasterY, Ve
     return ray;
 }
 
-/* Where pixel (x, y)'s sample lands on the film: the pixel's corner plus the jitter read from
- * dimensions CB_DIM_PIXEL and CB_DIM_PIXEL + 1 of its sample stream (one sample per pixel,
- * box filter: docs/method.md). Shared vectors (CPT, CBDPT) share the jitter too. */
-CB_FN void cameraJitteredRaster(SampleStream stream, int x, int y, real* rasterX, real* rasterY) {
-    real jitterX, jitterY;
-    sampleAt2(stream, CB_DIM_PIXEL, &jitterX, &jitterY);
-    *rasterX = (real)x + jitterX;
-    *rasterY = (real)y + jitterY;
+/* Where pixel (x, y)'s sample lands on the film: drawn from the pixel's filter (cb_filter.h; the
+ * box of radius 0.5: its corner plus the jitter) by dimensions CB_DIM_PIXEL and CB_DIM_PIXEL + 1
+ * of its sample stream (docs/method.md). Shared vectors (CPT, CBDPT) share the offset too. */
+CB_FN void cameraSampleRaster(const Camera* camera, SampleStream stream, int x, int y,
+                              real* rasterX, real* rasterY) {
+    real u0, u1;
+    sampleAt2(stream, CB_DIM_PIXEL, &u0, &u1);
+    *rasterX = filterPixelSample(camera, 0, x, u0);
+    *rasterY = filterPixelSample(camera, 1, y, u1);
 }
 
 /* Raster position of a world point seen from the world point `lens` on the lens (the camera
- * position for a pinhole), if it lies in front of the camera and inside the image: for a thin
+ * position for a pinhole), if it lies in front of the camera where some pixel's filter reaches
+ * (the image for the box of radius 0.5, filterReaches): for a thin
  * lens, where the ray from the lens point through p meets the plane of focus, projected through
  * the lens centre (pbrt-v4's PerspectiveCamera::We). */
 CB_FN bool cameraProjectPoint(const Camera* camera, Vec3 lens, Vec3 p, real* rasterX,
@@ -95,8 +98,7 @@ CB_FN bool cameraProjectPoint(const Camera* camera, Vec3 lens, Vec3 p, real* ras
     real sy = (c.y - camera->screenCenterY * c.z) / (c.z * camera->tanHalfFovY);
     *rasterX = (sx + 1.0f) * 0.5f * (real)camera->width;
     *rasterY = (1.0f - sy) * 0.5f * (real)camera->height;
-    return *rasterX >= 0.0f && *rasterX < (real)camera->width && *rasterY >= 0.0f &&
-           *rasterY < (real)camera->height;
+    return filterReaches(camera, *rasterX, *rasterY);
 }
 
 CB_END_NAMESPACE

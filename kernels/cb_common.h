@@ -49,6 +49,7 @@ typedef std::uint64_t ulong;
 using std::atan2;
 using std::copysign;
 using std::cos;
+using std::erf;
 using std::exp;
 using std::fabs;
 using std::floor;

@@ -210,10 +210,11 @@ CB_FN SampleStream ptPixelStream(SamplerSettings sampler, uint estimate, int str
     return samplerStreamShared(sampler, estimate, stream, sharedSamples, sharedDimensions);
 }
 
-/* The camera ray of pixel (x, y), jittered (and through the lens) by the pixel's sample stream. */
+/* The camera ray of pixel (x, y), placed by its filter (and through the lens) by the pixel's
+ * sample stream. */
 CB_FN Ray ptCameraRay(const Camera* camera, SampleStream samples, int x, int y) {
     real rasterX, rasterY;
-    cameraJitteredRaster(samples, x, y, &rasterX, &rasterY);
+    cameraSampleRaster(camera, samples, x, y, &rasterX, &rasterY);
     return cameraGenerateRay(camera, rasterX, rasterY,
                              cameraStreamLensPoint(camera, samples, CB_DIM_LENS));
 }

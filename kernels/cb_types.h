@@ -111,6 +111,7 @@ typedef struct SurfacePoint {
 #define CB_FEATURE_SHADING_NORMALS (1u << 19)   /* meshes with vertex normals (pbrt-v4's "N") */
 #define CB_FEATURE_NORMAL_MAP (1u << 20)        /* materials with pbrt-v4's "normalmap" */
 #define CB_FEATURE_ROUGHNESS_TEXTURE (1u << 21) /* a GGX roughness given by a float texture */
+#define CB_FEATURE_PIXEL_FILTER (1u << 22)      /* any pixel filter but the box of radius 0.5 */
 
 #ifndef CB_FEATURES
 #define CB_FEATURES 0xffffffffu
@@ -223,7 +224,19 @@ typedef struct Camera {
      * focalDistance (camera space); radius 0 is the pinhole (CB_FEATURE_THIN_LENS). */
     real lensRadius;
     real focalDistance;
+    /* pbrt-v4's PixelFilter (cb_filter.h): CB_FILTER_*, its radii in pixels, the gaussian's
+     * standard deviation and 1 / the filter's integral. The box of radius 0.5 (one pixel) needs
+     * no CB_FEATURE_PIXEL_FILTER. */
+    int filterType;
+    real filterRadiusX;
+    real filterRadiusY;
+    real filterSigma;
+    real filterNormalization;
 } Camera;
+
+#define CB_FILTER_BOX 0
+#define CB_FILTER_TRIANGLE 1
+#define CB_FILTER_GAUSSIAN 2
 
 CB_FN Vec3 affineTransformPoint(const real* m, Vec3 p) {
     return vec3(m[0] * p.x + m[1] * p.y + m[2] * p.z + m[3],

@@ -83,7 +83,7 @@ cbdptRenderPixel(const SceneView* scene, const Camera* camera, const BdptSetting
     CB_CBDPT_PIXEL_LIGHT(sampler, x, y, light, nLight, eyeStream);
     PathVertex eye[CB_MAX_EYE_VERTICES];
     float rasterX, rasterY;
-    cameraJitteredRaster(eyeStream, x, y, &rasterX, &rasterY);
+    cameraSampleRaster(camera, eyeStream, x, y, &rasterX, &rasterY);
     int nEye = bdptEyeSubpath(scene, camera, rasterX, rasterY, true, eyeStream,
                               settings->eyeVertices, eye, &rays);
 

@@ -55,7 +55,7 @@ __kernel void renderCoherentBdpt(CB_CBDPT_PARAMS, int tile, __global PathVertex*
             samplerCopy, estimate, (uint)((y % streamTile) * streamTile + x % streamTile),
             sharedSamples, sharedDimensions);
         float rasterX, rasterY;
-        cameraJitteredRaster(eyeStream, x, y, &rasterX, &rasterY);
+        cameraSampleRaster(&camera, eyeStream, x, y, &rasterX, &rasterY);
         PathVertex eye0[1];
         real pdfDir;
         rays[i] =

@@ -2,17 +2,18 @@
  * docs/method.md, MLT).
  *
  * A state is a vector u of primary samples in [0,1)^D: the eye stream's dimensions first
- * (CB_MLT_EYE_DIMS, BDPT's eye layout except that dims 0-1 place the sample anywhere on the
- * film instead of jittering inside one pixel), then the light stream's (CB_MLT_LIGHT_DIMS, BDPT's
- * light layout). Connections draw no random numbers, so the two streams are all there is, and a
- * mutation of one leaves the other's decisions where they were (separate random streams).
- * The path code (cb_bdpt.h) reads u through SampleStream's primary-sample table (cb_rng.h,
- * CB_PRIMARY_SAMPLES).
+ * (CB_MLT_EYE_DIMS, BDPT's eye layout except that dims 0-1 pick any pixel, and by what is left
+ * of them the film position in its filter, instead of a position in a given pixel), then the light
+ * stream's (CB_MLT_LIGHT_DIMS, BDPT's light layout). Connections draw no random numbers, so the two
+ * streams are all there is, and a mutation of one leaves the other's decisions where they were
+ * (separate random streams). The path code (cb_bdpt.h) reads u through SampleStream's
+ * primary-sample table (cb_rng.h, CB_PRIMARY_SAMPLES).
  *
  * The contribution F(u) of a state is BDPT's full estimate for that sample: the weighted sum of
- * every strategy with t >= 2 at the pixel under (u0 W, u1 H), plus every t = 1 strategy at the
- * pixel its light vertex projects to: a short list of (pixel, RGB) splats. The target density
- * is the scalar I(u) = luminance of the sum of the splats. Each chain is one work-item; its
+ * every strategy with t >= 2 for the pixel that (u0, u1) picks, plus every t = 1 strategy at the
+ * raster point its light vertex projects to, added to every pixel that point's filter reaches
+ * (cb_filter.h): a short list of splats. The target density is the scalar I(u) = luminance of
+ * the sum of the splats. Each chain is one work-item; its
  * state lives in private arrays during a launch and in __global buffers between launches. */
 #define CB_PRIMARY_SAMPLES
 #include "cb_atomics.h"
@@ -32,7 +33,8 @@
 #define CB_MLT_LIGHT_DIMS (CB_LIGHT_DIM_FIRST_BOUNCE + CB_DIMS_PER_BOUNCE * CB_MAX_LIGHT_VERTICES)
 #endif
 #define CB_MLT_DIMS (CB_MLT_EYE_DIMS + CB_MLT_LIGHT_DIMS)
-/* One splat at the sample's own pixel, one per t = 1 strategy (s = 2 .. Nl). */
+/* One splat at the sample's own pixel, one per t = 1 strategy (s = 2 .. Nl). A splat's pixel is
+ * -1 where it is a light-tracing one, given by its raster point through the pixel filter. */
 #define CB_MLT_MAX_SPLATS (CB_MAX_LIGHT_VERTICES + 1)
 
 #define CB_MLT_BOOTSTRAP_SALT 0x426f6f74u
@@ -48,6 +50,7 @@
 typedef struct MltSample {
     int count;
     int pixel[CB_MLT_MAX_SPLATS];
+    float raster[2 * CB_MLT_MAX_SPLATS];
     float rgb[3 * CB_MLT_MAX_SPLATS];
     float luminance; /* I(u); 0 when the sample contributes nothing */
 } MltSample;
@@ -57,17 +60,21 @@ static float mltLuminance(Vec3 rgb) {
     return 0.2126f * rgb.x + 0.7152f * rgb.y + 0.0722f * rgb.z;
 }
 
-static void mltAddSplat(MltSample* out, int pixel, Vec3 rgb) {
+static void mltAddSplat(MltSample* out, int pixel, float rasterX, float rasterY, Vec3 rgb) {
     int i = out->count++;
     out->pixel[i] = pixel;
+    out->raster[2 * i + 0] = rasterX;
+    out->raster[2 * i + 1] = rasterY;
     out->rgb[3 * i + 0] = rgb.x;
     out->rgb[3 * i + 1] = rgb.y;
     out->rgb[3 * i + 2] = rgb.z;
 }
 
 /* F(u) and I(u): BDPT for the primary sample vector u (bdpt.cl's combination, with the pixel
- * taken from u). Non-finite strategy results are dropped and counted as in BDPT. A sample whose
- * luminance is not positive gets I = 0 and no splats: it can never be a chain state. */
+ * taken from u: u0 W and u1 H pick it, their fractions its film position through its filter, as
+ * every other method's pixel samples, so that its estimate counts for that pixel alone). Non-finite
+ * strategy results are dropped and counted as in BDPT. A sample whose luminance is not positive
+ * gets I = 0 and no splats: it can never be a chain state. */
 static void mltEvaluate(const SceneView* scene, const Camera* camera, __global const float* toRgb,
                         BdptSettings settings, const float* u, MltSample* out, int* rays,
                         int* nonFinite) {
@@ -83,12 +90,15 @@ static void mltEvaluate(const SceneView* scene, const Camera* camera, __global c
     PathVertex light[CB_MAX_LIGHT_VERTICES];
     PathVertex eye[CB_MAX_EYE_VERTICES];
     int nLight = bdptLightSubpath(scene, lightStream, settings.lightVertices, light, rays);
-    float rasterX = u[CB_DIM_PIXEL] * (float)camera->width;
-    float rasterY = u[CB_DIM_PIXEL + 1u] * (float)camera->height;
+    const float filmX = u[CB_DIM_PIXEL] * (float)camera->width;
+    const float filmY = u[CB_DIM_PIXEL + 1u] * (float)camera->height;
+    const int px = min((int)filmX, camera->width - 1);
+    const int py = min((int)filmY, camera->height - 1);
+    /* The box of radius 0.5 gives px + (filmX - px) = filmX: the film position itself. */
+    const float rasterX = filterPixelSample(camera, 0, px, filmX - (float)px);
+    const float rasterY = filterPixelSample(camera, 1, py, filmY - (float)py);
     int nEye = bdptEyeSubpath(scene, camera, rasterX, rasterY, false, eyeStream,
                               settings.eyeVertices, eye, rays);
-    int px = min((int)rasterX, camera->width - 1);
-    int py = min((int)rasterY, camera->height - 1);
 
     Spectrum radiance = specZero();
     for (int t = 1; t <= nEye; ++t) {
@@ -105,9 +115,7 @@ static void mltEvaluate(const SceneView* scene, const Camera* camera, __global c
                 continue;
             }
             if (t == 1) {
-                int sx = min((int)rx, camera->width - 1);
-                int sy = min((int)ry, camera->height - 1);
-                mltAddSplat(out, sy * camera->width + sx, specToRgb(c, toRgb));
+                mltAddSplat(out, -1, rx, ry, specToRgb(c, toRgb));
             } else {
                 radiance = specAdd(radiance, c);
             }
@@ -119,7 +127,7 @@ static void mltEvaluate(const SceneView* scene, const Camera* camera, __global c
         rgb = vec3(0.0f, 0.0f, 0.0f);
     }
     if (rgb.x != 0.0f || rgb.y != 0.0f || rgb.z != 0.0f)
-        mltAddSplat(out, py * camera->width + px, rgb);
+        mltAddSplat(out, py * camera->width + px, rasterX, rasterY, rgb);
     float lum = 0.0f;
     for (int i = 0; i < out->count; ++i)
         lum += mltLuminance(vec3(out->rgb[3 * i], out->rgb[3 * i + 1], out->rgb[3 * i + 2]));
@@ -163,14 +171,18 @@ __kernel void mltBootstrap(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings), uint first
 }
 
 static void mltStoreState(__global float* state, __global float* chainLum, __global int* splatCount,
-                          __global int* splatPixel, __global float* splatRgb, uint chain,
-                          const float* u, const MltSample* s) {
+                          __global int* splatPixel, __global float* splatRaster,
+                          __global float* splatRgb, uint chain, const float* u,
+                          const MltSample* s) {
     for (uint d = 0u; d < CB_MLT_DIMS; ++d)
         state[chain * CB_MLT_DIMS + d] = u[d];
     chainLum[chain] = s->luminance;
     splatCount[chain] = s->count;
     for (int i = 0; i < s->count; ++i) {
         splatPixel[chain * CB_MLT_MAX_SPLATS + (uint)i] = s->pixel[i];
+        for (int a = 0; a < 2; ++a)
+            splatRaster[2u * (chain * CB_MLT_MAX_SPLATS + (uint)i) + (uint)a] =
+                s->raster[2 * i + a];
         for (int c = 0; c < 3; ++c)
             splatRgb[3u * (chain * CB_MLT_MAX_SPLATS + (uint)i) + (uint)c] = s->rgb[3 * i + c];
     }
@@ -181,7 +193,8 @@ static void mltStoreState(__global float* state, __global float* chainLum, __glo
 __kernel void mltSeedChains(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings), uint chains,
                             __global const uint* bootstrapIndex, __global float* state,
                             __global float* chainLum, __global int* splatCount,
-                            __global int* splatPixel, __global float* splatRgb) {
+                            __global int* splatPixel, __global float* splatRaster,
+                            __global float* splatRgb) {
     uint chain = (uint)get_global_id(0);
     if (chain >= chains) return;
     CB_SCENE_VIEW(scene);
@@ -191,17 +204,32 @@ __kernel void mltSeedChains(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings), uint chai
     MltSample sample;
     int rays = 0, nonFinite = 0;
     mltEvaluate(&scene, &camera, toRgb, settingsCopy, u, &sample, &rays, &nonFinite);
-    mltStoreState(state, chainLum, splatCount, splatPixel, splatRgb, chain, u, &sample);
+    mltStoreState(state, chainLum, splatCount, splatPixel, splatRaster, splatRgb, chain, u,
+                  &sample);
 }
 
-/* Adds weight * F / I of a state to the image. */
-static void mltSplat(volatile __global float* image, const MltSample* s, float weight) {
+/* Adds weight * F / I of a state to the image, light-tracing splats through the pixel filter. */
+static void mltSplat(volatile __global float* image, const Camera* camera, const MltSample* s,
+                     float weight) {
     if (!(weight > 0.0f) || !(s->luminance > 0.0f)) return;
     float scale = weight / s->luminance;
     for (int i = 0; i < s->count; ++i) {
-        uint p = (uint)s->pixel[i];
-        for (int c = 0; c < 3; ++c)
-            atomicAddFloat(&image[3u * p + (uint)c], scale * s->rgb[3 * i + c]);
+        if (s->pixel[i] >= 0) {
+            const uint p = (uint)s->pixel[i];
+            for (int c = 0; c < 3; ++c)
+                atomicAddFloat(&image[3u * p + (uint)c], scale * s->rgb[3 * i + c]);
+            continue;
+        }
+        const float rx = s->raster[2 * i], ry = s->raster[2 * i + 1];
+        int x0, x1, y0, y1;
+        filterFootprint(camera, rx, ry, &x0, &x1, &y0, &y1);
+        for (int y = y0; y <= y1; ++y)
+            for (int x = x0; x <= x1; ++x) {
+                const float share = scale * filterSplatWeight(camera, x, y, rx, ry);
+                const uint p = (uint)(y * camera->width + x);
+                for (int c = 0; c < 3; ++c)
+                    atomicAddFloat(&image[3u * p + (uint)c], share * s->rgb[3 * i + c]);
+            }
     }
 }
 
@@ -217,9 +245,9 @@ static void mltSplat(volatile __global float* image, const MltSample* s, float w
 __kernel void mltAdvance(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings), uint chains, uint firstStep,
                          int mutations, float largeStepProbability, float s1, float s2,
                          __global float* state, __global float* chainLum, __global int* splatCount,
-                         __global int* splatPixel, __global float* splatRgb,
-                         volatile __global float* image, __global float* largeSum,
-                         __global uint* stats, CB_COUNTER_PARAMS) {
+                         __global int* splatPixel, __global float* splatRaster,
+                         __global float* splatRgb, volatile __global float* image,
+                         __global float* largeSum, __global uint* stats, CB_COUNTER_PARAMS) {
     uint chain = (uint)get_global_id(0);
     if (chain >= chains) return;
     CB_SCENE_VIEW(scene);
@@ -235,6 +263,9 @@ __kernel void mltAdvance(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings), uint chains,
     curSample.count = splatCount[chain];
     for (int i = 0; i < curSample.count; ++i) {
         curSample.pixel[i] = splatPixel[chain * CB_MLT_MAX_SPLATS + (uint)i];
+        for (int a = 0; a < 2; ++a)
+            curSample.raster[2 * i + a] =
+                splatRaster[2u * (chain * CB_MLT_MAX_SPLATS + (uint)i) + (uint)a];
         for (int c = 0; c < 3; ++c)
             curSample.rgb[3 * i + c] =
                 splatRgb[3u * (chain * CB_MLT_MAX_SPLATS + (uint)i) + (uint)c];
@@ -276,9 +307,9 @@ __kernel void mltAdvance(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings), uint chains,
             a = min(1.0f, propSample.luminance / curSample.luminance);
         }
         curWeight += 1.0f - a;
-        mltSplat(image, &propSample, a);
+        mltSplat(image, &camera, &propSample, a);
         if (mltUniform(key, 1u) < a) {
-            mltSplat(image, &curSample, curWeight);
+            mltSplat(image, &camera, &curSample, curWeight);
             curWeight = 0.0f;
             float* tmp = cur;
             cur = prop;
@@ -288,10 +319,11 @@ __kernel void mltAdvance(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings), uint chains,
             if (isLarge) largeAccepted += 1u;
         }
     }
-    mltSplat(image, &curSample, curWeight);
+    mltSplat(image, &camera, &curSample, curWeight);
     /* A zero current state (only if the bootstrap found nothing) splats nothing either way. */
 
-    mltStoreState(state, chainLum, splatCount, splatPixel, splatRgb, chain, cur, &curSample);
+    mltStoreState(state, chainLum, splatCount, splatPixel, splatRaster, splatRgb, chain, cur,
+                  &curSample);
     largeSum[chain] = sumLarge;
     stats[CB_MLT_STATS * chain + CB_MLT_STAT_ACCEPTED] = accepted;
     stats[CB_MLT_STATS * chain + CB_MLT_STAT_LARGE] = large;

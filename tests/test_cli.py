@@ -444,13 +444,13 @@ with tempfile.TemporaryDirectory() as tmp:
     # followed past the image's end.
     with open(os.path.join(root, "kernels", "bdpt.cl")) as f:
         bdpt = f.read()
-    splat = "splatTarget[slot] = py * camera->width + px;"
-    check(splat in bdpt, "bdpt.cl writes its splat targets as this test expects")
+    splat = "splatRaster[2 * slot + 0] = rx;"
+    check(splat in bdpt, "bdpt.cl writes its splat points as this test expects")
     with open(os.path.join(kernel_dir, "bdpt.cl"), "w") as f:
-        f.write(bdpt.replace(splat, "splatTarget[slot] = camera->width * camera->height + px;"))
+        f.write(bdpt.replace(splat, "splatRaster[2 * slot + 0] = (float)camera->width + 5.0f;"))
     r = run("render", scene, "-o", out, "--integrator", "bdpt", "--spp", "1", *small,
             env=dict(os.environ, CBDPT_KERNEL_DIR=kernel_dir))
-    check(r.returncode != 0 and "outside the image's 256 pixels" in r.stderr,
+    check(r.returncode != 0 and "outside the 16 x 16 image's pixel filters" in r.stderr,
           f"a splat outside the image is refused ({r.stderr.strip()[:300]})")
 
     # A file that is not a scene is named for what it is, and no message prints raw bytes.

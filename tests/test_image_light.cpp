@@ -307,7 +307,9 @@ cb::DeviceScene planeUnderSky(int fov, int half, cb::ChannelMode mode = cb::Chan
     return cb::buildDeviceScene(
         parseInTemp(fmt::format(
             "LookAt 0 1 0  0 0 0  0 0 1\nCamera \"perspective\" \"float fov\" {0}\n"
-            "Film \"rgb\" \"integer xresolution\" 16 \"integer yresolution\" 16\nWorldBegin\n"
+            // Each pixel its own area: at fov 90 the plane just fills the film.
+            "Film \"rgb\" \"integer xresolution\" 16 \"integer yresolution\" 16\n"
+            "PixelFilter \"box\"\nWorldBegin\n"
             "AttributeBegin\nRotate -90 1 0 0\nLightSource \"infinite\" \"string filename\" "
             "\"sky16.exr\" \"float scale\" 0.4\nAttributeEnd\n"
             "Material \"diffuse\" \"rgb reflectance\" [0.5 0.5 0.5]\n"
@@ -514,7 +516,8 @@ TEST_CASE("pbrt-v4 goniometric light: a diffuse plane below it, every method" *
     cb::ClRuntime runtime;
     const cb::DeviceScene scene = cb::buildDeviceScene(parseInTemp(
         "LookAt 0 3 0  0 0 0  0 0 1\nCamera \"perspective\" \"float fov\" 60\n"
-        "Film \"rgb\" \"integer xresolution\" 18 \"integer yresolution\" 18\nWorldBegin\n"
+        "Film \"rgb\" \"integer xresolution\" 18 \"integer yresolution\" 18\n"
+        "PixelFilter \"box\"\nWorldBegin\n" // the cells' pixels' own areas, as integrated below
         "AttributeBegin\nTranslate 0 1 0\nRotate 120 1 0 0\nRotate 30 0 1 0\n"
         "LightSource \"goniometric\" \"string filename\" \"gonio16.exr\" \"float scale\" 3\n"
         "AttributeEnd\nMaterial \"diffuse\" \"rgb reflectance\" [0.5 0.5 0.5]\n"

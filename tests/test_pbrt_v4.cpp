@@ -113,18 +113,10 @@ TEST_CASE("pbrt-v4: Integrator chooses the method and maxdepth") {
         contains(errorOf("Integrator \"path\" \"integer maxdepth\" -1\nWorldBegin\n"), "maxdepth"));
 }
 
-TEST_CASE("pbrt-v4: PixelFilter, ColorSpace, Option") {
-    auto s = parseSceneString("PixelFilter \"box\"\nColorSpace \"srgb\"\nWorldBegin\n", "t.pbrt");
+// PixelFilter: tests/test_pixel_filter.cpp.
+TEST_CASE("pbrt-v4: ColorSpace, Option") {
+    auto s = parseSceneString("ColorSpace \"srgb\"\nWorldBegin\n", "t.pbrt");
     CHECK(s.notes.empty());
-    s = parseSceneString("PixelFilter \"box\" \"float xradius\" 0.5 \"float yradius\" 0.5\n"
-                         "WorldBegin\n",
-                         "t.pbrt");
-    CHECK(s.notes.empty());
-    s = parseSceneString("PixelFilter \"gaussian\" \"float sigma\" 0.5\nWorldBegin\n", "t.pbrt");
-    REQUIRE(s.notes.size() == 1);
-    CHECK(contains(s.notes[0], "box filter"));
-    s = parseSceneString("PixelFilter \"box\" \"float xradius\" 1\nWorldBegin\n", "t.pbrt");
-    REQUIRE(s.notes.size() == 1);
     CHECK(contains(errorOf("ColorSpace \"aces2065-1\"\nWorldBegin\n"), "srgb"));
     s = parseSceneString("Option \"disablepixeljitter\" false\n"
                          "Option \"disable_pixel_jitter\" false\nWorldBegin\n",
@@ -1148,7 +1140,8 @@ TEST_CASE("pbrt-v4 conductor: a smooth eta, k plane under a constant sky has rad
         CAPTURE(c.material);
         const std::string text =
             "LookAt 0 1 0  0 0 0  0 0 1\nCamera \"perspective\" \"float fov\" 90\n"
-            "Film \"rgb\" \"integer xresolution\" 16 \"integer yresolution\" 16\nWorldBegin\n"
+            "Film \"rgb\" \"integer xresolution\" 16 \"integer yresolution\" 16\n"
+            "PixelFilter \"box\"\nWorldBegin\n" // the film's own area, which F's mean covers
             "LightSource \"infinite\" \"rgb L\" [0.8 0.8 0.8]\n"
             "Material \"conductor\" " +
             std::string(c.material) +
@@ -1569,6 +1562,7 @@ TEST_CASE("pbrt-v4 coateddiffuse and coatedconductor: a coated lid under a const
         const std::string text =
             "LookAt 0 1 0  0 0 0  0 0 1\nCamera \"perspective\" \"float fov\" 90\n"
             "Film \"rgb\" \"integer xresolution\" 16 \"integer yresolution\" 16\n"
+            "PixelFilter \"box\"\n" // the film's own area, which A's mean covers
             "WorldBegin\nLightSource \"infinite\" \"rgb L\" [0.8 0.8 0.8]\n"
             "Material \"diffuse\" \"rgb reflectance\" [0 0 0]\n"
             "Shape \"trianglemesh\" \"point3 P\" [-2 -1 -2  2 -1 -2  2 -1 2  -2 -1 2  "

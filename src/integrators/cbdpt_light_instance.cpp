@@ -84,14 +84,19 @@ class LightTracer final : public CbdptLightTracer {
                         continue;
                     }
                     cbk::Vec3 rgb = cbk::specToRgb(c, scene_.toRgb.data());
-                    const int px = std::min(int(rx), width - 1);
-                    const int py = std::min(int(ry), height - 1);
-                    const auto pixel = std::uint32_t(py * width + px);
-                    out.splatPixels.push_back(pixel);
-                    float* dst = &out.splatRgb[3 * std::size_t(pixel)];
-                    dst[0] += scale * rgb.x;
-                    dst[1] += scale * rgb.y;
-                    dst[2] += scale * rgb.z;
+                    int x0, x1, y0, y1;
+                    cbk::filterFootprint(&camera_, rx, ry, &x0, &x1, &y0, &y1);
+                    for (int y = y0; y <= y1; ++y)
+                        for (int x = x0; x <= x1; ++x) {
+                            const auto pixel = std::uint32_t(y * width + x);
+                            const cbk::real share =
+                                scale * cbk::filterSplatWeight(&camera_, x, y, rx, ry);
+                            out.splatPixels.push_back(pixel);
+                            float* dst = &out.splatRgb[3 * std::size_t(pixel)];
+                            dst[0] += float(share * rgb.x);
+                            dst[1] += float(share * rgb.y);
+                            dst[2] += float(share * rgb.z);
+                        }
                 }
                 out.rays += rays;
             }

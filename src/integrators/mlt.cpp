@@ -64,6 +64,9 @@ class MltIntegrator final : public KernelIntegrator {
         splatCount_ = cl::Buffer(ctx, CL_MEM_READ_WRITE, sizeof(int) * chains_);
         splatPixel_ = runtime.createBuffer("MLT splat pixels (chains x (--light-vertices + 1))",
                                            CL_MEM_READ_WRITE, sizeof(int) * chains_ * maxSplats_);
+        splatRaster_ =
+            runtime.createBuffer("MLT splat raster points (chains x (--light-vertices + 1) x, y)",
+                                 CL_MEM_READ_WRITE, 2 * sizeof(float) * chains_ * maxSplats_);
         splatRgb_ =
             runtime.createBuffer("MLT splat values (chains x (--light-vertices + 1) RGB)",
                                  CL_MEM_READ_WRITE, 3 * sizeof(float) * chains_ * maxSplats_);
@@ -129,7 +132,12 @@ class MltIntegrator final : public KernelIntegrator {
   private:
     // The chains' states, as mltSeedChains writes them and mltAdvance reads and writes them.
     void addStateArguments(KernelArguments& args) const {
-        args.add(state_).add(chainLum_).add(splatCount_).add(splatPixel_).add(splatRgb_);
+        args.add(state_)
+            .add(chainLum_)
+            .add(splatCount_)
+            .add(splatPixel_)
+            .add(splatRaster_)
+            .add(splatRgb_);
     }
 
     void bootstrapAndSeed() {
@@ -199,7 +207,8 @@ class MltIntegrator final : public KernelIntegrator {
 
     const cbk::BdptSettings bdpt_;
     cl::Kernel bootstrapKernel_, seedKernel_, advanceKernel_;
-    cl::Buffer state_, chainLum_, splatCount_, splatPixel_, splatRgb_, image_, largeSum_, stats_;
+    cl::Buffer state_, chainLum_, splatCount_, splatPixel_, splatRaster_, splatRgb_, image_,
+        largeSum_, stats_;
     size_t chains_ = 0, maxSplats_ = 0;
     unsigned eyeDims_ = 0, lightDims_ = 0, dims_ = 0;
     long mutationsPerChain_ = 0, bootstrapSamples_ = 0;

@@ -140,6 +140,11 @@ template <class Visit> void forEachField(cbk::Camera& s, Visit&& visit) {
     visit(s.screenCenterY);
     visit(s.lensRadius);
     visit(s.focalDistance);
+    visit(s.filterType);
+    visit(s.filterRadiusX);
+    visit(s.filterRadiusY);
+    visit(s.filterSigma);
+    visit(s.filterNormalization);
 }
 
 // Calls word(element) for each scalar of a field, arrays of arrays included.

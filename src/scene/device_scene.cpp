@@ -19,7 +19,7 @@ namespace cb {
 static_assert(sizeof(cbk::Primitive) == 48, "Primitive must match the OpenCL layout");
 static_assert(sizeof(cbk::Material) == 72, "Material must match the OpenCL layout");
 static_assert(sizeof(cbk::Light) == 108, "Light must match the OpenCL layout");
-static_assert(sizeof(cbk::Camera) == 128, "Camera must match the OpenCL layout");
+static_assert(sizeof(cbk::Camera) == 148, "Camera must match the OpenCL layout");
 
 namespace {
 
@@ -294,6 +294,15 @@ cbk::Camera makeCamera(const SceneDesc& desc, const std::array<double, 3>& origi
     camera.height = film.height;
     camera.lensRadius = desc.camera.lensRadius;
     camera.focalDistance = desc.camera.focalDistance;
+    const FilterDesc& filter = desc.filter;
+    camera.filterType = filter.type == FilterDesc::Type::Box        ? CB_FILTER_BOX
+                        : filter.type == FilterDesc::Type::Triangle ? CB_FILTER_TRIANGLE
+                                                                    : CB_FILTER_GAUSSIAN;
+    camera.filterRadiusX = float(filter.radiusX);
+    camera.filterRadiusY = float(filter.radiusY);
+    camera.filterSigma = float(filter.sigma);
+    camera.filterNormalization = cbk::filterNormalization(camera.filterType, camera.filterRadiusX,
+                                                          camera.filterRadiusY, camera.filterSigma);
     if (film.pixelBounds) cropCamera(camera, *film.pixelBounds, where);
     return camera;
 }
@@ -357,6 +366,9 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
     scene.origin = deviceOrigin(desc);
     scene.camera = makeCamera(desc, scene.origin);
     if (scene.camera.lensRadius > 0.f) scene.features |= CB_FEATURE_THIN_LENS;
+    if (!(scene.camera.filterType == CB_FILTER_BOX && scene.camera.filterRadiusX == 0.5f &&
+          scene.camera.filterRadiusY == 0.5f))
+        scene.features |= CB_FEATURE_PIXEL_FILTER;
     auto toDevice = [&](const std::array<double, 3>& p, float* out) {
         for (int a = 0; a < 3; ++a)
             out[a] = float(p[size_t(a)] - scene.origin[size_t(a)]);
@@ -914,6 +926,7 @@ std::string DeviceScene::featureNames() const {
     add(CB_FEATURE_NORMAL_MAP, "normal-map");
     add(CB_FEATURE_ROUGHNESS_TEXTURE, "roughness-texture");
     add(CB_FEATURE_THIN_LENS, "thin-lens");
+    add(CB_FEATURE_PIXEL_FILTER, "pixel-filter");
     names += channels == 16 ? " spectral-16" : " rgb";
     return names;
 }

@@ -1141,28 +1141,57 @@ class Parser {
             note(t.where, "integrator", "Integrator parameters not used by cbdpt: " + joined(rest));
     }
 
+    // pbrt-v4's filters and their defaults (Filter::Create). "mitchell" and "sinc" have negative
+    // lobes, which exact sampling of the filter (cb_filter.h) cannot give: pbrt-v4's default
+    // gaussian stands in for them, with a note.
     void pixelFilter(const Token& t) {
         requireOptions(t);
         const Token type = quoted(t, "a filter type");
         ParamList pl = params("PixelFilter \"" + type.text + "\"");
-        if (type.text == "box") {
-            const Param* p = pl.peek("xradius");
-            const double rx = pl.oneFloat("xradius").value_or(0.5);
-            const double ry = pl.oneFloat("yradius").value_or(0.5);
-            pl.finish();
-            if (rx != 0.5 || ry != 0.5)
-                note(p ? p->where : t.where, "filter",
-                     "PixelFilter \"box\" with a radius other than 0.5 is rendered with radius 0.5 "
-                     "(one pixel): each pixel averages its own area only");
+        FilterDesc f = FilterDesc::pbrtDefault();
+        f.where = t.where;
+        if (type.text == "mitchell" || type.text == "sinc") {
+            const std::vector<std::string> rest = pl.takeRest();
+            note(t.where, "filter",
+                 "PixelFilter \"" + type.text +
+                     "\" is rendered with pbrt-v4's default gaussian filter (radius 1.5, sigma "
+                     "0.5): cbdpt samples each pixel's filter exactly, which a filter with "
+                     "negative lobes does not allow");
+            scene_.filter = f;
             return;
         }
-        const std::vector<std::string> rest = pl.takeRest();
-        note(t.where, "filter",
-             "PixelFilter \"" + type.text +
-                 "\" is rendered with the box filter of radius 0.5 (each pixel averages its own "
-                 "area; pbrt-v4's " +
-                 type.text +
-                 " filter also weights neighbouring pixels, so edges are sharper here)");
+        if (type.text == "box") {
+            f.type = FilterDesc::Type::Box;
+            f.radiusX = f.radiusY = 0.5;
+        } else if (type.text == "triangle") {
+            f.type = FilterDesc::Type::Triangle;
+            f.radiusX = f.radiusY = 2.0;
+        } else if (type.text != "gaussian") {
+            throw SceneError(type.where, "PixelFilter \"" + type.text +
+                                             "\" is not a filter: expected \"box\", "
+                                             "\"gaussian\", \"triangle\", \"mitchell\" or "
+                                             "\"sinc\"");
+        }
+        for (const char* name : {"xradius", "yradius"})
+            if (const Param* p = pl.peek(name)) {
+                const double r = *pl.oneFloat(name);
+                if (!(r > 0.0 && r <= 32.0))
+                    throw SceneError(
+                        p->valueLoc(0),
+                        fmt::format("\"float {}\" must be in (0, 32] pixels, got {:g}", name, r));
+                (std::string(name) == "xradius" ? f.radiusX : f.radiusY) = r;
+            }
+        if (f.type == FilterDesc::Type::Gaussian)
+            if (const Param* p = pl.peek("sigma")) {
+                f.sigma = *pl.oneFloat("sigma");
+                if (!(f.sigma > 0.0 && f.sigma <= 32.0))
+                    throw SceneError(
+                        p->valueLoc(0),
+                        fmt::format("\"float sigma\" must be in (0, 32] pixels, got {:g}",
+                                    f.sigma));
+            }
+        pl.finish();
+        scene_.filter = f;
     }
 
     // pbrt-v4's aggregates (CreateAccelerator) with the parameters each reads; an unknown type or
@@ -3199,6 +3228,7 @@ SceneDesc parseSceneString(const std::string& text, const std::string& virtualPa
     requireText(text, SourceLocation{virtualPath, 0, 0}, virtualPath);
     SceneDesc scene;
     scene.path = virtualPath;
+    scene.filter = FilterDesc::pbrtDefault();
     Parser(scene).run(text, virtualPath);
     return scene;
 }

@@ -262,6 +262,25 @@ struct FilmDesc {
 std::array<int, 4> cropWindowPixels(int width, int height, const std::array<double, 4>& crop,
                                     const std::string& label = "--cropwindow");
 
+// pbrt-v4's PixelFilter (kernels/cb_filter.h): its type, radii in pixels and the gaussian's
+// standard deviation. A scene built in code gets the thesis's one-pixel box; a parsed file
+// without PixelFilter gets pbrt-v4's default, pbrtDefault().
+struct FilterDesc {
+    enum class Type { Box, Triangle, Gaussian };
+    Type type = Type::Box;
+    double radiusX = 0.5;
+    double radiusY = 0.5;
+    double sigma = 0.5;   // the gaussian's
+    SourceLocation where; // the PixelFilter line; none for a default
+
+    static FilterDesc pbrtDefault() {
+        FilterDesc f;
+        f.type = Type::Gaussian;
+        f.radiusX = f.radiusY = 1.5;
+        return f;
+    }
+};
+
 // pbrt-v4's Sampler and Integrator lines: cbdpt's defaults for the render (the command line
 // overrides them).
 struct SamplerDesc {
@@ -283,6 +302,7 @@ struct SceneDesc {
     std::vector<std::string> sourceFiles;
     CameraDesc camera;
     FilmDesc film;
+    FilterDesc filter;
     SamplerDesc sampler;
     IntegratorDesc integrator;
     std::vector<std::string> notes; // what was read but not used, each reported once on stderr
