@@ -55,14 +55,14 @@ CB_FN real gaussianHalfIntegral1(const GaussianFilter1* g, real x, real gx) {
     return g->scale * erfGivenExp(x * g->toErf, gx) - x * g->tail;
 }
 
-/* f1 at offset x from a pixel centre, radius r. The box takes [-r, r). */
-CB_FN real filterEval1(int type, real radius, real sigma, real x) {
+/* f1 at offset x from a pixel centre, radius r, the gaussian's constants given (unread for the
+ * box and the triangle). The box takes [-r, r). */
+CB_FN real filterEval1(int type, real radius, const GaussianFilter1* g, real x) {
     if (type == CB_FILTER_BOX) return x >= -radius && x < radius ? 1.0f : 0.0f;
     const real a = fabs(x);
     if (!(a < radius)) return 0.0f;
     if (type == CB_FILTER_TRIANGLE) return radius - a;
-    const GaussianFilter1 g = gaussianFilter1(radius, sigma);
-    return gaussianEval1(&g, a);
+    return gaussianEval1(g, a);
 }
 
 /* The integral of f1 over [0, x], 0 <= x <= r. */
@@ -177,21 +177,61 @@ CB_FN real filterNormalization(int type, real radiusX, real radiusY, real sigma)
                    filterHalfIntegral1(type, radiusY, sigma, radiusY));
 }
 
-/* Pixel (x, y)'s share h of a splat at raster point (rx, ry); 1 for the box of radius 0.5. */
-CB_FN real filterSplatWeight(const Camera* camera, int x, int y, real rx, real ry) {
+/* A splat at raster point (rx, ry): the pixels it reaches, x in [x0, x1] and y in [y0, y1]
+ * (filterFootprint), and the gaussian's constants on each axis, so that its pixels' weights
+ * cost one f1 per row (filterSplatRow, the normalisation included) and one per pixel
+ * (filterSplatColumn). Pixel (x, y)'s share h is their product, 1 for the box of radius 0.5. */
+typedef struct FilterSplat {
+    int x0, x1, y0, y1;
+    real rx, ry;
+    GaussianFilter1 gaussianX, gaussianY;
+} FilterSplat;
+
+CB_FN FilterSplat filterSplatAt(const Camera* camera, real rx, real ry) {
+    FilterSplat s;
+    filterFootprint(camera, rx, ry, &s.x0, &s.x1, &s.y0, &s.y1);
+    s.rx = rx;
+    s.ry = ry;
+    s.gaussianX.k = s.gaussianX.tail = s.gaussianX.scale = s.gaussianX.toErf = 0.0f;
+    s.gaussianY = s.gaussianX;
 #if CB_HAS(CB_FEATURE_PIXEL_FILTER)
-    const int type = camera->filterType;
-    return filterEval1(type, camera->filterRadiusX, camera->filterSigma, rx - ((real)x + 0.5f)) *
-           filterEval1(type, camera->filterRadiusY, camera->filterSigma, ry - ((real)y + 0.5f)) *
+    if (camera->filterType == CB_FILTER_GAUSSIAN) {
+        s.gaussianX = gaussianFilter1(camera->filterRadiusX, camera->filterSigma);
+        s.gaussianY = gaussianFilter1(camera->filterRadiusY, camera->filterSigma);
+    }
+#endif
+    return s;
+}
+
+CB_FN real filterSplatRow(const Camera* camera, const FilterSplat* s, int y) {
+#if CB_HAS(CB_FEATURE_PIXEL_FILTER)
+    return filterEval1(camera->filterType, camera->filterRadiusY, &s->gaussianY,
+                       s->ry - ((real)y + 0.5f)) *
            camera->filterNormalization;
 #else
     (void)camera;
-    (void)x;
+    (void)s;
     (void)y;
-    (void)rx;
-    (void)ry;
     return 1.0f;
 #endif
+}
+
+CB_FN real filterSplatColumn(const Camera* camera, const FilterSplat* s, int x) {
+#if CB_HAS(CB_FEATURE_PIXEL_FILTER)
+    return filterEval1(camera->filterType, camera->filterRadiusX, &s->gaussianX,
+                       s->rx - ((real)x + 0.5f));
+#else
+    (void)camera;
+    (void)s;
+    (void)x;
+    return 1.0f;
+#endif
+}
+
+/* Pixel (x, y)'s share h of a splat at raster point (rx, ry) alone. */
+CB_FN real filterSplatWeight(const Camera* camera, int x, int y, real rx, real ry) {
+    const FilterSplat s = filterSplatAt(camera, rx, ry);
+    return filterSplatRow(camera, &s, y) * filterSplatColumn(camera, &s, x);
 }
 
 CB_END_NAMESPACE

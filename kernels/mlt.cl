@@ -220,16 +220,16 @@ static void mltSplat(volatile __global float* image, const Camera* camera, const
                 atomicAddFloat(&image[3u * p + (uint)c], scale * s->rgb[3 * i + c]);
             continue;
         }
-        const float rx = s->raster[2 * i], ry = s->raster[2 * i + 1];
-        int x0, x1, y0, y1;
-        filterFootprint(camera, rx, ry, &x0, &x1, &y0, &y1);
-        for (int y = y0; y <= y1; ++y)
-            for (int x = x0; x <= x1; ++x) {
-                const float share = scale * filterSplatWeight(camera, x, y, rx, ry);
+        const FilterSplat splat = filterSplatAt(camera, s->raster[2 * i], s->raster[2 * i + 1]);
+        for (int y = splat.y0; y <= splat.y1; ++y) {
+            const float row = scale * filterSplatRow(camera, &splat, y);
+            for (int x = splat.x0; x <= splat.x1; ++x) {
+                const float share = row * filterSplatColumn(camera, &splat, x);
                 const uint p = (uint)(y * camera->width + x);
                 for (int c = 0; c < 3; ++c)
                     atomicAddFloat(&image[3u * p + (uint)c], share * s->rgb[3 * i + c]);
             }
+        }
     }
 }
 

@@ -58,15 +58,16 @@ class BdptIntegrator final : public PixelKernelIntegrator {
                     "BDPT: the kernel's light-tracing splat slot {} lands at raster point ({}, "
                     "{}), outside the {} x {} image's pixel filters (a device fault)",
                     slot, rx, ry, camera.width, camera.height));
-            int x0, x1, y0, y1;
-            cbk::filterFootprint(&camera, rx, ry, &x0, &x1, &y0, &y1);
-            for (int y = y0; y <= y1; ++y)
-                for (int x = x0; x <= x1; ++x) {
-                    const float weight = cbk::filterSplatWeight(&camera, x, y, rx, ry);
+            const cbk::FilterSplat splat = cbk::filterSplatAt(&camera, rx, ry);
+            for (int y = splat.y0; y <= splat.y1; ++y) {
+                const float row = cbk::filterSplatRow(&camera, &splat, y);
+                for (int x = splat.x0; x <= splat.x1; ++x) {
+                    const float weight = row * cbk::filterSplatColumn(&camera, &splat, x);
                     float* pixel = &rgb[3 * (size_t(y) * size_t(camera.width) + size_t(x))];
                     for (size_t c = 0; c < 3; ++c)
                         pixel[c] += weight * splatHost_[3 * slot + c];
                 }
+            }
         }
     }
 

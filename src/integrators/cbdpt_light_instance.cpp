@@ -84,19 +84,20 @@ class LightTracer final : public CbdptLightTracer {
                         continue;
                     }
                     cbk::Vec3 rgb = cbk::specToRgb(c, scene_.toRgb.data());
-                    int x0, x1, y0, y1;
-                    cbk::filterFootprint(&camera_, rx, ry, &x0, &x1, &y0, &y1);
-                    for (int y = y0; y <= y1; ++y)
-                        for (int x = x0; x <= x1; ++x) {
+                    const cbk::FilterSplat splat = cbk::filterSplatAt(&camera_, rx, ry);
+                    for (int y = splat.y0; y <= splat.y1; ++y) {
+                        const cbk::real row = scale * cbk::filterSplatRow(&camera_, &splat, y);
+                        for (int x = splat.x0; x <= splat.x1; ++x) {
                             const auto pixel = std::uint32_t(y * width + x);
                             const cbk::real share =
-                                scale * cbk::filterSplatWeight(&camera_, x, y, rx, ry);
+                                row * cbk::filterSplatColumn(&camera_, &splat, x);
                             out.splatPixels.push_back(pixel);
                             float* dst = &out.splatRgb[3 * std::size_t(pixel)];
                             dst[0] += float(share * rgb.x);
                             dst[1] += float(share * rgb.y);
                             dst[2] += float(share * rgb.z);
                         }
+                    }
                 }
                 out.rays += rays;
             }
