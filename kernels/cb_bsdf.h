@@ -127,8 +127,7 @@ CB_FN real cbDiffuseReflectProbability(const SceneView* scene, Material m) {
  * the host would have made the lobe smooth (pbrt-v4 renders such points as a smooth lobe). */
 CB_FN Material materialRoughnessAt(const SceneView* scene, Material m, TexCoord uv) {
     if (m.roughnessTexture < 0 || m.alpha == 0.0f) return m;
-    Vec3 rgb = textureRgb(scene, m.roughnessTexture, uv);
-    real roughness = fmax((rgb.x + rgb.y + rgb.z) * (1.0f / 3.0f), 0.0f);
+    real roughness = fmax(textureFloat(scene, m.roughnessTexture, uv), 0.0f);
     real alpha = m.remapRoughness ? sqrt(roughness) : roughness;
     m.alpha = fmax(alpha, 1e-3f);
     return m;

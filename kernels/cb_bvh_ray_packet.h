@@ -222,14 +222,15 @@ CB_FN void rayPacketRecord(int j, Hit h, bool closestHit, RayPacketReal* closest
  * go ray by ray through intersectPack, and so do any-hit queries whose rays' largest axes
  * differ: there each ray's own pack test, which stops at its first hit, was faster. Triangles are
  * taken in order, each against the closest hit so far, so the nearest hit wins and the first
- * triangle among equal distances, as in intersectPack. A ray that is done (an any-hit query that
- * hit) gets closest -1 and takes no further part. */
+ * triangle among equal distances, as in intersectPack; an alpha-tested triangle's hits count
+ * where alphaKeepsHit keeps them (alphaScene, as intersectPack's). A ray that is done (an any-hit
+ * query that hit) gets closest -1 and takes no further part. */
 CB_FN __attribute__((always_inline)) void
 rayPacketLeaf(CB_GLOBAL const TrianglePack* packs, CB_GLOBAL const Primitive* prims,
               CB_GLOBAL const Ray* rays, RayPacketInt index, uint first, uint count, uint rayBits,
               const RayPacketSheared* sh, bool closestHit, RayPacketReal* closest,
               RayPacketInt* found, RayPacketInt* hitPrim, RayPacketReal* hitB1,
-              RayPacketReal* hitB2) {
+              RayPacketReal* hitB2, const SceneView* alphaScene) {
     const RayPacketInt mask = ((RayPacketInt)((int)rayBits) &
                                ((RayPacketInt)(1) << CB_RAY_PACKET_LANES)) != (RayPacketInt)(0);
     for (uint p = first; p < first + count; ++p) {
@@ -243,7 +244,7 @@ rayPacketLeaf(CB_GLOBAL const TrianglePack* packs, CB_GLOBAL const Primitive* pr
                 const Ray ray = rays[rayPacketLaneInt(index, j)];
                 Hit h;
                 if (intersectPack(pack, prims, ray, triangleRayOf(ray),
-                                  rayPacketLaneReal(*closest, j), closestHit, &h))
+                                  rayPacketLaneReal(*closest, j), closestHit, &h, alphaScene))
                     rayPacketRecord(j, h, closestHit, closest, found, hitPrim, hitB1, hitB2);
             }
             continue;
@@ -259,7 +260,21 @@ rayPacketLeaf(CB_GLOBAL const TrianglePack* packs, CB_GLOBAL const Primitive* pr
             if (cbTriangleLanesP(p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z, sh->sx, sh->sy,
                                  sh->sz, *closest, live, true, &t, &b1, &b2, &slow) == CB_PACK_MISS)
                 continue;
-            const RayPacketInt exact = t < (RayPacketReal)(INFINITY);
+            RayPacketInt exact = t < (RayPacketReal)(INFINITY);
+#if CB_HAS(CB_FEATURE_ALPHA)
+            /* An alpha-tested triangle: the rays whose hit the alpha test skips keep theirs. */
+            if (pack->alphaTested) {
+                uint kept = rayPacketBits(exact);
+                for (uint bits = kept; bits != 0u; bits &= bits - 1u) {
+                    const int j = 31 - (int)clz(bits & (0u - bits));
+                    if (!alphaKeepsHit(alphaScene, pack->prim[l], rays[rayPacketLaneInt(index, j)],
+                                       rayPacketLaneReal(b1, j), rayPacketLaneReal(b2, j)))
+                        kept &= ~(1u << j);
+                }
+                exact &= ((RayPacketInt)((int)kept) & ((RayPacketInt)(1) << CB_RAY_PACKET_LANES)) !=
+                         (RayPacketInt)(0);
+            }
+#endif
             *found |= exact;
             if (closestHit) {
                 *closest = select(*closest, t, exact);
@@ -278,7 +293,9 @@ rayPacketLeaf(CB_GLOBAL const TrianglePack* packs, CB_GLOBAL const Primitive* pr
                 /* intersectPrimitiveSheared leaves the primitive to its caller. */
                 Hit h = {rayClosest, pack->prim[l], 0.0f, 0.0f};
                 if (intersectPrimitiveSheared(prims + pack->prim[l], ray, triangleRayOf(ray),
-                                              rayClosest, &h))
+                                              rayClosest, &h) &&
+                    (!CB_HAS(CB_FEATURE_ALPHA) || !pack->alphaTested ||
+                     alphaKeepsHit(alphaScene, pack->prim[l], ray, h.b1, h.b2)))
                     rayPacketRecord(j, h, closestHit, closest, found, hitPrim, hitB1, hitB2);
             }
         }
@@ -295,7 +312,7 @@ rayPacketTraverse(CB_GLOBAL const BvhNodeWide* nodes, CB_GLOBAL const TrianglePa
                   CB_GLOBAL const Primitive* prims, CB_GLOBAL const Ray* rays,
                   CB_GLOBAL const float* tMaxes, RayPacketInt index, bool closestHit,
                   RayPacketReal* hitT, RayPacketInt* hitPrim, RayPacketReal* hitB1,
-                  RayPacketReal* hitB2) {
+                  RayPacketReal* hitB2, const SceneView* alphaScene) {
     /* index < 0: no ray (padding of the last packet), an inactive lane. */
     const RayPacketInt valid = index >= (RayPacketInt)(0);
     index = select((RayPacketInt)(0), index, valid);
@@ -397,7 +414,7 @@ rayPacketTraverse(CB_GLOBAL const BvhNodeWide* nodes, CB_GLOBAL const TrianglePa
              * kept in a private array, which PoCL would copy per work-item. */
             const uint rayBits = rayPacketBits(rayPacketBox(node, k, &s, closest));
             rayPacketLeaf(packs, prims, rays, index, node->child[k], count, rayBits, &sh,
-                          closestHit, &closest, &found, hitPrim, hitB1, hitB2);
+                          closestHit, &closest, &found, hitPrim, hitB1, hitB2, alphaScene);
             if (!closestHit && rayPacketBits(closest >= (RayPacketReal)(0.0f)) == 0u) break;
             if (more) {
                 fromLane = k;
@@ -416,11 +433,11 @@ CB_FN __attribute__((always_inline)) void
 rayPacketTrace(CB_GLOBAL const BvhNodeWide* nodes, CB_GLOBAL const TrianglePack* packs,
                CB_GLOBAL const Primitive* prims, CB_GLOBAL const Ray* rays,
                CB_GLOBAL const float* tMaxes, RayPacketInt index, bool closestHit,
-               CB_GLOBAL Hit* hits, CB_GLOBAL int* occluded) {
+               CB_GLOBAL Hit* hits, CB_GLOBAL int* occluded, const SceneView* alphaScene) {
     RayPacketReal t, b1, b2;
     RayPacketInt prim;
     const RayPacketInt hit = rayPacketTraverse(nodes, packs, prims, rays, tMaxes, index, closestHit,
-                                               &t, &prim, &b1, &b2);
+                                               &t, &prim, &b1, &b2, alphaScene);
     /* Lane by lane, each a constant (a loop over lane numbers kept 6% more instructions). */
 #define CB_RAY_PACKET_OUT(L)                                                                       \
     do {                                                                                           \

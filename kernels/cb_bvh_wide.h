@@ -504,11 +504,13 @@ CB_FN __attribute__((always_inline)) void bvhWidePrefetch(CB_GLOBAL const BvhNod
 
 /* Closest hit (closestHit) or any hit (!closestHit: returns at the first one found, in the
  * same near-first order) with t in (0, tMax). `coherent`: see bvhWideNext; it changes how
- * the next child is found, never which, so the answer is the same either way. */
+ * the next child is found, never which, so the answer is the same either way. alphaScene: as
+ * intersectPack's. */
 CB_FN CB_BVHW_SPECIALISE bool bvhWideTraverse(CB_GLOBAL const BvhNodeWide* nodes,
                                               CB_GLOBAL const TrianglePack* packs,
                                               CB_GLOBAL const Primitive* prims, Ray ray, real tMax,
-                                              bool closestHit, bool coherent, Hit* hit) {
+                                              bool closestHit, bool coherent, Hit* hit,
+                                              const SceneView* alphaScene) {
     hit->t = tMax;
     hit->primitive = -1;
     hit->b1 = 0.0f;
@@ -590,7 +592,8 @@ CB_FN CB_BVHW_SPECIALISE bool bvhWideTraverse(CB_GLOBAL const BvhNodeWide* nodes
             uint first = node->child[k];
             for (uint p = first; p < first + count; ++p) {
                 Hit h;
-                if (intersectPack(packs + p, prims, ray, sheared, closest, closestHit, &h)) {
+                if (intersectPack(packs + p, prims, ray, sheared, closest, closestHit, &h,
+                                  alphaScene)) {
                     if (!closestHit) return true;
                     *hit = h;
                     closest = h.t;
@@ -642,19 +645,19 @@ CB_FN CB_BVHW_ONE_COPY bool sceneIntersectFrom(const SceneView* scene, Vec3 o, V
                                                Hit* hit) {
     Ray ray = {o, d};
     return bvhWideTraverse(scene->nodes, scene->packs, scene->primitives, ray, tMax, true, false,
-                           hit);
+                           hit, scene);
 }
 CB_FN CB_BVHW_ONE_COPY bool sceneIntersectCoherentFrom(const SceneView* scene, Vec3 o, Vec3 d,
                                                        real tMax, Hit* hit) {
     Ray ray = {o, d};
     return bvhWideTraverse(scene->nodes, scene->packs, scene->primitives, ray, tMax, true, true,
-                           hit);
+                           hit, scene);
 }
 CB_FN CB_BVHW_ONE_COPY bool sceneOccludedFrom(const SceneView* scene, Vec3 o, Vec3 d, real tMax) {
     Ray ray = {o, d};
     Hit h;
     return bvhWideTraverse(scene->nodes, scene->packs, scene->primitives, ray, tMax, false, true,
-                           &h);
+                           &h, scene);
 }
 
 /* Closest hit with t in (0, tMax). On a miss *hit is left as {tMax, -1, 0, 0}, so it is

@@ -299,7 +299,8 @@ CB_FN bool intersectPrimitive(CB_GLOBAL const Primitive* prim, Ray ray, real tMa
  * intersectPrimitive decides its primitive alone, all against the same tMax. Returns whether
  * any lane is hit; *hit: the nearest, the lowest lane among equal t, primitive set. With
  * !closestHit it may return at the first hit found, *hit then unset. `sheared` is
- * triangleRayOf(ray). */
+ * triangleRayOf(ray). alphaScene: the scene whose materials and textures decide the hits on
+ * alpha-tested triangles (alphaKeepsHit); null where the primitives have none. */
 #ifdef CB_KERNEL_SIDE
 /* Whether any lane of a mask (lanes 0 or -1) is set. PoCL's any() tests the sign bits one
  * by one; an OR across the lanes is a few instructions fewer. */
@@ -396,15 +397,22 @@ CB_FN float cbPackLaneValue(float4 v, int4 lane) {
  * each private array one copy per work-item of the work-group, and LLVM set up their
  * addresses once per ray, though most primary rays never reach a pack (docs/performance.md). */
 CB_FN bool intersectPack(CB_GLOBAL const TrianglePack* pack, CB_GLOBAL const Primitive* prims,
-                         Ray ray, TriangleRay sheared, real tMax, bool closestHit, Hit* hit) {
+                         Ray ray, TriangleRay sheared, real tMax, bool closestHit, Hit* hit,
+                         const SceneView* alphaScene) {
     const int4 lanes = (int4)(0, 1, 2, 3);
     float4 tLane = (float4)(INFINITY), b1Lane = (float4)(0.0f), b2Lane = (float4)(0.0f);
     int4 slow;
+#if CB_HAS(CB_FEATURE_ALPHA)
+    /* Alpha-tested lanes: every lane's distance, for the alpha test to pick among below. */
+    const bool alphaTested = pack->alphaTested != 0;
+#else
+    const bool alphaTested = false;
+#endif
     if (pack->scalar) {
         slow = lanes < (int4)(pack->count);
     } else {
-        int outcome =
-            intersectPackSimd(pack, sheared, tMax, closestHit, &tLane, &b1Lane, &b2Lane, &slow);
+        int outcome = intersectPackSimd(pack, sheared, tMax, closestHit || alphaTested, &tLane,
+                                        &b1Lane, &b2Lane, &slow);
         if (outcome != CB_PACK_PICK) return outcome == CB_PACK_HIT;
     }
     if (cbAnyLane(slow)) {
@@ -413,20 +421,40 @@ CB_FN bool intersectPack(CB_GLOBAL const TrianglePack* pack, CB_GLOBAL const Pri
             if (!cbAnyLane(slow & at)) continue;
             Hit h = {tMax, -1, 0.0f, 0.0f};
             if (!intersectPrimitiveSheared(prims + pack->prim[k], ray, sheared, tMax, &h)) continue;
+#if CB_HAS(CB_FEATURE_ALPHA)
+            if (alphaTested && !alphaKeepsHit(alphaScene, pack->prim[k], ray, h.b1, h.b2)) continue;
+#endif
             if (!closestHit) return true;
             tLane = select(tLane, (float4)(h.t), at);
             b1Lane = select(b1Lane, (float4)(h.b1), at);
             b2Lane = select(b2Lane, (float4)(h.b2), at);
         }
     }
-    /* The nearest lane, the lowest among equal t (no lane is NaN: misses are +inf). */
-    float2 m2 = min(tLane.lo, tLane.hi);
-    real bestT = min(m2.x, m2.y);
-    if (!(bestT < tMax)) return false;
-    int4 first = select((int4)(CB_PACK_LANES), lanes, tLane == (float4)(bestT));
-    int2 f2 = min(first.lo, first.hi);
-    int best = min(f2.x, f2.y);
-    int4 at = lanes == (int4)(best);
+    /* The nearest lane, the lowest among equal t (no lane is NaN: misses are +inf). An
+     * alpha-tested pack's nearest lane the alpha test skips is dropped, and the next one tried
+     * (a slow lane's hit asks again: the same answer). */
+    real bestT;
+    int best;
+    int4 at;
+    for (;;) {
+        float2 m2 = min(tLane.lo, tLane.hi);
+        bestT = min(m2.x, m2.y);
+        if (!(bestT < tMax)) return false;
+        int4 first = select((int4)(CB_PACK_LANES), lanes, tLane == (float4)(bestT));
+        int2 f2 = min(first.lo, first.hi);
+        best = min(f2.x, f2.y);
+        at = lanes == (int4)(best);
+#if CB_HAS(CB_FEATURE_ALPHA)
+        if (alphaTested &&
+            !alphaKeepsHit(alphaScene, pack->prim[best], ray, cbPackLaneValue(b1Lane, at),
+                           cbPackLaneValue(b2Lane, at))) {
+            tLane = select(tLane, (float4)(INFINITY), at);
+            continue;
+        }
+#endif
+        break;
+    }
+    if (!closestHit) return true;
     hit->t = bestT;
     hit->b1 = cbPackLaneValue(b1Lane, at);
     hit->b2 = cbPackLaneValue(b2Lane, at);
@@ -436,13 +464,16 @@ CB_FN bool intersectPack(CB_GLOBAL const TrianglePack* pack, CB_GLOBAL const Pri
 #else
 /* The host: the lanes one by one, from the primitives. */
 CB_FN bool intersectPack(CB_GLOBAL const TrianglePack* pack, CB_GLOBAL const Primitive* prims,
-                         Ray ray, TriangleRay sheared, real tMax, bool closestHit, Hit* hit) {
+                         Ray ray, TriangleRay sheared, real tMax, bool closestHit, Hit* hit,
+                         const SceneView* alphaScene) {
     bool found = false;
     real bestT = tMax;
     for (int k = 0; k < pack->count; ++k) {
         Hit h;
         h.t = tMax;
         if (!intersectPrimitiveSheared(prims + pack->prim[k], ray, sheared, tMax, &h)) continue;
+        if (pack->alphaTested && !alphaKeepsHit(alphaScene, pack->prim[k], ray, h.b1, h.b2))
+            continue;
         if (!closestHit) return true;
         if (h.t < bestT) {
             bestT = h.t;

@@ -10,6 +10,7 @@
 #ifndef CB_TEXTURE_H
 #define CB_TEXTURE_H
 
+#include "cb_rng.h"
 #include "cb_spectrum.h"
 #include "cb_types.h"
 
@@ -115,6 +116,33 @@ CB_FN Vec3 textureRgb(const SceneView* scene, int offset, TexCoord uv) {
     Vec3 bottom = vadd(vscale(textureTexel(texture, xi, yi + 1), 1.0f - dx),
                        vscale(textureTexel(texture, xi + 1, yi + 1), dx));
     return vadd(vscale(top, 1.0f - dy), vscale(bottom, dy));
+}
+
+/* A float texture's value at uv: the mean of its texels' channels (the parser stores a float
+ * texture's texels as three equal values: the value pbrt-v4's float lookup reads). */
+CB_FN real textureFloat(const SceneView* scene, int offset, TexCoord uv) {
+    Vec3 rgb = textureRgb(scene, offset, uv);
+    return (rgb.x + rgb.y + rgb.z) * (1.0f / 3.0f);
+}
+
+/* pbrt-v4's alpha test (GeometricPrimitive::Intersect) for a hit at barycentrics (b1, b2) of
+ * alpha-tested triangle `primitive`: alpha a >= 1 keeps it, a <= 0 skips it, and between, it is
+ * kept where a hash of the ray and the primitive, uniform on [0, 1), is below a (stochastic
+ * transparency: on average a share a of the surface is there). The hash gives the same answer to
+ * the same ray, so a closest-hit and an any-hit query along it agree; the traversal then goes on
+ * past a skipped hit (pbrt-v4 traces a new ray from it). */
+CB_FN bool alphaKeepsHit(const SceneView* scene, int primitive, Ray ray, real b1, real b2) {
+    /* Host views without textures (the BVH choice's, measuring traversal work) keep every hit. */
+    if (!scene || !scene->textures) return true;
+    int offset = scene->materials[scene->primitives[primitive].material].alphaTexture;
+    real a = textureFloat(scene, offset, triangleTexCoord(scene, primitive, b1, b2));
+    if (a >= 1.0f) return true;
+    if (!(a > 0.0f)) return false;
+    uint h = cbHashCombine(cbHash32((uint)primitive), cbFloatBits(ray.o.x));
+    h = cbHashCombine(cbHashCombine(h, cbFloatBits(ray.o.y)), cbFloatBits(ray.o.z));
+    h = cbHashCombine(cbHashCombine(h, cbFloatBits(ray.d.x)), cbFloatBits(ray.d.y));
+    h = cbHashCombine(h, cbFloatBits(ray.d.z));
+    return (real)(h >> 8) * (1.0f / 16777216.0f) < a;
 }
 
 /* pbrt-v4's CoordinateSystem: a unit vector perpendicular to unit v (the frame's first axis). */

@@ -13,6 +13,9 @@ CB_BEGIN_NAMESPACE
 
 #define CB_PRIM_TRIANGLE 0
 #define CB_PRIM_SPHERE 1
+/* A triangle whose hits count only where its material's alpha test keeps them (pbrt-v4's shape
+ * "alpha", CB_FEATURE_ALPHA): in packs of their own (`alphaTested`). */
+#define CB_PRIM_ALPHA_TRIANGLE 2
 
 /* One primitive of the BVH. Triangle: world-space vertices p0, p1, p2 (counter-clockwise seen
  * from the side the geometric normal cross(p1-p0, p2-p0) points to). Sphere: centre p0, radius
@@ -37,7 +40,8 @@ typedef struct TrianglePack {
     int prim[CB_PACK_LANES];
     int count;
     int scalar;
-    int pad[2];
+    int alphaTested; /* its triangles are CB_PRIM_ALPHA_TRIANGLE: each hit asks alphaKeepsHit */
+    int pad;
 } TrianglePack;
 
 CB_STATIC_ASSERT(sizeof(TrianglePack) == 176, "TrianglePack must be 176 bytes");
@@ -112,6 +116,7 @@ typedef struct SurfacePoint {
 #define CB_FEATURE_NORMAL_MAP (1u << 20)        /* materials with pbrt-v4's "normalmap" */
 #define CB_FEATURE_ROUGHNESS_TEXTURE (1u << 21) /* a GGX roughness given by a float texture */
 #define CB_FEATURE_PIXEL_FILTER (1u << 22)      /* any pixel filter but the box of radius 0.5 */
+#define CB_FEATURE_ALPHA (1u << 23)             /* shapes with pbrt-v4's "alpha" (cut-outs) */
 
 #ifndef CB_FEATURES
 #define CB_FEATURES 0xffffffffu
@@ -163,6 +168,9 @@ typedef struct Material {
      * "remaproughness"). `alpha` then only says that the lobe is rough. */
     int roughnessTexture;
     int remapRoughness;
+    /* CB_FEATURE_ALPHA: the offset in `textures` of the float texture (1 x 1 for a constant) that
+     * gives the shape's alpha, for the primitives of kind CB_PRIM_ALPHA_TRIANGLE; -1: none. */
+    int alphaTexture;
 } Material;
 
 /* ---- Lights ------------------------------------------------------------------------------- */

@@ -72,7 +72,7 @@ __kernel void renderCoherentBdpt(CB_CBDPT_PARAMS, int tile, __global PathVertex*
     for (int vertex = 1; vertex < maxEye; ++vertex) {
         for (int q = 0; q < packets; ++q)
             rayPacketTrace(nodes, packs, primitives, rays, tMaxes,
-                           rayPacketOfTile(walkBase, tile, q), true, hits, 0);
+                           rayPacketOfTile(walkBase, tile, q), true, hits, 0, &scene);
         for (int p = 0; p < pixels; ++p) {
             const int i = walkBase + p;
             if (!(tMaxes[i] > 0.0f)) continue;
@@ -139,7 +139,7 @@ __kernel void renderCoherentBdpt(CB_CBDPT_PARAMS, int tile, __global PathVertex*
     for (int m = 0; m < strategies; ++m)
         for (int q = 0; q < packets; ++q)
             rayPacketTrace(nodes, packs, primitives, shadowRays, shadowTMaxes,
-                           rayPacketOfTile(base + m * pixels, tile, q), false, 0, occluded);
+                           rayPacketOfTile(base + m * pixels, tile, q), false, 0, occluded, &scene);
     for (int p = 0; p < pixels; ++p) {
         CB_CBDPT_PIXEL(p, x, y);
         if (!CB_CBDPT_INSIDE(x, y)) continue;

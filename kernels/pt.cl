@@ -59,7 +59,7 @@ __kernel void renderCoherentPathTracing(CB_INTEGRATOR_KERNEL_PARAMS(PathSettings
     for (int vertex = 1; vertex < settings.eyeVertices; ++vertex) {
         for (int q = 0; q < packets; ++q)
             rayPacketTrace(nodes, packs, primitives, rays, tMaxes, rayPacketOfTile(base, tile, q),
-                           true, hits, 0);
+                           true, hits, 0, &scene);
         for (int p = 0; p < pixels; ++p) {
             const int i = base + p;
             shadowTMaxes[i] = 0.0f;
@@ -84,7 +84,7 @@ __kernel void renderCoherentPathTracing(CB_INTEGRATOR_KERNEL_PARAMS(PathSettings
         if (vertex + 1 >= settings.eyeVertices) break;
         for (int q = 0; q < packets; ++q)
             rayPacketTrace(nodes, packs, primitives, shadowRays, shadowTMaxes,
-                           rayPacketOfTile(base, tile, q), false, 0, occluded);
+                           rayPacketOfTile(base, tile, q), false, 0, occluded, &scene);
         for (int p = 0; p < pixels; ++p) {
             const int i = base + p;
             if (!paths[i].shadowPending) continue;

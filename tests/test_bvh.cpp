@@ -225,7 +225,7 @@ void compareRange(const cb::Bvh& bvh, const Brute& brute, const std::vector<Ray>
         Hit a{}, b{};
         bool ha = wide ? cbk::bvhWideTraverse(wide->nodes.data(), wide->packs.data(),
                                               bvh.primitives.data(), rays[i], CB_INFINITY, true,
-                                              false, &a)
+                                              false, &a, nullptr)
                        : cbk::bvhIntersect(bvh.nodes.data(), bvh.primitives.data(), rays[i],
                                            CB_INFINITY, &a);
         bool hb = brute.intersect(rays[i], CB_INFINITY, &b);
@@ -249,10 +249,10 @@ void compareRange(const cb::Bvh& bvh, const Brute& brute, const std::vector<Ray>
         }
         float tMax = hb ? b.t * u(rng) : 1e3f * u(rng);
         Hit any{};
-        bool occ =
-            wide ? cbk::bvhWideTraverse(wide->nodes.data(), wide->packs.data(),
-                                        bvh.primitives.data(), rays[i], tMax, false, false, &any)
-                 : cbk::bvhOccluded(bvh.nodes.data(), bvh.primitives.data(), rays[i], tMax);
+        bool occ = wide ? cbk::bvhWideTraverse(wide->nodes.data(), wide->packs.data(),
+                                               bvh.primitives.data(), rays[i], tMax, false, false,
+                                               &any, nullptr)
+                        : cbk::bvhOccluded(bvh.nodes.data(), bvh.primitives.data(), rays[i], tMax);
         if (occ != brute.occluded(rays[i], tMax)) ++out->occluded;
     }
 }
@@ -413,7 +413,7 @@ void checkWide(const cb::BvhWide& wide, const std::vector<Primitive>& prims) {
                         CHECK(prim == pack.prim[0]);
                     const Primitive& q = prims[size_t(prim)];
                     // A pack holds triangles only, their vertices copied, or others only.
-                    CHECK(bool(pack.scalar) == (q.kind != CB_PRIM_TRIANGLE));
+                    CHECK(bool(pack.scalar) == (q.kind == CB_PRIM_SPHERE));
                     for (int a = 0; a < 3; ++a) {
                         CHECK(pack.v[0][a][lane] == (pack.scalar ? 0.0f : q.p0[a]));
                         CHECK(pack.v[1][a][lane] == (pack.scalar ? 0.0f : q.p1[a]));
@@ -467,18 +467,18 @@ TEST_CASE("bvh: the wide BVH on an empty scene, one triangle and spheres") {
     cb::Bvh empty = cb::buildBvh({});
     auto w0 = wideOf(empty);
     CHECK_FALSE(cbk::bvhWideTraverse(w0.nodes.data(), w0.packs.data(), empty.primitives.data(), r,
-                                     CB_INFINITY, true, false, &h));
+                                     CB_INFINITY, true, false, &h, nullptr));
     cb::Bvh one =
         cb::buildBvh({triangle(cbk::vec3(-1, -1, 2), cbk::vec3(1, -1, 2), cbk::vec3(0, 1, 2))});
     auto w1 = wideOf(one);
     checkWide(w1, one.primitives);
     REQUIRE(cbk::bvhWideTraverse(w1.nodes.data(), w1.packs.data(), one.primitives.data(), r,
-                                 CB_INFINITY, true, false, &h));
+                                 CB_INFINITY, true, false, &h, nullptr));
     CHECK(h.t == 2.0f);
     CHECK(cbk::bvhWideTraverse(w1.nodes.data(), w1.packs.data(), one.primitives.data(), r, 2.5f,
-                               false, false, &h));
+                               false, false, &h, nullptr));
     CHECK_FALSE(cbk::bvhWideTraverse(w1.nodes.data(), w1.packs.data(), one.primitives.data(), r,
-                                     2.0f, false, false, &h));
+                                     2.0f, false, false, &h, nullptr));
     std::vector<Primitive> prims;
     for (int i = 0; i < 1000; ++i)
         prims.push_back(sphere(cbk::vec3(0, 0, 10), 1.0f + float(i) * 1e-3f));
@@ -487,7 +487,7 @@ TEST_CASE("bvh: the wide BVH on an empty scene, one triangle and spheres") {
     checkWide(w2, nested.primitives);
     r.o = cbk::vec3(0, 0, 10); // inside every sphere: the innermost is nearest
     REQUIRE(cbk::bvhWideTraverse(w2.nodes.data(), w2.packs.data(), nested.primitives.data(), r,
-                                 CB_INFINITY, true, false, &h));
+                                 CB_INFINITY, true, false, &h, nullptr));
     CHECK(h.t == doctest::Approx(1.0f).epsilon(1e-6));
 }
 

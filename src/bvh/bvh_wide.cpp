@@ -26,19 +26,24 @@ void binaryChildren(const std::vector<cbk::BvhNode>& nodes, uint32_t i, uint32_t
     out[1] = isLeaf(nodes[i + 1]) ? i + 2 : nodes[i + 1].index;
 }
 
-// Appends the packs of primitives [first, first + count): the triangles four to a pack, then
-// any other primitives (spheres) in packs of their own. Returns the number of packs.
+// Appends the packs of primitives [first, first + count): the triangles four to a pack, the
+// alpha-tested ones in packs of their own, then any other primitives (spheres) in packs of their
+// own. Returns the number of packs.
 uint32_t packLeaf(const std::vector<cbk::Primitive>& prims, uint32_t first, uint32_t count,
                   std::vector<cbk::TrianglePack>* packs) {
-    std::vector<uint32_t> triangles, others;
+    std::vector<uint32_t> triangles, alphaTested, others;
     for (uint32_t p = first; p < first + count; ++p)
-        (prims[p].kind == CB_PRIM_TRIANGLE ? triangles : others).push_back(p);
+        (prims[p].kind == CB_PRIM_TRIANGLE         ? triangles
+         : prims[p].kind == CB_PRIM_ALPHA_TRIANGLE ? alphaTested
+                                                   : others)
+            .push_back(p);
     const auto start = packs->size();
-    for (const auto* group : {&triangles, &others})
+    for (const auto* group : {&triangles, &alphaTested, &others})
         for (size_t i = 0; i < group->size(); i += CB_PACK_LANES) {
             cbk::TrianglePack pack{};
             pack.count = int(std::min<size_t>(CB_PACK_LANES, group->size() - i));
             pack.scalar = group == &others;
+            pack.alphaTested = group == &alphaTested;
             for (int k = 0; k < CB_PACK_LANES; ++k) {
                 // Lanes past the count repeat lane 0.
                 const uint32_t index = (*group)[i + size_t(k < pack.count ? k : 0)];

@@ -127,6 +127,27 @@ bool readExrLayer(const std::string& path, const std::string& layer, RgbImage& o
 
 namespace {
 
+// The EXR's "A" channel into image.alpha, where the file has one (pbrt-v4 reads every channel).
+void readExrAlpha(const std::string& path, RgbImage& image) {
+    try {
+        Imf::InputFile file(path.c_str());
+        if (!file.header().channels().findChannel("A")) return;
+        const Imath::Box2i dw = file.header().dataWindow();
+        if (dw.max.x - dw.min.x + 1 != image.width || dw.max.y - dw.min.y + 1 != image.height)
+            return;
+        image.alpha.assign(size_t(image.width) * size_t(image.height), 1.f);
+        const size_t xStride = sizeof(float), yStride = xStride * size_t(image.width);
+        char* base = (char*)image.alpha.data() - (ptrdiff_t(dw.min.x) * ptrdiff_t(xStride) +
+                                                  ptrdiff_t(dw.min.y) * ptrdiff_t(yStride));
+        Imf::FrameBuffer fb;
+        fb.insert("A", Imf::Slice(Imf::FLOAT, base, xStride, yStride));
+        file.setFrameBuffer(fb);
+        file.readPixels(dw.min.y, dw.max.y);
+    } catch (const std::exception& e) {
+        throw std::runtime_error("cannot read " + path + ": " + e.what());
+    }
+}
+
 // The EXR's primaries and white point, if the header gives them and they are not sRGB's (Rec.
 // 709 primaries, D65 white): pbrt-v4 reads such a file in its own colour space.
 std::optional<std::string> nonSrgbChromaticities(const std::string& path) {
@@ -159,11 +180,15 @@ RgbImage readPng(const std::string& path, ByteEncoding encoding) {
     // 16-bit files come linear (libpng applies their gamma), with alpha premultiplied.
     const bool sixteenBit = (png.format & PNG_FORMAT_FLAG_LINEAR) != 0;
     const bool alpha = (png.format & PNG_FORMAT_FLAG_ALPHA) != 0;
+    // pbrt-v4 keeps the alpha of RGBA files only (a grey one's it drops) and decodes it as the
+    // colour channels: an 8-bit file's by the texture's encoding, a 16-bit file's by sRGB.
+    const bool keepAlpha = alpha && (png.format & PNG_FORMAT_FLAG_COLOR) != 0;
     png.format = sixteenBit ? (alpha ? PNG_FORMAT_LINEAR_RGB_ALPHA : PNG_FORMAT_LINEAR_RGB)
                             : (alpha ? PNG_FORMAT_RGBA : PNG_FORMAT_RGB);
     const int channels = alpha ? 4 : 3;
     RgbImage out(int(png.width), int(png.height));
     const size_t count = size_t(png.width) * size_t(png.height);
+    if (keepAlpha) out.alpha.resize(count);
     bool ok;
     if (sixteenBit) {
         std::vector<png_uint_16> data(count * size_t(channels));
@@ -172,17 +197,22 @@ RgbImage readPng(const std::string& path, ByteEncoding encoding) {
             const float a = alpha ? float(data[i * 4 + 3]) : 65535.f;
             for (size_t c = 0; c < 3; ++c)
                 out.rgb[i * 3 + c] = a > 0.f ? float(data[i * size_t(channels) + c]) / a : 0.f;
+            if (keepAlpha) out.alpha[i] = srgbToLinear(a / 65535.f);
         }
     } else {
         std::vector<png_byte> data(count * size_t(channels));
         ok = png_image_finish_read(&png, nullptr, data.data(), 0, nullptr) != 0;
-        for (size_t i = 0; ok && i < count; ++i)
-            for (size_t c = 0; c < 3; ++c) {
-                const float v = float(data[i * size_t(channels) + c]) / 255.f;
-                out.rgb[i * 3 + c] = encoding.srgb           ? srgbToLinear(v)
-                                     : encoding.gamma == 1.f ? v
-                                                             : std::pow(v, encoding.gamma);
-            }
+        auto decode = [&encoding](png_byte byte) {
+            const float v = float(byte) / 255.f;
+            return encoding.srgb           ? srgbToLinear(v)
+                   : encoding.gamma == 1.f ? v
+                                           : std::pow(v, encoding.gamma);
+        };
+        for (size_t i = 0; ok && i < count; ++i) {
+            for (size_t c = 0; c < 3; ++c)
+                out.rgb[i * 3 + c] = decode(data[i * size_t(channels) + c]);
+            if (keepAlpha) out.alpha[i] = decode(data[i * 4 + 3]);
+        }
     }
     if (!ok) {
         const std::string message = png.message;
@@ -229,6 +259,7 @@ RgbImage readRgbImage(const std::string& path, ByteEncoding byteEncoding) {
                                  "stb_image, JPEG, TGA, BMP, GIF, PSD and PNM images, not \"" +
                                  extension + "\" files");
     RgbImage image = readExr(path);
+    readExrAlpha(path, image);
     std::optional<std::string> primaries;
     try {
         primaries = nonSrgbChromaticities(path);

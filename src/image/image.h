@@ -13,6 +13,9 @@ struct RgbImage {
     int width = 0;
     int height = 0;
     std::vector<float> rgb; // 3 * width * height
+    // width * height, where readRgbImage read a file with an alpha channel (as pbrt-v4 decodes
+    // it); empty otherwise. The RGB values are never premultiplied by it.
+    std::vector<float> alpha;
 
     RgbImage() = default;
     RgbImage(int w, int h) : width(w), height(h), rgb(size_t(3) * size_t(w) * size_t(h), 0.f) {}
@@ -47,8 +50,10 @@ bool readExrLayer(const std::string& path, const std::string& name, RgbImage& ou
 double rec709Luminance(const float* rgb);
 
 // A linear RGB image from an OpenEXR file (R, G, B channels; sRGB primaries, or none given) or a
-// PNG (8-bit decoded by `byteEncoding`; 16-bit by its gamma; alpha ignored): what pbrt-v4's image
-// lights and image textures read. std::runtime_error naming the file otherwise.
+// PNG (8-bit decoded by `byteEncoding`; 16-bit by its gamma), with its alpha channel where it has
+// one (EXR "A"; an RGBA PNG's, decoded as pbrt-v4 decodes it: by the 8-bit encoding, or for 16
+// bits by the sRGB curve): what pbrt-v4's image lights and image textures read.
+// std::runtime_error naming the file otherwise.
 // pbrt-v4's "encoding" of 8-bit values v / 255: the sRGB curve, or v^gamma ("linear": gamma 1).
 struct ByteEncoding {
     bool srgb = true;

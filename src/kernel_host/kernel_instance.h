@@ -82,6 +82,7 @@ template <class Visit> void forEachField(cbk::TrianglePack& s, Visit&& visit) {
     visit(s.prim);
     visit(s.count);
     visit(s.scalar);
+    visit(s.alphaTested);
     visit(s.pad);
 }
 template <class Visit> void forEachField(cbk::Primitive& s, Visit&& visit) {
@@ -111,6 +112,7 @@ template <class Visit> void forEachField(cbk::Material& s, Visit&& visit) {
     visit(s.normalMap);
     visit(s.roughnessTexture);
     visit(s.remapRoughness);
+    visit(s.alphaTexture);
 }
 template <class Visit> void forEachField(cbk::Light& s, Visit&& visit) {
     visit(s.kind);

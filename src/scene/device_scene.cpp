@@ -17,7 +17,7 @@
 namespace cb {
 
 static_assert(sizeof(cbk::Primitive) == 48, "Primitive must match the OpenCL layout");
-static_assert(sizeof(cbk::Material) == 72, "Material must match the OpenCL layout");
+static_assert(sizeof(cbk::Material) == 76, "Material must match the OpenCL layout");
 static_assert(sizeof(cbk::Light) == 108, "Light must match the OpenCL layout");
 static_assert(sizeof(cbk::Camera) == 148, "Camera must match the OpenCL layout");
 
@@ -444,6 +444,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         out.reflectanceTexture = -1;
         out.normalMap = -1;
         out.roughnessTexture = -1;
+        out.alphaTexture = -1;
         out.remapRoughness = m.remapRoughness ? 1 : 0;
         // GGX alpha of conductors, dielectrics and coats; pbrt-v4 maps roughness r to sqrt(r).
         auto ggxAlpha = [&m](float roughness) {
@@ -590,6 +591,35 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         }
     };
 
+    // pbrt-v4's shape "alpha": an alpha-tested mesh's triangles get a material of their own, the
+    // mesh's with `alphaTexture` set (one per material and alpha texture), which the traversal's
+    // alpha test reads (alphaKeepsHit); the test looks the texture up at the hit's (u, v).
+    std::map<std::pair<int, int>, int> alphaMaterials;
+    auto alphaTestedMaterial = [&](const TriangleMeshDesc& mesh) {
+        auto [it, added] = alphaMaterials.try_emplace({mesh.material, mesh.alphaTexture}, -1);
+        if (added) {
+            cbk::Material m = scene.materials[size_t(mesh.material)];
+            m.alphaTexture = addTexture(mesh.alphaTexture);
+            scene.materials.push_back(m);
+            it->second = int(scene.materials.size()) - 1;
+        }
+        return it->second;
+    };
+    for (const auto& mesh : desc.meshes) {
+        if (mesh.alphaTexture < 0 || mesh.triangles.empty()) continue;
+        if (mesh.areaLight >= 0)
+            throw SceneError(mesh.where, "an area light's shape with an \"alpha\" below 1 is not "
+                                         "supported (pbrt-v4 masks its emission where alpha "
+                                         "skips its hits); cbdpt's emitters are opaque");
+        if (mesh.material < 0)
+            throw SceneError(mesh.where, "a shape with an \"alpha\" needs a material");
+        const TextureDesc& alpha = desc.textures[size_t(mesh.alphaTexture)];
+        if (!mesh.noTexCoords.empty() && (alpha.width > 1 || alpha.height > 1))
+            throw SceneError(mesh.where, "this shape's \"alpha\" is a texture, which needs "
+                                         "texture coordinates, and cbdpt gives none to " +
+                                             mesh.noTexCoords);
+        scene.features |= CB_FEATURE_TEXTURE | CB_FEATURE_ALPHA;
+    }
     const bool texturing = (scene.features & CB_FEATURE_TEXTURE) != 0;
     const bool shading = std::any_of(desc.meshes.begin(), desc.meshes.end(), [](const auto& m) {
         return !m.normals.empty() && !m.triangles.empty();
@@ -614,8 +644,9 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         }
         for (const auto& tri : mesh.triangles) {
             cbk::Primitive prim{};
-            prim.kind = CB_PRIM_TRIANGLE;
-            prim.material = mesh.material;
+            const bool alphaTested = mesh.alphaTexture >= 0;
+            prim.kind = alphaTested ? CB_PRIM_ALPHA_TRIANGLE : CB_PRIM_TRIANGLE;
+            prim.material = alphaTested ? alphaTestedMaterial(mesh) : mesh.material;
             prim.light = -1;
             toDevice(mesh.positions[tri[0]], prim.p0);
             toDevice(mesh.positions[tri[1]], prim.p1);
@@ -888,6 +919,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
             if (m.reflectanceTexture >= 0) m.reflectanceTexture += int(uvCount);
             if (m.normalMap >= 0) m.normalMap += int(uvCount);
             if (m.roughnessTexture >= 0) m.roughnessTexture += int(uvCount);
+            if (m.alphaTexture >= 0) m.alphaTexture += int(uvCount);
         }
     }
     return scene;
@@ -927,6 +959,7 @@ std::string DeviceScene::featureNames() const {
     add(CB_FEATURE_ROUGHNESS_TEXTURE, "roughness-texture");
     add(CB_FEATURE_THIN_LENS, "thin-lens");
     add(CB_FEATURE_PIXEL_FILTER, "pixel-filter");
+    add(CB_FEATURE_ALPHA, "alpha");
     names += channels == 16 ? " spectral-16" : " rgb";
     return names;
 }

@@ -2158,13 +2158,13 @@ class Parser {
         return std::nullopt;
     }
 
-    // A float texture of class `cls` as an image texture whose value is the mean of its texels'
-    // channels (pbrt-v4's bilinear float lookup of an RGB image), or none with *why set.
+    // A float texture of class `cls` as an image texture whose texels hold their value three
+    // times (the kernels read the mean of the channels), or none with *why set.
     std::optional<TextureDesc> floatTexture(const std::string& cls, ParamList& pl,
                                             const std::string& name, const SourceLocation& where,
                                             std::string& why) {
         why = "cbdpt renders \"float\" textures of class \"imagemap\" and \"constant\" only";
-        if (cls == "imagemap") return readImageTexture(pl, name, where);
+        if (cls == "imagemap") return readImageTexture(pl, name, where, true);
         if (cls == "constant") {
             if (const Param* p = pl.peek("value"); p && p->type == "texture") {
                 why = "its \"texture value\" is a texture, where cbdpt needs a number";
@@ -2328,7 +2328,7 @@ class Parser {
     // The parameters of pbrt-v4's "imagemap" and the image they name, "scale" and "invert"
     // applied to every texel (linear, so the same before or after bilinear interpolation).
     TextureDesc readImageTexture(ParamList& pl, const std::string& name,
-                                 const SourceLocation& where) {
+                                 const SourceLocation& where, bool asFloat = false) {
         TextureDesc tex;
         tex.name = name;
         tex.where = where;
@@ -2392,6 +2392,21 @@ class Parser {
         RgbImage image = readImageAt(tex.path, fileWhere, encoding);
         if (image.width < 1 || image.height < 1)
             throw SceneError(fileWhere, "texture image " + tex.path + " has no pixels");
+        if (asFloat) {
+            // pbrt-v4's float lookup of an image: its alpha channel where it has one that is not
+            // all 1, else the mean of R, G and B (MIPMap::Bilerp<Float>); "point" reads R
+            // (MIPMap::Texel<Float>), the alpha channel's file included.
+            const bool useAlpha =
+                !tex.nearest && std::any_of(image.alpha.begin(), image.alpha.end(),
+                                            [](float a) { return a != 1.f; });
+            for (size_t i = 0; i < image.rgb.size(); i += 3) {
+                const float* texel = &image.rgb[i];
+                const float v = tex.nearest ? texel[0]
+                                : useAlpha  ? image.alpha[i / 3]
+                                            : (texel[0] + texel[1] + texel[2]) / 3.f;
+                std::fill_n(&image.rgb[i], 3, v);
+            }
+        }
         for (size_t i = 0; i < image.rgb.size(); ++i) {
             const double v = invert ? 1.0 - scale * image.rgb[i] : scale * image.rgb[i];
             if (!std::isfinite(image.rgb[i]) || !std::isfinite(float(v)))
@@ -2574,23 +2589,55 @@ class Parser {
         return state_.areaLight >= 0 && scene_.areaLights[size_t(state_.areaLight)].power > 0.0;
     }
 
-    // A shape's constant "float alpha": pbrt-v4 renders >= 1 opaque (the default) and skips
-    // every hit on a shape of alpha <= 0, light included; between, its hits are kept at random
-    // (stochastic transparency), which cbdpt does not do. True: the shape is not there.
-    bool alphaHidden(ParamList& pl, const Token& t) {
+    // A shape's "alpha" (pbrt-v4's GeometricPrimitive), a float or a float texture: where it is
+    // 1 a hit counts, where 0 the hit is skipped, between it counts at random with that
+    // probability (stochastic transparency). A constant >= 1 is opaque (the default); one <= 0
+    // skips every hit, light included, so the shape is `hidden` (not added). Otherwise
+    // `texture` indexes the alpha texture in scene_.textures, a 1 x 1 one for a constant.
+    struct ShapeAlpha {
+        bool hidden = false;
+        int texture = -1;
+    };
+    ShapeAlpha shapeAlpha(ParamList& pl, const Token& t, const char* shapeKind) {
         const Param* p = pl.peek("alpha");
-        if (!p) return false;
-        const double alpha = *pl.oneFloat("alpha");
-        if (alpha >= 1.0) return false;
-        if (alpha > 0.0)
+        if (!p) return {};
+        ShapeAlpha out;
+        if (p->type == "texture") {
+            const std::string name = *pl.oneTexture("alpha");
+            const auto it = floatTextures_.find(name);
+            if (it == floatTextures_.end())
+                throw SceneError(p->valueLoc(0),
+                                 "\"texture alpha\" names no float texture \"" + name +
+                                     "\" (cbdpt reads an alpha texture defined before its shape)");
+            if (it->second.index < 0) throw SceneError(p->valueLoc(0), it->second.unsupported);
+            out.texture = it->second.index;
+        } else {
+            const double alpha = *pl.oneFloat("alpha");
+            if (alpha >= 1.0) return {};
+            if (alpha <= 0.0) {
+                note(t.where, "alpha-zero",
+                     "a shape of \"float alpha\" 0 is invisible (pbrt-v4 skips its hits): not "
+                     "added");
+                return {true, -1};
+            }
+            auto [at, added] = constantAlphas_.try_emplace(alpha, -1);
+            if (added) {
+                TextureDesc tex;
+                tex.name = fmt::format("alpha {:g}", alpha);
+                tex.where = p->valueLoc(0);
+                tex.width = tex.height = 1;
+                tex.rgb.assign(3, float(alpha));
+                at->second = int(scene_.textures.size());
+                scene_.textures.push_back(std::move(tex));
+            }
+            out.texture = at->second;
+        }
+        if (shapeKind)
             throw SceneError(p->valueLoc(0),
-                             fmt::format("\"float alpha\" {:g}: a partly transparent shape "
-                                         "(pbrt-v4 keeps its hits at random) is not supported; "
-                                         "alpha 1 is opaque, 0 invisible",
-                                         alpha));
-        note(t.where, "alpha-zero",
-             "a shape of \"float alpha\" 0 is invisible (pbrt-v4 skips its hits): not added");
-        return true;
+                             std::string("an \"alpha\" below 1 on a ") + shapeKind +
+                                 " is not supported: cbdpt tests alpha on triangles (meshes, "
+                                 "PLY meshes, bilinear patches and disks) only");
+        return out;
     }
 
     void shape(const Token& t) {
@@ -2602,7 +2649,7 @@ class Parser {
                 radius = *pl.oneFloat("radius");
                 if (!(radius > 0.0)) throw SceneError(p->where, "\"float radius\" must be > 0");
             }
-            const bool hidden = alphaHidden(pl, t);
+            const bool hidden = shapeAlpha(pl, t, "sphere").hidden;
             pl.finish();
             if (!hidden) sphere(t.where, radius);
         } else if (type.text == "trianglemesh") {
@@ -2644,9 +2691,11 @@ class Parser {
             }
             std::vector<std::array<float, 6>> cornerUv = cornersOf(tris, vertexTexCoords(pl, nv));
             ignoreTangents(pl, t.where);
-            const bool hidden = alphaHidden(pl, t);
+            const ShapeAlpha alpha = shapeAlpha(pl, t, nullptr);
             pl.finish();
-            if (!hidden) addMesh(t.where, pos, std::move(tris), normals, {}, std::move(cornerUv));
+            if (!alpha.hidden)
+                addMesh(t.where, pos, std::move(tris), normals, {}, std::move(cornerUv), {},
+                        alpha.texture);
         } else if (type.text == "bilinearmesh") {
             bilinearMesh(t);
         } else if (type.text == "disk") {
@@ -2656,9 +2705,9 @@ class Parser {
             const Param* fp = pl.peek("filename");
             const std::optional<std::string> file = pl.oneString("filename");
             if (!file) throw SceneError(t.where, "plymesh needs \"string filename\"");
-            const bool hidden = alphaHidden(pl, t);
+            const ShapeAlpha alpha = shapeAlpha(pl, t, nullptr);
             pl.finish();
-            if (hidden) return;
+            if (alpha.hidden) return;
             const std::string path = resolveModel(*file, fp->valueLoc(0));
             scene_.sourceFiles.push_back(path);
             PlyMesh ply;
@@ -2680,7 +2729,8 @@ class Parser {
             for (size_t i = 0; i < normals.size(); ++i)
                 normals[i] = {ply.normals[i][0], ply.normals[i][1], ply.normals[i][2]};
             std::vector<std::array<float, 6>> cornerUv = cornersOf(ply.triangles, ply.uv);
-            addMesh(t.where, pos, std::move(ply.triangles), normals, {}, std::move(cornerUv));
+            addMesh(t.where, pos, std::move(ply.triangles), normals, {}, std::move(cornerUv), {},
+                    alpha.texture);
         } else {
             throw SceneError(type.where, "unsupported shape \"" + type.text +
                                              "\" (cbdpt supports trianglemesh, bilinearmesh "
@@ -2771,7 +2821,7 @@ class Parser {
         // pbrt-v4's patch (u, v) at p00, p10, p01, p11 when "uv" is not given.
         std::vector<std::array<float, 2>> uv = vertexTexCoords(pl, nv);
         ignoreTangents(pl, t.where);
-        const bool hidden = alphaHidden(pl, t);
+        const ShapeAlpha alpha = shapeAlpha(pl, t, nullptr);
         pl.finish();
         std::vector<std::array<unsigned, 3>> tris;
         std::vector<std::array<float, 6>> cornerUv;
@@ -2841,9 +2891,9 @@ class Parser {
                 patchArea.insert(patchArea.end(), 2, area);
             }
         }
-        if (!hidden)
+        if (!alpha.hidden)
             addMesh(t.where, pos, std::move(tris), normals, patchArea, std::move(cornerUv),
-                    noTexCoords);
+                    noTexCoords, alpha.texture);
     }
 
     // Ring segments of a full disk; a partial one (phimax < 360) gets its share, at least 4.
@@ -2871,7 +2921,7 @@ class Parser {
             throw SceneError(ip->where, "\"float innerradius\" must be in [0, radius)");
         if (!(phimax > 0.0 && phimax <= 360.0))
             throw SceneError(pp->where, "\"float phimax\" must be in (0, 360] degrees");
-        const bool hidden = alphaHidden(pl, t);
+        const ShapeAlpha alpha = shapeAlpha(pl, t, nullptr);
         pl.finish();
         const double phiMax = phimax * M_PI / 180.0;
         const int segments = std::max(4, int(std::ceil(kDiskSegments * phimax / 360.0 - 1e-9)));
@@ -2915,10 +2965,11 @@ class Parser {
         // pbrt-v4's Disk::Area, in object space (as pbrt-v4 divides a light's power by it).
         const double area = 0.5 * phiMax * (radius * radius - inner * inner);
         std::vector<double> diskArea(poweredAreaLight() ? tris.size() : 0, area);
-        if (!hidden)
+        if (!alpha.hidden)
             addMesh(t.where, pos, std::move(tris), {}, diskArea, {},
                     "a disk (its polar (u, v) is not linear over the triangles cbdpt renders it "
-                    "as)");
+                    "as)",
+                    alpha.texture);
     }
 
     // The CTM's scale factor; an error unless the CTM is a similarity (only those keep a sphere
@@ -2983,7 +3034,7 @@ class Parser {
                  const std::vector<std::array<double, 3>>& objNormals,
                  const std::vector<double>& shapeArea = {},
                  const std::vector<std::array<float, 6>>& cornerUv = {},
-                 const std::string& noTexCoords = {}) {
+                 const std::string& noTexCoords = {}, int alphaTexture = -1) {
         requireAffine(where);
         const Mat4& m = state_.ctm;
         TriangleMeshDesc mesh;
@@ -3044,6 +3095,7 @@ class Parser {
         }
         mesh.material = currentMaterial();
         mesh.areaLight = state_.areaLight;
+        mesh.alphaTexture = alphaTexture;
         scene_.meshes.push_back(std::move(mesh));
     }
 
@@ -3187,6 +3239,7 @@ class Parser {
     };
     std::map<std::string, NamedTexture> spectrumTextures_, floatTextures_;
     std::map<std::string, int> normalMaps_; // image path -> index in scene_.textures
+    std::map<double, int> constantAlphas_;  // a shape's constant alpha -> index in scene_.textures
     bool textureFilteringDisabled_ = false; // Option "disabletexturefiltering" true
     std::set<std::string> notedKinds_;
     std::map<std::string, Mat4> namedCoordinateSystems_;

@@ -132,6 +132,10 @@ struct TriangleMeshDesc {
     // Per vertex, as `positions`: pbrt-v4's "N" in world space (the normal transform, negated
     // under ReverseOrientation), which shades the mesh; empty: shaded by geometric normals.
     std::vector<std::array<double, 3>> normals;
+    // pbrt-v4's shape "alpha" where below 1: an index into SceneDesc::textures, a float texture
+    // (1 x 1 for a constant) whose value at a hit decides whether the hit counts (alpha 0 skips
+    // it, 1 keeps it, between at random with that probability); -1: opaque.
+    int alphaTexture = -1;
     SourceLocation where;
 
     // Swaps triangle t's corners 1 and 2, so that its other side faces out; their (u, v) go

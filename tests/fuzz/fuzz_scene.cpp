@@ -125,6 +125,7 @@ void checkScene(const cb::SceneDesc& s) {
         }
         checkIndex(m.material, nm, false, "mesh material");
         checkIndex(m.areaLight, nl, true, "mesh area light");
+        checkIndex(m.alphaTexture, s.textures.size(), true, "mesh alpha texture");
         if (!m.cornerUv.empty() && m.cornerUv.size() != m.triangles.size())
             broken("texture coordinates not one per triangle");
         for (const auto& uv : m.cornerUv)

@@ -42,7 +42,7 @@ CB_FN __attribute__((noinline)) bool packetLeaf(CB_GLOBAL const TrianglePack* pa
     bool found = false;
     for (uint p = first; p < first + count; ++p) {
         Hit h;
-        if (intersectPack(packs + p, prims, ray, sheared, *closest, closestHit, &h)) {
+        if (intersectPack(packs + p, prims, ray, sheared, *closest, closestHit, &h, 0)) {
             *hit = h;
             *closest = h.t;
             found = true;

@@ -41,7 +41,7 @@ __kernel void benchClosestWide(__global const struct BvhNodeWide* nodes,
     if (i >= count) return;
     Hit h = {CB_INFINITY, -1, 0.0f, 0.0f};
     if (tMax[i] > 0.0f)
-        bvhWideTraverse(nodes, packs, primitives, rays[i], tMax[i], true, false, &h);
+        bvhWideTraverse(nodes, packs, primitives, rays[i], tMax[i], true, false, &h, 0);
     hits[i] = h;
 }
 
@@ -56,7 +56,8 @@ __kernel void benchClosestWideCoherent(__global const struct BvhNodeWide* nodes,
     uint i = (uint)get_global_id(0);
     if (i >= count) return;
     Hit h = {CB_INFINITY, -1, 0.0f, 0.0f};
-    if (tMax[i] > 0.0f) bvhWideTraverse(nodes, packs, primitives, rays[i], tMax[i], true, true, &h);
+    if (tMax[i] > 0.0f)
+        bvhWideTraverse(nodes, packs, primitives, rays[i], tMax[i], true, true, &h, 0);
     hits[i] = h;
 }
 
@@ -69,7 +70,7 @@ __kernel void benchOccludedWide(__global const struct BvhNodeWide* nodes,
     if (i >= count) return;
     Hit h;
     occluded[i] = tMax[i] > 0.0f && bvhWideTraverse(nodes, packs, primitives, rays[i], tMax[i],
-                                                    false, true, &h)
+                                                    false, true, &h, 0)
                       ? 1
                       : 0;
 }
@@ -121,7 +122,7 @@ benchRays(__global const struct BvhNodeWide* nodes, __global const TrianglePack*
     uint p = (uint)get_global_id(0);
     if (p >= packetCount) return;
     rayPacketTrace(nodes, packs, primitives, rays, tMax, CB_RAY_PACKET_LOAD(p, packets), closestHit,
-                   hits, occluded);
+                   hits, occluded, 0);
 }
 
 __kernel void benchClosestWideRays(__global const struct BvhNodeWide* nodes,
