@@ -553,6 +553,13 @@ CB_FN SurfacePoint surfacePointFromHit(const SceneView* scene, Ray ray, Hit hit)
             sp.ns = normalMapNormal(scene, normalMap, hit.primitive, p0, p1, p2, sp);
     }
 #endif
+#if CB_HAS(CB_FEATURE_BUMP_MAP)
+    if (scene->textures) {
+        int displacement = scene->materials[sp.material].displacement;
+        if (displacement >= 0)
+            sp.ns = bumpMapNormal(scene, displacement, hit.primitive, p0, p1, p2, sp);
+    }
+#endif
     return sp;
 }
 

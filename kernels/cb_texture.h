@@ -152,6 +152,109 @@ CB_FN Vec3 coordinateSystemFirst(Vec3 v) {
     return vec3(1.0f + sign * v.x * v.x * a, sign * v.x * v.y * a, -sign * v.x);
 }
 
+/* pbrt-v4's CoordinateSystem: the frame's second axis, cross(v, coordinateSystemFirst(v)) for a
+ * unit v (pbrt-v4 also calls it on vectors that are not, with the same formula). */
+CB_FN Vec3 coordinateSystemSecond(Vec3 v) {
+    real sign = v.z >= 0.0f ? 1.0f : -1.0f;
+    real a = -1.0f / (sign + v.z);
+    return vec3(v.x * v.y * a, sign + v.y * v.y * a, -v.y);
+}
+
+/* pbrt-v4's Triangle partial derivatives (Triangle::InteractionFromIntersection): dp/du and
+ * dp/dv from the corners' (u, v) (textures[6 * primitive]), or where those are degenerate
+ * (|determinant| < 1e-9) or give parallel derivatives, the frame CoordinateSystem builds about
+ * cross(p2 - p0, p1 - p0); with the (u, v) differences that dn/du and dn/dv need too. */
+typedef struct TriangleUvFrame {
+    real du02, dv02, du12, dv12, determinant;
+    int degenerate;
+    Vec3 dpdu, dpdv;
+} TriangleUvFrame;
+
+CB_FN TriangleUvFrame triangleUvFrame(const SceneView* scene, int primitive, Vec3 p0, Vec3 p1,
+                                      Vec3 p2) {
+    CB_GLOBAL const real* uv = scene->textures + 6 * primitive;
+    TriangleUvFrame f;
+    f.du02 = uv[0] - uv[4];
+    f.dv02 = uv[1] - uv[5];
+    f.du12 = uv[2] - uv[4];
+    f.dv12 = uv[3] - uv[5];
+    f.determinant = f.du02 * f.dv12 - f.dv02 * f.du12;
+    f.degenerate = fabs(f.determinant) < 1e-9f;
+    f.dpdu = vec3(0.0f, 0.0f, 0.0f);
+    f.dpdv = f.dpdu;
+    Vec3 dp02 = vsub(p0, p2), dp12 = vsub(p1, p2);
+    if (!f.degenerate) {
+        real inverse = 1.0f / f.determinant;
+        f.dpdu = vscale(vsub(vscale(dp02, f.dv12), vscale(dp12, f.dv02)), inverse);
+        f.dpdv = vscale(vsub(vscale(dp12, f.du02), vscale(dp02, f.du12)), inverse);
+    }
+    if (f.degenerate || vlength2(vcross(f.dpdu, f.dpdv)) == 0.0f) {
+        Vec3 ng = vnormalize(vcross(vsub(p2, p0), vsub(p1, p0)));
+        f.dpdu = coordinateSystemFirst(ng);
+        f.dpdv = coordinateSystemSecond(ng);
+    }
+    return f;
+}
+
+/* The shading normal of a bump-mapped triangle at surface point sp (pbrt-v4's BumpMap and
+ * SetShadingGeometry), from the shading geometry pbrt-v4's Triangle gives it: dp/du and dp/dv
+ * from the corners' (u, v) (a frame about ng where they are degenerate), and with vertex normals
+ * the shading normal sp.ns, its tangents dp/du made perpendicular to it and ns x dp/du, and
+ * dn/du, dn/dv from the vertex normals. The displacement d is looked up at (u, v) and 0.0005
+ * further along u and along v (pbrt-v4's step where a ray has no differentials, as under Option
+ * "disabletexturefiltering"); each tangent moves along ns by d's slope and by d times the
+ * normal's derivative, and their cross product, turned to ng's side, is the shading normal. */
+CB_FN Vec3 bumpMapNormal(const SceneView* scene, int offset, int primitive, Vec3 p0, Vec3 p1,
+                         Vec3 p2, SurfacePoint sp) {
+    TriangleUvFrame f = triangleUvFrame(scene, primitive, p0, p1, p2);
+    Vec3 dpdu = f.dpdu, dpdv = f.dpdv;
+    Vec3 ns = sp.ns;
+    Vec3 dndu = vec3(0.0f, 0.0f, 0.0f), dndv = dndu;
+#if CB_HAS(CB_FEATURE_SHADING_NORMALS)
+    CB_GLOBAL const real* vn = scene->shadingNormals ? scene->shadingNormals + 9 * primitive : 0;
+    if (vn) {
+        Vec3 n0 = vec3FromGlobalArray(vn), n1 = vec3FromGlobalArray(vn + 3);
+        Vec3 n2 = vec3FromGlobalArray(vn + 6);
+        if (vlength2(n0) + vlength2(n1) + vlength2(n2) > 0.0f) {
+            Vec3 ts = vcross(ns, dpdu);
+            if (vlength2(ts) > 0.0f) {
+                dpdu = vcross(ts, ns);
+                dpdv = ts;
+            } else {
+                dpdu = coordinateSystemFirst(ns);
+                dpdv = coordinateSystemSecond(ns);
+            }
+            if (f.degenerate) {
+                Vec3 dn = vcross(vsub(n2, n0), vsub(n1, n0));
+                if (vlength2(dn) != 0.0f) {
+                    dndu = coordinateSystemFirst(dn);
+                    dndv = coordinateSystemSecond(dn);
+                }
+            } else {
+                real inverse = 1.0f / f.determinant;
+                Vec3 dn1 = vsub(n0, n2), dn2 = vsub(n1, n2);
+                dndu = vscale(vsub(vscale(dn1, f.dv12), vscale(dn2, f.dv02)), inverse);
+                dndv = vscale(vsub(vscale(dn2, f.du02), vscale(dn1, f.du12)), inverse);
+            }
+        }
+    }
+#endif
+    const real step = 0.0005f;
+    TexCoord alongU = sp.uv, alongV = sp.uv;
+    alongU.u += step;
+    alongV.v += step;
+    real d = textureFloat(scene, offset, sp.uv);
+    real dU = textureFloat(scene, offset, alongU);
+    real dV = textureFloat(scene, offset, alongV);
+    Vec3 bumpedU = vadd(vadd(dpdu, vscale(ns, (dU - d) / step)), vscale(dndu, d));
+    Vec3 bumpedV = vadd(vadd(dpdv, vscale(ns, (dV - d) / step)), vscale(dndv, d));
+    Vec3 n = vcross(bumpedU, bumpedV);
+    real length2 = vlength2(n);
+    if (!(length2 > 0.0f) || !isfinite(length2)) return sp.ns;
+    n = vscale(n, 1.0f / sqrt(length2));
+    return vdot(n, sp.ng) < 0.0f ? vneg(n) : n;
+}
+
 /* The shading normal of a normal-mapped triangle at surface point sp (pbrt-v4's NormalMap and
  * SetShadingGeometry): the texel 2 rgb - 1, normalised, in the frame whose z is sp.ns and whose
  * x is dp/du (from the corners' (u, v), pbrt-v4's Triangle) made perpendicular to it, then
@@ -159,16 +262,9 @@ CB_FN Vec3 coordinateSystemFirst(Vec3 v) {
  * repeating, v = 1 the top row. */
 CB_FN Vec3 normalMapNormal(const SceneView* scene, int offset, int primitive, Vec3 p0, Vec3 p1,
                            Vec3 p2, SurfacePoint sp) {
-    CB_GLOBAL const real* uv = scene->textures + 6 * primitive;
-    real du02 = uv[0] - uv[4], dv02 = uv[1] - uv[5];
-    real du12 = uv[2] - uv[4], dv12 = uv[3] - uv[5];
-    real determinant = du02 * dv12 - dv02 * du12;
-    Vec3 dpdu = vec3(0.0f, 0.0f, 0.0f);
-    if (fabs(determinant) >= 1e-9f)
-        dpdu = vscale(vsub(vscale(vsub(p0, p2), dv12), vscale(vsub(p1, p2), dv02)),
-                      1.0f / determinant);
+    Vec3 dpdu = triangleUvFrame(scene, primitive, p0, p1, p2).dpdu;
     if (!(vlength2(dpdu) > 0.0f) || !isfinite(vlength2(dpdu)))
-        dpdu = coordinateSystemFirst(sp.ng); /* degenerate (u, v): any tangent */
+        dpdu = coordinateSystemFirst(sp.ng); /* (u, v) beyond the float range: any tangent */
     Vec3 x = vcross(vcross(sp.ns, dpdu), sp.ns);
     x = vlength2(x) > 0.0f ? vnormalize(x) : coordinateSystemFirst(sp.ns);
     Vec3 y = vcross(sp.ns, x);

@@ -117,6 +117,7 @@ typedef struct SurfacePoint {
 #define CB_FEATURE_ROUGHNESS_TEXTURE (1u << 21) /* a GGX roughness given by a float texture */
 #define CB_FEATURE_PIXEL_FILTER (1u << 22)      /* any pixel filter but the box of radius 0.5 */
 #define CB_FEATURE_ALPHA (1u << 23)             /* shapes with pbrt-v4's "alpha" (cut-outs) */
+#define CB_FEATURE_BUMP_MAP (1u << 24)          /* materials with pbrt-v4's "displacement" */
 
 #ifndef CB_FEATURES
 #define CB_FEATURES 0xffffffffu
@@ -128,8 +129,10 @@ typedef struct SurfacePoint {
 #define CB_HAS_GGX_REFLECTION (CB_HAS(CB_FEATURE_CONDUCTOR) || CB_HAS(CB_FEATURE_COATED_CONDUCTOR))
 #define CB_HAS_CONDUCTOR_FRESNEL                                                                   \
     (CB_HAS(CB_FEATURE_CONDUCTOR_FRESNEL) || CB_HAS(CB_FEATURE_COATED_CONDUCTOR))
-/* Shading normals that can differ from the geometric ones: vertex normals or normal maps. */
-#define CB_HAS_SHADING (CB_HAS(CB_FEATURE_SHADING_NORMALS) || CB_HAS(CB_FEATURE_NORMAL_MAP))
+/* Shading normals that can differ from the geometric ones: vertex normals, normal or bump maps. */
+#define CB_HAS_SHADING                                                                             \
+    (CB_HAS(CB_FEATURE_SHADING_NORMALS) || CB_HAS(CB_FEATURE_NORMAL_MAP) ||                        \
+     CB_HAS(CB_FEATURE_BUMP_MAP))
 
 typedef struct Material {
     int kind;        /* CB_MAT_* */
@@ -171,6 +174,10 @@ typedef struct Material {
     /* CB_FEATURE_ALPHA: the offset in `textures` of the float texture (1 x 1 for a constant) that
      * gives the shape's alpha, for the primitives of kind CB_PRIM_ALPHA_TRIANGLE; -1: none. */
     int alphaTexture;
+    /* CB_FEATURE_BUMP_MAP: the offset in `textures` of the float texture (1 x 1 for a constant)
+     * of pbrt-v4's "displacement", whose slopes tilt the shading normal (bumpMapNormal); -1: none
+     * (also where the material has a normal map, which pbrt-v4 uses instead). */
+    int displacement;
 } Material;
 
 /* ---- Lights ------------------------------------------------------------------------------- */

@@ -3,6 +3,7 @@
 #pragma once
 
 #include "image/image.h"
+#include "scene/device_scene.h"
 #include "scene/scene_desc.h"
 
 #include <filesystem>
@@ -47,6 +48,16 @@ inline cb::SceneDesc parseInTemp(const std::string& text) {
 inline std::string errorOf(const std::string& text) {
     try {
         parseInTemp(text);
+    } catch (const cb::SceneError& e) {
+        return e.what();
+    }
+    return "";
+}
+
+// The error of parsing `text` in the temporary folder and building its device scene; "" for none.
+inline std::string deviceErrorOf(const std::string& text) {
+    try {
+        cb::buildDeviceScene(parseInTemp(text));
     } catch (const cb::SceneError& e) {
         return e.what();
     }

@@ -57,15 +57,6 @@ cb::DeviceScene deviceInTemp(const std::string& text) {
     return cb::buildDeviceScene(parseInTemp(text));
 }
 
-std::string deviceError(const std::string& text) {
-    try {
-        deviceInTemp(text);
-    } catch (const cb::SceneError& e) {
-        return e.what();
-    }
-    return "";
-}
-
 } // namespace
 
 TEST_CASE("shape alpha: constants and textures, the shapes that take them, the refusals") {
@@ -142,14 +133,15 @@ TEST_CASE("shape alpha: constants and textures, the shapes that take them, the r
     // An emitter with an alpha, and an alpha texture on a disk (no (u, v) in cbdpt): refused by
     // the device, naming the shape's line; a constant alpha needs no (u, v).
     const std::string emitterError =
-        deviceError(head + "AttributeBegin\nAreaLightSource \"diffuse\"\n" + kQuad +
-                    "\"float alpha\" 0.5\nAttributeEnd\n");
+        deviceErrorOf(head + "AttributeBegin\nAreaLightSource \"diffuse\"\n" + kQuad +
+                      "\"float alpha\" 0.5\nAttributeEnd\n");
     CHECK(contains(emitterError, "t.pbrt:6:"));
     CHECK(contains(emitterError, "an area light's shape with an \"alpha\" below 1"));
-    const std::string diskError = deviceError(head + "Shape \"disk\" \"texture alpha\" \"cut\"\n");
+    const std::string diskError =
+        deviceErrorOf(head + "Shape \"disk\" \"texture alpha\" \"cut\"\n");
     CHECK(contains(diskError, "t.pbrt:4:"));
     CHECK(contains(diskError, "\"alpha\" is a texture, which needs texture coordinates"));
-    CHECK(deviceError(head + "Shape \"disk\" \"float alpha\" 0.5\n").empty());
+    CHECK(deviceErrorOf(head + "Shape \"disk\" \"float alpha\" 0.5\n").empty());
 }
 
 TEST_CASE("shape alpha: float textures read an image's alpha channel as pbrt-v4 does") {

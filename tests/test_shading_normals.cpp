@@ -189,14 +189,20 @@ TEST_CASE("shading normals: the interpolated normal at hit points") {
 namespace {
 
 // A plane lit straight from above by a distant light of irradiance pi, seen from above, whose
-// shading normals all lean 40 degrees from its face's, given by its vertex normals or by a
-// normal map of one texel: in the integral the shading normals define (each vertex's f times
-// |ns . w| on the light's side) a diffuse plane of albedo rho has radiance rho cos 40. The
-// geometric cosine in its place, at an eye vertex or in a light subpath's vertex (whose
+// shading normals all lean 40 degrees from its face's, given by its vertex normals, by a
+// normal map of one texel or by a bump map: in the integral the shading normals define (each
+// vertex's f times |ns . w| on the light's side) a diffuse plane of albedo rho has radiance rho
+// cos 40. The geometric cosine in its place, at an eye vertex or in a light subpath's vertex (whose
 // correction |ns . wo| / |ng . wo| is cos 40 here), gives rho. (A uniform sky would not tell
-// them apart: |m . w| over any hemisphere integrates to pi for every unit m.)
-cb::DeviceScene tiltedPlane(bool normalMap) {
-    const std::string lean = "0.642788 0 0.766044";
+// them apart: |m . w| over any hemisphere integrates to pi for every unit m.) The bump map's
+// displacement rises along u at tan 40 per unit of length (a two-texel ramp, clamped, whose
+// linear stretch the plane's (u, v) stays within).
+enum class Lean { VertexNormals, NormalMap, BumpMap };
+const Lean kLeans[] = {Lean::VertexNormals, Lean::NormalMap, Lean::BumpMap};
+
+cb::DeviceScene tiltedPlane(Lean lean) {
+    const bool normalMap = lean == Lean::NormalMap;
+    const std::string leaning = "0.642788 0 0.766044";
     std::string shape =
         "Shape \"trianglemesh\" \"point3 P\" [-10 -10 0  10 -10 0  -10 10 0  10 10 0] "
         "\"integer indices\" [0 1 3  0 3 2]";
@@ -209,8 +215,17 @@ cb::DeviceScene tiltedPlane(bool normalMap) {
         });
         material += " \"string normalmap\" \"lean.exr\"";
         shape += " \"point2 uv\" [1 0  1 1  0 0  0 1]";
+    } else if (lean == Lean::BumpMap) {
+        // D = 2 scale (u - 1/4) for u in [1/4, 3/4]; u runs 0.3 to 0.7 over the plane's 20
+        // units, so dD/dx = 2 scale / 50 = tan 40.
+        writeImage("ramp.exr", 2, 1, [](int x, int, int) { return float(x); });
+        material = "Texture \"ramp\" \"float\" \"imagemap\" \"string filename\" \"ramp.exr\" "
+                   "\"string wrap\" \"clamp\" \"float scale\" 20.97550034\n" +
+                   material + " \"texture displacement\" \"ramp\"";
+        shape += " \"point2 uv\" [0.3 0.3  0.7 0.3  0.3 0.7  0.7 0.7]";
     } else {
-        shape += " \"normal N\" [" + lean + "  " + lean + "  " + lean + "  " + lean + "]";
+        shape +=
+            " \"normal N\" [" + leaning + "  " + leaning + "  " + leaning + "  " + leaning + "]";
     }
     const cb::DeviceScene scene = cb::buildDeviceScene(parseInTemp(
         "LookAt 0 0 3  0 0 0  0 1 0\nCamera \"perspective\" \"float fov\" 40\n"
@@ -218,8 +233,9 @@ cb::DeviceScene tiltedPlane(bool normalMap) {
         "WorldBegin\nLightSource \"distant\" \"point3 from\" [0 0 1] \"point3 to\" [0 0 0] "
         "\"rgb L\" [1 1 1] \"float scale\" 3.14159265358979\n" +
         material + "\n" + shape + "\n"));
-    REQUIRE((scene.features & (normalMap ? CB_FEATURE_NORMAL_MAP : CB_FEATURE_SHADING_NORMALS)) !=
-            0);
+    REQUIRE((scene.features & (lean == Lean::NormalMap ? CB_FEATURE_NORMAL_MAP
+                               : lean == Lean::BumpMap ? CB_FEATURE_BUMP_MAP
+                                                       : CB_FEATURE_SHADING_NORMALS)) != 0);
     return scene;
 }
 
@@ -232,10 +248,10 @@ TEST_CASE("shading normals: a tilted-normal plane's radiance, every method" *
           doctest::test_suite("statistical")) {
     TempDirCleanup cleanup;
     cb::ClRuntime runtime;
-    for (const bool normalMap : {false, true}) {
-        const cb::DeviceScene scene = tiltedPlane(normalMap);
+    for (const Lean lean : kLeans) {
+        const cb::DeviceScene scene = tiltedPlane(lean);
         for (const std::string method : kMethods) {
-            CAPTURE(normalMap);
+            CAPTURE(int(lean));
             CAPTURE(method);
             checkChannelMeans(channelMeans(scene, runtime, methodSettings(method), 4, 300u),
                               kPlaneRadiance, 1e-4);
@@ -250,12 +266,12 @@ TEST_CASE("shading normals: each BDPT strategy alone sees the tilted plane" *
           doctest::test_suite("statistical")) {
     TempDirCleanup cleanup;
     cb::ClRuntime runtime;
-    for (const bool normalMap : {false, true}) {
-        const cb::DeviceScene scene = tiltedPlane(normalMap);
+    for (const Lean lean : kLeans) {
+        const cb::DeviceScene scene = tiltedPlane(lean);
         for (const auto& [s, t, estimates] :
              {std::array<int, 3>{1, 2, 8}, std::array<int, 3>{2, 1, 64},
               std::array<int, 3>{-1, -1, 8}}) {
-            CAPTURE(normalMap);
+            CAPTURE(int(lean));
             CAPTURE(s);
             CAPTURE(t);
             cb::IntegratorSettings settings = methodSettings("bdpt");
@@ -278,6 +294,29 @@ TEST_CASE("shading normals: BDPT, CBDPT and MLT agree with PT on smooth-shaded m
                                 "Scale 0.35 0.35 0.35\n" +
                                 kOctahedron + "AttributeEnd\n");
 }
+
+namespace {
+
+// The shading normal a ray straight down from (X, Y, 1) finds, on the geometric normal's side.
+std::array<double, 3> shadingNormalBelow(const cb::DeviceScene& scene, const cbk::SceneView& view,
+                                         double X, double Y) {
+    const auto found = cbtest::surfaceBelow(scene, view, X, Y, 1.0);
+    REQUIRE(found);
+    const cbk::SurfacePoint& sp = *found;
+    CHECK(cbk::vdot(sp.ns, sp.ng) > 0.f);
+    return {sp.ns.x, sp.ns.y, sp.ns.z};
+}
+
+// The device's error for `body` after a diffuse material "bumpy" with `bump` (a normal map or a
+// displacement) and a plain one; "" where there is none.
+std::string bumpyError(const std::string& bump, const std::string& body) {
+    return deviceErrorOf(
+        "WorldBegin\nLightSource \"infinite\"\nMakeNamedMaterial \"bumpy\" \"string type\" "
+        "\"diffuse\" " +
+        bump + "\nMakeNamedMaterial \"plain\" \"string type\" \"diffuse\"\n" + body);
+}
+
+} // namespace
 
 TEST_CASE("normal maps: the mapped normal at hit points, and what is refused") {
     TempDirCleanup cleanup;
@@ -305,13 +344,7 @@ TEST_CASE("normal maps: the mapped normal at hit points, and what is refused") {
         "\"integer indices\" [0 1 3  0 3 2]\n"));
     REQUIRE((scene.features & CB_FEATURE_NORMAL_MAP) != 0);
     const cbk::SceneView view = cbtest::hostView(scene);
-    auto normalAt = [&](double X, double Y) {
-        const auto found = cbtest::surfaceBelow(scene, view, X, Y, 1.0);
-        REQUIRE(found);
-        const cbk::SurfacePoint& sp = *found;
-        CHECK(cbk::vdot(sp.ns, sp.ng) > 0.f);
-        return std::array<double, 3>{sp.ns.x, sp.ns.y, sp.ns.z};
-    };
+    auto normalAt = [&](double X, double Y) { return shadingNormalBelow(scene, view, X, Y); };
     // The tangent-space normal at v: the texels' values interpolated, normalised.
     auto tangent = [&](double v) {
         const double w = std::clamp(1.5 - 2.0 * v, 0.0, 1.0); // the bottom row's weight
@@ -333,26 +366,121 @@ TEST_CASE("normal maps: the mapped normal at hit points, and what is refused") {
 
     // Refused: a normal map on a sphere (no frame from (u, v) here), in a mix, a missing file.
     auto buildError = [](const std::string& body) {
-        try {
-            cb::buildDeviceScene(parseInTemp(
-                "WorldBegin\nLightSource \"infinite\"\nMakeNamedMaterial \"bumpy\" \"string type\" "
-                "\"diffuse\" \"string normalmap\" \"two.exr\"\nMakeNamedMaterial \"plain\" "
-                "\"string type\" \"diffuse\"\n" +
-                body));
-        } catch (const cb::SceneError& e) {
-            return std::string(e.what());
-        }
-        return std::string();
+        return bumpyError("\"string normalmap\" \"two.exr\"", body);
     };
     CHECK(contains(buildError("NamedMaterial \"bumpy\"\nShape \"sphere\"\n"),
-                   "applies normal maps to triangle meshes only"));
-    CHECK(contains(buildError("Material \"mix\" \"string materials\" [\"bumpy\" \"plain\"]\n"
-                              "Shape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0]\n"),
-                   "a mix of a material with a \"normalmap\" is not supported"));
+                   "applies normal and bump maps to triangle meshes only"));
+    CHECK(contains(
+        buildError("Material \"mix\" \"string materials\" [\"bumpy\" \"plain\"]\n"
+                   "Shape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0]\n"),
+        "a mix of a material with a \"normalmap\" or a \"displacement\" is not supported"));
     CHECK(contains(errorOf("WorldBegin\nMaterial \"diffuse\" \"string normalmap\" \"none.png\"\n"),
                    "none.png"));
     // "" is pbrt-v4's "no normal map".
     CHECK(parseInTemp("WorldBegin\nMaterial \"diffuse\" \"string normalmap\" \"\"\n")
               .materials.back()
               .normalMap == -1);
+}
+
+// pbrt-v4's BumpMap written out again in double precision: the bumped normal from the shading
+// tangents, the shading normal, the normal's derivatives and the displacement's value and
+// slopes along u and v.
+std::array<double, 3> oracleBump(std::array<double, 3> dpdu, std::array<double, 3> dpdv,
+                                 std::array<double, 3> ns, std::array<double, 3> dndu,
+                                 std::array<double, 3> dndv, double d, double slopeU,
+                                 double slopeV) {
+    auto cross = [](std::array<double, 3> a, std::array<double, 3> b) {
+        return std::array<double, 3>{a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
+                                     a[0] * b[1] - a[1] * b[0]};
+    };
+    std::array<double, 3> u{}, v{};
+    for (size_t a = 0; a < 3; ++a) {
+        u[a] = dpdu[a] + slopeU * ns[a] + d * dndu[a];
+        v[a] = dpdv[a] + slopeV * ns[a] + d * dndv[a];
+    }
+    const std::array<double, 3> n = unit(cross(u, v));
+    return n[2] < 0.0 ? std::array<double, 3>{-n[0], -n[1], -n[2]} : n;
+}
+
+TEST_CASE("bump maps: the bumped normal at hit points, and what is refused") {
+    TempDirCleanup cleanup;
+    // A ramp along the image's x (texels 0 and 1, clamped): D = 2 (u - 1/4) between the texel
+    // centres, slope 2 per unit of u.
+    writeImage("ramp.exr", 2, 1, [](int x, int, int) { return float(x); });
+    const cb::DeviceScene scene = cb::buildDeviceScene(parseInTemp(
+        "Film \"rgb\" \"integer xresolution\" 8 \"integer yresolution\" 8\nWorldBegin\n"
+        "LightSource \"infinite\" \"rgb L\" [1 1 1]\n"
+        "Texture \"ramp\" \"float\" \"imagemap\" \"string filename\" \"ramp.exr\" "
+        "\"string wrap\" \"clamp\"\n"
+        "Texture \"flat\" \"float\" \"constant\" \"float value\" 0.2\n"
+        "Material \"diffuse\" \"texture displacement\" \"ramp\"\n"
+        // u along +x, v along +y: dp/du = x, dp/dv = y.
+        "Shape \"trianglemesh\" \"point3 P\" [0 0 0  1 0 0  0 1 0  1 1 0] \"point2 uv\" "
+        "[0 0  1 0  0 1  1 1] \"integer indices\" [0 1 3  0 3 2]\n"
+        // u along +y, v along +x: dp/du = y, dp/dv = x, their cross product -z.
+        "Shape \"trianglemesh\" \"point3 P\" [2 0 0  3 0 0  2 1 0  3 1 0] \"point2 uv\" "
+        "[0 0  0 1  1 0  1 1] \"integer indices\" [0 1 3  0 3 2]\n"
+        // Vertex normals (a u, 0, 1), a = 0.5, and a constant displacement 0.2: only the
+        // normal's derivative dn/du = (a, 0, 0) bends the shading normal.
+        "Material \"diffuse\" \"texture displacement\" \"flat\"\n"
+        "Shape \"trianglemesh\" \"point3 P\" [4 0 0  5 0 0  4 1 0  5 1 0] \"point2 uv\" "
+        "[0 0  1 0  0 1  1 1] \"normal N\" [0 0 1  0.5 0 1  0 0 1  0.5 0 1] "
+        "\"integer indices\" [0 1 3  0 3 2]\n"));
+    REQUIRE((scene.features & CB_FEATURE_BUMP_MAP) != 0);
+    const cbk::SceneView view = cbtest::hostView(scene);
+    auto normalAt = [&](double X, double Y) { return shadingNormalBelow(scene, view, X, Y); };
+    const std::array<double, 3> x{1, 0, 0}, y{0, 1, 0}, z{0, 0, 1}, zero{0, 0, 0};
+    for (const double t : {0.3, 0.5, 0.7}) {
+        CAPTURE(t);
+        // The finite difference over 0.0005 of a linear stretch is its slope; the float lookups
+        // round at about 1e-4 of it.
+        checkDirection(normalAt(t, 0.4), oracleBump(x, y, z, zero, zero, 0.0, 2.0, 0.0), 2e-4);
+        checkDirection(normalAt(2.4, t), oracleBump(y, x, z, zero, zero, 0.0, 2.0, 0.0), 2e-4);
+        // pbrt-v4's shading tangents with vertex normals: dp/du made perpendicular to ns, and
+        // ns x dp/du.
+        const std::array<double, 3> ns = unit({0.5 * t, 0.0, 1.0});
+        const std::array<double, 3> ts{ns[1] * x[2] - ns[2] * x[1], ns[2] * x[0] - ns[0] * x[2],
+                                       ns[0] * x[1] - ns[1] * x[0]};
+        const std::array<double, 3> ss{ts[1] * ns[2] - ts[2] * ns[1], ts[2] * ns[0] - ts[0] * ns[2],
+                                       ts[0] * ns[1] - ts[1] * ns[0]};
+        checkDirection(normalAt(4.0 + t, 0.4),
+                       oracleBump(ss, ts, ns, {0.5, 0, 0}, zero, 0.2, 0.0, 0.0), 1e-5);
+    }
+    // The ramp's flat ends (clamped): no tilt.
+    checkDirection(normalAt(0.1, 0.4), z, 1e-6);
+
+    // Parsing: a constant displacement is a 1 x 1 texture, 0 none; with a normal map the
+    // displacement is dropped with a note (pbrt-v4 uses the normal map); the errors.
+    writeImage("n.exr", 1, 1, [](int, int, int c) { return c == 2 ? 1.f : 0.5f; });
+    const cb::SceneDesc s =
+        parseInTemp("WorldBegin\nMaterial \"diffuse\" \"float displacement\" 0.25\n"
+                    "Material \"diffuse\" \"float displacement\" 0\n"
+                    "Texture \"ramp\" \"float\" \"imagemap\" \"string filename\" \"ramp.exr\"\n"
+                    "Material \"conductor\" \"texture displacement\" \"ramp\" \"string normalmap\" "
+                    "\"n.exr\"\n");
+    REQUIRE(s.materials.size() == 3);
+    REQUIRE(s.materials[0].displacement >= 0);
+    CHECK(s.textures[size_t(s.materials[0].displacement)].rgb == std::vector<float>(3, 0.25f));
+    CHECK(s.materials[1].displacement == -1);
+    CHECK(s.materials[2].displacement == -1);
+    CHECK(s.materials[2].normalMap >= 0);
+    CHECK(hasNote(s, "is shaded by its normal map"));
+    CHECK(hasNote(s, "over 0.0005 in u and in v"));
+    CHECK(contains(errorOf("WorldBegin\nMaterial \"diffuse\" \"texture displacement\" \"h\"\n"),
+                   "t.pbrt:2:43: \"texture displacement\" names no float texture \"h\""));
+    auto buildError = [](const std::string& body) {
+        return bumpyError("\"float displacement\" 0.1", body);
+    };
+    CHECK(contains(buildError("NamedMaterial \"bumpy\"\nShape \"sphere\"\n"),
+                   "applies normal and bump maps to triangle meshes only"));
+    CHECK(contains(buildError("Material \"mix\" \"string materials\" [\"bumpy\" \"plain\"]\n"
+                              "Shape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0]\n"),
+                   "a mix of a material with a \"normalmap\" or a \"displacement\""));
+    CHECK(contains(buildError("NamedMaterial \"bumpy\"\nShape \"disk\"\n"),
+                   "needs texture coordinates"));
+    CHECK((cb::buildDeviceScene(
+               parseInTemp("WorldBegin\nLightSource \"infinite\"\n"
+                           "Shape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0]\n"))
+               .features &
+           CB_FEATURE_BUMP_MAP) == 0);
 }

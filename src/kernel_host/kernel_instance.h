@@ -113,6 +113,7 @@ template <class Visit> void forEachField(cbk::Material& s, Visit&& visit) {
     visit(s.roughnessTexture);
     visit(s.remapRoughness);
     visit(s.alphaTexture);
+    visit(s.displacement);
 }
 template <class Visit> void forEachField(cbk::Light& s, Visit&& visit) {
     visit(s.kind);

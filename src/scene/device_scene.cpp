@@ -17,7 +17,7 @@
 namespace cb {
 
 static_assert(sizeof(cbk::Primitive) == 48, "Primitive must match the OpenCL layout");
-static_assert(sizeof(cbk::Material) == 76, "Material must match the OpenCL layout");
+static_assert(sizeof(cbk::Material) == 80, "Material must match the OpenCL layout");
 static_assert(sizeof(cbk::Light) == 108, "Light must match the OpenCL layout");
 static_assert(sizeof(cbk::Camera) == 148, "Camera must match the OpenCL layout");
 
@@ -395,7 +395,8 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         if (m < 0) return false;
         const MaterialDesc& md = desc.materials[size_t(m)];
         auto uses = [](const MaterialDesc& d) {
-            return d.reflectanceTexture >= 0 || d.normalMap >= 0 || d.roughnessTexture >= 0;
+            return d.reflectanceTexture >= 0 || d.normalMap >= 0 || d.roughnessTexture >= 0 ||
+                   d.displacement >= 0;
         };
         bool any = uses(md);
         for (int c : md.mix)
@@ -445,6 +446,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         out.normalMap = -1;
         out.roughnessTexture = -1;
         out.alphaTexture = -1;
+        out.displacement = -1;
         out.remapRoughness = m.remapRoughness ? 1 : 0;
         // GGX alpha of conductors, dielectrics and coats; pbrt-v4 maps roughness r to sqrt(r).
         auto ggxAlpha = [&m](float roughness) {
@@ -534,13 +536,20 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
             out.normalMap = addTexture(m.normalMap);
             scene.features |= CB_FEATURE_TEXTURE | CB_FEATURE_NORMAL_MAP;
         }
+        if (materialUsed[i] && m.displacement >= 0) {
+            // A bump map: the displacement's slopes at the hit's (u, v) tilt the shading normal.
+            out.displacement = addTexture(m.displacement);
+            scene.features |= CB_FEATURE_TEXTURE | CB_FEATURE_BUMP_MAP;
+        }
         if (materialUsed[i] && m.kind == MaterialKind::Mix)
             for (int c : m.mix)
-                if (c >= 0 && desc.materials[size_t(c)].normalMap >= 0)
+                if (c >= 0 && (desc.materials[size_t(c)].normalMap >= 0 ||
+                               desc.materials[size_t(c)].displacement >= 0))
                     throw SceneError(m.where,
-                                     "a mix of a material with a \"normalmap\" is not supported: "
-                                     "pbrt-v4 picks one of the two materials per hit and shades "
-                                     "by its normal map, cbdpt blends their BSDFs at one normal");
+                                     "a mix of a material with a \"normalmap\" or a "
+                                     "\"displacement\" is not supported: pbrt-v4 picks one of the "
+                                     "two materials per hit and shades by its normal, cbdpt "
+                                     "blends their BSDFs at one normal");
         scene.materials.push_back(out);
         if (materialUsed[i]) {
             scene.features |= materialFeature(m.kind);
@@ -631,8 +640,8 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
                                 const SourceLocation& where) {
         if (!texturing || !textured(material) || none.empty()) return;
         throw SceneError(where, "this shape's material has a texture (its reflectance, its "
-                                "roughness or a \"normalmap\"), which needs texture "
-                                "coordinates, and cbdpt gives none to " +
+                                "roughness, a \"normalmap\" or a \"displacement\"), which "
+                                "needs texture coordinates, and cbdpt gives none to " +
                                     none);
     };
     for (const auto& mesh : desc.meshes) {
@@ -685,9 +694,11 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         }
     }
     for (const auto& sphere : desc.spheres) {
-        if (sphere.material >= 0 && desc.materials[size_t(sphere.material)].normalMap >= 0)
-            throw SceneError(sphere.where, "this sphere's material has a \"normalmap\"; cbdpt "
-                                           "applies normal maps to triangle meshes only");
+        if (sphere.material >= 0 && (desc.materials[size_t(sphere.material)].normalMap >= 0 ||
+                                     desc.materials[size_t(sphere.material)].displacement >= 0))
+            throw SceneError(sphere.where, "this sphere's material has a \"normalmap\" or a "
+                                           "\"displacement\"; cbdpt applies normal and bump maps "
+                                           "to triangle meshes only");
         cbk::Primitive prim{};
         prim.kind = CB_PRIM_SPHERE;
         prim.material = sphere.material;
@@ -920,6 +931,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
             if (m.normalMap >= 0) m.normalMap += int(uvCount);
             if (m.roughnessTexture >= 0) m.roughnessTexture += int(uvCount);
             if (m.alphaTexture >= 0) m.alphaTexture += int(uvCount);
+            if (m.displacement >= 0) m.displacement += int(uvCount);
         }
     }
     return scene;
@@ -960,6 +972,7 @@ std::string DeviceScene::featureNames() const {
     add(CB_FEATURE_THIN_LENS, "thin-lens");
     add(CB_FEATURE_PIXEL_FILTER, "pixel-filter");
     add(CB_FEATURE_ALPHA, "alpha");
+    add(CB_FEATURE_BUMP_MAP, "bump-map");
     names += channels == 16 ? " spectral-16" : " rgb";
     return names;
 }

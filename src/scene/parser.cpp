@@ -1816,7 +1816,10 @@ class Parser {
                                           "thindielectric, diffusetransmission, coateddiffuse, "
                                           "coatedconductor, mix)");
         }
-        if (type != "mix") m.normalMap = normalMap(pl);
+        if (type != "mix") {
+            m.normalMap = normalMap(pl);
+            m.displacement = displacement(pl, m.normalMap >= 0);
+        }
         pl.finish();
         scene_.materials.push_back(std::move(m));
         return static_cast<int>(scene_.materials.size()) - 1;
@@ -2457,6 +2460,39 @@ class Parser {
         return index;
     }
 
+    // A material's "displacement" (pbrt-v4's bump map): a float texture defined before the
+    // material, or a constant (0: none); its index in scene_.textures, -1 for none. pbrt-v4 uses
+    // a material's normal map instead where it has both (`hasNormalMap`), and so does cbdpt.
+    int displacement(ParamList& pl, bool hasNormalMap) {
+        const Param* p = pl.peek("displacement");
+        if (!p) return -1;
+        int index = -1;
+        if (p->type == "texture") {
+            const std::string name = *pl.oneTexture("displacement");
+            const auto it = floatTextures_.find(name);
+            if (it == floatTextures_.end())
+                throw SceneError(p->valueLoc(0), "\"texture displacement\" names no float texture "
+                                                 "\"" +
+                                                     name +
+                                                     "\" (cbdpt reads a displacement texture "
+                                                     "defined before its material)");
+            if (it->second.index < 0) throw SceneError(p->valueLoc(0), it->second.unsupported);
+            index = it->second.index;
+        } else if (const double d = *pl.oneFloat("displacement"); d != 0.0) {
+            index = constantFloatTexture(d, p->valueLoc(0));
+        }
+        if (index >= 0 && !hasNormalMap && !textureFilteringDisabled_)
+            note(p->where, "displacement-step",
+                 "pbrt-v4 takes a displacement's slopes over each ray's footprint unless Option "
+                 "\"disabletexturefiltering\" is true; cbdpt over 0.0005 in u and in v, as "
+                 "pbrt-v4 does with that option");
+        if (index < 0 || !hasNormalMap) return index;
+        note(p->where, "displacement-normalmap",
+             "a material with both a \"normalmap\" and a \"displacement\" is shaded by its "
+             "normal map, as pbrt-v4 shades it; the displacement is not used");
+        return -1;
+    }
+
     // "texture reflectance" of diffuse and coated diffuse materials: the named spectrum
     // texture's index in scene_.textures; -1 when the reflectance is not a texture;
     // kLaterTexture for a name no Texture has defined yet, which pbrt-v4 looks up once the file
@@ -2589,6 +2625,22 @@ class Parser {
         return state_.areaLight >= 0 && scene_.areaLights[size_t(state_.areaLight)].power > 0.0;
     }
 
+    // A 1 x 1 float texture of `value` (a constant alpha or displacement), one per value: its
+    // index in scene_.textures.
+    int constantFloatTexture(double value, const SourceLocation& where) {
+        auto [at, added] = constantFloatTextures_.try_emplace(value, -1);
+        if (added) {
+            TextureDesc tex;
+            tex.name = fmt::format("constant {:g}", value);
+            tex.where = where;
+            tex.width = tex.height = 1;
+            tex.rgb.assign(3, float(value));
+            at->second = int(scene_.textures.size());
+            scene_.textures.push_back(std::move(tex));
+        }
+        return at->second;
+    }
+
     // A shape's "alpha" (pbrt-v4's GeometricPrimitive), a float or a float texture: where it is
     // 1 a hit counts, where 0 the hit is skipped, between it counts at random with that
     // probability (stochastic transparency). A constant >= 1 is opaque (the default); one <= 0
@@ -2620,17 +2672,7 @@ class Parser {
                      "added");
                 return {true, -1};
             }
-            auto [at, added] = constantAlphas_.try_emplace(alpha, -1);
-            if (added) {
-                TextureDesc tex;
-                tex.name = fmt::format("alpha {:g}", alpha);
-                tex.where = p->valueLoc(0);
-                tex.width = tex.height = 1;
-                tex.rgb.assign(3, float(alpha));
-                at->second = int(scene_.textures.size());
-                scene_.textures.push_back(std::move(tex));
-            }
-            out.texture = at->second;
+            out.texture = constantFloatTexture(alpha, p->valueLoc(0));
         }
         if (shapeKind)
             throw SceneError(p->valueLoc(0),
@@ -3238,9 +3280,9 @@ class Parser {
         SourceLocation where;
     };
     std::map<std::string, NamedTexture> spectrumTextures_, floatTextures_;
-    std::map<std::string, int> normalMaps_; // image path -> index in scene_.textures
-    std::map<double, int> constantAlphas_;  // a shape's constant alpha -> index in scene_.textures
-    bool textureFilteringDisabled_ = false; // Option "disabletexturefiltering" true
+    std::map<std::string, int> normalMaps_;       // image path -> index in scene_.textures
+    std::map<double, int> constantFloatTextures_; // a constant alpha or displacement -> its index
+    bool textureFilteringDisabled_ = false;       // Option "disabletexturefiltering" true
     std::set<std::string> notedKinds_;
     std::map<std::string, Mat4> namedCoordinateSystems_;
     std::map<std::string, SourceLocation> importedCoordinateSystems_; // defined inside an Import

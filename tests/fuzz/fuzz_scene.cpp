@@ -72,6 +72,7 @@ void checkScene(const cb::SceneDesc& s) {
         checkIndex(m.reflectanceTexture, s.textures.size(), true, "reflectance texture");
         checkIndex(m.normalMap, s.textures.size(), true, "normal map");
         checkIndex(m.roughnessTexture, s.textures.size(), true, "roughness texture");
+        checkIndex(m.displacement, s.textures.size(), true, "displacement texture");
         if (m.kind == cb::MaterialKind::Mix)
             for (int i : m.mix) {
                 checkIndex(i, nm, false, "mix component index");
