@@ -743,6 +743,44 @@ TEST_CASE("roughness textures: float textures, the materials that take them, the
     CHECK(s.textures[0].rgb[5] == doctest::Approx(0.3f).epsilon(1e-6));
     CHECK(s.textures[1].rgb == std::vector<float>{0.25f, 0.25f, 0.25f});
     REQUIRE(s.materials.size() == 4);
+
+    // The float classes scale, mix and checkerboard, their operands float textures and numbers.
+    const cb::SceneDesc f = parseInTemp(
+        "WorldBegin\nTexture \"r\" \"float\" \"imagemap\" \"string filename\" \"rough.exr\"\n"
+        "Texture \"half\" \"float\" \"scale\" \"texture tex\" \"r\" \"float scale\" 0.5\n"
+        "Texture \"m\" \"float\" \"mix\" \"texture tex1\" \"r\" \"float tex2\" 1 \"float amount\" "
+        "0.25\n"
+        "Texture \"c\" \"float\" \"checkerboard\" \"float tex1\" 0.2 \"float tex2\" 0.7\n"
+        "Texture \"r2\" \"float\" \"imagemap\" \"string filename\" \"rough.exr\" \"float scale\" "
+        "0.5\n");
+    REQUIRE(f.textures.size() == 5);
+    // A scale of an image is the image with that "scale", texel for texel (pbrt-v4 files scale
+    // displacements either way).
+    CHECK(f.textures[1].rgb == f.textures[4].rgb);
+    auto texels = [&](size_t t) {
+        std::vector<double> v;
+        for (size_t i = 0; i < f.textures[t].rgb.size(); i += 3) {
+            CHECK(f.textures[t].rgb[i] == f.textures[t].rgb[i + 2]);
+            v.push_back(f.textures[t].rgb[i]);
+        }
+        return v;
+    };
+    const std::vector<double> half = texels(1), mixed = texels(2), checks = texels(3);
+    REQUIRE(half.size() == 2);
+    CHECK(half[0] == doctest::Approx(0.1).epsilon(1e-6));
+    CHECK(half[1] == doctest::Approx(0.15).epsilon(1e-6));
+    REQUIRE(mixed.size() == 2);
+    CHECK(mixed[0] == doctest::Approx(0.75 * 0.2 + 0.25).epsilon(1e-6));
+    CHECK(mixed[1] == doctest::Approx(0.75 * 0.3 + 0.25).epsilon(1e-6));
+    CHECK(checks == std::vector<double>{0.7f, 0.2f, 0.2f, 0.7f});
+    CHECK(f.textures[3].nearest);
+    CHECK(contains(errorOf("WorldBegin\nTexture \"s\" \"float\" \"scale\" \"texture tex\" "
+                           "\"none\"\n"),
+                   "t.pbrt:2:43: \"texture tex\" names no float texture \"none\""));
+    CHECK(contains(errorOf("WorldBegin\nTexture \"k\" \"float\" \"constant\"\nTexture \"s\" "
+                           "\"spectrum\" \"scale\" \"texture tex\" \"k\"\n"),
+                   "names no spectrum texture \"k\""));
+
     CHECK(s.materials[0].roughnessTexture == 0);
     CHECK(s.materials[1].roughnessTexture == 1);
     CHECK_FALSE(s.materials[1].remapRoughness);

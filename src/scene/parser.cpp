@@ -2151,45 +2151,51 @@ class Parser {
                                                std::string& why) {
         if (cls == "imagemap") return readImageTexture(pl, name, where);
         if (cls == "constant") {
-            std::optional<TextureDesc> tex = constantTexture(pl, "value", 1.f, why);
+            std::optional<TextureDesc> tex = constantTexture(pl, "value", 1.f, why, false);
             if (tex) pl.finish();
             return tex;
         }
-        if (cls == "scale") return scaledTexture(pl, why);
-        if (cls == "mix") return mixTexture(pl, why);
-        if (cls == "checkerboard") return checkerboardTexture(pl, why);
+        if (cls == "scale") return scaledTexture(pl, why, false);
+        if (cls == "mix") return mixTexture(pl, why, false);
+        if (cls == "checkerboard") return checkerboardTexture(pl, why, false);
         return std::nullopt;
     }
 
     // A float texture of class `cls` as an image texture whose texels hold their value three
-    // times (the kernels read the mean of the channels), or none with *why set.
+    // times (the kernels read the mean of the channels), or none with *why set: the classes of
+    // spectrumTexture, their operands float textures and numbers.
     std::optional<TextureDesc> floatTexture(const std::string& cls, ParamList& pl,
                                             const std::string& name, const SourceLocation& where,
                                             std::string& why) {
-        why = "cbdpt renders \"float\" textures of class \"imagemap\" and \"constant\" only";
+        why = "cbdpt renders \"float\" textures of class \"imagemap\", \"constant\", \"scale\", "
+              "\"mix\" and \"checkerboard\" only";
         if (cls == "imagemap") return readImageTexture(pl, name, where, true);
         if (cls == "constant") {
-            if (const Param* p = pl.peek("value"); p && p->type == "texture") {
-                why = "its \"texture value\" is a texture, where cbdpt needs a number";
-                return std::nullopt;
-            }
-            const float value = float(pl.oneFloat("value").value_or(1.0));
-            pl.finish();
-            TextureDesc tex;
-            tex.width = tex.height = 1;
-            tex.rgb.assign(3, value);
+            std::optional<TextureDesc> tex = constantTexture(pl, "value", 1.f, why, true);
+            if (tex) pl.finish();
             return tex;
         }
+        if (cls == "scale") return scaledTexture(pl, why, true);
+        if (cls == "mix") return mixTexture(pl, why, true);
+        if (cls == "checkerboard") return checkerboardTexture(pl, why, true);
         return std::nullopt;
     }
 
-    // A 1 x 1 image texture of the RGB constant `param` (default `fallback` grey); none where the
-    // parameter is a texture or a spectrum.
+    // A 1 x 1 image texture of the constant `param` (default `fallback`): an RGB value, or for a
+    // float texture (`isFloat`) a number held three times; none where the parameter is a texture
+    // or a spectrum.
     std::optional<TextureDesc> constantTexture(ParamList& pl, const std::string& param,
-                                               float fallback, std::string& why) {
+                                               float fallback, std::string& why, bool isFloat) {
         if (const Param* p = pl.peek(param); p && p->type == "texture") {
-            why = "its \"texture " + param + "\" is a texture, where cbdpt needs an RGB constant";
+            why = "its \"texture " + param + "\" is a texture, where cbdpt needs " +
+                  (isFloat ? "a number" : "an RGB constant");
             return std::nullopt;
+        }
+        if (isFloat) {
+            TextureDesc tex;
+            tex.width = tex.height = 1;
+            tex.rgb.assign(3, float(pl.oneFloat(param).value_or(fallback)));
+            return tex;
         }
         SpectrumValue value = SpectrumValue::constant(fallback);
         if (auto v = pl.spectrum(param, SpectrumRole::Reflectance)) value = *v;
@@ -2214,12 +2220,12 @@ class Parser {
         return pl.peek(param) ? *pl.oneFloat(param) : fallback;
     }
 
-    // pbrt-v4's SpectrumScaledTexture: "tex" (an RGB constant or a texture cbdpt renders) times
-    // the constant "float scale", folded into the texels.
-    std::optional<TextureDesc> scaledTexture(ParamList& pl, std::string& why) {
+    // pbrt-v4's SpectrumScaledTexture (FloatScaledTexture where isFloat): "tex" (a constant or a
+    // texture cbdpt renders) times the constant "float scale", folded into the texels.
+    std::optional<TextureDesc> scaledTexture(ParamList& pl, std::string& why, bool isFloat) {
         const std::optional<double> scale = constantFloat(pl, "scale", 1.0, why);
         if (!scale) return std::nullopt;
-        std::optional<TextureDesc> tex = textureOperand(pl, "tex", 1.f, why);
+        std::optional<TextureDesc> tex = textureOperand(pl, "tex", 1.f, why, isFloat);
         if (!tex) return std::nullopt;
         pl.finish();
         for (float& v : tex->rgb) {
@@ -2233,18 +2239,20 @@ class Parser {
         return tex;
     }
 
-    // A spectrum texture's texture-valued parameter `param`: the named texture (defined before,
-    // as pbrt-v4 creates textures in order), or its RGB constant as a 1 x 1 image (default
-    // `fallback` grey); none, with *why, where cbdpt cannot render it.
+    // A texture's texture-valued parameter `param`: the named texture of its type (spectrum, or
+    // float where isFloat; defined before, as pbrt-v4 creates textures in order), or its constant
+    // as a 1 x 1 image (default `fallback`); none, with *why, where cbdpt cannot render it.
     std::optional<TextureDesc> textureOperand(ParamList& pl, const std::string& param,
-                                              float fallback, std::string& why) {
+                                              float fallback, std::string& why, bool isFloat) {
         const Param* p = pl.peek(param);
-        if (!p || p->type != "texture") return constantTexture(pl, param, fallback, why);
+        if (!p || p->type != "texture") return constantTexture(pl, param, fallback, why, isFloat);
         const std::string inner = *pl.oneTexture(param);
-        auto it = spectrumTextures_.find(inner);
-        if (it == spectrumTextures_.end())
-            throw SceneError(p->valueLoc(0), "\"texture " + param +
-                                                 "\" names no spectrum texture \"" + inner +
+        const auto& names = isFloat ? floatTextures_ : spectrumTextures_;
+        auto it = names.find(inner);
+        if (it == names.end())
+            throw SceneError(p->valueLoc(0), "\"texture " + param + "\" names no " +
+                                                 (isFloat ? "float" : "spectrum") + " texture \"" +
+                                                 inner +
                                                  "\" (no Texture directive before it defines one)");
         if (it->second.index < 0) {
             why = "its \"texture " + param + "\" names " + it->second.unsupported;
@@ -2257,12 +2265,12 @@ class Parser {
     // folded into texels: two constants, an image and a constant (which mixes into each texel,
     // unless the image is black outside, where pbrt-v4 keeps the constant's share), or two
     // images of one layout (size, wrap, filter, mapping).
-    std::optional<TextureDesc> mixTexture(ParamList& pl, std::string& why) {
+    std::optional<TextureDesc> mixTexture(ParamList& pl, std::string& why, bool isFloat) {
         const std::optional<double> amount = constantFloat(pl, "amount", 0.5, why);
         if (!amount) return std::nullopt;
-        std::optional<TextureDesc> one = textureOperand(pl, "tex1", 0.f, why);
+        std::optional<TextureDesc> one = textureOperand(pl, "tex1", 0.f, why, isFloat);
         if (!one) return std::nullopt;
-        std::optional<TextureDesc> two = textureOperand(pl, "tex2", 1.f, why);
+        std::optional<TextureDesc> two = textureOperand(pl, "tex2", 1.f, why, isFloat);
         if (!two) return std::nullopt;
         pl.finish();
         auto uniform = [](const TextureDesc& t) {
@@ -2290,14 +2298,14 @@ class Parser {
 
     // pbrt-v4's 2D "checkerboard" of the constants "tex1" (where floor(s) + floor(t) is even)
     // and "tex2": a 2 x 2 image looked up at the nearest texel, repeated every 2 (s, t).
-    std::optional<TextureDesc> checkerboardTexture(ParamList& pl, std::string& why) {
+    std::optional<TextureDesc> checkerboardTexture(ParamList& pl, std::string& why, bool isFloat) {
         if (pl.peek("dimension") && *pl.oneInt("dimension") != 2) {
             why = "it is three-dimensional, where cbdpt maps textures by (u, v)";
             return std::nullopt;
         }
-        std::optional<TextureDesc> one = constantTexture(pl, "tex1", 1.f, why);
+        std::optional<TextureDesc> one = constantTexture(pl, "tex1", 1.f, why, isFloat);
         if (!one) return std::nullopt;
-        std::optional<TextureDesc> two = constantTexture(pl, "tex2", 0.f, why);
+        std::optional<TextureDesc> two = constantTexture(pl, "tex2", 0.f, why, isFloat);
         if (!two) return std::nullopt;
         TextureDesc tex;
         readUvMapping(pl, tex);
