@@ -18,6 +18,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
 #include <fstream>
 #include <random>
 #include <string>
@@ -209,6 +210,41 @@ TEST_CASE("image textures: the Texture directive, its parameters and what is ref
 
 // The lookup of cb_texture.h on a 2 x 2 texture: pbrt-v4's t = 1 - v (v = 1 is the top row),
 // texel centres at (i + 1/2) / size, and each wrap mode, filter and mapping.
+// A PFM file: its header, then `floats` as the file's bytes, each swapped where `bigEndian`.
+void writePfm(const std::string& name, const std::string& header, std::vector<float> floats,
+              bool bigEndian) {
+    std::ofstream out(tempDir() / name, std::ios::binary);
+    out << header;
+    for (float f : floats) {
+        unsigned char bytes[4];
+        std::memcpy(bytes, &f, 4);
+        if (bigEndian) std::reverse(bytes, bytes + 4);
+        out.write(reinterpret_cast<const char*>(bytes), 4);
+    }
+}
+
+TEST_CASE("image textures: PFM files as pbrt-v4 reads them") {
+    TempDirCleanup cleanup;
+    // RGB, little endian (scale -2: the values times 2), rows from the bottom.
+    writePfm("rgb.pfm", "PF\n2 2\n-2\n",
+             {1, 2, 3, 4, 5, 6, /* bottom row */ 0.5f, 0.25f, 0.125f, 7, 8, 9}, false);
+    // Grey, big endian, scale 1.
+    writePfm("grey.pfm", "Pf\n1 2\n1.0\n", {0.75f, 0.5f}, true);
+    writePfm("short.pfm", "PF\n2 2\n-1\n", {1, 2, 3}, false);
+    const cb::SceneDesc s = parseInTemp(
+        "WorldBegin\nTexture \"a\" \"spectrum\" \"imagemap\" \"string filename\" \"rgb.pfm\"\n"
+        "Texture \"b\" \"spectrum\" \"imagemap\" \"string filename\" \"grey.pfm\"\n");
+    REQUIRE(s.textures.size() == 2);
+    CHECK(s.textures[0].width == 2);
+    CHECK(s.textures[0].height == 2);
+    CHECK(s.textures[0].rgb ==
+          std::vector<float>{1, 0.5f, 0.25f, 14, 16, 18, 2, 4, 6, 8, 10, 12}); // top row first
+    CHECK(s.textures[1].rgb == std::vector<float>{0.5f, 0.5f, 0.5f, 0.75f, 0.75f, 0.75f});
+    CHECK(contains(errorOf("WorldBegin\nTexture \"a\" \"spectrum\" \"imagemap\" \"string "
+                           "filename\" \"short.pfm\"\n"),
+                   "ends before its 2 x 2 pixels"));
+}
+
 TEST_CASE("image textures: bilinear and nearest lookups, wrap modes, mapping, clamping") {
     TempDirCleanup cleanup;
     writeImage("two.exr", 2, 2, texel);

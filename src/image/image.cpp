@@ -18,6 +18,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <bit>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -238,6 +239,54 @@ RgbImage readStb(const std::string& path, bool hdr) {
     return out;
 }
 
+// A portable float map as pbrt-v4's ReadPFM reads it: "PF" (RGB) or "Pf" (grey, read into all
+// three channels), width, height and a scale whose sign gives the byte order (negative: little
+// endian) and whose magnitude multiplies the values, one whitespace character, then 32-bit
+// floats row by row from the image's bottom.
+RgbImage readPfm(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw std::runtime_error("cannot read " + path + ": " + std::strerror(errno));
+    std::string type;
+    long long width = 0, height = 0;
+    double scale = 0.0;
+    in >> type >> width >> height >> scale;
+    if (!in || (type != "PF" && type != "Pf"))
+        throw std::runtime_error("cannot read " + path +
+                                 ": not a PFM file (expected \"PF\" or \"Pf\", the width, the "
+                                 "height and the scale)");
+    if (width < 1 || height < 1 || width > 65536 || height > 65536 || !std::isfinite(scale) ||
+        scale == 0.0)
+        throw std::runtime_error(fmt::format("cannot read {}: PFM size {} x {} or scale {} out of "
+                                             "range (1 to 65536 pixels a side, a nonzero scale)",
+                                             path, width, height, scale));
+    in.get(); // the one whitespace character before the data
+    const size_t channels = type == "PF" ? 3 : 1;
+    std::vector<float> data(channels * size_t(width) * size_t(height));
+    in.read(reinterpret_cast<char*>(data.data()), std::streamsize(data.size() * sizeof(float)));
+    if (size_t(in.gcount()) != data.size() * sizeof(float))
+        throw std::runtime_error(
+            fmt::format("cannot read {}: it ends before its {} x {} pixels", path, width, height));
+    const bool fileLittleEndian = scale < 0.0;
+    const bool swap = fileLittleEndian != (std::endian::native == std::endian::little);
+    const float magnitude = float(std::fabs(scale));
+    RgbImage out(static_cast<int>(width), static_cast<int>(height));
+    for (size_t row = 0; row < size_t(height); ++row)
+        for (size_t x = 0; x < size_t(width); ++x)
+            for (size_t c = 0; c < 3; ++c) {
+                float v = data[((size_t(height) - 1 - row) * size_t(width) + x) * channels +
+                               (channels == 3 ? c : 0)];
+                if (swap) {
+                    uint32_t bits;
+                    std::memcpy(&bits, &v, sizeof bits);
+                    bits = (bits >> 24) | ((bits >> 8) & 0xff00u) | ((bits << 8) & 0xff0000u) |
+                           (bits << 24);
+                    std::memcpy(&v, &bits, sizeof v);
+                }
+                out.rgb[(row * size_t(width) + x) * 3 + c] = magnitude != 1.f ? v * magnitude : v;
+            }
+    return out;
+}
+
 } // namespace
 
 double rec709Luminance(const float* rgb) {
@@ -250,13 +299,15 @@ RgbImage readRgbImage(const std::string& path, ByteEncoding byteEncoding) {
                    [](unsigned char c) { return char(std::tolower(c)); });
     if (extension == ".png") return readPng(path, byteEncoding);
     if (extension == ".hdr") return readStb(path, true);
+    if (extension == ".pfm") return readPfm(path);
     for (const char* stb :
          {".jpg", ".jpeg", ".tga", ".bmp", ".gif", ".psd", ".pnm", ".ppm", ".pgm"})
         if (extension == stb) return readStb(path, false);
     if (extension != ".exr")
-        throw std::runtime_error("cannot read " + path + ": cbdpt reads OpenEXR (.exr), PNG " +
-                                 "(.png), Radiance HDR (.hdr) and, as pbrt-v4 does through " +
-                                 "stb_image, JPEG, TGA, BMP, GIF, PSD and PNM images, not \"" +
+        throw std::runtime_error("cannot read " + path +
+                                 ": cbdpt reads OpenEXR (.exr), PNG (.png), Radiance HDR (.hdr), "
+                                 "PFM (.pfm) and, as pbrt-v4 does through stb_image, JPEG, TGA, "
+                                 "BMP, GIF, PSD and PNM images, not \"" +
                                  extension + "\" files");
     RgbImage image = readExr(path);
     readExrAlpha(path, image);

@@ -49,8 +49,9 @@ bool readExrLayer(const std::string& path, const std::string& name, RgbImage& ou
 // Luminance Y of linear sRGB (Rec. 709 primaries, D65): 0.2126 R + 0.7152 G + 0.0722 B, in double.
 double rec709Luminance(const float* rgb);
 
-// A linear RGB image from an OpenEXR file (R, G, B channels; sRGB primaries, or none given) or a
-// PNG (8-bit decoded by `byteEncoding`; 16-bit by its gamma), with its alpha channel where it has
+// A linear RGB image from an OpenEXR file (R, G, B channels; sRGB primaries, or none given), a
+// PFM, a Radiance HDR, an image stb_image reads, or a PNG (8-bit decoded by `byteEncoding`;
+// 16-bit by its gamma), with its alpha channel where it has
 // one (EXR "A"; an RGBA PNG's, decoded as pbrt-v4 decodes it: by the 8-bit encoding, or for 16
 // bits by the sRGB curve): what pbrt-v4's image lights and image textures read.
 // std::runtime_error naming the file otherwise.
