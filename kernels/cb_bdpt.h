@@ -69,7 +69,7 @@ typedef struct PathVertex {
     real pdfRev; /* area measure */
     real uv[2];  /* surfaces: texture coordinates (SurfacePoint.uv) */
     real ns[3];  /* surfaces: unit shading normal (SurfacePoint.ns); otherwise n */
-    int padNs;   /* keeps beta at a multiple of 16 bytes */
+    real hero;   /* surfaces: the wavelength the subpath follows (TexCoord.hero), -1: every bin */
     Spectrum
         beta; /* subpath throughput / pdf up to this vertex (light[0]: 1/pdfFwd, Le excluded) */
     real pad[CB_PATH_VERTEX_PAD];
@@ -157,6 +157,7 @@ CB_FN TexCoord pvUv(const PathVertex* v) {
     TexCoord c;
     c.u = v->uv[0];
     c.v = v->uv[1];
+    c.hero = v->hero;
     return c;
 }
 CB_FN void cbStore3(real* dst, Vec3 v) {
@@ -243,7 +244,7 @@ CB_FN PathVertex bdptCameraVertex(const Camera* camera, Vec3 lens) {
     cbStore3(v.p, affineTransformPoint(camera->cameraToWorld, lens));
     cbStore3(v.n, vnormalize(affineTransformVector(camera->cameraToWorld, vec3(0.0f, 0.0f, 1.0f))));
     cbStore3(v.ns, pvN(&v));
-    v.padNs = 0;
+    v.hero = -1.0f;
     cbStore3(v.pError, vec3(0.0f, 0.0f, 0.0f));
     cbStore3(v.wo, vec3(0.0f, 0.0f, 0.0f));
     v.type = CB_VERTEX_CAMERA;
@@ -305,7 +306,7 @@ CB_FN int bdptWalkStep(const SceneView* scene, bool found, Hit hit, Ray* ray, Sp
         cbStore3(v->p, vmadd(ray->o, ray->d, 2.0f * scene->lights[infinite].sceneRadius));
         cbStore3(v->n, vneg(ray->d));
         cbStore3(v->ns, vneg(ray->d));
-        v->padNs = 0;
+        v->hero = -1.0f;
         cbStore3(v->pError, vec3(0.0f, 0.0f, 0.0f));
         cbStore3(v->wo, vneg(ray->d));
         v->type = CB_VERTEX_INFINITE_LIGHT;
@@ -321,10 +322,17 @@ CB_FN int bdptWalkStep(const SceneView* scene, bool found, Hit hit, Ray* ray, Sp
         return 1;
     }
     SurfacePoint sp = surfacePointFromHit(scene, *ray, hit);
+    uint base = firstBounceDim + (uint)(count - 1) * CB_DIMS_PER_BOUNCE;
+    sp.uv.hero = prev->hero;
+#if CB_HAS(CB_FEATURE_DISPERSION)
+    /* Before every connection through this vertex, which reads its throughput and index. */
+    dispersionFollowOne(scene, sp.material, sampleAt(stream, base + CB_SLOT_WAVELENGTH),
+                        &sp.uv.hero, beta);
+#endif
     cbStore3(v->p, sp.p);
     cbStore3(v->n, sp.ng);
     cbStore3(v->ns, sp.ns);
-    v->padNs = 0;
+    v->hero = sp.uv.hero;
     cbStore3(v->pError, sp.pError);
     cbStore3(v->wo, vneg(ray->d));
     v->type = CB_VERTEX_SURFACE;
@@ -341,7 +349,6 @@ CB_FN int bdptWalkStep(const SceneView* scene, bool found, Hit hit, Ray* ray, Sp
     ++count;
     if (count >= maxVertices) return 1;
 
-    uint base = firstBounceDim + (uint)(count - 2) * CB_DIMS_PER_BOUNCE;
     BsdfSample bs;
     real u0, u1;
     sampleAt2(stream, base + CB_SLOT_BSDF_DIRECTION, &u0, &u1);
@@ -422,7 +429,7 @@ CB_FN void bdptSetLightVertex(const SceneView* scene, PathVertex* v, const Light
     cbStore3(v->p, ls->p);
     cbStore3(v->n, ls->n);
     cbStore3(v->ns, ls->n);
-    v->padNs = 0;
+    v->hero = -1.0f;
     cbStore3(v->pError, ls->pError);
     cbStore3(v->wo, vec3(0.0f, 0.0f, 0.0f));
     v->type = ls->isDelta ? CB_VERTEX_POINT_LIGHT : CB_VERTEX_AREA_LIGHT;

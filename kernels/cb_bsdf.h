@@ -134,6 +134,39 @@ CB_FN Material materialRoughnessAt(const SceneView* scene, Material m, TexCoord 
 }
 #endif
 
+#if CB_HAS(CB_FEATURE_DISPERSION)
+/* pbrt-v4's SampledWavelengths::TerminateSecondary over cbdpt's bins: a path that meets a
+ * dielectric whose index varies with wavelength (DielectricMaterial::GetBxDF) keeps one
+ * wavelength from there on, uniform over 400-700 nm by u: its bin's throughput times
+ * CB_CHANNELS, the other bins' 0 (an unbiased estimate of every bin's), and its position over
+ * the bins in *hero, which the path's later (thin) dielectrics refract by
+ * (materialDispersionAt). A path already following one keeps it. */
+CB_FN void dispersionFollowOne(const SceneView* scene, int material, real u, real* hero,
+                               Spectrum* beta) {
+    if (*hero >= 0.0f || scene->materials[material].dispersion < 0) return;
+    const real position = fmin(u * (real)CB_CHANNELS, (real)CB_CHANNELS - 1e-4f);
+    const int bin = (int)position;
+    Spectrum kept = specZero();
+    kept.c[bin] = beta->c[bin] * (real)CB_CHANNELS;
+    *beta = kept;
+    *hero = position;
+}
+
+/* A dispersive material's index at the wavelength its path follows: linear between the knots
+ * (Material.dispersion). Without one (uv.hero < 0) it keeps `eta`, the knots' mean: a path
+ * chooses its wavelength at the dispersive vertex before any lookup there (dispersionFollowOne),
+ * so only direct calls see that. */
+CB_FN Material materialDispersionAt(const SceneView* scene, Material m, TexCoord uv) {
+    if (m.dispersion < 0 || !(uv.hero >= 0.0f)) return m;
+    const real t = uv.hero * (real)CB_DISPERSION_KNOTS_PER_BIN;
+    const int last = CB_DISPERSION_KNOTS - 2;
+    const int i = (int)t < last ? (int)t : last;
+    CB_GLOBAL const real* knots = scene->spectra + m.dispersion * CB_CHANNELS;
+    m.eta = knots[i] + (t - (real)i) * (knots[i + 1] - knots[i]);
+    return m;
+}
+#endif
+
 /* ---- Per-kind lobes, in the local frame flipped so that wo.z > 0 ----------------------------- */
 
 #if CB_HAS(CB_FEATURE_CONDUCTOR)
@@ -911,6 +944,9 @@ CB_FN Spectrum cbLobeEval(const SceneView* scene, Material m, TexCoord uv, Vec3 
 #if CB_HAS(CB_FEATURE_ROUGHNESS_TEXTURE)
     m = materialRoughnessAt(scene, m, uv);
 #endif
+#if CB_HAS(CB_FEATURE_DISPERSION)
+    m = materialDispersionAt(scene, m, uv);
+#endif
     (void)entering;
     (void)adjoint;
 #if CB_HAS(CB_FEATURE_DIFFUSE)
@@ -1024,6 +1060,9 @@ CB_FN bool cbLobeSample(const SceneView* scene, Material m, TexCoord uv, Vec3 wo
     (void)uv;
 #if CB_HAS(CB_FEATURE_ROUGHNESS_TEXTURE)
     m = materialRoughnessAt(scene, m, uv);
+#endif
+#if CB_HAS(CB_FEATURE_DISPERSION)
+    m = materialDispersionAt(scene, m, uv);
 #endif
 #if CB_HAS(CB_FEATURE_DIFFUSE)
     if (m.kind == CB_MAT_DIFFUSE) {

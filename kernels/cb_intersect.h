@@ -496,6 +496,7 @@ CB_FN SurfacePoint surfacePointFromHit(const SceneView* scene, Ray ray, Hit hit)
     sp.light = prim->light;
     sp.uv.u = 0.0f;
     sp.uv.v = 0.0f;
+    sp.uv.hero = -1.0f;
     (void)ray; /* only spheres need the ray */
 #if CB_HAS(CB_FEATURE_SPHERES)
     if (prim->kind == CB_PRIM_SPHERE) {

@@ -41,8 +41,9 @@ typedef struct PtPath {
     int previousDelta;
     int vertex;        /* the vertex the next ray finds */
     int shadowPending; /* a shadow ray for shadowTerm waits */
+    real hero;         /* the wavelength the path follows (TexCoord.hero), -1: every bin */
 } PtPath;
-#define CB_PT_PATH_BYTES(channels) (4 * (3 * (channels) + 7))
+#define CB_PT_PATH_BYTES(channels) (4 * (3 * (channels) + 8))
 
 CB_FN PtPath ptPathBegin(void) {
     PtPath path;
@@ -54,6 +55,7 @@ CB_FN PtPath ptPathBegin(void) {
     path.previousDelta = 1; /* the pinhole camera: emission seen directly takes full weight */
     path.vertex = 1;
     path.shadowPending = 0;
+    path.hero = -1.0f;
     return path;
 }
 
@@ -105,6 +107,13 @@ CB_FN bool ptPathVertex(const SceneView* scene, PtPath* path, Ray* ray, bool fou
     }
 #endif
     if (vertex + 1 >= settings.eyeVertices) return false;
+#if CB_HAS(CB_FEATURE_DISPERSION)
+    /* After the emission found here, as pbrt-v4 chooses its wavelength in GetBSDF. */
+    dispersionFollowOne(scene, sp.material,
+                        sampleAt(stream, bounceDimension(bounce, CB_SLOT_WAVELENGTH)), &path->hero,
+                        &path->throughput);
+    sp.uv.hero = path->hero;
+#endif
 
     Frame frame = frameFromNormal(sp.ns);
 

@@ -261,6 +261,7 @@ CB_FN real sampleNext(SampleStream* s) {
 #define CB_SLOT_ROULETTE 3u
 #define CB_SLOT_LIGHT_POINT 4u /* 2 dims */
 #define CB_SLOT_LIGHT_CHOICE 6u
+#define CB_SLOT_WAVELENGTH 7u /* the one wavelength at a dispersive dielectric */
 
 CB_FN uint bounceDimension(int bounce, uint slot) {
     return CB_DIM_FIRST_BOUNCE + (uint)bounce * CB_DIMS_PER_BOUNCE + slot;

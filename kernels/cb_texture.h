@@ -41,6 +41,7 @@ CB_FN TexCoord triangleTexCoord(const SceneView* scene, int primitive, real b1, 
     TexCoord c;
     c.u = b0 * uv[0] + b1 * uv[2] + b2 * uv[4];
     c.v = b0 * uv[1] + b1 * uv[3] + b2 * uv[5];
+    c.hero = -1.0f;
     return c;
 }
 
@@ -61,6 +62,7 @@ CB_FN TexCoord sphereTexCoord(const SceneView* scene, int primitive, Vec3 pLocal
     TexCoord c;
     c.u = phi * (0.5f * CB_INV_PI);
     c.v = 1.0f - acos(cbClamp(p.z / r, -1.0f, 1.0f)) * CB_INV_PI;
+    c.hero = -1.0f;
     return c;
 }
 

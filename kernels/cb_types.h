@@ -61,9 +61,13 @@ typedef struct Hit {
 
 /* Where a ray hit, with the error bound needed to spawn new rays without self-intersection
  * (pbrt-v4's conservative floating-point error bounds: no scene-scale epsilon). */
-/* Texture coordinates (pbrt-v4's uv) of a surface point. */
+/* Where a surface point's material is looked up: its texture coordinates (pbrt-v4's uv) and,
+ * on paths that have met a dispersive dielectric (CB_FEATURE_DISPERSION), the one wavelength
+ * they follow from there on, as a position over the bins: bin + fraction in [0, CB_CHANNELS)
+ * (dispersionFollowOne, cb_bsdf.h); -1 where the path carries every bin. */
 typedef struct TexCoord {
     real u, v;
+    real hero;
 } TexCoord;
 
 typedef struct SurfacePoint {
@@ -77,7 +81,8 @@ typedef struct SurfacePoint {
     int primitive;
     int material;
     int light;
-    TexCoord uv; /* CB_FEATURE_TEXTURE: interpolated from the triangle's vertices; else 0 */
+    TexCoord uv; /* CB_FEATURE_TEXTURE: interpolated from the triangle's vertices; else 0 (hero
+                  * -1: the caller sets it, dispersionFollowOne) */
 } SurfacePoint;
 
 /* ---- Materials ---------------------------------------------------------------------------- */
@@ -118,6 +123,7 @@ typedef struct SurfacePoint {
 #define CB_FEATURE_PIXEL_FILTER (1u << 22)      /* any pixel filter but the box of radius 0.5 */
 #define CB_FEATURE_ALPHA (1u << 23)             /* shapes with pbrt-v4's "alpha" (cut-outs) */
 #define CB_FEATURE_BUMP_MAP (1u << 24)          /* materials with pbrt-v4's "displacement" */
+#define CB_FEATURE_DISPERSION (1u << 25)        /* dielectrics with pbrt-v4's "spectrum eta" */
 
 #ifndef CB_FEATURES
 #define CB_FEATURES 0xffffffffu
@@ -178,7 +184,15 @@ typedef struct Material {
      * of pbrt-v4's "displacement", whose slopes tilt the shading normal (bumpMapNormal); -1: none
      * (also where the material has a normal map, which pbrt-v4 uses instead). */
     int displacement;
+    /* CB_FEATURE_DISPERSION: a (thin) dielectric whose index varies with wavelength (pbrt-v4's
+     * "spectrum eta"): the entry in `spectra` from which CB_DISPERSION_KNOTS values hold its
+     * index at 400 nm and then every 1 / CB_DISPERSION_KNOTS_PER_BIN of a bin to 700 nm (linear
+     * between them), `eta` their mean; -1: none. */
+    int dispersion;
 } Material;
+
+#define CB_DISPERSION_KNOTS_PER_BIN 4
+#define CB_DISPERSION_KNOTS (CB_DISPERSION_KNOTS_PER_BIN * CB_CHANNELS + 1)
 
 /* ---- Lights ------------------------------------------------------------------------------- */
 

@@ -19,6 +19,15 @@ inline double dielectricFresnel(double cosI, double eta) {
     return 0.5 * (rs * rs + rp * rp);
 }
 
+// A thin sheet's reflectance as the sum over internal bounces: R, then T R T, T R^3 T, ...
+inline double thinSheetReflectance(double cosI, double eta) {
+    const double r = dielectricFresnel(cosI, eta), t = 1.0 - r;
+    double sum = r, bounce = t * r * t;
+    for (int k = 0; k < 200 && bounce > 1e-17; ++k, bounce *= r * r)
+        sum += bounce;
+    return sum;
+}
+
 // Conductor Fresnel from the complex amplitudes (Born & Wolf sec. 13.2), written apart from the
 // kernels' real a, b form: eta + i k the conductor's index relative to the medium of incidence.
 inline double conductorFresnel(double cosI, double eta, double k) {

@@ -11,10 +11,46 @@
 
 #include <array>
 #include <cmath>
+#include <functional>
 #include <string>
 #include <vector>
 
 namespace cbtest::method_checks {
+
+// A closed black box (4 x 1 x 4, below y = 0) whose lid, the square y = 0 with its normal into
+// the box, is `material`, under a constant sky of radiance kLidSky, seen at fov 90 on a 16 x 16
+// film from `camera`: kLidAbove (1 above the lid, looking down) or kLidInside (0.5 below it,
+// looking up). The box sends no light, so from above a pixel is what the lid reflects of the sky
+// and from inside what it transmits. The box filter keeps each pixel's samples on its own area,
+// so the image mean is the film plane's (lidFilmMean).
+inline constexpr double kLidSky = 0.8;
+inline const std::string kLidAbove = "LookAt 0 1 0  0 0 0  0 0 1\n";
+inline const std::string kLidInside = "LookAt 0 -0.5 0  0 0 0  0 0 1\n";
+inline std::string lidSceneText(const std::string& camera, const std::string& material) {
+    return camera +
+           "Camera \"perspective\" \"float fov\" 90\n"
+           "Film \"rgb\" \"integer xresolution\" 16 \"integer yresolution\" 16\n"
+           "PixelFilter \"box\"\n"
+           "WorldBegin\nLightSource \"infinite\" \"rgb L\" [0.8 0.8 0.8]\n"
+           "Material \"diffuse\" \"rgb reflectance\" [0 0 0]\n"
+           "Shape \"trianglemesh\" \"point3 P\" [-2 -1 -2  2 -1 -2  2 -1 2  -2 -1 2  "
+           "-2 0 -2  2 0 -2  2 0 2  -2 0 2] \"integer indices\" [0 1 2  0 2 3  0 1 5  0 5 4  "
+           "1 2 6  1 6 5  2 3 7  2 7 6  3 0 4  3 4 7]\n" +
+           material + "Shape \"bilinearmesh\" \"point3 P\" [-2 0 -2  2 0 -2  -2 0 2  2 0 2]\n";
+}
+
+// The mean over the lid scene's film (x, y in [-1, 1] at distance 1) of g(cos theta), theta a
+// pixel's angle to the lid's normal, cos theta = 1 / sqrt(1 + x^2 + y^2); midpoint rule, g
+// smooth.
+inline double lidFilmMean(const std::function<double(double)>& g, int n = 200) {
+    double sum = 0.0;
+    for (int j = 0; j < n; ++j)
+        for (int i = 0; i < n; ++i) {
+            const double x = -1 + (i + 0.5) * 2.0 / n, y = -1 + (j + 0.5) * 2.0 / n;
+            sum += g(1.0 / std::sqrt(1 + x * x + y * y));
+        }
+    return sum / (double(n) * n);
+}
 
 // The mean of each bin of pixel channels (binOf(x, y, channel): a bin below `bins`, or `bins`
 // for none) over `estimates` estimates, per run of seeds seed, seed + 1, ...: the checks use the

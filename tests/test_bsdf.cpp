@@ -63,6 +63,9 @@ struct TestScene {
         m.reflectanceTexture = -1;
         m.normalMap = -1;
         m.roughnessTexture = -1;
+        m.alphaTexture = -1;
+        m.displacement = -1;
+        m.dispersion = -1;
         materials.push_back(m);
         return static_cast<int>(materials.size()) - 1;
     }
@@ -196,7 +199,7 @@ struct Fixture {
 
 const Frame kFrame = frameFromNormal(vnormalize(vec3(0.3f, -0.5f, 0.8f)));
 // Texture coordinates for bsdfEval and bsdfSample: these materials are untextured.
-const TexCoord kNoUv{0.0f, 0.0f};
+const TexCoord kNoUv{0.0f, 0.0f, -1.0f};
 
 Vec3 localDir(float cosTheta, float phi) {
     float sinTheta = std::sqrt(std::max(0.0f, 1.0f - cosTheta * cosTheta));
@@ -1592,6 +1595,7 @@ __kernel void bsdfProbe(__global const Material* materials, __global const float
     sv.lightCount = 0;
     TexCoord noUv;
     noUv.u = noUv.v = 0.0f;
+    noUv.hero = -1.0f;
     Frame frame = frameFromNormal(vnormalize(vec3(p[3], p[4], p[5])));
     Vec3 wo = vec3(p[0], p[1], p[2]);
     int material = (int)p[12];

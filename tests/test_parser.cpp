@@ -597,14 +597,14 @@ TEST_CASE("parser: material errors") {
                 "anisotropic roughness");
     expectError(w + "Material \"dielectric\" \"float roughness\" -0.3\n", "t.pbrt:2:23",
                 "must be >= 0");
-    expectError(w + "Material \"dielectric\" \"spectrum eta\" \"glass-BK7\"\n", "t.pbrt:2:38",
-                "\"glass-BK7\" is a dispersive index (pbrt-v4 follows one wavelength through it), "
-                "which cbdpt's dielectrics do not take; give \"float eta\" 1.5168 (SCHOTT N-BK7 "
-                "at 587.6 nm)");
+    expectError(w + "Material \"coateddiffuse\" \"spectrum eta\" \"glass-BK7\"\n", "t.pbrt:2:41",
+                "\"glass-BK7\" is a dispersive index, which cbdpt's coats do not take (only "
+                "\"dielectric\" and \"thindielectric\"); give \"float eta\" 1.5168 (SCHOTT "
+                "N-BK7 at 587.6 nm)");
     expectError(w + "Material \"coatedconductor\" \"spectrum interface.eta\" \"glass-F11\"\n",
                 "t.pbrt:2:53", "give \"float interface.eta\" 1.78472 (SCHOTT SF11 at 587.6 nm)");
-    expectError(w + "Material \"dielectric\" \"spectrum eta\" [400 1.5 700 1.4]\n", "t.pbrt:2:23",
-                "spectrally varying");
+    expectError(w + "Material \"dielectric\" \"rgb eta\" [1.5 1.4 1.3]\n", "t.pbrt:2:23",
+                "a dielectric's \"eta\" is \"float eta\" or \"spectrum eta\", not rgb");
     expectError(w + "Material \"dielectric\" \"float eta\" 0\n", "t.pbrt:2:35",
                 "must be > 0, got 0");
     expectError(w + "Material \"diffuse\" \"float sigma\" 10\n", "t.pbrt:2:20",

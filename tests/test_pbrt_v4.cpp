@@ -414,9 +414,9 @@ TEST_CASE("pbrt-v4: blackbody spectra, Planck's law at a temperature, lights nor
     // A temperature with no visible light leaves nothing to normalise.
     CHECK(contains(errorOf("WorldBegin\nLightSource \"point\" \"blackbody I\" 1\n"),
                    "zero luminance"));
-    // A dielectric's eta stays one number.
+    // A dielectric's eta is one number or a spectrum (dispersion), never a blackbody.
     CHECK(contains(errorOf("WorldBegin\nMaterial \"dielectric\" \"blackbody eta\" 3000\n"),
-                   "spectrally varying"));
+                   "\"float eta\" or \"spectrum eta\", not blackbody"));
 }
 
 TEST_CASE("pbrt-v4: the thesis Cornell box keeps its luminance through the light's scale") {
@@ -1290,8 +1290,8 @@ TEST_CASE("pbrt-v4 diffusetransmission and thindielectric: parameters, defaults,
     CHECK(!contains(scene.featureNames(), "thin"));
     expectError("WorldBegin\nMaterial \"diffusetransmission\" \"rgb transmittance\" [0.5 1.2 0]\n",
                 {"t.pbrt:2:", "must be <= 1"});
-    expectError("WorldBegin\nMaterial \"thindielectric\" \"spectrum eta\" [400 1.5 700 1.4]\n",
-                {"t.pbrt:2:", "spectrally varying"});
+    expectError("WorldBegin\nMaterial \"thindielectric\" \"rgb eta\" [1.5 1.4 1.3]\n",
+                {"t.pbrt:2:", "\"float eta\" or \"spectrum eta\", not rgb"});
     expectError("WorldBegin\nMaterial \"thindielectric\" \"float eta\" 0\n",
                 {"t.pbrt:2:39: \"float eta\" must be > 0, got 0"});
     expectError("WorldBegin\nMaterial \"thindielectric\" \"float roughness\" 0.1\n",
@@ -1301,53 +1301,20 @@ TEST_CASE("pbrt-v4 diffusetransmission and thindielectric: parameters, defaults,
         {"t.pbrt:2:", "thindielectric, diffusetransmission, coateddiffuse, coatedconductor"});
 }
 
-namespace {
+using cbtest::thinSheetReflectance;
 
-using cbtest::dielectricFresnel;
-
-// A thin sheet's reflectance as the sum over internal bounces: R, then T R T, T R^3 T, ...
-double thinSheetReflectance(double cosI, double eta) {
-    const double r = dielectricFresnel(cosI, eta), t = 1.0 - r;
-    double sum = r, bounce = t * r * t;
-    for (int k = 0; k < 200 && bounce > 1e-17; ++k, bounce *= r * r)
-        sum += bounce;
-    return sum;
-}
-
-} // namespace
-
-// A closed black box whose lid is the material under test, under a constant sky of radiance L,
-// seen straight down from above and straight up from inside (fov 90): the box sends no light,
-// so from above a pixel is what the lid reflects of the sky and from inside what it transmits.
-// diffusetransmission: R L and T L per channel, everywhere. thindielectric: L R(theta) and
-// L (1 - R(theta)), R the sheet's reflectance summed over its internal bounces, theta the
-// pixel's angle to the lid's normal (cos theta = 1 / sqrt(1 + x^2 + y^2) on the film plane at
-// distance 1). Every method renders the image mean.
+// The lid scene (method_checks.h, lidSceneText) with the material under test as its lid, from
+// above and from inside. diffusetransmission: R L and T L per channel, everywhere.
+// thindielectric: L R(theta) and L (1 - R(theta)), R the sheet's reflectance summed over its
+// internal bounces, theta the pixel's angle to the lid's normal. Every method renders the image
+// mean.
 TEST_CASE("pbrt-v4 diffusetransmission and thindielectric: a lid on a black box under a "
           "constant sky, every method" *
           doctest::test_suite("statistical")) {
     cb::ClRuntime runtime;
-    const double radiance = 0.8;
+    const double radiance = kLidSky;
     const double reflectance[3] = {0.5, 0.3, 0.2}, transmittance[3] = {0.2, 0.4, 0.6};
-    const std::string box =
-        "Material \"diffuse\" \"rgb reflectance\" [0 0 0]\n"
-        "Shape \"trianglemesh\" \"point3 P\" [-2 -1 -2  2 -1 -2  2 -1 2  -2 -1 2  "
-        "-2 0 -2  2 0 -2  2 0 2  -2 0 2] \"integer indices\" [0 1 2  0 2 3  0 1 5  0 5 4  "
-        "1 2 6  1 6 5  2 3 7  2 7 6  3 0 4  3 4 7]\n";
-    const std::string lid =
-        "Shape \"bilinearmesh\" \"point3 P\" [-2 0 -2  2 0 -2  -2 0 2  2 0 2]\n";
-    // The mean over the film (x, y in [-1, 1]) of g(cos theta), midpoint rule; g is smooth.
-    auto filmMean = [](auto g) {
-        const int n = 400;
-        double sum = 0.0;
-        for (int j = 0; j < n; ++j)
-            for (int i = 0; i < n; ++i) {
-                const double x = -1 + (i + 0.5) * 2.0 / n, y = -1 + (j + 0.5) * 2.0 / n;
-                sum += g(1.0 / std::sqrt(1 + x * x + y * y));
-            }
-        return sum / (double(n) * n);
-    };
-    const double thinR = filmMean([](double c) { return thinSheetReflectance(c, 1.5); });
+    const double thinR = lidFilmMean([](double c) { return thinSheetReflectance(c, 1.5); }, 400);
     struct Case {
         std::string material, camera;
         std::array<double, 3> expected;
@@ -1355,8 +1322,7 @@ TEST_CASE("pbrt-v4 diffusetransmission and thindielectric: a lid on a black box 
     const std::string dt = "Material \"diffusetransmission\" \"rgb reflectance\" [0.5 0.3 0.2] "
                            "\"rgb transmittance\" [0.2 0.4 0.6]\n";
     const std::string thin = "Material \"thindielectric\" \"float eta\" 1.5\n";
-    const std::string above = "LookAt 0 1 0  0 0 0  0 0 1\n",
-                      inside = "LookAt 0 -0.5 0  0 0 0  0 0 1\n";
+    const std::string &above = kLidAbove, &inside = kLidInside;
     auto scaled = [&](const double* v) {
         return std::array<double, 3>{radiance * v[0], radiance * v[1], radiance * v[2]};
     };
@@ -1370,13 +1336,8 @@ TEST_CASE("pbrt-v4 diffusetransmission and thindielectric: a lid on a black box 
     for (const Case& c : cases) {
         CAPTURE(c.material);
         CAPTURE(c.camera);
-        const std::string text =
-            c.camera +
-            "Camera \"perspective\" \"float fov\" 90\n"
-            "Film \"rgb\" \"integer xresolution\" 16 \"integer yresolution\" 16\n"
-            "WorldBegin\nLightSource \"infinite\" \"rgb L\" [0.8 0.8 0.8]\n" +
-            box + c.material + lid;
-        const cb::DeviceScene scene = cb::buildDeviceScene(parseSceneString(text, "t.pbrt"));
+        const cb::DeviceScene scene =
+            cb::buildDeviceScene(parseSceneString(lidSceneText(c.camera, c.material), "t.pbrt"));
         for (const std::string method : kMethods) {
             CAPTURE(method);
             // CPT's and CBDPT's pixels share each estimate's samples, so one lobe choice
@@ -1519,7 +1480,7 @@ TEST_CASE("pbrt-v4 coateddiffuse and coatedconductor: a coated lid under a const
           "L A(theta), every method" *
           doctest::test_suite("statistical")) {
     cb::ClRuntime runtime;
-    const double radiance = 0.8, rho[3] = {0.8, 0.5, 0.2};
+    const double radiance = kLidSky, rho[3] = {0.8, 0.5, 0.2};
     const double eta[3] = {0.2, 0.9, 1.4}, k[3] = {3.0, 2.5, 1.9};
     struct Case {
         std::string material;
@@ -1552,27 +1513,11 @@ TEST_CASE("pbrt-v4 coateddiffuse and coatedconductor: a coated lid under a const
     for (const Case& c : cases) {
         CAPTURE(c.material);
         std::array<double, 3> expected{};
-        const int n = 200;
-        for (int ch = 0; ch < 3; ++ch) {
-            double sum = 0.0;
-            for (int j = 0; j < n; ++j)
-                for (int i = 0; i < n; ++i) {
-                    const double x = -1 + (i + 0.5) * 2.0 / n, y = -1 + (j + 0.5) * 2.0 / n;
-                    sum += c.albedo(ch, 1.0 / std::sqrt(1 + x * x + y * y));
-                }
-            expected[size_t(ch)] = radiance * sum / (double(n) * n);
-        }
-        const std::string text =
-            "LookAt 0 1 0  0 0 0  0 0 1\nCamera \"perspective\" \"float fov\" 90\n"
-            "Film \"rgb\" \"integer xresolution\" 16 \"integer yresolution\" 16\n"
-            "PixelFilter \"box\"\n" // the film's own area, which A's mean covers
-            "WorldBegin\nLightSource \"infinite\" \"rgb L\" [0.8 0.8 0.8]\n"
-            "Material \"diffuse\" \"rgb reflectance\" [0 0 0]\n"
-            "Shape \"trianglemesh\" \"point3 P\" [-2 -1 -2  2 -1 -2  2 -1 2  -2 -1 2  "
-            "-2 0 -2  2 0 -2  2 0 2  -2 0 2] \"integer indices\" [0 1 2  0 2 3  0 1 5  "
-            "0 5 4  1 2 6  1 6 5  2 3 7  2 7 6  3 0 4  3 4 7]\n" +
-            c.material + "Shape \"bilinearmesh\" \"point3 P\" [-2 0 -2  2 0 -2  -2 0 2  2 0 2]\n";
-        const cb::DeviceScene scene = cb::buildDeviceScene(parseSceneString(text, "t.pbrt"));
+        for (int ch = 0; ch < 3; ++ch)
+            expected[size_t(ch)] =
+                radiance * lidFilmMean([&](double cosTheta) { return c.albedo(ch, cosTheta); });
+        const cb::DeviceScene scene =
+            cb::buildDeviceScene(parseSceneString(lidSceneText(kLidAbove, c.material), "t.pbrt"));
         for (const std::string method : kMethods) {
             CAPTURE(method);
             // One shared coat choice per CPT and CBDPT estimate: many estimates per run.
@@ -2059,6 +2004,7 @@ TEST_CASE("pbrt-v4: every comparison scene in scenes/pbrt-v4 parses and builds")
         if (name == "thin-lens") CHECK(contains(scene.featureNames(), "thin-lens"));
         if (name == "rough-glass") CHECK(contains(scene.featureNames(), "rough-dielectric"));
         if (name == "conductor") CHECK(contains(scene.featureNames(), "conductor-fresnel"));
+        if (name == "dispersion") CHECK(contains(scene.featureNames(), "dispersion"));
         ++scenes;
     }
     CHECK(scenes >= 9);

@@ -67,7 +67,7 @@ std::array<double, 2> sphereUv(double x, double y, double z) {
 }
 
 cbk::TexCoord uvOf(float u, float v) {
-    return cbk::TexCoord{u, v};
+    return cbk::TexCoord{u, v, -1.0f};
 }
 
 } // namespace

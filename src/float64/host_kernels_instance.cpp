@@ -75,7 +75,7 @@ class Instance final : public HostKernels {
         };
         float64::BsdfValue out;
         cbk::real pdfFwd, pdfRev;
-        const cbk::TexCoord uv{0, 0}; // untextured: the precision checks' materials have none
+        const cbk::TexCoord uv{0, 0, -1}; // untextured: the precision checks' materials have none
         const cbk::Spectrum f = cbk::bsdfEval(&view_, material, uv, cbk::frameFromNormal(vec(n)),
                                               vec(wo), vec(wi), adjoint, &pdfFwd, &pdfRev);
         out.f = f.c[0];

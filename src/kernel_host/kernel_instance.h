@@ -114,6 +114,7 @@ template <class Visit> void forEachField(cbk::Material& s, Visit&& visit) {
     visit(s.remapRoughness);
     visit(s.alphaTexture);
     visit(s.displacement);
+    visit(s.dispersion);
 }
 template <class Visit> void forEachField(cbk::Light& s, Visit&& visit) {
     visit(s.kind);

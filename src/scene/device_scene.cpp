@@ -17,7 +17,7 @@
 namespace cb {
 
 static_assert(sizeof(cbk::Primitive) == 48, "Primitive must match the OpenCL layout");
-static_assert(sizeof(cbk::Material) == 80, "Material must match the OpenCL layout");
+static_assert(sizeof(cbk::Material) == 84, "Material must match the OpenCL layout");
 static_assert(sizeof(cbk::Light) == 108, "Light must match the OpenCL layout");
 static_assert(sizeof(cbk::Camera) == 148, "Camera must match the OpenCL layout");
 
@@ -124,6 +124,15 @@ class SpectraTable {
         if (channels_ != kSpectralBins) throw std::logic_error("SpectraTable::addBins: RGB table");
         const int index = int(data_.size()) / channels_;
         data_.insert(data_.end(), bins.begin(), bins.end());
+        return index;
+    }
+    // Values that are not one spectrum (a dispersive index's knots), padded with zeros to whole
+    // entries: the first entry's index.
+    int addValues(const std::vector<float>& values) {
+        const int index = int(data_.size()) / channels_;
+        data_.insert(data_.end(), values.begin(), values.end());
+        data_.resize((data_.size() + size_t(channels_) - 1) / size_t(channels_) * size_t(channels_),
+                     0.f);
         return index;
     }
     double maxComponent(int index) const {
@@ -447,6 +456,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         out.roughnessTexture = -1;
         out.alphaTexture = -1;
         out.displacement = -1;
+        out.dispersion = -1;
         out.remapRoughness = m.remapRoughness ? 1 : 0;
         // GGX alpha of conductors, dielectrics and coats; pbrt-v4 maps roughness r to sqrt(r).
         auto ggxAlpha = [&m](float roughness) {
@@ -462,6 +472,29 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
                 scene.features |= CB_FEATURE_TEXTURE | CB_FEATURE_ROUGHNESS_TEXTURE;
             }
         }
+        // A (thin) dielectric's index per wavelength: its knots (Material.dispersion) where it
+        // varies, `eta` their mean.
+        auto addDispersion = [&]() {
+            if (!m.etaSpectrum) return;
+            if (scene.channels != kSpectralBins)
+                throw SceneError(m.where, "\"spectrum eta\" varies with wavelength, which needs "
+                                          "spectral rendering (not --channels rgb)");
+            std::vector<float> knots;
+            constexpr int kKnots = CB_DISPERSION_KNOTS_PER_BIN * kSpectralBins + 1;
+            double sum = 0.0;
+            for (int k = 0; k < kKnots; ++k) {
+                const double nm = kLambdaMin + kBinWidth * k / CB_DISPERSION_KNOTS_PER_BIN;
+                knots.push_back(float(evalPiecewiseLinear(m.etaSpectrum->samples, nm)));
+                sum += (k == 0 || k == kKnots - 1 ? 0.5 : 1.0) * knots.back();
+            }
+            out.eta = float(sum / (kKnots - 1));
+            if (std::all_of(knots.begin(), knots.end(), [&](float k) { return k == knots[0]; }))
+                return; // a constant spectrum: the same expectation without the one wavelength
+            if (materialUsed[i]) {
+                out.dispersion = spectra.addValues(knots);
+                scene.features |= CB_FEATURE_DISPERSION;
+            }
+        };
         switch (m.kind) {
         case MaterialKind::Diffuse:
             out.kind = CB_MAT_DIFFUSE;
@@ -482,9 +515,10 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         case MaterialKind::Dielectric:
             out.kind = CB_MAT_DIELECTRIC;
             out.eta = m.eta;
+            addDispersion();
             // pbrt-v4 takes eta 1 as no interface, smooth at any roughness: a rough one's
             // transmission (wi = -wo) has no half vector
-            out.alpha = m.eta == 1.f ? 0.f : alpha;
+            out.alpha = out.eta == 1.f ? 0.f : alpha;
             break;
         case MaterialKind::Mix:
             out.kind = CB_MAT_MIX;
@@ -500,6 +534,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         case MaterialKind::ThinDielectric:
             out.kind = CB_MAT_THIN_DIELECTRIC;
             out.eta = m.eta;
+            addDispersion();
             break;
         case MaterialKind::CoatedDiffuse:
         case MaterialKind::CoatedConductor: {
@@ -550,6 +585,13 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
                                      "\"displacement\" is not supported: pbrt-v4 picks one of the "
                                      "two materials per hit and shades by its normal, cbdpt "
                                      "blends their BSDFs at one normal");
+        if (materialUsed[i] && m.kind == MaterialKind::Mix)
+            for (int c : m.mix)
+                if (c >= 0 && desc.materials[size_t(c)].etaSpectrum)
+                    throw SceneError(m.where,
+                                     "a mix of a dielectric with \"spectrum eta\" is not "
+                                     "supported: its paths follow one wavelength from the hit on, "
+                                     "which cbdpt chooses for the material the hit finds");
         scene.materials.push_back(out);
         if (materialUsed[i]) {
             scene.features |= materialFeature(m.kind);
@@ -971,6 +1013,7 @@ std::string DeviceScene::featureNames() const {
     add(CB_FEATURE_ROUGHNESS_TEXTURE, "roughness-texture");
     add(CB_FEATURE_THIN_LENS, "thin-lens");
     add(CB_FEATURE_PIXEL_FILTER, "pixel-filter");
+    add(CB_FEATURE_DISPERSION, "dispersion");
     add(CB_FEATURE_ALPHA, "alpha");
     add(CB_FEATURE_BUMP_MAP, "bump-map");
     names += channels == 16 ? " spectral-16" : " rgb";

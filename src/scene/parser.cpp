@@ -211,10 +211,13 @@ bool knownParamType(const std::string& t) {
 }
 
 // What a spectral parameter's values may be: a fraction of light in [0, 1] (a reflectance or a
-// transmittance), an emission >= 0, or a conductor's eta or k in [0, kMaxConductorIndex].
-enum class SpectrumRole { Reflectance, Emission, ConductorIndex };
+// transmittance), an emission >= 0, a conductor's eta or k in [0, kMaxConductorIndex], or a
+// dielectric's index in (0, kMaxDielectricIndex].
+enum class SpectrumRole { Reflectance, Emission, ConductorIndex, DielectricIndex };
 // fresnelConductor's float arithmetic stays finite to about 1e9; no material comes near 1e6.
 constexpr double kMaxConductorIndex = 1e6;
+// Glasses and crystals stay below 5; the bound keeps a typo from passing.
+constexpr double kMaxDielectricIndex = 100.0;
 // Planck's law stays finite in double far beyond; no light comes near.
 constexpr double kMaxBlackbodyKelvin = 1e9;
 
@@ -343,6 +346,12 @@ class ParamList {
             if (p->kind == Param::Kind::String) {
                 if (p->size() != 1) wrongCount(*p, "one spectrum name or file name");
                 // pbrt-v4 looks a name up among its named spectra before it reads a file.
+                if (const NamedGlass* glass = findNamedGlass(p->strings[0]);
+                    glass && role == SpectrumRole::DielectricIndex) {
+                    s.isRgb = false;
+                    s.samples = glassIndexSpectrum(*glass);
+                    return s;
+                }
                 if (const NamedSpectrum* named = findNamedSpectrum(p->strings[0]))
                     fromFile = namedSpectrumParam(*p, *named);
                 else if (!spectrumFiles_)
@@ -373,15 +382,18 @@ class ParamList {
                                        static_cast<float>(p->numbers[i + 1]));
             }
             // Outside its samples a spectrum is 0: an eta = k = 0 vacuum, where pbrt-v4's Fresnel
-            // gives NaN and cbdpt's a perfect mirror, so a conductor's must cover cbdpt's bins.
-            if (role == SpectrumRole::ConductorIndex &&
+            // gives NaN and cbdpt's a perfect mirror, so a conductor's must cover cbdpt's bins;
+            // a dielectric's index of 0 pbrt-v4 takes as 1, no interface.
+            if ((role == SpectrumRole::ConductorIndex || role == SpectrumRole::DielectricIndex) &&
                 (s.samples.front().first > kLambdaMin || s.samples.back().first < kLambdaMax))
-                throw SceneError(p->where,
-                                 fmt::format("parameter {} covers {:g}-{:g} nm; a conductor's eta "
-                                             "and k must cover {:g}-{:g} nm (pbrt-v4 samples "
-                                             "360-830 nm)",
-                                             p->decl(), s.samples.front().first,
-                                             s.samples.back().first, kLambdaMin, kLambdaMax));
+                throw SceneError(
+                    p->where,
+                    fmt::format("parameter {} covers {:g}-{:g} nm; {} must cover "
+                                "{:g}-{:g} nm (pbrt-v4 samples 360-830 nm)",
+                                p->decl(), s.samples.front().first, s.samples.back().first,
+                                role == SpectrumRole::ConductorIndex ? "a conductor's eta and k"
+                                                                     : "a dielectric's index",
+                                kLambdaMin, kLambdaMax));
             return s;
         }
         if (p->kind != Param::Kind::Number)
@@ -510,6 +522,11 @@ class ParamList {
             throw SceneError(p.valueLoc(i), fmt::format("parameter {} has {:g}; cbdpt evaluates "
                                                         "a conductor's eta and k up to {:g}",
                                                         p.decl(), v, kMaxConductorIndex));
+        if (role == SpectrumRole::DielectricIndex && !(v > 0.0 && v <= kMaxDielectricIndex))
+            throw SceneError(p.valueLoc(i),
+                             fmt::format("parameter {} has {:g}; a dielectric's index must be in "
+                                         "(0, {:g}]",
+                                         p.decl(), v, kMaxDielectricIndex));
     }
 
     std::vector<Param> params_;
@@ -754,9 +771,9 @@ class Parser {
                                     "\" (tried" + tried +
                                     ") and no built-in spectrum of that name (cbdpt has " +
                                     namedSpectrumNames() +
-                                    "; pbrt-v4's glass-*, stdillum-*, metal-TiO2-* and camera "
-                                    "spectra are not built in): give [wavelength value ...] "
-                                    "pairs or a file of them");
+                                    ", and pbrt-v4's glass-* as a dielectric's eta; its "
+                                    "stdillum-*, metal-TiO2-* and camera spectra are not built "
+                                    "in): give [wavelength value ...] pairs or a file of them");
     }
 
     // A bare capitalised word that is not a number ("Infinity" is one) is a directive name:
@@ -1643,22 +1660,36 @@ class Parser {
     }
 
     // A dielectric's, thin dielectric's or coat's "float eta" (pbrt-v4's default 1.5; a coated
-    // conductor's "interface.eta"); a spectrally varying index would need a wavelength per path,
-    // which cbdpt's bins do not have.
-    static void readEta(ParamList& pl, MaterialDesc& m, const std::string& name = "eta") {
+    // conductor's "interface.eta"). A (thin) dielectric also takes "spectrum eta", an index that
+    // varies with wavelength (a named glass, pairs or a file: etaSpectrum), whose paths follow one
+    // wavelength (pbrt-v4's TerminateSecondary; cb_bsdf.h, dispersionFollowOne); a coat's walk
+    // has no such path.
+    static void readEta(ParamList& pl, MaterialDesc& m, const std::string& name = "eta",
+                        bool dispersive = false) {
         const Param* p = pl.peek(name);
         if (!p) return;
-        if (p->type == "spectrum" && p->kind == Param::Kind::String && p->size() == 1)
+        if (p->type == "spectrum" && p->kind == Param::Kind::String && p->size() == 1 &&
+            !dispersive)
             if (const NamedGlass* g = findNamedGlass(p->strings[0]))
                 throw SceneError(p->valueLoc(0),
-                                 fmt::format("\"{}\" is a dispersive index (pbrt-v4 follows one "
-                                             "wavelength through it), which cbdpt's dielectrics "
-                                             "do not take; give \"float {}\" {} ({} at 587.6 nm)",
+                                 fmt::format("\"{}\" is a dispersive index, which cbdpt's coats "
+                                             "do not take (only \"dielectric\" and "
+                                             "\"thindielectric\"); give \"float {}\" {} ({} at "
+                                             "587.6 nm)",
                                              g->name, name, g->nd, g->glass));
+        if (p->type == "spectrum" && dispersive) {
+            m.etaSpectrum = pl.spectrum(name, SpectrumRole::DielectricIndex);
+            return;
+        }
         if (p->type == "spectrum" || p->type == "rgb" || p->type == "blackbody")
-            throw SceneError(p->where, fmt::format("spectrally varying dielectric \"{0}\" is not "
-                                                   "supported; give \"float {0}\"",
-                                                   name));
+            throw SceneError(p->where,
+                             dispersive ? fmt::format("a dielectric's \"{0}\" is \"float {0}\" or "
+                                                      "\"spectrum {0}\", not {1}",
+                                                      name, p->type)
+                                        : fmt::format("spectrally varying dielectric \"{0}\" is "
+                                                      "not supported on coats (their walk "
+                                                      "carries every bin); give \"float {0}\"",
+                                                      name));
         const double eta = *pl.oneFloat(name);
         if (!(eta > 0.0))
             throw SceneError(p->valueLoc(0),
@@ -1768,11 +1799,11 @@ class Parser {
             readRoughness(pl, m);
         } else if (type == "dielectric") {
             m.kind = MaterialKind::Dielectric;
-            readEta(pl, m);
+            readEta(pl, m, "eta", true);
             readRoughness(pl, m);
         } else if (type == "thindielectric") {
             m.kind = MaterialKind::ThinDielectric;
-            readEta(pl, m);
+            readEta(pl, m, "eta", true);
         } else if (type == "diffusetransmission") {
             m.kind = MaterialKind::DiffuseTransmission;
             m.reflectance = SpectrumValue::constant(0.25f); // pbrt-v4's defaults

@@ -75,6 +75,9 @@ struct MaterialDesc {
     float baseRoughness = 0.f;  // coated conductor: the conductor's ("conductor.roughness")
     bool remapRoughness = true; // pbrt-v4: alpha = sqrt(roughness) by default
     float eta = 1.5f;           // dielectric, thin dielectric and the coats
+    // dielectric and thin dielectric given "spectrum eta": the index per wavelength (dispersion),
+    // in place of `eta`
+    std::optional<SpectrumValue> etaSpectrum;
     // coated diffuse and coated conductor (pbrt-v4's defaults): the layer between coat and base in
     // mean free paths, the random walk's longest path and its walks per estimate
     float thickness = 0.01f;

@@ -3,6 +3,7 @@
 // docs/pbrt-v4.md, "Named spectra").
 #pragma once
 
+#include <array>
 #include <span>
 #include <string>
 #include <string_view>
@@ -22,15 +23,25 @@ std::span<const NamedSpectrum> namedSpectra();
 // The spectrum called `name` as (nm, value) pairs, or nullptr when cbdpt has none by that name.
 const NamedSpectrum* findNamedSpectrum(std::string_view name);
 
-// pbrt-v4's named glass spectra ("glass-BK7", ...): dispersive indices, which cbdpt's dielectrics
-// do not take; kept for the refusal to suggest the glass's index at 587.6 nm.
+// pbrt-v4's named glass spectra ("glass-BK7", ...): dispersive indices, by the catalogue's
+// Sellmeier formula.
 struct NamedGlass {
     std::string_view name;
     double nd;              // index at the helium d line, 587.6 nm
     std::string_view glass; // the catalogue glass
+    // n^2 = 1 + c0 + sum of B lambda^2 / (lambda^2 - C), lambda in micrometres: {c0, B1, C1,
+    // B2, C2, B3, C3}, valid from lowNm to highNm.
+    std::array<double, 7> sellmeier;
+    double lowNm, highNm;
 };
 std::span<const NamedGlass> namedGlasses();
 const NamedGlass* findNamedGlass(std::string_view name);
+
+// The glass's index at `nm` nanometres (within its range).
+double glassIndex(const NamedGlass& glass, double nm);
+
+// The glass's index every 5 nm over pbrt-v4's 360-830 nm, as a spectrum.
+PiecewiseLinear glassIndexSpectrum(const NamedGlass& glass);
 
 // The built-in names, comma-separated, for error messages.
 std::string namedSpectrumNames();

@@ -68,6 +68,11 @@ void checkScene(const cb::SceneDesc& s) {
         if (!std::isfinite(m.roughness) || m.roughness < 0.f) broken("roughness");
         if (!std::isfinite(m.baseRoughness) || m.baseRoughness < 0.f) broken("conductor roughness");
         if (!std::isfinite(m.eta) || !(m.eta > 0.f)) broken("eta");
+        if (m.etaSpectrum) {
+            checkSpectrum(*m.etaSpectrum, false, "dispersive eta");
+            for (const auto& sample : m.etaSpectrum->samples)
+                if (!(sample.second > 0.f)) broken("dispersive eta not positive");
+        }
         if (!(m.amount >= 0.f && m.amount <= 1.f)) broken("mix amount");
         checkIndex(m.reflectanceTexture, s.textures.size(), true, "reflectance texture");
         checkIndex(m.normalMap, s.textures.size(), true, "normal map");
