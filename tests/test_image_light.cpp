@@ -103,10 +103,14 @@ TEST_CASE("pbrt-v4 image light: the image, its frame, its normalisation, and wha
         errorOf("WorldBegin\nLightSource \"infinite\" \"string filename\" \"nan.exr\"\n");
     CHECK(contains(nan, "pixel (1, 0)"));
     CHECK(contains(nan, "finite"));
+    std::ofstream(tempDir() / "sky.webp") << "RIFF";
+    CHECK(contains(
+        errorOf("WorldBegin\nLightSource \"infinite\" \"string filename\" \"sky.webp\"\n"),
+        "cbdpt reads OpenEXR (.exr), PNG (.png), Radiance HDR (.hdr), PFM (.pfm), QOI (.qoi)"));
     std::ofstream(tempDir() / "sky.qoi") << "qoif";
     CHECK(
         contains(errorOf("WorldBegin\nLightSource \"infinite\" \"string filename\" \"sky.qoi\"\n"),
-                 "cbdpt reads OpenEXR (.exr), PNG (.png), Radiance HDR (.hdr), PFM (.pfm)"));
+                 "not a QOI file"));
     std::ofstream(tempDir() / "sky.pfm") << "PF\n";
     CHECK(
         contains(errorOf("WorldBegin\nLightSource \"infinite\" \"string filename\" \"sky.pfm\"\n"),

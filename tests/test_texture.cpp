@@ -13,6 +13,7 @@
 #include "test_render_util.h"
 
 #include <fmt/format.h>
+#include <qoi.h>
 #include <stb_image_write.h>
 
 #include <algorithm>
@@ -243,6 +244,46 @@ TEST_CASE("image textures: PFM files as pbrt-v4 reads them") {
     CHECK(contains(errorOf("WorldBegin\nTexture \"a\" \"spectrum\" \"imagemap\" \"string "
                            "filename\" \"short.pfm\"\n"),
                    "ends before its 2 x 2 pixels"));
+}
+
+// A QOI file of w x h pixels, `channels` bytes each, in the colour space `colorspace`.
+void writeQoi(const std::string& name, unsigned w, unsigned h, unsigned char channels,
+              unsigned char colorspace, const std::vector<unsigned char>& pixels) {
+    const qoi_desc desc{w, h, channels, colorspace};
+    REQUIRE(qoi_write((tempDir() / name).string().c_str(), pixels.data(), &desc) > 0);
+}
+
+TEST_CASE("image textures: QOI files as pbrt-v4 reads them") {
+    TempDirCleanup cleanup;
+    auto fromSrgb = [](int byte) {
+        const double v = byte / 255.0;
+        return float(v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4));
+    };
+    // sRGB RGBA, 2 x 1; linear RGB, 1 x 1.
+    writeQoi("rgba.qoi", 2, 1, 4, QOI_SRGB, {255, 128, 0, 128, 0, 64, 255, 255});
+    writeQoi("linear.qoi", 1, 1, 3, QOI_LINEAR, {51, 102, 204});
+    std::ofstream(tempDir() / "short.qoi") << "qoif";
+    // The file's colour space decides, whatever the texture's "encoding" (pbrt-v4's ReadQOI);
+    // an RGBA file's float lookups read its alpha, decoded alike.
+    const cb::SceneDesc s = parseInTemp(
+        "WorldBegin\nTexture \"a\" \"spectrum\" \"imagemap\" \"string filename\" \"rgba.qoi\" "
+        "\"string encoding\" \"linear\"\n"
+        "Texture \"b\" \"spectrum\" \"imagemap\" \"string filename\" \"linear.qoi\"\n"
+        "Texture \"f\" \"float\" \"imagemap\" \"string filename\" \"rgba.qoi\"\n");
+    REQUIRE(s.textures.size() == 3);
+    CHECK(s.textures[0].width == 2);
+    CHECK(s.textures[0].height == 1);
+    const std::vector<float> rgba{1.f, fromSrgb(128), 0.f, 0.f, fromSrgb(64), 1.f};
+    for (size_t i = 0; i < rgba.size(); ++i)
+        CHECK(s.textures[0].rgb[i] == doctest::Approx(rgba[i]).epsilon(1e-6));
+    CHECK(s.textures[1].rgb[0] == doctest::Approx(0.2f));
+    CHECK(s.textures[1].rgb[1] == doctest::Approx(0.4f));
+    CHECK(s.textures[1].rgb[2] == doctest::Approx(0.8f));
+    CHECK(s.textures[2].rgb[0] == doctest::Approx(fromSrgb(128)).epsilon(1e-6));
+    CHECK(s.textures[2].rgb[3] == doctest::Approx(1.f));
+    CHECK(contains(errorOf("WorldBegin\nTexture \"a\" \"spectrum\" \"imagemap\" \"string "
+                           "filename\" \"short.qoi\"\n"),
+                   "not a QOI file, or it ends before its pixels"));
 }
 
 TEST_CASE("image textures: bilinear and nearest lookups, wrap modes, mapping, clamping") {

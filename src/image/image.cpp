@@ -14,6 +14,9 @@
 #include <ImfStringAttribute.h>
 #include <png.h>
 #include <stb_image.h>
+// The decoder's one definition in the program (qoi.h is header-only).
+#define QOI_IMPLEMENTATION
+#include <qoi.h>
 
 #include <fmt/format.h>
 
@@ -239,6 +242,31 @@ RgbImage readStb(const std::string& path, bool hdr) {
     return out;
 }
 
+// A QOI image as pbrt-v4's ReadQOI reads it: 8-bit RGB or RGBA decoded by the file's own colour
+// space (sRGB, or linear), whatever the texture's "encoding"; an RGBA file's alpha alike.
+RgbImage readQoi(const std::string& path) {
+    qoi_desc desc{};
+    auto* data = static_cast<unsigned char*>(qoi_read(path.c_str(), &desc, 0));
+    if (!data)
+        throw std::runtime_error("cannot read " + path +
+                                 ": not a QOI file, or it ends before its pixels");
+    const bool srgb = desc.colorspace == QOI_SRGB;
+    auto decode = [srgb](unsigned char byte) {
+        const float v = float(byte) / 255.f;
+        return srgb ? srgbToLinear(v) : v;
+    };
+    const size_t channels = desc.channels, count = size_t(desc.width) * size_t(desc.height);
+    RgbImage out(int(desc.width), int(desc.height));
+    if (channels == 4) out.alpha.resize(count);
+    for (size_t i = 0; i < count; ++i) {
+        for (size_t c = 0; c < 3; ++c)
+            out.rgb[i * 3 + c] = decode(data[i * channels + c]);
+        if (channels == 4) out.alpha[i] = decode(data[i * 4 + 3]);
+    }
+    std::free(data);
+    return out;
+}
+
 // A portable float map as pbrt-v4's ReadPFM reads it: "PF" (RGB) or "Pf" (grey, read into all
 // three channels), width, height and a scale whose sign gives the byte order (negative: little
 // endian) and whose magnitude multiplies the values, one whitespace character, then 32-bit
@@ -300,14 +328,15 @@ RgbImage readRgbImage(const std::string& path, ByteEncoding byteEncoding) {
     if (extension == ".png") return readPng(path, byteEncoding);
     if (extension == ".hdr") return readStb(path, true);
     if (extension == ".pfm") return readPfm(path);
+    if (extension == ".qoi") return readQoi(path);
     for (const char* stb :
          {".jpg", ".jpeg", ".tga", ".bmp", ".gif", ".psd", ".pnm", ".ppm", ".pgm"})
         if (extension == stb) return readStb(path, false);
     if (extension != ".exr")
         throw std::runtime_error("cannot read " + path +
                                  ": cbdpt reads OpenEXR (.exr), PNG (.png), Radiance HDR (.hdr), "
-                                 "PFM (.pfm) and, as pbrt-v4 does through stb_image, JPEG, TGA, "
-                                 "BMP, GIF, PSD and PNM images, not \"" +
+                                 "PFM (.pfm), QOI (.qoi) and, as pbrt-v4 does through stb_image, "
+                                 "JPEG, TGA, BMP, GIF, PSD and PNM images, not \"" +
                                  extension + "\" files");
     RgbImage image = readExr(path);
     readExrAlpha(path, image);
