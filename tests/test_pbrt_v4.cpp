@@ -2005,6 +2005,7 @@ TEST_CASE("pbrt-v4: every comparison scene in scenes/pbrt-v4 parses and builds")
         if (name == "rough-glass") CHECK(contains(scene.featureNames(), "rough-dielectric"));
         if (name == "conductor") CHECK(contains(scene.featureNames(), "conductor-fresnel"));
         if (name == "dispersion") CHECK(contains(scene.featureNames(), "dispersion"));
+        if (name == "loopsubdiv") CHECK(contains(scene.featureNames(), "shading-normals"));
         ++scenes;
     }
     CHECK(scenes >= 9);

@@ -7,6 +7,7 @@
 // that points at the offending token.
 #include "image/image.h"
 #include "io/files.h"
+#include "scene/loop_subdivision.h"
 #include "scene/ply.h"
 #include "scene/scene_desc.h"
 #include "scene/transform.h"
@@ -216,6 +217,9 @@ bool knownParamType(const std::string& t) {
 enum class SpectrumRole { Reflectance, Emission, ConductorIndex, DielectricIndex };
 // fresnelConductor's float arithmetic stays finite to about 1e9; no material comes near 1e6.
 constexpr double kMaxConductorIndex = 1e6;
+// 4^levels triangles per control triangle: 16 million (about 3 GB of device scene) is a bound
+// a typo in "levels" meets long before the machine's memory.
+constexpr double kMaxSubdividedTriangles = 16777216.0;
 // Glasses and crystals stay below 5; the bound keeps a typo from passing.
 constexpr double kMaxDielectricIndex = 100.0;
 // Planck's law stays finite in double far beyond; no light comes near.
@@ -2738,21 +2742,10 @@ class Parser {
             const Param* P = pl.numeric("P", "point3", 3);
             if (!P) throw SceneError(t.where, "trianglemesh needs \"point3 P\"");
             const size_t nv = P->size() / 3;
-            std::vector<std::array<double, 3>> pos(nv);
-            for (size_t i = 0; i < nv; ++i)
-                pos[i] = {P->numbers[3 * i], P->numbers[3 * i + 1], P->numbers[3 * i + 2]};
+            const std::vector<std::array<double, 3>> pos = pointsOf(*P);
             std::vector<std::array<unsigned, 3>> tris;
             if (const Param* I = pl.numeric("indices", "integer", 3)) {
-                tris.resize(I->size() / 3);
-                for (size_t i = 0; i < I->size(); ++i) {
-                    const double v = I->numbers[i];
-                    if (v < 0 || v >= static_cast<double>(nv))
-                        throw SceneError(I->valueLoc(i),
-                                         "index " + std::to_string(static_cast<long long>(v)) +
-                                             " out of range (the mesh has " + std::to_string(nv) +
-                                             " vertices)");
-                    tris[i / 3][i % 3] = static_cast<unsigned>(v);
-                }
+                tris = trianglesOf(*I, nv);
             } else {
                 if (nv != 3)
                     throw SceneError(t.where, "\"integer indices\" may only be omitted for a "
@@ -2779,6 +2772,8 @@ class Parser {
                         alpha.texture);
         } else if (type.text == "bilinearmesh") {
             bilinearMesh(t);
+        } else if (type.text == "loopsubdiv") {
+            loopSubdivision(t);
         } else if (type.text == "disk") {
             disk(t);
         } else if (type.text == "plymesh") {
@@ -2815,7 +2810,8 @@ class Parser {
         } else {
             throw SceneError(type.where, "unsupported shape \"" + type.text +
                                              "\" (cbdpt supports trianglemesh, bilinearmesh "
-                                             "(planar patches), plymesh, sphere, disk)");
+                                             "(planar patches), plymesh, loopsubdiv, sphere, "
+                                             "disk)");
         }
     }
 
@@ -2859,6 +2855,71 @@ class Parser {
                 out[t][2 * k + 1] = uv[tris[t][k]][1];
             }
         return out;
+    }
+
+    static std::vector<std::array<double, 3>> pointsOf(const Param& P) {
+        std::vector<std::array<double, 3>> out(P.size() / 3);
+        for (size_t i = 0; i < out.size(); ++i)
+            out[i] = {P.numbers[3 * i], P.numbers[3 * i + 1], P.numbers[3 * i + 2]};
+        return out;
+    }
+
+    // A mesh's "integer indices", three per triangle, each checked against its vertex count.
+    static std::vector<std::array<unsigned, 3>> trianglesOf(const Param& I, size_t vertices) {
+        std::vector<std::array<unsigned, 3>> out(I.size() / 3);
+        for (size_t i = 0; i < I.size(); ++i) {
+            const double v = I.numbers[i];
+            if (v < 0 || v >= static_cast<double>(vertices))
+                throw SceneError(I.valueLoc(i), "index " +
+                                                    std::to_string(static_cast<long long>(v)) +
+                                                    " out of range (the mesh has " +
+                                                    std::to_string(vertices) + " vertices)");
+            out[i / 3][i % 3] = static_cast<unsigned>(v);
+        }
+        return out;
+    }
+
+    // pbrt-v4's "loopsubdiv": its control mesh subdivided "levels" times (pbrt-v4's default 3),
+    // each vertex then on the limit surface with the surface's normal, which shades it
+    // (loop_subdivision.h); (u, v) and alpha as a triangle mesh's without "uv".
+    void loopSubdivision(const Token& t) {
+        ParamList pl = params("Shape \"loopsubdiv\"", "shape");
+        const Param* P = pl.numeric("P", "point3", 3);
+        if (!P) throw SceneError(t.where, "loopsubdiv needs \"point3 P\"");
+        const Param* I = pl.numeric("indices", "integer", 3);
+        if (!I) throw SceneError(t.where, "loopsubdiv needs \"integer indices\"");
+        const std::vector<std::array<unsigned, 3>> control = trianglesOf(*I, P->size() / 3);
+        int levels = 3;
+        if (const Param* p = pl.peek("levels")) {
+            levels = *pl.oneInt("levels");
+            if (levels < 0)
+                throw SceneError(p->valueLoc(0),
+                                 fmt::format("\"integer levels\" must be >= 0, got {}", levels));
+            const double made = loopSubdividedTriangles(control.size(), levels);
+            if (made > kMaxSubdividedTriangles)
+                throw SceneError(p->valueLoc(0),
+                                 fmt::format("\"integer levels\" {} makes {:g} triangles; cbdpt "
+                                             "subdivides into at most {:g}",
+                                             levels, made, kMaxSubdividedTriangles));
+        }
+        if (const Param* p = pl.peek("scheme")) {
+            const std::string scheme = *pl.oneString("scheme");
+            if (scheme != "loop")
+                note(p->valueLoc(0), "loopsubdiv-scheme",
+                     "loopsubdiv \"scheme\" \"" + scheme +
+                         "\" is subdivided by Loop's rules, as pbrt-v4 does whatever it says");
+        }
+        const ShapeAlpha alpha = shapeAlpha(pl, t, nullptr);
+        pl.finish();
+        if (alpha.hidden) return;
+        SubdivisionSurface surface;
+        try {
+            surface = loopSubdivide(pointsOf(*P), control, levels);
+        } catch (const std::invalid_argument& e) {
+            throw SceneError(t.where, std::string("loopsubdiv: ") + e.what());
+        }
+        addMesh(t.where, surface.positions, std::move(surface.triangles), surface.normals, {}, {},
+                {}, alpha.texture);
     }
 
     // pbrt-v4's bilinear patches (p00, p10, p01, p11). A planar patch is exactly the two triangles

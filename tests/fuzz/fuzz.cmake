@@ -8,6 +8,7 @@ endif()
 set(CBDPT_FUZZ_FLAGS -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all
                      -fno-omit-frame-pointer -g)
 add_library(cbdpt_fuzz_scene OBJECT ${CMAKE_SOURCE_DIR}/src/scene/parser.cpp
+                                    ${CMAKE_SOURCE_DIR}/src/scene/loop_subdivision.cpp
                                     ${CMAKE_SOURCE_DIR}/src/scene/ply.cpp
                                     ${CMAKE_SOURCE_DIR}/src/scene/scene_error.cpp
                                     ${CMAKE_SOURCE_DIR}/src/io/files.cpp
@@ -17,7 +18,7 @@ add_library(cbdpt_fuzz_scene OBJECT ${CMAKE_SOURCE_DIR}/src/scene/parser.cpp
                                     ${CMAKE_SOURCE_DIR}/src/spectral/spectral.cpp)
 # kernels/: the parser computes an image light's illuminance through the shared equal-area map.
 target_include_directories(cbdpt_fuzz_scene PUBLIC ${CMAKE_SOURCE_DIR}/src ${CMAKE_SOURCE_DIR}/kernels)
-target_include_directories(cbdpt_fuzz_scene SYSTEM PUBLIC ${STB_INCLUDE_DIR})
+target_include_directories(cbdpt_fuzz_scene SYSTEM PUBLIC ${STB_INCLUDE_DIR} ${QOI_INCLUDE_DIR})
 target_link_libraries(cbdpt_fuzz_scene PUBLIC fmt::fmt ZLIB::ZLIB OpenEXR::OpenEXR PNG::PNG
                       ${STB_LIBRARY})
 # The library gets fuzzer-no-link: libFuzzer's main() is linked into each target only.
