@@ -148,6 +148,27 @@ inline cb::IntegratorSettings methodSettings(const std::string& name) {
     return s;
 }
 
+inline const char* const kMethods[] = {"pt", "cpt", "bdpt", "cbdpt", "mlt"};
+
+// Every method's image mean per channel against `expected` (checkChannelMeans, relative floor
+// 1e-4), 6 runs of `estimates` estimates each from `seed` on. CPT and CBDPT run
+// `coherentEstimates`: their pixels share each estimate's samples, so one random decision (a
+// lobe, a coat's walk, a wavelength) moves the whole image, and few estimates per run would let
+// 6 runs misjudge the spread. MLT runs `mltEstimates` (0: `estimates`).
+inline void checkEveryMethodChannelMeans(const cb::DeviceScene& scene, cb::ClRuntime& runtime,
+                                         const std::array<double, 3>& expected, int estimates,
+                                         int coherentEstimates, std::uint32_t seed,
+                                         int mltEstimates = 0) {
+    for (const std::string method : kMethods) {
+        CAPTURE(method);
+        const int n = method == "cpt" || method == "cbdpt"  ? coherentEstimates
+                      : method == "mlt" && mltEstimates > 0 ? mltEstimates
+                                                            : estimates;
+        checkChannelMeans(channelMeans(scene, runtime, methodSettings(method), n, seed), expected,
+                          1e-4);
+    }
+}
+
 // Every entry of r within 4.5 combined standard errors of the reference's.
 inline void checkRunsAgree(const cbtest::RunStats& r, const cbtest::RunStats& reference) {
     for (size_t c = 0; c < r.mean.size(); ++c) {
@@ -159,8 +180,6 @@ inline void checkRunsAgree(const cbtest::RunStats& r, const cbtest::RunStats& re
         CHECK(std::fabs(r.mean[c] - reference.mean[c]) <= 4.5 * se);
     }
 }
-
-inline const char* const kMethods[] = {"pt", "cpt", "bdpt", "cbdpt", "mlt"};
 
 // The area light of checkMethodsAgreeWithPt's scenes: a disk above the block, facing down.
 inline const std::string kDiskLight =

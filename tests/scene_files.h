@@ -6,6 +6,7 @@
 #include "scene/device_scene.h"
 #include "scene/scene_desc.h"
 
+#include <cmath>
 #include <filesystem>
 #include <string>
 #include <system_error>
@@ -62,6 +63,13 @@ inline std::string deviceErrorOf(const std::string& text) {
         return e.what();
     }
     return "";
+}
+
+// The sRGB curve's inverse, as pbrt-v4 decodes an 8-bit texture's channels (alpha included),
+// written apart from the reader's.
+inline double srgbByte(int byte) {
+    const double v = byte / 255.0;
+    return v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4);
 }
 
 inline bool contains(const std::string& s, const std::string& part) {

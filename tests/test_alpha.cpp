@@ -44,12 +44,6 @@ void writeRgbaPng(const std::string& name, int w, int h, int channels, Rgba rgba
                            w * channels) != 0);
 }
 
-// The sRGB curve's inverse, as pbrt-v4 decodes an 8-bit texture's channels (alpha included).
-double srgbByte(int byte) {
-    const double v = byte / 255.0;
-    return v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4);
-}
-
 const std::string kQuad = "Shape \"trianglemesh\" \"point3 P\" [-1 -1 0  1 -1 0  1 1 0  -1 1 0] "
                           "\"integer indices\" [0 1 2  0 2 3] \"point2 uv\" [0 0  1 0  1 1  0 1] ";
 

@@ -1338,15 +1338,8 @@ TEST_CASE("pbrt-v4 diffusetransmission and thindielectric: a lid on a black box 
         CAPTURE(c.camera);
         const cb::DeviceScene scene =
             cb::buildDeviceScene(parseSceneString(lidSceneText(c.camera, c.material), "t.pbrt"));
-        for (const std::string method : kMethods) {
-            CAPTURE(method);
-            // CPT's and CBDPT's pixels share each estimate's samples, so one lobe choice
-            // decides the whole image: many estimates per run, or 6 runs misjudge the spread.
-            const int estimates = method == "cpt" || method == "cbdpt" ? 64 : 4;
-            const BinnedMeans b =
-                channelMeans(scene, runtime, methodSettings(method), estimates, 900u);
-            checkChannelMeans(b, c.expected, 1e-4);
-        }
+        // CPT's and CBDPT's pixels share each estimate's lobe choice: 64 estimates per run.
+        checkEveryMethodChannelMeans(scene, runtime, c.expected, 4, 64, 900u);
     }
 }
 
@@ -1518,14 +1511,8 @@ TEST_CASE("pbrt-v4 coateddiffuse and coatedconductor: a coated lid under a const
                 radiance * lidFilmMean([&](double cosTheta) { return c.albedo(ch, cosTheta); });
         const cb::DeviceScene scene =
             cb::buildDeviceScene(parseSceneString(lidSceneText(kLidAbove, c.material), "t.pbrt"));
-        for (const std::string method : kMethods) {
-            CAPTURE(method);
-            // One shared coat choice per CPT and CBDPT estimate: many estimates per run.
-            const int estimates = method == "cpt" || method == "cbdpt" ? 64 : 4;
-            const BinnedMeans b =
-                channelMeans(scene, runtime, methodSettings(method), estimates, 1100u);
-            checkChannelMeans(b, expected, 1e-4);
-        }
+        // One shared coat choice per CPT and CBDPT estimate: 64 estimates per run.
+        checkEveryMethodChannelMeans(scene, runtime, expected, 4, 64, 1100u);
     }
 }
 

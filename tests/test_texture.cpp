@@ -255,10 +255,7 @@ void writeQoi(const std::string& name, unsigned w, unsigned h, unsigned char cha
 
 TEST_CASE("image textures: QOI files as pbrt-v4 reads them") {
     TempDirCleanup cleanup;
-    auto fromSrgb = [](int byte) {
-        const double v = byte / 255.0;
-        return float(v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4));
-    };
+    auto fromSrgb = [](int byte) { return float(srgbByte(byte)); };
     // sRGB RGBA, 2 x 1; linear RGB, 1 x 1.
     writeQoi("rgba.qoi", 2, 1, 4, QOI_SRGB, {255, 128, 0, 128, 0, 64, 255, 255});
     writeQoi("linear.qoi", 1, 1, 3, QOI_LINEAR, {51, 102, 204});

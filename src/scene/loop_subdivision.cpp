@@ -1,5 +1,7 @@
 #include "scene/loop_subdivision.h"
 
+#include "scene/transform.h"
+
 #include <fmt/format.h>
 
 #include <cmath>
@@ -11,9 +13,10 @@
 namespace cb {
 namespace {
 
-using Point = std::array<double, 3>;
+using Point = Vec3d;
 using Triangle = std::array<unsigned, 3>;
 
+// a + w b, and a w: the weighted sums Loop's rules are made of.
 Point plus(Point a, const Point& b, double w) {
     for (size_t i = 0; i < 3; ++i)
         a[i] += w * b[i];
@@ -21,9 +24,6 @@ Point plus(Point a, const Point& b, double w) {
 }
 Point times(const Point& a, double w) {
     return {a[0] * w, a[1] * w, a[2] * w};
-}
-Point cross(const Point& a, const Point& b) {
-    return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
 }
 
 int next(int k) {
@@ -272,7 +272,7 @@ SubdivisionSurface loopSubdivide(const std::vector<std::array<double, 3>>& contr
                     t = plus(t, q(k), -(2 * std::cos(theta) - 2) * std::sin(double(k) * theta));
             }
         }
-        out.normals[v] = cross(s, t);
+        out.normals[v] = vecCross(s, t);
     }
     out.triangles = std::move(triangles);
     return out;

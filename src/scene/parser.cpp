@@ -2745,7 +2745,7 @@ class Parser {
             const std::vector<std::array<double, 3>> pos = pointsOf(*P);
             std::vector<std::array<unsigned, 3>> tris;
             if (const Param* I = pl.numeric("indices", "integer", 3)) {
-                tris = trianglesOf(*I, nv);
+                tris = indicesOf<3>(*I, nv);
             } else {
                 if (nv != 3)
                     throw SceneError(t.where, "\"integer indices\" may only be omitted for a "
@@ -2753,16 +2753,7 @@ class Parser {
                                                   std::to_string(nv));
                 tris.push_back({0u, 1u, 2u});
             }
-            std::vector<std::array<double, 3>> normals;
-            if (const Param* N = pl.numeric("N", "normal", 3)) {
-                if (N->size() != P->size())
-                    throw SceneError(N->where, "\"normal N\" needs one normal per vertex (" +
-                                                   std::to_string(nv) + "), got " +
-                                                   std::to_string(N->size() / 3));
-                normals.resize(nv);
-                for (size_t i = 0; i < nv; ++i)
-                    normals[i] = {N->numbers[3 * i], N->numbers[3 * i + 1], N->numbers[3 * i + 2]};
-            }
+            const std::vector<std::array<double, 3>> normals = vertexNormals(pl, nv);
             std::vector<std::array<float, 6>> cornerUv = cornersOf(tris, vertexTexCoords(pl, nv));
             ignoreTangents(pl, t.where);
             const ShapeAlpha alpha = shapeAlpha(pl, t, nullptr);
@@ -2864,9 +2855,10 @@ class Parser {
         return out;
     }
 
-    // A mesh's "integer indices", three per triangle, each checked against its vertex count.
-    static std::vector<std::array<unsigned, 3>> trianglesOf(const Param& I, size_t vertices) {
-        std::vector<std::array<unsigned, 3>> out(I.size() / 3);
+    // A mesh's "integer indices", K per triangle or patch, each checked against its vertex count.
+    template <size_t K>
+    static std::vector<std::array<unsigned, K>> indicesOf(const Param& I, size_t vertices) {
+        std::vector<std::array<unsigned, K>> out(I.size() / K);
         for (size_t i = 0; i < I.size(); ++i) {
             const double v = I.numbers[i];
             if (v < 0 || v >= static_cast<double>(vertices))
@@ -2874,9 +2866,20 @@ class Parser {
                                                     std::to_string(static_cast<long long>(v)) +
                                                     " out of range (the mesh has " +
                                                     std::to_string(vertices) + " vertices)");
-            out[i / 3][i % 3] = static_cast<unsigned>(v);
+            out[i / K][i % K] = static_cast<unsigned>(v);
         }
         return out;
+    }
+
+    // "normal N": one normal per vertex; empty when not given.
+    static std::vector<std::array<double, 3>> vertexNormals(ParamList& pl, size_t vertexCount) {
+        const Param* N = pl.numeric("N", "normal", 3);
+        if (!N) return {};
+        if (N->size() != 3 * vertexCount)
+            throw SceneError(N->where, "\"normal N\" needs one normal per vertex (" +
+                                           std::to_string(vertexCount) + "), got " +
+                                           std::to_string(N->size() / 3));
+        return pointsOf(*N);
     }
 
     // pbrt-v4's "loopsubdiv": its control mesh subdivided "levels" times (pbrt-v4's default 3),
@@ -2888,7 +2891,7 @@ class Parser {
         if (!P) throw SceneError(t.where, "loopsubdiv needs \"point3 P\"");
         const Param* I = pl.numeric("indices", "integer", 3);
         if (!I) throw SceneError(t.where, "loopsubdiv needs \"integer indices\"");
-        const std::vector<std::array<unsigned, 3>> control = trianglesOf(*I, P->size() / 3);
+        const std::vector<std::array<unsigned, 3>> control = indicesOf<3>(*I, P->size() / 3);
         int levels = 3;
         if (const Param* p = pl.peek("levels")) {
             levels = *pl.oneInt("levels");
@@ -2930,21 +2933,10 @@ class Parser {
         const Param* P = pl.numeric("P", "point3", 3);
         if (!P) throw SceneError(t.where, "bilinearmesh needs \"point3 P\"");
         const size_t nv = P->size() / 3;
-        std::vector<std::array<double, 3>> pos(nv);
-        for (size_t i = 0; i < nv; ++i)
-            pos[i] = {P->numbers[3 * i], P->numbers[3 * i + 1], P->numbers[3 * i + 2]};
+        const std::vector<std::array<double, 3>> pos = pointsOf(*P);
         std::vector<std::array<unsigned, 4>> patches;
         if (const Param* I = pl.numeric("indices", "integer", 4)) {
-            patches.resize(I->size() / 4);
-            for (size_t i = 0; i < I->size(); ++i) {
-                const double v = I->numbers[i];
-                if (v < 0 || v >= static_cast<double>(nv))
-                    throw SceneError(I->valueLoc(i), "index " +
-                                                         std::to_string(static_cast<long long>(v)) +
-                                                         " out of range (the mesh has " +
-                                                         std::to_string(nv) + " vertices)");
-                patches[i / 4][i % 4] = static_cast<unsigned>(v);
-            }
+            patches = indicesOf<4>(*I, nv);
         } else {
             if (nv != 4)
                 throw SceneError(t.where, "\"integer indices\" may only be omitted for a single "
@@ -2952,14 +2944,7 @@ class Parser {
                                               std::to_string(nv));
             patches.push_back({0u, 1u, 2u, 3u});
         }
-        std::vector<std::array<double, 3>> normals;
-        if (const Param* N = pl.numeric("N", "normal", 3)) {
-            if (N->size() != P->size())
-                throw SceneError(N->where, "\"normal N\" needs one normal per vertex");
-            normals.resize(nv);
-            for (size_t i = 0; i < nv; ++i)
-                normals[i] = {N->numbers[3 * i], N->numbers[3 * i + 1], N->numbers[3 * i + 2]};
-        }
+        const std::vector<std::array<double, 3>> normals = vertexNormals(pl, nv);
         // pbrt-v4's patch (u, v) at p00, p10, p01, p11 when "uv" is not given.
         std::vector<std::array<float, 2>> uv = vertexTexCoords(pl, nv);
         ignoreTangents(pl, t.where);
