@@ -33,7 +33,7 @@ static void bdptRenderPixel(const SceneView* scene, const Camera* camera,
         settings->lightVertices, light, &rays);
     SampleStream eyeStream = samplerStream(*sampler, estimate, pixel);
     float rasterX, rasterY;
-    cameraSampleRaster(camera, eyeStream, x, y, &rasterX, &rasterY);
+    const float filterWeight = cameraSampleRaster(camera, eyeStream, x, y, &rasterX, &rasterY);
     int nEye = bdptEyeSubpath(scene, camera, rasterX, rasterY, true, eyeStream,
                               settings->eyeVertices, eye, &rays);
 
@@ -70,7 +70,8 @@ static void bdptRenderPixel(const SceneView* scene, const Camera* camera,
             }
         }
     }
-    cbWritePixel(outRgb, CB_COUNTERS, pixel, specToRgb(radiance, toRgb), nonFinite, rays);
+    cbWritePixel(outRgb, CB_COUNTERS, pixel, specToRgb(specScale(radiance, filterWeight), toRgb),
+                 nonFinite, rays);
 }
 
 __kernel void renderBdpt(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings), uint estimate,

@@ -67,13 +67,34 @@ CB_FN Ray cameraGenerateRay(const Camera* camera, real rasterX, real rasterY, Ve
 
 /* Where pixel (x, y)'s sample lands on the film: drawn from the pixel's filter (cb_filter.h; the
  * box of radius 0.5: its corner plus the jitter) by dimensions CB_DIM_PIXEL and CB_DIM_PIXEL + 1
- * of its sample stream (docs/method.md). Shared vectors (CPT, CBDPT) share the offset too. */
-CB_FN void cameraSampleRaster(const Camera* camera, SampleStream stream, int x, int y,
+ * of its sample stream (docs/method.md). Shared vectors (CPT, CBDPT) share the offset too.
+ * Returns the sample's filter weight, which multiplies what the eye path brings to the pixel
+ * (not its light-tracing splats): 1 but for filters with negative lobes. */
+CB_FN real cameraSampleRaster(const Camera* camera, SampleStream stream, int x, int y,
                               real* rasterX, real* rasterY) {
-    real u0, u1;
+    real u0, u1, weightX, weightY;
     sampleAt2(stream, CB_DIM_PIXEL, &u0, &u1);
-    *rasterX = filterPixelSample(camera, 0, x, u0);
-    *rasterY = filterPixelSample(camera, 1, y, u1);
+    *rasterX = filterPixelSample(camera, 0, x, u0, &weightX);
+    *rasterY = filterPixelSample(camera, 1, y, u1, &weightY);
+    return weightX * weightY;
+}
+
+/* The weight cameraSampleRaster returns for the same stream, for kernels that placed the sample
+ * earlier and kept only its ray: without the position, whose gaussian inversion is the costly
+ * part, and 1 at once for filters that are never negative. */
+CB_FN real cameraSampleWeight(const Camera* camera, SampleStream stream) {
+#if CB_HAS(CB_FEATURE_PIXEL_FILTER)
+    if (!filterHasNegativeLobes(camera->filterType)) return 1.0f;
+    real u0, u1, weightX, weightY;
+    sampleAt2(stream, CB_DIM_PIXEL, &u0, &u1);
+    (void)filterTableSample1(camera, 0, u0, &weightX);
+    (void)filterTableSample1(camera, 1, u1, &weightY);
+    return weightX * weightY;
+#else
+    (void)camera;
+    (void)stream;
+    return 1.0f;
+#endif
 }
 
 /* Raster position of a world point seen from the world point `lens` on the lens (the camera

@@ -1,10 +1,15 @@
-/* cb_filter.h - pbrt-v4's pixel filters "box", "triangle" and "gaussian" (its filters.h). Pixel
- * (x, y) measures the radiance weighted by h(p) = f(p - c) / (integral of f) around its centre
- * c = (x + 1/2, y + 1/2), f(dx, dy) = f1(dx) f1(dy) zero beyond the radii. Eye paths draw their
- * raster position from h itself (filter importance sampling by the inverse of its distribution
- * function, so every sample weighs 1); light-tracing splats at raster point p add h(p) of their
- * value to every pixel that p reaches (pbrt-v4's RGBFilm::AddSplat over the filter's integral).
- * The box of radius 0.5 is one pixel's area: the code without CB_FEATURE_PIXEL_FILTER. */
+/* cb_filter.h - pbrt-v4's pixel filters "box", "triangle", "gaussian", "mitchell" and "sinc"
+ * (its filters.h). Pixel (x, y) measures the radiance weighted by h(p) = f(p - c) / (integral of
+ * f) around its centre c = (x + 1/2, y + 1/2), f(dx, dy) = f1(dx) f1(dy) zero beyond the radii.
+ * Eye paths draw their raster position from h itself where h >= 0 (filter importance sampling by
+ * the inverse of its distribution function, so every sample weighs 1). Mitchell's and the
+ * Lanczos sinc's h has negative lobes: their offsets are drawn from a piecewise-constant density
+ * proportional to |f1| per bin (filterTableSample1) and weigh h / that density, negative in the
+ * lobes, so each pixel's mean is still an unbiased estimate of the filtered radiance (pbrt-v4
+ * draws from its tabulated filter too, but divides each pixel's weighted sum by its weights' sum).
+ * Light-tracing splats at raster point p add h(p) of their value to every pixel that p reaches
+ * (pbrt-v4's RGBFilm::AddSplat over the filter's integral). The box of radius 0.5 is one pixel's
+ * area: the code without CB_FEATURE_PIXEL_FILTER. */
 #ifndef CB_FILTER_H
 #define CB_FILTER_H
 
@@ -55,17 +60,54 @@ CB_FN real gaussianHalfIntegral1(const GaussianFilter1* g, real x, real gx) {
     return g->scale * erfGivenExp(x * g->toErf, gx) - x * g->tail;
 }
 
-/* f1 at offset x from a pixel centre, radius r, the gaussian's constants given (unread for the
- * box and the triangle). The box takes [-r, r). */
-CB_FN real filterEval1(int type, real radius, const GaussianFilter1* g, real x) {
-    if (type == CB_FILTER_BOX) return x >= -radius && x < radius ? 1.0f : 0.0f;
-    const real a = fabs(x);
-    if (!(a < radius)) return 0.0f;
-    if (type == CB_FILTER_TRIANGLE) return radius - a;
-    return gaussianEval1(g, a);
+/* Mitchell and Netravali's cubic at t in [0, 2] (pbrt-v4's MitchellFilter::Mitchell1D): f1(x)
+ * is it at t = 2 |x| / r, and its integral over [-2, 2] is 1 for every B and C. */
+CB_FN real mitchell1(real b, real c, real t) {
+    if (t <= 1.0f)
+        return ((12.0f - 9.0f * b - 6.0f * c) * t * t * t +
+                (-18.0f + 12.0f * b + 6.0f * c) * t * t + (6.0f - 2.0f * b)) *
+               (1.0f / 6.0f);
+    return ((-b - 6.0f * c) * t * t * t + (6.0f * b + 30.0f * c) * t * t +
+            (-12.0f * b - 48.0f * c) * t + (8.0f * b + 24.0f * c)) *
+           (1.0f / 6.0f);
 }
 
-/* The integral of f1 over [0, x], 0 <= x <= r. */
+/* sin(pi x) / (pi x), 1 where that rounds to 1 (pbrt-v4's Sinc). */
+CB_FN real sincPi(real x) {
+    const real px = CB_PI * x;
+    return 1.0f - px * px == 1.0f ? 1.0f : sin(px) / px;
+}
+
+/* One axis's filter f1: its type, radius and the constants its evaluation needs (the gaussian's,
+ * Mitchell's B and C, the Lanczos window's tau; each read by its own type only). */
+typedef struct FilterAxis {
+    int type;
+    real radius;
+    GaussianFilter1 gaussian;
+    real mitchellB, mitchellC;
+    real sincTau;
+} FilterAxis;
+
+/* f1 at offset x from a pixel centre. The box takes [-r, r), the others (-r, r). */
+CB_FN real filterEval1(const FilterAxis* f, real x) {
+    const real radius = f->radius;
+    if (f->type == CB_FILTER_BOX) return x >= -radius && x < radius ? 1.0f : 0.0f;
+    const real a = fabs(x);
+    if (!(a < radius)) return 0.0f;
+    if (f->type == CB_FILTER_TRIANGLE) return radius - a;
+    if (f->type == CB_FILTER_MITCHELL)
+        return mitchell1(f->mitchellB, f->mitchellC, 2.0f * a / radius);
+    /* pbrt-v4's WindowedSinc: the window sinc(x / tau) does not scale with the radius. */
+    if (f->type == CB_FILTER_SINC) return sincPi(a) * sincPi(a / f->sincTau);
+    return gaussianEval1(&f->gaussian, a);
+}
+
+/* Whether the filter's samples come from a table of |f1| and weigh h / their density. */
+CB_FN bool filterHasNegativeLobes(int type) {
+    return type == CB_FILTER_MITCHELL || type == CB_FILTER_SINC;
+}
+
+/* The integral of f1 over [0, x], 0 <= x <= r, for the box, the triangle and the gaussian. */
 CB_FN real filterHalfIntegral1(int type, real radius, real sigma, real x) {
     if (type == CB_FILTER_BOX) return x;
     if (type == CB_FILTER_TRIANGLE) return x * (radius - 0.5f * x);
@@ -129,11 +171,56 @@ CB_FN void filterRadii(const Camera* camera, real* radiusX, real* radiusY) {
 #endif
 }
 
-/* The raster position of pixel `pixel`'s sample on one axis, drawn from its filter by u. The box
- * keeps the pixel corner plus (0.5 - r) + 2 r u, which is pixel + u for radius 0.5. */
-CB_FN real filterPixelSample(const Camera* camera, int axis, int pixel, real u) {
+#if CB_HAS(CB_FEATURE_PIXEL_FILTER)
+/* The camera's filter on one axis (0: x, 1: y). */
+CB_FN FilterAxis filterAxisOf(const Camera* camera, int axis) {
+    FilterAxis f;
+    f.type = camera->filterType;
+    f.radius = axis == 0 ? camera->filterRadiusX : camera->filterRadiusY;
+    f.gaussian.k = f.gaussian.tail = f.gaussian.scale = f.gaussian.toErf = 0.0f;
+    if (f.type == CB_FILTER_GAUSSIAN) f.gaussian = gaussianFilter1(f.radius, camera->filterSigma);
+    f.mitchellB = camera->filterMitchellB;
+    f.mitchellC = camera->filterMitchellC;
+    f.sincTau = camera->filterSincTau;
+    return f;
+}
+
+/* An offset in (-r, r) for a filter with negative lobes, drawn by u: |2u - 1| picks a bin of
+ * [0, r) by the table's shares of |f1| (Camera.filterAbsCdf) and a uniform point in it, the sign
+ * of 2u - 1 the side. Its weight h / density, f1(x) (r / bins) / (the integral of f1 over [0, r]
+ * times the bin's share), goes to *weight: |weight| is about the integral of |f1| over that of
+ * f1, and its sign f1's. */
+CB_FN real filterTableSample1(const Camera* camera, int axis, real u, real* weight) {
+    const real v = 2.0f * u - 1.0f;
+    const real share = fabs(v);
+    int lo = 0, hi = CB_FILTER_TABLE_BINS - 1; /* the last bin whose start is <= share */
+    while (lo < hi) {
+        const int mid = (lo + hi + 1) / 2;
+        if (camera->filterAbsCdf[axis][mid] <= share)
+            lo = mid;
+        else
+            hi = mid - 1;
+    }
+    const real below = camera->filterAbsCdf[axis][lo];
+    const real binShare = camera->filterAbsCdf[axis][lo + 1] - below;
+    const FilterAxis f = filterAxisOf(camera, axis);
+    const real within = binShare > 0.0f ? fmin((share - below) / binShare, 1.0f) : 0.0f;
+    const real x = ((real)lo + within) * (f.radius / (real)CB_FILTER_TABLE_BINS);
+    *weight =
+        binShare > 0.0f ? filterEval1(&f, x) * camera->filterSampleScale[axis] / binShare : 0.0f;
+    return copysign(x, v);
+}
+#endif
+
+/* The raster position of pixel `pixel`'s sample on one axis, drawn from its filter by u, and its
+ * weight on that axis in *weight: 1 but for filters with negative lobes (filterTableSample1).
+ * The box keeps the pixel corner plus (0.5 - r) + 2 r u, which is pixel + u for radius 0.5. */
+CB_FN real filterPixelSample(const Camera* camera, int axis, int pixel, real u, real* weight) {
+    *weight = 1.0f;
 #if CB_HAS(CB_FEATURE_PIXEL_FILTER)
     const real radius = axis == 0 ? camera->filterRadiusX : camera->filterRadiusY;
+    if (filterHasNegativeLobes(camera->filterType))
+        return ((real)pixel + 0.5f) + filterTableSample1(camera, axis, u, weight);
     if (camera->filterType != CB_FILTER_BOX)
         return ((real)pixel + 0.5f) +
                filterSample1(camera->filterType, radius, camera->filterSigma, u);
@@ -171,20 +258,23 @@ CB_FN void filterFootprint(const Camera* camera, real rx, real ry, int* x0, int*
     *y1 = bottom < camera->height - 1 ? bottom : camera->height - 1;
 }
 
-/* 1 / the integral of f over the plane: pbrt-v4's Filter::Integral, inverted. */
+/* 1 / the integral of f over the plane: pbrt-v4's Filter::Integral, inverted, for the filters
+ * sampled exactly (the host integrates those with negative lobes, tabulateLobedFilter). */
 CB_FN real filterNormalization(int type, real radiusX, real radiusY, real sigma) {
     return 1.0f / (4.0f * filterHalfIntegral1(type, radiusX, sigma, radiusX) *
                    filterHalfIntegral1(type, radiusY, sigma, radiusY));
 }
 
 /* A splat at raster point (rx, ry): the pixels it reaches, x in [x0, x1] and y in [y0, y1]
- * (filterFootprint), and the gaussian's constants on each axis, so that its pixels' weights
- * cost one f1 per row (filterSplatRow, the normalisation included) and one per pixel
- * (filterSplatColumn). Pixel (x, y)'s share h is their product, 1 for the box of radius 0.5. */
+ * (filterFootprint), and the filter on each axis, so that its pixels' weights cost one f1 per
+ * row (filterSplatRow, the normalisation included) and one per pixel (filterSplatColumn). Pixel
+ * (x, y)'s share h is their product, 1 for the box of radius 0.5. */
 typedef struct FilterSplat {
     int x0, x1, y0, y1;
     real rx, ry;
-    GaussianFilter1 gaussianX, gaussianY;
+#if CB_HAS(CB_FEATURE_PIXEL_FILTER)
+    FilterAxis axisX, axisY;
+#endif
 } FilterSplat;
 
 CB_FN FilterSplat filterSplatAt(const Camera* camera, real rx, real ry) {
@@ -192,22 +282,16 @@ CB_FN FilterSplat filterSplatAt(const Camera* camera, real rx, real ry) {
     filterFootprint(camera, rx, ry, &s.x0, &s.x1, &s.y0, &s.y1);
     s.rx = rx;
     s.ry = ry;
-    s.gaussianX.k = s.gaussianX.tail = s.gaussianX.scale = s.gaussianX.toErf = 0.0f;
-    s.gaussianY = s.gaussianX;
 #if CB_HAS(CB_FEATURE_PIXEL_FILTER)
-    if (camera->filterType == CB_FILTER_GAUSSIAN) {
-        s.gaussianX = gaussianFilter1(camera->filterRadiusX, camera->filterSigma);
-        s.gaussianY = gaussianFilter1(camera->filterRadiusY, camera->filterSigma);
-    }
+    s.axisX = filterAxisOf(camera, 0);
+    s.axisY = filterAxisOf(camera, 1);
 #endif
     return s;
 }
 
 CB_FN real filterSplatRow(const Camera* camera, const FilterSplat* s, int y) {
 #if CB_HAS(CB_FEATURE_PIXEL_FILTER)
-    return filterEval1(camera->filterType, camera->filterRadiusY, &s->gaussianY,
-                       s->ry - ((real)y + 0.5f)) *
-           camera->filterNormalization;
+    return filterEval1(&s->axisY, s->ry - ((real)y + 0.5f)) * camera->filterNormalization;
 #else
     (void)camera;
     (void)s;
@@ -218,8 +302,8 @@ CB_FN real filterSplatRow(const Camera* camera, const FilterSplat* s, int y) {
 
 CB_FN real filterSplatColumn(const Camera* camera, const FilterSplat* s, int x) {
 #if CB_HAS(CB_FEATURE_PIXEL_FILTER)
-    return filterEval1(camera->filterType, camera->filterRadiusX, &s->gaussianX,
-                       s->rx - ((real)x + 0.5f));
+    (void)camera;
+    return filterEval1(&s->axisX, s->rx - ((real)x + 0.5f));
 #else
     (void)camera;
     (void)s;

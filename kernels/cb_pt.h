@@ -220,10 +220,11 @@ CB_FN SampleStream ptPixelStream(SamplerSettings sampler, uint estimate, int str
 }
 
 /* The camera ray of pixel (x, y), placed by its filter (and through the lens) by the pixel's
- * sample stream. */
-CB_FN Ray ptCameraRay(const Camera* camera, SampleStream samples, int x, int y) {
+ * sample stream; *filterWeight gets the weight its radiance takes (cameraSampleRaster). */
+CB_FN Ray ptCameraRay(const Camera* camera, SampleStream samples, int x, int y,
+                      real* filterWeight) {
     real rasterX, rasterY;
-    cameraSampleRaster(camera, samples, x, y, &rasterX, &rasterY);
+    *filterWeight = cameraSampleRaster(camera, samples, x, y, &rasterX, &rasterY);
     return cameraGenerateRay(camera, rasterX, rasterY,
                              cameraStreamLensPoint(camera, samples, CB_DIM_LENS));
 }
@@ -236,8 +237,9 @@ CB_FN Vec3 ptPixelRgb(const SceneView* scene, CB_GLOBAL const real* toRgb, const
                       CB_GLOBAL const float* sharedSamples, uint sharedDimensions, int x, int y) {
     SampleStream samples = ptPixelStream(sampler, estimate, streamTile, sharedSamples,
                                          sharedDimensions, camera->width, x, y);
-    Ray ray = ptCameraRay(camera, samples, x, y);
-    return specToRgb(ptRadiance(scene, ray, samples, settings), toRgb);
+    real filterWeight;
+    Ray ray = ptCameraRay(camera, samples, x, y, &filterWeight);
+    return specToRgb(specScale(ptRadiance(scene, ray, samples, settings), filterWeight), toRgb);
 }
 
 CB_END_NAMESPACE

@@ -238,6 +238,13 @@ typedef struct Light {
 
 /* pbrt-v4's perspective camera: camera space is left-handed, +z forward, +y up, +x right in
  * the image; raster y grows downwards. cameraToWorld is a 3x4 row-major affine matrix. */
+#define CB_FILTER_BOX 0
+#define CB_FILTER_TRIANGLE 1
+#define CB_FILTER_GAUSSIAN 2
+#define CB_FILTER_MITCHELL 3
+#define CB_FILTER_SINC 4
+#define CB_FILTER_TABLE_BINS 32
+
 typedef struct Camera {
     real cameraToWorld[12];
     real worldToCamera[12];
@@ -254,18 +261,24 @@ typedef struct Camera {
     real lensRadius;
     real focalDistance;
     /* pbrt-v4's PixelFilter (cb_filter.h): CB_FILTER_*, its radii in pixels, the gaussian's
-     * standard deviation and 1 / the filter's integral. The box of radius 0.5 (one pixel) needs
-     * no CB_FEATURE_PIXEL_FILTER. */
+     * standard deviation, Mitchell and Netravali's B and C, the Lanczos window's tau, and 1 /
+     * the filter's integral. The box of radius 0.5 (one pixel) needs no
+     * CB_FEATURE_PIXEL_FILTER. */
     int filterType;
     real filterRadiusX;
     real filterRadiusY;
     real filterSigma;
+    real filterMitchellB;
+    real filterMitchellC;
+    real filterSincTau;
     real filterNormalization;
+    /* Filters with negative lobes (mitchell, sinc), per axis (x, y): the share of the integral
+     * of |f1| over [0, r] below each of CB_FILTER_TABLE_BINS + 1 evenly spaced offsets, by
+     * which pixel samples are drawn (filterTableSample1), and (r / CB_FILTER_TABLE_BINS) / the
+     * integral of f1 over [0, r], which turns a sample's density into its weight. */
+    real filterAbsCdf[2][CB_FILTER_TABLE_BINS + 1];
+    real filterSampleScale[2];
 } Camera;
-
-#define CB_FILTER_BOX 0
-#define CB_FILTER_TRIANGLE 1
-#define CB_FILTER_GAUSSIAN 2
 
 CB_FN Vec3 affineTransformPoint(const real* m, Vec3 p) {
     return vec3(m[0] * p.x + m[1] * p.y + m[2] * p.z + m[3],

@@ -83,7 +83,7 @@ cbdptRenderPixel(const SceneView* scene, const Camera* camera, const BdptSetting
     CB_CBDPT_PIXEL_LIGHT(sampler, x, y, light, nLight, eyeStream);
     PathVertex eye[CB_MAX_EYE_VERTICES];
     float rasterX, rasterY;
-    cameraSampleRaster(camera, eyeStream, x, y, &rasterX, &rasterY);
+    const float filterWeight = cameraSampleRaster(camera, eyeStream, x, y, &rasterX, &rasterY);
     int nEye = bdptEyeSubpath(scene, camera, rasterX, rasterY, true, eyeStream,
                               settings->eyeVertices, eye, &rays);
 
@@ -92,8 +92,10 @@ cbdptRenderPixel(const SceneView* scene, const Camera* camera, const BdptSetting
 #define CB_CBDPT_STRATEGY(t, s, lightOrNee)                                                        \
     do {                                                                                           \
         float rx = 0.0f, ry = 0.0f;                                                                \
-        Spectrum c = bdptConnect(scene, camera, lightOrNee, s, eye, t, *settings, cameraCount,     \
-                                 &rx, &ry, &rays);                                                 \
+        /* Weighed per strategy, as cbdpt_packets.cl weighs them, so both sum the same terms. */   \
+        Spectrum c = specScale(bdptConnect(scene, camera, lightOrNee, s, eye, t, *settings,        \
+                                           cameraCount, &rx, &ry, &rays),                          \
+                               filterWeight);                                                      \
         CB_CBDPT_ADD(radiance, c, nonFinite);                                                      \
     } while (0)
     CB_CBDPT_STRATEGIES(scene, eye, nEye, light, nLight, eyeStream)

@@ -55,7 +55,8 @@ __kernel void renderCoherentBdpt(CB_CBDPT_PARAMS, int tile, __global PathVertex*
             samplerCopy, estimate, (uint)((y % streamTile) * streamTile + x % streamTile),
             sharedSamples, sharedDimensions);
         float rasterX, rasterY;
-        cameraSampleRaster(&camera, eyeStream, x, y, &rasterX, &rasterY);
+        /* Its filter weight: cameraSampleWeight's, where the strategies are weighed. */
+        (void)cameraSampleRaster(&camera, eyeStream, x, y, &rasterX, &rasterY);
         PathVertex eye0[1];
         real pdfDir;
         rays[i] =
@@ -112,6 +113,7 @@ __kernel void renderCoherentBdpt(CB_CBDPT_PARAMS, int tile, __global PathVertex*
         int nLight;
         SampleStream eyeStream;
         CB_CBDPT_PIXEL_LIGHT(&samplerCopy, x, y, light, nLight, eyeStream);
+        const float filterWeight = cameraSampleWeight(&camera, eyeStream);
         PathVertex eye[CB_MAX_EYE_VERTICES];
         const int nEye = walks[walkBase + p].count;
         for (int k = 0; k < nEye; ++k)
@@ -128,7 +130,7 @@ __kernel void renderCoherentBdpt(CB_CBDPT_PARAMS, int tile, __global PathVertex*
                                  cameraCount, &rx, &ry, &c, &needsShadow, &shadow, &shadowTMax,    \
                                  &tracedRays))                                                     \
             break;                                                                                 \
-        terms[i] = c;                                                                              \
+        terms[i] = specScale(c, filterWeight);                                                     \
         /* 0: no shadow ray (rayPacketTrace skips it: never occluded). */                          \
         shadowTMaxes[i] = needsShadow ? fmax(shadowTMax, 0.0f) : 0.0f;                             \
         if (needsShadow) shadowRays[i] = shadow;                                                   \

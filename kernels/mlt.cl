@@ -12,8 +12,9 @@
  * The contribution F(u) of a state is BDPT's full estimate for that sample: the weighted sum of
  * every strategy with t >= 2 for the pixel that (u0, u1) picks, plus every t = 1 strategy at the
  * raster point its light vertex projects to, added to every pixel that point's filter reaches
- * (cb_filter.h): a short list of splats. The target density is the scalar I(u) = luminance of
- * the sum of the splats. Each chain is one work-item; its
+ * (cb_filter.h): a short list of splats. The target density is the scalar I(u), the sum of the
+ * splats' |luminance| (the eye's splat is negative where a filter's negative lobes weigh it so;
+ * F / I keeps the sign). Each chain is one work-item; its
  * state lives in private arrays during a launch and in __global buffers between launches. */
 #define CB_PRIMARY_SAMPLES
 #include "cb_atomics.h"
@@ -73,7 +74,7 @@ static void mltAddSplat(MltSample* out, int pixel, float rasterX, float rasterY,
 /* F(u) and I(u): BDPT for the primary sample vector u (bdpt.cl's combination, with the pixel
  * taken from u: u0 W and u1 H pick it, their fractions its film position through its filter, as
  * every other method's pixel samples, so that its estimate counts for that pixel alone). Non-finite
- * strategy results are dropped and counted as in BDPT. A sample whose luminance is not positive
+ * strategy results are dropped and counted as in BDPT. A sample whose I is not positive
  * gets I = 0 and no splats: it can never be a chain state. */
 static void mltEvaluate(const SceneView* scene, const Camera* camera, __global const float* toRgb,
                         BdptSettings settings, const float* u, MltSample* out, int* rays,
@@ -95,8 +96,9 @@ static void mltEvaluate(const SceneView* scene, const Camera* camera, __global c
     const int px = min((int)filmX, camera->width - 1);
     const int py = min((int)filmY, camera->height - 1);
     /* The box of radius 0.5 gives px + (filmX - px) = filmX: the film position itself. */
-    const float rasterX = filterPixelSample(camera, 0, px, filmX - (float)px);
-    const float rasterY = filterPixelSample(camera, 1, py, filmY - (float)py);
+    float weightX, weightY;
+    const float rasterX = filterPixelSample(camera, 0, px, filmX - (float)px, &weightX);
+    const float rasterY = filterPixelSample(camera, 1, py, filmY - (float)py, &weightY);
     int nEye = bdptEyeSubpath(scene, camera, rasterX, rasterY, false, eyeStream,
                               settings.eyeVertices, eye, rays);
 
@@ -121,7 +123,7 @@ static void mltEvaluate(const SceneView* scene, const Camera* camera, __global c
             }
         }
     }
-    Vec3 rgb = specToRgb(radiance, toRgb);
+    Vec3 rgb = specToRgb(specScale(radiance, weightX * weightY), toRgb);
     if (!(isfinite(rgb.x) && isfinite(rgb.y) && isfinite(rgb.z))) {
         *nonFinite += 1;
         rgb = vec3(0.0f, 0.0f, 0.0f);
@@ -130,7 +132,7 @@ static void mltEvaluate(const SceneView* scene, const Camera* camera, __global c
         mltAddSplat(out, py * camera->width + px, rasterX, rasterY, rgb);
     float lum = 0.0f;
     for (int i = 0; i < out->count; ++i)
-        lum += mltLuminance(vec3(out->rgb[3 * i], out->rgb[3 * i + 1], out->rgb[3 * i + 2]));
+        lum += fabs(mltLuminance(vec3(out->rgb[3 * i], out->rgb[3 * i + 1], out->rgb[3 * i + 2])));
     if (!(lum > 0.0f) || !isfinite(lum)) {
         out->count = 0;
         lum = 0.0f;

@@ -52,7 +52,8 @@ __kernel void renderCoherentPathTracing(CB_INTEGRATOR_KERNEL_PARAMS(PathSettings
                   camera.width, x, y)
     for (int p = 0; p < pixels; ++p) {
         CB_CPT_PIXEL(p, x, y, inside);
-        rays[base + p] = ptCameraRay(&camera, CB_CPT_SAMPLES(x, y), x, y);
+        real filterWeight; /* cameraSampleWeight's where the radiance is written */
+        rays[base + p] = ptCameraRay(&camera, CB_CPT_SAMPLES(x, y), x, y, &filterWeight);
         tMaxes[base + p] = inside && settings.eyeVertices > 1 ? CB_INFINITY : 0.0f;
         paths[base + p] = ptPathBegin();
     }
@@ -95,9 +96,10 @@ __kernel void renderCoherentPathTracing(CB_INTEGRATOR_KERNEL_PARAMS(PathSettings
     }
     for (int p = 0; p < pixels; ++p) {
         CB_CPT_PIXEL(p, x, y, inside);
-        if (inside)
-            cbWritePixel(outRgb, CB_COUNTERS, (uint)(y * camera.width + x),
-                         specToRgb(paths[base + p].radiance, toRgb), 0, 0);
+        if (!inside) continue;
+        const real filterWeight = cameraSampleWeight(&camera, CB_CPT_SAMPLES(x, y));
+        cbWritePixel(outRgb, CB_COUNTERS, (uint)(y * camera.width + x),
+                     specToRgb(specScale(paths[base + p].radiance, filterWeight), toRgb), 0, 0);
     }
 #undef CB_CPT_PIXEL
 #undef CB_CPT_SAMPLES

@@ -117,7 +117,7 @@ inline BinnedMeans channelMeans(const cb::DeviceScene& scene, cb::ClRuntime& run
 }
 
 // Each bin's mean within 4.5 standard errors over runs, plus relativeFloor of the expected
-// value, and no non-finite sample.
+// value's size, and no non-finite sample.
 template <size_t Bins>
 void checkBinMeans(const BinnedMeans& b, const std::array<double, Bins>& expected,
                    double relativeFloor) {
@@ -127,7 +127,7 @@ void checkBinMeans(const BinnedMeans& b, const std::array<double, Bins>& expecte
         CAPTURE(b.stats.mean[bin]);
         CAPTURE(b.stats.se[bin]);
         CHECK(std::fabs(b.stats.mean[bin] - expected[bin]) <=
-              4.5 * b.stats.se[bin] + relativeFloor * expected[bin]);
+              4.5 * b.stats.se[bin] + relativeFloor * std::fabs(expected[bin]));
     }
     CHECK(b.nonFinite == 0);
 }

@@ -227,6 +227,10 @@ with tempfile.TemporaryDirectory() as tmp:
     r = subprocess.run([cbdpt, "info", lens], capture_output=True, text=True)
     check("fov 40, thin lens of radius 0.12, in focus at 3.3" in r.stdout and "thin-lens" in r.stdout,
           f"info describes the thin lens ({r.stdout.strip()})")
+    sinc = os.path.join(root, "scenes", "pbrt-v4", "pixel-filter-sinc.pbrt")
+    r = subprocess.run([cbdpt, "info", sinc], capture_output=True, text=True)
+    check("pixel filter     sinc (Lanczos), radius 4 x 4, tau 3" in r.stdout,
+          f"info names the pixel filter and its parameters ({r.stdout.strip()})")
 
 # Command-line habits (pbrt-v4's names where it has them) and bad input.
 def run(*args, env=None):

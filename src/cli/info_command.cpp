@@ -75,6 +75,26 @@ void printScene(const std::string& scenePath) {
                    desc.camera.fovDegrees, desc.camera.lensRadius, desc.camera.focalDistance);
     else
         fmt::print("  camera           fov {:g}, pinhole\n", desc.camera.fovDegrees);
+    const cb::FilterDesc& f = desc.filter;
+    std::string filter = fmt::format("radius {:g} x {:g}", f.radiusX, f.radiusY);
+    switch (f.type) {
+    case cb::FilterDesc::Type::Box:
+        filter = "box, " + filter;
+        break;
+    case cb::FilterDesc::Type::Triangle:
+        filter = "triangle, " + filter;
+        break;
+    case cb::FilterDesc::Type::Gaussian:
+        filter = fmt::format("gaussian, {}, sigma {:g}", filter, f.sigma);
+        break;
+    case cb::FilterDesc::Type::Mitchell:
+        filter = fmt::format("mitchell, {}, B {:.4g}, C {:.4g}", filter, f.mitchellB, f.mitchellC);
+        break;
+    case cb::FilterDesc::Type::Sinc:
+        filter = fmt::format("sinc (Lanczos), {}, tau {:g}", filter, f.sincTau);
+        break;
+    }
+    fmt::print("  pixel filter     {}\n", filter);
     fmt::print("  kernel features  {}\n", scene.featureNames());
     std::string defines;
     for (const auto& d : scene.kernelDefines())

@@ -148,7 +148,12 @@ template <class Visit> void forEachField(cbk::Camera& s, Visit&& visit) {
     visit(s.filterRadiusX);
     visit(s.filterRadiusY);
     visit(s.filterSigma);
+    visit(s.filterMitchellB);
+    visit(s.filterMitchellC);
+    visit(s.filterSincTau);
     visit(s.filterNormalization);
+    visit(s.filterAbsCdf);
+    visit(s.filterSampleScale);
 }
 
 // Calls word(element) for each scalar of a field, arrays of arrays included.

@@ -19,7 +19,7 @@ namespace cb {
 static_assert(sizeof(cbk::Primitive) == 48, "Primitive must match the OpenCL layout");
 static_assert(sizeof(cbk::Material) == 84, "Material must match the OpenCL layout");
 static_assert(sizeof(cbk::Light) == 108, "Light must match the OpenCL layout");
-static_assert(sizeof(cbk::Camera) == 148, "Camera must match the OpenCL layout");
+static_assert(sizeof(cbk::Camera) == 432, "Camera must match the OpenCL layout");
 
 namespace {
 
@@ -262,6 +262,40 @@ void cropCamera(cbk::Camera& camera, const std::array<int, 4>& bounds,
     camera.height = y1 - y0;
 }
 
+// A filter with negative lobes (cb_filter.h, filterTableSample1): per axis, the share of the
+// integral of |f1| over [0, r] below each bin's start and (r / bins) / the integral of f1 over
+// [0, r], and the normalisation 1 / (4 Ix Iy), from cb_filter.h's own f1 by Simpson's rule on 64
+// panels per bin, in double. Ix and Iy are positive for the parameters the parser accepts:
+// Mitchell's r / 4 for every B and C, the sinc's above min(r, 0.04) / 2 (a scan of tau and r).
+void tabulateLobedFilter(cbk::Camera& camera) {
+    constexpr int kBins = CB_FILTER_TABLE_BINS, kPanels = 64;
+    double halfIntegral[2];
+    for (int axis = 0; axis < 2; ++axis) {
+        const cbk::FilterAxis f = cbk::filterAxisOf(&camera, axis);
+        const double binWidth = double(f.radius) / kBins, h = binWidth / (2 * kPanels);
+        std::array<double, kBins + 1> absBelow{};
+        double signedSum = 0.0;
+        for (int bin = 0; bin < kBins; ++bin) {
+            double absSum = 0.0;
+            for (int i = 0; i <= 2 * kPanels; ++i) {
+                const double weight = i == 0 || i == 2 * kPanels ? 1.0 : i % 2 ? 4.0 : 2.0;
+                // f1 at the bin's end is its value from inside, (-r, r) being open.
+                const double x = std::min(bin * binWidth + i * h, double(f.radius) * (1 - 1e-7));
+                const double value = cbk::filterEval1(&f, float(x));
+                absSum += weight * std::fabs(value);
+                signedSum += weight * value;
+            }
+            absBelow[size_t(bin + 1)] = absBelow[size_t(bin)] + absSum * h / 3.0;
+        }
+        halfIntegral[axis] = signedSum * h / 3.0;
+        for (int i = 0; i <= kBins; ++i)
+            camera.filterAbsCdf[axis][i] = float(absBelow[size_t(i)] / absBelow[kBins]);
+        camera.filterAbsCdf[axis][kBins] = 1.0f;
+        camera.filterSampleScale[axis] = float(binWidth / halfIntegral[axis]);
+    }
+    camera.filterNormalization = float(1.0 / (4.0 * halfIntegral[0] * halfIntegral[1]));
+}
+
 cbk::Camera makeCamera(const SceneDesc& desc, const std::array<double, 3>& origin) {
     const FilmDesc& film = desc.film;
     SourceLocation where = desc.camera.where;
@@ -304,14 +338,34 @@ cbk::Camera makeCamera(const SceneDesc& desc, const std::array<double, 3>& origi
     camera.lensRadius = desc.camera.lensRadius;
     camera.focalDistance = desc.camera.focalDistance;
     const FilterDesc& filter = desc.filter;
-    camera.filterType = filter.type == FilterDesc::Type::Box        ? CB_FILTER_BOX
-                        : filter.type == FilterDesc::Type::Triangle ? CB_FILTER_TRIANGLE
-                                                                    : CB_FILTER_GAUSSIAN;
+    switch (filter.type) {
+    case FilterDesc::Type::Box:
+        camera.filterType = CB_FILTER_BOX;
+        break;
+    case FilterDesc::Type::Triangle:
+        camera.filterType = CB_FILTER_TRIANGLE;
+        break;
+    case FilterDesc::Type::Gaussian:
+        camera.filterType = CB_FILTER_GAUSSIAN;
+        break;
+    case FilterDesc::Type::Mitchell:
+        camera.filterType = CB_FILTER_MITCHELL;
+        break;
+    case FilterDesc::Type::Sinc:
+        camera.filterType = CB_FILTER_SINC;
+        break;
+    }
     camera.filterRadiusX = float(filter.radiusX);
     camera.filterRadiusY = float(filter.radiusY);
     camera.filterSigma = float(filter.sigma);
-    camera.filterNormalization = cbk::filterNormalization(camera.filterType, camera.filterRadiusX,
-                                                          camera.filterRadiusY, camera.filterSigma);
+    camera.filterMitchellB = float(filter.mitchellB);
+    camera.filterMitchellC = float(filter.mitchellC);
+    camera.filterSincTau = float(filter.sincTau);
+    if (cbk::filterHasNegativeLobes(camera.filterType))
+        tabulateLobedFilter(camera);
+    else
+        camera.filterNormalization = cbk::filterNormalization(
+            camera.filterType, camera.filterRadiusX, camera.filterRadiusY, camera.filterSigma);
     if (film.pixelBounds) cropCamera(camera, *film.pixelBounds, where);
     return camera;
 }

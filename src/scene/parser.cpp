@@ -1162,31 +1162,25 @@ class Parser {
             note(t.where, "integrator", "Integrator parameters not used by cbdpt: " + joined(rest));
     }
 
-    // pbrt-v4's filters and their defaults (Filter::Create). "mitchell" and "sinc" have negative
-    // lobes, which exact sampling of the filter (cb_filter.h) cannot give: pbrt-v4's default
-    // gaussian stands in for them, with a note.
+    // pbrt-v4's filters and their defaults and parameters (Filter::Create, its filters.cpp).
     void pixelFilter(const Token& t) {
         requireOptions(t);
         const Token type = quoted(t, "a filter type");
         ParamList pl = params("PixelFilter \"" + type.text + "\"");
         FilterDesc f = FilterDesc::pbrtDefault();
         f.where = t.where;
-        if (type.text == "mitchell" || type.text == "sinc") {
-            const std::vector<std::string> rest = pl.takeRest();
-            note(t.where, "filter",
-                 "PixelFilter \"" + type.text +
-                     "\" is rendered with pbrt-v4's default gaussian filter (radius 1.5, sigma "
-                     "0.5): cbdpt samples each pixel's filter exactly, which a filter with "
-                     "negative lobes does not allow");
-            scene_.filter = f;
-            return;
-        }
         if (type.text == "box") {
             f.type = FilterDesc::Type::Box;
             f.radiusX = f.radiusY = 0.5;
         } else if (type.text == "triangle") {
             f.type = FilterDesc::Type::Triangle;
             f.radiusX = f.radiusY = 2.0;
+        } else if (type.text == "mitchell") {
+            f.type = FilterDesc::Type::Mitchell;
+            f.radiusX = f.radiusY = 2.0;
+        } else if (type.text == "sinc") {
+            f.type = FilterDesc::Type::Sinc;
+            f.radiusX = f.radiusY = 4.0;
         } else if (type.text != "gaussian") {
             throw SceneError(type.where, "PixelFilter \"" + type.text +
                                              "\" is not a filter: expected \"box\", "
@@ -1210,6 +1204,27 @@ class Parser {
                         p->valueLoc(0),
                         fmt::format("\"float sigma\" must be in (0, 32] pixels, got {:g}",
                                     f.sigma));
+            }
+        // Mitchell and Netravali's B and C: any finite values give a cubic of integral 1 (their
+        // paper's region B + 2C = 1 is where it interpolates; B = C = 1/3 is pbrt-v4's default).
+        if (f.type == FilterDesc::Type::Mitchell)
+            for (const char* name : {"B", "C"})
+                if (const Param* p = pl.peek(name)) {
+                    const double value = *pl.oneFloat(name);
+                    if (!(std::fabs(value) <= 100.0))
+                        throw SceneError(
+                            p->valueLoc(0),
+                            fmt::format("\"float {}\" must be in [-100, 100], got {:g}", name,
+                                        value));
+                    (std::string(name) == "B" ? f.mitchellB : f.mitchellC) = value;
+                }
+        if (f.type == FilterDesc::Type::Sinc)
+            if (const Param* p = pl.peek("tau")) {
+                f.sincTau = *pl.oneFloat("tau");
+                if (!(f.sincTau >= 0.1 && f.sincTau <= 32.0))
+                    throw SceneError(
+                        p->valueLoc(0),
+                        fmt::format("\"float tau\" must be in [0.1, 32], got {:g}", f.sincTau));
             }
         pl.finish();
         scene_.filter = f;

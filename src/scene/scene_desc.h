@@ -277,11 +277,14 @@ std::array<int, 4> cropWindowPixels(int width, int height, const std::array<doub
 // standard deviation. A scene built in code gets the thesis's one-pixel box; a parsed file
 // without PixelFilter gets pbrt-v4's default, pbrtDefault().
 struct FilterDesc {
-    enum class Type { Box, Triangle, Gaussian };
+    enum class Type { Box, Triangle, Gaussian, Mitchell, Sinc };
     Type type = Type::Box;
     double radiusX = 0.5;
     double radiusY = 0.5;
-    double sigma = 0.5;   // the gaussian's
+    double sigma = 0.5;         // the gaussian's
+    double mitchellB = 1.0 / 3; // Mitchell and Netravali's B and C
+    double mitchellC = 1.0 / 3;
+    double sincTau = 3.0; // the Lanczos window's
     SourceLocation where; // the PixelFilter line; none for a default
 
     static FilterDesc pbrtDefault() {

@@ -56,6 +56,13 @@ void checkScene(const cb::SceneDesc& s) {
         broken("focal distance");
     if (s.film.width < 1 || s.film.height < 1 || s.film.width > 65536 || s.film.height > 65536)
         broken("film resolution out of range");
+    const cb::FilterDesc& f = s.filter;
+    if (!(f.radiusX > 0.0 && f.radiusX <= 32.0 && f.radiusY > 0.0 && f.radiusY <= 32.0))
+        broken("filter radius");
+    if (!(f.sigma > 0.0 && f.sigma <= 32.0)) broken("filter sigma");
+    if (!(std::fabs(f.mitchellB) <= 100.0 && std::fabs(f.mitchellC) <= 100.0))
+        broken("filter B or C");
+    if (!(f.sincTau >= 0.1 && f.sincTau <= 32.0)) broken("filter tau");
     for (const cb::MaterialDesc& m : s.materials) {
         checkSpectrum(m.reflectance, true, "material reflectance");
         checkSpectrum(m.transmittance, true, "material transmittance");
