@@ -486,6 +486,38 @@ CB_FN bool intersectPack(CB_GLOBAL const TrianglePack* pack, CB_GLOBAL const Pri
 }
 #endif
 
+#if CB_HAS(CB_FEATURE_NORMAL_MAP) || CB_HAS(CB_FEATURE_BUMP_MAP)
+/* sp's shading normal bent by its material's normal map or bump map, from its shape's partials:
+ * a sphere's (p0 = p1 = p2 = the hit point minus the centre) or a triangle's (its corners). One
+ * call site per map for both shapes: with the maps called again in the sphere's branch, PoCL
+ * 3.1's work-item loop vectoriser ("loopvec", LLVM 15) computed a bump-mapped sphere's normal
+ * wrongly wherever a normal-mapped material was compiled too ("loops" and -cl-opt-disable did
+ * not); found by comparing with pbrt-v4 (docs/pbrt-v4.md, sphere-maps.pbrt). */
+CB_FN SurfacePoint surfacePointMapped(const SceneView* scene, SurfacePoint sp, Hit hit, Vec3 p0,
+                                      Vec3 p1, Vec3 p2) {
+    if (!scene->textures) return sp;
+    const bool sphere = scene->primitives[hit.primitive].kind == CB_PRIM_SPHERE;
+#if CB_HAS(CB_FEATURE_NORMAL_MAP)
+    int normalMap = scene->materials[sp.material].normalMap;
+    if (normalMap >= 0)
+        sp.ns = normalMapNormal(scene, normalMap,
+                                sphere ? sphereShadingPartials(scene, hit.primitive, p0).dpdu
+                                       : triangleUvFrame(scene, hit.primitive, p0, p1, p2).dpdu,
+                                sp);
+#endif
+#if CB_HAS(CB_FEATURE_BUMP_MAP)
+    int displacement = scene->materials[sp.material].displacement;
+    if (displacement >= 0)
+        sp.ns =
+            bumpMapNormal(scene, displacement,
+                          sphere ? sphereShadingPartials(scene, hit.primitive, p0)
+                                 : triangleShadingPartials(scene, hit.primitive, p0, p1, p2, sp.ns),
+                          sp);
+#endif
+    return sp;
+}
+#endif
+
 /* The hit point with a conservative per-axis error bound (pbrt 3rd ed. sec. 3.9.4-3.9.5).
  * The point is not o + t d, whose error grows with t, but recomputed from the primitive. */
 CB_FN SurfacePoint surfacePointFromHit(const SceneView* scene, Ray ray, Hit hit) {
@@ -513,7 +545,11 @@ CB_FN SurfacePoint surfacePointFromHit(const SceneView* scene, Ray ray, Hit hit)
 #if CB_HAS(CB_FEATURE_TEXTURE)
         if (scene->textures) sp.uv = sphereTexCoord(scene, hit.primitive, pLocal);
 #endif
+#if CB_HAS(CB_FEATURE_NORMAL_MAP) || CB_HAS(CB_FEATURE_BUMP_MAP)
+        return surfacePointMapped(scene, sp, hit, pLocal, pLocal, pLocal);
+#else
         return sp;
+#endif
     }
 #endif
     Vec3 p0 = vec3FromGlobalArray(prim->p0);
@@ -547,21 +583,11 @@ CB_FN SurfacePoint surfacePointFromHit(const SceneView* scene, Ray ray, Hit hit)
         }
     }
 #endif
-#if CB_HAS(CB_FEATURE_NORMAL_MAP)
-    if (scene->textures) {
-        int normalMap = scene->materials[sp.material].normalMap;
-        if (normalMap >= 0)
-            sp.ns = normalMapNormal(scene, normalMap, hit.primitive, p0, p1, p2, sp);
-    }
-#endif
-#if CB_HAS(CB_FEATURE_BUMP_MAP)
-    if (scene->textures) {
-        int displacement = scene->materials[sp.material].displacement;
-        if (displacement >= 0)
-            sp.ns = bumpMapNormal(scene, displacement, hit.primitive, p0, p1, p2, sp);
-    }
-#endif
+#if CB_HAS(CB_FEATURE_NORMAL_MAP) || CB_HAS(CB_FEATURE_BUMP_MAP)
+    return surfacePointMapped(scene, sp, hit, p0, p1, p2);
+#else
     return sp;
+#endif
 }
 
 /* pbrt-v4 OffsetRayOrigin: move p along n out of its error box, to the side w leaves

@@ -45,18 +45,31 @@ CB_FN TexCoord triangleTexCoord(const SceneView* scene, int primitive, real b1, 
     return c;
 }
 
-/* pbrt-v4's sphere (u, v) at pLocal, the hit point minus the centre (world space): phi / 2 pi
- * and 1 - theta / pi of the point in the sphere's object frame, where u runs from +x toward +y
- * and v = 1 is the +z pole. The rotation from world to that frame is the quaternion (x, y, z, w)
- * at textures[6 * primitive], x negated afterwards where the frame is mirrored (entry 4 < 0). */
-CB_FN TexCoord sphereTexCoord(const SceneView* scene, int primitive, Vec3 pLocal) {
+/* v rotated by the unit quaternion (axis, w) (v + 2 w (a x v) + 2 a x (a x v)). */
+CB_FN Vec3 quaternionRotate(Vec3 axis, real w, Vec3 v) {
+    Vec3 t = vscale(vcross(axis, v), 2.0f);
+    return vadd(vadd(v, vscale(t, w)), vcross(axis, t));
+}
+
+/* A sphere's object frame: the rotation from world to it is the quaternion (x, y, z, w) at
+ * textures[6 * primitive], x negated afterwards where the frame is mirrored (entry 4 < 0); entry
+ * 5 scales dp/du and dp/dv into dn/du and dn/dv (sphereShadingPartials). A world-space offset
+ * from the centre in that frame (same length), with pbrt-v4's nudge off the poles, where phi is
+ * undefined. */
+CB_FN Vec3 sphereObjectPoint(const SceneView* scene, int primitive, Vec3 pLocal) {
     CB_GLOBAL const real* q = scene->textures + 6 * primitive;
-    Vec3 axis = vec3(q[0], q[1], q[2]);
-    Vec3 t = vscale(vcross(axis, pLocal), 2.0f);
-    Vec3 p = vadd(vadd(pLocal, vscale(t, q[3])), vcross(axis, t));
+    Vec3 p = quaternionRotate(vec3(q[0], q[1], q[2]), q[3], pLocal);
     if (q[4] < 0.0f) p.x = -p.x;
+    if (p.x == 0.0f && p.y == 0.0f) p.x = 1e-5f * vlength(p);
+    return p;
+}
+
+/* pbrt-v4's sphere (u, v) at pLocal, the hit point minus the centre (world space): phi / 2 pi
+ * and 1 - theta / pi of the point in the sphere's object frame (sphereObjectPoint), where u
+ * runs from +x toward +y and v = 1 is the +z pole. */
+CB_FN TexCoord sphereTexCoord(const SceneView* scene, int primitive, Vec3 pLocal) {
+    Vec3 p = sphereObjectPoint(scene, primitive, pLocal);
     real r = vlength(p);
-    if (p.x == 0.0f && p.y == 0.0f) p.x = 1e-5f * r; /* pbrt-v4's choice at the poles */
     real phi = atan2(p.y, p.x);
     if (phi < 0.0f) phi += 2.0f * CB_PI;
     TexCoord c;
@@ -198,58 +211,102 @@ CB_FN TriangleUvFrame triangleUvFrame(const SceneView* scene, int primitive, Vec
     return f;
 }
 
-/* The shading normal of a bump-mapped triangle at surface point sp (pbrt-v4's BumpMap and
- * SetShadingGeometry), from the shading geometry pbrt-v4's Triangle gives it: dp/du and dp/dv
- * from the corners' (u, v) (a frame about ng where they are degenerate), and with vertex normals
- * the shading normal sp.ns, its tangents dp/du made perpendicular to it and ns x dp/du, and
- * dn/du, dn/dv from the vertex normals. The displacement d is looked up at (u, v) and 0.0005
- * further along u and along v (pbrt-v4's step where a ray has no differentials, as under Option
- * "disabletexturefiltering"); each tangent moves along ns by d's slope and by d times the
- * normal's derivative, and their cross product, turned to ng's side, is the shading normal. */
-CB_FN Vec3 bumpMapNormal(const SceneView* scene, int offset, int primitive, Vec3 p0, Vec3 p1,
-                         Vec3 p2, SurfacePoint sp) {
+/* A hit's shading partial derivatives as pbrt-v4's shapes hand them to its normal and bump
+ * maps: dp/du, dp/dv and the normal's dn/du, dn/dv. */
+typedef struct ShadingPartials {
+    Vec3 dpdu, dpdv, dndu, dndv;
+} ShadingPartials;
+
+/* pbrt-v4's Triangle shading geometry at a hit whose shading normal is ns: dp/du and dp/dv from
+ * the corners' (u, v) (a frame about ng where they are degenerate), and with vertex normals, dp/du
+ * made perpendicular to ns and ns x dp/du, and dn/du, dn/dv from the vertex normals. */
+CB_FN ShadingPartials triangleShadingPartials(const SceneView* scene, int primitive, Vec3 p0,
+                                              Vec3 p1, Vec3 p2, Vec3 ns) {
     TriangleUvFrame f = triangleUvFrame(scene, primitive, p0, p1, p2);
-    Vec3 dpdu = f.dpdu, dpdv = f.dpdv;
-    Vec3 ns = sp.ns;
-    Vec3 dndu = vec3(0.0f, 0.0f, 0.0f), dndv = dndu;
+    ShadingPartials d;
+    d.dpdu = f.dpdu;
+    d.dpdv = f.dpdv;
+    d.dndu = vec3(0.0f, 0.0f, 0.0f);
+    d.dndv = d.dndu;
 #if CB_HAS(CB_FEATURE_SHADING_NORMALS)
     CB_GLOBAL const real* vn = scene->shadingNormals ? scene->shadingNormals + 9 * primitive : 0;
     if (vn) {
         Vec3 n0 = vec3FromGlobalArray(vn), n1 = vec3FromGlobalArray(vn + 3);
         Vec3 n2 = vec3FromGlobalArray(vn + 6);
         if (vlength2(n0) + vlength2(n1) + vlength2(n2) > 0.0f) {
-            Vec3 ts = vcross(ns, dpdu);
+            Vec3 ts = vcross(ns, d.dpdu);
             if (vlength2(ts) > 0.0f) {
-                dpdu = vcross(ts, ns);
-                dpdv = ts;
+                d.dpdu = vcross(ts, ns);
+                d.dpdv = ts;
             } else {
-                dpdu = coordinateSystemFirst(ns);
-                dpdv = coordinateSystemSecond(ns);
+                d.dpdu = coordinateSystemFirst(ns);
+                d.dpdv = coordinateSystemSecond(ns);
             }
             if (f.degenerate) {
                 Vec3 dn = vcross(vsub(n2, n0), vsub(n1, n0));
                 if (vlength2(dn) != 0.0f) {
-                    dndu = coordinateSystemFirst(dn);
-                    dndv = coordinateSystemSecond(dn);
+                    d.dndu = coordinateSystemFirst(dn);
+                    d.dndv = coordinateSystemSecond(dn);
                 }
             } else {
                 real inverse = 1.0f / f.determinant;
                 Vec3 dn1 = vsub(n0, n2), dn2 = vsub(n1, n2);
-                dndu = vscale(vsub(vscale(dn1, f.dv12), vscale(dn2, f.dv02)), inverse);
-                dndv = vscale(vsub(vscale(dn2, f.du02), vscale(dn1, f.du12)), inverse);
+                d.dndu = vscale(vsub(vscale(dn1, f.dv12), vscale(dn2, f.dv02)), inverse);
+                d.dndv = vscale(vsub(vscale(dn2, f.du02), vscale(dn1, f.du12)), inverse);
             }
         }
     }
+#else
+    (void)ns;
 #endif
+    return d;
+}
+
+/* pbrt-v4's Sphere::InteractionFromIntersection for a full sphere at pLocal, the hit point minus
+ * the centre: in the object frame (sphereObjectPoint) dp/du = 2 pi (-y, x, 0) and dp/dv =
+ * -pi (z cos phi, z sin phi, -r sin theta), brought back to world space; dn/du and dn/dv are
+ * them over the radius (the Weingarten equations on a sphere) as pbrt-v4 transforms them, as
+ * normals: over the CTM's scale once more (textures[6 * primitive + 5], device_scene.cpp). The
+ * normal's orientation does not enter, as in pbrt-v4. */
+CB_FN ShadingPartials sphereShadingPartials(const SceneView* scene, int primitive, Vec3 pLocal) {
+    CB_GLOBAL const real* q = scene->textures + 6 * primitive;
+    Vec3 p = sphereObjectPoint(scene, primitive, pLocal);
+    real r = vlength(p);
+    real zRadius = sqrt(p.x * p.x + p.y * p.y);
+    real cosTheta = p.z / r;
+    real sinTheta = sqrt(fmax(1.0f - cosTheta * cosTheta, 0.0f));
+    Vec3 dpdu = vec3(-2.0f * CB_PI * p.y, 2.0f * CB_PI * p.x, 0.0f);
+    Vec3 dpdv = vscale(vec3(p.z * (p.x / zRadius), p.z * (p.y / zRadius), -r * sinTheta), -CB_PI);
+    if (q[4] < 0.0f) {
+        dpdu.x = -dpdu.x;
+        dpdv.x = -dpdv.x;
+    }
+    Vec3 inverseAxis = vec3(-q[0], -q[1], -q[2]);
+    ShadingPartials d;
+    d.dpdu = quaternionRotate(inverseAxis, q[3], dpdu);
+    d.dpdv = quaternionRotate(inverseAxis, q[3], dpdv);
+    d.dndu = vscale(d.dpdu, q[5]);
+    d.dndv = vscale(d.dpdv, q[5]);
+    return d;
+}
+
+/* The shading normal of a bump-mapped surface at surface point sp (pbrt-v4's BumpMap and
+ * SetShadingGeometry) from its shading partials d: the displacement is looked up at (u, v) and
+ * 0.0005 further along u and along v (pbrt-v4's step where a ray has no differentials, as under
+ * Option "disabletexturefiltering"); each tangent moves along ns by the displacement's slope and
+ * by it times the normal's derivative, and their cross product, turned to ng's side, is the
+ * shading normal. */
+CB_FN Vec3 bumpMapNormal(const SceneView* scene, int offset, ShadingPartials d, SurfacePoint sp) {
+    Vec3 ns = sp.ns;
     const real step = 0.0005f;
     TexCoord alongU = sp.uv, alongV = sp.uv;
     alongU.u += step;
     alongV.v += step;
-    real d = textureFloat(scene, offset, sp.uv);
-    real dU = textureFloat(scene, offset, alongU);
-    real dV = textureFloat(scene, offset, alongV);
-    Vec3 bumpedU = vadd(vadd(dpdu, vscale(ns, (dU - d) / step)), vscale(dndu, d));
-    Vec3 bumpedV = vadd(vadd(dpdv, vscale(ns, (dV - d) / step)), vscale(dndv, d));
+    real h = textureFloat(scene, offset, sp.uv);
+    real hU = textureFloat(scene, offset, alongU);
+    real hV = textureFloat(scene, offset, alongV);
+    Vec3 bumpedU = vadd(vadd(d.dpdu, vscale(ns, (hU - h) / step)), vscale(d.dndu, h));
+    Vec3 bumpedV = vadd(vadd(d.dpdv, vscale(ns, (hV - h) / step)), vscale(d.dndv, h));
     Vec3 n = vcross(bumpedU, bumpedV);
     real length2 = vlength2(n);
     if (!(length2 > 0.0f) || !isfinite(length2)) return sp.ns;
@@ -257,14 +314,12 @@ CB_FN Vec3 bumpMapNormal(const SceneView* scene, int offset, int primitive, Vec3
     return vdot(n, sp.ng) < 0.0f ? vneg(n) : n;
 }
 
-/* The shading normal of a normal-mapped triangle at surface point sp (pbrt-v4's NormalMap and
+/* The shading normal of a normal-mapped surface at surface point sp (pbrt-v4's NormalMap and
  * SetShadingGeometry): the texel 2 rgb - 1, normalised, in the frame whose z is sp.ns and whose
- * x is dp/du (from the corners' (u, v), pbrt-v4's Triangle) made perpendicular to it, then
- * turned to ng's side. The texture is read as pbrt-v4 reads normal maps: linear, bilinear,
+ * x is the shape's dp/du (triangleUvFrame's, sphereShadingPartials') made perpendicular to it,
+ * then turned to ng's side. The texture is read as pbrt-v4 reads normal maps: linear, bilinear,
  * repeating, v = 1 the top row. */
-CB_FN Vec3 normalMapNormal(const SceneView* scene, int offset, int primitive, Vec3 p0, Vec3 p1,
-                           Vec3 p2, SurfacePoint sp) {
-    Vec3 dpdu = triangleUvFrame(scene, primitive, p0, p1, p2).dpdu;
+CB_FN Vec3 normalMapNormal(const SceneView* scene, int offset, Vec3 dpdu, SurfacePoint sp) {
     if (!(vlength2(dpdu) > 0.0f) || !isfinite(vlength2(dpdu)))
         dpdu = coordinateSystemFirst(sp.ng); /* (u, v) beyond the float range: any tangent */
     Vec3 x = vcross(vcross(sp.ns, dpdu), sp.ns);

@@ -39,8 +39,8 @@ std::array<float, 9> cornerNormals(const TriangleMeshDesc& mesh,
 
 // A sphere's slot in `textures` (cb_texture.h, sphereTexCoord): the quaternion (x, y, z, w) of
 // the rotation from world to its object frame, then -1 where that frame is mirrored (x negated
-// after the rotation), else 1. World from object, W, is orthogonal; a mirrored one is a
-// rotation R times diag(-1, 1, 1), so that object = diag(-1, 1, 1) R^T world.
+// after the rotation), else 1; entry 5 is the caller's. World from object, W, is orthogonal; a
+// mirrored one is a rotation R times diag(-1, 1, 1), so that object = diag(-1, 1, 1) R^T world.
 std::array<float, 6> sphereFrameSlot(const std::array<double, 9>& w) {
     const double det = w[0] * (w[4] * w[8] - w[5] * w[7]) - w[1] * (w[3] * w[8] - w[5] * w[6]) +
                        w[2] * (w[3] * w[7] - w[4] * w[6]);
@@ -790,11 +790,6 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         }
     }
     for (const auto& sphere : desc.spheres) {
-        if (sphere.material >= 0 && (desc.materials[size_t(sphere.material)].normalMap >= 0 ||
-                                     desc.materials[size_t(sphere.material)].displacement >= 0))
-            throw SceneError(sphere.where, "this sphere's material has a \"normalmap\" or a "
-                                           "\"displacement\"; cbdpt applies normal and bump maps "
-                                           "to triangle meshes only");
         cbk::Primitive prim{};
         prim.kind = CB_PRIM_SPHERE;
         prim.material = sphere.material;
@@ -809,7 +804,13 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
             prim.light = addAreaLight(sphere.areaLight, area, sphere.shapeArea);
         }
         primitives.push_back(prim);
-        if (texturing) primitiveUv.push_back(sphereFrameSlot(sphere.worldFromObject));
+        if (texturing) {
+            // Entry 5: dn/du over dp/du as pbrt-v4 has them in world space, 1 / (scale radius)
+            // (cb_texture.h, sphereShadingPartials).
+            std::array<float, 6> slot = sphereFrameSlot(sphere.worldFromObject);
+            slot[5] = float(1.0 / (sphere.scale * double(sphere.radius)));
+            primitiveUv.push_back(slot);
+        }
         if (shading) primitiveNormals.push_back({}); // the kernel shades spheres by ng
         scene.features |= CB_FEATURE_SPHERES;
         ++scene.sphereCount;

@@ -3158,6 +3158,7 @@ class Parser {
         s.material = currentMaterial();
         s.areaLight = state_.areaLight;
         s.shapeArea = 4.0 * M_PI * radius * radius;
+        s.scale = scale;
         for (int row = 0; row < 3; ++row)
             for (int c = 0; c < 3; ++c)
                 s.worldFromObject[size_t(row * 3 + c)] = m(row, c) / scale;

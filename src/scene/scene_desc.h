@@ -164,6 +164,7 @@ struct SphereDesc {
     int material = -1;
     int areaLight = -1;
     double shapeArea = 0.0; // pbrt-v4's Sphere::Area(): 4 pi times the object-space radius^2
+    double scale = 1.0;     // the CTM's uniform scale: world radius over object radius
     // The CTM's rotation (its uniform scale divided out; a mirror allowed), row-major: the
     // object frame in which pbrt-v4 gives the sphere its (u, v).
     std::array<double, 9> worldFromObject{1, 0, 0, 0, 1, 0, 0, 0, 1};
