@@ -646,34 +646,34 @@ void checkSameEstimates(const cb::DeviceScene& textured, const cb::DeviceScene& 
 }
 
 // A texture of one colour is that constant reflectance: the same image, estimate for estimate,
-// for the plain and the coated diffuse, in RGB (where the texel is the constant exactly).
+// for the plain diffuse floor and the coated diffuse wall, in RGB (where the texel is the
+// constant exactly).
 TEST_CASE("image textures: a one-colour texture renders as that constant reflectance" *
           doctest::test_suite("statistical")) {
     TempDirCleanup cleanup;
     cb::ClRuntime runtime;
     writeImage("flat.exr", 4, 4, [](int, int, int c) { return 0.25f + 0.25f * float(c); });
-    for (const std::string material : {"diffuse", "coateddiffuse"}) {
-        auto scene = [&](const std::string& reflectance) {
-            return cb::buildDeviceScene(parseInTemp(
-                "LookAt 0 2 -3  0 0.3 0  0 1 0\nCamera \"perspective\" \"float fov\" 50\n"
-                "Film \"rgb\" \"integer xresolution\" 16 \"integer yresolution\" 16\n"
-                "WorldBegin\n" +
-                kDiskLight +
-                "Texture \"flat\" \"spectrum\" \"imagemap\" \"string filename\" \"flat.exr\"\n"
-                "Material \"" +
-                material + "\" " + reflectance +
-                "\nShape \"bilinearmesh\" \"point3 P\" [-2 0 -2  2 0 -2  -2 0 2  2 0 2]\n"
-                "Shape \"bilinearmesh\" \"point3 P\" [-2 0 1  2 0 1  -2 2 1  2 2 1]\n"));
-        };
-        const cb::DeviceScene textured = scene("\"texture reflectance\" \"flat\"");
-        const cb::DeviceScene constant = scene("\"rgb reflectance\" [0.25 0.5 0.75]");
-        REQUIRE((textured.features & CB_FEATURE_TEXTURE) != 0);
-        REQUIRE((constant.features & CB_FEATURE_TEXTURE) == 0);
-        for (const std::string method : kMethods) {
-            CAPTURE(material);
-            CAPTURE(method);
-            checkSameEstimates(textured, constant, method, 11u, 1e-5, runtime);
-        }
+    auto scene = [&](const std::string& reflectance) {
+        return cb::buildDeviceScene(parseInTemp(
+            "LookAt 0 2 -3  0 0.3 0  0 1 0\nCamera \"perspective\" \"float fov\" 50\n"
+            "Film \"rgb\" \"integer xresolution\" 16 \"integer yresolution\" 16\n"
+            "WorldBegin\n" +
+            kDiskLight +
+            "Texture \"flat\" \"spectrum\" \"imagemap\" \"string filename\" \"flat.exr\"\n"
+            "Material \"diffuse\" " +
+            reflectance +
+            "\nShape \"bilinearmesh\" \"point3 P\" [-2 0 -2  2 0 -2  -2 0 2  2 0 2]\n"
+            "Material \"coateddiffuse\" " +
+            reflectance +
+            "\nShape \"bilinearmesh\" \"point3 P\" [-2 0 1  2 0 1  -2 2 1  2 2 1]\n"));
+    };
+    const cb::DeviceScene textured = scene("\"texture reflectance\" \"flat\"");
+    const cb::DeviceScene constant = scene("\"rgb reflectance\" [0.25 0.5 0.75]");
+    REQUIRE((textured.features & CB_FEATURE_TEXTURE) != 0);
+    REQUIRE((constant.features & CB_FEATURE_TEXTURE) == 0);
+    for (const std::string method : kMethods) {
+        CAPTURE(method);
+        checkSameEstimates(textured, constant, method, 11u, 1e-5, runtime);
     }
 }
 
@@ -894,39 +894,48 @@ TEST_CASE("roughness textures: float textures, the materials that take them, the
 
 // A roughness texture of one value renders as that constant roughness: the same estimates, for
 // every textured kind and method (RGB; the texel is the value, so the kernels' alpha is the
-// host's up to the texture's bilinear weights' rounding).
+// host's up to the texture's bilinear weights' rounding). The five kinds stand side by side in
+// one scene, so that each method compiles its kernels twice, not ten times.
 TEST_CASE("roughness textures: a one-value texture renders as that constant roughness" *
           doctest::test_suite("statistical")) {
     TempDirCleanup cleanup;
     cb::ClRuntime runtime;
     writeImage("flat.exr", 3, 3, [](int, int, int) { return 0.3f; });
-    for (const std::string material :
-         {"\"conductor\"", "\"conductor\" \"bool remaproughness\" false", "\"dielectric\"",
-          "\"coateddiffuse\"", "\"coatedconductor\""}) {
-        const std::string param =
-            material == "\"coatedconductor\"" ? "interface.roughness" : "roughness";
-        auto scene = [&](const std::string& roughness) {
-            return cb::buildDeviceScene(parseInTemp(
-                "LookAt 0 2 -3  0 0.3 0  0 1 0\nCamera \"perspective\" \"float fov\" 50\n"
-                "Film \"rgb\" \"integer xresolution\" 16 \"integer yresolution\" 16\n"
-                "WorldBegin\n" +
-                kDiskLight +
-                "Texture \"flat\" \"float\" \"imagemap\" \"string filename\" \"flat.exr\"\n"
-                "Material \"diffuse\" \"rgb reflectance\" [0.6 0.5 0.4]\n"
-                "Shape \"bilinearmesh\" \"point3 P\" [-2 0 -2  2 0 -2  -2 0 2  2 0 2]\n"
-                "Material " +
-                material + " " + roughness +
-                "\nShape \"bilinearmesh\" \"point3 P\" [-2 0 1  2 0 1  -2 2 1  2 2 1]\n"
-                "Shape \"trianglemesh\" \"point3 P\" [-0.5 0.2 0  0.5 0.2 0  0 1 -0.3]\n"));
-        };
-        const cb::DeviceScene textured = scene("\"texture " + param + "\" \"flat\"");
-        const cb::DeviceScene constant = scene("\"float " + param + "\" 0.3");
-        REQUIRE((textured.features & CB_FEATURE_ROUGHNESS_TEXTURE) != 0);
-        REQUIRE((constant.features & CB_FEATURE_ROUGHNESS_TEXTURE) == 0);
-        for (const std::string method : kMethods) {
-            CAPTURE(material);
-            CAPTURE(method);
-            checkSameEstimates(textured, constant, method, 7u, 1e-4, runtime);
+    const std::vector<std::string> materials = {
+        "\"conductor\"", "\"conductor\" \"bool remaproughness\" false", "\"dielectric\"",
+        "\"coateddiffuse\"", "\"coatedconductor\""};
+    auto scene = [&](bool textured) {
+        std::string world =
+            "LookAt 0 2 -3  0 0.3 0  0 1 0\nCamera \"perspective\" \"float fov\" 50\n"
+            "Film \"rgb\" \"integer xresolution\" 32 \"integer yresolution\" 16\n"
+            "WorldBegin\n" +
+            kDiskLight +
+            "Texture \"flat\" \"float\" \"imagemap\" \"string filename\" "
+            "\"flat.exr\"\n"
+            "Material \"diffuse\" \"rgb reflectance\" [0.6 0.5 0.4]\n"
+            "Shape \"bilinearmesh\" \"point3 P\" [-3 0 -2  3 0 -2  -3 0 2  3 0 2]\n";
+        // A wall of five strips at z = 1, one kind each, and a triangle of each kind before it.
+        for (size_t i = 0; i < materials.size(); ++i) {
+            const std::string param =
+                materials[i] == "\"coatedconductor\"" ? "interface.roughness" : "roughness";
+            const std::string x0 = std::to_string(-2.5 + double(i)),
+                              x1 = std::to_string(-1.5 + double(i)),
+                              xm = std::to_string(-2.0 + double(i));
+            world += "Material " + materials[i] +
+                     (textured ? " \"texture " + param + "\" \"flat\"\n"
+                               : " \"float " + param + "\" 0.3\n") +
+                     "Shape \"bilinearmesh\" \"point3 P\" [" + x0 + " 0 1  " + x1 + " 0 1  " + x0 +
+                     " 2 1  " + x1 + " 2 1]\n" + "Shape \"trianglemesh\" \"point3 P\" [" + x0 +
+                     " 0.2 0  " + x1 + " 0.2 0  " + xm + " 1 -0.3]\n";
         }
+        return cb::buildDeviceScene(parseInTemp(world));
+    };
+    const cb::DeviceScene textured = scene(true);
+    const cb::DeviceScene constant = scene(false);
+    REQUIRE((textured.features & CB_FEATURE_ROUGHNESS_TEXTURE) != 0);
+    REQUIRE((constant.features & CB_FEATURE_ROUGHNESS_TEXTURE) == 0);
+    for (const std::string method : kMethods) {
+        CAPTURE(method);
+        checkSameEstimates(textured, constant, method, 7u, 1e-4, runtime);
     }
 }
