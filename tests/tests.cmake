@@ -71,6 +71,10 @@ set_tests_properties(comparison_scripts PROPERTIES TIMEOUT 300)
 add_test(NAME named_spectra COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_named_spectra.py ${CMAKE_SOURCE_DIR})
 # Every repository path the README and docs/ name exists (docs describe the present).
 add_test(NAME docs_paths COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_docs_paths.py ${CMAKE_SOURCE_DIR})
+# PoCL's default work-group method and "loops" compile the kernels into the same images
+# (a compiler check, docs/robustness.md section 5).
+add_test(NAME work_group_methods COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_work_group_methods.py $<TARGET_FILE:cbdpt> ${CMAKE_SOURCE_DIR})
+set_tests_properties(work_group_methods PROPERTIES TIMEOUT 600 SKIP_REGULAR_EXPRESSION "cbdpt-skip:")
 # pyflakes finds nothing in the Python of scripts/ and tests/ (warnings on, no warnings).
 add_test(NAME python_lint COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_python_lint.py ${CMAKE_SOURCE_DIR})
 # scripts/report's answers to the thesis's claims on synthetic units with known cost and error
