@@ -111,12 +111,37 @@ CB_FN Spectrum materialReflectance(const SceneView* scene, Material m, TexCoord 
 }
 
 #if CB_HAS(CB_FEATURE_DIFFUSE_TRANSMISSION)
-/* The probability that a diffuse transmitter's sample reflects: its reflectance's largest
- * channel over the sum of both spectra's largest (pbrt-v4's DiffuseTransmissionBxDF), 0 and 1
+/* A diffuse transmitter's reflectance (texture `reflectanceTexture`, spectrum `reflectance`) or
+ * transmittance (`transmittanceTexture`, `secondSpectrum`) at uv: a texture's value times the
+ * material's scale, clamped to [0, 1] again (pbrt-v4's DiffuseTransmissionMaterial), or the
+ * constant spectrum, which holds the scale already. */
+CB_FN Spectrum diffuseTransmissionSpectrum(const SceneView* scene, int texture, int spectrum,
+                                           real scale, TexCoord uv) {
+#if CB_HAS(CB_FEATURE_TEXTURE)
+    if (texture >= 0) {
+        Spectrum s = textureReflectance(scene, texture, uv);
+        for (int i = 0; i < CB_CHANNELS; ++i)
+            s.c[i] = cbClamp(s.c[i] * scale, 0.0f, 1.0f);
+        return s;
+    }
+#endif
+    (void)texture;
+    (void)scale;
+    (void)uv;
+    return specLoad(scene->spectra, spectrum);
+}
+
+/* A diffuse transmitter's reflectance *r and transmittance *t at uv, and the probability that
+ * its sample reflects: max r over max r + max t (pbrt-v4's DiffuseTransmissionBxDF), 0 and 1
  * included; below 0 when both are black. */
-CB_FN real cbDiffuseReflectProbability(const SceneView* scene, Material m) {
-    real pr = specMaxComponent(specLoad(scene->spectra, m.reflectance));
-    real pt = specMaxComponent(specLoad(scene->spectra, m.secondSpectrum));
+CB_FN real cbDiffuseTransmissionAt(const SceneView* scene, Material m, TexCoord uv, Spectrum* r,
+                                   Spectrum* t) {
+    *r = diffuseTransmissionSpectrum(scene, m.reflectanceTexture, m.reflectance, m.textureScale,
+                                     uv);
+    *t = diffuseTransmissionSpectrum(scene, m.transmittanceTexture, m.secondSpectrum,
+                                     m.textureScale, uv);
+    real pr = specMaxComponent(*r);
+    real pt = specMaxComponent(*t);
     return pr + pt > 0.0f ? pr / (pr + pt) : -1.0f;
 }
 #endif
@@ -959,7 +984,8 @@ CB_FN Spectrum cbLobeEval(const SceneView* scene, Material m, TexCoord uv, Vec3 
 #endif
 #if CB_HAS(CB_FEATURE_DIFFUSE_TRANSMISSION)
     if (m.kind == CB_MAT_DIFFUSE_TRANSMISSION) {
-        real pr = cbDiffuseReflectProbability(scene, m);
+        Spectrum r, t;
+        real pr = cbDiffuseTransmissionAt(scene, m, uv, &r, &t);
         if (wi.z == 0.0f || !(pr >= 0.0f)) return specZero();
         bool reflect = wi.z > 0.0f;
         /* The lobe that reaches wi from wo also reaches wo from wi. */
@@ -967,8 +993,7 @@ CB_FN Spectrum cbLobeEval(const SceneView* scene, Material m, TexCoord uv, Vec3 
         *pdfFwd = lobe * cosineHemispherePdf(fabs(wi.z));
         *pdfRev = lobe * cosineHemispherePdf(wo.z);
         if (!(lobe > 0.0f)) return specZero();
-        return specScale(specLoad(scene->spectra, reflect ? m.reflectance : m.secondSpectrum),
-                         CB_INV_PI);
+        return specScale(reflect ? r : t, CB_INV_PI);
     }
 #endif
 #if CB_HAS_LAYERED
@@ -1077,14 +1102,14 @@ CB_FN bool cbLobeSample(const SceneView* scene, Material m, TexCoord uv, Vec3 wo
 #endif
 #if CB_HAS(CB_FEATURE_DIFFUSE_TRANSMISSION)
     if (m.kind == CB_MAT_DIFFUSE_TRANSMISSION) {
-        real pr = cbDiffuseReflectProbability(scene, m);
+        Spectrum r, t;
+        real pr = cbDiffuseTransmissionAt(scene, m, uv, &r, &t);
         Vec3 wi = sampleCosineHemisphere(u0, u1);
         if (!(wi.z > 0.0f) || !(pr >= 0.0f)) return false;
         bool reflect = uLobe < pr;
         real lobe = reflect ? pr : 1.0f - pr;
         out->wi = reflect ? wi : vec3(wi.x, wi.y, -wi.z);
-        out->f = specScale(specLoad(scene->spectra, reflect ? m.reflectance : m.secondSpectrum),
-                           CB_INV_PI);
+        out->f = specScale(reflect ? r : t, CB_INV_PI);
         out->pdf = lobe * cosineHemispherePdf(wi.z);
         out->pdfRev = lobe * cosineHemispherePdf(wo.z);
         return out->pdf > 0.0f;

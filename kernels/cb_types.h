@@ -166,8 +166,13 @@ typedef struct Material {
     int layerAlbedo;
     real layerG;
     /* CB_FEATURE_TEXTURE: the offset in `textures` of the image texture that gives the diffuse,
-     * coated diffuse or diffuse transmission reflectance in place of `reflectance`; -1: none. */
+     * coated diffuse or diffuse transmission reflectance in place of `reflectance`, and of the
+     * one that gives the diffuse transmission's transmittance in place of `secondSpectrum`; -1:
+     * none. A diffuse transmission's textures are times `textureScale` (pbrt-v4's "scale", which
+     * its constant spectra hold already), the products clamped to [0, 1]; 1 elsewhere. */
     int reflectanceTexture;
+    int transmittanceTexture;
+    real textureScale;
     /* CB_FEATURE_NORMAL_MAP: the offset in `textures` of pbrt-v4's "normalmap", an image whose
      * texels 2 rgb - 1 are the shading normal in the tangent frame (cb_texture.h); -1: none. */
     int normalMap;

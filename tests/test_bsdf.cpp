@@ -61,6 +61,8 @@ struct TestScene {
         m.secondSpectrum = -1;
         m.layerAlbedo = -1;
         m.reflectanceTexture = -1;
+        m.transmittanceTexture = -1;
+        m.textureScale = 1.0f;
         m.normalMap = -1;
         m.roughnessTexture = -1;
         m.alphaTexture = -1;

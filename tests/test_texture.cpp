@@ -4,6 +4,7 @@
 // (docs/pbrt-v4.md).
 #include <doctest/doctest.h>
 
+#include "cb_bsdf.h"
 #include "cb_bvh_wide.h"
 #include "cb_camera.h"
 #include "cb_texture.h"
@@ -157,7 +158,7 @@ TEST_CASE("image textures: the Texture directive, its parameters and what is ref
     CHECK(s.materials[size_t(s.meshes[0].material)].reflectanceTexture == 0);
     CHECK(contains(
         errorOf("WorldBegin\n" + plain + "Material \"conductor\" \"texture reflectance\" \"t\"\n"),
-        "diffuse and coateddiffuse materials only"));
+        "coateddiffuse and diffusetransmission materials"));
     const std::string missing = errorOf("WorldBegin\n\nTexture \"t\" \"spectrum\" \"imagemap\" "
                                         "\"string filename\" \"none.png\"\n");
     CHECK(contains(missing, ":3:"));
@@ -359,6 +360,95 @@ TEST_CASE("image textures: bilinear and nearest lookups, wrap modes, mapping, cl
             const cbk::Vec3 c = rgb(t, big, -big);
             CHECK(std::isfinite(c.x + c.y + c.z));
         }
+}
+
+// pbrt-v4's diffusetransmission with textured reflectance and transmittance: each texture's
+// value at the hit, clamped to [0, 1], times "scale", clamped again; the lobe chosen by the
+// largest channels there (DiffuseTransmissionBxDF).
+TEST_CASE("image textures: diffusetransmission's reflectance and transmittance") {
+    TempDirCleanup cleanup;
+    writeImage("two.exr", 2, 2, texel);
+    const std::string textures =
+        "Texture \"r\" \"spectrum\" \"imagemap\" \"string filename\" \"two.exr\"\n"
+        "Texture \"t\" \"spectrum\" \"imagemap\" \"string filename\" \"two.exr\" \"bool invert\" "
+        "true\n";
+    const cb::SceneDesc desc =
+        sceneDesc(textures +
+                  "Material \"diffusetransmission\" \"texture reflectance\" \"r\" "
+                  "\"texture transmittance\" \"t\" \"float scale\" 1.4\n" +
+                  triangleAt(0));
+    REQUIRE(desc.materials.size() == 1);
+    CHECK(desc.materials[0].reflectanceTexture == 0);
+    CHECK(desc.materials[0].transmittanceTexture == 1);
+    const cb::DeviceScene scene = cb::buildDeviceScene(desc);
+    CHECK((scene.features & CB_FEATURE_TEXTURE) != 0);
+    const cbk::Material& m = scene.materials[0];
+    REQUIRE(m.kind == CB_MAT_DIFFUSE_TRANSMISSION);
+    REQUIRE(m.reflectanceTexture >= 0);
+    REQUIRE(m.transmittanceTexture >= 0);
+    CHECK(m.textureScale == 1.4f);
+    const cbk::SceneView view = cbtest::hostView(scene);
+
+    const cbk::Vec3 wo = cbk::vnormalize(cbk::vec3(0.3f, -0.2f, 0.9f));
+    const cbk::Vec3 up = cbk::vnormalize(cbk::vec3(-0.4f, 0.1f, 0.8f));
+    const cbk::Vec3 down = cbk::vec3(up.x, up.y, -up.z);
+    for (const auto& [x, y] : {std::pair{0, 0}, std::pair{1, 1}, std::pair{1, 0}}) {
+        CAPTURE(x);
+        CAPTURE(y);
+        const cbk::TexCoord uv = uvOf(0.25f + 0.5f * float(x), 0.75f - 0.5f * float(y));
+        std::array<double, 3> r{}, t{};
+        for (int c = 0; c < 3; ++c) {
+            r[size_t(c)] = std::min(1.0, 1.4 * double(texel(x, y, c)));
+            t[size_t(c)] = std::min(1.0, 1.4 * (1.0 - double(texel(x, y, c))));
+        }
+        const double maxR = *std::max_element(r.begin(), r.end());
+        const double maxT = *std::max_element(t.begin(), t.end());
+        const double reflect = maxR / (maxR + maxT);
+        float pdf = 0.f, pdfRev = 0.f;
+        const cbk::Spectrum fr = cbk::cbLobeEval(&view, m, uv, wo, up, true, 0, &pdf, &pdfRev);
+        CHECK(pdf == doctest::Approx(reflect * up.z / M_PI).epsilon(1e-5));
+        CHECK(pdfRev == doctest::Approx(reflect * wo.z / M_PI).epsilon(1e-5));
+        const cbk::Spectrum ft = cbk::cbLobeEval(&view, m, uv, wo, down, true, 0, &pdf, &pdfRev);
+        CHECK(pdf == doctest::Approx((1.0 - reflect) * up.z / M_PI).epsilon(1e-5));
+        for (int c = 0; c < 3; ++c) {
+            CHECK(fr.c[c] == doctest::Approx(r[size_t(c)] / M_PI).epsilon(1e-5));
+            CHECK(ft.c[c] == doctest::Approx(t[size_t(c)] / M_PI).epsilon(1e-5));
+        }
+        // The sample's lobe by uLobe against the same probability, its f the lobe's.
+        for (const double uLobe : {reflect - 0.01, reflect + 0.01}) {
+            cbk::BsdfSample s{};
+            REQUIRE(cbk::cbLobeSample(&view, m, uv, wo, true, 0.3f, 0.6f, float(uLobe), 0, &s));
+            const bool reflected = s.wi.z > 0.f;
+            CHECK(reflected == (uLobe < reflect));
+            CHECK(s.pdf ==
+                  doctest::Approx((reflected ? reflect : 1.0 - reflect) * std::fabs(s.wi.z) / M_PI)
+                      .epsilon(1e-5));
+            CHECK(s.f.c[1] == doctest::Approx((reflected ? r : t)[1] / M_PI).epsilon(1e-5));
+        }
+    }
+
+    // A texture defined after the material resolves once the file is read, as in pbrt-v4.
+    const cb::SceneDesc later =
+        sceneDesc("MakeNamedMaterial \"m\" \"string type\" \"diffusetransmission\" \"texture "
+                  "transmittance\" \"t\"\n" +
+                  textures + "NamedMaterial \"m\"\n" + triangleAt(0));
+    CHECK(later.materials[0].transmittanceTexture == 1);
+    CHECK(later.materials[0].reflectanceTexture == -1);
+    const std::string floatTexture =
+        errorOf("WorldBegin\nTexture \"f\" \"float\" \"constant\" \"float value\" 0.5\n"
+                "Material \"diffusetransmission\" \"texture transmittance\" \"f\"\n");
+    CHECK(contains(floatTexture, ":3:"));
+    CHECK(contains(floatTexture, "\"texture transmittance\" names a float texture \"f\""));
+    CHECK(contains(errorOf("WorldBegin\nMaterial \"diffusetransmission\" \"texture "
+                           "transmittance\" \"none\"\n"),
+                   "no texture \"none\""));
+    try {
+        deviceScene(textures + "Material \"diffusetransmission\" \"texture transmittance\" "
+                               "\"t\"\nShape \"disk\"\n");
+        FAIL("a disk of textured transmittance was accepted");
+    } catch (const cb::SceneError& e) {
+        CHECK(contains(e.what(), "needs texture coordinates"));
+    }
 }
 
 // A hit point's (u, v) is the triangle's corners' interpolated at its barycentrics, after the
@@ -646,29 +736,42 @@ void checkSameEstimates(const cb::DeviceScene& textured, const cb::DeviceScene& 
 }
 
 // A texture of one colour is that constant reflectance: the same image, estimate for estimate,
-// for the plain diffuse floor and the coated diffuse wall, in RGB (where the texel is the
-// constant exactly).
+// for the plain diffuse floor, the coated diffuse wall and a diffuse transmitter's reflectance
+// and transmittance (times its scale, clamped), in RGB (where the texel is the constant
+// exactly).
 TEST_CASE("image textures: a one-colour texture renders as that constant reflectance" *
           doctest::test_suite("statistical")) {
     TempDirCleanup cleanup;
     cb::ClRuntime runtime;
     writeImage("flat.exr", 4, 4, [](int, int, int c) { return 0.25f + 0.25f * float(c); });
-    auto scene = [&](const std::string& reflectance) {
+    writeImage("flat2.exr", 4, 4,
+               [](int, int, int c) { return 0.6f - 0.3f * float(c) + (c == 2 ? 0.1f : 0.f); });
+    auto scene = [&](bool textured) {
+        const std::string reflectance =
+            textured ? "\"texture reflectance\" \"flat\"" : "\"rgb reflectance\" [0.25 0.5 0.75]";
+        const std::string transmittance = textured ? "\"texture transmittance\" \"flat2\""
+                                                   : "\"rgb transmittance\" [0.6 0.3 0.1]";
         return cb::buildDeviceScene(parseInTemp(
             "LookAt 0 2 -3  0 0.3 0  0 1 0\nCamera \"perspective\" \"float fov\" 50\n"
             "Film \"rgb\" \"integer xresolution\" 16 \"integer yresolution\" 16\n"
             "WorldBegin\n" +
             kDiskLight +
             "Texture \"flat\" \"spectrum\" \"imagemap\" \"string filename\" \"flat.exr\"\n"
+            "Texture \"flat2\" \"spectrum\" \"imagemap\" \"string filename\" \"flat2.exr\"\n"
             "Material \"diffuse\" " +
             reflectance +
             "\nShape \"bilinearmesh\" \"point3 P\" [-2 0 -2  2 0 -2  -2 0 2  2 0 2]\n"
             "Material \"coateddiffuse\" " +
             reflectance +
-            "\nShape \"bilinearmesh\" \"point3 P\" [-2 0 1  2 0 1  -2 2 1  2 2 1]\n"));
+            "\nShape \"bilinearmesh\" \"point3 P\" [-2 0 1  2 0 1  -2 2 1  2 2 1]\n"
+            // A sheet below the light: its transmittance lights the floor beneath.
+            "Material \"diffusetransmission\" " +
+            reflectance + " " + transmittance +
+            " \"float scale\" 1.5\nShape \"bilinearmesh\" \"point3 P\" [-1.2 0.8 -0.6  0.4 0.8 "
+            "-0.6  -1.2 0.8 0.4  0.4 0.8 0.4]\n"));
     };
-    const cb::DeviceScene textured = scene("\"texture reflectance\" \"flat\"");
-    const cb::DeviceScene constant = scene("\"rgb reflectance\" [0.25 0.5 0.75]");
+    const cb::DeviceScene textured = scene(true);
+    const cb::DeviceScene constant = scene(false);
     REQUIRE((textured.features & CB_FEATURE_TEXTURE) != 0);
     REQUIRE((constant.features & CB_FEATURE_TEXTURE) == 0);
     for (const std::string method : kMethods) {
@@ -683,7 +786,15 @@ TEST_CASE("image textures: BDPT, CBDPT and MLT agree with PT on textured surface
     const std::string checks = writeImage("checks.exr", 8, 8, [](int x, int y, int c) {
         return (x + y) % 2 ? 0.8f - 0.3f * float(c) : 0.1f + 0.25f * float(c);
     });
-    checkMethodsAgreeWithPt(kDiskLight, "", "",
+    // Below the light, a diffuse transmitter of the checks and their inverse: most of the light
+    // reaches the room through it.
+    const std::string sheet =
+        "Texture \"inverse\" \"spectrum\" \"imagemap\" \"string filename\" \"" + checks +
+        "\" \"bool invert\" true\nAttributeBegin\nMaterial \"diffusetransmission\" "
+        "\"texture reflectance\" \"checks\" \"texture transmittance\" \"inverse\"\n"
+        "Shape \"bilinearmesh\" \"point3 P\" [-1.1 1.2 -0.5  0.1 1.2 -0.5  -1.1 1.2 0.5  0.1 1.2 "
+        "0.5]\nAttributeEnd\n";
+    checkMethodsAgreeWithPt(kDiskLight, sheet, "",
                             "Texture \"checks\" \"spectrum\" \"imagemap\" \"string filename\" \"" +
                                 checks +
                                 "\" \"float uscale\" 3 \"float vscale\" 2\n"

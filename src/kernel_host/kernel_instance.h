@@ -109,6 +109,8 @@ template <class Visit> void forEachField(cbk::Material& s, Visit&& visit) {
     visit(s.layerAlbedo);
     visit(s.layerG);
     visit(s.reflectanceTexture);
+    visit(s.transmittanceTexture);
+    visit(s.textureScale);
     visit(s.normalMap);
     visit(s.roughnessTexture);
     visit(s.remapRoughness);

@@ -17,7 +17,7 @@
 namespace cb {
 
 static_assert(sizeof(cbk::Primitive) == 48, "Primitive must match the OpenCL layout");
-static_assert(sizeof(cbk::Material) == 84, "Material must match the OpenCL layout");
+static_assert(sizeof(cbk::Material) == 92, "Material must match the OpenCL layout");
 static_assert(sizeof(cbk::Light) == 108, "Light must match the OpenCL layout");
 static_assert(sizeof(cbk::Camera) == 432, "Camera must match the OpenCL layout");
 
@@ -458,8 +458,8 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         if (m < 0) return false;
         const MaterialDesc& md = desc.materials[size_t(m)];
         auto uses = [](const MaterialDesc& d) {
-            return d.reflectanceTexture >= 0 || d.normalMap >= 0 || d.roughnessTexture >= 0 ||
-                   d.displacement >= 0;
+            return d.reflectanceTexture >= 0 || d.transmittanceTexture >= 0 || d.normalMap >= 0 ||
+                   d.roughnessTexture >= 0 || d.displacement >= 0;
         };
         bool any = uses(md);
         for (int c : md.mix)
@@ -506,6 +506,8 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         out.secondSpectrum = -1;
         out.layerAlbedo = -1;
         out.reflectanceTexture = -1;
+        out.transmittanceTexture = -1;
+        out.textureScale = 1.f;
         out.normalMap = -1;
         out.roughnessTexture = -1;
         out.alphaTexture = -1;
@@ -584,6 +586,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
             out.kind = CB_MAT_DIFFUSE_TRANSMISSION;
             out.reflectance = spectra.addAlbedo(m.reflectance, m.scale);
             out.secondSpectrum = spectra.addAlbedo(m.transmittance, m.scale);
+            out.textureScale = m.scale;
             break;
         case MaterialKind::ThinDielectric:
             out.kind = CB_MAT_THIN_DIELECTRIC;
@@ -618,6 +621,10 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         }
         if (materialUsed[i] && m.reflectanceTexture >= 0) {
             out.reflectanceTexture = addTexture(m.reflectanceTexture);
+            scene.features |= CB_FEATURE_TEXTURE;
+        }
+        if (materialUsed[i] && m.transmittanceTexture >= 0) {
+            out.transmittanceTexture = addTexture(m.transmittanceTexture);
             scene.features |= CB_FEATURE_TEXTURE;
         }
         if (materialUsed[i] && m.normalMap >= 0) {
@@ -736,7 +743,8 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
                                 const SourceLocation& where) {
         if (!texturing || !textured(material) || none.empty()) return;
         throw SceneError(where, "this shape's material has a texture (its reflectance, its "
-                                "roughness, a \"normalmap\" or a \"displacement\"), which "
+                                "transmittance, its roughness, a \"normalmap\" or a "
+                                "\"displacement\"), which "
                                 "needs texture coordinates, and cbdpt gives none to " +
                                     none);
     };
@@ -1025,6 +1033,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         scene.textures.insert(scene.textures.end(), images.begin(), images.end());
         for (cbk::Material& m : scene.materials) {
             if (m.reflectanceTexture >= 0) m.reflectanceTexture += int(uvCount);
+            if (m.transmittanceTexture >= 0) m.transmittanceTexture += int(uvCount);
             if (m.normalMap >= 0) m.normalMap += int(uvCount);
             if (m.roughnessTexture >= 0) m.roughnessTexture += int(uvCount);
             if (m.alphaTexture >= 0) m.alphaTexture += int(uvCount);

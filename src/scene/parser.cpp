@@ -497,8 +497,10 @@ class ParamList {
             }
             std::string why;
             if (p.type == "texture")
-                why = " (cbdpt reads textures as the \"reflectance\" of diffuse and "
-                      "coateddiffuse materials only)";
+                why = " (cbdpt takes spectrum textures as the \"reflectance\" of diffuse, "
+                      "coateddiffuse and diffusetransmission materials and the "
+                      "\"transmittance\" of diffusetransmission, float textures as roughness, "
+                      "\"displacement\" and \"alpha\")";
             throw SceneError(p.where, "parameter \"" + name + "\" of " + owner_ +
                                           " must have type " + expected + ", not \"" + p.type +
                                           "\"" + why);
@@ -1808,7 +1810,8 @@ class Parser {
         m.where = where;
         if (type == "diffuse") {
             m.kind = MaterialKind::Diffuse;
-            m.reflectanceTexture = reflectanceTexture(pl);
+            m.reflectanceTexture =
+                spectrumTexture(pl, "reflectance", &MaterialDesc::reflectanceTexture);
             if (m.reflectanceTexture == -1)
                 if (auto r = pl.spectrum("reflectance", SpectrumRole::Reflectance))
                     m.reflectance = *r;
@@ -1826,14 +1829,22 @@ class Parser {
         } else if (type == "diffusetransmission") {
             m.kind = MaterialKind::DiffuseTransmission;
             m.reflectance = SpectrumValue::constant(0.25f); // pbrt-v4's defaults
-            if (auto r = pl.spectrum("reflectance", SpectrumRole::Reflectance)) m.reflectance = *r;
-            if (auto t = pl.spectrum("transmittance", SpectrumRole::Reflectance))
-                m.transmittance = *t;
+            m.reflectanceTexture =
+                spectrumTexture(pl, "reflectance", &MaterialDesc::reflectanceTexture);
+            m.transmittanceTexture =
+                spectrumTexture(pl, "transmittance", &MaterialDesc::transmittanceTexture);
+            if (m.reflectanceTexture == -1)
+                if (auto r = pl.spectrum("reflectance", SpectrumRole::Reflectance))
+                    m.reflectance = *r;
+            if (m.transmittanceTexture == -1)
+                if (auto t = pl.spectrum("transmittance", SpectrumRole::Reflectance))
+                    m.transmittance = *t;
             // Any scale, as in pbrt-v4: the products are clamped to [0, 1] (a negative scale
             // makes the surface black).
             if (pl.peek("scale")) m.scale = static_cast<float>(*pl.oneFloat("scale"));
         } else if (type == "coateddiffuse") {
-            m.reflectanceTexture = reflectanceTexture(pl);
+            m.reflectanceTexture =
+                spectrumTexture(pl, "reflectance", &MaterialDesc::reflectanceTexture);
             readCoatedDiffuse(pl, m);
         } else if (type == "coatedconductor") {
             readCoatedConductor(pl, m);
@@ -2551,43 +2562,45 @@ class Parser {
         return -1;
     }
 
-    // "texture reflectance" of diffuse and coated diffuse materials: the named spectrum
-    // texture's index in scene_.textures; -1 when the reflectance is not a texture;
+    // "texture reflectance" of diffuse and coated diffuse materials, and "texture reflectance"
+    // or "texture transmittance" of diffuse transmission (`param`): the named spectrum
+    // texture's index in scene_.textures; -1 when the parameter is not a texture;
     // kLaterTexture for a name no Texture has defined yet, which pbrt-v4 looks up once the file
-    // is read (resolveLaterTextures).
+    // is read (resolveLaterTextures, into `field`).
     static constexpr int kLaterTexture = -2;
-    int reflectanceTexture(ParamList& pl) {
-        const Param* p = pl.peek("reflectance");
+    int spectrumTexture(ParamList& pl, const std::string& param, int MaterialDesc::*field) {
+        const Param* p = pl.peek(param);
         if (!p || p->type != "texture") return -1;
-        const std::string name = *pl.oneTexture("reflectance");
+        const std::string name = *pl.oneTexture(param);
         if (!spectrumTextures_.count(name) && !floatTextures_.count(name)) {
             // makeMaterial adds this material next.
-            laterTextures_.push_back({int(scene_.materials.size()), name, p->valueLoc(0)});
+            laterTextures_.push_back(
+                {int(scene_.materials.size()), field, param, name, p->valueLoc(0)});
             return kLaterTexture;
         }
-        return namedReflectanceTexture(name, p->valueLoc(0));
+        return namedSpectrumTexture(param, name, p->valueLoc(0));
     }
 
-    int namedReflectanceTexture(const std::string& name, const SourceLocation& where) const {
+    int namedSpectrumTexture(const std::string& param, const std::string& name,
+                             const SourceLocation& where) const {
         auto it = spectrumTextures_.find(name);
         if (it == spectrumTextures_.end()) {
             const bool isFloat = floatTextures_.count(name) != 0;
-            throw SceneError(where, "\"texture reflectance\" names " +
-                                        (isFloat ? "a float texture \"" + name +
-                                                       "\"; a reflectance needs a \"spectrum\" "
-                                                       "texture"
+            throw SceneError(where, "\"texture " + param + "\" names " +
+                                        (isFloat ? "a float texture \"" + name + "\"; a " + param +
+                                                       " needs a \"spectrum\" texture"
                                                  : "no texture \"" + name +
                                                        "\" (no Texture directive defines it)"));
         }
         if (it->second.index < 0)
-            throw SceneError(where, "\"texture reflectance\" names " + it->second.unsupported);
+            throw SceneError(where, "\"texture " + param + "\" names " + it->second.unsupported);
         return it->second.index;
     }
 
     void resolveLaterTextures() {
         for (const LaterTexture& later : laterTextures_)
-            scene_.materials[size_t(later.material)].reflectanceTexture =
-                namedReflectanceTexture(later.name, later.where);
+            scene_.materials[size_t(later.material)].*later.field =
+                namedSpectrumTexture(later.param, later.name, later.where);
     }
 
     // The image's illuminance at a surface facing +z in the light's frame, per unit scale:
@@ -3368,7 +3381,9 @@ class Parser {
     };
     std::vector<LaterMixPart> laterMixParts_;
     struct LaterTexture {
-        int material = -1; // index in scene_.materials
+        int material = -1;                  // index in scene_.materials
+        int MaterialDesc::*field = nullptr; // where the texture's index goes
+        std::string param;                  // "reflectance", "transmittance"
         std::string name;
         SourceLocation where;
     };

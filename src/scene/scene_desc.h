@@ -86,9 +86,11 @@ struct MaterialDesc {
     // the layer's single-scattering albedo where not 0, and its Henyey-Greenstein asymmetry
     std::optional<SpectrumValue> layerAlbedo;
     float layerG = 0.f;
-    // diffuse and coated diffuse: "texture reflectance", an index into SceneDesc::textures that
-    // replaces `reflectance`; -1: none
+    // diffuse, coated diffuse and diffuse transmission: "texture reflectance", an index into
+    // SceneDesc::textures that replaces `reflectance`; -1: none
     int reflectanceTexture = -1;
+    // diffuse transmission: "texture transmittance", replacing `transmittance`; -1: none
+    int transmittanceTexture = -1;
     // pbrt-v4's "string normalmap": an index into SceneDesc::textures (the image read linear);
     // -1: none
     int normalMap = -1;
