@@ -100,8 +100,8 @@ CB_FN real thinDielectricReflectance(real cosO, real eta) {
 }
 #endif
 
-/* A diffuse or coated diffuse material's reflectance at texture coordinates uv: its image
- * texture's there, or its constant spectrum. */
+/* A diffuse, coated diffuse or coated conductor material's reflectance at texture coordinates
+ * uv: its image texture's there, or its constant spectrum. */
 CB_FN Spectrum materialReflectance(const SceneView* scene, Material m, TexCoord uv) {
 #if CB_HAS(CB_FEATURE_TEXTURE)
     if (m.reflectanceTexture >= 0) return textureReflectance(scene, m.reflectanceTexture, uv);

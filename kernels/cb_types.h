@@ -166,7 +166,8 @@ typedef struct Material {
     int layerAlbedo;
     real layerG;
     /* CB_FEATURE_TEXTURE: the offset in `textures` of the image texture that gives the diffuse,
-     * coated diffuse or diffuse transmission reflectance in place of `reflectance`, and of the
+     * coated diffuse, diffuse transmission or coated conductor reflectance in place of
+     * `reflectance` (a coated conductor's: its normal-incidence reflectance), and of the
      * one that gives the diffuse transmission's transmittance in place of `secondSpectrum`; -1:
      * none. A diffuse transmission's textures are times `textureScale` (pbrt-v4's "scale", which
      * its constant spectra hold already), the products clamped to [0, 1]; 1 elsewhere. */

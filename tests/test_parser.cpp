@@ -509,8 +509,8 @@ TEST_CASE("parser: parameter errors name the parameter") {
                 "mixed value types");
     expectError(w + "Shape \"sphere\" \"float radius\" -1\n", "t.pbrt:2:16", "must be > 0");
     expectError(w + "Material \"conductor\" \"texture reflectance\" \"checks\"\n", "t.pbrt:2:22",
-                "spectrum textures as the \"reflectance\" of diffuse, coateddiffuse and "
-                "diffusetransmission materials");
+                "spectrum textures as the \"reflectance\" of diffuse, coateddiffuse, "
+                "diffusetransmission and coatedconductor materials");
     expectError(w + "Material \"diffuse\" \"texture reflectance\" \"checks\"\n", "t.pbrt:2:42",
                 "names no texture \"checks\"");
     expectError(w + "Material \"diffuse\" \"blackbody reflectance\" [3000 1]\n", "t.pbrt:2:20",

@@ -158,7 +158,7 @@ TEST_CASE("image textures: the Texture directive, its parameters and what is ref
     CHECK(s.materials[size_t(s.meshes[0].material)].reflectanceTexture == 0);
     CHECK(contains(
         errorOf("WorldBegin\n" + plain + "Material \"conductor\" \"texture reflectance\" \"t\"\n"),
-        "coateddiffuse and diffusetransmission materials"));
+        "diffusetransmission and coatedconductor materials"));
     const std::string missing = errorOf("WorldBegin\n\nTexture \"t\" \"spectrum\" \"imagemap\" "
                                         "\"string filename\" \"none.png\"\n");
     CHECK(contains(missing, ":3:"));
@@ -451,6 +451,53 @@ TEST_CASE("image textures: diffusetransmission's reflectance and transmittance")
     }
 }
 
+// pbrt-v4's coatedconductor given a "texture reflectance": the texel's reflectance r, clamped to
+// [0, 0.9999], is the conductor's eta 1 and k = 2 sqrt(r) / sqrt(1 - r), both divided by the
+// coat's index (CoatedConductorMaterial::GetBxDF).
+TEST_CASE("image textures: coatedconductor's reflectance") {
+    TempDirCleanup cleanup;
+    writeImage("two.exr", 2, 2, texel);
+    const std::string texture =
+        "Texture \"r\" \"spectrum\" \"imagemap\" \"string filename\" \"two.exr\" \"float scale\" "
+        "1.2\n";
+    const cb::SceneDesc desc = sceneDesc(texture +
+                                         "Material \"coatedconductor\" \"texture reflectance\" "
+                                         "\"r\" \"float interface.eta\" 1.33\n" +
+                                         triangleAt(0));
+    REQUIRE(desc.materials.size() == 1);
+    CHECK(desc.materials[0].reflectanceTexture == 0);
+    CHECK(!desc.materials[0].conductorEta);
+    const cb::DeviceScene scene = cb::buildDeviceScene(desc);
+    CHECK((scene.features & CB_FEATURE_TEXTURE) != 0);
+    const cbk::Material& m = scene.materials[0];
+    REQUIRE(m.kind == CB_MAT_COATED_CONDUCTOR);
+    REQUIRE(m.reflectanceTexture >= 0);
+    const cbk::SceneView view = cbtest::hostView(scene);
+    for (const auto& [x, y] : {std::pair{0, 0}, std::pair{1, 1}}) {
+        CAPTURE(x);
+        CAPTURE(y);
+        const cbk::LayerBase base =
+            cbk::layerBaseLoad(&view, m, uvOf(0.25f + 0.5f * float(x), 0.75f - 0.5f * float(y)));
+        CHECK(base.conductor == 1);
+        for (int c = 0; c < 3; ++c) {
+            const double r = std::clamp(1.2 * double(texel(x, y, c)), 0.0, 0.9999);
+            CHECK(base.a.c[c] == doctest::Approx(1.0 / 1.33).epsilon(1e-6));
+            CHECK(base.b.c[c] ==
+                  doctest::Approx(2.0 * std::sqrt(r) / std::sqrt(1.0 - r) / 1.33).epsilon(1e-4));
+        }
+    }
+    const std::string both =
+        errorOf("WorldBegin\n" + texture +
+                "Material \"coatedconductor\" \"texture reflectance\" \"r\" \"rgb conductor.eta\" "
+                "[1 1 1]\n");
+    CHECK(contains(both, ":3:"));
+    CHECK(contains(both, "not both"));
+    // A plain conductor's reflectance is a constant tint in cbdpt, never a texture.
+    CHECK(contains(errorOf("WorldBegin\n" + texture +
+                           "Material \"conductor\" \"texture reflectance\" \"r\"\n"),
+                   "not \"texture\""));
+}
+
 // A hit point's (u, v) is the triangle's corners' interpolated at its barycentrics, after the
 // BVH has reordered the primitives and the parser has reordered mirrored triangles' corners.
 TEST_CASE("image textures: texture coordinates at hit points") {
@@ -736,9 +783,9 @@ void checkSameEstimates(const cb::DeviceScene& textured, const cb::DeviceScene& 
 }
 
 // A texture of one colour is that constant reflectance: the same image, estimate for estimate,
-// for the plain diffuse floor, the coated diffuse wall and a diffuse transmitter's reflectance
-// and transmittance (times its scale, clamped), in RGB (where the texel is the constant
-// exactly).
+// for the plain diffuse floor, the coated diffuse wall, a diffuse transmitter's reflectance
+// and transmittance (times its scale, clamped) and a coated conductor's reflectance, in RGB
+// (where the texel is the constant exactly).
 TEST_CASE("image textures: a one-colour texture renders as that constant reflectance" *
           doctest::test_suite("statistical")) {
     TempDirCleanup cleanup;
@@ -768,7 +815,12 @@ TEST_CASE("image textures: a one-colour texture renders as that constant reflect
             "Material \"diffusetransmission\" " +
             reflectance + " " + transmittance +
             " \"float scale\" 1.5\nShape \"bilinearmesh\" \"point3 P\" [-1.2 0.8 -0.6  0.4 0.8 "
-            "-0.6  -1.2 0.8 0.4  0.4 0.8 0.4]\n"));
+            "-0.6  -1.2 0.8 0.4  0.4 0.8 0.4]\n"
+            // A glossy coated conductor whose reflectance is its normal-incidence Fresnel.
+            "Material \"coatedconductor\" " +
+            reflectance +
+            " \"float conductor.roughness\" 0.2\nShape \"trianglemesh\" \"point3 P\" [0.5 0.05 "
+            "-0.2  1.6 0.05 0.3  1 1.2 0.6]\n"));
     };
     const cb::DeviceScene textured = scene(true);
     const cb::DeviceScene constant = scene(false);

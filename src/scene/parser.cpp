@@ -498,7 +498,7 @@ class ParamList {
             std::string why;
             if (p.type == "texture")
                 why = " (cbdpt takes spectrum textures as the \"reflectance\" of diffuse, "
-                      "coateddiffuse and diffusetransmission materials and the "
+                      "coateddiffuse, diffusetransmission and coatedconductor materials and the "
                       "\"transmittance\" of diffusetransmission, float textures as roughness, "
                       "\"displacement\" and \"alpha\")";
             throw SceneError(p.where, "parameter \"" + name + "\" of " + owner_ +
@@ -1736,7 +1736,7 @@ class Parser {
                                   : pl.namedDefault("metal-Cu-eta");
             m.conductorK = pK ? pl.spectrum(kName, SpectrumRole::ConductorIndex)
                               : pl.namedDefault("metal-Cu-k");
-        } else {
+        } else if (m.reflectanceTexture == -1) {
             m.reflectance = *pl.spectrum("reflectance", SpectrumRole::Reflectance);
         }
     }
@@ -1847,6 +1847,8 @@ class Parser {
                 spectrumTexture(pl, "reflectance", &MaterialDesc::reflectanceTexture);
             readCoatedDiffuse(pl, m);
         } else if (type == "coatedconductor") {
+            m.reflectanceTexture =
+                spectrumTexture(pl, "reflectance", &MaterialDesc::reflectanceTexture);
             readCoatedConductor(pl, m);
         } else if (type == "mix") {
             m.kind = MaterialKind::Mix;

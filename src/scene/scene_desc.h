@@ -86,8 +86,8 @@ struct MaterialDesc {
     // the layer's single-scattering albedo where not 0, and its Henyey-Greenstein asymmetry
     std::optional<SpectrumValue> layerAlbedo;
     float layerG = 0.f;
-    // diffuse, coated diffuse and diffuse transmission: "texture reflectance", an index into
-    // SceneDesc::textures that replaces `reflectance`; -1: none
+    // diffuse, coated diffuse, diffuse transmission and coated conductor: "texture
+    // reflectance", an index into SceneDesc::textures that replaces `reflectance`; -1: none
     int reflectanceTexture = -1;
     // diffuse transmission: "texture transmittance", replacing `transmittance`; -1: none
     int transmittanceTexture = -1;
