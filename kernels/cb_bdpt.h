@@ -158,6 +158,9 @@ CB_FN TexCoord pvUv(const PathVertex* v) {
     c.u = v->uv[0];
     c.v = v->uv[1];
     c.hero = v->hero;
+#if CB_HAS(CB_FEATURE_TEXTURE_MAPPING)
+    c.p = vec3FromArray(v->p);
+#endif
     return c;
 }
 CB_FN void cbStore3(real* dst, Vec3 v) {

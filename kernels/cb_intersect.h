@@ -545,6 +545,9 @@ CB_FN SurfacePoint surfacePointFromHit(const SceneView* scene, Ray ray, Hit hit)
 #if CB_HAS(CB_FEATURE_TEXTURE)
         if (scene->textures) sp.uv = sphereTexCoord(scene, hit.primitive, pLocal);
 #endif
+#if CB_HAS(CB_FEATURE_TEXTURE_MAPPING)
+        sp.uv.p = sp.p;
+#endif
 #if CB_HAS(CB_FEATURE_NORMAL_MAP) || CB_HAS(CB_FEATURE_BUMP_MAP)
         return surfacePointMapped(scene, sp, hit, pLocal, pLocal, pLocal);
 #else
@@ -566,6 +569,9 @@ CB_FN SurfacePoint surfacePointFromHit(const SceneView* scene, Ray ray, Hit hit)
 #if CB_HAS(CB_FEATURE_TEXTURE)
     /* (Host views of untextured scenes, such as the BVH choice's, have no texture buffer.) */
     if (scene->textures) sp.uv = triangleTexCoord(scene, hit.primitive, hit.b1, hit.b2);
+#endif
+#if CB_HAS(CB_FEATURE_TEXTURE_MAPPING)
+    sp.uv.p = sp.p;
 #endif
     sp.ns = sp.ng;
 #if CB_HAS(CB_FEATURE_SHADING_NORMALS)

@@ -24,8 +24,17 @@ CB_BEGIN_NAMESPACE
 #define CB_TEXTURE_VSCALE 5 /* t = vscale v + vdelta */
 #define CB_TEXTURE_UDELTA 6
 #define CB_TEXTURE_VDELTA 7
-#define CB_TEXTURE_BASIS 8 /* spectral scenes: the spectra entry of Smits's basis (7 entries) */
-#define CB_TEXTURE_HEADER 9
+#define CB_TEXTURE_BASIS 8   /* spectral scenes: the spectra entry of Smits's basis (7 entries) */
+#define CB_TEXTURE_MAPPING 9 /* CB_MAPPING_* */
+/* Mappings by the hit point: a 3 x 4 row-major affine map from device space (camera-relative)
+ * to pbrt-v4's texture space, for "planar" already projected onto its v1, v2 (rows 0, 1). */
+#define CB_TEXTURE_MATRIX 10
+#define CB_TEXTURE_HEADER 22
+
+#define CB_MAPPING_UV 0
+#define CB_MAPPING_SPHERICAL 1
+#define CB_MAPPING_CYLINDRICAL 2
+#define CB_MAPPING_PLANAR 3
 
 #define CB_WRAP_REPEAT 0
 #define CB_WRAP_BLACK 1
@@ -42,6 +51,9 @@ CB_FN TexCoord triangleTexCoord(const SceneView* scene, int primitive, real b1, 
     c.u = b0 * uv[0] + b1 * uv[2] + b2 * uv[4];
     c.v = b0 * uv[1] + b1 * uv[3] + b2 * uv[5];
     c.hero = -1.0f;
+#if CB_HAS(CB_FEATURE_TEXTURE_MAPPING)
+    c.p = vec3(0.0f, 0.0f, 0.0f); /* the caller's hit point, where it has one */
+#endif
     return c;
 }
 
@@ -76,6 +88,9 @@ CB_FN TexCoord sphereTexCoord(const SceneView* scene, int primitive, Vec3 pLocal
     c.u = phi * (0.5f * CB_INV_PI);
     c.v = 1.0f - acos(cbClamp(p.z / r, -1.0f, 1.0f)) * CB_INV_PI;
     c.hero = -1.0f;
+#if CB_HAS(CB_FEATURE_TEXTURE_MAPPING)
+    c.p = vec3(0.0f, 0.0f, 0.0f); /* the caller's hit point */
+#endif
     return c;
 }
 
@@ -98,16 +113,49 @@ CB_FN Vec3 textureTexel(CB_GLOBAL const real* texture, int x, int y) {
     return vec3(rgb[0], rgb[1], rgb[2]);
 }
 
-/* The texture's RGB at texture coordinates uv: pbrt-v4's ImageTexture with its "uv" mapping,
- * t flipped (image rows run down), bilinear between the four nearest texel centres or the
- * nearest texel. Coordinates are first brought into one period (repeat) or just outside the
- * image (black, clamp), which changes no value and keeps texel indices small. */
+/* The texture's (s, t) at uv, pbrt-v4's TextureMapping2D: the "uv" mapping's (u, v), or the
+ * point's in texture space, q, by "spherical" (theta / pi, phi / 2 pi of q's direction),
+ * "cylindrical" ((pi + atan2(q.y, q.x)) / 2 pi, q.z) or "planar" (q's first two rows, v1 and v2
+ * folded in); then scaled and offset (uscale, vscale, udelta, vdelta, 1 and 0 but for "uv" and
+ * the deltas of "planar") and t flipped, as ImageTexture flips it: image rows run down. */
+CB_FN void textureST(CB_GLOBAL const real* texture, TexCoord uv, real* s, real* t) {
+    real s0 = uv.u, t0 = uv.v;
+#if CB_HAS(CB_FEATURE_TEXTURE_MAPPING)
+    int mapping = (int)texture[CB_TEXTURE_MAPPING];
+    if (mapping != CB_MAPPING_UV) {
+        CB_GLOBAL const real* m = texture + CB_TEXTURE_MATRIX;
+        Vec3 q = vec3(m[0] * uv.p.x + m[1] * uv.p.y + m[2] * uv.p.z + m[3],
+                      m[4] * uv.p.x + m[5] * uv.p.y + m[6] * uv.p.z + m[7],
+                      m[8] * uv.p.x + m[9] * uv.p.y + m[10] * uv.p.z + m[11]);
+        if (mapping == CB_MAPPING_SPHERICAL) {
+            real r = vlength(q);
+            real phi = atan2(q.y, q.x);
+            if (phi < 0.0f) phi += 2.0f * CB_PI;
+            s0 = acos(cbClamp(q.z / r, -1.0f, 1.0f)) * CB_INV_PI;
+            t0 = phi * (0.5f * CB_INV_PI);
+        } else if (mapping == CB_MAPPING_CYLINDRICAL) {
+            s0 = (CB_PI + atan2(q.y, q.x)) * (0.5f * CB_INV_PI);
+            t0 = q.z;
+        } else {
+            s0 = q.x;
+            t0 = q.y;
+        }
+    }
+#endif
+    *s = texture[CB_TEXTURE_USCALE] * s0 + texture[CB_TEXTURE_UDELTA];
+    *t = 1.0f - (texture[CB_TEXTURE_VSCALE] * t0 + texture[CB_TEXTURE_VDELTA]);
+}
+
+/* The texture's RGB at texture coordinates uv: pbrt-v4's ImageTexture at textureST's (s, t),
+ * bilinear between the four nearest texel centres or the nearest texel. Coordinates are first
+ * brought into one period (repeat) or just outside the image (black, clamp), which changes no
+ * value and keeps texel indices small. */
 CB_FN Vec3 textureRgb(const SceneView* scene, int offset, TexCoord uv) {
     CB_GLOBAL const real* texture = scene->textures + offset;
     real w = texture[CB_TEXTURE_WIDTH];
     real h = texture[CB_TEXTURE_HEIGHT];
-    real s = texture[CB_TEXTURE_USCALE] * uv.u + texture[CB_TEXTURE_UDELTA];
-    real t = 1.0f - (texture[CB_TEXTURE_VSCALE] * uv.v + texture[CB_TEXTURE_VDELTA]);
+    real s, t;
+    textureST(texture, uv, &s, &t);
     if (!(isfinite(s) && isfinite(t))) return vec3(0.0f, 0.0f, 0.0f);
     if ((int)texture[CB_TEXTURE_WRAP] == CB_WRAP_REPEAT) {
         s -= floor(s);
@@ -302,6 +350,10 @@ CB_FN Vec3 bumpMapNormal(const SceneView* scene, int offset, ShadingPartials d, 
     TexCoord alongU = sp.uv, alongV = sp.uv;
     alongU.u += step;
     alongV.v += step;
+#if CB_HAS(CB_FEATURE_TEXTURE_MAPPING)
+    alongU.p = vadd(sp.p, vscale(d.dpdu, step)); /* BumpMap shifts the point too */
+    alongV.p = vadd(sp.p, vscale(d.dpdv, step));
+#endif
     real h = textureFloat(scene, offset, sp.uv);
     real hU = textureFloat(scene, offset, alongU);
     real hV = textureFloat(scene, offset, alongV);

@@ -59,32 +59,6 @@ typedef struct Hit {
     real b1, b2;
 } Hit;
 
-/* Where a ray hit, with the error bound needed to spawn new rays without self-intersection
- * (pbrt-v4's conservative floating-point error bounds: no scene-scale epsilon). */
-/* Where a surface point's material is looked up: its texture coordinates (pbrt-v4's uv) and,
- * on paths that have met a dispersive dielectric (CB_FEATURE_DISPERSION), the one wavelength
- * they follow from there on, as a position over the bins: bin + fraction in [0, CB_CHANNELS)
- * (dispersionFollowOne, cb_bsdf.h); -1 where the path carries every bin. */
-typedef struct TexCoord {
-    real u, v;
-    real hero;
-} TexCoord;
-
-typedef struct SurfacePoint {
-    Vec3 p;      /* the hit point */
-    Vec3 pError; /* per-axis absolute bound on the error of p */
-    Vec3 ng;     /* unit geometric normal (outward / front side) */
-    /* Unit shading normal: CB_FEATURE_SHADING_NORMALS, the triangle's vertex normals interpolated
-     * (ng faces its side, as pbrt-v4's FaceForward), then CB_FEATURE_NORMAL_MAP, bent by the
-     * material's normal map (normalMapNormal); else ng. */
-    Vec3 ns;
-    int primitive;
-    int material;
-    int light;
-    TexCoord uv; /* CB_FEATURE_TEXTURE: interpolated from the triangle's vertices; else 0 (hero
-                  * -1: the caller sets it, dispersionFollowOne) */
-} SurfacePoint;
-
 /* ---- Materials ---------------------------------------------------------------------------- */
 
 #define CB_MAT_DIFFUSE 0
@@ -124,6 +98,8 @@ typedef struct SurfacePoint {
 #define CB_FEATURE_ALPHA (1u << 23)             /* shapes with pbrt-v4's "alpha" (cut-outs) */
 #define CB_FEATURE_BUMP_MAP (1u << 24)          /* materials with pbrt-v4's "displacement" */
 #define CB_FEATURE_DISPERSION (1u << 25)        /* dielectrics with pbrt-v4's "spectrum eta" */
+/* Textures mapped by the hit point: pbrt-v4's "spherical", "cylindrical" and "planar". */
+#define CB_FEATURE_TEXTURE_MAPPING (1u << 26)
 
 #ifndef CB_FEATURES
 #define CB_FEATURES 0xffffffffu
@@ -139,6 +115,35 @@ typedef struct SurfacePoint {
 #define CB_HAS_SHADING                                                                             \
     (CB_HAS(CB_FEATURE_SHADING_NORMALS) || CB_HAS(CB_FEATURE_NORMAL_MAP) ||                        \
      CB_HAS(CB_FEATURE_BUMP_MAP))
+
+/* Where a surface point's material is looked up: its texture coordinates (pbrt-v4's uv) and,
+ * on paths that have met a dispersive dielectric (CB_FEATURE_DISPERSION), the one wavelength
+ * they follow from there on, as a position over the bins: bin + fraction in [0, CB_CHANNELS)
+ * (dispersionFollowOne, cb_bsdf.h); -1 where the path carries every bin. */
+typedef struct TexCoord {
+    real u, v;
+    real hero;
+#if CB_HAS(CB_FEATURE_TEXTURE_MAPPING)
+    Vec3 p; /* the point itself (device space), for textures mapped by it (textureST) */
+#endif
+} TexCoord;
+
+/* Where a ray hit, with the error bound needed to spawn new rays without self-intersection
+ * (pbrt-v4's conservative floating-point error bounds: no scene-scale epsilon). */
+typedef struct SurfacePoint {
+    Vec3 p;      /* the hit point */
+    Vec3 pError; /* per-axis absolute bound on the error of p */
+    Vec3 ng;     /* unit geometric normal (outward / front side) */
+    /* Unit shading normal: CB_FEATURE_SHADING_NORMALS, the triangle's vertex normals interpolated
+     * (ng faces its side, as pbrt-v4's FaceForward), then CB_FEATURE_NORMAL_MAP, bent by the
+     * material's normal map (normalMapNormal); else ng. */
+    Vec3 ns;
+    int primitive;
+    int material;
+    int light;
+    TexCoord uv; /* CB_FEATURE_TEXTURE: interpolated from the triangle's vertices; else 0 (hero
+                  * -1: the caller sets it, dispersionFollowOne) */
+} SurfacePoint;
 
 typedef struct Material {
     int kind;        /* CB_MAT_* */

@@ -169,7 +169,7 @@ TEST_CASE("image textures: the Texture directive, its parameters and what is ref
                    "must be \"spectrum\" or \"float\""));
     for (const auto& [param, message] :
          {std::pair{"\"string wrap\" \"octahedralsphere\"", "\"string wrap\" must be"},
-          std::pair{"\"string mapping\" \"spherical\"", "\"uv\") only"},
+          std::pair{"\"string mapping\" \"cubic\"", "must be \"uv\", \"spherical\""},
           std::pair{"\"string filter\" \"gaussian\"", "\"string filter\" must be"},
           std::pair{"\"string encoding\" \"gamma -1\"", "\"string encoding\" must be"},
           std::pair{"\"float udelta\" [1 2]", "exactly 1 value"}}) {
@@ -496,6 +496,97 @@ TEST_CASE("image textures: coatedconductor's reflectance") {
     CHECK(contains(errorOf("WorldBegin\n" + texture +
                            "Material \"conductor\" \"texture reflectance\" \"r\"\n"),
                    "not \"texture\""));
+}
+
+// pbrt-v4's mappings by the hit point (TextureMapping2D): a point in texture space q (the inverse
+// of the CTM at the Texture directive, here translate, rotate about z, scale), its (s, t) by
+// direction, about z or along v1 and v2, the kernels' points camera-relative.
+TEST_CASE("image textures: planar, spherical and cylindrical mappings") {
+    TempDirCleanup cleanup;
+    writeImage("two.exr", 2, 2, texel);
+    const std::string ctm = "Translate 1 2 3\nRotate 30 0 0 1\nScale 2 2 2\n";
+    const std::string definitions =
+        "AttributeBegin\n" + ctm +
+        "Texture \"p\" \"spectrum\" \"imagemap\" \"string filename\" \"two.exr\" \"string "
+        "mapping\" \"planar\" \"vector3 v1\" [1 0.5 0] \"vector3 v2\" [0 -1 2] \"float udelta\" "
+        "0.25 \"float vdelta\" -0.5\n"
+        "Texture \"s\" \"spectrum\" \"imagemap\" \"string filename\" \"two.exr\" \"string "
+        "mapping\" \"spherical\"\n"
+        "Texture \"c\" \"float\" \"imagemap\" \"string filename\" \"two.exr\" \"string mapping\" "
+        "\"cylindrical\"\nAttributeEnd\n";
+    const cb::SceneDesc desc = parseInTemp(
+        "LookAt 3 -2 1  0 0 0  0 0 1\nCamera \"perspective\"\nFilm \"rgb\" \"integer "
+        "xresolution\" 8 \"integer yresolution\" 8\nWorldBegin\nLightSource \"infinite\"\n" +
+        definitions + "Material \"diffuse\" \"texture reflectance\" \"p\"\n" + triangleAt(0) +
+        "Material \"coateddiffuse\" \"texture reflectance\" \"s\"\n" + triangleAt(1) +
+        "Material \"conductor\" \"texture roughness\" \"c\"\n" + triangleAt(2));
+    const cb::DeviceScene scene = cb::buildDeviceScene(desc);
+    REQUIRE((scene.features & CB_FEATURE_TEXTURE_MAPPING) != 0);
+    const cbk::SceneView view = cbtest::hostView(scene);
+    const int offsets[3] = {scene.materials[0].reflectanceTexture,
+                            scene.materials[1].reflectanceTexture,
+                            scene.materials[2].roughnessTexture};
+    // q = S^-1 R^-1 (p - T), independently of the parser's matrix inverse.
+    auto textureSpace = [](std::array<double, 3> p) {
+        const double x = p[0] - 1, y = p[1] - 2, z = p[2] - 3;
+        const double c = std::cos(M_PI / 6), s = std::sin(M_PI / 6);
+        return std::array<double, 3>{(c * x + s * y) / 2, (-s * x + c * y) / 2, z / 2};
+    };
+    auto expected = [&](int kind, std::array<double, 3> p) {
+        const std::array<double, 3> q = textureSpace(p);
+        double s0 = 0, t0 = 0;
+        if (kind == 0) {
+            s0 = 0.25 + q[0] * 1 + q[1] * 0.5;
+            t0 = -0.5 + q[1] * -1 + q[2] * 2;
+        } else if (kind == 1) {
+            const double r = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2]);
+            double phi = std::atan2(q[1], q[0]);
+            if (phi < 0) phi += 2 * M_PI;
+            s0 = std::acos(q[2] / r) / M_PI;
+            t0 = phi / (2 * M_PI);
+        } else {
+            s0 = (M_PI + std::atan2(q[1], q[0])) / (2 * M_PI);
+            t0 = q[2];
+        }
+        return std::array<double, 2>{s0, 1 - t0}; // the image texture flips t
+    };
+    for (int kind = 0; kind < 3; ++kind)
+        for (const std::array<double, 3>& p :
+             {std::array<double, 3>{0.3, -0.7, 1.1}, std::array<double, 3>{2.5, 1.5, 3.5},
+              std::array<double, 3>{-1.2, 4.0, 2.2}}) {
+            CAPTURE(kind);
+            CAPTURE(p[0]);
+            cbk::TexCoord uv = uvOf(0.9f, 0.1f); // (u, v) plays no part
+            uv.p = cbk::vec3(float(p[0] - scene.origin[0]), float(p[1] - scene.origin[1]),
+                             float(p[2] - scene.origin[2]));
+            float s = 0.f, t = 0.f;
+            cbk::textureST(view.textures + offsets[kind], uv, &s, &t);
+            const std::array<double, 2> st = expected(kind, p);
+            CHECK(s == doctest::Approx(st[0]).epsilon(1e-5));
+            CHECK(t == doctest::Approx(st[1]).epsilon(1e-5));
+        }
+    // The device origin is not the world's, so its folding into the matrix was exercised.
+    CHECK(std::abs(scene.origin[0]) + std::abs(scene.origin[1]) + std::abs(scene.origin[2]) > 0.5);
+
+    CHECK(contains(errorOf("WorldBegin\nTexture \"t\" \"spectrum\" \"imagemap\" \"string "
+                           "filename\" \"two.exr\" \"string mapping\" \"sphere\"\n"),
+                   "must be \"uv\", \"spherical\", \"cylindrical\" or \"planar\", not \"sphere\""));
+    // The alpha test has (u, v) only.
+    try {
+        deviceScene("Texture \"a\" \"float\" \"imagemap\" \"string filename\" \"two.exr\" "
+                    "\"string mapping\" \"planar\"\nMaterial \"diffuse\"\nShape \"trianglemesh\" "
+                    "\"point3 P\" [0 0 0 1 0 0 0 1 0] \"texture alpha\" \"a\"\n");
+        FAIL("a planar alpha texture was accepted");
+    } catch (const cb::SceneError& e) {
+        CHECK(contains(e.what(), "mapped by the hit point"));
+    }
+    // A mix of two images needs one mapping.
+    CHECK(contains(errorOf("WorldBegin\nTexture \"u\" \"spectrum\" \"imagemap\" \"string "
+                           "filename\" \"two.exr\"\n" +
+                           definitions +
+                           "Texture \"m\" \"spectrum\" \"mix\" \"texture tex1\" \"u\" \"texture "
+                           "tex2\" \"s\"\nMaterial \"diffuse\" \"texture reflectance\" \"m\"\n"),
+                   "mappings"));
 }
 
 // A hit point's (u, v) is the triangle's corners' interpolated at its barycentrics, after the
@@ -829,6 +920,44 @@ TEST_CASE("image textures: a one-colour texture renders as that constant reflect
     for (const std::string method : kMethods) {
         CAPTURE(method);
         checkSameEstimates(textured, constant, method, 11u, 1e-5, runtime);
+    }
+}
+
+// A sphere's pbrt-v4 (u, v) is (phi / 2 pi, 1 - theta / pi) in its object frame, and a
+// "spherical" mapping in that frame gives (theta / pi, phi / 2 pi): the spherical mapping of an
+// image looks up what the (u, v) of that image turned a quarter (rows become columns) looks up,
+// texel centres onto texel centres. The same estimates in every method but CPT (PT's code):
+// bidirectional vertices carry the hit point to their lookups.
+TEST_CASE("image textures: a spherical mapping renders as the (u, v) of the image turned" *
+          doctest::test_suite("statistical")) {
+    TempDirCleanup cleanup;
+    cb::ClRuntime runtime;
+    auto a = [](int x, int y, int c) {
+        return 0.1f + 0.2f * float(x) + 0.15f * float(y) * float(c + 1) - 0.05f * float(c);
+    };
+    writeImage("a.exr", 4, 2, a);
+    writeImage("b.exr", 2, 4, [&](int x, int y, int c) { return a(y, 1 - x, c); });
+    auto scene = [&](const std::string& texture) {
+        return cb::buildDeviceScene(parseInTemp(
+            "LookAt 0 2 -3  0 0.3 0  0 1 0\nCamera \"perspective\" \"float fov\" 30\n"
+            "Film \"rgb\" \"integer xresolution\" 16 \"integer yresolution\" 16\n"
+            "WorldBegin\n" +
+            kDiskLight +
+            "Material \"diffuse\"\nShape \"bilinearmesh\" \"point3 P\" [-2 0 -2  2 0 -2  -2 0 2  "
+            "2 0 2]\nAttributeBegin\nTranslate 0.1 0.4 -0.2\nRotate 40 1 0.5 0\n"
+            "Texture \"t\" \"spectrum\" \"imagemap\" " +
+            texture +
+            "\nMaterial \"diffuse\" \"texture reflectance\" \"t\"\n"
+            "Shape \"sphere\" \"float radius\" 0.4\nAttributeEnd\n"));
+    };
+    const cb::DeviceScene mapped =
+        scene("\"string filename\" \"a.exr\" \"string mapping\" \"spherical\"");
+    const cb::DeviceScene turned = scene("\"string filename\" \"b.exr\"");
+    REQUIRE((mapped.features & CB_FEATURE_TEXTURE_MAPPING) != 0);
+    REQUIRE((turned.features & CB_FEATURE_TEXTURE_MAPPING) == 0);
+    for (const std::string method : {"pt", "bdpt", "cbdpt", "mlt"}) {
+        CAPTURE(method);
+        checkSameEstimates(mapped, turned, method, 5u, 1e-4, runtime);
     }
 }
 

@@ -491,6 +491,24 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         header[CB_TEXTURE_UDELTA] = t.mapping[2];
         header[CB_TEXTURE_VDELTA] = t.mapping[3];
         header[CB_TEXTURE_BASIS] = float(smitsBasisEntry);
+        header[CB_TEXTURE_MAPPING] =
+            float(t.mappingKind == TextureDesc::Mapping::Spherical     ? CB_MAPPING_SPHERICAL
+                  : t.mappingKind == TextureDesc::Mapping::Cylindrical ? CB_MAPPING_CYLINDRICAL
+                  : t.mappingKind == TextureDesc::Mapping::Planar      ? CB_MAPPING_PLANAR
+                                                                       : CB_MAPPING_UV);
+        if (t.mappingKind != TextureDesc::Mapping::Uv) {
+            // The kernels' points are relative to the device origin: world = device + origin.
+            for (size_t row = 0; row < 3; ++row) {
+                double translation = t.textureFromWorld[4 * row + 3];
+                for (size_t k = 0; k < 3; ++k) {
+                    header[CB_TEXTURE_MATRIX + 4 * row + k] =
+                        float(t.textureFromWorld[4 * row + k]);
+                    translation += t.textureFromWorld[4 * row + k] * scene.origin[k];
+                }
+                header[CB_TEXTURE_MATRIX + 4 * row + 3] = float(translation);
+            }
+            scene.features |= CB_FEATURE_TEXTURE_MAPPING;
+        }
         images.insert(images.end(), header, header + CB_TEXTURE_HEADER);
         images.insert(images.end(), t.rgb.begin(), t.rgb.end());
         imageOffset[index] = offset;
@@ -730,6 +748,13 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
             throw SceneError(mesh.where, "this shape's \"alpha\" is a texture, which needs "
                                          "texture coordinates, and cbdpt gives none to " +
                                              mesh.noTexCoords);
+        // The traversal's alpha test has the hit's (u, v), not its point.
+        if (alpha.mappingKind != TextureDesc::Mapping::Uv && (alpha.width > 1 || alpha.height > 1))
+            throw SceneError(mesh.where, "this shape's \"alpha\" texture is mapped by the hit "
+                                         "point (" +
+                                             alpha.where.str() +
+                                             "), which cbdpt's alpha test does not have: only "
+                                             "\"uv\" mappings there");
         scene.features |= CB_FEATURE_TEXTURE | CB_FEATURE_ALPHA;
     }
     const bool texturing = (scene.features & CB_FEATURE_TEXTURE) != 0;
@@ -1080,6 +1105,7 @@ std::string DeviceScene::featureNames() const {
     add(CB_FEATURE_DISPERSION, "dispersion");
     add(CB_FEATURE_ALPHA, "alpha");
     add(CB_FEATURE_BUMP_MAP, "bump-map");
+    add(CB_FEATURE_TEXTURE_MAPPING, "texture-mapping");
     names += channels == 16 ? " spectral-16" : " rgb";
     return names;
 }

@@ -2343,7 +2343,9 @@ class Parser {
         TextureDesc out = oneUniform ? *two : *one; // the layout the result keeps
         if (!oneUniform && !twoUniform &&
             (one->width != two->width || one->height != two->height || one->wrap != two->wrap ||
-             one->nearest != two->nearest || one->mapping != two->mapping)) {
+             one->nearest != two->nearest || one->mapping != two->mapping ||
+             one->mappingKind != two->mappingKind ||
+             one->textureFromWorld != two->textureFromWorld)) {
             why = "it mixes two images of different sizes, wraps, filters or mappings";
             return std::nullopt;
         }
@@ -2371,7 +2373,7 @@ class Parser {
         std::optional<TextureDesc> two = constantTexture(pl, "tex2", 0.f, why, isFloat);
         if (!two) return std::nullopt;
         TextureDesc tex;
-        readUvMapping(pl, tex);
+        readMapping(pl, tex);
         pl.finish();
         for (float& m : tex.mapping)
             m *= 0.5f;
@@ -2383,20 +2385,60 @@ class Parser {
         return tex;
     }
 
-    // pbrt-v4's "uv" texture mapping: "uscale", "vscale", "udelta", "vdelta"; other mappings
-    // are errors.
-    static void readUvMapping(ParamList& pl, TextureDesc& tex) {
-        if (const Param* p = pl.peek("mapping")) {
-            const std::string m = *pl.oneString("mapping");
-            if (m != "uv")
-                throw SceneError(p->valueLoc(0), "texture mapping \"" + m +
-                                                     "\" is not supported: cbdpt maps textures "
-                                                     "by the shapes' (u, v) (\"uv\") only");
+    // pbrt-v4's texture mappings (TextureMapping2D::Create): "uv" with "uscale", "vscale",
+    // "udelta", "vdelta"; "spherical" and "cylindrical" of the point in texture space, the
+    // inverse of the CTM here; "planar" along "vector3 v1" (1 0 0) and "v2" (0 1 0) in texture
+    // space, offset by "udelta" and "vdelta".
+    void readMapping(ParamList& pl, TextureDesc& tex) {
+        std::string kind = "uv";
+        const Param* kindParam = pl.peek("mapping");
+        if (kindParam) kind = *pl.oneString("mapping");
+        if (kind == "uv") {
+            const char* const mappingNames[] = {"uscale", "vscale", "udelta", "vdelta"};
+            for (size_t i = 0; i < 4; ++i)
+                if (pl.peek(mappingNames[i]))
+                    tex.mapping[i] = static_cast<float>(*pl.oneFloat(mappingNames[i]));
+            return;
         }
-        const char* const mappingNames[] = {"uscale", "vscale", "udelta", "vdelta"};
-        for (size_t i = 0; i < 4; ++i)
-            if (pl.peek(mappingNames[i]))
-                tex.mapping[i] = static_cast<float>(*pl.oneFloat(mappingNames[i]));
+        if (kind != "spherical" && kind != "cylindrical" && kind != "planar")
+            throw SceneError(kindParam->valueLoc(0),
+                             "\"string mapping\" must be \"uv\", \"spherical\", \"cylindrical\" "
+                             "or \"planar\", not \"" +
+                                 kind + "\"");
+        const std::optional<Mat4> textureFromWorld = inverse(state_.ctm);
+        if (!textureFromWorld || !textureFromWorld->isAffine())
+            throw SceneError(kindParam->valueLoc(0),
+                             "texture mapping \"" + kind +
+                                 "\" needs an invertible affine transform (the CTM here)");
+        for (size_t i = 0; i < 12; ++i)
+            tex.textureFromWorld[i] = textureFromWorld->m[i];
+        if (kind == "spherical") {
+            tex.mappingKind = TextureDesc::Mapping::Spherical;
+        } else if (kind == "cylindrical") {
+            tex.mappingKind = TextureDesc::Mapping::Cylindrical;
+        } else {
+            tex.mappingKind = TextureDesc::Mapping::Planar;
+            std::array<double, 3> v1{1, 0, 0}, v2{0, 1, 0};
+            for (auto [name, value] : {std::pair{"v1", &v1}, std::pair{"v2", &v2}})
+                if (const Param* p = pl.numeric(name, "vector3", 3)) {
+                    if (p->size() != 3)
+                        throw SceneError(p->where,
+                                         "\"vector3 " + std::string(name) + "\" expects 3 values");
+                    *value = {p->numbers[0], p->numbers[1], p->numbers[2]};
+                }
+            // s = udelta + v1 . (M p): v1's row of M, and v2's, replace M's first two rows.
+            std::array<double, 12> rows{};
+            for (int j = 0; j < 4; ++j)
+                for (int k = 0; k < 3; ++k) {
+                    rows[size_t(j)] += v1[size_t(k)] * textureFromWorld->m[size_t(4 * k + j)];
+                    rows[size_t(4 + j)] += v2[size_t(k)] * textureFromWorld->m[size_t(4 * k + j)];
+                }
+            tex.textureFromWorld = rows;
+            for (size_t i = 2; i < 4; ++i) {
+                const char* name = i == 2 ? "udelta" : "vdelta";
+                if (pl.peek(name)) tex.mapping[i] = static_cast<float>(*pl.oneFloat(name));
+            }
+        }
     }
 
     // The parameters of pbrt-v4's "imagemap" and the image they name, "scale" and "invert"
@@ -2459,7 +2501,7 @@ class Parser {
                                                  "\"clamp\" (cbdpt's), not \"" +
                                                      w + "\"");
         }
-        readUvMapping(pl, tex);
+        readMapping(pl, tex);
         pl.finish();
         const SourceLocation fileWhere = fileParam->valueLoc(0);
         tex.path = findImageFile(*file, fileWhere);

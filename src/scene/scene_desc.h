@@ -231,6 +231,12 @@ struct TextureDesc {
     Wrap wrap = Wrap::Repeat;
     bool nearest = false; // "point" filter: the nearest texel, not bilinear
     std::array<float, 4> mapping{1.f, 1.f, 0.f, 0.f}; // uscale, vscale, udelta, vdelta
+    // pbrt-v4's mapping: (u, v), or the hit point's in texture space (the inverse of the CTM at
+    // the Texture directive), by direction ("spherical"), about z ("cylindrical") or along v1, v2
+    // ("planar", whose projection rows 0 and 1 hold: s = row 0 . (p, 1) + udelta)
+    enum class Mapping { Uv, Spherical, Cylindrical, Planar };
+    Mapping mappingKind = Mapping::Uv;
+    std::array<double, 12> textureFromWorld{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0}; // 3 x 4
     SourceLocation where;
 };
 
