@@ -847,31 +847,37 @@ TEST_CASE("image textures: in a spectral scene, the texels' spectra" *
     }
 }
 
-// Two scenes that must render the same estimates (a texture of one value and that constant):
-// two estimates of `method` with the same seed, every pixel channel within `relative` of the
-// image mean, the image not black.
+// Two scenes that must render the same estimates (a texture of one value and that constant), the
+// first compiling `feature` and the second not: for each of `methods`, two estimates with the
+// same seed, every pixel channel within `relative` of the image mean, the image not black.
 void checkSameEstimates(const cb::DeviceScene& textured, const cb::DeviceScene& constant,
-                        const std::string& method, std::uint32_t seed, double relative,
-                        cb::ClRuntime& runtime) {
-    cb::IntegratorSettings settings = methodSettings(method);
-    settings.seed = seed;
-    auto a = cb::makeIntegrator(settings, textured, runtime);
-    auto b = cb::makeIntegrator(settings, constant, runtime);
-    std::vector<float> ra, rb;
-    double largest = 0.0, sum = 0.0;
-    for (std::uint32_t e = 0; e < 2; ++e) {
-        a->renderEstimate(e, ra);
-        b->renderEstimate(e, rb);
-        REQUIRE(ra.size() == rb.size());
-        for (size_t i = 0; i < ra.size(); ++i) {
-            largest = std::max(largest, double(std::fabs(ra[i] - rb[i])));
-            sum += rb[i];
+                        unsigned feature, const std::vector<std::string>& methods,
+                        std::uint32_t seed, double relative, cb::ClRuntime& runtime) {
+    REQUIRE((textured.features & feature) != 0);
+    REQUIRE((constant.features & feature) == 0);
+    for (const std::string& method : methods) {
+        CAPTURE(method);
+        cb::IntegratorSettings settings = methodSettings(method);
+        settings.seed = seed;
+        auto a = cb::makeIntegrator(settings, textured, runtime);
+        auto b = cb::makeIntegrator(settings, constant, runtime);
+        std::vector<float> ra, rb;
+        double largest = 0.0, sum = 0.0;
+        for (std::uint32_t e = 0; e < 2; ++e) {
+            a->renderEstimate(e, ra);
+            b->renderEstimate(e, rb);
+            REQUIRE(ra.size() == rb.size());
+            for (size_t i = 0; i < ra.size(); ++i) {
+                largest = std::max(largest, double(std::fabs(ra[i] - rb[i])));
+                sum += rb[i];
+            }
         }
+        CAPTURE(largest);
+        CHECK(sum > 0.0);
+        CHECK(largest <= relative * sum / double(ra.size()));
     }
-    CAPTURE(largest);
-    CHECK(sum > 0.0);
-    CHECK(largest <= relative * sum / double(ra.size()));
 }
+const std::vector<std::string> kAllMethods(std::begin(kMethods), std::end(kMethods));
 
 // A texture of one colour is that constant reflectance: the same image, estimate for estimate,
 // for the plain diffuse floor, the coated diffuse wall, a diffuse transmitter's reflectance
@@ -915,12 +921,7 @@ TEST_CASE("image textures: a one-colour texture renders as that constant reflect
     };
     const cb::DeviceScene textured = scene(true);
     const cb::DeviceScene constant = scene(false);
-    REQUIRE((textured.features & CB_FEATURE_TEXTURE) != 0);
-    REQUIRE((constant.features & CB_FEATURE_TEXTURE) == 0);
-    for (const std::string method : kMethods) {
-        CAPTURE(method);
-        checkSameEstimates(textured, constant, method, 11u, 1e-5, runtime);
-    }
+    checkSameEstimates(textured, constant, CB_FEATURE_TEXTURE, kAllMethods, 11u, 1e-5, runtime);
 }
 
 // A sphere's pbrt-v4 (u, v) is (phi / 2 pi, 1 - theta / pi) in its object frame, and a
@@ -953,12 +954,8 @@ TEST_CASE("image textures: a spherical mapping renders as the (u, v) of the imag
     const cb::DeviceScene mapped =
         scene("\"string filename\" \"a.exr\" \"string mapping\" \"spherical\"");
     const cb::DeviceScene turned = scene("\"string filename\" \"b.exr\"");
-    REQUIRE((mapped.features & CB_FEATURE_TEXTURE_MAPPING) != 0);
-    REQUIRE((turned.features & CB_FEATURE_TEXTURE_MAPPING) == 0);
-    for (const std::string method : {"pt", "bdpt", "cbdpt", "mlt"}) {
-        CAPTURE(method);
-        checkSameEstimates(mapped, turned, method, 5u, 1e-4, runtime);
-    }
+    checkSameEstimates(mapped, turned, CB_FEATURE_TEXTURE_MAPPING, {"pt", "bdpt", "cbdpt", "mlt"},
+                       5u, 1e-4, runtime);
 }
 
 TEST_CASE("image textures: BDPT, CBDPT and MLT agree with PT on textured surfaces" *
@@ -1224,10 +1221,6 @@ TEST_CASE("roughness textures: a one-value texture renders as that constant roug
     };
     const cb::DeviceScene textured = scene(true);
     const cb::DeviceScene constant = scene(false);
-    REQUIRE((textured.features & CB_FEATURE_ROUGHNESS_TEXTURE) != 0);
-    REQUIRE((constant.features & CB_FEATURE_ROUGHNESS_TEXTURE) == 0);
-    for (const std::string method : kMethods) {
-        CAPTURE(method);
-        checkSameEstimates(textured, constant, method, 7u, 1e-4, runtime);
-    }
+    checkSameEstimates(textured, constant, CB_FEATURE_ROUGHNESS_TEXTURE, kAllMethods, 7u, 1e-4,
+                       runtime);
 }
