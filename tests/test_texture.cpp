@@ -201,12 +201,18 @@ TEST_CASE("image textures: the Texture directive, its parameters and what is ref
             deviceScene(textured + shape + "\n");
             FAIL("a textured " << shape << " was accepted");
         } catch (const cb::SceneError& e) {
-            CHECK(contains(e.what(), "a texture (its reflectance"));
+            CHECK(contains(e.what(), "a texture mapped by (u, v) (its reflectance"));
             CHECK(contains(e.what(), "needs texture coordinates"));
             CHECK(contains(e.what(), message));
         }
-        // Untextured, the same shape renders.
+        // Untextured, or with a texture mapped by the hit point, the same shape renders.
         CHECK_NOTHROW(deviceScene(std::string(shape) + "\n"));
+        const cb::DeviceScene planar =
+            deviceScene("Texture \"p\" \"spectrum\" \"imagemap\" \"string filename\" "
+                        "\"grey.png\" \"string mapping\" \"planar\"\nMaterial \"diffuse\" "
+                        "\"texture reflectance\" \"p\"\n" +
+                        std::string(shape) + "\n");
+        CHECK((planar.features & CB_FEATURE_TEXTURE_MAPPING) != 0);
     }
 }
 

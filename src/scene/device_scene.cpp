@@ -454,12 +454,18 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
 
     // Image textures (cb_texture.h): each one a material uses, once, at an offset into the
     // images that follow the primitives' texture coordinates in `textures` (fixed up below).
-    auto textured = [&](int m) {
+    // Whether material m (or a mix's part) looks a texture up by (u, v): every texture but one
+    // mapped by the hit point, and normal and bump maps (their tangents follow (u, v)).
+    auto needsTexCoords = [&](int m) {
         if (m < 0) return false;
         const MaterialDesc& md = desc.materials[size_t(m)];
-        auto uses = [](const MaterialDesc& d) {
-            return d.reflectanceTexture >= 0 || d.transmittanceTexture >= 0 || d.normalMap >= 0 ||
-                   d.roughnessTexture >= 0 || d.displacement >= 0;
+        auto byUv = [&](int texture) {
+            return texture >= 0 &&
+                   desc.textures[size_t(texture)].mappingKind == TextureDesc::Mapping::Uv;
+        };
+        auto uses = [&](const MaterialDesc& d) {
+            return byUv(d.reflectanceTexture) || byUv(d.transmittanceTexture) ||
+                   byUv(d.roughnessTexture) || d.normalMap >= 0 || d.displacement >= 0;
         };
         bool any = uses(md);
         for (int c : md.mix)
@@ -766,11 +772,11 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
     std::vector<std::array<float, 6>> primitiveUv;      // texturing: per primitive, as `primitives`
     auto requireTexCoords = [&](int material, const std::string& none,
                                 const SourceLocation& where) {
-        if (!texturing || !textured(material) || none.empty()) return;
-        throw SceneError(where, "this shape's material has a texture (its reflectance, its "
-                                "transmittance, its roughness, a \"normalmap\" or a "
-                                "\"displacement\"), which "
-                                "needs texture coordinates, and cbdpt gives none to " +
+        if (!texturing || !needsTexCoords(material) || none.empty()) return;
+        throw SceneError(where, "this shape's material has a texture mapped by (u, v) (its "
+                                "reflectance, its transmittance, its roughness, a \"normalmap\" "
+                                "or a \"displacement\"), which needs texture coordinates, and "
+                                "cbdpt gives none to " +
                                     none);
     };
     for (const auto& mesh : desc.meshes) {
