@@ -1808,10 +1808,12 @@ class Parser {
         MaterialDesc m;
         m.name = name;
         m.where = where;
-        if (type == "diffuse") {
-            m.kind = MaterialKind::Diffuse;
+        if (type == "diffuse" || type == "diffusetransmission" || type == "coateddiffuse" ||
+            type == "coatedconductor")
             m.reflectanceTexture =
                 spectrumTexture(pl, "reflectance", &MaterialDesc::reflectanceTexture);
+        if (type == "diffuse") {
+            m.kind = MaterialKind::Diffuse;
             if (m.reflectanceTexture == -1)
                 if (auto r = pl.spectrum("reflectance", SpectrumRole::Reflectance))
                     m.reflectance = *r;
@@ -1829,8 +1831,6 @@ class Parser {
         } else if (type == "diffusetransmission") {
             m.kind = MaterialKind::DiffuseTransmission;
             m.reflectance = SpectrumValue::constant(0.25f); // pbrt-v4's defaults
-            m.reflectanceTexture =
-                spectrumTexture(pl, "reflectance", &MaterialDesc::reflectanceTexture);
             m.transmittanceTexture =
                 spectrumTexture(pl, "transmittance", &MaterialDesc::transmittanceTexture);
             if (m.reflectanceTexture == -1)
@@ -1843,12 +1843,8 @@ class Parser {
             // makes the surface black).
             if (pl.peek("scale")) m.scale = static_cast<float>(*pl.oneFloat("scale"));
         } else if (type == "coateddiffuse") {
-            m.reflectanceTexture =
-                spectrumTexture(pl, "reflectance", &MaterialDesc::reflectanceTexture);
             readCoatedDiffuse(pl, m);
         } else if (type == "coatedconductor") {
-            m.reflectanceTexture =
-                spectrumTexture(pl, "reflectance", &MaterialDesc::reflectanceTexture);
             readCoatedConductor(pl, m);
         } else if (type == "mix") {
             m.kind = MaterialKind::Mix;
@@ -2606,8 +2602,8 @@ class Parser {
         return -1;
     }
 
-    // "texture reflectance" of diffuse and coated diffuse materials, and "texture reflectance"
-    // or "texture transmittance" of diffuse transmission (`param`): the named spectrum
+    // "texture reflectance" of diffuse, coated diffuse, diffuse transmission and coated conductor
+    // materials, and "texture transmittance" of diffuse transmission (`param`): the named spectrum
     // texture's index in scene_.textures; -1 when the parameter is not a texture;
     // kLaterTexture for a name no Texture has defined yet, which pbrt-v4 looks up once the file
     // is read (resolveLaterTextures, into `field`).
