@@ -173,9 +173,15 @@ CB_FN bool pvOnSurface(const PathVertex* v) {
     return v->type == CB_VERTEX_SURFACE || v->type == CB_VERTEX_AREA_LIGHT;
 }
 
-/* A light vertex that no eye subpath can hit (s = 0 cannot produce it): point and distant. */
+/* A light vertex of a delta light, point or distant. */
 CB_FN bool pvIsDeltaLight(const PathVertex* v) {
     return v->type == CB_VERTEX_POINT_LIGHT || v->type == CB_VERTEX_DISTANT_LIGHT;
+}
+
+/* Whether an eye subpath can find light vertex v by a ray, so that s = 0 can produce it: not on
+ * a delta light or an invisible area light (lightFoundByRays). */
+CB_FN bool pvFoundByRays(const SceneView* scene, const PathVertex* v) {
+    return v->light < 0 || lightFoundByRays(scene, v->light);
 }
 
 /* A light vertex standing for a direction rather than a point (pbrt-v4's IsInfiniteLight):
@@ -586,10 +592,12 @@ CB_FN real cbRemap0(real f) {
  * cameraCount scales the sampling rate of the t = 1 strategy (Veach's heuristics weigh
  * n_i p_i, eq. 9.13): 1 in BDPT and MLT, whose W*H light subpaths per estimate all splat; CBDPT
  * traces fewer light subpaths per estimate than there are pixels and passes their number / (W*H)
- * (docs/cbdpt.md). coneRatio is bdptConeRatio of the full path's y0, y1. */
+ * (docs/cbdpt.md). coneRatio is bdptConeRatio of the full path's y0, y1, and y0FoundByRays
+ * pvFoundByRays of y0 (else s = 0 is no strategy). */
 CB_FN real bdptPowerWeight(const PathVertex* light, int s, const PathVertex* eye, int t,
                            real ptPdfRev, real ptMinusPdfRev, real qsPdfRev, real qsMinusPdfRev,
-                           BdptSettings settings, real cameraCount, real coneRatio) {
+                           BdptSettings settings, real cameraCount, real coneRatio,
+                           bool y0FoundByRays) {
     if (s + t == 2) return 1.0f; /* only (0,2) exists: (1,1) is excluded */
     /* p_1 carries coneRatio (bdptConeRatio): ratios to s' = 1 gain it, ratios from s = 1 lose it.
      */
@@ -619,7 +627,7 @@ CB_FN real bdptPowerWeight(const PathVertex* light, int s, const PathVertex* eye
         if (i > 0)
             deltaPrev = i - 1 == s - 1 ? 0 : light[i - 1].delta;
         else
-            deltaPrev = pvIsDeltaLight(&light[0]); /* s = 0 cannot hit it */
+            deltaPrev = !y0FoundByRays; /* then s = 0 cannot find it */
         if (!deltaHere && !deltaPrev && !(i == 1 && tNew == 1)) {
             real r = ri * fromS * (i == 1 ? coneRatio : 1.0f);
             sumRi += t == 1 ? r * r / (cameraCount * cameraCount) : r * r;
@@ -634,8 +642,8 @@ CB_FN real bdptPowerWeight(const PathVertex* light, int s, const PathVertex* eye
  * W_j the specularity of eye vertex j, raised to 1 where the connection at j is impossible
  * (eye vertex j or its light-side partner j+1 scattered by a delta lobe):
  *   w(t) = W_1 ... W_{t-2} (1 - W_{t-1}),   w(s = 0, t = k) = W_1 ... W_{k-2},   w(t = 1) = 0.
- * Under caps, t runs over [tMin, tMax] = [max(2, k-Nl), min(Ne, k)] (tMax <= k-1 for a point
- * light, which cannot be hit); the rule is applied to the allowed eye vertices only: the
+ * Under caps, t runs over [tMin, tMax] = [max(2, k-Nl), min(Ne, k)] (tMax <= k-1 for a light no
+ * ray finds); the rule is applied to the allowed eye vertices only: the
  * products start at j = tMin-1 and the last allowed t takes the remaining product, so the
  * weights of a path sum to one. With tMin = 2 and tMax = k this is the rule above. */
 CB_FN real bdptLafortuneW(const SceneView* scene, const PathVertex* light, int s,
@@ -668,7 +676,7 @@ CB_FN real bdptLafortuneWeight(const SceneView* scene, const PathVertex* light, 
     int tMin = k - settings.lightVertices > 2 ? k - settings.lightVertices : 2;
     int tMax = settings.eyeVertices < k ? settings.eyeVertices : k;
     const PathVertex* y0 = s > 0 ? &light[0] : &eye[t - 1];
-    if (pvIsDeltaLight(y0) && tMax > k - 1) tMax = k - 1;
+    if (!pvFoundByRays(scene, y0) && tMax > k - 1) tMax = k - 1;
     if (t < tMin || t > tMax) return 0.0f;
     real prefix = 1.0f; /* W_{tMin-1} ... W_{t-2} */
     for (int j = tMin - 1; j <= t - 2; ++j)
@@ -689,7 +697,8 @@ CB_FN real bdptMisWeight(const SceneView* scene, const PathVertex* light, int s,
     const PathVertex* y0 = s >= 1 ? &light[0] : &eye[t - 1];
     const PathVertex* y1 = s >= 2 ? &light[1] : (s == 1 ? &eye[t - 1] : &eye[t - 2]);
     return bdptPowerWeight(light, s, eye, t, ptPdfRev, ptMinusPdfRev, qsPdfRev, qsMinusPdfRev,
-                           settings, cameraCount, bdptConeRatio(scene, y0, y1));
+                           settings, cameraCount, bdptConeRatio(scene, y0, y1),
+                           pvFoundByRays(scene, y0));
 }
 
 /* ---- Connection ---------------------------------------------------------------------------- */

@@ -469,6 +469,17 @@ CB_FN Spectrum deltaLightArriving(const SceneView* scene, const LightSample* ls,
     return pointLightIntensity(scene, ls->light, vneg(wi));
 }
 
+/* Whether a ray can find light `lightIndex` (a point light, say, it cannot), so that
+ * strategies which find it by a ray share its paths in MIS. */
+CB_FN bool lightFoundByRays(const SceneView* scene, int lightIndex) {
+    CB_GLOBAL const Light* light = &scene->lights[lightIndex];
+    if (light->kind == CB_LIGHT_POINT || light->kind == CB_LIGHT_DISTANT) return false;
+#if CB_HAS(CB_FEATURE_INVISIBLE_LIGHT)
+    if (light->invisible) return false;
+#endif
+    return true;
+}
+
 /* Probability density, in area measure and including the choice of light, with which
  * lightSample produces a given point of area light `lightIndex`. */
 CB_FN real lightPdfArea(const SceneView* scene, int lightIndex) {

@@ -146,7 +146,10 @@ CB_FN bool ptPathVertex(const SceneView* scene, PtPath* path, Ray* ray, bool fou
                     bsdfEval(scene, sp.material, sp.uv, frame, wo, wi, 0, &pdfBsdfW, &pdfRev);
                 if (!specIsBlack(f)) {
                     *shadow = spawnRayTo(sp, ls.p, ls.pError, ls.n, shadowTMax);
-                    real weight = ls.isDelta ? 1.0f : powerHeuristic(pdfLightW, pdfBsdfW);
+                    /* BSDF sampling cannot find a delta or invisible light. */
+                    real weight = lightFoundByRays(scene, ls.light)
+                                      ? powerHeuristic(pdfLightW, pdfBsdfW)
+                                      : 1.0f;
                     real factor = scatterCos(sp.ng, sp.ns, wo, wi, 0) * weight / pdfLightW;
                     path->shadowTerm =
                         specScale(specMul(specMul(path->throughput, f), emitted), factor);

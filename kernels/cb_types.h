@@ -100,6 +100,8 @@ typedef struct Hit {
 #define CB_FEATURE_DISPERSION (1u << 25)        /* dielectrics with pbrt-v4's "spectrum eta" */
 /* Textures mapped by the hit point: pbrt-v4's "spherical", "cylindrical" and "planar". */
 #define CB_FEATURE_TEXTURE_MAPPING (1u << 26)
+/* Area lights whose shape has alpha 0: sampled as lights, never found by a ray (pbrt-v4). */
+#define CB_FEATURE_INVISIBLE_LIGHT (1u << 27)
 
 #ifndef CB_FEATURES
 #define CB_FEATURES 0xffffffffu
@@ -226,7 +228,10 @@ typedef struct Material {
  * p's radiance from the directions that pbrt-v4's equal-area octahedral map takes to that pixel
  * in the light's frame (worldFromLight); a goniometric light (a point light with an image)
  * weights its intensity so. The image's sampling tables and pixel values start at
- * lightTables[imageTable] (cb_lights.h, imageLightPixelPdf and imageLightPixelEmission). */
+ * lightTables[imageTable] (cb_lights.h, imageLightPixelPdf and imageLightPixelEmission). An
+ * invisible area light (pbrt-v4's area light on a shape of alpha 0) has its primitive outside
+ * the BVH: light sampling reaches it, no ray finds it, so no strategy that finds it by a ray
+ * counts in MIS (pbrt-v4 marks it DeltaPosition for the same reason). */
 typedef struct Light {
     int kind;         /* CB_LIGHT_* */
     int primitive;    /* CB_LIGHT_AREA: the emitting primitive */
@@ -243,6 +248,7 @@ typedef struct Light {
     real worldFromLight[9]; /* image light: row-major rotation from the light's frame to world */
     int imageSize;          /* image light: the square image's side in pixels; 0 otherwise */
     int imageTable;         /* image light: offset of its sampling tables in lightTables */
+    int invisible;          /* area light: its primitive is in no BVH leaf (no ray finds it) */
 } Light;
 
 /* ---- Camera ------------------------------------------------------------------------------- */

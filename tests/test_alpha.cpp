@@ -1,7 +1,9 @@
 // pbrt-v4's shape "alpha" (cut-outs and stochastic transparency): the parser's constants and
 // textures and what it refuses, float textures read from an image's alpha channel as pbrt-v4
 // reads them, the traversal's alpha test (kernels/cb_texture.h, alphaKeepsHit), and every
-// method's image of alpha-tested planes against the analytic radiance and against PT.
+// method's image of alpha-tested planes against the analytic radiance and against PT; invisible
+// area lights (alpha 0 on an emitter's shape) out of the BVH, and every method's image under
+// them against the analytic radiance and against PT.
 #include <doctest/doctest.h>
 
 #include "cb_bvh_wide.h"
@@ -19,6 +21,7 @@
 
 #include <array>
 #include <cmath>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -313,4 +316,123 @@ TEST_CASE("shape alpha: BDPT, CBDPT and MLT agree with PT through a cut-out scre
                                 (tempDir() / "checker.png").string() +
                                 "\"\nShape \"bilinearmesh\" \"point3 P\" [-1.5 1.2 -1.5  1.5 1.2 "
                                 "-1.5  -1.5 1.2 1.5  1.5 1.2 1.5] \"texture alpha\" \"checker\"\n");
+}
+
+// pbrt-v4's invisible area lights (an area light's shape of "float alpha" 0): light sampling
+// reaches them, no ray finds them. The device keeps their primitives out of the BVH, after the
+// leaves' primitives, where their lights point.
+TEST_CASE("invisible area lights: out of the BVH, where their lights find them") {
+    const std::string lights =
+        "AttributeBegin\nAreaLightSource \"diffuse\" \"rgb L\" [2 2 2]\n"
+        "Shape \"trianglemesh\" \"point3 P\" [-1 -1 1  1 -1 1  1 1 1  -1 1 1] "
+        "\"integer indices\" [0 2 1  0 3 2] \"float alpha\" 0\n"
+        "Translate 0 0 2\nShape \"sphere\" \"float radius\" 0.5 \"float alpha\" 0\nAttributeEnd\n";
+    const std::string floor = "Material \"diffuse\"\nShape \"trianglemesh\" \"point3 P\" [-2 -2 0  "
+                              "2 -2 0  2 2 0  -2 2 0] \"integer indices\" [0 1 2  0 2 3]\n";
+    const cb::DeviceScene scene =
+        cb::buildDeviceScene(cb::parseSceneString("WorldBegin\n" + lights + floor, "t.pbrt"));
+    CHECK((scene.features & CB_FEATURE_INVISIBLE_LIGHT) != 0);
+    std::set<int> inLeaves;
+    for (const cbk::TrianglePack& pack : scene.wide.packs)
+        for (int k = 0; k < pack.count; ++k)
+            inLeaves.insert(pack.prim[k]);
+    CHECK(inLeaves == std::set<int>{0, 1}); // the floor's two triangles
+    REQUIRE(scene.bvh.primitives.size() == 5);
+    REQUIRE(scene.lights.size() == 3);
+    double triangleArea = 0.0, sphereArea = 0.0;
+    for (size_t i = 0; i < scene.lights.size(); ++i) {
+        const cbk::Light& light = scene.lights[i];
+        CAPTURE(i);
+        CHECK(light.invisible == 1);
+        REQUIRE(light.primitive >= 2);
+        const cbk::Primitive& prim = scene.bvh.primitives[size_t(light.primitive)];
+        CHECK(prim.light == int(i));
+        (prim.kind == CB_PRIM_SPHERE ? sphereArea : triangleArea) += light.area;
+    }
+    CHECK(triangleArea == doctest::Approx(4.0));
+    CHECK(sphereArea == doctest::Approx(M_PI));
+
+    // A ray down through both lights, 0.36 off the sphere's axis, finds the floor; made visible,
+    // the sphere.
+    auto downward = [](const cb::DeviceScene& s) {
+        cbk::Ray ray;
+        ray.o =
+            cbk::vec3(float(0.3 - s.origin[0]), float(0.2 - s.origin[1]), float(3.0 - s.origin[2]));
+        ray.d = cbk::vec3(0.f, 0.f, -1.f);
+        return ray;
+    };
+    const cbk::SceneView view = cbtest::hostView(scene);
+    cbk::Hit hit;
+    REQUIRE(cbk::sceneIntersect(&view, downward(scene), CB_INFINITY, &hit));
+    CHECK(hit.t == doctest::Approx(3.0).epsilon(1e-5));
+    CHECK(!cbk::sceneOccluded(&view, downward(scene), 2.9f));
+    std::string shown = lights;
+    for (size_t at; (at = shown.find(" \"float alpha\" 0")) != std::string::npos;)
+        shown.erase(at, std::string(" \"float alpha\" 0").size());
+    const cb::DeviceScene visible =
+        cb::buildDeviceScene(cb::parseSceneString("WorldBegin\n" + shown + floor, "t.pbrt"));
+    CHECK((visible.features & CB_FEATURE_INVISIBLE_LIGHT) == 0);
+    const cbk::SceneView visibleView = cbtest::hostView(visible);
+    REQUIRE(cbk::sceneIntersect(&visibleView, downward(visible), CB_INFINITY, &hit));
+    CHECK(hit.t == doctest::Approx(1.0 - std::sqrt(0.25 - 0.13)).epsilon(1e-5));
+}
+
+// A diffuse floor (reflectance rho) under an invisible sphere light (radiance L, radius R, its
+// centre at height h), seen from above through the sphere: a floor point at distance d from the
+// centre receives pi L (R / d)^2 (h / d) (a sphere wholly above the horizon lights as a point of
+// intensity pi R^2 L at its centre) and nothing else, as the floor's light escapes through the
+// sphere. So a pixel is rho L R^2 h / d^3, from paths of three vertices only; a method whose MIS
+// still counted the strategies that find the light by a ray (PT's BSDF sample, BDPT's s = 0)
+// would come out low (by 4-6% here).
+TEST_CASE("invisible area lights: a sphere light over a floor, every method, against the "
+          "analytic radiance" *
+          doctest::test_suite("statistical")) {
+    cb::ClRuntime runtime;
+    const double rho = 0.5, radiance = 2.0, radius = 1.0, h = 1.5, cameraHeight = 4.0;
+    const cb::DeviceScene scene = cb::buildDeviceScene(cb::parseSceneString(
+        fmt::format("LookAt 0 0 {}  0 0 0  0 1 0\nCamera \"perspective\" \"float fov\" 60\n"
+                    "Film \"rgb\" \"integer xresolution\" 12 \"integer yresolution\" 12\n"
+                    "PixelFilter \"box\"\nWorldBegin\n"
+                    "Material \"diffuse\" \"rgb reflectance\" [{} {} {}]\n"
+                    "Shape \"bilinearmesh\" \"point3 P\" [-100 -100 0  100 -100 0  -100 100 0  "
+                    "100 100 0]\nAttributeBegin\nAreaLightSource \"diffuse\" \"rgb L\" [{} {} {}]\n"
+                    "Translate 0 0 {}\nShape \"sphere\" \"float radius\" {} \"float alpha\" 0\n"
+                    "AttributeEnd\n",
+                    cameraHeight, rho, rho, rho, radiance, radiance, radiance, h, radius),
+        "t.pbrt"));
+    REQUIRE((scene.features & CB_FEATURE_INVISIBLE_LIGHT) != 0);
+    // The film at distance 1 spans [-tan 30, tan 30]^2 and shows the floor point cameraHeight
+    // times its film point; the box filter keeps each pixel's samples on its own area.
+    const double tanHalf = std::tan(M_PI / 6.0);
+    const int n = 400;
+    double expected = 0.0;
+    for (int j = 0; j < n; ++j)
+        for (int i = 0; i < n; ++i) {
+            const double x = tanHalf * (-1 + (i + 0.5) * 2.0 / n);
+            const double y = tanHalf * (-1 + (j + 0.5) * 2.0 / n);
+            const double d2 = h * h + cameraHeight * cameraHeight * (x * x + y * y);
+            expected += rho * radiance * radius * radius * h / (d2 * std::sqrt(d2));
+        }
+    expected /= double(n) * n;
+    for (const std::string method : kMethods) {
+        CAPTURE(method);
+        const MethodMean m =
+            methodMean(scene, runtime, methodSettings(method), 6, method == "mlt" ? 32 : 8);
+        CAPTURE(m.mean);
+        CAPTURE(m.se);
+        CAPTURE(expected);
+        CHECK(std::fabs(m.mean - expected) <= 4.5 * m.se + 2e-3 * expected);
+        CHECK(m.nonFinite == 0);
+    }
+}
+
+// Every strategy, with shadows and interreflection: a quad light between the camera and the
+// scene, facing the scene, invisible (the camera and every bounce look through it); BDPT, CBDPT
+// and MLT against PT per region.
+TEST_CASE("invisible area lights: BDPT, CBDPT and MLT agree with PT under a quad light the "
+          "camera looks through" *
+          doctest::test_suite("statistical")) {
+    checkMethodsAgreeWithPt("AttributeBegin\nAreaLightSource \"diffuse\" \"rgb L\" [3 3 3]\n"
+                            "Shape \"bilinearmesh\" \"point3 P\" [-1 1 -2  1 1 -2  -1 2.5 -2  1 "
+                            "2.5 -2] \"float alpha\" 0\nAttributeEnd\n");
 }

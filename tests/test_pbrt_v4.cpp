@@ -1770,6 +1770,16 @@ TEST_CASE("pbrt-v4 shape alpha: 1 is opaque, 0 invisible, between alpha-tested")
         CHECK(hidden.meshes.size() + hidden.spheres.size() == 0);
         REQUIRE(hidden.notes.size() == 1);
         CHECK(contains(hidden.notes[0], "t.pbrt:3: a shape of \"float alpha\" 0 is invisible"));
+        // An area light's shape of alpha 0 stays, as an invisible light (tests/test_alpha.cpp).
+        const auto light = parseSceneString(
+            "WorldBegin\nAreaLightSource \"diffuse\"\n" + shape + "\"float alpha\" 0\n", "t.pbrt");
+        REQUIRE(light.meshes.size() + light.spheres.size() == 1);
+        CHECK((light.meshes.empty() ? light.spheres[0].invisible : light.meshes[0].invisible));
+        CHECK((light.meshes.empty() ? light.spheres[0].areaLight : light.meshes[0].areaLight) == 0);
+        CHECK((opaque.meshes.empty() ? !opaque.spheres[0].invisible : !opaque.meshes[0].invisible));
+        REQUIRE(light.notes.size() == 1);
+        CHECK(contains(light.notes[0], "t.pbrt:3: an area light's shape of \"float alpha\" 0 is "
+                                       "an invisible light"));
         // Between (tests/test_alpha.cpp): alpha-tested triangles; refused on spheres.
         if (shape == shapes[0]) {
             CHECK(contains(errorOf("WorldBegin\n" + shape + "\"float alpha\" 0.5\n"),
@@ -1993,6 +2003,7 @@ TEST_CASE("pbrt-v4: every comparison scene in scenes/pbrt-v4 parses and builds")
         if (name == "conductor") CHECK(contains(scene.featureNames(), "conductor-fresnel"));
         if (name == "dispersion") CHECK(contains(scene.featureNames(), "dispersion"));
         if (name == "loopsubdiv") CHECK(contains(scene.featureNames(), "shading-normals"));
+        if (name == "invisible-light") CHECK(contains(scene.featureNames(), "invisible-light"));
         ++scenes;
     }
     CHECK(scenes >= 9);

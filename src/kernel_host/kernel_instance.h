@@ -134,6 +134,7 @@ template <class Visit> void forEachField(cbk::Light& s, Visit&& visit) {
     visit(s.worldFromLight);
     visit(s.imageSize);
     visit(s.imageTable);
+    visit(s.invisible);
 }
 template <class Visit> void forEachField(cbk::Camera& s, Visit&& visit) {
     visit(s.cameraToWorld);

@@ -18,7 +18,7 @@ namespace cb {
 
 static_assert(sizeof(cbk::Primitive) == 48, "Primitive must match the OpenCL layout");
 static_assert(sizeof(cbk::Material) == 92, "Material must match the OpenCL layout");
-static_assert(sizeof(cbk::Light) == 108, "Light must match the OpenCL layout");
+static_assert(sizeof(cbk::Light) == 112, "Light must match the OpenCL layout");
 static_assert(sizeof(cbk::Camera) == 432, "Camera must match the OpenCL layout");
 
 namespace {
@@ -697,7 +697,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
     std::vector<double> lightPower;
     // One spectrum per AreaLightSource, and per shape area where "power" sets the radiance.
     std::map<std::pair<int, double>, int> emissionEntry;
-    auto addAreaLight = [&](int areaLight, float area, double shapeArea) {
+    auto addAreaLight = [&](int areaLight, float area, double shapeArea, bool invisible) {
         const AreaLightDesc& al = desc.areaLights[size_t(areaLight)];
         // pbrt-v4's DiffuseAreaLight::Create: power / (pi area of the shape, both sides if so).
         const double powerScale =
@@ -712,6 +712,8 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         light.emission = entry;
         light.twoSided = al.twoSided ? 1 : 0;
         light.area = area;
+        light.invisible = invisible ? 1 : 0;
+        if (invisible) scene.features |= CB_FEATURE_INVISIBLE_LIGHT;
         lightPower.push_back(spectra.average(light.emission) * area * M_PI *
                              (al.twoSided ? 2.0 : 1.0));
         scene.lights.push_back(light);
@@ -816,7 +818,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
             if (mesh.areaLight >= 0) {
                 const size_t index = size_t(&tri - mesh.triangles.data());
                 const double shapeArea = mesh.shapeArea.empty() ? area : mesh.shapeArea[index];
-                prim.light = addAreaLight(mesh.areaLight, float(area), shapeArea);
+                prim.light = addAreaLight(mesh.areaLight, float(area), shapeArea, mesh.invisible);
             }
             primitives.push_back(prim);
             if (texturing) {
@@ -840,7 +842,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         requireInFloatRange(sphere.center, sphere.radius, scene.origin, sphere.where, "a sphere");
         if (sphere.areaLight >= 0) {
             float area = float(4.0 * M_PI * double(sphere.radius) * sphere.radius);
-            prim.light = addAreaLight(sphere.areaLight, area, sphere.shapeArea);
+            prim.light = addAreaLight(sphere.areaLight, area, sphere.shapeArea, sphere.invisible);
         }
         primitives.push_back(prim);
         if (texturing) {
@@ -1022,11 +1024,32 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
             cameraRays.push_back(cbk::cameraGenerateRay(
                 &scene.camera, (float(x) + 0.5f) * float(scene.camera.width) / kSampleGrid,
                 (float(y) + 0.5f) * float(scene.camera.height) / kSampleGrid, lensCentre));
-    WideBvhChoice choice = buildWideBvhForRays(primitives, cameraRays);
+    // Invisible lights' primitives stay out of the BVH, after its primitives: their lights
+    // reach them, no ray does.
+    std::vector<int> tracedIndex, invisibleIndex;
+    for (size_t i = 0; i < primitives.size(); ++i) {
+        const int light = primitives[i].light;
+        (light >= 0 && scene.lights[size_t(light)].invisible ? invisibleIndex : tracedIndex)
+            .push_back(int(i));
+    }
+    std::vector<cbk::Primitive> traced;
+    if (!invisibleIndex.empty())
+        for (int i : tracedIndex)
+            traced.push_back(primitives[size_t(i)]);
+    WideBvhChoice choice =
+        buildWideBvhForRays(invisibleIndex.empty() ? primitives : traced, cameraRays);
     scene.wideSettings = choice.settings;
     scene.wideSettingsWhy = describeChoice(choice);
     scene.bvh = std::move(choice.bvh);
     scene.wide = std::move(choice.wide);
+    if (!invisibleIndex.empty()) {
+        for (int& original : scene.bvh.originalIndex)
+            original = tracedIndex[size_t(original)];
+        for (int i : invisibleIndex) {
+            scene.bvh.primitives.push_back(primitives[size_t(i)]);
+            scene.bvh.originalIndex.push_back(i);
+        }
+    }
     // After the BVH reorders primitives, point each area light at its primitive's new slot.
     for (size_t i = 0; i < scene.bvh.primitives.size(); ++i) {
         int light = scene.bvh.primitives[i].light;
@@ -1112,6 +1135,7 @@ std::string DeviceScene::featureNames() const {
     add(CB_FEATURE_ALPHA, "alpha");
     add(CB_FEATURE_BUMP_MAP, "bump-map");
     add(CB_FEATURE_TEXTURE_MAPPING, "texture-mapping");
+    add(CB_FEATURE_INVISIBLE_LIGHT, "invisible-light");
     names += channels == 16 ? " spectral-16" : " rgb";
     return names;
 }

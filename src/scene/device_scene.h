@@ -19,7 +19,9 @@ enum class ChannelMode { Auto, Rgb, Spectral };
 
 struct DeviceScene {
     int channels = 3; // 3 (RGB) or 16 (spectral bins)
-    Bvh bvh;          // nodes and primitives in leaf order
+    // Nodes and primitives in leaf order; invisible lights' primitives after the leaves' (in
+    // none: no ray finds them).
+    Bvh bvh;
     // What the kernels traverse (cb_bvh_wide.h): bvh.nodes collapsed, over bvh.primitives.
     BvhWide wide;
     WideBvhSettings wideSettings; // the SAH settings chosen for it (bvh/bvh_choice.h)

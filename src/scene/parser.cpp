@@ -2755,10 +2755,13 @@ class Parser {
     // A shape's "alpha" (pbrt-v4's GeometricPrimitive), a float or a float texture: where it is
     // 1 a hit counts, where 0 the hit is skipped, between it counts at random with that
     // probability (stochastic transparency). A constant >= 1 is opaque (the default); one <= 0
-    // skips every hit, light included, so the shape is `hidden` (not added). Otherwise
-    // `texture` indexes the alpha texture in scene_.textures, a 1 x 1 one for a constant.
+    // skips every hit, so the shape is `hidden` (not added), unless it is an area light's: then
+    // it is `invisible`, a light that light sampling reaches and no ray finds (pbrt-v4's
+    // DiffuseAreaLight of alpha 0). Otherwise `texture` indexes the alpha texture in
+    // scene_.textures, a 1 x 1 one for a constant.
     struct ShapeAlpha {
         bool hidden = false;
+        bool invisible = false;
         int texture = -1;
     };
     ShapeAlpha shapeAlpha(ParamList& pl, const Token& t, const char* shapeKind) {
@@ -2777,11 +2780,17 @@ class Parser {
         } else {
             const double alpha = *pl.oneFloat("alpha");
             if (alpha >= 1.0) return {};
+            if (alpha <= 0.0 && state_.areaLight >= 0) {
+                note(t.where, "alpha-zero-light",
+                     "an area light's shape of \"float alpha\" 0 is an invisible light (as in "
+                     "pbrt-v4): it lights the scene, and rays pass through it");
+                return {false, true, -1};
+            }
             if (alpha <= 0.0) {
                 note(t.where, "alpha-zero",
                      "a shape of \"float alpha\" 0 is invisible (pbrt-v4 skips its hits): not "
                      "added");
-                return {true, -1};
+                return {true, false, -1};
             }
             out.texture = constantFloatTexture(alpha, p->valueLoc(0));
         }
@@ -2802,9 +2811,9 @@ class Parser {
                 radius = *pl.oneFloat("radius");
                 if (!(radius > 0.0)) throw SceneError(p->where, "\"float radius\" must be > 0");
             }
-            const bool hidden = shapeAlpha(pl, t, "sphere").hidden;
+            const ShapeAlpha alpha = shapeAlpha(pl, t, "sphere");
             pl.finish();
-            if (!hidden) sphere(t.where, radius);
+            if (!alpha.hidden) sphere(t.where, radius, alpha.invisible);
         } else if (type.text == "trianglemesh") {
             ParamList pl = params("Shape \"trianglemesh\"", "shape");
             const Param* P = pl.numeric("P", "point3", 3);
@@ -2827,8 +2836,7 @@ class Parser {
             const ShapeAlpha alpha = shapeAlpha(pl, t, nullptr);
             pl.finish();
             if (!alpha.hidden)
-                addMesh(t.where, pos, std::move(tris), normals, {}, std::move(cornerUv), {},
-                        alpha.texture);
+                addMesh(t.where, pos, std::move(tris), normals, {}, std::move(cornerUv), {}, alpha);
         } else if (type.text == "bilinearmesh") {
             bilinearMesh(t);
         } else if (type.text == "loopsubdiv") {
@@ -2865,7 +2873,7 @@ class Parser {
                 normals[i] = {ply.normals[i][0], ply.normals[i][1], ply.normals[i][2]};
             std::vector<std::array<float, 6>> cornerUv = cornersOf(ply.triangles, ply.uv);
             addMesh(t.where, pos, std::move(ply.triangles), normals, {}, std::move(cornerUv), {},
-                    alpha.texture);
+                    alpha);
         } else {
             throw SceneError(type.where, "unsupported shape \"" + type.text +
                                              "\" (cbdpt supports trianglemesh, bilinearmesh "
@@ -2990,7 +2998,7 @@ class Parser {
             throw SceneError(t.where, std::string("loopsubdiv: ") + e.what());
         }
         addMesh(t.where, surface.positions, std::move(surface.triangles), surface.normals, {}, {},
-                {}, alpha.texture);
+                {}, alpha);
     }
 
     // pbrt-v4's bilinear patches (p00, p10, p01, p11). A planar patch is exactly the two triangles
@@ -3088,7 +3096,7 @@ class Parser {
         }
         if (!alpha.hidden)
             addMesh(t.where, pos, std::move(tris), normals, patchArea, std::move(cornerUv),
-                    noTexCoords, alpha.texture);
+                    noTexCoords, alpha);
     }
 
     // Ring segments of a full disk; a partial one (phimax < 360) gets its share, at least 4.
@@ -3164,7 +3172,7 @@ class Parser {
             addMesh(t.where, pos, std::move(tris), {}, diskArea, {},
                     "a disk (its polar (u, v) is not linear over the triangles cbdpt renders it "
                     "as)",
-                    alpha.texture);
+                    alpha);
     }
 
     // The CTM's scale factor; an error unless the CTM is a similarity (only those keep a sphere
@@ -3193,7 +3201,7 @@ class Parser {
         return std::sqrt(s2);
     }
 
-    void sphere(const SourceLocation& where, double radius) {
+    void sphere(const SourceLocation& where, double radius, bool invisible) {
         const double scale = similarityScale(where);
         const Mat4& m = state_.ctm;
         SphereDesc s;
@@ -3210,6 +3218,7 @@ class Parser {
         s.reverseOrientation = state_.reverseOrientation != (m.det3() < 0.0);
         s.material = currentMaterial();
         s.areaLight = state_.areaLight;
+        s.invisible = invisible;
         s.shapeArea = 4.0 * M_PI * radius * radius;
         s.scale = scale;
         for (int row = 0; row < 3; ++row)
@@ -3228,9 +3237,9 @@ class Parser {
     void addMesh(const SourceLocation& where, const std::vector<std::array<double, 3>>& objPos,
                  std::vector<std::array<unsigned, 3>> tris,
                  const std::vector<std::array<double, 3>>& objNormals,
-                 const std::vector<double>& shapeArea = {},
-                 const std::vector<std::array<float, 6>>& cornerUv = {},
-                 const std::string& noTexCoords = {}, int alphaTexture = -1) {
+                 const std::vector<double>& shapeArea,
+                 const std::vector<std::array<float, 6>>& cornerUv, const std::string& noTexCoords,
+                 const ShapeAlpha& alpha) {
         requireAffine(where);
         const Mat4& m = state_.ctm;
         TriangleMeshDesc mesh;
@@ -3291,7 +3300,8 @@ class Parser {
         }
         mesh.material = currentMaterial();
         mesh.areaLight = state_.areaLight;
-        mesh.alphaTexture = alphaTexture;
+        mesh.alphaTexture = alpha.texture;
+        mesh.invisible = alpha.invisible;
         scene_.meshes.push_back(std::move(mesh));
     }
 

@@ -145,6 +145,9 @@ struct TriangleMeshDesc {
     // (1 x 1 for a constant) whose value at a hit decides whether the hit counts (alpha 0 skips
     // it, 1 keeps it, between at random with that probability); -1: opaque.
     int alphaTexture = -1;
+    // An area light's shape of alpha 0 (pbrt-v4's invisible area light): it emits and light
+    // sampling reaches it, but no ray finds it.
+    bool invisible = false;
     SourceLocation where;
 
     // Swaps triangle t's corners 1 and 2, so that its other side faces out; their (u, v) go
@@ -165,6 +168,7 @@ struct SphereDesc {
     bool reverseOrientation = false;             // normals point inward
     int material = -1;
     int areaLight = -1;
+    bool invisible = false; // an area light of alpha 0, as TriangleMeshDesc::invisible
     double shapeArea = 0.0; // pbrt-v4's Sphere::Area(): 4 pi times the object-space radius^2
     double scale = 1.0;     // the CTM's uniform scale: world radius over object radius
     // The CTM's rotation (its uniform scale divided out; a mirror allowed), row-major: the
