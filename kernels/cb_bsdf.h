@@ -136,8 +136,8 @@ CB_FN Spectrum diffuseTransmissionSpectrum(const SceneView* scene, int texture, 
  * included; below 0 when both are black. */
 CB_FN real cbDiffuseTransmissionAt(const SceneView* scene, Material m, TexCoord uv, Spectrum* r,
                                    Spectrum* t) {
-    *r = diffuseTransmissionSpectrum(scene, m.reflectanceTexture, m.reflectance, m.textureScale,
-                                     uv);
+    *r =
+        diffuseTransmissionSpectrum(scene, m.reflectanceTexture, m.reflectance, m.textureScale, uv);
     *t = diffuseTransmissionSpectrum(scene, m.transmittanceTexture, m.secondSpectrum,
                                      m.textureScale, uv);
     real pr = specMaxComponent(*r);
@@ -155,6 +155,16 @@ CB_FN Material materialRoughnessAt(const SceneView* scene, Material m, TexCoord 
     real roughness = fmax(textureFloat(scene, m.roughnessTexture, uv), 0.0f);
     real alpha = m.remapRoughness ? sqrt(roughness) : roughness;
     m.alpha = fmax(alpha, 1e-3f);
+    return m;
+}
+#endif
+
+#if CB_HAS(CB_FEATURE_THICKNESS_TEXTURE)
+/* A coat whose layer thickness is a float texture, with its thickness at uv: the texture's
+ * value there, at least the smallest normal float (pbrt-v4's LayeredBxDF keeps it so). */
+CB_FN Material materialThicknessAt(const SceneView* scene, Material m, TexCoord uv) {
+    if (m.thicknessTexture >= 0)
+        m.thickness = fmax(textureFloat(scene, m.thicknessTexture, uv), 1.17549435e-38f);
     return m;
 }
 #endif
@@ -969,6 +979,9 @@ CB_FN Spectrum cbLobeEval(const SceneView* scene, Material m, TexCoord uv, Vec3 
 #if CB_HAS(CB_FEATURE_ROUGHNESS_TEXTURE)
     m = materialRoughnessAt(scene, m, uv);
 #endif
+#if CB_HAS(CB_FEATURE_THICKNESS_TEXTURE)
+    m = materialThicknessAt(scene, m, uv);
+#endif
 #if CB_HAS(CB_FEATURE_DISPERSION)
     m = materialDispersionAt(scene, m, uv);
 #endif
@@ -1085,6 +1098,9 @@ CB_FN bool cbLobeSample(const SceneView* scene, Material m, TexCoord uv, Vec3 wo
     (void)uv;
 #if CB_HAS(CB_FEATURE_ROUGHNESS_TEXTURE)
     m = materialRoughnessAt(scene, m, uv);
+#endif
+#if CB_HAS(CB_FEATURE_THICKNESS_TEXTURE)
+    m = materialThicknessAt(scene, m, uv);
 #endif
 #if CB_HAS(CB_FEATURE_DISPERSION)
     m = materialDispersionAt(scene, m, uv);

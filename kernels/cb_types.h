@@ -102,6 +102,8 @@ typedef struct Hit {
 #define CB_FEATURE_TEXTURE_MAPPING (1u << 26)
 /* Area lights whose shape has alpha 0: sampled as lights, never found by a ray (pbrt-v4). */
 #define CB_FEATURE_INVISIBLE_LIGHT (1u << 27)
+/* Coats whose layer thickness is a float texture (pbrt-v4's "texture thickness"). */
+#define CB_FEATURE_THICKNESS_TEXTURE (1u << 28)
 
 #ifndef CB_FEATURES
 #define CB_FEATURES 0xffffffffu
@@ -190,6 +192,9 @@ typedef struct Material {
      * "remaproughness"). `alpha` then only says that the lobe is rough. */
     int roughnessTexture;
     int remapRoughness;
+    /* CB_FEATURE_THICKNESS_TEXTURE: the offset in `textures` of the float texture that gives a
+     * coat's layer thickness in place of `thickness`, -1: none. */
+    int thicknessTexture;
     /* CB_FEATURE_ALPHA: the offset in `textures` of the float texture (1 x 1 for a constant) that
      * gives the shape's alpha, for the primitives of kind CB_PRIM_ALPHA_TRIANGLE; -1: none. */
     int alphaTexture;

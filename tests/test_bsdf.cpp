@@ -65,6 +65,7 @@ struct TestScene {
         m.textureScale = 1.0f;
         m.normalMap = -1;
         m.roughnessTexture = -1;
+        m.thicknessTexture = -1;
         m.alphaTexture = -1;
         m.displacement = -1;
         m.dispersion = -1;

@@ -24,6 +24,7 @@
 #include <fstream>
 #include <random>
 #include <string>
+#include <tuple>
 #include <vector>
 
 using namespace cbtest::method_checks;
@@ -1187,18 +1188,97 @@ TEST_CASE("roughness textures: float textures, the materials that take them, the
     CHECK(contains(diskError, "needs texture coordinates"));
 }
 
-// A roughness texture of one value renders as that constant roughness: the same estimates, for
-// every textured kind and method (RGB; the texel is the value, so the kernels' alpha is the
-// host's up to the texture's bilinear weights' rounding). The five kinds stand side by side in
-// one scene, so that each method compiles its kernels twice, not ten times.
-TEST_CASE("roughness textures: a one-value texture renders as that constant roughness" *
+// pbrt-v4's "texture thickness" of the coats: a float texture as the layer's thickness, looked
+// up per hit (materialThicknessAt): a coat's f and pdfs at a texel are those of the same coat
+// with that texel's thickness, the walk's random numbers being hashed from the directions.
+TEST_CASE("thickness textures: a coat's layer thickness looked up per hit") {
+    TempDirCleanup cleanup;
+    writeImage("thick.exr", 2, 1, [](int x, int, int) { return x == 0 ? 0.05f : 0.8f; });
+    const std::string textures =
+        "Texture \"t\" \"float\" \"imagemap\" \"string filename\" \"thick.exr\" \"string "
+        "filter\" \"point\"\nTexture \"k\" \"float\" \"constant\" \"float value\" 0.3\n";
+    const cb::SceneDesc desc = sceneDesc(
+        textures +
+        "Material \"coateddiffuse\" \"texture thickness\" \"t\" \"float roughness\" 0.2 "
+        "\"rgb albedo\" [0.5 0.5 0.5]\n" +
+        triangleAt(0) +
+        "Material \"coatedconductor\" \"texture thickness\" \"k\" \"float interface.roughness\" "
+        "0.1\n" +
+        triangleAt(1) + "Material \"coateddiffuse\"\n" + triangleAt(2));
+    REQUIRE(desc.materials.size() == 3);
+    CHECK(desc.materials[0].thicknessTexture == 0);
+    CHECK(desc.materials[1].thicknessTexture == 1);
+    CHECK(desc.materials[2].thicknessTexture == -1);
+    const cb::DeviceScene scene = cb::buildDeviceScene(desc);
+    CHECK((scene.features & CB_FEATURE_THICKNESS_TEXTURE) != 0);
+    CHECK((deviceScene("Material \"coateddiffuse\" \"float thickness\" 0.3\n" + triangleAt(0))
+               .features &
+           CB_FEATURE_THICKNESS_TEXTURE) == 0);
+    const cbk::SceneView view = cbtest::hostView(scene);
+    const cbk::Frame frame = cbk::frameFromNormal(cbk::vec3(0.f, 0.f, 1.f));
+    const cbk::Vec3 wo = cbk::vnormalize(cbk::vec3(0.3f, -0.2f, 0.9f));
+    const cbk::Vec3 wi = cbk::vnormalize(cbk::vec3(-0.5f, 0.1f, 0.6f));
+    for (const auto& [material, u, thickness] :
+         {std::tuple{0, 0.25f, 0.05f}, std::tuple{0, 0.75f, 0.8f}, std::tuple{1, 0.5f, 0.3f}}) {
+        CAPTURE(material);
+        CAPTURE(u);
+        REQUIRE(scene.materials[size_t(material)].thicknessTexture >= 0);
+        cb::DeviceScene constant = scene;
+        constant.materials[size_t(material)].thicknessTexture = -1;
+        constant.materials[size_t(material)].thickness = thickness;
+        const cbk::SceneView constantView = cbtest::hostView(constant);
+        float pdf = 0.f, pdfRev = 0.f, constantPdf = 0.f, constantPdfRev = 0.f;
+        const cbk::Spectrum f =
+            cbk::bsdfEval(&view, material, uvOf(u, 0.5f), frame, wo, wi, 0, &pdf, &pdfRev);
+        const cbk::Spectrum expected = cbk::bsdfEval(&constantView, material, uvOf(u, 0.5f), frame,
+                                                     wo, wi, 0, &constantPdf, &constantPdfRev);
+        for (int c = 0; c < 3; ++c)
+            CHECK(f.c[c] == doctest::Approx(expected.c[c]).epsilon(1e-6));
+        CHECK(f.c[0] > 0.f);
+        CHECK(pdf == doctest::Approx(constantPdf).epsilon(1e-6));
+        CHECK(pdfRev == doctest::Approx(constantPdfRev).epsilon(1e-6));
+    }
+    // The two texels' coats differ (a thicker layer absorbs more of the base's light).
+    float pdf = 0.f, pdfRev = 0.f;
+    const float thin =
+        cbk::bsdfEval(&view, 0, uvOf(0.25f, 0.5f), frame, wo, wi, 0, &pdf, &pdfRev).c[1];
+    const float thick =
+        cbk::bsdfEval(&view, 0, uvOf(0.75f, 0.5f), frame, wo, wi, 0, &pdf, &pdfRev).c[1];
+    CHECK(thick < 0.9f * thin);
+
+    for (const auto& [material, message] :
+         {std::pair{"\"coateddiffuse\" \"texture thickness\" \"later\"",
+                    "no float texture \"later\" is defined before this material (cbdpt reads a "
+                    "texture thickness"},
+          std::pair{"\"coatedconductor\" \"texture thickness\" \"w\"", "class \"wrinkled\""},
+          std::pair{"\"coateddiffuse\" \"float thickness\" -1", "must be >= 0"}}) {
+        CAPTURE(material);
+        const std::string error =
+            errorOf("WorldBegin\nTexture \"w\" \"float\" \"wrinkled\"\nMaterial " +
+                    std::string(material) + "\n");
+        CHECK(contains(error, ":3:"));
+        CHECK(contains(error, message));
+    }
+}
+
+// A roughness or thickness texture of one value renders as that constant: the same estimates,
+// for every textured kind and method (RGB; the texel is the value, so the kernels' alpha is the
+// host's up to the texture's bilinear weights' rounding). The seven kinds stand side by side in
+// one scene, so that each method compiles its kernels twice, not fourteen times.
+TEST_CASE("roughness and thickness textures: a one-value texture renders as that constant" *
           doctest::test_suite("statistical")) {
     TempDirCleanup cleanup;
     cb::ClRuntime runtime;
     writeImage("flat.exr", 3, 3, [](int, int, int) { return 0.3f; });
-    const std::vector<std::string> materials = {
-        "\"conductor\"", "\"conductor\" \"bool remaproughness\" false", "\"dielectric\"",
-        "\"coateddiffuse\"", "\"coatedconductor\""};
+    // Each material and its textured parameter.
+    const std::vector<std::pair<std::string, std::string>> materials = {
+        {"\"conductor\"", "roughness"},
+        {"\"conductor\" \"bool remaproughness\" false", "roughness"},
+        {"\"dielectric\"", "roughness"},
+        {"\"coateddiffuse\"", "roughness"},
+        {"\"coatedconductor\"", "interface.roughness"},
+        {"\"coateddiffuse\" \"float roughness\" 0.1", "thickness"},
+        {"\"coatedconductor\" \"rgb albedo\" [0.6 0.6 0.6]", "thickness"}};
     auto scene = [&](bool textured) {
         std::string world =
             "LookAt 0 2 -3  0 0.3 0  0 1 0\nCamera \"perspective\" \"float fov\" 50\n"
@@ -1209,14 +1289,13 @@ TEST_CASE("roughness textures: a one-value texture renders as that constant roug
             "\"flat.exr\"\n"
             "Material \"diffuse\" \"rgb reflectance\" [0.6 0.5 0.4]\n"
             "Shape \"bilinearmesh\" \"point3 P\" [-3 0 -2  3 0 -2  -3 0 2  3 0 2]\n";
-        // A wall of five strips at z = 1, one kind each, and a triangle of each kind before it.
+        // A wall of seven strips at z = 1, one kind each, and a triangle of each kind before it.
         for (size_t i = 0; i < materials.size(); ++i) {
-            const std::string param =
-                materials[i] == "\"coatedconductor\"" ? "interface.roughness" : "roughness";
-            const std::string x0 = std::to_string(-2.5 + double(i)),
-                              x1 = std::to_string(-1.5 + double(i)),
-                              xm = std::to_string(-2.0 + double(i));
-            world += "Material " + materials[i] +
+            const auto& [material, param] = materials[i];
+            const std::string x0 = std::to_string(-2.8 + 0.8 * double(i)),
+                              x1 = std::to_string(-2.0 + 0.8 * double(i)),
+                              xm = std::to_string(-2.4 + 0.8 * double(i));
+            world += "Material " + material +
                      (textured ? " \"texture " + param + "\" \"flat\"\n"
                                : " \"float " + param + "\" 0.3\n") +
                      "Shape \"bilinearmesh\" \"point3 P\" [" + x0 + " 0 1  " + x1 + " 0 1  " + x0 +
@@ -1227,6 +1306,8 @@ TEST_CASE("roughness textures: a one-value texture renders as that constant roug
     };
     const cb::DeviceScene textured = scene(true);
     const cb::DeviceScene constant = scene(false);
+    REQUIRE((textured.features & CB_FEATURE_THICKNESS_TEXTURE) != 0);
+    REQUIRE((constant.features & CB_FEATURE_THICKNESS_TEXTURE) == 0);
     checkSameEstimates(textured, constant, CB_FEATURE_ROUGHNESS_TEXTURE, kAllMethods, 7u, 1e-4,
                        runtime);
 }

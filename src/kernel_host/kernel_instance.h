@@ -114,6 +114,7 @@ template <class Visit> void forEachField(cbk::Material& s, Visit&& visit) {
     visit(s.normalMap);
     visit(s.roughnessTexture);
     visit(s.remapRoughness);
+    visit(s.thicknessTexture);
     visit(s.alphaTexture);
     visit(s.displacement);
     visit(s.dispersion);

@@ -17,7 +17,7 @@
 namespace cb {
 
 static_assert(sizeof(cbk::Primitive) == 48, "Primitive must match the OpenCL layout");
-static_assert(sizeof(cbk::Material) == 92, "Material must match the OpenCL layout");
+static_assert(sizeof(cbk::Material) == 96, "Material must match the OpenCL layout");
 static_assert(sizeof(cbk::Light) == 112, "Light must match the OpenCL layout");
 static_assert(sizeof(cbk::Camera) == 432, "Camera must match the OpenCL layout");
 
@@ -465,7 +465,8 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         };
         auto uses = [&](const MaterialDesc& d) {
             return byUv(d.reflectanceTexture) || byUv(d.transmittanceTexture) ||
-                   byUv(d.roughnessTexture) || d.normalMap >= 0 || d.displacement >= 0;
+                   byUv(d.roughnessTexture) || byUv(d.thicknessTexture) || d.normalMap >= 0 ||
+                   d.displacement >= 0;
         };
         bool any = uses(md);
         for (int c : md.mix)
@@ -534,6 +535,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         out.textureScale = 1.f;
         out.normalMap = -1;
         out.roughnessTexture = -1;
+        out.thicknessTexture = -1;
         out.alphaTexture = -1;
         out.displacement = -1;
         out.dispersion = -1;
@@ -634,8 +636,13 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
             out.alpha = alpha < 1e-3f || m.eta == 1.f ? 0.f : alpha;
             const float baseAlpha = ggxAlpha(m.baseRoughness);
             out.baseAlpha = baseAlpha < 1e-3f ? 0.f : baseAlpha;
-            // pbrt-v4 keeps the thickness at least the smallest normal float
+            // pbrt-v4 keeps the thickness at least the smallest normal float (the kernels keep a
+            // texture's so per hit: materialThicknessAt)
             out.thickness = std::max(m.thickness, std::numeric_limits<float>::min());
+            if (m.thicknessTexture >= 0 && materialUsed[i]) {
+                out.thicknessTexture = addTexture(m.thicknessTexture);
+                scene.features |= CB_FEATURE_TEXTURE | CB_FEATURE_THICKNESS_TEXTURE;
+            }
             out.layerDepth = m.layerDepth;
             out.layerSamples = m.layerSamples;
             if (m.layerAlbedo) out.layerAlbedo = spectra.addAlbedo(*m.layerAlbedo, 1.f);
@@ -1090,6 +1097,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
             if (m.transmittanceTexture >= 0) m.transmittanceTexture += int(uvCount);
             if (m.normalMap >= 0) m.normalMap += int(uvCount);
             if (m.roughnessTexture >= 0) m.roughnessTexture += int(uvCount);
+            if (m.thicknessTexture >= 0) m.thicknessTexture += int(uvCount);
             if (m.alphaTexture >= 0) m.alphaTexture += int(uvCount);
             if (m.displacement >= 0) m.displacement += int(uvCount);
         }
@@ -1129,6 +1137,7 @@ std::string DeviceScene::featureNames() const {
     add(CB_FEATURE_SHADING_NORMALS, "shading-normals");
     add(CB_FEATURE_NORMAL_MAP, "normal-map");
     add(CB_FEATURE_ROUGHNESS_TEXTURE, "roughness-texture");
+    add(CB_FEATURE_THICKNESS_TEXTURE, "thickness-texture");
     add(CB_FEATURE_THIN_LENS, "thin-lens");
     add(CB_FEATURE_PIXEL_FILTER, "pixel-filter");
     add(CB_FEATURE_DISPERSION, "dispersion");

@@ -1670,12 +1670,18 @@ class Parser {
             if (const Param* p = pl.peek(n); p && p->type != "texture")
                 throw SceneError(p->where, "\"" + n + "\" is a number beside the texture of \"" +
                                                first->name + "\"; give one or the other");
-        const SourceLocation at = first->valueLoc(0);
-        const auto it = floatTextures_.find(texture);
+        return floatTextureBefore(texture, first->valueLoc(0), "roughness");
+    }
+
+    // The index in scene_.textures of float texture `name`, which a material's parameter `what`
+    // names at `at`: it must be defined before the material, and of a class cbdpt reads.
+    int floatTextureBefore(const std::string& name, const SourceLocation& at,
+                           const std::string& what) {
+        const auto it = floatTextures_.find(name);
         if (it == floatTextures_.end())
-            throw SceneError(at, "no float texture \"" + texture +
-                                     "\" is defined before this material (cbdpt reads a texture "
-                                     "roughness from a Texture defined before the material)");
+            throw SceneError(at, "no float texture \"" + name +
+                                     "\" is defined before this material (cbdpt reads a texture " +
+                                     what + " from a Texture defined before the material)");
         if (it->second.index < 0) throw SceneError(at, it->second.unsupported);
         return it->second.index;
     }
@@ -1763,10 +1769,13 @@ class Parser {
         readLayer(pl, m);
     }
 
-    // The layer of the coated materials: "thickness", the walk's "maxdepth" and "nsamples",
-    // and the medium's "albedo" and "g".
-    static void readLayer(ParamList& pl, MaterialDesc& m) {
-        if (const Param* p = pl.peek("thickness")) {
+    // The layer of the coated materials: "thickness" (a number or a float texture, looked up
+    // per hit), the walk's "maxdepth" and "nsamples", and the medium's "albedo" and "g".
+    void readLayer(ParamList& pl, MaterialDesc& m) {
+        if (const Param* p = pl.peek("thickness"); p && p->type == "texture") {
+            m.thicknessTexture =
+                floatTextureBefore(*pl.oneTexture("thickness"), p->valueLoc(0), "thickness");
+        } else if (p) {
             const double t = *pl.oneFloat("thickness");
             if (!(t >= 0.0))
                 throw SceneError(p->valueLoc(0),

@@ -97,6 +97,9 @@ struct MaterialDesc {
     // conductor, dielectric and coats: "texture roughness" (or u/v roughness naming one float
     // texture), an index into SceneDesc::textures that replaces `roughness`; -1: none
     int roughnessTexture = -1;
+    // coats: "texture thickness", a float texture replacing `thickness`, an index into
+    // SceneDesc::textures; -1: none
+    int thicknessTexture = -1;
     // pbrt-v4's "displacement" (a bump map): a float texture, 1 x 1 for a constant, an index into
     // SceneDesc::textures; -1: none (also where the material has a normal map, which pbrt-v4 uses
     // instead)
