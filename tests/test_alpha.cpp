@@ -260,6 +260,8 @@ TEST_CASE("shape alpha: two planes under a sky, every method, against the analyt
     writeRgbaPng("holes.png", 2, 2, 4, [](int x, int y) {
         return Texel{0, 0, 0, Byte(x == 0 && y == 0 ? 255 : 0)};
     });
+    // Alpha 1 as an image (a constant texture of 1 counts as no alpha, as pbrt-v4's).
+    writeRgbaPng("ones.png", 1, 1, 4, [](int, int) { return Texel{255, 255, 255, 255}; });
     const double rf = 0.6, rb = 0.8;
     const int maxVertices = 8;
     for (const auto& [alphaLine, a] :
@@ -272,7 +274,7 @@ TEST_CASE("shape alpha: two planes under a sky, every method, against the analyt
             "PixelFilter \"box\"\nWorldBegin\nLightSource \"infinite\" \"rgb L\" [1 1 1]\n"
             "Texture \"holes\" \"float\" \"imagemap\" \"string filename\" \"holes.png\" "
             "\"float uscale\" 40000 \"float vscale\" 40000\n"
-            "Texture \"one\" \"float\" \"constant\" \"float value\" 1\n"
+            "Texture \"one\" \"float\" \"imagemap\" \"string filename\" \"ones.png\"\n"
             "Material \"diffuse\" \"rgb reflectance\" [{0} {0} {0}]\n"
             "Shape \"bilinearmesh\" \"point3 P\" [-100 -100 0  100 -100 0  -100 100 0  100 100 0] "
             "{2}\n"

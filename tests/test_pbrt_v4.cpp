@@ -1769,7 +1769,7 @@ TEST_CASE("pbrt-v4 shape alpha: 1 is opaque, 0 invisible, between alpha-tested")
             "WorldBegin\nLightSource \"point\"\n" + shape + "\"float alpha\" 0\n", "t.pbrt");
         CHECK(hidden.meshes.size() + hidden.spheres.size() == 0);
         REQUIRE(hidden.notes.size() == 1);
-        CHECK(contains(hidden.notes[0], "t.pbrt:3: a shape of \"float alpha\" 0 is invisible"));
+        CHECK(contains(hidden.notes[0], "t.pbrt:3: a shape of alpha 0 is invisible"));
         // An area light's shape of alpha 0 stays, as an invisible light (tests/test_alpha.cpp).
         const auto light = parseSceneString(
             "WorldBegin\nAreaLightSource \"diffuse\"\n" + shape + "\"float alpha\" 0\n", "t.pbrt");
@@ -1778,8 +1778,24 @@ TEST_CASE("pbrt-v4 shape alpha: 1 is opaque, 0 invisible, between alpha-tested")
         CHECK((light.meshes.empty() ? light.spheres[0].areaLight : light.meshes[0].areaLight) == 0);
         CHECK((opaque.meshes.empty() ? !opaque.spheres[0].invisible : !opaque.meshes[0].invisible));
         REQUIRE(light.notes.size() == 1);
-        CHECK(contains(light.notes[0], "t.pbrt:3: an area light's shape of \"float alpha\" 0 is "
+        CHECK(contains(light.notes[0], "t.pbrt:3: an area light's shape of alpha 0 is "
                                        "an invisible light"));
+        // A float texture of class "constant" counts as its number (pbrt-v4's
+        // FloatConstantTexture): 0 makes the light invisible, 1 the shape opaque.
+        const std::string constants =
+            "WorldBegin\nTexture \"zero\" \"float\" \"constant\" \"float value\" 0\n"
+            "Texture \"one\" \"float\" \"constant\" \"float value\" 1\n";
+        const auto constantLight = parseSceneString(constants + "AreaLightSource \"diffuse\"\n" +
+                                                        shape + "\"texture alpha\" \"zero\"\n",
+                                                    "t.pbrt");
+        REQUIRE(constantLight.meshes.size() + constantLight.spheres.size() == 1);
+        CHECK((constantLight.meshes.empty() ? constantLight.spheres[0].invisible
+                                            : constantLight.meshes[0].invisible));
+        const auto constantOpaque = parseSceneString(constants + "LightSource \"point\"\n" + shape +
+                                                         "\"texture alpha\" \"one\"\n",
+                                                     "t.pbrt");
+        REQUIRE(constantOpaque.meshes.size() + constantOpaque.spheres.size() == 1);
+        if (!constantOpaque.meshes.empty()) CHECK(constantOpaque.meshes[0].alphaTexture == -1);
         // Between (tests/test_alpha.cpp): alpha-tested triangles; refused on spheres.
         if (shape == shapes[0]) {
             CHECK(contains(errorOf("WorldBegin\n" + shape + "\"float alpha\" 0.5\n"),

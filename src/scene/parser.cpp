@@ -2201,6 +2201,7 @@ class Parser {
         if (type.text == "spectrum") made = spectrumTexture(cls.text, pl, name.text, t.where, why);
         if (type.text == "float") made = floatTexture(cls.text, pl, name.text, t.where, why);
         if (made) {
+            if (type.text == "float" && cls.text == "constant") entry.constant = made->rgb[0];
             made->name = name.text;
             made->where = t.where;
             entry.index = int(scene_.textures.size());
@@ -2766,8 +2767,9 @@ class Parser {
     // probability (stochastic transparency). A constant >= 1 is opaque (the default); one <= 0
     // skips every hit, so the shape is `hidden` (not added), unless it is an area light's: then
     // it is `invisible`, a light that light sampling reaches and no ray finds (pbrt-v4's
-    // DiffuseAreaLight of alpha 0). Otherwise `texture` indexes the alpha texture in
-    // scene_.textures, a 1 x 1 one for a constant.
+    // DiffuseAreaLight of alpha 0). A float texture of class "constant" counts as its number, as
+    // pbrt-v4 tells its FloatConstantTexture apart. Otherwise `texture` indexes the alpha texture
+    // in scene_.textures, a 1 x 1 one for a constant.
     struct ShapeAlpha {
         bool hidden = false;
         bool invisible = false;
@@ -2777,6 +2779,7 @@ class Parser {
         const Param* p = pl.peek("alpha");
         if (!p) return {};
         ShapeAlpha out;
+        std::optional<double> constant;
         if (p->type == "texture") {
             const std::string name = *pl.oneTexture("alpha");
             const auto it = floatTextures_.find(name);
@@ -2785,19 +2788,23 @@ class Parser {
                                  "\"texture alpha\" names no float texture \"" + name +
                                      "\" (cbdpt reads an alpha texture defined before its shape)");
             if (it->second.index < 0) throw SceneError(p->valueLoc(0), it->second.unsupported);
+            constant = it->second.constant;
             out.texture = it->second.index;
         } else {
-            const double alpha = *pl.oneFloat("alpha");
+            constant = *pl.oneFloat("alpha");
+        }
+        if (constant) {
+            const double alpha = *constant;
             if (alpha >= 1.0) return {};
             if (alpha <= 0.0 && state_.areaLight >= 0) {
                 note(t.where, "alpha-zero-light",
-                     "an area light's shape of \"float alpha\" 0 is an invisible light (as in "
+                     "an area light's shape of alpha 0 is an invisible light (as in "
                      "pbrt-v4): it lights the scene, and rays pass through it");
                 return {false, true, -1};
             }
             if (alpha <= 0.0) {
                 note(t.where, "alpha-zero",
-                     "a shape of \"float alpha\" 0 is invisible (pbrt-v4 skips its hits): not "
+                     "a shape of alpha 0 is invisible (pbrt-v4 skips its hits): not "
                      "added");
                 return {true, false, -1};
             }
@@ -3453,6 +3460,7 @@ class Parser {
         int index = -1;
         std::string unsupported;
         SourceLocation where;
+        std::optional<double> constant; // a float texture of class "constant": its value
     };
     std::map<std::string, NamedTexture> spectrumTextures_, floatTextures_;
     std::map<std::string, int> normalMaps_;       // image path -> index in scene_.textures
