@@ -161,6 +161,9 @@ CB_FN TexCoord pvUv(const PathVertex* v) {
 #if CB_HAS(CB_FEATURE_TEXTURE_MAPPING)
     c.p = vec3FromArray(v->p);
 #endif
+#if CB_HAS(CB_FEATURE_DIRECTION_MIX)
+    c.n = pvN(v);
+#endif
     return c;
 }
 CB_FN void cbStore3(real* dst, Vec3 v) {

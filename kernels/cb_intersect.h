@@ -548,6 +548,9 @@ CB_FN SurfacePoint surfacePointFromHit(const SceneView* scene, Ray ray, Hit hit)
 #if CB_HAS(CB_FEATURE_TEXTURE_MAPPING)
         sp.uv.p = sp.p;
 #endif
+#if CB_HAS(CB_FEATURE_DIRECTION_MIX)
+        sp.uv.n = sp.ng;
+#endif
 #if CB_HAS(CB_FEATURE_NORMAL_MAP) || CB_HAS(CB_FEATURE_BUMP_MAP)
         return surfacePointMapped(scene, sp, hit, pLocal, pLocal, pLocal);
 #else
@@ -572,6 +575,9 @@ CB_FN SurfacePoint surfacePointFromHit(const SceneView* scene, Ray ray, Hit hit)
 #endif
 #if CB_HAS(CB_FEATURE_TEXTURE_MAPPING)
     sp.uv.p = sp.p;
+#endif
+#if CB_HAS(CB_FEATURE_DIRECTION_MIX)
+    sp.uv.n = sp.ng; /* |n . dir|: the side ng ends up facing does not matter */
 #endif
     sp.ns = sp.ng;
 #if CB_HAS(CB_FEATURE_SHADING_NORMALS)

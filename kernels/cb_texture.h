@@ -35,6 +35,10 @@ CB_BEGIN_NAMESPACE
 #define CB_MAPPING_SPHERICAL 1
 #define CB_MAPPING_CYLINDRICAL 2
 #define CB_MAPPING_PLANAR 3
+/* Not a mapping: pbrt-v4's "directionmix" of two images, whose unit direction (device space)
+ * fills the matrix's first three values and whose parts follow the header, each an image's header
+ * and texels (textureReflectance). */
+#define CB_MAPPING_DIRECTION_MIX 4
 
 #define CB_WRAP_REPEAT 0
 #define CB_WRAP_BLACK 1
@@ -53,6 +57,9 @@ CB_FN TexCoord triangleTexCoord(const SceneView* scene, int primitive, real b1, 
     c.hero = -1.0f;
 #if CB_HAS(CB_FEATURE_TEXTURE_MAPPING)
     c.p = vec3(0.0f, 0.0f, 0.0f); /* the caller's hit point, where it has one */
+#endif
+#if CB_HAS(CB_FEATURE_DIRECTION_MIX)
+    c.n = vec3(0.0f, 0.0f, 0.0f); /* the caller's normal */
 #endif
     return c;
 }
@@ -90,6 +97,9 @@ CB_FN TexCoord sphereTexCoord(const SceneView* scene, int primitive, Vec3 pLocal
     c.hero = -1.0f;
 #if CB_HAS(CB_FEATURE_TEXTURE_MAPPING)
     c.p = vec3(0.0f, 0.0f, 0.0f); /* the caller's hit point */
+#endif
+#if CB_HAS(CB_FEATURE_DIRECTION_MIX)
+    c.n = vec3(0.0f, 0.0f, 0.0f); /* the caller's normal */
 #endif
     return c;
 }
@@ -390,7 +400,7 @@ CB_FN Vec3 normalMapNormal(const SceneView* scene, int offset, Vec3 dpdu, Surfac
 /* The texture as a reflectance: RGB clamped to [0, 1] as pbrt-v4 clamps an albedo texture; in
  * spectral scenes Smits's spectrum of it, each bin clamped to [0, 1] as the host clamps a
  * constant reflectance's (SpectraTable::addAlbedo). */
-CB_FN Spectrum textureReflectance(const SceneView* scene, int offset, TexCoord uv) {
+CB_FN Spectrum textureImageReflectance(const SceneView* scene, int offset, TexCoord uv) {
     Vec3 rgb = textureRgb(scene, offset, uv);
     real r = cbClamp(rgb.x, 0.0f, 1.0f);
     real g = cbClamp(rgb.y, 0.0f, 1.0f);
@@ -408,6 +418,30 @@ CB_FN Spectrum textureReflectance(const SceneView* scene, int offset, TexCoord u
         s.c[i] = cbClamp(s.c[i], 0.0f, 1.0f);
     return s;
 #endif
+}
+
+/* A spectrum texture's reflectance at uv: an image's (textureImageReflectance), or pbrt-v4's
+ * "directionmix" (SpectrumDirectionMixTexture), a |n . dir| tex1 + (1 - a) tex2 at the hit's
+ * geometric normal n, each part an image's reflectance (clamped as pbrt-v4 clamps an image's
+ * albedo) and looked up only where its weight is not 0. */
+CB_FN Spectrum textureReflectance(const SceneView* scene, int offset, TexCoord uv) {
+#if CB_HAS(CB_FEATURE_DIRECTION_MIX)
+    CB_GLOBAL const real* texture = scene->textures + offset;
+    if ((int)texture[CB_TEXTURE_MAPPING] == CB_MAPPING_DIRECTION_MIX) {
+        CB_GLOBAL const real* dir = texture + CB_TEXTURE_MATRIX;
+        real a = fabs(vdot(uv.n, vec3(dir[0], dir[1], dir[2])));
+        int first = offset + CB_TEXTURE_HEADER;
+        CB_GLOBAL const real* one = scene->textures + first;
+        int second = first + CB_TEXTURE_HEADER +
+                     3 * (int)one[CB_TEXTURE_WIDTH] * (int)one[CB_TEXTURE_HEIGHT];
+        Spectrum s = specZero();
+        if (a != 0.0f) s = specScale(textureImageReflectance(scene, first, uv), a);
+        if (a != 1.0f)
+            s = specAdd(s, specScale(textureImageReflectance(scene, second, uv), 1.0f - a));
+        return s;
+    }
+#endif
+    return textureImageReflectance(scene, offset, uv);
 }
 
 CB_END_NAMESPACE

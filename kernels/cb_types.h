@@ -104,6 +104,8 @@ typedef struct Hit {
 #define CB_FEATURE_INVISIBLE_LIGHT (1u << 27)
 /* Coats whose layer thickness is a float texture (pbrt-v4's "texture thickness"). */
 #define CB_FEATURE_THICKNESS_TEXTURE (1u << 28)
+/* Textures mixed by the normal's direction (pbrt-v4's "directionmix"). */
+#define CB_FEATURE_DIRECTION_MIX (1u << 29)
 
 #ifndef CB_FEATURES
 #define CB_FEATURES 0xffffffffu
@@ -129,6 +131,9 @@ typedef struct TexCoord {
     real hero;
 #if CB_HAS(CB_FEATURE_TEXTURE_MAPPING)
     Vec3 p; /* the point itself (device space), for textures mapped by it (textureST) */
+#endif
+#if CB_HAS(CB_FEATURE_DIRECTION_MIX)
+    Vec3 n; /* the unit geometric normal, for textures mixed by it (textureReflectance) */
 #endif
 } TexCoord;
 

@@ -2020,6 +2020,8 @@ TEST_CASE("pbrt-v4: every comparison scene in scenes/pbrt-v4 parses and builds")
         if (name == "dispersion") CHECK(contains(scene.featureNames(), "dispersion"));
         if (name == "loopsubdiv") CHECK(contains(scene.featureNames(), "shading-normals"));
         if (name == "invisible-light") CHECK(contains(scene.featureNames(), "invisible-light"));
+        if (name == "thickness-texture") CHECK(contains(scene.featureNames(), "thickness-texture"));
+        if (name == "direction-mix") CHECK(contains(scene.featureNames(), "direction-mix"));
         ++scenes;
     }
     CHECK(scenes >= 9);

@@ -460,8 +460,13 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         if (m < 0) return false;
         const MaterialDesc& md = desc.materials[size_t(m)];
         auto byUv = [&](int texture) {
-            return texture >= 0 &&
-                   desc.textures[size_t(texture)].mappingKind == TextureDesc::Mapping::Uv;
+            if (texture < 0) return false;
+            const TextureDesc& t = desc.textures[size_t(texture)];
+            auto uv = [](const TextureDesc& image) {
+                return image.mappingKind == TextureDesc::Mapping::Uv;
+            };
+            return t.mixParts.empty() ? uv(t)
+                                      : std::any_of(t.mixParts.begin(), t.mixParts.end(), uv);
         };
         auto uses = [&](const MaterialDesc& d) {
             return byUv(d.reflectanceTexture) || byUv(d.transmittanceTexture) ||
@@ -476,16 +481,14 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
     std::vector<float> images;
     std::map<int, int> imageOffset; // SceneDesc::textures index -> offset in `images`
     int smitsBasisEntry = -1;
-    auto addTexture = [&](int index) {
-        if (auto it = imageOffset.find(index); it != imageOffset.end()) return it->second;
-        const TextureDesc& t = desc.textures[size_t(index)];
+    // An image's header and texels, appended to `images`.
+    auto appendImage = [&](const TextureDesc& t) {
         if (scene.channels == kSpectralBins && smitsBasisEntry < 0) {
             const auto& basis = smitsBasis();
             smitsBasisEntry = spectra.addBins(basis[0]);
             for (size_t k = 1; k < basis.size(); ++k)
                 spectra.addBins(basis[k]);
         }
-        const int offset = int(images.size());
         float header[CB_TEXTURE_HEADER] = {};
         header[CB_TEXTURE_WIDTH] = float(t.width);
         header[CB_TEXTURE_HEIGHT] = float(t.height);
@@ -518,6 +521,25 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         }
         images.insert(images.end(), header, header + CB_TEXTURE_HEADER);
         images.insert(images.end(), t.rgb.begin(), t.rgb.end());
+    };
+    // Texture `index` once: an image, or a "directionmix": a header of its direction, then its
+    // two parts' images one after the other (textureReflectance finds them there).
+    auto addTexture = [&](int index) {
+        if (auto it = imageOffset.find(index); it != imageOffset.end()) return it->second;
+        const TextureDesc& t = desc.textures[size_t(index)];
+        const int offset = int(images.size());
+        if (t.mixParts.empty()) {
+            appendImage(t);
+        } else {
+            float header[CB_TEXTURE_HEADER] = {};
+            header[CB_TEXTURE_MAPPING] = float(CB_MAPPING_DIRECTION_MIX);
+            for (size_t k = 0; k < 3; ++k)
+                header[CB_TEXTURE_MATRIX + k] = float(t.mixDirection[k]);
+            images.insert(images.end(), header, header + CB_TEXTURE_HEADER);
+            for (const TextureDesc& part : t.mixParts)
+                appendImage(part);
+            scene.features |= CB_FEATURE_DIRECTION_MIX;
+        }
         imageOffset[index] = offset;
         return offset;
     };
@@ -1138,6 +1160,7 @@ std::string DeviceScene::featureNames() const {
     add(CB_FEATURE_NORMAL_MAP, "normal-map");
     add(CB_FEATURE_ROUGHNESS_TEXTURE, "roughness-texture");
     add(CB_FEATURE_THICKNESS_TEXTURE, "thickness-texture");
+    add(CB_FEATURE_DIRECTION_MIX, "direction-mix");
     add(CB_FEATURE_THIN_LENS, "thin-lens");
     add(CB_FEATURE_PIXEL_FILTER, "pixel-filter");
     add(CB_FEATURE_DISPERSION, "dispersion");

@@ -2196,7 +2196,8 @@ class Parser {
         NamedTexture entry;
         entry.where = t.where;
         std::string why = "cbdpt renders \"spectrum\" textures of class \"imagemap\", "
-                          "\"constant\", \"scale\", \"mix\" and \"checkerboard\" only";
+                          "\"constant\", \"scale\", \"mix\", \"checkerboard\" and "
+                          "\"directionmix\" only";
         std::optional<TextureDesc> made;
         if (type.text == "spectrum") made = spectrumTexture(cls.text, pl, name.text, t.where, why);
         if (type.text == "float") made = floatTexture(cls.text, pl, name.text, t.where, why);
@@ -2227,7 +2228,42 @@ class Parser {
         if (cls == "scale") return scaledTexture(pl, why, false);
         if (cls == "mix") return mixTexture(pl, why, false);
         if (cls == "checkerboard") return checkerboardTexture(pl, why, false);
+        if (cls == "directionmix") return directionMixTexture(pl, why, where);
         return std::nullopt;
+    }
+
+    // pbrt-v4's SpectrumDirectionMixTexture: |n . dir| tex1 + (1 - |n . dir|) tex2 at a hit of
+    // geometric normal n, "vector3 dir" (0 1 0) taken by the CTM to world space and normalised;
+    // the parts are textures or constants as a mix's, kept as images (the kernels mix per hit:
+    // textureReflectance).
+    std::optional<TextureDesc> directionMixTexture(ParamList& pl, std::string& why,
+                                                   const SourceLocation& where) {
+        std::array<double, 3> dir{0, 1, 0};
+        SourceLocation dirWhere = where;
+        if (const Param* p = pl.numeric("dir", "vector3", 3)) {
+            if (p->size() != 3) throw SceneError(p->where, "\"vector3 dir\" expects 3 values");
+            dir = {p->numbers[0], p->numbers[1], p->numbers[2]};
+            dirWhere = p->where;
+        }
+        std::optional<TextureDesc> one = textureOperand(pl, "tex1", 0.f, why, false);
+        if (!one) return std::nullopt;
+        std::optional<TextureDesc> two = textureOperand(pl, "tex2", 1.f, why, false);
+        if (!two) return std::nullopt;
+        pl.finish();
+        requireAffine(where);
+        const Mat4& m = state_.ctm;
+        std::array<double, 3> world{};
+        for (int i = 0; i < 3; ++i)
+            world[size_t(i)] = m(i, 0) * dir[0] + m(i, 1) * dir[1] + m(i, 2) * dir[2];
+        const double length = std::sqrt(vecDot(world, world));
+        if (!(length > 0.0) || !std::isfinite(length))
+            throw SceneError(dirWhere, "\"vector3 dir\" must be a direction (not zero), also "
+                                       "after the CTM");
+        TextureDesc tex;
+        for (size_t i = 0; i < 3; ++i)
+            tex.mixDirection[i] = world[i] / length;
+        tex.mixParts = {std::move(*one), std::move(*two)};
+        return tex;
     }
 
     // A float texture of class `cls` as an image texture whose texels hold their value three
@@ -2327,7 +2363,13 @@ class Parser {
             why = "its \"texture " + param + "\" names " + it->second.unsupported;
             return std::nullopt;
         }
-        return scene_.textures[size_t(it->second.index)];
+        const TextureDesc& tex = scene_.textures[size_t(it->second.index)];
+        if (!tex.mixParts.empty()) {
+            why = "its \"texture " + param + "\" names the \"directionmix\" \"" + inner +
+                  "\", which cbdpt evaluates as a material's texture only, not inside another";
+            return std::nullopt;
+        }
+        return tex;
     }
 
     // pbrt-v4's MixTexture, (1 - amount) tex1 + amount tex2 for a constant "float amount",

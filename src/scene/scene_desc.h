@@ -244,6 +244,10 @@ struct TextureDesc {
     enum class Mapping { Uv, Spherical, Cylindrical, Planar };
     Mapping mappingKind = Mapping::Uv;
     std::array<double, 12> textureFromWorld{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0}; // 3 x 4
+    // pbrt-v4's "directionmix" (the fields above unused): its parts tex1 and tex2, images, mixed
+    // per hit by |n . mixDirection| (world space, unit) at the geometric normal n; empty: an image.
+    std::vector<TextureDesc> mixParts;
+    std::array<double, 3> mixDirection{0, 1, 0};
     SourceLocation where;
 };
 
