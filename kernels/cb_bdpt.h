@@ -54,7 +54,7 @@ CB_BEGIN_NAMESPACE
 
 /* Padding that keeps PathVertex a multiple of 16 bytes for any channel count, so that CBDPT
  * can upload host vertices byte for byte. */
-#define CB_PATH_VERTEX_PAD (4 - CB_CHANNELS % 4)
+#define CB_PATH_VERTEX_PAD (4 - (CB_CHANNELS + 3) % 4)
 
 typedef struct PathVertex {
     real p[3];
@@ -70,6 +70,7 @@ typedef struct PathVertex {
     real uv[2];  /* surfaces: texture coordinates (SurfacePoint.uv) */
     real ns[3];  /* surfaces: unit shading normal (SurfacePoint.ns); otherwise n */
     real hero;   /* surfaces: the wavelength the subpath follows (TexCoord.hero), -1: every bin */
+    real tangent[3]; /* surfaces, CB_FEATURE_ANISOTROPIC: SurfacePoint.tangent; otherwise 0 */
     Spectrum
         beta; /* subpath throughput / pdf up to this vertex (light[0]: 1/pdfFwd, Le excluded) */
     real pad[CB_PATH_VERTEX_PAD];
@@ -153,6 +154,22 @@ CB_FN Vec3 pvN(const PathVertex* v) {
 CB_FN Vec3 pvNs(const PathVertex* v) {
     return vec3FromArray(v->ns);
 }
+/* The BSDF's shading frame at surface vertex v (surfaceFrame). */
+CB_FN Frame pvFrame(const PathVertex* v) {
+#if CB_HAS(CB_FEATURE_ANISOTROPIC)
+    return frameFromNormalTangent(pvNs(v), vec3FromArray(v->tangent));
+#else
+    return frameFromNormal(pvNs(v));
+#endif
+}
+/* Zeroes the tangent and the padding, which most vertices leave unused, so that vertices compare
+ * and copy byte for byte. */
+CB_FN void pvClearTail(PathVertex* v) {
+    for (int i = 0; i < 3; ++i)
+        v->tangent[i] = 0.0f;
+    for (int i = 0; i < CB_PATH_VERTEX_PAD; ++i)
+        v->pad[i] = 0.0f;
+}
 CB_FN TexCoord pvUv(const PathVertex* v) {
     TexCoord c;
     c.u = v->uv[0];
@@ -226,6 +243,9 @@ CB_FN SurfacePoint pvSurfacePoint(const PathVertex* v) {
     sp.material = v->material;
     sp.light = v->light;
     sp.uv = pvUv(v);
+#if CB_HAS(CB_FEATURE_ANISOTROPIC)
+    sp.tangent = vec3FromArray(v->tangent);
+#endif
     return sp;
 }
 
@@ -267,8 +287,7 @@ CB_FN PathVertex bdptCameraVertex(const Camera* camera, Vec3 lens) {
     v.pdfRev = 0.0f;
     v.uv[0] = v.uv[1] = 0.0f;
     v.beta = specConst(1.0f);
-    for (int i = 0; i < CB_PATH_VERTEX_PAD; ++i)
-        v.pad[i] = 0.0f;
+    pvClearTail(&v);
     return v;
 }
 
@@ -328,8 +347,7 @@ CB_FN int bdptWalkStep(const SceneView* scene, bool found, Hit hit, Ray* ray, Sp
         v->pdfFwd = *pdfW;
         v->pdfRev = 0.0f;
         v->uv[0] = v->uv[1] = 0.0f;
-        for (int i = 0; i < CB_PATH_VERTEX_PAD; ++i)
-            v->pad[i] = 0.0f;
+        pvClearTail(v);
         v->beta = *beta;
         return 1;
     }
@@ -354,8 +372,10 @@ CB_FN int bdptWalkStep(const SceneView* scene, bool found, Hit hit, Ray* ray, Sp
     v->pdfRev = 0.0f;
     v->uv[0] = sp.uv.u;
     v->uv[1] = sp.uv.v;
-    for (int i = 0; i < CB_PATH_VERTEX_PAD; ++i)
-        v->pad[i] = 0.0f;
+    pvClearTail(v);
+#if CB_HAS(CB_FEATURE_ANISOTROPIC)
+    cbStore3(v->tangent, sp.tangent);
+#endif
     v->beta = *beta;
     v->pdfFwd = pvConvertPdf(*pdfW, pvP(prev), v);
     ++count;
@@ -366,7 +386,7 @@ CB_FN int bdptWalkStep(const SceneView* scene, bool found, Hit hit, Ray* ray, Sp
     sampleAt2(stream, base + CB_SLOT_BSDF_DIRECTION, &u0, &u1);
     real uLobe =
         bsdfReadsLobeSample(scene, sp.material) ? sampleAt(stream, base + CB_SLOT_BSDF_LOBE) : 0.0f;
-    if (!bsdfSample(scene, sp.material, sp.uv, frameFromNormal(sp.ns), vneg(ray->d), u0, u1, uLobe,
+    if (!bsdfSample(scene, sp.material, sp.uv, surfaceFrame(sp), vneg(ray->d), u0, u1, uLobe,
                     adjoint, &bs))
         return 1;
     if (!(bs.pdf > 0.0f) || specIsBlack(bs.f)) return 1;
@@ -453,8 +473,7 @@ CB_FN void bdptSetLightVertex(const SceneView* scene, PathVertex* v, const Light
     v->pdfFwd = pdfFwd;
     v->pdfRev = 0.0f;
     v->uv[0] = v->uv[1] = 0.0f;
-    for (int i = 0; i < CB_PATH_VERTEX_PAD; ++i)
-        v->pad[i] = 0.0f;
+    pvClearTail(v);
     v->beta = specConst(1.0f / pdfFwd);
 }
 
@@ -772,8 +791,8 @@ CB_FN bool bdptConnectUnoccluded(const SceneView* scene, const Camera* camera,
         real we = cameraImportance(camera, vneg(w), &pdfCamDir);
         if (!(we > 0.0f)) return false;
         real pdfFwd, pdfRev;
-        Spectrum f = bsdfEval(scene, qs->material, pvUv(qs), frameFromNormal(pvNs(qs)),
-                              vec3FromArray(qs->wo), w, 1, &pdfFwd, &pdfRev);
+        Spectrum f = bsdfEval(scene, qs->material, pvUv(qs), pvFrame(qs), vec3FromArray(qs->wo), w,
+                              1, &pdfFwd, &pdfRev);
         if (specIsBlack(f)) return false;
         Vec3 forward = pvN(&eye[0]);
         real cosCam = vdot(vneg(w), forward);
@@ -793,8 +812,8 @@ CB_FN bool bdptConnectUnoccluded(const SceneView* scene, const Camera* camera,
     if (!(dist2 > 0.0f)) return false;
     Vec3 w = vscale(d, 1.0f / sqrt(dist2)); /* pt -> qs */
     real ptFwd, ptRev;
-    Spectrum fPt = bsdfEval(scene, pt->material, pvUv(pt), frameFromNormal(pvNs(pt)),
-                            vec3FromArray(pt->wo), w, 0, &ptFwd, &ptRev);
+    Spectrum fPt = bsdfEval(scene, pt->material, pvUv(pt), pvFrame(pt), vec3FromArray(pt->wo), w, 0,
+                            &ptFwd, &ptRev);
     if (specIsBlack(fPt)) return false;
     Spectrum fQs;
     real qsFwd, qsRev = 0.0f;
@@ -802,8 +821,8 @@ CB_FN bool bdptConnectUnoccluded(const SceneView* scene, const Camera* camera,
         fQs = bdptLightEmission(scene, qs, vneg(w));
         qsFwd = bdptLightDirectionPdf(scene, qs, vneg(w));
     } else {
-        fQs = bsdfEval(scene, qs->material, pvUv(qs), frameFromNormal(pvNs(qs)),
-                       vec3FromArray(qs->wo), vneg(w), 1, &qsFwd, &qsRev);
+        fQs = bsdfEval(scene, qs->material, pvUv(qs), pvFrame(qs), vec3FromArray(qs->wo), vneg(w),
+                       1, &qsFwd, &qsRev);
     }
     if (specIsBlack(fQs)) return false;
     /* A light at infinity has no distance falloff (its radiance arrives undiminished). */

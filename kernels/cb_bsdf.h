@@ -155,6 +155,7 @@ CB_FN Material materialRoughnessAt(const SceneView* scene, Material m, TexCoord 
     real roughness = fmax(textureFloat(scene, m.roughnessTexture, uv), 0.0f);
     real alpha = m.remapRoughness ? sqrt(roughness) : roughness;
     m.alpha = fmax(alpha, 1e-3f);
+    m.alphaV = m.alpha; /* one texture: isotropic */
     return m;
 }
 #endif
@@ -204,10 +205,17 @@ CB_FN Material materialDispersionAt(const SceneView* scene, Material m, TexCoord
 
 /* ---- Per-kind lobes, in the local frame flipped so that wo.z > 0 ----------------------------- */
 
-#if CB_HAS(CB_FEATURE_CONDUCTOR)
-CB_FN real cbConductorAlpha(Material m) {
-    return fmax(m.alpha, CB_GGX_MIN_ALPHA);
+/* A conductor's or rough dielectric's GGX alphas along dp/du and dp/dv, at least
+ * CB_GGX_MIN_ALPHA; kernels without anisotropic materials read `alpha` alone. */
+CB_FN GgxAlpha materialGgxAlpha(Material m) {
+    GgxAlpha a = ggxIsotropic(fmax(m.alpha, CB_GGX_MIN_ALPHA));
+#if CB_HAS(CB_FEATURE_ANISOTROPIC)
+    a.y = fmax(m.alphaV, CB_GGX_MIN_ALPHA);
+#endif
+    return a;
 }
+
+#if CB_HAS(CB_FEATURE_CONDUCTOR)
 
 /* The conductor's Fresnel factor at cosH to the microfacet (or mirror) normal, given the entry
  * `reflectance` points to: that constant tint, or, where the material has eta and k, the complex
@@ -236,7 +244,7 @@ CB_FN Spectrum cbConductorFresnel(const SceneView* scene, Material m, Spectrum r
  * its Fresnel term, which the caller multiplies. Returns the scalar D G / (4 cos_o cos_i) and the
  * pdfs of the visible-normal reflection (pdf_vn(wm) / (4 wo.wm), Heitz 2018 eq. 17) both ways;
  * zero everywhere when not finite (both directions in the grazing limit). */
-CB_FN real cbGgxReflection(Vec3 wo, Vec3 wi, Vec3 wm, real alpha, real* pdfFwd, real* pdfRev) {
+CB_FN real cbGgxReflection(Vec3 wo, Vec3 wi, Vec3 wm, GgxAlpha alpha, real* pdfFwd, real* pdfRev) {
     *pdfFwd = 0.0f;
     *pdfRev = 0.0f;
     real cosO = wo.z, cosI = wi.z;
@@ -257,7 +265,7 @@ CB_FN real cbGgxReflection(Vec3 wo, Vec3 wi, Vec3 wm, real alpha, real* pdfFwd, 
  * (Heitz 2018), with cbGgxReflection's value and pdfs; false below the surface. D cancels in
  * f cos / pdf only if both use the sampled wm, not the recomputed half vector (which loses
  * precision at tiny alpha). */
-CB_FN bool cbGgxReflectionSample(Vec3 wo, real alpha, real u0, real u1, Vec3* wi, Vec3* wm,
+CB_FN bool cbGgxReflectionSample(Vec3 wo, GgxAlpha alpha, real u0, real u1, Vec3* wi, Vec3* wm,
                                  real* value, real* pdfFwd, real* pdfRev) {
     Vec3 m = ggxSampleVisibleNormal(wo, alpha, u0, u1);
     Vec3 w = vsub(vscale(m, 2.0f * vdot(wo, m)), wo);
@@ -314,7 +322,7 @@ CB_FN bool smoothDielectricSample(Vec3 wo, real eta, int lobes, real u, int adjo
  * and *pdfRev, that of choosing wo from wi: the same microfacet seen from wi's side, whose
  * Fresnel term is the same (Stokes) and whose Jacobian's denominator carries eta^2; *fresnel is
  * that Fresnel term (the probability of the reflection lobe). */
-CB_FN real cbRoughDielectric(Vec3 wo, Vec3 wi, real eta, real alpha, int adjoint, real* pdfFwd,
+CB_FN real cbRoughDielectric(Vec3 wo, Vec3 wi, real eta, GgxAlpha alpha, int adjoint, real* pdfFwd,
                              real* pdfRev, real* fresnel) {
     *pdfFwd = 0.0f;
     *pdfRev = 0.0f;
@@ -359,8 +367,8 @@ CB_FN real cbRoughDielectric(Vec3 wo, Vec3 wi, real eta, real alpha, int adjoint
  * reflected about the sampled microfacet or refracted through it, Fresnel choosing by uLobe when
  * both lobes are allowed; false where the choice has no direction (total internal reflection,
  * a reflection below the surface or a refraction above it: masking). */
-CB_FN bool cbRoughDielectricDirection(Vec3 wo, real eta, real alpha, real u0, real u1, real uLobe,
-                                      int lobes, Vec3* wi, bool* through) {
+CB_FN bool cbRoughDielectricDirection(Vec3 wo, real eta, GgxAlpha alpha, real u0, real u1,
+                                      real uLobe, int lobes, Vec3* wi, bool* through) {
     Vec3 wm = ggxSampleVisibleNormal(wo, alpha, u0, u1);
     real dotOm = vdot(wo, wm);
     real cosT;
@@ -430,7 +438,7 @@ CB_FN real coatEval(Vec3 wo, Vec3 wi, real eta, real alpha, int lobes, int adjoi
         real etap = wo.z > 0.0f ? eta : 1.0f / eta;
         Vec3 lo = vec3(wo.x, wo.y, wo.z * flip), li = vec3(wi.x, wi.y, wi.z * flip);
         real fwd, rev, fr;
-        real value = cbRoughDielectric(lo, li, etap, alpha, adjoint, &fwd, &rev, &fr);
+        real value = cbRoughDielectric(lo, li, etap, ggxIsotropic(alpha), adjoint, &fwd, &rev, &fr);
         bool through = li.z < 0.0f;
         real lobe = through ? 1.0f - fr : fr;
         real allowedR = (lobes & CB_LOBE_REFLECT) ? fr : 0.0f;
@@ -468,7 +476,8 @@ CB_FN bool coatSample(Vec3 w, real eta, real alpha, int lobes, real uc, real u0,
     if (alpha > 0.0f) {
         /* With both lobes allowed Fresnel chooses as the full interface does; with one, that one.
          */
-        if (!cbRoughDielectricDirection(wo, etap, alpha, u0, u1, uc, lobes, &out, &through) ||
+        if (!cbRoughDielectricDirection(wo, etap, ggxIsotropic(alpha), u0, u1, uc, lobes, &out,
+                                        &through) ||
             out.z == 0.0f)
             return false;
         /* f and the pdf from the half vector of (wo, out), as coatEval computes them. */
@@ -554,7 +563,7 @@ CB_FN Spectrum layerBaseEval(LayerBase base, Vec3 wo, Vec3 wi, real* pdf) {
         if (base.alpha == 0.0f || !(len > 0.0f)) return specZero();
         Vec3 wm = vscale(h, 1.0f / len);
         real rev;
-        real value = cbGgxReflection(wo, wi, wm, base.alpha, pdf, &rev);
+        real value = cbGgxReflection(wo, wi, wm, ggxIsotropic(base.alpha), pdf, &rev);
         return specScale(layerBaseFresnel(base, vdot(wo, wm)), value);
     }
 #endif
@@ -578,7 +587,8 @@ CB_FN bool layerBaseSample(LayerBase base, Vec3 wo, real u0, real u1, Vec3* wi, 
         }
         Vec3 wm;
         real value, rev;
-        if (!cbGgxReflectionSample(wo, base.alpha, u0, u1, wi, &wm, &value, pdf, &rev))
+        if (!cbGgxReflectionSample(wo, ggxIsotropic(base.alpha), u0, u1, wi, &wm, &value, pdf,
+                                   &rev))
             return false;
         *f = specScale(layerBaseFresnel(base, vdot(wo, wm)), value);
         return true;
@@ -1025,7 +1035,7 @@ CB_FN Spectrum cbLobeEval(const SceneView* scene, Material m, TexCoord uv, Vec3 
         real len = vlength(h);
         if (!(len > 0.0f)) return specZero();
         Vec3 wm = vscale(h, 1.0f / len);
-        real value = cbGgxReflection(wo, wi, wm, cbConductorAlpha(m), pdfFwd, pdfRev);
+        real value = cbGgxReflection(wo, wi, wm, materialGgxAlpha(m), pdfFwd, pdfRev);
         Spectrum r = specLoad(scene->spectra, m.reflectance);
         return specScale(cbConductorFresnel(scene, m, r, vdot(wo, wm)), value);
     }
@@ -1033,9 +1043,8 @@ CB_FN Spectrum cbLobeEval(const SceneView* scene, Material m, TexCoord uv, Vec3 
 #if CB_HAS(CB_FEATURE_ROUGH_DIELECTRIC)
     if (m.kind == CB_MAT_DIELECTRIC && m.alpha > 0.0f) {
         real eta = entering ? m.eta : 1.0f / m.eta;
-        real alpha = fmax(m.alpha, CB_GGX_MIN_ALPHA);
         real fr;
-        real f = cbRoughDielectric(wo, wi, eta, alpha, adjoint, pdfFwd, pdfRev, &fr);
+        real f = cbRoughDielectric(wo, wi, eta, materialGgxAlpha(m), adjoint, pdfFwd, pdfRev, &fr);
         return f > 0.0f ? specConst(f) : specZero();
     }
 #endif
@@ -1164,7 +1173,7 @@ CB_FN bool cbLobeSample(const SceneView* scene, Material m, TexCoord uv, Vec3 wo
         }
         Vec3 wi, wm;
         real value;
-        if (!cbGgxReflectionSample(wo, cbConductorAlpha(m), u0, u1, &wi, &wm, &value, &out->pdf,
+        if (!cbGgxReflectionSample(wo, materialGgxAlpha(m), u0, u1, &wi, &wm, &value, &out->pdf,
                                    &out->pdfRev))
             return false;
         out->wi = wi;
@@ -1175,7 +1184,7 @@ CB_FN bool cbLobeSample(const SceneView* scene, Material m, TexCoord uv, Vec3 wo
 #if CB_HAS(CB_FEATURE_ROUGH_DIELECTRIC)
     if (m.kind == CB_MAT_DIELECTRIC && m.alpha > 0.0f) {
         real eta = entering ? m.eta : 1.0f / m.eta;
-        real alpha = fmax(m.alpha, CB_GGX_MIN_ALPHA);
+        GgxAlpha alpha = materialGgxAlpha(m);
         Vec3 wi;
         bool through;
         if (!cbRoughDielectricDirection(wo, eta, alpha, u0, u1, uLobe, CB_LOBES_BOTH, &wi,
@@ -1245,6 +1254,17 @@ CB_FN real scatterCos(Vec3 ng, Vec3 ns, Vec3 wo, Vec3 wi, int adjoint) {
     return vabsdot(ns, wi);
 #else
     return vabsdot(ng, wi);
+#endif
+}
+
+/* The BSDF's shading frame at sp: about ns, with its first axis along the surface's dp/du where
+ * the material is anisotropic (surfacePointTangent); frameFromNormal's elsewhere, where any
+ * rotation about ns is the same BSDF. */
+CB_FN Frame surfaceFrame(SurfacePoint sp) {
+#if CB_HAS(CB_FEATURE_ANISOTROPIC)
+    return frameFromNormalTangent(sp.ns, sp.tangent);
+#else
+    return frameFromNormal(sp.ns);
 #endif
 }
 

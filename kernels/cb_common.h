@@ -280,6 +280,18 @@ CB_FN Frame frameFromNormal(Vec3 n) {
     f.n = n;
     return f;
 }
+/* The frame about unit n whose first axis is t made perpendicular to n (pbrt-v4's BSDF frame,
+ * Frame::FromXZ of the shading dp/du and ns); frameFromNormal(n) where t has no such part. */
+CB_FN Frame frameFromNormalTangent(Vec3 n, Vec3 t) {
+    Vec3 s = vsub(t, vscale(n, vdot(n, t)));
+    real length2 = vlength2(s);
+    if (!(length2 > 0.0f) || !isfinite(length2)) return frameFromNormal(n);
+    Frame f;
+    f.s = vscale(s, 1.0f / sqrt(length2));
+    f.t = vcross(n, f.s);
+    f.n = n;
+    return f;
+}
 CB_FN Vec3 frameToLocal(Frame f, Vec3 v) {
     return vec3(vdot(v, f.s), vdot(v, f.t), vdot(v, f.n));
 }

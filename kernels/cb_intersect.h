@@ -486,6 +486,36 @@ CB_FN bool intersectPack(CB_GLOBAL const TrianglePack* pack, CB_GLOBAL const Pri
 }
 #endif
 
+#if CB_HAS(CB_FEATURE_ANISOTROPIC)
+/* Whether a material's lobe (or a lobe of its mix) is anisotropic: only those turn with dp/du.
+ * The others keep frameFromNormal's frame, so that a scene's isotropic materials (and the host,
+ * which compiles every feature) shade as where no material is anisotropic. */
+CB_FN bool materialTurnsWithTangent(const SceneView* scene, int material) {
+    if (material < 0) return false;
+    Material m = scene->materials[material];
+    if (m.kind == CB_MAT_MIX)
+        return scene->materials[m.mixFirst].alphaV != scene->materials[m.mixFirst].alpha ||
+               scene->materials[m.mixSecond].alphaV != scene->materials[m.mixSecond].alpha;
+    return m.alphaV != m.alpha;
+}
+
+/* sp's shading tangent (SurfacePoint.tangent) from its shape's dp/du, as surfacePointMapped takes
+ * it: a sphere's (p0 = the hit point minus the centre) or a triangle's (its corners); pbrt-v4
+ * makes dp/du perpendicular to the shading normal (Gram-Schmidt), which the frame does
+ * (frameFromNormalTangent). 0 (any frame) for isotropic materials. */
+CB_FN SurfacePoint surfacePointTangent(const SceneView* scene, SurfacePoint sp, Hit hit, Vec3 p0,
+                                       Vec3 p1, Vec3 p2) {
+    sp.tangent = vec3(0.0f, 0.0f, 0.0f);
+    /* (Host views of scenes without (u, v) have no texture buffer.) */
+    if (!scene->textures || !materialTurnsWithTangent(scene, sp.material)) return sp;
+    const bool sphere = scene->primitives[hit.primitive].kind == CB_PRIM_SPHERE;
+    Vec3 dpdu = sphere ? sphereShadingPartials(scene, hit.primitive, p0).dpdu
+                       : triangleUvFrame(scene, hit.primitive, p0, p1, p2).dpdu;
+    sp.tangent = frameFromNormalTangent(sp.ns, dpdu).s;
+    return sp;
+}
+#endif
+
 #if CB_HAS(CB_FEATURE_NORMAL_MAP) || CB_HAS(CB_FEATURE_BUMP_MAP)
 /* sp's shading normal bent by its material's normal map or bump map, from its shape's partials:
  * a sphere's (p0 = p1 = p2 = the hit point minus the centre) or a triangle's (its corners). One
@@ -552,10 +582,12 @@ CB_FN SurfacePoint surfacePointFromHit(const SceneView* scene, Ray ray, Hit hit)
         sp.uv.n = sp.ng;
 #endif
 #if CB_HAS(CB_FEATURE_NORMAL_MAP) || CB_HAS(CB_FEATURE_BUMP_MAP)
-        return surfacePointMapped(scene, sp, hit, pLocal, pLocal, pLocal);
-#else
-        return sp;
+        sp = surfacePointMapped(scene, sp, hit, pLocal, pLocal, pLocal);
 #endif
+#if CB_HAS(CB_FEATURE_ANISOTROPIC)
+        sp = surfacePointTangent(scene, sp, hit, pLocal, pLocal, pLocal);
+#endif
+        return sp;
     }
 #endif
     Vec3 p0 = vec3FromGlobalArray(prim->p0);
@@ -596,10 +628,12 @@ CB_FN SurfacePoint surfacePointFromHit(const SceneView* scene, Ray ray, Hit hit)
     }
 #endif
 #if CB_HAS(CB_FEATURE_NORMAL_MAP) || CB_HAS(CB_FEATURE_BUMP_MAP)
-    return surfacePointMapped(scene, sp, hit, p0, p1, p2);
-#else
-    return sp;
+    sp = surfacePointMapped(scene, sp, hit, p0, p1, p2);
 #endif
+#if CB_HAS(CB_FEATURE_ANISOTROPIC)
+    sp = surfacePointTangent(scene, sp, hit, p0, p1, p2);
+#endif
+    return sp;
 }
 
 /* pbrt-v4 OffsetRayOrigin: move p along n out of its error box, to the side w leaves

@@ -115,7 +115,7 @@ CB_FN bool ptPathVertex(const SceneView* scene, PtPath* path, Ray* ray, bool fou
     sp.uv.hero = path->hero;
 #endif
 
-    Frame frame = frameFromNormal(sp.ns);
+    Frame frame = surfaceFrame(sp);
 
     /* Next-event estimation: one light point, one shadow ray. */
     if (materialHasNonDelta(scene, sp.material)) {

@@ -158,42 +158,58 @@ CB_FN void sampleUniformTriangle(real u0, real u1, real* b0, real* b1, real* b2)
  * overflow, and the sampled normals are still resolvable in real. */
 #define CB_GGX_MIN_ALPHA 1e-4f
 
-/* Walter et al. 2007, eq. 33, written with the unit normal's components so that no tan() of a
- * grazing angle appears: D = 1 / (pi a^2 ((x^2 + y^2)/a^2 + z^2)^2). */
-CB_FN real ggxD(Vec3 wm, real alpha) {
+/* GGX's roughness along the local frame's x axis (the surface's dp/du, pbrt-v4's "uroughness")
+ * and y axis ("vroughness"); equal where the lobe is isotropic. */
+typedef struct GgxAlpha {
+    real x, y;
+} GgxAlpha;
+
+CB_FN GgxAlpha ggxIsotropic(real alpha) {
+    GgxAlpha a;
+    a.x = alpha;
+    a.y = alpha;
+    return a;
+}
+
+/* Walter et al. 2007, eq. 33, anisotropic as Heitz 2014 (eq. 85), written with the unit normal's
+ * components so that no tan() of a grazing angle appears: D = 1 / (pi ax ay (x^2/ax^2 + y^2/ay^2
+ * + z^2)^2), as (x^2 + y^2 (ax/ay)^2) / ax^2 so that equal alphas round as the isotropic form. */
+CB_FN real ggxD(Vec3 wm, GgxAlpha alpha) {
     if (wm.z <= 0.0f) return 0.0f;
-    real a2 = alpha * alpha;
-    real t = (wm.x * wm.x + wm.y * wm.y) / a2 + wm.z * wm.z;
+    real a2 = alpha.x * alpha.y;
+    real t =
+        (wm.x * wm.x + wm.y * wm.y * cbSqr(alpha.x / alpha.y)) / (alpha.x * alpha.x) + wm.z * wm.z;
     return 1.0f / (CB_PI * a2 * t * t);
 }
 
 /* Smith's Lambda for GGX (Heitz 2014, "Understanding the Masking-Shadowing Function", eq. 72):
  * (sqrt(1 + a^2 tan^2) - 1) / 2, rewritten as s / (2 (sqrt(1 + s) + 1)) with s = a^2 tan^2 to
- * avoid the cancellation near the normal. Infinite (no visibility) in the tangent plane. */
-CB_FN real ggxLambda(Vec3 w, real alpha) {
+ * avoid the cancellation near the normal; anisotropic, a^2 tan^2 = (ax^2 x^2 + ay^2 y^2) / z^2
+ * (Heitz 2014, eq. 86). Infinite (no visibility) in the tangent plane. */
+CB_FN real ggxLambda(Vec3 w, GgxAlpha alpha) {
     real z = fabs(w.z);
     if (z == 0.0f) return CB_INFINITY;
-    real tanTheta = alpha * sqrt(w.x * w.x + w.y * w.y) / z;
+    real tanTheta = alpha.x * sqrt(w.x * w.x + w.y * w.y * cbSqr(alpha.y / alpha.x)) / z;
     if (!(tanTheta < 1e15f)) return tanTheta < CB_INFINITY ? 0.5f * tanTheta : CB_INFINITY;
     real s = tanTheta * tanTheta;
     return s / (2.0f * (sqrt(1.0f + s) + 1.0f));
 }
 
-CB_FN real ggxG1(Vec3 w, real alpha) {
+CB_FN real ggxG1(Vec3 w, GgxAlpha alpha) {
     return 1.0f / (1.0f + ggxLambda(w, alpha));
 }
 
 /* Height-correlated masking-shadowing (Heitz 2014, eq. 99). */
-CB_FN real ggxG(Vec3 wo, Vec3 wi, real alpha) {
+CB_FN real ggxG(Vec3 wo, Vec3 wi, GgxAlpha alpha) {
     return 1.0f / (1.0f + ggxLambda(wo, alpha) + ggxLambda(wi, alpha));
 }
 
 /* Heitz 2018, "Sampling the GGX Distribution of Visible Normals" (listing 1): stretch wo to the
  * alpha = 1 configuration, sample the projected hemisphere as a disk whose far half is squashed
- * by (1 + Vh.z)/2, and unstretch. The disk is sampled with the concentric map (continuity).
- * wo must have wo.z >= 0; the result has wm.z >= 0. */
-CB_FN Vec3 ggxSampleVisibleNormal(Vec3 wo, real alpha, real u0, real u1) {
-    Vec3 vh = vnormalize(vec3(alpha * wo.x, alpha * wo.y, fmax(wo.z, 0.0f)));
+ * by (1 + Vh.z)/2, and unstretch (by ax along x, ay along y). The disk is sampled with the
+ * concentric map (continuity). wo must have wo.z >= 0; the result has wm.z >= 0. */
+CB_FN Vec3 ggxSampleVisibleNormal(Vec3 wo, GgxAlpha alpha, real u0, real u1) {
+    Vec3 vh = vnormalize(vec3(alpha.x * wo.x, alpha.y * wo.y, fmax(wo.z, 0.0f)));
     real lensq = vh.x * vh.x + vh.y * vh.y;
     Vec3 t1 =
         lensq > 0.0f ? vscale(vec3(-vh.y, vh.x, 0.0f), 1.0f / sqrt(lensq)) : vec3(1.0f, 0.0f, 0.0f);
@@ -204,14 +220,14 @@ CB_FN Vec3 ggxSampleVisibleNormal(Vec3 wo, real alpha, real u0, real u1) {
     p2 = (1.0f - s) * cbSafeSqrt(1.0f - p1 * p1) + s * p2;
     Vec3 nh = vadd(vadd(vscale(t1, p1), vscale(t2, p2)),
                    vscale(vh, cbSafeSqrt(1.0f - p1 * p1 - p2 * p2)));
-    Vec3 ne = vec3(alpha * nh.x, alpha * nh.y, fmax(nh.z, 0.0f));
+    Vec3 ne = vec3(alpha.x * nh.x, alpha.y * nh.y, fmax(nh.z, 0.0f));
     real len = vlength(ne);
     return len > 0.0f ? vscale(ne, 1.0f / len) : vec3(0.0f, 0.0f, 1.0f);
 }
 
 /* Density of ggxSampleVisibleNormal in solid angle of wm: D_wo(wm) = G1(wo) max(0, wo.wm) D(wm)
  * / wo.z (Heitz 2018, eq. 3). */
-CB_FN real ggxVisibleNormalPdf(Vec3 wo, Vec3 wm, real alpha) {
+CB_FN real ggxVisibleNormalPdf(Vec3 wo, Vec3 wm, GgxAlpha alpha) {
     if (wo.z <= 0.0f) return 0.0f;
     real cosOm = vdot(wo, wm);
     if (cosOm <= 0.0f) return 0.0f;

@@ -106,6 +106,9 @@ typedef struct Hit {
 #define CB_FEATURE_THICKNESS_TEXTURE (1u << 28)
 /* Textures mixed by the normal's direction (pbrt-v4's "directionmix"). */
 #define CB_FEATURE_DIRECTION_MIX (1u << 29)
+/* Conductors or rough dielectrics of two roughnesses (pbrt-v4's "uroughness" != "vroughness"),
+ * shaded in frames whose first axis is the surface's dp/du. */
+#define CB_FEATURE_ANISOTROPIC (1u << 30)
 
 #ifndef CB_FEATURES
 #define CB_FEATURES 0xffffffffu
@@ -152,6 +155,11 @@ typedef struct SurfacePoint {
     int light;
     TexCoord uv; /* CB_FEATURE_TEXTURE: interpolated from the triangle's vertices; else 0 (hero
                   * -1: the caller sets it, dispersionFollowOne) */
+#if CB_HAS(CB_FEATURE_ANISOTROPIC)
+    /* The shading frame's first axis: the shape's dp/du made perpendicular to ns (pbrt-v4's
+     * shading dpdu); 0 where the shape gives none (surfaceFrame then picks any). */
+    Vec3 tangent;
+#endif
 } SurfacePoint;
 
 typedef struct Material {
@@ -212,6 +220,9 @@ typedef struct Material {
      * index at 400 nm and then every 1 / CB_DISPERSION_KNOTS_PER_BIN of a bin to 700 nm (linear
      * between them), `eta` their mean; -1: none. */
     int dispersion;
+    /* CB_FEATURE_ANISOTROPIC: a conductor's or rough dielectric's GGX alpha along dp/dv (pbrt-v4's
+     * "vroughness"), `alpha` then being the one along dp/du ("uroughness"); `alpha` elsewhere. */
+    real alphaV;
 } Material;
 
 #define CB_DISPERSION_KNOTS_PER_BIN 4

@@ -29,7 +29,7 @@ using cbtest::kPi;
 
 namespace {
 
-constexpr int kChi2Tests = 48;
+constexpr int kChi2Tests = 54;
 const double kLevel = cbtest::sidak(0.01, kChi2Tests);
 
 struct Uniform {
@@ -54,6 +54,7 @@ struct TestScene {
         m.kind = kind;
         m.reflectance = refl;
         m.alpha = alpha;
+        m.alphaV = alpha;
         m.eta = eta;
         m.mixFirst = first;
         m.mixSecond = second;
@@ -106,6 +107,11 @@ struct TestScene {
         materials[size_t(m)].baseAlpha = baseAlpha;
         return m;
     }
+    // Material m made anisotropic: alphaV its GGX alpha along the frame's second axis.
+    int anisotropic(int m, float alphaV) {
+        materials[size_t(m)].alphaV = alphaV;
+        return m;
+    }
     // The layer of a coated material scatters: its albedo (a spectrum) and Henyey-Greenstein g.
     int scattering(int m, int albedo, float g) {
         materials[size_t(m)].layerAlbedo = albedo;
@@ -134,6 +140,7 @@ struct Fixture {
     int coatedRoughLow;
     int ccSmoothGold, ccSmoothTint, ccSmoothLow, ccRoughBase, ccRoughCoat, ccRoughBoth, ccRoughLow;
     int ccNearSmooth, cdScatter, ccScatterRough, ccScatterSmooth;
+    int anisoConductor, anisoGoldSwapped, anisoGold, anisoGlass;
     Fixture() {
         white = s.spectrum(1.0f, 1.0f, 1.0f);
         tint = s.spectrum(0.8f, 0.6f, 0.4f);
@@ -163,6 +170,11 @@ struct Fixture {
         roughGlass05 = s.add(CB_MAT_DIELECTRIC, 0, 0.5f, 1.33f);
         roughGlassTiny = s.add(CB_MAT_DIELECTRIC, 0, 1e-4f, 1.5f);
         mixDiffuseRoughGlass = s.mix(diffuseTint, roughGlass05, 0.5f);
+        // Anisotropic lobes: alpha along the frame's first axis, then along its second.
+        anisoConductor = s.anisotropic(s.conductor(white, 0.05f), 0.4f);
+        anisoGold = s.anisotropic(s.fresnelConductor(goldEta, goldK, 0.6f), 0.15f);
+        anisoGoldSwapped = s.anisotropic(s.fresnelConductor(goldEta, goldK, 0.15f), 0.6f);
+        anisoGlass = s.anisotropic(s.add(CB_MAT_DIELECTRIC, 0, 0.4f, 1.5f), 0.08f);
         black = s.spectrum(0.0f, 0.0f, 0.0f);
         // Lobe choice by the largest channels: reflect with probability 0.5 / (0.5 + 0.45).
         translucent =
@@ -406,7 +418,8 @@ TEST_CASE("reflection BSDFs are reciprocal and pdfRev is the swapped pdfFwd") {
     SceneView v = fx.s.view();
     Uniform u(12);
     for (int m : {fx.diffuse, fx.rough005, fx.rough03, fx.rough1, fx.mixDiffuseRough,
-                  fx.mixDiffuseGlossy, fx.mixDragon, fx.goldFresnelRough, fx.mixDiffuseGoldRough}) {
+                  fx.mixDiffuseGlossy, fx.mixDragon, fx.goldFresnelRough, fx.mixDiffuseGoldRough,
+                  fx.anisoConductor, fx.anisoGold}) {
         int nonZero = 0;
         for (int i = 0; i < 2000; ++i) {
             Vec3 a = frameToWorld(kFrame, sampleUniformSphere(u(), u()));
@@ -538,6 +551,37 @@ TEST_CASE("rough dielectric: sampling matches pdf on both sides, energy <= 1 (ad
     SamplerCheck r = checkSampler(v, fx.roughGlass01, worldDir(1.0f, 0.0f), 0.0, 100000, 230, 1);
     CHECK(r.pdfIntegral == doctest::Approx(1.0).epsilon(1e-2));
     CHECK(r.albedoQuad == doctest::Approx(1.0).epsilon(2e-2));
+}
+
+TEST_CASE("anisotropic GGX conductor and dielectric: sampling matches pdf, the frame turns the "
+          "lobe") {
+    Fixture fx;
+    SceneView v = fx.s.view();
+    checkNonDelta(v, fx.anisoConductor, 0.0, false, {0.9f, 0.4f, 0.1f}, 240);
+    checkNonDelta(v, fx.anisoGlass, 0.0, false, {0.8f, 0.2f, -0.6f}, 250, 1, 12);
+    // The lobe of alphas (a, b) in a frame is that of (b, a) in the frame turned by 90 degrees
+    // about the normal; in the frame itself the two differ.
+    Frame turned = kFrame;
+    turned.s = kFrame.t;
+    turned.t = vneg(kFrame.s);
+    Uniform u(13);
+    double largestDifference = 0.0;
+    for (int i = 0; i < 2000; ++i) {
+        const Vec3 wo = frameToWorld(kFrame, sampleUniformHemisphere(u(), u()));
+        const Vec3 wi = frameToWorld(kFrame, sampleUniformHemisphere(u(), u()));
+        float pf, pr, pfTurned, prTurned, pfSame, prSame;
+        const Spectrum f = bsdfEval(&v, fx.anisoGold, kNoUv, kFrame, wo, wi, 0, &pf, &pr);
+        const Spectrum fTurned =
+            bsdfEval(&v, fx.anisoGoldSwapped, kNoUv, turned, wo, wi, 0, &pfTurned, &prTurned);
+        const Spectrum fSame =
+            bsdfEval(&v, fx.anisoGoldSwapped, kNoUv, kFrame, wo, wi, 0, &pfSame, &prSame);
+        for (int c = 0; c < 3; ++c)
+            CHECK(rel(f.c[c], fTurned.c[c]) < 1e-4);
+        CHECK(rel(pf, pfTurned) < 1e-4);
+        CHECK(rel(pr, prTurned) < 1e-4);
+        largestDifference = std::max(largestDifference, rel(f.c[0], fSame.c[0]));
+    }
+    CHECK(largestDifference > 0.5);
 }
 
 TEST_CASE("rough dielectric: the adjoint is the transpose, pdfRev the swapped pdf, float as "

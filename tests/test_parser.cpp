@@ -584,18 +584,20 @@ TEST_CASE("parser: material errors") {
     expectError(
         w + "Material \"conductor\" \"spectrum eta\" [400 1 700 1] \"rgb reflectance\" [1 1 1]\n",
         "t.pbrt:2:22", "\"reflectance\" or \"eta\" and \"k\", not both");
-    expectError(w + "Material \"conductor\" \"rgb reflectance\" [1 1 1] \"float uroughness\" 0.1\n",
-                "t.pbrt:2:48", "anisotropic roughness");
-    expectError(w + "Material \"conductor\" \"rgb reflectance\" [1 1 1] "
-                    "\"float uroughness\" 0.1 \"float vroughness\" 0.2\n",
-                "t.pbrt:2:48", "anisotropic roughness");
+    // Anisotropic roughness is a conductor's or a dielectric's (tests/test_anisotropic.cpp), not
+    // a coat's.
+    expectError(w + "Material \"coateddiffuse\" \"float uroughness\" 0.1\n", "t.pbrt:2:26",
+                "anisotropic roughness (uroughness != vroughness) is not supported on a coat");
+    expectError(w + "Material \"coateddiffuse\" \"float uroughness\" 0.1 "
+                    "\"float vroughness\" 0.2\n",
+                "t.pbrt:2:26", "anisotropic roughness");
     expectError(w + "Material \"conductor\" \"rgb reflectance\" [1 1 1] \"float roughness\" 0.1 "
                     "\"float uroughness\" 0.2 \"float vroughness\" 0.2\n",
                 "t.pbrt:2:48", "overridden");
     expectError(w + "Material \"conductor\" \"rgb reflectance\" [1 1 1] \"float roughness\" -1\n",
                 "t.pbrt:2:48", "must be >= 0");
-    expectError(w + "Material \"dielectric\" \"float vroughness\" 0.3\n", "t.pbrt:2:23",
-                "anisotropic roughness");
+    expectError(w + "Material \"dielectric\" \"float vroughness\" -0.3\n", "t.pbrt:2:23",
+                "vroughness must be >= 0, got -0.3");
     expectError(w + "Material \"dielectric\" \"float roughness\" -0.3\n", "t.pbrt:2:23",
                 "must be >= 0");
     expectError(w + "Material \"coateddiffuse\" \"spectrum eta\" \"glass-BK7\"\n", "t.pbrt:2:41",

@@ -1,6 +1,6 @@
 // Warps and GGX of kernels/cb_sampling.h: each density integrates to one, each sampler matches its
-// density (chi-square), the maps are continuous (coherence), and GGX stays finite at alpha = 1e-4
-// and grazing angles.
+// density (chi-square), the maps are continuous (coherence), and GGX, isotropic and anisotropic,
+// stays finite at alpha = 1e-4 and grazing angles.
 #include <doctest/doctest.h>
 
 #include <cmath>
@@ -17,7 +17,7 @@ using cbtest::kPi;
 namespace {
 
 // Chi-square tests in this file share one family-wise level of 1% (Sidak).
-constexpr int kChi2Tests = 18;
+constexpr int kChi2Tests = 27;
 const double kLevel = cbtest::sidak(0.01, kChi2Tests);
 
 struct Uniform {
@@ -279,9 +279,18 @@ TEST_CASE("uniform triangle: barycentrics uniform by area, continuous across the
     CHECK(a0 + a1 == doctest::Approx(1.0));
 }
 
+// Isotropic and anisotropic GGX alphas (along x, along y) the tests below go through.
+const GgxAlpha kGgxAlphas[] = {{0.05f, 0.05f}, {0.3f, 0.3f}, {1.0f, 1.0f},
+                               {0.05f, 0.4f},  {0.6f, 0.1f}, {1.0f, 0.3f}};
+
+std::ostream& operator<<(std::ostream& out, GgxAlpha a) {
+    return out << "(" << a.x << ", " << a.y << ")";
+}
+
 TEST_CASE("GGX: D is normalised (projected area 1) and the visible-normal pdf integrates to 1") {
-    for (float alpha : {0.05f, 0.3f, 1.0f}) {
-        cbtest::SphereHistogram hist(40, 8);
+    for (GgxAlpha alpha : kGgxAlphas) {
+        // Fine panels in phi for the anisotropic lobes, which vary with it.
+        cbtest::SphereHistogram hist(40, alpha.x == alpha.y ? 8 : 32);
         // Fine theta panels resolve the narrow peak at alpha = 0.05.
         std::vector<double> proj =
             hist.integrate([&](Vec3 wm) { return ggxD(wm, alpha) * fmax(wm.z, 0.0f); }, 4);
@@ -291,7 +300,8 @@ TEST_CASE("GGX: D is normalised (projected area 1) and the visible-normal pdf in
         INFO("alpha = " << alpha);
         CHECK(sum == doctest::Approx(1.0).epsilon(1e-4));
         for (float cosO : {1.0f, 0.7f, 0.2f, 0.05f}) {
-            Vec3 wo = vec3(std::sqrt(1.0f - cosO * cosO), 0.0f, cosO);
+            const float sinO = std::sqrt(1.0f - cosO * cosO);
+            Vec3 wo = vec3(0.6f * sinO, 0.8f * sinO, cosO);
             std::vector<double> v =
                 hist.integrate([&](Vec3 wm) { return ggxVisibleNormalPdf(wo, wm, alpha); }, 4);
             double s = 0.0;
@@ -306,23 +316,73 @@ TEST_CASE("GGX: D is normalised (projected area 1) and the visible-normal pdf in
 TEST_CASE("GGX: Smith G1 and Lambda against closed forms") {
     // alpha = 1, theta = 60 deg: Lambda = (sqrt(1 + 3) - 1) / 2 = 0.5, G1 = 2/3.
     Vec3 w = vec3(std::sqrt(3.0f) / 2.0f, 0.0f, 0.5f);
-    CHECK(ggxLambda(w, 1.0f) == doctest::Approx(0.5).epsilon(1e-6));
-    CHECK(ggxG1(w, 1.0f) == doctest::Approx(2.0 / 3.0).epsilon(1e-6));
-    CHECK(ggxG(w, w, 1.0f) == doctest::Approx(0.5).epsilon(1e-6));
-    CHECK(ggxG1(vec3(0.0f, 0.0f, 1.0f), 0.5f) == 1.0f);
-    CHECK(ggxD(vec3(0.0f, 0.0f, 1.0f), 0.5f) == doctest::Approx(1.0 / (kPi * 0.25)));
-    CHECK(ggxD(vec3(0.0f, 0.0f, -1.0f), 0.5f) == 0.0f);
+    CHECK(ggxLambda(w, ggxIsotropic(1.0f)) == doctest::Approx(0.5).epsilon(1e-6));
+    CHECK(ggxG1(w, ggxIsotropic(1.0f)) == doctest::Approx(2.0 / 3.0).epsilon(1e-6));
+    CHECK(ggxG(w, w, ggxIsotropic(1.0f)) == doctest::Approx(0.5).epsilon(1e-6));
+    CHECK(ggxG1(vec3(0.0f, 0.0f, 1.0f), ggxIsotropic(0.5f)) == 1.0f);
+    CHECK(ggxD(vec3(0.0f, 0.0f, 1.0f), ggxIsotropic(0.5f)) == doctest::Approx(1.0 / (kPi * 0.25)));
+    CHECK(ggxD(vec3(0.0f, 0.0f, -1.0f), ggxIsotropic(0.5f)) == 0.0f);
     // Tangent plane: no visibility.
-    CHECK(ggxG1(vec3(1.0f, 0.0f, 0.0f), 0.3f) < 1e-30f);
+    CHECK(ggxG1(vec3(1.0f, 0.0f, 0.0f), ggxIsotropic(0.3f)) < 1e-30f);
     // Small-slope regime where the naive (sqrt(1+s)-1)/2 would cancel to zero.
     Vec3 near = vnormalize(vec3(1e-3f, 0.0f, 1.0f));
     double tan2 = 1e-6 * 1e-8; // alpha = 1e-4
-    CHECK(ggxLambda(near, 1e-4f) == doctest::Approx(tan2 / 4.0).epsilon(1e-3));
+    CHECK(ggxLambda(near, ggxIsotropic(1e-4f)) == doctest::Approx(tan2 / 4.0).epsilon(1e-3));
+}
+
+TEST_CASE("anisotropic GGX: D, Lambda and sampling against the polar forms and the axes") {
+    // Heitz 2014, eq. 85: D = 1 / (pi ax ay cos^4 (1 + tan^2 (cos^2 phi / ax^2 + sin^2 phi /
+    // ay^2))^2); eq. 86: Lambda with alpha^2 = ax^2 cos^2 phi + ay^2 sin^2 phi.
+    const GgxAlpha a = {0.6f, 0.2f};
+    double worstD = 0.0, worstLambda = 0.0;
+    for (double theta : {0.0, 0.1, 0.5, 1.0, 1.4})
+        for (double phi : {0.0, 0.3, 0.785398, 1.2, 1.5707963, 2.5, 4.0}) {
+            const Vec3 w = vec3(float(std::sin(theta) * std::cos(phi)),
+                                float(std::sin(theta) * std::sin(phi)), float(std::cos(theta)));
+            const double c = std::cos(theta), t2 = std::tan(theta) * std::tan(theta);
+            const double e =
+                t2 * (std::pow(std::cos(phi) / a.x, 2) + std::pow(std::sin(phi) / a.y, 2));
+            const double d = 1.0 / (kPi * a.x * a.y * std::pow(c, 4) * (1.0 + e) * (1.0 + e));
+            const double alpha2 =
+                std::pow(a.x * std::cos(phi), 2) + std::pow(a.y * std::sin(phi), 2);
+            const double lambda = (std::sqrt(1.0 + alpha2 * t2) - 1.0) / 2.0;
+            worstD = std::max(worstD, std::fabs(ggxD(w, a) / d - 1.0));
+            if (lambda > 0.0)
+                worstLambda = std::max(worstLambda, std::fabs(ggxLambda(w, a) / lambda - 1.0));
+            else
+                CHECK(ggxLambda(w, a) == 0.0f);
+        }
+    CHECK(worstD < 1e-5);
+    CHECK(worstLambda < 1e-5);
+    // Along each axis the lobe is the isotropic one of that axis's alpha; swapping the axes
+    // swaps the alphas.
+    const Vec3 alongX = vnormalize(vec3(0.8f, 0.0f, 0.6f)), alongY = vec3(0.0f, 0.8f, 0.6f);
+    CHECK(ggxLambda(alongX, a) == doctest::Approx(ggxLambda(alongX, ggxIsotropic(a.x))));
+    CHECK(ggxLambda(alongY, a) == doctest::Approx(ggxLambda(alongY, ggxIsotropic(a.y))));
+    const GgxAlpha swapped = {a.y, a.x};
+    Uniform u(21);
+    for (int i = 0; i < 200; ++i) {
+        const Vec3 wm = ggxSampleVisibleNormal(alongX, a, u(), u());
+        const Vec3 turned = vec3(-wm.y, wm.x, wm.z), woTurned = vec3(0.0f, 0.8f, 0.6f);
+        CHECK(ggxD(turned, swapped) == doctest::Approx(ggxD(wm, a)).epsilon(1e-5));
+        CHECK(ggxVisibleNormalPdf(woTurned, turned, swapped) ==
+              doctest::Approx(ggxVisibleNormalPdf(alongX, wm, a)).epsilon(1e-4));
+    }
+    // The sampled normals spread by each axis's alpha: at normal incidence the slopes x/z and
+    // y/z have spreads in the ratio ax : ay.
+    double sx = 0.0, sy = 0.0;
+    for (int i = 0; i < 20000; ++i) {
+        const Vec3 wm = ggxSampleVisibleNormal(vec3(0.0f, 0.0f, 1.0f), a, u(), u());
+        sx += std::fabs(wm.x / wm.z);
+        sy += std::fabs(wm.y / wm.z);
+    }
+    CHECK(sx / sy == doctest::Approx(a.x / a.y).epsilon(0.03));
 }
 
 TEST_CASE("GGX visible normals: sampled histogram matches ggxVisibleNormalPdf") {
     int k = 0;
-    for (float alpha : {0.1f, 0.5f, 1.0f})
+    for (GgxAlpha alpha : {GgxAlpha{0.1f, 0.1f}, GgxAlpha{0.5f, 0.5f}, GgxAlpha{1.0f, 1.0f},
+                           GgxAlpha{0.1f, 0.5f}, GgxAlpha{0.8f, 0.2f}, GgxAlpha{0.05f, 1.0f}})
         for (float cosO : {0.9f, 0.3f, 0.05f}) {
             Vec3 wo = vnormalize(vec3(std::sqrt(1.0f - cosO * cosO) * 0.6f,
                                       std::sqrt(1.0f - cosO * cosO) * -0.8f, cosO));
@@ -338,30 +398,31 @@ TEST_CASE("GGX visible normals: sampled histogram matches ggxVisibleNormalPdf") 
 }
 
 TEST_CASE("GGX at alpha = 1e-4 and grazing angles stays finite") {
-    const float alpha = 1e-4f;
-    Uniform u(7);
-    for (float cosO : {1.0f, 0.5f, 0.05f, 1e-4f, 1e-8f, 1e-30f, 0.0f}) {
-        Vec3 wo = vec3(std::sqrt(1.0f - cosO * cosO), 0.0f, cosO);
-        CHECK(std::isfinite(ggxLambda(wo, alpha)));
-        CHECK(std::isfinite(ggxG1(wo, alpha)));
-        int near = 0;
-        for (int i = 0; i < 2000; ++i) {
-            float a = i == 0 ? 0.0f : (i == 1 ? 0.99999994f : u()), b = u();
-            Vec3 wm = ggxSampleVisibleNormal(wo, alpha, a, b);
-            REQUIRE(std::isfinite(wm.x));
-            REQUIRE(std::isfinite(wm.y));
-            REQUIRE(std::isfinite(wm.z));
-            REQUIRE(wm.z >= 0.0f);
-            REQUIRE(vlength(wm) == doctest::Approx(1.0).epsilon(1e-5));
-            float d = ggxD(wm, alpha), p = ggxVisibleNormalPdf(wo, wm, alpha);
-            REQUIRE(std::isfinite(d));
-            REQUIRE(std::isfinite(p));
-            REQUIRE(p >= 0.0f);
-            if (std::acos(std::min(wm.z, 1.0f)) < 5e-3) ++near;
+    for (const GgxAlpha alpha : {ggxIsotropic(1e-4f), GgxAlpha{1e-4f, 1.0f}}) {
+        Uniform u(7);
+        for (float cosO : {1.0f, 0.5f, 0.05f, 1e-4f, 1e-8f, 1e-30f, 0.0f}) {
+            Vec3 wo = vec3(std::sqrt(1.0f - cosO * cosO), 0.0f, cosO);
+            CHECK(std::isfinite(ggxLambda(wo, alpha)));
+            CHECK(std::isfinite(ggxG1(wo, alpha)));
+            int near = 0;
+            for (int i = 0; i < 2000; ++i) {
+                float a = i == 0 ? 0.0f : (i == 1 ? 0.99999994f : u()), b = u();
+                Vec3 wm = ggxSampleVisibleNormal(wo, alpha, a, b);
+                REQUIRE(std::isfinite(wm.x));
+                REQUIRE(std::isfinite(wm.y));
+                REQUIRE(std::isfinite(wm.z));
+                REQUIRE(wm.z >= 0.0f);
+                REQUIRE(vlength(wm) == doctest::Approx(1.0).epsilon(1e-5));
+                float d = ggxD(wm, alpha), p = ggxVisibleNormalPdf(wo, wm, alpha);
+                REQUIRE(std::isfinite(d));
+                REQUIRE(std::isfinite(p));
+                REQUIRE(p >= 0.0f);
+                if (std::acos(std::min(wm.z, 1.0f)) < 5e-3) ++near;
+            }
+            // The normals concentrate at the macro normal: at normal incidence P(tan > T) =
+            // alpha^2 / (alpha^2 + T^2), 4e-4 for T = 5e-3 (the edge u = 0 maps to the horizon).
+            if (cosO > 0.01f && alpha.x == alpha.y) CHECK(near > 2000 * 99 / 100);
         }
-        // The normals concentrate at the macro normal: at normal incidence P(tan > T) =
-        // alpha^2 / (alpha^2 + T^2), 4e-4 for T = 5e-3 (the edge u = 0 maps to the horizon).
-        if (cosO > 0.01f) CHECK(near > 2000 * 99 / 100);
     }
 }
 

@@ -107,7 +107,7 @@ TEST_CASE("shading normals: \"normal N\" in world space, through transforms and 
                   "interpolated linearly over each of the two triangles"));
     CHECK(hasNote(parse("Shape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0] "
                         "\"vector3 S\" [1 0 0  1 0 0  1 0 0]\n"),
-                  "changes none of cbdpt's (isotropic) materials"));
+                  "changes none of cbdpt's isotropic materials"));
 }
 
 TEST_CASE("shading normals: the interpolated normal at hit points") {

@@ -118,6 +118,7 @@ template <class Visit> void forEachField(cbk::Material& s, Visit&& visit) {
     visit(s.alphaTexture);
     visit(s.displacement);
     visit(s.dispersion);
+    visit(s.alphaV);
 }
 template <class Visit> void forEachField(cbk::Light& s, Visit&& visit) {
     visit(s.kind);

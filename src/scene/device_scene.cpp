@@ -17,7 +17,7 @@
 namespace cb {
 
 static_assert(sizeof(cbk::Primitive) == 48, "Primitive must match the OpenCL layout");
-static_assert(sizeof(cbk::Material) == 96, "Material must match the OpenCL layout");
+static_assert(sizeof(cbk::Material) == 100, "Material must match the OpenCL layout");
 static_assert(sizeof(cbk::Light) == 112, "Light must match the OpenCL layout");
 static_assert(sizeof(cbk::Camera) == 432, "Camera must match the OpenCL layout");
 
@@ -471,7 +471,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         auto uses = [&](const MaterialDesc& d) {
             return byUv(d.reflectanceTexture) || byUv(d.transmittanceTexture) ||
                    byUv(d.roughnessTexture) || byUv(d.thicknessTexture) || d.normalMap >= 0 ||
-                   d.displacement >= 0;
+                   d.displacement >= 0 || d.vRoughness.has_value();
         };
         bool any = uses(md);
         for (int c : md.mix)
@@ -567,10 +567,19 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
             return m.remapRoughness ? std::sqrt(std::max(roughness, 0.f)) : roughness;
         };
         float alpha = ggxAlpha(m.roughness);
+        // An anisotropic lobe's alpha along dp/dv (a roughness texture's lobe is isotropic); both
+        // at least GGX's smallest where either is above it, as pbrt-v4's
+        // TrowbridgeReitzDistribution keeps them.
+        float alphaV = alpha;
+        if (m.vRoughness && m.roughnessTexture < 0) {
+            alphaV = std::max(ggxAlpha(*m.vRoughness), CB_GGX_MIN_ALPHA);
+            alpha = std::max(alpha, CB_GGX_MIN_ALPHA);
+        }
         if (m.roughnessTexture >= 0) {
             // The lobe is rough: the kernels look alpha up per hit (materialRoughnessAt), at
             // least 1e-3, which is what alpha holds here.
             alpha = 1e-3f;
+            alphaV = alpha;
             if (materialUsed[i]) {
                 out.roughnessTexture = addTexture(m.roughnessTexture);
                 scene.features |= CB_FEATURE_TEXTURE | CB_FEATURE_ROUGHNESS_TEXTURE;
@@ -615,6 +624,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
                 out.reflectance = spectra.add(m.reflectance, 1.f);
             }
             out.alpha = alpha;
+            out.alphaV = alphaV;
             break;
         case MaterialKind::Dielectric:
             out.kind = CB_MAT_DIELECTRIC;
@@ -623,6 +633,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
             // pbrt-v4 takes eta 1 as no interface, smooth at any roughness: a rough one's
             // transmission (wi = -wo) has no half vector
             out.alpha = out.eta == 1.f ? 0.f : alpha;
+            out.alphaV = out.eta == 1.f ? 0.f : alphaV;
             break;
         case MaterialKind::Mix:
             out.kind = CB_MAT_MIX;
@@ -706,6 +717,16 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
                                      "a mix of a dielectric with \"spectrum eta\" is not "
                                      "supported: its paths follow one wavelength from the hit on, "
                                      "which cbdpt chooses for the material the hit finds");
+        if (m.kind != MaterialKind::Conductor && m.kind != MaterialKind::Dielectric)
+            out.alphaV = out.alpha;
+        if (materialUsed[i] && out.alphaV != out.alpha) {
+            // Shaded in frames along dp/du, which the texture buffer's (u, v) give.
+            if (m.normalMap >= 0 || m.displacement >= 0)
+                throw SceneError(m.where, "an anisotropic roughness with a \"normalmap\" or a "
+                                          "\"displacement\" is not supported (pbrt-v4 turns the "
+                                          "lobe with the bumped dp/du)");
+            scene.features |= CB_FEATURE_TEXTURE | CB_FEATURE_ANISOTROPIC;
+        }
         scene.materials.push_back(out);
         if (materialUsed[i]) {
             scene.features |= materialFeature(m.kind);
@@ -806,8 +827,9 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         if (!texturing || !needsTexCoords(material) || none.empty()) return;
         throw SceneError(where, "this shape's material has a texture mapped by (u, v) (its "
                                 "reflectance, its transmittance, its roughness, a \"normalmap\" "
-                                "or a \"displacement\"), which needs texture coordinates, and "
-                                "cbdpt gives none to " +
+                                "or a \"displacement\") or an anisotropic roughness (turned by "
+                                "dp/du), which needs texture coordinates, and cbdpt gives none "
+                                "to " +
                                     none);
     };
     for (const auto& mesh : desc.meshes) {
@@ -1168,6 +1190,7 @@ std::string DeviceScene::featureNames() const {
     add(CB_FEATURE_BUMP_MAP, "bump-map");
     add(CB_FEATURE_TEXTURE_MAPPING, "texture-mapping");
     add(CB_FEATURE_INVISIBLE_LIGHT, "invisible-light");
+    add(CB_FEATURE_ANISOTROPIC, "anisotropic");
     names += channels == 16 ? " spectral-16" : " rgb";
     return names;
 }

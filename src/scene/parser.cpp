@@ -629,6 +629,7 @@ class Parser {
         resolveLaterMaterials();
         resolveLaterMixParts();
         resolveLaterTextures();
+        checkTangents();
     }
 
   private:
@@ -1595,6 +1596,24 @@ class Parser {
         return material;
     }
 
+    // A mesh's tangents beside an anisotropic material (or a mix with one): an error.
+    void checkTangents() const {
+        auto anisotropic = [&](int i) {
+            return i >= 0 && scene_.materials[size_t(i)].vRoughness.has_value();
+        };
+        for (const TangentsBeside& t : tangentsBeside_) {
+            const int m =
+                t.material <= kLaterMaterial
+                    ? findNamedMaterial(laterMaterials_[size_t(kLaterMaterial - t.material)].name)
+                    : t.material;
+            if (m < 0) continue;
+            const MaterialDesc& d = scene_.materials[size_t(m)];
+            if (anisotropic(m) || anisotropic(d.mix[0]) || anisotropic(d.mix[1]))
+                throw SceneError(t.where, "\"vector3 S\" (tangents) with an anisotropic material "
+                                          "is not supported: cbdpt turns its lobe with dp/du");
+        }
+    }
+
     // A mix's parts named before their MakeNamedMaterial. pbrt-v4 creates every material, used
     // or not, so a name nothing defines is an error even in a mix no shape uses.
     void resolveLaterMixParts() {
@@ -1609,8 +1628,9 @@ class Parser {
     }
 
     // pbrt-v4's "roughness", or "uroughness" and "vroughness" (defaulting to "roughness", which
-    // defaults to 0; cbdpt's GGX is isotropic, so the two must be equal), and "remaproughness";
-    // a coated conductor's names begin with "interface." or "conductor.".
+    // defaults to 0; they may differ on a conductor or a dielectric, whose GGX lobe is then
+    // anisotropic, not on a coat), and "remaproughness"; a coated conductor's names begin with
+    // "interface." or "conductor.".
     void readRoughness(ParamList& pl, MaterialDesc& m, const std::string& prefix = "",
                        float MaterialDesc::*field = &MaterialDesc::roughness) {
         const std::string name = prefix + "roughness", uName = prefix + "uroughness",
@@ -1636,17 +1656,24 @@ class Parser {
             throw SceneError(pr->where, fmt::format("\"{}\" is overridden by \"{}\" and \"{}\"; "
                                                     "give one or the other",
                                                     name, uName, vName));
-        if (u != v) {
+        const bool anisotropicLobe =
+            field == &MaterialDesc::roughness &&
+            (m.kind == MaterialKind::Conductor || m.kind == MaterialKind::Dielectric);
+        if (u != v && !anisotropicLobe) {
             const Param* pu = pl.peek(ur ? uName : vName);
             throw SceneError(pu->where, fmt::format("anisotropic roughness ({} != {}) is not "
-                                                    "supported",
+                                                    "supported on a coat (only on \"conductor\" "
+                                                    "and \"dielectric\")",
                                                     uName, vName));
         }
-        if (u < 0.0) {
-            const Param* p = pl.peek(ur ? uName : vr ? vName : name);
-            throw SceneError(p->where, fmt::format("{} must be >= 0, got {:g}", p->name, u));
-        }
+        for (double value : {u, v})
+            if (value < 0.0) {
+                const Param* p = pl.peek(value == u ? (ur ? uName : name) : (vr ? vName : name));
+                throw SceneError(p->where,
+                                 fmt::format("{} must be >= 0, got {:g}", p->name, value));
+            }
         m.*field = static_cast<float>(u);
+        if (u != v) m.vRoughness = static_cast<float>(v);
         if (auto remap = pl.oneBool("remaproughness")) m.remapRoughness = *remap;
     }
 
@@ -2940,12 +2967,16 @@ class Parser {
         }
     }
 
-    // "vector3 S" only feeds anisotropic shading frames, which cbdpt's materials do not have.
+    // "vector3 S" only turns shading frames about their normal, which changes only anisotropic
+    // materials: cbdpt's turn with dp/du, so S beside one is an error (checkTangents, once every
+    // material is known).
     void ignoreTangents(ParamList& pl, const SourceLocation& where) {
-        if (pl.ignore("S", {"vector3"}))
-            note(where, "tangents",
-                 "\"vector3 S\" is ignored: it turns the shading frame about its normal, "
-                 "which changes none of cbdpt's (isotropic) materials");
+        const Param* tangents = pl.peek("S");
+        if (!pl.ignore("S", {"vector3"})) return;
+        tangentsBeside_.push_back({currentMaterial(), tangents->where});
+        note(where, "tangents",
+             "\"vector3 S\" is ignored: it turns the shading frame about its normal, which "
+             "changes none of cbdpt's isotropic materials (anisotropic ones turn with dp/du)");
     }
 
     // "point2 uv": texture coordinates, one (u, v) per vertex; empty when not given.
@@ -3488,6 +3519,11 @@ class Parser {
         SourceLocation where;
     };
     std::vector<LaterMixPart> laterMixParts_;
+    struct TangentsBeside {
+        int material = -1; // the shape's: an index, or a placeholder (kLaterMaterial - k)
+        SourceLocation where;
+    };
+    std::vector<TangentsBeside> tangentsBeside_;
     struct LaterTexture {
         int material = -1;                  // index in scene_.materials
         int MaterialDesc::*field = nullptr; // where the texture's index goes

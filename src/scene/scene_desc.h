@@ -71,7 +71,10 @@ struct MaterialDesc {
     // conductor given "eta" and "k" instead of "reflectance": its complex index of refraction,
     // with pbrt-v4's Fresnel equations (cb_bsdf.h, fresnelConductor)
     std::optional<SpectrumValue> conductorEta, conductorK;
-    float roughness = 0.f;      // conductor, dielectric and coats: as written in the file
+    float roughness = 0.f; // conductor, dielectric and coats: as written in the file
+    // conductor and dielectric: "vroughness" where it differs from "uroughness" (`roughness`,
+    // then the roughness along dp/du): an anisotropic lobe
+    std::optional<float> vRoughness;
     float baseRoughness = 0.f;  // coated conductor: the conductor's ("conductor.roughness")
     bool remapRoughness = true; // pbrt-v4: alpha = sqrt(roughness) by default
     float eta = 1.5f;           // dielectric, thin dielectric and the coats
