@@ -150,6 +150,18 @@ inline cb::IntegratorSettings methodSettings(const std::string& name) {
 
 inline const char* const kMethods[] = {"pt", "cpt", "bdpt", "cbdpt", "mlt"};
 
+// A square pinhole film of size x size pixels whose half field of view has tangent tanHalf,
+// sampled on a sub x sub grid per pixel: visit(x, y, fx, fy) for each sample, (fx, fy) its point
+// on the image plane at distance 1 (fx growing with x, fy shrinking with y: row 0 is the top).
+template <class Visit> void forEachFilmSample(int size, int sub, double tanHalf, Visit visit) {
+    for (int y = 0; y < size; ++y)
+        for (int x = 0; x < size; ++x)
+            for (int j = 0; j < sub; ++j)
+                for (int i = 0; i < sub; ++i)
+                    visit(x, y, tanHalf * (-1.0 + 2.0 * (x + (i + 0.5) / sub) / size),
+                          tanHalf * (1.0 - 2.0 * (y + (j + 0.5) / sub) / size));
+}
+
 // Every method's image mean per channel against `expected` (checkChannelMeans, relative floor
 // 1e-4), 6 runs of `estimates` estimates each from `seed` on. CPT and CBDPT run
 // `coherentEstimates`: their pixels share each estimate's samples, so one random decision (a

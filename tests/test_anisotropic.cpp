@@ -264,30 +264,23 @@ TEST_CASE("anisotropic GGX: a brushed plane under a sky, every method, against t
     const std::array<double, 3> up = cross(right, forward);
     // expected, and what a frame turned by 90 degrees would give.
     std::array<double, bands> expected{}, turned{}, members{};
-    const int sub = 2;
-    for (int y = 0; y < size; ++y)
-        for (int x = 0; x < size; ++x)
-            for (int j = 0; j < sub; ++j)
-                for (int i = 0; i < sub; ++i) {
-                    const double fx = tanHalf * (-1.0 + 2.0 * (x + (i + 0.5) / sub) / size);
-                    const double fy = tanHalf * (1.0 - 2.0 * (y + (j + 0.5) / sub) / size);
-                    std::array<double, 3> d;
-                    for (int k = 0; k < 3; ++k)
-                        d[size_t(k)] =
-                            forward[size_t(k)] + fx * right[size_t(k)] + fy * up[size_t(k)];
-                    d = normalise(d);
-                    const double t = -eye[2] / d[2];
-                    const double hitY = eye[1] + t * d[1];
-                    REQUIRE(t > 0.0);
-                    REQUIRE(std::fabs(hitY) < 10.0);
-                    // wo in the local frame (dp/du, n x dp/du, n): near, dp/du = x; far, y.
-                    const std::array<double, 3> wo{-d[0], -d[1], -d[2]};
-                    const std::array<double, 3> across{wo[1], -wo[0], wo[2]};
-                    const size_t band = size_t(bands * y / size);
-                    expected[band] += ggxAlbedo(hitY < 0.0 ? wo : across, ax, ay);
-                    turned[band] += ggxAlbedo(hitY < 0.0 ? across : wo, ax, ay);
-                    members[band] += 1.0;
-                }
+    forEachFilmSample(size, 2, tanHalf, [&](int, int y, double fx, double fy) {
+        std::array<double, 3> d;
+        for (size_t k = 0; k < 3; ++k)
+            d[k] = forward[k] + fx * right[k] + fy * up[k];
+        d = normalise(d);
+        const double t = -eye[2] / d[2];
+        const double hitY = eye[1] + t * d[1];
+        REQUIRE(t > 0.0);
+        REQUIRE(std::fabs(hitY) < 10.0);
+        // wo in the local frame (dp/du, n x dp/du, n): near, dp/du = x; far, y.
+        const std::array<double, 3> wo{-d[0], -d[1], -d[2]};
+        const std::array<double, 3> across{wo[1], -wo[0], wo[2]};
+        const size_t band = size_t(bands * y / size);
+        expected[band] += ggxAlbedo(hitY < 0.0 ? wo : across, ax, ay);
+        turned[band] += ggxAlbedo(hitY < 0.0 ? across : wo, ax, ay);
+        members[band] += 1.0;
+    });
     for (size_t b = 0; b < bands; ++b) {
         expected[b] /= members[b];
         turned[b] /= members[b];

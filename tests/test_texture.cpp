@@ -1064,29 +1064,23 @@ TEST_CASE("image textures: a directionmix on a sphere, every method, against the
     // the camera's x and y run.
     std::array<double, 9> expected{};
     std::array<double, 9> members{};
-    const int sub = 64;
-    for (int y = 0; y < size; ++y)
-        for (int x = 0; x < size; ++x)
-            for (int j = 0; j < sub; ++j)
-                for (int i = 0; i < sub; ++i) {
-                    const double fx = tanHalf * (-1.0 + 2.0 * (x + (i + 0.5) / sub) / size);
-                    const double fy = tanHalf * (1.0 - 2.0 * (y + (j + 0.5) / sub) / size);
-                    // The ray (0, 0, -distance) + t (fx, fy, 1) against the unit sphere.
-                    const double dd = fx * fx + fy * fy + 1.0, b = -distance;
-                    const double disc = b * b - dd * (distance * distance - 1.0);
-                    std::array<double, 3> value{1.0, 1.0, 1.0};
-                    if (disc >= 0.0) {
-                        const double t = (-b - std::sqrt(disc)) / dd;
-                        const double ny = fy * t; // the hit point's y, the unit normal's
-                        const double a = std::fabs(ny);
-                        for (size_t c = 0; c < 3; ++c)
-                            value[c] = a * c1[c] + (1.0 - a) * c2[c];
-                    }
-                    for (int c = 0; c < 3; ++c) {
-                        expected[binOf(x, y, c)] += value[size_t(c)];
-                        members[binOf(x, y, c)] += 1.0;
-                    }
-                }
+    forEachFilmSample(size, 64, tanHalf, [&](int x, int y, double fx, double fy) {
+        // The ray (0, 0, -distance) + t (fx, fy, 1) against the unit sphere.
+        const double dd = fx * fx + fy * fy + 1.0, b = -distance;
+        const double disc = b * b - dd * (distance * distance - 1.0);
+        std::array<double, 3> value{1.0, 1.0, 1.0};
+        if (disc >= 0.0) {
+            const double t = (-b - std::sqrt(disc)) / dd;
+            const double ny = fy * t; // the hit point's y, the unit normal's
+            const double a = std::fabs(ny);
+            for (size_t c = 0; c < 3; ++c)
+                value[c] = a * c1[c] + (1.0 - a) * c2[c];
+        }
+        for (int c = 0; c < 3; ++c) {
+            expected[binOf(x, y, c)] += value[size_t(c)];
+            members[binOf(x, y, c)] += 1.0;
+        }
+    });
     for (size_t b = 0; b < expected.size(); ++b)
         expected[b] /= members[b];
     for (const std::string method : kMethods) {
