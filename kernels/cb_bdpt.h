@@ -33,6 +33,7 @@
 #include "cb_bvh_wide.h"
 #include "cb_camera.h"
 #include "cb_lights.h"
+#include "cb_medium.h"
 #include "cb_rng.h"
 
 CB_BEGIN_NAMESPACE
@@ -54,7 +55,7 @@ CB_BEGIN_NAMESPACE
 
 /* Padding that keeps PathVertex a multiple of 16 bytes for any channel count, so that CBDPT
  * can upload host vertices byte for byte. */
-#define CB_PATH_VERTEX_PAD (4 - (CB_CHANNELS + 3) % 4)
+#define CB_PATH_VERTEX_PAD ((4 - CB_CHANNELS % 4) % 4)
 
 typedef struct PathVertex {
     real p[3];
@@ -71,9 +72,14 @@ typedef struct PathVertex {
     real ns[3];  /* surfaces: unit shading normal (SurfacePoint.ns); otherwise n */
     real hero;   /* surfaces: the wavelength the subpath follows (TexCoord.hero), -1: every bin */
     real tangent[3]; /* surfaces, CB_FEATURE_ANISOTROPIC: SurfacePoint.tangent; otherwise 0 */
+    /* The medium around the vertex where its surface is no boundary (cb_medium.h): the one its
+     * ray arrived in; light[0]: its area light's (-1, vacuum, for other lights); the camera's. */
+    int medium;
     Spectrum
         beta; /* subpath throughput / pdf up to this vertex (light[0]: 1/pdfFwd, Le excluded) */
+#if CB_PATH_VERTEX_PAD > 0
     real pad[CB_PATH_VERTEX_PAD];
+#endif
 } PathVertex;
 
 typedef struct BdptSettings {
@@ -167,8 +173,10 @@ CB_FN Frame pvFrame(const PathVertex* v) {
 CB_FN void pvClearTail(PathVertex* v) {
     for (int i = 0; i < 3; ++i)
         v->tangent[i] = 0.0f;
+#if CB_PATH_VERTEX_PAD > 0
     for (int i = 0; i < CB_PATH_VERTEX_PAD; ++i)
         v->pad[i] = 0.0f;
+#endif
 }
 CB_FN TexCoord pvUv(const PathVertex* v) {
     TexCoord c;
@@ -249,6 +257,21 @@ CB_FN SurfacePoint pvSurfacePoint(const PathVertex* v) {
     return sp;
 }
 
+/* The medium a segment from vertex v in unit direction w travels in (mediumLeaving): light[0]
+ * of an area light by its emitting primitive's material. */
+CB_FN int pvMediumToward(const SceneView* scene, const PathVertex* v, Vec3 w) {
+#if CB_HAS(CB_FEATURE_MEDIUM)
+    int material = v->material;
+    if (v->type == CB_VERTEX_AREA_LIGHT)
+        material = scene->primitives[scene->lights[v->light].primitive].material;
+    return mediumLeaving(scene, material, pvN(v), w, v->medium);
+#else
+    (void)scene;
+    (void)w;
+    return v->medium;
+#endif
+}
+
 /* ---- Camera importance (pbrt-v4 PerspectiveCamera::We / PDF_We, pinhole) ------------------- */
 
 /* For a unit world direction w leaving the camera: importance We = 1 / (A cos^4) and the
@@ -288,6 +311,7 @@ CB_FN PathVertex bdptCameraVertex(const Camera* camera, Vec3 lens) {
     v.uv[0] = v.uv[1] = 0.0f;
     v.beta = specConst(1.0f);
     pvClearTail(&v);
+    v.medium = camera->medium;
     return v;
 }
 
@@ -330,6 +354,11 @@ CB_FN real bdptLightDirectionPdf(const SceneView* scene, const PathVertex* v, Ve
 CB_FN int bdptWalkStep(const SceneView* scene, bool found, Hit hit, Ray* ray, Spectrum* beta,
                        real* pdfW, int adjoint, SampleStream stream, uint firstBounceDim,
                        PathVertex* prev, PathVertex* v, int count, int maxVertices) {
+    int medium = pvMediumToward(scene, prev, ray->d);
+#if CB_HAS(CB_FEATURE_MEDIUM)
+    /* The ray's way through its medium (every subpath ray has a unit direction). */
+    *beta = specMul(*beta, mediumTransmittance(scene, medium, found ? hit.t : CB_INFINITY));
+#endif
     if (!found) {
         /* An escaped eye ray ends on the infinite light, if the scene has one. */
         int infinite = adjoint ? -1 : lightInfinite(scene);
@@ -348,6 +377,7 @@ CB_FN int bdptWalkStep(const SceneView* scene, bool found, Hit hit, Ray* ray, Sp
         v->pdfRev = 0.0f;
         v->uv[0] = v->uv[1] = 0.0f;
         pvClearTail(v);
+        v->medium = medium;
         v->beta = *beta;
         return 1;
     }
@@ -376,6 +406,7 @@ CB_FN int bdptWalkStep(const SceneView* scene, bool found, Hit hit, Ray* ray, Sp
 #if CB_HAS(CB_FEATURE_ANISOTROPIC)
     cbStore3(v->tangent, sp.tangent);
 #endif
+    v->medium = medium;
     v->beta = *beta;
     v->pdfFwd = pvConvertPdf(*pdfW, pvP(prev), v);
     ++count;
@@ -474,6 +505,12 @@ CB_FN void bdptSetLightVertex(const SceneView* scene, PathVertex* v, const Light
     v->pdfRev = 0.0f;
     v->uv[0] = v->uv[1] = 0.0f;
     pvClearTail(v);
+    v->medium = -1;
+#if CB_HAS(CB_FEATURE_MEDIUM)
+    if (v->type == CB_VERTEX_AREA_LIGHT)
+        v->medium = scene->materials[scene->primitives[scene->lights[ls->light].primitive].material]
+                        .mediumInside;
+#endif
     v->beta = specConst(1.0f / pdfFwd);
 }
 
@@ -798,6 +835,11 @@ CB_FN bool bdptConnectUnoccluded(const SceneView* scene, const Camera* camera,
         real cosCam = vdot(vneg(w), forward);
         real g = cosCam * pvAbsCos(qs, w) / dist2 * pvLightSideShading(qs);
         out->contribution = specScale(specMul(qs->beta, f), we * g);
+#if CB_HAS(CB_FEATURE_MEDIUM)
+        out->contribution =
+            specMul(out->contribution,
+                    mediumTransmittance(scene, pvMediumToward(scene, qs, w), sqrt(dist2)));
+#endif
         out->rasterX = rx;
         out->rasterY = ry;
         out->qsPdfRev = pdfCamDir * pvAbsCos(qs, w) / dist2;
@@ -830,6 +872,11 @@ CB_FN bool bdptConnectUnoccluded(const SceneView* scene, const Camera* camera,
     real g = pvAbsCos(pt, w) * pvAbsCos(qs, w) * invDist2 * shadingRatio(pvN(pt), pvNs(pt), w);
     if (s >= 2) g *= pvLightSideShading(qs);
     out->contribution = specScale(specMul(specMul(qs->beta, fQs), specMul(fPt, pt->beta)), g);
+#if CB_HAS(CB_FEATURE_MEDIUM)
+    out->contribution = specMul(out->contribution,
+                                mediumTransmittance(scene, pvMediumToward(scene, pt, w),
+                                                    pvAtInfinity(qs) ? CB_INFINITY : sqrt(dist2)));
+#endif
     out->ptPdfRev = qsFwd * pvAbsCos(pt, w) * invDist2;
     out->ptMinusPdfRev = pvConvertPdf(ptRev, pvP(pt), &eye[t - 2]);
     out->qsPdfRev = ptFwd * pvAbsCos(qs, w) * invDist2;

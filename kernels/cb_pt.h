@@ -10,6 +10,7 @@
 #include "cb_bvh_wide.h"
 #include "cb_camera.h"
 #include "cb_lights.h"
+#include "cb_medium.h"
 #include "cb_rng.h"
 
 CB_BEGIN_NAMESPACE
@@ -42,10 +43,12 @@ typedef struct PtPath {
     int vertex;        /* the vertex the next ray finds */
     int shadowPending; /* a shadow ray for shadowTerm waits */
     real hero;         /* the wavelength the path follows (TexCoord.hero), -1: every bin */
+    int medium;        /* the medium the next ray travels in (cb_medium.h), -1: vacuum */
 } PtPath;
-#define CB_PT_PATH_BYTES(channels) (4 * (3 * (channels) + 8))
+#define CB_PT_PATH_BYTES(channels) (4 * (3 * (channels) + 9))
 
-CB_FN PtPath ptPathBegin(void) {
+/* A path from the camera, which sits in `medium` (Camera.medium). */
+CB_FN PtPath ptPathBegin(int medium) {
     PtPath path;
     path.radiance = specZero();
     path.throughput = specConst(1.0f);
@@ -56,6 +59,7 @@ CB_FN PtPath ptPathBegin(void) {
     path.vertex = 1;
     path.shadowPending = 0;
     path.hero = -1.0f;
+    path.medium = medium;
     return path;
 }
 
@@ -68,6 +72,11 @@ CB_FN PtPath ptPathBegin(void) {
 CB_FN bool ptPathVertex(const SceneView* scene, PtPath* path, Ray* ray, bool found, Hit hit,
                         SampleStream stream, PathSettings settings, Ray* shadow, real* shadowTMax) {
     path->shadowPending = 0;
+#if CB_HAS(CB_FEATURE_MEDIUM)
+    /* The ray's way through its medium (camera and bounce rays have unit directions). */
+    path->throughput = specMul(
+        path->throughput, mediumTransmittance(scene, path->medium, found ? hit.t : CB_INFINITY));
+#endif
     if (!found) {
 #if CB_HAS(CB_FEATURE_INFINITE_LIGHT)
         /* The escaped ray sees the infinite light, weighed against next-event estimation's
@@ -153,6 +162,14 @@ CB_FN bool ptPathVertex(const SceneView* scene, PtPath* path, Ray* ray, bool fou
                     real factor = scatterCos(sp.ng, sp.ns, wo, wi, 0) * weight / pdfLightW;
                     path->shadowTerm =
                         specScale(specMul(specMul(path->throughput, f), emitted), factor);
+#if CB_HAS(CB_FEATURE_MEDIUM)
+                    int medium = mediumLeaving(scene, sp.material, sp.ng, wi, path->medium);
+                    int kind = scene->lights[ls.light].kind;
+                    bool atInfinity = kind == CB_LIGHT_DISTANT || kind == CB_LIGHT_INFINITE;
+                    real distance = atInfinity ? CB_INFINITY : sqrt(dist2);
+                    path->shadowTerm =
+                        specMul(path->shadowTerm, mediumTransmittance(scene, medium, distance));
+#endif
                     path->shadowPending = 1;
                 }
             }
@@ -180,6 +197,7 @@ CB_FN bool ptPathVertex(const SceneView* scene, PtPath* path, Ray* ray, bool fou
         path->throughput = specScale(path->throughput, 1.0f / survival);
     }
     *ray = spawnRay(sp, bs.wi);
+    path->medium = mediumLeaving(scene, sp.material, sp.ng, bs.wi, path->medium);
     path->vertex = vertex + 1;
     return true;
 }
@@ -191,11 +209,11 @@ CB_FN void ptPathShadow(PtPath* path, bool occluded) {
     path->shadowPending = 0;
 }
 
-/* Radiance arriving at the camera along `ray`, estimated with paths of at most
+/* Radiance arriving at the camera (in `medium`) along `ray`, estimated with paths of at most
  * settings.eyeVertices vertices (ptPathVertex), every ray traced as soon as it is made. */
-CB_FN Spectrum ptRadiance(const SceneView* scene, Ray ray, SampleStream stream,
+CB_FN Spectrum ptRadiance(const SceneView* scene, Ray ray, int medium, SampleStream stream,
                           PathSettings settings) {
-    PtPath path = ptPathBegin();
+    PtPath path = ptPathBegin(medium);
     bool more = settings.eyeVertices > 1;
     while (more) {
         Hit hit;
@@ -242,7 +260,8 @@ CB_FN Vec3 ptPixelRgb(const SceneView* scene, CB_GLOBAL const real* toRgb, const
                                          sharedDimensions, camera->width, x, y);
     real filterWeight;
     Ray ray = ptCameraRay(camera, samples, x, y, &filterWeight);
-    return specToRgb(specScale(ptRadiance(scene, ray, samples, settings), filterWeight), toRgb);
+    return specToRgb(
+        specScale(ptRadiance(scene, ray, camera->medium, samples, settings), filterWeight), toRgb);
 }
 
 CB_END_NAMESPACE

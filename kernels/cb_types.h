@@ -109,6 +109,8 @@ typedef struct Hit {
 /* Conductors or rough dielectrics of two roughnesses (pbrt-v4's "uroughness" != "vroughness"),
  * shaded in frames whose first axis is the surface's dp/du. */
 #define CB_FEATURE_ANISOTROPIC (1u << 30)
+/* Absorbing media behind surfaces (pbrt-v4's "homogeneous" media of sigma_s 0, cb_medium.h). */
+#define CB_FEATURE_MEDIUM (1u << 31)
 
 #ifndef CB_FEATURES
 #define CB_FEATURES 0xffffffffu
@@ -223,6 +225,11 @@ typedef struct Material {
     /* CB_FEATURE_ANISOTROPIC: a conductor's or rough dielectric's GGX alpha along dp/dv (pbrt-v4's
      * "vroughness"), `alpha` then being the one along dp/du ("uroughness"); `alpha` elsewhere. */
     real alphaV;
+    /* CB_FEATURE_MEDIUM: the absorbing medium on each side of the surface (cb_medium.h: sigma_a's
+     * index in `spectra`, -1 vacuum), the outside the one ng points into (pbrt-v4's
+     * MediumInterface of the shape; equal sides: the surface is no boundary). */
+    int mediumInside;
+    int mediumOutside;
 } Material;
 
 #define CB_DISPERSION_KNOTS_PER_BIN 4
@@ -316,6 +323,10 @@ typedef struct Camera {
      * integral of f1 over [0, r], which turns a sample's density into its weight. */
     real filterAbsCdf[2][CB_FILTER_TABLE_BINS + 1];
     real filterSampleScale[2];
+    /* CB_FEATURE_MEDIUM: the absorbing medium the camera sits in (pbrt-v4's CameraMedium, the
+     * outside of its MediumInterface: cb_medium.h), -1 vacuum. */
+    int medium;
+    int pad[3];
 } Camera;
 
 CB_FN Vec3 affineTransformPoint(const real* m, Vec3 p) {

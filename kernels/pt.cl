@@ -55,7 +55,7 @@ __kernel void renderCoherentPathTracing(CB_INTEGRATOR_KERNEL_PARAMS(PathSettings
         real filterWeight; /* cameraSampleWeight's where the radiance is written */
         rays[base + p] = ptCameraRay(&camera, CB_CPT_SAMPLES(x, y), x, y, &filterWeight);
         tMaxes[base + p] = inside && settings.eyeVertices > 1 ? CB_INFINITY : 0.0f;
-        paths[base + p] = ptPathBegin();
+        paths[base + p] = ptPathBegin(camera.medium);
     }
     for (int vertex = 1; vertex < settings.eyeVertices; ++vertex) {
         for (int q = 0; q < packets; ++q)

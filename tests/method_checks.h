@@ -204,14 +204,15 @@ inline const std::string kDiskLight =
 // vertices). The mean over
 // each cell of a 3 x 3 grid must agree within 4.5 combined standard errors, spread over 16 runs:
 // with 8 (Student's t, 7 degrees of freedom) a correct method fails one of the 27 cells in about
-// 1 of 14 seeds, with 16 in 1 of 88.
+// 1 of 14 seeds, with 16 in 1 of 88. `options`: directives before the camera's.
 inline void checkMethodsAgreeWithPt(
     const std::string& light, const std::string& extra = "",
     const std::string& cameraParameters = "",
-    const std::string& material = "Material \"diffuse\" \"rgb reflectance\" [0.7 0.7 0.7]\n") {
+    const std::string& material = "Material \"diffuse\" \"rgb reflectance\" [0.7 0.7 0.7]\n",
+    const std::string& options = "") {
     cb::ClRuntime runtime;
     const std::string text =
-        "LookAt 0 2 -3  0 0.3 0  0 1 0\nCamera \"perspective\" \"float fov\" 50 " +
+        options + "LookAt 0 2 -3  0 0.3 0  0 1 0\nCamera \"perspective\" \"float fov\" 50 " +
         cameraParameters +
         "\n"
         "Film \"rgb\" \"integer xresolution\" 24 \"integer yresolution\" 24\nWorldBegin\n" +

@@ -119,6 +119,8 @@ template <class Visit> void forEachField(cbk::Material& s, Visit&& visit) {
     visit(s.displacement);
     visit(s.dispersion);
     visit(s.alphaV);
+    visit(s.mediumInside);
+    visit(s.mediumOutside);
 }
 template <class Visit> void forEachField(cbk::Light& s, Visit&& visit) {
     visit(s.kind);
@@ -159,6 +161,8 @@ template <class Visit> void forEachField(cbk::Camera& s, Visit&& visit) {
     visit(s.filterNormalization);
     visit(s.filterAbsCdf);
     visit(s.filterSampleScale);
+    visit(s.medium);
+    visit(s.pad);
 }
 
 // Calls word(element) for each scalar of a field, arrays of arrays included.

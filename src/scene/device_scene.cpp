@@ -13,13 +13,14 @@
 #include <limits>
 #include <map>
 #include <numeric>
+#include <tuple>
 
 namespace cb {
 
 static_assert(sizeof(cbk::Primitive) == 48, "Primitive must match the OpenCL layout");
-static_assert(sizeof(cbk::Material) == 100, "Material must match the OpenCL layout");
+static_assert(sizeof(cbk::Material) == 108, "Material must match the OpenCL layout");
 static_assert(sizeof(cbk::Light) == 112, "Light must match the OpenCL layout");
-static_assert(sizeof(cbk::Camera) == 432, "Camera must match the OpenCL layout");
+static_assert(sizeof(cbk::Camera) == 448, "Camera must match the OpenCL layout");
 
 namespace {
 
@@ -306,6 +307,7 @@ cbk::Camera makeCamera(const SceneDesc& desc, const std::array<double, 3>& origi
     if (!(fov > 0.f && fov < 180.f))
         throw SceneError(where, fmt::format("field of view {} must be in (0, 180) degrees", fov));
     cbk::Camera camera{};
+    camera.medium = -1; // set with the scene's other media (buildDeviceScene)
     // Device coordinates are world coordinates minus `origin`: worldToCamera * Translate(origin).
     Mat4 worldToCamera;
     worldToCamera.m = desc.camera.worldToCamera;
@@ -561,6 +563,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         out.alphaTexture = -1;
         out.displacement = -1;
         out.dispersion = -1;
+        out.mediumInside = out.mediumOutside = -1;
         out.remapRoughness = m.remapRoughness ? 1 : 0;
         // GGX alpha of conductors, dielectrics and coats; pbrt-v4 maps roughness r to sqrt(r).
         auto ggxAlpha = [&m](float roughness) {
@@ -793,6 +796,47 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         }
         return it->second;
     };
+    // pbrt-v4's MediumInterface: a shape between media gets a material of its own, its material
+    // with the two media set (one per material and pair), which the kernels read where a ray
+    // leaves the surface (mediumLeaving, cb_medium.h). A medium is its sigma_a x scale.
+    std::vector<int> mediumSpectrum(desc.media.size(), -1);
+    auto mediumEntry = [&](int medium) {
+        if (medium < 0) return -1;
+        int& entry = mediumSpectrum[size_t(medium)];
+        if (entry < 0) {
+            const MediumDesc& md = desc.media[size_t(medium)];
+            entry = spectra.add(md.sigmaA, md.scale);
+            for (int i = 0; i < scene.channels; ++i) {
+                float& v = scene.spectra[size_t(entry * scene.channels + i)];
+                // Smits's RGB basis can dip a hair below 0 between its bins.
+                v = std::max(v, 0.f);
+                if (!std::isfinite(v))
+                    throw SceneError(md.where, fmt::format("medium \"{}\": \"sigma_a\" times "
+                                                           "\"float scale\" {:g} exceeds the float "
+                                                           "range (3.4e38)",
+                                                           md.name, md.scale));
+            }
+        }
+        return entry;
+    };
+    scene.camera.medium = mediumEntry(desc.camera.medium);
+    if (scene.camera.medium >= 0) scene.features |= CB_FEATURE_MEDIUM;
+    std::map<std::tuple<int, int, int>, int> mediumMaterials;
+    auto withMedia = [&](int material, int inside, int outside, const SourceLocation& where) {
+        if (inside < 0 && outside < 0) return material;
+        if (material < 0) throw SceneError(where, "a shape in a medium needs a material");
+        auto [it, added] = mediumMaterials.try_emplace({material, inside, outside}, -1);
+        if (added) {
+            cbk::Material m = scene.materials[size_t(material)];
+            m.mediumInside = mediumEntry(inside);
+            m.mediumOutside = mediumEntry(outside);
+            scene.materials.push_back(m);
+            it->second = int(scene.materials.size()) - 1;
+            scene.features |= CB_FEATURE_MEDIUM;
+        }
+        return it->second;
+    };
+
     for (const auto& mesh : desc.meshes) {
         if (mesh.alphaTexture < 0 || mesh.triangles.empty()) continue;
         if (mesh.areaLight >= 0)
@@ -843,7 +887,8 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
             cbk::Primitive prim{};
             const bool alphaTested = mesh.alphaTexture >= 0;
             prim.kind = alphaTested ? CB_PRIM_ALPHA_TRIANGLE : CB_PRIM_TRIANGLE;
-            prim.material = alphaTested ? alphaTestedMaterial(mesh) : mesh.material;
+            prim.material = withMedia(alphaTested ? alphaTestedMaterial(mesh) : mesh.material,
+                                      mesh.mediumInside, mesh.mediumOutside, mesh.where);
             prim.light = -1;
             toDevice(mesh.positions[tri[0]], prim.p0);
             toDevice(mesh.positions[tri[1]], prim.p1);
@@ -884,7 +929,8 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
     for (const auto& sphere : desc.spheres) {
         cbk::Primitive prim{};
         prim.kind = CB_PRIM_SPHERE;
-        prim.material = sphere.material;
+        prim.material =
+            withMedia(sphere.material, sphere.mediumInside, sphere.mediumOutside, sphere.where);
         prim.light = -1;
         toDevice(sphere.center, prim.p0);
         prim.p1[0] = sphere.radius;
@@ -1191,6 +1237,7 @@ std::string DeviceScene::featureNames() const {
     add(CB_FEATURE_TEXTURE_MAPPING, "texture-mapping");
     add(CB_FEATURE_INVISIBLE_LIGHT, "invisible-light");
     add(CB_FEATURE_ANISOTROPIC, "anisotropic");
+    add(CB_FEATURE_MEDIUM, "medium");
     names += channels == 16 ? " spectral-16" : " rgb";
     return names;
 }

@@ -212,9 +212,10 @@ bool knownParamType(const std::string& t) {
 }
 
 // What a spectral parameter's values may be: a fraction of light in [0, 1] (a reflectance or a
-// transmittance), an emission >= 0, a conductor's eta or k in [0, kMaxConductorIndex], or a
-// dielectric's index in (0, kMaxDielectricIndex].
-enum class SpectrumRole { Reflectance, Emission, ConductorIndex, DielectricIndex };
+// transmittance), an emission >= 0, a conductor's eta or k in [0, kMaxConductorIndex], a
+// dielectric's index in (0, kMaxDielectricIndex], or a medium's coefficient (sigma_a, sigma_s)
+// >= 0.
+enum class SpectrumRole { Reflectance, Emission, ConductorIndex, DielectricIndex, Coefficient };
 // fresnelConductor's float arithmetic stays finite to about 1e9; no material comes near 1e6.
 constexpr double kMaxConductorIndex = 1e6;
 // 4^levels triangles per control triangle: 16 million (about 3 GB of device scene) is a bound
@@ -551,6 +552,8 @@ struct GraphicsState {
     // (kLaterMaterial)
     int material = -1;
     int areaLight = -1;
+    // pbrt-v4's MediumInterface: indices into SceneDesc::media, -1 vacuum ("")
+    int mediumInside = -1, mediumOutside = -1;
     // pbrt-v4's Attribute "shape" / "light" / "material" / ... parameters: defaults for the
     // directives of that kind, in the order given.
     std::map<std::string, std::vector<Param>> attributes;
@@ -630,6 +633,7 @@ class Parser {
         resolveLaterMixParts();
         resolveLaterTextures();
         checkTangents();
+        checkMedia();
     }
 
   private:
@@ -1010,11 +1014,14 @@ class Parser {
             objectInstance(t);
         } else if (d == "Attribute") {
             attribute(t);
+        } else if (d == "MakeNamedMedium") {
+            makeNamedMedium(t);
+        } else if (d == "MediumInterface") {
+            mediumInterface(t);
         } else if (d == "WorldEnd") {
             throw SceneError(t.where, "WorldEnd is pbrt-v3 syntax and not part of pbrt-v4");
         } else {
-            for (const char* known :
-                 {"ActiveTransform", "MakeNamedMedium", "MediumInterface", "TransformTimes"})
+            for (const char* known : {"ActiveTransform", "TransformTimes"})
                 if (d == known)
                     throw SceneError(t.where, "pbrt-v4 directive '" + d +
                                                   "' is not supported by cbdpt (see "
@@ -1034,6 +1041,8 @@ class Parser {
         ParamList pl = params("Camera \"perspective\"");
         CameraDesc& cam = scene_.camera;
         cam.where = t.where;
+        // pbrt-v4's camera sits in the outside medium of its MediumInterface.
+        cam.medium = mediumUsed(state_.mediumOutside, t.where, "the camera");
         cam.worldToCamera = state_.ctm.m;
         // pbrt-v4 names the camera's space "camera" for CoordSysTransform.
         if (const auto worldFromCamera = inverse(state_.ctm))
@@ -1596,6 +1605,123 @@ class Parser {
         return material;
     }
 
+    // ---- Media (pbrt-v4's MakeNamedMedium and MediumInterface) ----------------------------
+
+    // The index in scene_.media of the medium `name` (-1 for "", vacuum), made on first mention:
+    // pbrt-v4 resolves the names once the file is read, so a MediumInterface may come first.
+    int mediumNamed(const Token& name) {
+        if (name.text.empty()) return -1;
+        const auto [it, added] = mediumIndex_.try_emplace(name.text, int(scene_.media.size()));
+        if (added) {
+            MediumDesc m;
+            m.name = name.text;
+            m.where = name.where;
+            scene_.media.push_back(std::move(m));
+        }
+        return it->second;
+    }
+
+    // pbrt-v4's "homogeneous" medium. cbdpt renders the ones that only absorb; any other is kept
+    // with the reason, an error only where something sits in it (checkMedia), as pbrt-v4 creates
+    // media that nothing uses without complaint.
+    void makeNamedMedium(const Token& t) {
+        const Token name = quoted(t, "a medium name");
+        ParamList pl = params("MakeNamedMedium \"" + name.text + "\"", "medium");
+        if (name.text.empty()) throw SceneError(name.where, "a medium's name must not be empty");
+        MediumDesc& m = scene_.media[size_t(mediumNamed(name))];
+        if (m.defined)
+            throw SceneError(name.where, "named medium \"" + name.text +
+                                             "\" is already defined (at " + m.where.str() + ")");
+        m.defined = true;
+        m.where = t.where;
+        const std::optional<std::string> type = pl.oneString("type");
+        if (!type)
+            throw SceneError(t.where, "MakeNamedMedium \"" + name.text +
+                                          "\" needs a \"string type\" parameter");
+        if (*type != "homogeneous") {
+            m.unsupported = "is of type \"" + *type + "\"";
+            pl.takeRest();
+            pl.finish();
+            return;
+        }
+        if (const std::optional<std::string> preset = pl.oneString("preset"))
+            m.unsupported = "scatters (its \"preset\" \"" + *preset + "\")";
+        if (auto sigmaA = pl.spectrum("sigma_a", SpectrumRole::Coefficient)) m.sigmaA = *sigmaA;
+        // pbrt-v4's default sigma_s is 1: a medium that does not scatter says so.
+        const std::optional<SpectrumValue> sigmaS =
+            pl.spectrum("sigma_s", SpectrumRole::Coefficient);
+        if (m.unsupported.empty() && (!sigmaS || !isZero(*sigmaS)))
+            m.unsupported = sigmaS ? "scatters (its \"sigma_s\" is not 0)"
+                                   : "scatters (pbrt-v4's default \"sigma_s\" is 1)";
+        if (const std::optional<SpectrumValue> le = pl.spectrum("Le", SpectrumRole::Emission);
+            le && !isZero(*le) && m.unsupported.empty())
+            m.unsupported = "emits (its \"Le\" is not 0)";
+        pl.ignore("Lescale", {"float"});
+        pl.ignore("g", {"float"}); // the phase function of a medium that does not scatter
+        if (const Param* p = pl.peek("scale")) {
+            const double scale = *pl.oneFloat("scale");
+            if (!(scale >= 0.0 && scale <= std::numeric_limits<float>::max()))
+                throw SceneError(p->valueLoc(0),
+                                 fmt::format("\"float scale\" must be >= 0, got {:g}", scale));
+            m.scale = float(scale);
+        }
+        pl.finish();
+    }
+
+    static bool isZero(const SpectrumValue& s) {
+        if (s.isRgb) return s.rgb == std::array<float, 3>{0.f, 0.f, 0.f};
+        return std::all_of(s.samples.begin(), s.samples.end(),
+                           [](const auto& sample) { return sample.second == 0.f; });
+    }
+
+    // pbrt-v4's MediumInterface "inside" "outside" (one name: both sides).
+    void mediumInterface(const Token& t) {
+        const Token inside = quoted(t, "a medium name (\"\" for none)");
+        Token outside = inside;
+        if (const std::optional<Token>& pk = peek(); pk && pk->quoted) outside = *next();
+        state_.mediumInside = mediumNamed(inside);
+        state_.mediumOutside = mediumNamed(outside);
+    }
+
+    // Medium `index` where a shape's side or the camera sits in it: recorded for checkMedia.
+    int mediumUsed(int index, const SourceLocation& where, const char* user) {
+        if (index >= 0) {
+            MediumDesc& m = scene_.media[size_t(index)];
+            if (!m.used) {
+                m.firstUse = where;
+                m.firstUser = user;
+            }
+            m.used = true;
+        }
+        return index;
+    }
+
+    // Lights other than area lights: cbdpt's sit in vacuum.
+    void sitsInMedium(int index, const SourceLocation& where, const std::string& what) const {
+        if (index < 0) return;
+        throw SceneError(where, what + " inside the medium \"" + scene_.media[size_t(index)].name +
+                                    "\" (its MediumInterface's outside) is not supported: only "
+                                    "shapes and the camera may sit in cbdpt's media");
+    }
+
+    // Every medium a shape or the camera sits in is defined, and one cbdpt renders.
+    void checkMedia() const {
+        for (const MediumDesc& m : scene_.media) {
+            if (!m.used) continue;
+            if (!m.defined)
+                throw SceneError(m.where, "unknown medium \"" + m.name +
+                                              "\" (no MakeNamedMedium defines it; " + m.firstUser +
+                                              " sits in it at " + m.firstUse.str() + ")");
+            if (!m.unsupported.empty())
+                throw SceneError(m.where, "medium \"" + m.name + "\" " + m.unsupported +
+                                              ": cbdpt renders \"homogeneous\" media of "
+                                              "\"sigma_s\" 0 without \"Le\", which only "
+                                              "absorb (" +
+                                              m.firstUser + " sits in it at " + m.firstUse.str() +
+                                              ")");
+        }
+    }
+
     // A mesh's tangents beside an anisotropic material (or a mix with one): an error.
     void checkTangents() const {
         auto anisotropic = [&](int i) {
@@ -1961,6 +2087,8 @@ class Parser {
 
     void lightSource(const Token& t) {
         const Token type = quoted(t, "a light type");
+        // pbrt-v4's light sits in the outside medium of its MediumInterface.
+        sitsInMedium(state_.mediumOutside, t.where, "a LightSource");
         const bool spot = type.text == "spot";
         if (type.text == "distant") return distantLight(t);
         if (type.text == "infinite") return infiniteLight(t);
@@ -3307,6 +3435,8 @@ class Parser {
         s.reverseOrientation = state_.reverseOrientation != (m.det3() < 0.0);
         s.material = currentMaterial();
         s.areaLight = state_.areaLight;
+        s.mediumInside = mediumUsed(state_.mediumInside, where, "a shape");
+        s.mediumOutside = mediumUsed(state_.mediumOutside, where, "a shape");
         s.invisible = invisible;
         s.shapeArea = 4.0 * M_PI * radius * radius;
         s.scale = scale;
@@ -3389,6 +3519,8 @@ class Parser {
         }
         mesh.material = currentMaterial();
         mesh.areaLight = state_.areaLight;
+        mesh.mediumInside = mediumUsed(state_.mediumInside, where, "a shape");
+        mesh.mediumOutside = mediumUsed(state_.mediumOutside, where, "a shape");
         mesh.alphaTexture = alpha.texture;
         mesh.invisible = alpha.invisible;
         scene_.meshes.push_back(std::move(mesh));
@@ -3546,6 +3678,7 @@ class Parser {
     bool textureFilteringDisabled_ = false;       // Option "disabletexturefiltering" true
     std::set<std::string> notedKinds_;
     std::map<std::string, Mat4> namedCoordinateSystems_;
+    std::map<std::string, int> mediumIndex_; // medium name -> index in scene_.media
     std::map<std::string, SourceLocation> importedCoordinateSystems_; // defined inside an Import
     struct OpenObject {
         std::string name;

@@ -112,6 +112,22 @@ struct MaterialDesc {
     SourceLocation where;
 };
 
+// pbrt-v4's MakeNamedMedium of type "homogeneous" that does not scatter (sigma_s 0, no emission):
+// an absorbing medium, each unit of world length passing exp(-sigma_a scale) of the light.
+struct MediumDesc {
+    std::string name;
+    SpectrumValue sigmaA = SpectrumValue::constant(1.f); // pbrt-v4's default
+    float scale = 1.f;
+    bool defined = false; // named by a MediumInterface, not (yet) by a MakeNamedMedium
+    // Why cbdpt cannot render it ("" where it can): an error once a shape or the camera sits in
+    // it.
+    std::string unsupported;
+    SourceLocation where;    // the MakeNamedMedium, or the first MediumInterface naming it
+    SourceLocation firstUse; // the first shape or camera in it
+    std::string firstUser;   // "a shape" or "the camera"
+    bool used = false;
+};
+
 // Light emission is the value as written times `scale`, which is pbrt-v4's: the file's "scale"
 // divided by the spectrum's photometric integral for a `spectrum` value (pbrt-v4's
 // SpectrumToPhotometric), times "power" over the unit-scale power where given. An RGB value
@@ -136,6 +152,9 @@ struct TriangleMeshDesc {
     std::vector<std::array<unsigned, 3>> triangles;
     int material = -1;
     int areaLight = -1; // index into SceneDesc::areaLights, or -1
+    // pbrt-v4's MediumInterface at the shape: indices into SceneDesc::media, -1 vacuum; the
+    // outside is the side the geometric normal points into
+    int mediumInside = -1, mediumOutside = -1;
     // Per triangle, the area of the pbrt-v4 shape it belongs to (its own, a bilinear patch's, a
     // disk's in object space): what a "power" light divides by. Empty: each triangle's own.
     std::vector<double> shapeArea;
@@ -174,6 +193,7 @@ struct SphereDesc {
     bool reverseOrientation = false;             // normals point inward
     int material = -1;
     int areaLight = -1;
+    int mediumInside = -1, mediumOutside = -1; // as TriangleMeshDesc's
     bool invisible = false; // an area light of alpha 0, as TriangleMeshDesc::invisible
     double shapeArea = 0.0; // pbrt-v4's Sphere::Area(): 4 pi times the object-space radius^2
     double scale = 1.0;     // the CTM's uniform scale: world radius over object radius
@@ -268,6 +288,9 @@ struct CameraDesc {
     // otherwise), a the "frameaspectratio" or the film's width / height.
     std::optional<double> frameAspectRatio;
     std::optional<std::array<double, 4>> screenWindow;
+    // pbrt-v4's CameraMedium, the outside of the MediumInterface at the Camera directive: an index
+    // into SceneDesc::media, -1 vacuum
+    int medium = -1;
     SourceLocation where;
 };
 
@@ -351,6 +374,7 @@ struct SceneDesc {
     std::vector<DistantLightDesc> distantLights;
     std::vector<InfiniteLightDesc> infiniteLights; // at most one
     std::vector<TextureDesc> textures;             // those a material uses
+    std::vector<MediumDesc> media;                 // named by MakeNamedMedium or MediumInterface
     bool usesSpectra = false; // any parameter was given as `spectrum` (render spectrally)
     long droppedDegenerateTriangles = 0; // zero-area triangles removed at load
 };
