@@ -159,7 +159,8 @@ typedef struct SurfacePoint {
                   * -1: the caller sets it, dispersionFollowOne) */
 #if CB_HAS(CB_FEATURE_ANISOTROPIC)
     /* The shading frame's first axis: the shape's dp/du made perpendicular to ns (pbrt-v4's
-     * shading dpdu); 0 where the shape gives none (surfaceFrame then picks any). */
+     * shading dpdu); 0 where the shape gives none or the material is isotropic
+     * (materialTurnsWithTangent), and surfaceFrame then picks any. */
     Vec3 tangent;
 #endif
 } SurfacePoint;
