@@ -14,20 +14,27 @@
 
 namespace cbtest::scene_files {
 
-inline std::filesystem::path tempDir() {
-    const std::filesystem::path d = std::filesystem::temp_directory_path() /
-                                    ("cbdpt-scene-files-" + std::to_string(::getpid()));
-    std::filesystem::create_directories(d);
-    return d;
+inline std::filesystem::path tempDirPath() {
+    return std::filesystem::temp_directory_path() /
+           ("cbdpt-scene-files-" + std::to_string(::getpid()));
 }
 
 // Removes tempDir() when a test case ends, passed or not.
 struct TempDirCleanup {
     ~TempDirCleanup() {
         std::error_code ignored;
-        std::filesystem::remove_all(tempDir(), ignored);
+        std::filesystem::remove_all(tempDirPath(), ignored);
     }
 };
+
+// The folder, created on first use; removed when the process exits too, so that a case that only
+// parses (CTest runs each case in its own process) leaves nothing behind.
+inline std::filesystem::path tempDir() {
+    static const TempDirCleanup atExit;
+    const std::filesystem::path d = tempDirPath();
+    std::filesystem::create_directories(d);
+    return d;
+}
 
 // An image whose pixel (x, y) is value(x, y, channel), written as EXR.
 template <class Value> std::string writeImage(const std::string& name, int w, int h, Value value) {
