@@ -499,19 +499,17 @@ CB_FN bool materialTurnsWithTangent(const SceneView* scene, int material) {
     return m.alphaV != m.alpha;
 }
 
-/* sp's shading tangent (SurfacePoint.tangent) from its shape's dp/du, as surfacePointMapped takes
- * it: a sphere's (p0 = the hit point minus the centre) or a triangle's (its corners); pbrt-v4
- * makes dp/du perpendicular to the shading normal (Gram-Schmidt), which the frame does
- * (frameFromNormalTangent). 0 (any frame) for isotropic materials. */
+/* sp's shading tangent (SurfacePoint.tangent): its shape's dp/du, as surfacePointMapped takes it,
+ * a sphere's (p0 = the hit point minus the centre) or a triangle's (its corners); 0 (any frame)
+ * for isotropic materials. The frame makes it perpendicular to ns (frameFromNormalTangent). */
 CB_FN SurfacePoint surfacePointTangent(const SceneView* scene, SurfacePoint sp, Hit hit, Vec3 p0,
                                        Vec3 p1, Vec3 p2) {
     sp.tangent = vec3(0.0f, 0.0f, 0.0f);
     /* (Host views of scenes without (u, v) have no texture buffer.) */
     if (!scene->textures || !materialTurnsWithTangent(scene, sp.material)) return sp;
     const bool sphere = scene->primitives[hit.primitive].kind == CB_PRIM_SPHERE;
-    Vec3 dpdu = sphere ? sphereShadingPartials(scene, hit.primitive, p0).dpdu
-                       : triangleUvFrame(scene, hit.primitive, p0, p1, p2).dpdu;
-    sp.tangent = frameFromNormalTangent(sp.ns, dpdu).s;
+    sp.tangent = sphere ? sphereShadingPartials(scene, hit.primitive, p0).dpdu
+                        : triangleUvFrame(scene, hit.primitive, p0, p1, p2).dpdu;
     return sp;
 }
 #endif

@@ -158,8 +158,8 @@ typedef struct SurfacePoint {
     TexCoord uv; /* CB_FEATURE_TEXTURE: interpolated from the triangle's vertices; else 0 (hero
                   * -1: the caller sets it, dispersionFollowOne) */
 #if CB_HAS(CB_FEATURE_ANISOTROPIC)
-    /* The shading frame's first axis: the shape's dp/du made perpendicular to ns (pbrt-v4's
-     * shading dpdu); 0 where the shape gives none or the material is isotropic
+    /* The shape's dp/du, which surfaceFrame makes perpendicular to ns as the frame's first axis
+     * (pbrt-v4's shading dpdu); 0 where the shape gives none or the material is isotropic
      * (materialTurnsWithTangent), and surfaceFrame then picks any. */
     Vec3 tangent;
 #endif
