@@ -419,6 +419,36 @@ TEST_CASE("pbrt-v4: blackbody spectra, Planck's law at a temperature, lights nor
                    "\"float eta\" or \"spectrum eta\", not blackbody"));
 }
 
+TEST_CASE("pbrt-v4: standard illuminants by name, lights normalised") {
+    const auto s = parseSceneString("WorldBegin\n"
+                                    "AreaLightSource \"diffuse\" \"spectrum L\" \"stdillum-F11\" "
+                                    "\"float scale\" 2\n" +
+                                        kTri +
+                                        "LightSource \"distant\" \"spectrum L\" \"stdillum-A\"\n"
+                                        "LightSource \"point\" \"spectrum I\" \"illum-acesD60\"\n",
+                                    "t.pbrt");
+    CHECK(s.usesSpectra);
+    REQUIRE(!s.areaLights[0].radiance.isRgb);
+    const cb::PiecewiseLinear f11 = cb::toPiecewiseLinear(*cb::findNamedSpectrum("stdillum-F11"));
+    CHECK(s.areaLights[0].radiance.samples == f11);
+    CHECK(s.distantLights[0].radiance.samples ==
+          cb::toPiecewiseLinear(*cb::findNamedSpectrum("stdillum-A")));
+    CHECK(s.pointLights[0].intensity.samples ==
+          cb::toPiecewiseLinear(*cb::findNamedSpectrum("illum-acesD60")));
+    // Luminance 1 as named, so a light's luminance is its scale, as any light spectrum's.
+    CHECK(s.areaLights[0].scale == doctest::Approx(2.0 / cb::photometricIntegral(f11)));
+    CHECK(cb::photometricIntegral(f11) ==
+          doctest::Approx(cb::photometricIntegral({{360.0f, 1.0f}, {830.0f, 1.0f}})));
+    // A named illuminant is no reflectance (it exceeds 1), and pbrt-v4's camera spectra are
+    // not built in.
+    CHECK(contains(errorOf("WorldBegin\nMaterial \"diffuse\" \"spectrum reflectance\" "
+                           "\"stdillum-D65\"\n"),
+                   "must be <= 1"));
+    CHECK(contains(errorOf("WorldBegin\nLightSource \"point\" \"spectrum I\" "
+                           "\"canon_eos_5d_mkiv_r\"\n"),
+                   "stdillum-D65"));
+}
+
 TEST_CASE("pbrt-v4: the thesis Cornell box keeps its luminance through the light's scale") {
     const auto s = cb::parseSceneFile(std::string(CBDPT_SOURCE_DIR) + "/scenes/cornell-box.pbrt");
     REQUIRE(s.areaLights.size() == 2);

@@ -16,6 +16,7 @@
 #pragma GCC diagnostic pop
 #include <sstream>
 #include <string>
+#include <tuple>
 #include <vector>
 
 using namespace cb;
@@ -432,6 +433,66 @@ TEST_CASE("named spectra: pbrt-v4's metal-* names, measured data over 360-830 nm
     CHECK(std::all_of(mgoK.begin(), mgoK.end(), [](auto p) { return p.second < 1e-4f; }));
     CHECK(evalPiecewiseLinear(toPiecewiseLinear(*findNamedSpectrum("metal-MgO-eta")), 589.3) ==
           doctest::Approx(1.7355).epsilon(0.003));
+}
+
+TEST_CASE("named spectra: pbrt-v4's standard illuminants, at luminance 1") {
+    // CIE 15:2004's chromaticities of the illuminants (CIE 1931 observer); ACES's white point
+    // from SMPTE ST 2065-1.
+    const std::vector<std::tuple<std::string, double, double>> published = {
+        {"stdillum-A", 0.44758, 0.40745}, {"stdillum-D50", 0.3457, 0.3585},
+        {"stdillum-D65", 0.3127, 0.3290}, {"stdillum-F1", 0.3131, 0.3371},
+        {"stdillum-F2", 0.3721, 0.3751},  {"stdillum-F3", 0.4091, 0.3941},
+        {"stdillum-F4", 0.4402, 0.4031},  {"stdillum-F5", 0.3138, 0.3452},
+        {"stdillum-F6", 0.3779, 0.3882},  {"stdillum-F7", 0.3129, 0.3292},
+        {"stdillum-F8", 0.3458, 0.3586},  {"stdillum-F9", 0.3741, 0.3727},
+        {"stdillum-F10", 0.3458, 0.3588}, {"stdillum-F11", 0.3805, 0.3769},
+        {"stdillum-F12", 0.4370, 0.4042}, {"illum-acesD60", 0.32168, 0.33767}};
+    REQUIRE(namedIlluminants().size() == published.size());
+    const double flatLuminance = photometricIntegral({{360.0f, 1.0f}, {830.0f, 1.0f}});
+    for (const auto& [name, x, y] : published) {
+        CAPTURE(name);
+        const NamedSpectrum* s = findNamedSpectrum(name);
+        REQUIRE(s != nullptr);
+        CHECK(s->unitLuminance);
+        CHECK(namedSpectrumNames().find(name) != std::string::npos);
+        // A's and the daylight series' tables are relative to 100 at 560 nm.
+        const PiecewiseLinear raw = [&] {
+            PiecewiseLinear out;
+            for (size_t i = 0; i + 1 < s->pairs.size(); i += 2)
+                out.emplace_back(float(s->pairs[i]), float(s->pairs[i + 1]));
+            return out;
+        }();
+        if (name.find("-F") == std::string::npos)
+            CHECK(evalPiecewiseLinear(raw, 560.0) == doctest::Approx(100.0).epsilon(2e-4));
+        // A scene gets it at luminance 1: its y-bar integral is a flat 1's.
+        const PiecewiseLinear samples = toPiecewiseLinear(*s);
+        CHECK(photometricIntegral(samples) == doctest::Approx(flatLuminance).epsilon(1e-5));
+        // Its chromaticity through cbdpt's CMF fit (Wyman et al.), against the CIE's, within the
+        // fit's error (at most 0.0014 here, illuminant A's x).
+        std::array<double, 3> xyz{};
+        for (double nm = 360.0; nm < 830.0; nm += 0.25)
+            for (int c = 0; c < 3; ++c)
+                xyz[size_t(c)] += evalPiecewiseLinear(samples, nm + 0.125) *
+                                  cieXyz1931Fit(nm + 0.125)[size_t(c)] * 0.25;
+        const double sum = xyz[0] + xyz[1] + xyz[2];
+        CHECK(std::abs(xyz[0] / sum - x) < 0.002);
+        CHECK(std::abs(xyz[1] / sum - y) < 0.002);
+    }
+    // Illuminant A is Planck's law at 2848 K with the CIE's c2 = 1.435e7 nm K (CIE 15:2004),
+    // relative to 560 nm: the table to its 6 significant digits.
+    const NamedSpectrum& a = *findNamedSpectrum("stdillum-A");
+    for (size_t i = 0; i + 1 < a.pairs.size(); i += 2) {
+        const double nm = a.pairs[i], c2 = 1.435e7, t = 2848.0;
+        CAPTURE(nm);
+        CHECK(a.pairs[i + 1] ==
+              doctest::Approx(100.0 * std::pow(560.0 / nm, 5) * std::expm1(c2 / (t * 560.0)) /
+                              std::expm1(c2 / (t * nm)))
+                  .epsilon(1e-5));
+    }
+    // Materials' measured spectra keep their values.
+    CHECK(!findNamedSpectrum("metal-Cu-eta")->unitLuminance);
+    CHECK(namedSpectrumPairs(*findNamedSpectrum("metal-Cu-eta")).front() ==
+          findNamedSpectrum("metal-Cu-eta")->pairs.front());
 }
 
 TEST_CASE("spectral: blackbody is Planck's law normalised to its peak, 360-830 nm") {

@@ -69,6 +69,8 @@ add_test(NAME comparison_scripts COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_
 set_tests_properties(comparison_scripts PROPERTIES TIMEOUT 300)
 # scripts/named-spectra on a small database: the table it writes, --check, its refusals.
 add_test(NAME named_spectra COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_named_spectra.py ${CMAKE_SOURCE_DIR})
+# pbrt-v4's named illuminants are colour-science's CIE tables (docs/pbrt-v4.md, "Named spectra").
+add_test(NAME named_illuminants COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_named_illuminants.py ${CMAKE_SOURCE_DIR})
 # Every repository path the README and docs/ name exists (docs describe the present).
 add_test(NAME docs_paths COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_docs_paths.py ${CMAKE_SOURCE_DIR})
 # PoCL's default work-group method and "loops" compile the kernels into the same images

@@ -426,8 +426,8 @@ class ParamList {
         Param out = p;
         out.kind = Param::Kind::Number;
         out.strings.clear();
-        out.numbers.assign(named.pairs.begin(), named.pairs.end());
-        out.valuePos.assign(named.pairs.size(), p.valuePos[0]);
+        out.numbers = namedSpectrumPairs(named);
+        out.valuePos.assign(out.numbers.size(), p.valuePos[0]);
         return out;
     }
 

@@ -1,13 +1,29 @@
 #include "spectral/named_spectra.h"
 
 #include <cmath>
+#include <initializer_list>
 
 namespace cb {
 
 const NamedSpectrum* findNamedSpectrum(std::string_view name) {
-    for (const NamedSpectrum& s : namedSpectra())
-        if (s.name == name) return &s;
+    for (const std::span<const NamedSpectrum> table : {namedSpectra(), namedIlluminants()})
+        for (const NamedSpectrum& s : table)
+            if (s.name == name) return &s;
     return nullptr;
+}
+
+std::vector<double> namedSpectrumPairs(const NamedSpectrum& s) {
+    std::vector<double> pairs(s.pairs.begin(), s.pairs.end());
+    if (!s.unitLuminance) return pairs;
+    PiecewiseLinear samples;
+    for (size_t i = 0; i + 1 < pairs.size(); i += 2)
+        samples.emplace_back(static_cast<float>(pairs[i]), static_cast<float>(pairs[i + 1]));
+    // pbrt-v4's PiecewiseLinearSpectrum::FromInterleaved(normalize = true).
+    const double scale =
+        photometricIntegral({{360.0f, 1.0f}, {830.0f, 1.0f}}) / photometricIntegral(samples);
+    for (size_t i = 1; i < pairs.size(); i += 2)
+        pairs[i] *= scale;
+    return pairs;
 }
 
 const NamedGlass* findNamedGlass(std::string_view name) {
@@ -32,15 +48,17 @@ PiecewiseLinear glassIndexSpectrum(const NamedGlass& glass) {
 
 std::string namedSpectrumNames() {
     std::string out;
-    for (const NamedSpectrum& s : namedSpectra())
-        out += (out.empty() ? "" : ", ") + std::string(s.name);
+    for (const std::span<const NamedSpectrum> table : {namedSpectra(), namedIlluminants()})
+        for (const NamedSpectrum& s : table)
+            out += (out.empty() ? "" : ", ") + std::string(s.name);
     return out;
 }
 
 PiecewiseLinear toPiecewiseLinear(const NamedSpectrum& s) {
+    const std::vector<double> pairs = namedSpectrumPairs(s);
     PiecewiseLinear out;
-    for (size_t i = 0; i + 1 < s.pairs.size(); i += 2)
-        out.emplace_back(static_cast<float>(s.pairs[i]), static_cast<float>(s.pairs[i + 1]));
+    for (size_t i = 0; i + 1 < pairs.size(); i += 2)
+        out.emplace_back(static_cast<float>(pairs[i]), static_cast<float>(pairs[i + 1]));
     return out;
 }
 

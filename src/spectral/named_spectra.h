@@ -1,12 +1,15 @@
 // pbrt-v4's named conductor spectra ("metal-Au-eta", "metal-Au-k", ...), as measured data from
-// the refractiveindex.info database (named_spectra_data.cpp, written by scripts/named-spectra;
-// docs/pbrt-v4.md, "Named spectra").
+// the refractiveindex.info database (named_spectra_data.cpp, written by scripts/named-spectra),
+// and its standard illuminants ("stdillum-D65", ...), the CIE's tables
+// (named_illuminants_data.cpp, written by scripts/named-illuminants; docs/pbrt-v4.md, "Named
+// spectra").
 #pragma once
 
 #include <array>
 #include <span>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "spectral/spectral.h"
 
@@ -15,13 +18,23 @@ namespace cb {
 struct NamedSpectrum {
     std::string_view name;
     std::span<const double> pairs; // interleaved (wavelength in nm, value), increasing
+    // Scaled to luminance 1 where a scene names it (the integral of the spectrum times y-bar
+    // over 360-830 nm equal to y-bar's), as pbrt-v4 normalises its illuminants.
+    bool unitLuminance = false;
 };
 
-// Every built-in named spectrum, in the generated file's order.
+// The built-in measured spectra of materials, in the generated file's order.
 std::span<const NamedSpectrum> namedSpectra();
 
-// The spectrum called `name` as (nm, value) pairs, or nullptr when cbdpt has none by that name.
+// The built-in illuminants, in the generated file's order.
+std::span<const NamedSpectrum> namedIlluminants();
+
+// The spectrum called `name` (a material's or an illuminant), or nullptr when cbdpt has none
+// by that name.
 const NamedSpectrum* findNamedSpectrum(std::string_view name);
+
+// Its (nm, value) pairs as a scene gets them: scaled to luminance 1 where unitLuminance.
+std::vector<double> namedSpectrumPairs(const NamedSpectrum& s);
 
 // pbrt-v4's named glass spectra ("glass-BK7", ...): dispersive indices, by the catalogue's
 // Sellmeier formula.

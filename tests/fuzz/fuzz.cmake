@@ -15,6 +15,7 @@ add_library(cbdpt_fuzz_scene OBJECT ${CMAKE_SOURCE_DIR}/src/scene/parser.cpp
                                     ${CMAKE_SOURCE_DIR}/src/image/image.cpp
                                     ${CMAKE_SOURCE_DIR}/src/spectral/named_spectra.cpp
                                     ${CMAKE_SOURCE_DIR}/src/spectral/named_spectra_data.cpp
+                                    ${CMAKE_SOURCE_DIR}/src/spectral/named_illuminants_data.cpp
                                     ${CMAKE_SOURCE_DIR}/src/spectral/spectral.cpp)
 # kernels/: the parser computes an image light's illuminance through the shared equal-area map.
 target_include_directories(cbdpt_fuzz_scene PUBLIC ${CMAKE_SOURCE_DIR}/src ${CMAKE_SOURCE_DIR}/kernels)
