@@ -176,7 +176,7 @@ with tempfile.TemporaryDirectory() as tmp:
     # Bad requests: clear messages, non-zero exit.
     bad = os.path.join(tmp, "bad.pbrt")
     with open(bad, "w") as f:
-        f.write("WorldBegin\nShape \"cylinder\"\n")
+        f.write("WorldBegin\nShape \"curve\"\n")
     r = subprocess.run([cbdpt, "render", bad], capture_output=True, text=True)
     check(r.returncode != 0 and "bad.pbrt:2:" in r.stderr,
           f"unknown shape names file and line ({r.stderr.strip()})")

@@ -749,6 +749,36 @@ TEST_CASE("pbrt-v4 disk: tessellated with the disk's exact area, facing pbrt's n
     CHECK(contains(errorOf("WorldBegin\nShape \"disk\" \"float zmin\" 0\n"), "zmin"));
 }
 
+namespace {
+
+// The plane-under-a-light scenes: a camera at height 0.5 looking straight down (fov 90, 32 x 32)
+// at a diffuse plane y = 0 of albedo 0.5, lit by an area light of radiance 2 and black material
+// placed by `light` (its transforms and shape).
+std::string planeUnderLight(const std::string& light) {
+    return "LookAt 0 0.5 0  0 0 0  0 0 1\nCamera \"perspective\" \"float fov\" 90\n"
+           "Film \"rgb\" \"integer xresolution\" 32 \"integer yresolution\" 32\nWorldBegin\n"
+           "AttributeBegin\nAreaLightSource \"diffuse\" \"rgb L\" [2 2 2]\n"
+           "Material \"diffuse\" \"rgb reflectance\" [0 0 0]\n" +
+           light +
+           "AttributeEnd\nMaterial \"diffuse\" \"rgb reflectance\" [0.5 0.5 0.5]\n"
+           "Shape \"bilinearmesh\" \"point3 P\" [-10 0 -10  10 0 -10  -10 0 10  10 0 10]\n";
+}
+
+// That view's image mean: rho / pi E(x, z) averaged over n x n points of the 1 x 1 square of the
+// plane the camera sees.
+template <class Irradiance> double planeImageMean(int n, Irradiance irradianceAt) {
+    const double rho = 0.5;
+    double sum = 0.0;
+    for (int i = 0; i < n; ++i)
+        for (int j = 0; j < n; ++j)
+            sum +=
+                rho / M_PI *
+                irradianceAt(0.5 * (2.0 * (i + 0.5) / n - 1.0), 0.5 * (2.0 * (j + 0.5) / n - 1.0));
+    return sum / (double(n) * n);
+}
+
+} // namespace
+
 // A one-sided disk light (radius R, radiance L) at height h, facing a diffuse plane: a point of
 // the plane at horizontal distance d from the axis receives E = (pi L / 2) (1 - (h^2 + d^2 -
 // R^2) / sqrt((h^2 + d^2 + R^2)^2 - 4 R^2 d^2)) (the view factor of a parallel coaxial disk) and
@@ -759,35 +789,144 @@ TEST_CASE("pbrt-v4 disk: tessellated with the disk's exact area, facing pbrt's n
 TEST_CASE("pbrt-v4 disk light: irradiance on a plane against the analytic image mean" *
           doctest::test_suite("statistical")) {
     cb::ClRuntime runtime;
-    const double rho = 0.5, radius = 0.5, h = 1.0, camY = 0.5, fovDeg = 90.0;
-    const std::string text =
-        "LookAt 0 0.5 0  0 0 0  0 0 1\nCamera \"perspective\" \"float fov\" 90\n"
-        "Film \"rgb\" \"integer xresolution\" 32 \"integer yresolution\" 32\nWorldBegin\n"
-        "AttributeBegin\nAreaLightSource \"diffuse\" \"rgb L\" [2 2 2]\n"
-        "Material \"diffuse\" \"rgb reflectance\" [0 0 0]\nTranslate 0 1 0\nRotate 90 1 0 0\nShape "
-        "\"disk\" \"float radius\" 0.5\nAttributeEnd\n"
-        "Material \"diffuse\" \"rgb reflectance\" [0.5 0.5 0.5]\n"
-        "Shape \"bilinearmesh\" \"point3 P\" [-10 0 -10  10 0 -10  -10 0 10  10 0 10]\n";
-    const cb::DeviceScene scene = cb::buildDeviceScene(parseSceneString(text, "t.pbrt"));
+    const double radius = 0.5, h = 1.0;
+    const cb::DeviceScene scene = cb::buildDeviceScene(parseSceneString(
+        planeUnderLight("Translate 0 1 0\nRotate 90 1 0 0\nShape \"disk\" \"float radius\" 0.5\n"),
+        "t.pbrt"));
     double lightArea = 0.0;
     for (const auto& l : scene.lights)
         lightArea += l.area;
     CHECK(lightArea == doctest::Approx(M_PI * radius * radius).epsilon(1e-5));
-    const double halfWidth = camY * std::tan(fovDeg * M_PI / 360.0);
-    const int n = 400;
-    double expected = 0.0;
-    for (int i = 0; i < n; ++i)
-        for (int j = 0; j < n; ++j) {
-            const double x = halfWidth * (2.0 * (i + 0.5) / n - 1.0);
-            const double y = halfWidth * (2.0 * (j + 0.5) / n - 1.0);
-            const double d2 = x * x + y * y, r2 = radius * radius, h2 = h * h;
-            const double e =
-                M_PI * 2.0 / 2.0 *
-                (1.0 - (h2 + d2 - r2) / std::sqrt((h2 + d2 + r2) * (h2 + d2 + r2) - 4.0 * r2 * d2));
-            expected += rho / M_PI * e;
-        }
-    expected /= double(n) * n;
+    const double expected = planeImageMean(400, [&](double x, double z) {
+        const double d2 = x * x + z * z, r2 = radius * radius, h2 = h * h;
+        return M_PI * 2.0 / 2.0 *
+               (1.0 - (h2 + d2 - r2) / std::sqrt((h2 + d2 + r2) * (h2 + d2 + r2) - 4.0 * r2 * d2));
+    });
     checkPtAndBdptImageMean(scene, runtime, expected, 5, 2e-4);
+}
+
+TEST_CASE("pbrt-v4 cylinder: the exact area, pbrt's normals and (u, v), open at both ends") {
+    struct Case {
+        std::string params;
+        double radius, z0, z1, phimaxDeg;
+    };
+    for (const Case& c :
+         {Case{"", 1.0, -1.0, 1.0, 360.0},
+          Case{"\"float radius\" 2 \"float zmin\" 0 \"float zmax\" 3", 2.0, 0.0, 3.0, 360.0},
+          Case{"\"float zmin\" 2 \"float zmax\" 0.5", 1.0, 0.5, 2.0, 360.0}, // pbrt-v4 swaps them
+          Case{"\"float radius\" 0.5 \"float phimax\" 90", 0.5, -1.0, 1.0, 90.0}}) {
+        CAPTURE(c.params);
+        for (const std::string transform :
+             {"", "Scale 2 2 2\n", "ReverseOrientation\n", "Scale -1 1 1\n",
+              "Scale -1 1 1\nReverseOrientation\n"}) {
+            CAPTURE(transform);
+            const auto s = parseSceneString(
+                "WorldBegin\n" + transform + "Shape \"cylinder\" " + c.params + "\n", "t.pbrt");
+            REQUIRE(s.meshes.size() == 1);
+            const auto& m = s.meshes[0];
+            const double scale = transform == "Scale 2 2 2\n" ? 2.0 : 1.0;
+            const double phiMax = c.phimaxDeg * M_PI / 180.0;
+            // pbrt-v4's Cylinder::Area: phimax r (zmax - zmin).
+            CHECK(
+                meshArea(m) ==
+                doctest::Approx(phiMax * c.radius * (c.z1 - c.z0) * scale * scale).epsilon(1e-12));
+            // Normal outward in object space, flipped by ReverseOrientation XOR a mirroring CTM
+            // (as pbrt-v4's Cylinder::InteractionFromIntersection): the world normal points
+            // inward for one of the two, outward for both.
+            const bool inward = (transform.find("Reverse") != std::string::npos) !=
+                                (transform.find("Scale -1") != std::string::npos);
+            REQUIRE(m.normals.size() == m.positions.size());
+            for (size_t v = 0; v < m.positions.size(); ++v) {
+                const auto& p = m.positions[v];
+                const auto& n = m.normals[v];
+                // (Normals through the CTM's inverse transpose; the kernel normalises them.)
+                const double r = std::hypot(p[0], p[1]), length = std::hypot(n[0], n[1]);
+                CHECK(n[2] == 0.0);
+                CHECK((n[0] * p[0] + n[1] * p[1]) / (r * length) ==
+                      doctest::Approx(inward ? -1.0 : 1.0));
+                // On the area-preserving ring, between the z bounds.
+                CHECK(r / scale >= c.radius);
+                CHECK(r / scale <= c.radius * 1.0001);
+                CHECK(p[2] / scale >= c.z0 - 1e-12);
+                CHECK(p[2] / scale <= c.z1 + 1e-12);
+            }
+            // Each triangle faces its vertex normals' side; its corners carry pbrt-v4's
+            // (u, v) = (phi / phimax, (z - zmin) / (zmax - zmin)), phi of the object point.
+            REQUIRE(m.cornerUv.size() == m.triangles.size());
+            for (size_t t = 0; t < m.triangles.size(); ++t) {
+                const auto ng = normalOf(m, t);
+                const auto& n = m.normals[m.triangles[t][0]];
+                CHECK(ng[0] * n[0] + ng[1] * n[1] + ng[2] * n[2] > 0.0);
+                if (!transform.empty()) continue;
+                for (size_t k = 0; k < 3; ++k) {
+                    const auto& p = m.positions[m.triangles[t][k]];
+                    double phi = std::atan2(p[1], p[0]);
+                    if (phi < 0.0 || (phi == 0.0 && m.cornerUv[t][2 * k] > 0.5f)) phi += 2 * M_PI;
+                    CHECK(m.cornerUv[t][2 * k] == doctest::Approx(phi / phiMax).epsilon(1e-6));
+                    CHECK(m.cornerUv[t][2 * k + 1] ==
+                          doctest::Approx((p[2] - c.z0) / (c.z1 - c.z0)).epsilon(1e-6));
+                }
+            }
+        }
+    }
+    CHECK(contains(errorOf("WorldBegin\nShape \"cylinder\" \"float radius\" 0\n"),
+                   "t.pbrt:2:18: \"float radius\" must be > 0"));
+    CHECK(contains(errorOf("WorldBegin\nShape \"cylinder\" \"float zmin\" 1\n"),
+                   "t.pbrt:2:18: \"float zmin\" and \"float zmax\" must differ, got 1 and 1"));
+    CHECK(contains(errorOf("WorldBegin\nShape \"cylinder\" \"float phimax\" 400\n"), "(0, 360]"));
+    CHECK(contains(errorOf("WorldBegin\nShape \"cylinder\" \"float innerradius\" 1\n"),
+                   "innerradius"));
+    // Given by power, it emits that power (radiance power / (pi A), A pbrt-v4's area).
+    const auto scene = cb::buildDeviceScene(
+        parseSceneString("WorldBegin\nAreaLightSource \"diffuse\" \"float power\" 10\n"
+                         "Shape \"cylinder\" \"float radius\" 0.5 \"float phimax\" 180\n",
+                         "t.pbrt"),
+        cb::ChannelMode::Rgb);
+    REQUIRE(scene.lights.size() == 256);
+    double area = 0.0;
+    for (const auto& light : scene.lights) {
+        area += light.area;
+        CHECK(scene.spectra[size_t(light.emission) * 3 + 1] ==
+              doctest::Approx(10.0 / (M_PI * M_PI * 0.5 * 2.0)).epsilon(1e-6));
+    }
+    CHECK(area == doctest::Approx(M_PI * 0.5 * 2.0).epsilon(1e-5));
+}
+
+// A horizontal tube light (a one-sided cylinder of radius R and length 2, radiance L) at height
+// h above a diffuse plane: a point x of the plane receives E(x), the integral over the tube's
+// surface facing x of L cos(plane) cos(tube) / d^2 (a convex surface: nothing of it hides what
+// faces x), and reflects rho / pi E. The image mean under a camera looking down, integrated on a
+// grid over the exact cylinder, against PT (next-event estimation on the facets) and BDPT (light
+// subpaths from them); the facets' geometry differs from the cylinder's by dphi^2 / 12 of the
+// radius, far below the slack.
+TEST_CASE("pbrt-v4 cylinder light: irradiance on a plane against the integral over the tube" *
+          doctest::test_suite("statistical")) {
+    cb::ClRuntime runtime;
+    const double radius = 0.1, h = 1.0, radiance = 2.0;
+    const cb::DeviceScene scene = cb::buildDeviceScene(parseSceneString(
+        planeUnderLight(
+            "Translate 0 1 0\nRotate 90 0 1 0\nShape \"cylinder\" \"float radius\" 0.1\n"),
+        "t.pbrt"));
+    // The tube along x from -1 to 1 at height h: surface point (s, h + R sin a, R cos a),
+    // outward normal (0, sin a, cos a).
+    const int na = 256, ns = 128;
+    const double expected = planeImageMean(48, [&](double x, double z) {
+        double e = 0.0;
+        for (int a = 0; a < na; ++a) {
+            const double angle = 2.0 * M_PI * (a + 0.5) / na;
+            const double ny = std::sin(angle), nz = std::cos(angle);
+            for (int k = 0; k < ns; ++k) {
+                const double s = 2.0 * (k + 0.5) / ns - 1.0;
+                const double dx = s - x, dy = h + radius * ny, dz = radius * nz - z;
+                const double d2 = dx * dx + dy * dy + dz * dz;
+                const double cosTube = -(ny * dy + nz * dz) / std::sqrt(d2);
+                if (cosTube <= 0.0) continue;
+                e += dy / std::sqrt(d2) * cosTube / d2;
+            }
+        }
+        return e * radiance * (2.0 * M_PI * radius / na) * (2.0 / ns);
+    });
+    checkPtAndBdptImageMean(scene, runtime, expected, 7, 1e-3);
 }
 
 TEST_CASE("pbrt-v4 distant light: parameters, normalisation and direction") {

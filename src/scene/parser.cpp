@@ -3056,6 +3056,8 @@ class Parser {
             loopSubdivision(t);
         } else if (type.text == "disk") {
             disk(t);
+        } else if (type.text == "cylinder") {
+            cylinder(t);
         } else if (type.text == "plymesh") {
             ParamList pl = params("Shape \"plymesh\"", "shape");
             const Param* fp = pl.peek("filename");
@@ -3091,7 +3093,7 @@ class Parser {
             throw SceneError(type.where, "unsupported shape \"" + type.text +
                                              "\" (cbdpt supports trianglemesh, bilinearmesh "
                                              "(planar patches), plymesh, loopsubdiv, sphere, "
-                                             "disk)");
+                                             "disk, cylinder)");
         }
     }
 
@@ -3316,6 +3318,13 @@ class Parser {
                     noTexCoords, alpha);
     }
 
+    // A shape's float parameter or its default, with the parameter (null when absent) for errors.
+    static std::pair<double, const Param*> floatOr(ParamList& pl, const char* name,
+                                                   double fallback) {
+        const Param* p = pl.peek(name);
+        return {p ? *pl.oneFloat(name) : fallback, p};
+    }
+
     // Ring segments of a full disk; a partial one (phimax < 360) gets its share, at least 4.
     static constexpr int kDiskSegments = 256;
 
@@ -3327,10 +3336,7 @@ class Parser {
     // surface match; only the outline differs (by at most dphi^2 / 12 of the radius).
     void disk(const Token& t) {
         ParamList pl = params("Shape \"disk\"", "shape");
-        auto get = [&](const char* name, double fallback) {
-            const Param* p = pl.peek(name);
-            return std::pair{p ? *pl.oneFloat(name) : fallback, p};
-        };
+        auto get = [&](const char* name, double fallback) { return floatOr(pl, name, fallback); };
         const auto [height, hp] = get("height", 0.0);
         const auto [radius, rp] = get("radius", 1.0);
         const auto [inner, ip] = get("innerradius", 0.0);
@@ -3389,6 +3395,67 @@ class Parser {
             addMesh(t.where, pos, std::move(tris), {}, diskArea, {},
                     "a disk (its polar (u, v) is not linear over the triangles cbdpt renders it "
                     "as)",
+                    alpha);
+    }
+
+    // pbrt-v4's cylinder: the points (r cos phi, r sin phi, z), zmin <= z <= zmax, 0 <= phi <=
+    // phimax, open at both ends, normal outward in object space and flipped when
+    // ReverseOrientation XOR the CTM swaps handedness (Cylinder::InteractionFromIntersection),
+    // (u, v) = (phi / phimax, (z - zmin) / (zmax - zmin)). Tessellated into a band of quads,
+    // kDiskSegments per full turn, at radius r (dphi / 2) / sin(dphi / 2), so that each facet is
+    // r dphi wide and the band's area is the cylinder's exactly (every integral over the surface,
+    // a light's power); the vertex normals are the surface's, so shading follows the curve and
+    // only the silhouette is polygonal (within dphi^2 / 12 of the radius).
+    void cylinder(const Token& t) {
+        ParamList pl = params("Shape \"cylinder\"", "shape");
+        auto get = [&](const char* name, double fallback) { return floatOr(pl, name, fallback); };
+        const auto [radius, rp] = get("radius", 1.0);
+        const auto [zmin, zp] = get("zmin", -1.0);
+        const auto [zmax, zq] = get("zmax", 1.0);
+        const auto [phimax, pp] = get("phimax", 360.0);
+        if (!(radius > 0.0)) throw SceneError(rp->where, "\"float radius\" must be > 0");
+        // pbrt-v4 takes the smaller of the two as zmin; equal ones leave no surface.
+        if (!(zmin != zmax) || !std::isfinite(zmin) || !std::isfinite(zmax))
+            throw SceneError(zq   ? zq->where
+                             : zp ? zp->where
+                                  : t.where,
+                             fmt::format("\"float zmin\" and \"float zmax\" must differ, got "
+                                         "{:g} and {:g}",
+                                         zmin, zmax));
+        if (!(phimax > 0.0 && phimax <= 360.0))
+            throw SceneError(pp->where, "\"float phimax\" must be in (0, 360] degrees");
+        const ShapeAlpha alpha = shapeAlpha(pl, t, nullptr);
+        pl.finish();
+        const double z0 = std::min(zmin, zmax), z1 = std::max(zmin, zmax);
+        const double phiMax = phimax * M_PI / 180.0;
+        const int segments = std::max(4, int(std::ceil(kDiskSegments * phimax / 360.0 - 1e-9)));
+        const double dphi = phiMax / segments;
+        const double ringRadius = radius * (0.5 * dphi) / std::sin(0.5 * dphi);
+        // pbrt-v4 flips the object-space normal for a mirroring CTM as for a disk; addMesh
+        // negates the normals for ReverseOrientation.
+        const double outward = state_.ctm.det3() < 0.0 ? -1.0 : 1.0;
+        std::vector<std::array<double, 3>> pos, normals;
+        std::vector<std::array<float, 2>> uv;
+        // Both rings run to phimax (the seam's vertices twice), so that u reaches 1.
+        for (const double z : {z0, z1})
+            for (int i = 0; i <= segments; ++i) {
+                const double phi = dphi * i;
+                pos.push_back({ringRadius * std::cos(phi), ringRadius * std::sin(phi), z});
+                normals.push_back({outward * std::cos(phi), outward * std::sin(phi), 0.0});
+                uv.push_back({float(double(i) / segments), z == z0 ? 0.0f : 1.0f});
+            }
+        std::vector<std::array<unsigned, 3>> tris;
+        const unsigned top = unsigned(segments + 1);
+        for (unsigned i = 0; i < unsigned(segments); ++i) {
+            tris.push_back({i, i + 1, top + i});
+            tris.push_back({i + 1, top + i + 1, top + i});
+        }
+        // pbrt-v4's Cylinder::Area, in object space (as pbrt-v4 divides a light's power by it).
+        const double area = phiMax * radius * (z1 - z0);
+        std::vector<double> cylinderArea(poweredAreaLight() ? tris.size() : 0, area);
+        std::vector<std::array<float, 6>> cornerUv = cornersOf(tris, uv);
+        if (!alpha.hidden)
+            addMesh(t.where, pos, std::move(tris), normals, cylinderArea, std::move(cornerUv), {},
                     alpha);
     }
 
