@@ -549,6 +549,9 @@ CB_FN int bdptLightSubpath(const SceneView* scene, SampleStream stream, int maxV
         Spectrum beta = specScale(le, 1.0f / (ls.pdfPick * ls.pdfArea * pdfDir));
         int count = bdptRandomWalk(scene, spawnRay(pvSurfacePoint(v), w), beta, 1.0f, 1, false,
                                    stream, CB_LIGHT_DIM_FIRST_BOUNCE, light, 1, maxVertices, rays);
+        /* Through a portal the light reaches only points that see the sky through it. */
+        if (count > 1 && !lightSeenThroughPortal(scene, ls.light, pvP(&light[1]), vneg(w)))
+            return 1;
         if (count > 1) light[1].pdfFwd = ls.pdfArea * pvAbsCos(&light[1], w);
         return count;
     }
@@ -790,6 +793,7 @@ CB_FN bool bdptConnectUnoccluded(const SceneView* scene, const Camera* camera,
              * the light subpath's planar one at eye[t-2] (pbrt-v4's PdfLightOrigin, PdfLight). */
             CB_GLOBAL const Light* infinite = &scene->lights[pt->light];
             Vec3 toLight = vneg(vec3FromArray(pt->wo));
+            if (!lightSeenThroughPortal(scene, pt->light, pvP(&eye[t - 2]), toLight)) return false;
             real pdfLightW;
             out->contribution =
                 specMul(pt->beta, infiniteLightRadiancePdf(scene, infinite, toLight, &pdfLightW));
@@ -861,6 +865,7 @@ CB_FN bool bdptConnectUnoccluded(const SceneView* scene, const Camera* camera,
     real qsFwd, qsRev = 0.0f;
     if (s == 1) {
         fQs = bdptLightEmission(scene, qs, vneg(w));
+        if (!lightSeenThroughPortal(scene, qs->light, pvP(pt), w)) return false;
         qsFwd = bdptLightDirectionPdf(scene, qs, vneg(w));
     } else {
         fQs = bsdfEval(scene, qs->material, pvUv(qs), pvFrame(qs), vec3FromArray(qs->wo), vneg(w),

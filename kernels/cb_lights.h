@@ -144,6 +144,34 @@ CB_FN Vec3 imageLightSample(const SceneView* scene, CB_GLOBAL const Light* light
 }
 #endif
 
+/* Whether light `lightIndex`, seen from p in unit direction d, arrives: always, but for an
+ * infinite light with a portal (pbrt-v4's PortalImageInfiniteLight::Le and ImageBounds), only
+ * along rays from p that pass through the portal's rectangle toward its outer side. Its entry
+ * in lightTables: corner p0, the unit edge directions x (to p3) and y (to p1), the normal
+ * z = x cross y, and the edges' lengths. */
+CB_FN bool lightSeenThroughPortal(const SceneView* scene, int lightIndex, Vec3 p, Vec3 d) {
+#if CB_HAS(CB_FEATURE_INFINITE_LIGHT)
+    int portal = scene->lights[lightIndex].portal;
+    if (scene->lights[lightIndex].kind != CB_LIGHT_INFINITE || portal < 0) return true;
+    CB_GLOBAL const real* t = scene->lightTables + portal;
+    Vec3 x = vec3FromGlobalArray(t + 3), y = vec3FromGlobalArray(t + 6),
+         z = vec3FromGlobalArray(t + 9);
+    Vec3 toCorner = vsub(vec3FromGlobalArray(t), p);
+    real depth = vdot(toCorner, z), dz = vdot(d, z);
+    if (!(depth > 0.0f) || !(dz > 0.0f)) return false;
+    /* Where the ray meets the portal's plane, in the rectangle's coordinates from p0. */
+    real s = depth / dz;
+    real u = s * vdot(d, x) - vdot(toCorner, x), v = s * vdot(d, y) - vdot(toCorner, y);
+    return u >= 0.0f && u <= t[12] && v >= 0.0f && v <= t[13];
+#else
+    (void)scene;
+    (void)lightIndex;
+    (void)p;
+    (void)d;
+    return true;
+#endif
+}
+
 /* Radiance the infinite light sends from unit world direction toLight. */
 CB_FN Spectrum infiniteLightRadiance(const SceneView* scene, CB_GLOBAL const Light* light,
                                      Vec3 toLight) {

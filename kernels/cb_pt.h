@@ -86,6 +86,7 @@ CB_FN bool ptPathVertex(const SceneView* scene, PtPath* path, Ray* ray, bool fou
             CB_GLOBAL const Light* light = &scene->lights[infinite];
             real pdfLightW;
             Spectrum le = infiniteLightRadiancePdf(scene, light, ray->d, &pdfLightW);
+            if (!lightSeenThroughPortal(scene, infinite, ray->o, ray->d)) le = specZero();
             real weight = 1.0f;
             if (!path->previousDelta)
                 weight = powerHeuristic(path->previousPdfW, light->pickProbability * pdfLightW);
@@ -145,6 +146,7 @@ CB_FN bool ptPathVertex(const SceneView* scene, PtPath* path, Ray* ray, bool fou
                 emitted = deltaLightArriving(scene, &ls, wi, dist2, &pdfLightW);
             } else {
                 emitted = lightEmittedRadiance(scene, ls.light, ls.n, vneg(wi));
+                if (!lightSeenThroughPortal(scene, ls.light, sp.p, wi)) emitted = specZero();
                 real cosLight = vabsdot(ls.n, wi);
                 pdfLightW = ls.pdfSolidAngle > 0.0f ? ls.pdfPick * ls.pdfSolidAngle
                                                     : ls.pdfPick * ls.pdfArea * dist2 / cosLight;

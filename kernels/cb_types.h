@@ -278,6 +278,8 @@ typedef struct Light {
     int imageSize;          /* image light: the square image's side in pixels; 0 otherwise */
     int imageTable;         /* image light: offset of its sampling tables in lightTables */
     int invisible;          /* area light: its primitive is in no BVH leaf (no ray finds it) */
+    /* Infinite light: offset in lightTables of its portal (lightSeenThroughPortal), -1 none. */
+    int portal;
 } Light;
 
 /* ---- Camera ------------------------------------------------------------------------------- */

@@ -139,9 +139,15 @@ TEST_CASE("pbrt-v4 image light: the image, its frame, its normalisation, and wha
                                         "\"string filename\" \"ramp.exr\"\n");
     CHECK(contains(sheared, ":3:"));
     CHECK(contains(sheared, "must be a similarity"));
-    CHECK(contains(errorOf("WorldBegin\nLightSource \"infinite\" \"string filename\" \"ramp.exr\" "
-                           "\"point3 portal\" [0 0 0 1 0 0 1 1 0 0 1 0]\n"),
-                   "portal"));
+    // An image behind a portal keeps its frame; the portal's corners stay in world space.
+    const cb::SceneDesc portal =
+        parseInTemp("WorldBegin\nRotate 90 1 0 0\nLightSource \"infinite\" \"string filename\" "
+                    "\"ramp.exr\" \"point3 portal\" [0 0 0 1 0 0 1 1 0 0 1 0]\n");
+    REQUIRE(portal.infiniteLights.size() == 1);
+    CHECK(portal.infiniteLights[0].image.size > 0);
+    CHECK(portal.infiniteLights[0].worldFromLight[4] == doctest::Approx(0.0).scale(1.0));
+    CHECK(portal.infiniteLights[0].portal ==
+          std::vector<std::array<double, 3>>{{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}});
 
     // An EXR in another colour space (here Rec. 2020's primaries) is refused.
     {
@@ -341,6 +347,23 @@ std::array<double, 3> asRgb(const std::array<float, 3>& rgb) {
     return {rgb[0], rgb[1], rgb[2]};
 }
 
+// BDPT's strategies for a sky's 3-vertex paths, each alone and unweighted, against `expected`:
+// the eye path's escape (s = 0), next-event estimation (s = 1) and light tracing from the beam's
+// disk (s = 2, t = 1); then, with `weighted`, all three under their MIS weights.
+void checkSkyStrategies(const cb::DeviceScene& scene, cb::ClRuntime& runtime,
+                        const std::array<double, 3>& expected, bool weighted, std::uint32_t seed) {
+    std::vector<std::array<int, 3>> strategies{{0, 3, 16}, {1, 2, 16}, {2, 1, 64}};
+    if (weighted) strategies.push_back({-1, -1, 16});
+    for (const auto& [s, t, estimates] : strategies) {
+        CAPTURE(s);
+        CAPTURE(t);
+        cb::IntegratorSettings settings = methodSettings("bdpt");
+        settings.debugS = s;
+        settings.debugT = t;
+        checkChannelMeans(channelMeans(scene, runtime, settings, estimates, seed), expected, 1e-4);
+    }
+}
+
 } // namespace
 
 // The plane under the sky: radiance rho E / pi per channel, from escaped rays, next-event
@@ -368,17 +391,7 @@ TEST_CASE("pbrt-v4 image light: each BDPT strategy alone renders the plane's rho
     TempDirCleanup cleanup;
     cb::ClRuntime runtime;
     const cb::DeviceScene scene = planeUnderSky(90, 1);
-    const std::array<double, 3> expected = planeRadiance(asRgb);
-    for (const auto& [s, t, estimates] :
-         {std::array<int, 3>{0, 3, 16}, std::array<int, 3>{1, 2, 16}, std::array<int, 3>{2, 1, 64},
-          std::array<int, 3>{-1, -1, 16}}) {
-        CAPTURE(s);
-        CAPTURE(t);
-        cb::IntegratorSettings settings = methodSettings("bdpt");
-        settings.debugS = s;
-        settings.debugT = t;
-        checkChannelMeans(channelMeans(scene, runtime, settings, estimates, 400u), expected, 1e-4);
-    }
+    checkSkyStrategies(scene, runtime, planeRadiance(asRgb), true, 400u);
 }
 
 // The same plane rendered in spectra: each pixel emits Smits's spectrum of its RGB times the white
@@ -547,4 +560,104 @@ TEST_CASE("pbrt-v4 goniometric light: a diffuse plane below it, every method" *
         }
         CHECK(b.nonFinite == 0);
     }
+}
+
+namespace {
+
+// A floor y = 0 of albedo 0.5 under a constant sky of radiance 2 seen through a 0.5 x 0.5 portal
+// at height 1 (its outer side up), from a camera at height 0.5 looking down (fov 90). The floor
+// (1.2 x 1.2) is just larger than the camera's view, so that the beam's disk around it is small
+// and light tracing matters.
+const std::string kPortalCorners = "[-0.25 1 -0.25  0.25 1 -0.25  0.25 1 0.25  -0.25 1 0.25]";
+
+std::string floorUnderPortal(const std::string& before, const std::string& portal) {
+    return "LookAt 0 0.5 0  0 0 0  0 0 1\nCamera \"perspective\" \"float fov\" 90\n"
+           "Film \"rgb\" \"integer xresolution\" 16 \"integer yresolution\" 16\nWorldBegin\n" +
+           before + "LightSource \"infinite\" \"rgb L\" [2 2 2] \"point3 portal\" " + portal +
+           "\nMaterial \"diffuse\" \"rgb reflectance\" [0.5 0.5 0.5]\n"
+           "Shape \"bilinearmesh\" \"point3 P\" [-0.6 0 -0.6  0.6 0 -0.6  -0.6 0 0.6  0.6 0 0.6]\n";
+}
+
+} // namespace
+
+// pbrt-v4's PortalImageInfiniteLight: the portal's corners in world space (the CTM does not move
+// them), its frame in the light's tables, which rays see the sky through it, and what is refused.
+TEST_CASE("pbrt-v4 portal light: the rectangle, which rays it lets through, what is refused") {
+    // A CTM before the light turns an image light's frame, never the portal.
+    const cb::DeviceScene scene = cb::buildDeviceScene(
+        parseSceneString(floorUnderPortal("Rotate 90 1 0 0\nTranslate 5 5 5\n", kPortalCorners),
+                         "t.pbrt"),
+        cb::ChannelMode::Rgb);
+    const cbk::SceneView view = cbtest::hostView(scene);
+    const int infinite = cbk::lightInfinite(&view);
+    REQUIRE(infinite >= 0);
+    const int portal = scene.lights[size_t(infinite)].portal;
+    REQUIRE(portal >= 0);
+    REQUIRE(scene.lightTables.size() == size_t(portal) + 14);
+    // p0 (device coordinates: world minus the scene's origin), x = p03, y = p01, z = x cross y
+    // (up: the sky's side), and the edges' lengths.
+    const float* t = scene.lightTables.data() + portal;
+    CHECK(t[0] + scene.origin[0] == doctest::Approx(-0.25));
+    CHECK(t[1] + scene.origin[1] == doctest::Approx(1.0));
+    CHECK(t[2] + scene.origin[2] == doctest::Approx(-0.25));
+    CHECK(std::vector<float>(t + 3, t + 14) ==
+          std::vector<float>{0, 0, 1, 1, 0, 0, 0, 1, 0, 0.5f, 0.5f});
+    auto seen = [&](double x, double y, double z, cbk::Vec3 d) {
+        const cbk::Vec3 p = cbk::vec3(float(x - scene.origin[0]), float(y - scene.origin[1]),
+                                      float(z - scene.origin[2]));
+        return cbk::lightSeenThroughPortal(&view, infinite, p, cbk::vnormalize(d));
+    };
+    CHECK(seen(0, 0, 0, cbk::vec3(0, 1, 0)));
+    CHECK(seen(0, 0, 0, cbk::vec3(0.24f, 1, 0.24f)));
+    CHECK(!seen(0, 0, 0, cbk::vec3(0.26f, 1, 0)));
+    CHECK(!seen(0, 0, 0, cbk::vec3(0, 1, -0.26f)));
+    CHECK(seen(1, 0, 1, cbk::vec3(-1, 1, -1))); // slanting through the middle
+    CHECK(!seen(0, 0, 0, cbk::vec3(0, -1, 0))); // away from it
+    CHECK(!seen(0, 2, 0, cbk::vec3(0, 1, 0)));  // from its outer side
+    CHECK(!seen(0, 2, 0, cbk::vec3(0, -1, 0)));
+    // Other lights are never cut by it.
+    const cb::DeviceScene plain = cb::buildDeviceScene(
+        parseSceneString("WorldBegin\nLightSource \"infinite\"\nShape \"sphere\"\n", "t.pbrt"));
+    CHECK(plain.lights.back().portal == -1);
+    const cbk::SceneView plainView = cbtest::hostView(plain);
+    CHECK(cbk::lightSeenThroughPortal(&plainView, cbk::lightInfinite(&plainView),
+                                      cbk::vec3(0, 0, 0), cbk::vec3(0, -1, 0)));
+    // Not a rectangle, or not 4 points: errors at the parameter.
+    CHECK(contains(errorOf(floorUnderPortal("", "[0 1 0  1 1 0  1 1 1  0 1 1.5]")),
+                   "\"point3 portal\" must be a rectangle"));
+    CHECK(contains(errorOf(floorUnderPortal("", "[0 1 0  1 1 0  1 1 1]")),
+                   "\"point3 portal\" expects 4 points (12 values), got 9"));
+    CHECK(contains(errorOf(floorUnderPortal("", "[0 1 0  0 1 0  1 1 1  0 1 1]")),
+                   "corners 0 and 1 coincide"));
+}
+
+// The floor under the portal: a point x receives E(x) = L times the integral over the window
+// of cos(floor) cos(window) / d^2 = h^2 / d^4 (parallel planes), and reflects rho / pi E. Every
+// method's image mean against that, integrated here over the camera's view, and each of BDPT's
+// strategies alone, unweighted: escaped rays (s = 0) and next-event estimation (s = 1) cut by the
+// portal, light subpaths from the beam's disk cut at their first hit (s = 2, t = 1).
+TEST_CASE("pbrt-v4 portal light: a floor lit through a window, every method" *
+          doctest::test_suite("statistical")) {
+    cb::ClRuntime runtime;
+    const cb::DeviceScene scene = cb::buildDeviceScene(
+        parseSceneString(floorUnderPortal("", kPortalCorners), "t.pbrt"), cb::ChannelMode::Rgb);
+    const int n = 32, m = 64;
+    double mean = 0.0;
+    for (int i = 0; i < n; ++i)
+        for (int j = 0; j < n; ++j) {
+            const double x = (i + 0.5) / n - 0.5, z = (j + 0.5) / n - 0.5;
+            double e = 0.0;
+            for (int a = 0; a < m; ++a)
+                for (int b = 0; b < m; ++b) {
+                    const double wx = 0.5 * (a + 0.5) / m - 0.25 - x;
+                    const double wz = 0.5 * (b + 0.5) / m - 0.25 - z;
+                    const double d2 = wx * wx + 1.0 + wz * wz;
+                    e += 1.0 / (d2 * d2);
+                }
+            mean += 0.5 / M_PI * 2.0 * e * (0.25 / (m * m));
+        }
+    mean /= n * n;
+    const std::array<double, 3> expected{mean, mean, mean};
+    checkEveryMethodChannelMeans(scene, runtime, expected, 8, 128, 40u);
+    checkSkyStrategies(scene, runtime, expected, false, 41u);
 }

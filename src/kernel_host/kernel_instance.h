@@ -139,6 +139,7 @@ template <class Visit> void forEachField(cbk::Light& s, Visit&& visit) {
     visit(s.imageSize);
     visit(s.imageTable);
     visit(s.invisible);
+    visit(s.portal);
 }
 template <class Visit> void forEachField(cbk::Camera& s, Visit&& visit) {
     visit(s.cameraToWorld);

@@ -19,7 +19,7 @@ namespace cb {
 
 static_assert(sizeof(cbk::Primitive) == 48, "Primitive must match the OpenCL layout");
 static_assert(sizeof(cbk::Material) == 108, "Material must match the OpenCL layout");
-static_assert(sizeof(cbk::Light) == 112, "Light must match the OpenCL layout");
+static_assert(sizeof(cbk::Light) == 116, "Light must match the OpenCL layout");
 static_assert(sizeof(cbk::Camera) == 448, "Camera must match the OpenCL layout");
 
 namespace {
@@ -1017,6 +1017,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         light.kind = kind;
         light.primitive = -1;
         light.emission = emission;
+        light.portal = -1;
         toDevice(centre, light.position);
         // Rounded up, so that the float sphere still holds the geometry; never 0 (a flat scene
         // seen edge-on still needs a disk).
@@ -1080,6 +1081,25 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         }
         cbk::Light light = lightAtInfinity(CB_LIGHT_INFINITE, emission, il.where);
         if (il.image.size > 0) setLightImage(light, il.image.size, table, il.worldFromLight);
+        if (!il.portal.empty()) {
+            // cb_lights.h, lightSeenThroughPortal: p0, x (to p3), y (to p1), z = x cross y, the
+            // two edges' lengths; pbrt-v4's Frame::FromXY(p03, p01).
+            const auto& c = il.portal;
+            const Vec3d e03 = vecSub(c[3], c[0]), e01 = vecSub(c[1], c[0]);
+            const double lengthX = std::sqrt(vecDot(e03, e03)),
+                         lengthY = std::sqrt(vecDot(e01, e01));
+            const Vec3d x{e03[0] / lengthX, e03[1] / lengthX, e03[2] / lengthX};
+            const Vec3d y{e01[0] / lengthY, e01[1] / lengthY, e01[2] / lengthY};
+            light.portal = int(scene.lightTables.size());
+            float corner[3];
+            toDevice(c[0], corner);
+            scene.lightTables.insert(scene.lightTables.end(), corner, corner + 3);
+            for (const Vec3d& axis : {x, y, vecCross(x, y)})
+                for (double v : axis)
+                    scene.lightTables.push_back(float(v));
+            scene.lightTables.push_back(float(lengthX));
+            scene.lightTables.push_back(float(lengthY));
+        }
         lightPower.push_back(meanRadiance * 4.0 * M_PI * M_PI * double(light.sceneRadius) *
                              light.sceneRadius);
         scene.lights.push_back(light);

@@ -2242,12 +2242,9 @@ class Parser {
     // (+z in the light's frame) where given.
     void infiniteLight(const Token& t) {
         ParamList pl = params("LightSource \"infinite\"", "light");
-        if (const Param* p = pl.peek("portal"))
-            throw SceneError(p->where, "LightSource \"infinite\" with " + p->decl() +
-                                           " is not supported: cbdpt renders a constant "
-                                           "environment or an image, without portals");
         InfiniteLightDesc l;
         l.where = t.where;
+        if (const Param* p = pl.numeric("portal", "point3", 3)) l.portal = portalOf(*p);
         const Param* fileParam = pl.peek("filename");
         const std::string file = fileParam ? *pl.oneString("filename") : std::string();
         if (!file.empty()) {
@@ -2279,6 +2276,32 @@ class Parser {
                                       "(the first is at " +
                                           scene_.infiniteLights[0].where.str() + ")");
         scene_.infiniteLights.push_back(std::move(l));
+    }
+
+    // pbrt-v4's portal (PortalImageInfiniteLight): four corners in world space (not through the
+    // CTM), a rectangle, p0 -> p1 and p0 -> p3 its edges; pbrt-v4 checks the edges' directions
+    // to 0.001 and only warns, cbdpt refuses.
+    static std::vector<std::array<double, 3>> portalOf(const Param& p) {
+        if (p.size() != 12)
+            throw SceneError(p.where, fmt::format("\"point3 portal\" expects 4 points (12 values), "
+                                                  "got {}",
+                                                  p.size()));
+        std::vector<std::array<double, 3>> c = pointsOf(p);
+        auto unit = [&](int from, int to) {
+            const Vec3d e = vecSub(c[size_t(to)], c[size_t(from)]);
+            const double length = std::sqrt(vecDot(e, e));
+            if (!(length > 0.0) || !std::isfinite(length))
+                throw SceneError(p.where, fmt::format("\"point3 portal\": corners {} and {} "
+                                                      "coincide",
+                                                      from, to));
+            return Vec3d{e[0] / length, e[1] / length, e[2] / length};
+        };
+        const Vec3d p01 = unit(0, 1), p12 = unit(1, 2), p32 = unit(3, 2), p03 = unit(0, 3);
+        if (std::fabs(vecDot(p01, p32) - 1.0) > 1e-3 || std::fabs(vecDot(p12, p03) - 1.0) > 1e-3 ||
+            std::fabs(vecDot(p01, p12)) > 1e-3 || std::fabs(vecDot(p03, p01)) > 1e-3)
+            throw SceneError(p.where, "\"point3 portal\" must be a rectangle p0 p1 p2 p3 (its "
+                                      "opposite edges parallel, its corners right angles)");
+        return c;
     }
 
     // The image of pbrt-v4's ImageInfiniteLight and GoniometricLight: square (its equal-area

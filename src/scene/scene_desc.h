@@ -245,6 +245,9 @@ struct InfiniteLightDesc {
     // The rotation from the light's frame to world, row-major: the CTM at the LightSource with
     // its uniform scale divided out.
     std::array<double, 9> worldFromLight{1, 0, 0, 0, 1, 0, 0, 0, 1};
+    // pbrt-v4's "point3 portal": a rectangle in world space (corners p0 p1 p2 p3) through which
+    // alone the light arrives (PortalImageInfiniteLight::Le); empty for none.
+    std::vector<std::array<double, 3>> portal;
     SourceLocation where;
 };
 
