@@ -864,8 +864,8 @@ CB_FN bool bdptConnectUnoccluded(const SceneView* scene, const Camera* camera,
     Spectrum fQs;
     real qsFwd, qsRev = 0.0f;
     if (s == 1) {
-        fQs = bdptLightEmission(scene, qs, vneg(w));
         if (!lightSeenThroughPortal(scene, qs->light, pvP(pt), w)) return false;
+        fQs = bdptLightEmission(scene, qs, vneg(w));
         qsFwd = bdptLightDirectionPdf(scene, qs, vneg(w));
     } else {
         fQs = bsdfEval(scene, qs->material, pvUv(qs), pvFrame(qs), vec3FromArray(qs->wo), vneg(w),

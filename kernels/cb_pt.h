@@ -82,11 +82,10 @@ CB_FN bool ptPathVertex(const SceneView* scene, PtPath* path, Ray* ray, bool fou
         /* The escaped ray sees the infinite light, weighed against next-event estimation's
          * directions. */
         int infinite = lightInfinite(scene);
-        if (infinite >= 0) {
+        if (infinite >= 0 && lightSeenThroughPortal(scene, infinite, ray->o, ray->d)) {
             CB_GLOBAL const Light* light = &scene->lights[infinite];
             real pdfLightW;
             Spectrum le = infiniteLightRadiancePdf(scene, light, ray->d, &pdfLightW);
-            if (!lightSeenThroughPortal(scene, infinite, ray->o, ray->d)) le = specZero();
             real weight = 1.0f;
             if (!path->previousDelta)
                 weight = powerHeuristic(path->previousPdfW, light->pickProbability * pdfLightW);
@@ -145,8 +144,9 @@ CB_FN bool ptPathVertex(const SceneView* scene, PtPath* path, Ray* ray, bool fou
             if (ls.isDelta) {
                 emitted = deltaLightArriving(scene, &ls, wi, dist2, &pdfLightW);
             } else {
-                emitted = lightEmittedRadiance(scene, ls.light, ls.n, vneg(wi));
-                if (!lightSeenThroughPortal(scene, ls.light, sp.p, wi)) emitted = specZero();
+                emitted = lightSeenThroughPortal(scene, ls.light, sp.p, wi)
+                              ? lightEmittedRadiance(scene, ls.light, ls.n, vneg(wi))
+                              : specZero();
                 real cosLight = vabsdot(ls.n, wi);
                 pdfLightW = ls.pdfSolidAngle > 0.0f ? ls.pdfPick * ls.pdfSolidAngle
                                                     : ls.pdfPick * ls.pdfArea * dist2 / cosLight;
