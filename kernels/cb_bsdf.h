@@ -1275,6 +1275,37 @@ CB_FN Vec3 cbToFlippedLocal(Frame frame, Vec3 w, real flip) {
     return vec3(l.x, l.y, l.z * flip);
 }
 
+#if CB_HAS(CB_FEATURE_MIX)
+/* A mix's f and pdfs in flipped local coordinates: its parts' weighted by amount. A mix of
+ * mixes is a chain (the device scene's): each link's first part is a material that is not a
+ * mix and its second the rest of the chain, of weight amount. */
+CB_FN Spectrum cbMixEval(const SceneView* scene, Material m, TexCoord uv, Vec3 lo, Vec3 li,
+                         bool entering, int adjoint, real* pdfFwd, real* pdfRev) {
+    Spectrum f = specZero();
+    real weight = 1.0f;
+    *pdfFwd = 0.0f;
+    *pdfRev = 0.0f;
+    for (;;) {
+        real a = m.mixAmount;
+        real pf, pr;
+        Spectrum f1 = cbLobeEval(scene, scene->materials[m.mixFirst], uv, lo, li, entering, adjoint,
+                                 &pf, &pr);
+        f = specAdd(f, specScale(f1, weight * (1.0f - a)));
+        *pdfFwd += weight * (1.0f - a) * pf;
+        *pdfRev += weight * (1.0f - a) * pr;
+        weight *= a;
+        Material rest = scene->materials[m.mixSecond];
+        if (rest.kind != CB_MAT_MIX) {
+            Spectrum f2 = cbLobeEval(scene, rest, uv, lo, li, entering, adjoint, &pf, &pr);
+            *pdfFwd += weight * pf;
+            *pdfRev += weight * pr;
+            return specAdd(f, specScale(f2, weight));
+        }
+        m = rest;
+    }
+}
+#endif
+
 /* The BSDF of `material` at a surface point of texture coordinates uv (its textured
  * reflectance's) and shading frame `frame`. */
 CB_FN Spectrum bsdfEval(const SceneView* scene, int material, TexCoord uv, Frame frame, Vec3 wo,
@@ -1290,17 +1321,8 @@ CB_FN Spectrum bsdfEval(const SceneView* scene, int material, TexCoord uv, Frame
     Vec3 li = cbToFlippedLocal(frame, wi, flip);
     Material m = scene->materials[material];
 #if CB_HAS(CB_FEATURE_MIX)
-    if (m.kind == CB_MAT_MIX) {
-        real a = m.mixAmount;
-        real p1f, p1r, p2f, p2r;
-        Spectrum f1 = cbLobeEval(scene, scene->materials[m.mixFirst], uv, lo, li, entering, adjoint,
-                                 &p1f, &p1r);
-        Spectrum f2 = cbLobeEval(scene, scene->materials[m.mixSecond], uv, lo, li, entering,
-                                 adjoint, &p2f, &p2r);
-        *pdfFwd = (1.0f - a) * p1f + a * p2f;
-        *pdfRev = (1.0f - a) * p1r + a * p2r;
-        return specAdd(specScale(f1, 1.0f - a), specScale(f2, a));
-    }
+    if (m.kind == CB_MAT_MIX)
+        return cbMixEval(scene, m, uv, lo, li, entering, adjoint, pdfFwd, pdfRev);
 #endif
     return cbLobeEval(scene, m, uv, lo, li, entering, adjoint, pdfFwd, pdfRev);
 }
@@ -1316,28 +1338,24 @@ CB_FN bool bsdfSample(const SceneView* scene, int material, TexCoord uv, Frame f
     BsdfSample s;
 #if CB_HAS(CB_FEATURE_MIX)
     if (m.kind == CB_MAT_MIX) {
-        real a = m.mixAmount;
-        /* One uniform number picks the component and, rescaled to [0,1), the component's own
+        /* One uniform number picks the part at each link and, rescaled to [0,1), the part's own
          * lobe: the choice stays monotone in uLobe, which keeps shared sample vectors coherent. */
-        bool second = uLobe < a;
-        real pick = second ? a : 1.0f - a;
-        real uRest = second ? uLobe / a : (uLobe - a) / (1.0f - a);
-        uRest = cbClamp(uRest, 0.0f, 0.99999994f);
-        Material c = scene->materials[second ? m.mixSecond : m.mixFirst];
+        real pick = 1.0f, uRest = uLobe;
+        Material c = m;
+        while (c.kind == CB_MAT_MIX) {
+            real a = c.mixAmount;
+            bool second = uRest < a;
+            pick *= second ? a : 1.0f - a;
+            uRest = cbClamp(second ? uRest / a : (uRest - a) / (1.0f - a), 0.0f, 0.99999994f);
+            c = scene->materials[second ? c.mixSecond : c.mixFirst];
+        }
         if (!cbLobeSample(scene, c, uv, lo, entering, u0, u1, uRest, adjoint, &s)) return false;
         if (s.isDelta) {
             s.f = specScale(s.f, pick);
             s.pdf *= pick;
             s.pdfRev *= pick;
         } else {
-            real p1f, p1r, p2f, p2r;
-            Spectrum f1 = cbLobeEval(scene, scene->materials[m.mixFirst], uv, lo, s.wi, entering,
-                                     adjoint, &p1f, &p1r);
-            Spectrum f2 = cbLobeEval(scene, scene->materials[m.mixSecond], uv, lo, s.wi, entering,
-                                     adjoint, &p2f, &p2r);
-            s.f = specAdd(specScale(f1, 1.0f - a), specScale(f2, a));
-            s.pdf = (1.0f - a) * p1f + a * p2f;
-            s.pdfRev = (1.0f - a) * p1r + a * p2r;
+            s.f = cbMixEval(scene, m, uv, lo, s.wi, entering, adjoint, &s.pdf, &s.pdfRev);
             if (!(s.pdf > 0.0f)) return false;
         }
     } else
@@ -1353,9 +1371,12 @@ CB_FN bool bsdfSample(const SceneView* scene, int material, TexCoord uv, Frame f
 CB_FN bool materialHasNonDelta(const SceneView* scene, int material) {
     Material m = scene->materials[material];
 #if CB_HAS(CB_FEATURE_MIX)
-    if (m.kind == CB_MAT_MIX)
-        return (m.mixAmount < 1.0f && !cbLobeIsDeltaOnly(scene->materials[m.mixFirst])) ||
-               (m.mixAmount > 0.0f && !cbLobeIsDeltaOnly(scene->materials[m.mixSecond]));
+    /* A link's second part counts only where its amount is above 0, its first below 1. */
+    while (m.kind == CB_MAT_MIX) {
+        if (m.mixAmount < 1.0f && !cbLobeIsDeltaOnly(scene->materials[m.mixFirst])) return true;
+        if (!(m.mixAmount > 0.0f)) return false;
+        m = scene->materials[m.mixSecond];
+    }
 #endif
     return !cbLobeIsDeltaOnly(m);
 }
@@ -1387,11 +1408,17 @@ CB_FN bool bsdfReadsLobeSample(const SceneView* scene, int material) {
 CB_FN real materialSpecularity(const SceneView* scene, int material) {
     Material m = scene->materials[material];
 #if CB_HAS(CB_FEATURE_MIX)
-    if (m.kind == CB_MAT_MIX)
-        return (1.0f - m.mixAmount) * cbLobeSpecularity(scene->materials[m.mixFirst]) +
-               m.mixAmount * cbLobeSpecularity(scene->materials[m.mixSecond]);
-#endif
+    real specularity = 0.0f, weight = 1.0f;
+    while (m.kind == CB_MAT_MIX) {
+        specularity +=
+            weight * (1.0f - m.mixAmount) * cbLobeSpecularity(scene->materials[m.mixFirst]);
+        weight *= m.mixAmount;
+        m = scene->materials[m.mixSecond];
+    }
+    return specularity + weight * cbLobeSpecularity(m);
+#else
     return cbLobeSpecularity(m);
+#endif
 }
 
 CB_END_NAMESPACE

@@ -493,9 +493,11 @@ CB_FN bool intersectPack(CB_GLOBAL const TrianglePack* pack, CB_GLOBAL const Pri
 CB_FN bool materialTurnsWithTangent(const SceneView* scene, int material) {
     if (material < 0) return false;
     Material m = scene->materials[material];
-    if (m.kind == CB_MAT_MIX)
-        return scene->materials[m.mixFirst].alphaV != scene->materials[m.mixFirst].alpha ||
-               scene->materials[m.mixSecond].alphaV != scene->materials[m.mixSecond].alpha;
+    while (m.kind == CB_MAT_MIX) { /* a chain of links (cbMixEval) */
+        Material first = scene->materials[m.mixFirst];
+        if (first.alphaV != first.alpha) return true;
+        m = scene->materials[m.mixSecond];
+    }
     return m.alphaV != m.alpha;
 }
 

@@ -62,9 +62,9 @@ typedef struct Hit {
 /* ---- Materials ---------------------------------------------------------------------------- */
 
 #define CB_MAT_DIFFUSE 0
-#define CB_MAT_CONDUCTOR 1  /* perfect mirror (alpha == 0) or GGX rough mirror */
-#define CB_MAT_DIELECTRIC 2 /* glass: smooth (alpha == 0) or GGX rough */
-#define CB_MAT_MIX 3        /* mixture of two non-mix materials: second with probability amount */
+#define CB_MAT_CONDUCTOR 1            /* perfect mirror (alpha == 0) or GGX rough mirror */
+#define CB_MAT_DIELECTRIC 2           /* glass: smooth (alpha == 0) or GGX rough */
+#define CB_MAT_MIX 3                  /* mixture of two materials: second with probability amount */
 #define CB_MAT_DIFFUSE_TRANSMISSION 4 /* Lambertian reflection and transmission (pbrt-v4's) */
 #define CB_MAT_THIN_DIELECTRIC 5      /* a thin glass sheet (pbrt-v4's "thindielectric") */
 #define CB_MAT_COATED_DIFFUSE 6       /* Lambertian under a dielectric coat (pbrt-v4's) */
@@ -170,7 +170,7 @@ typedef struct Material {
     int reflectance; /* index into the spectra table (CB_CHANNELS floats per entry) */
     real alpha;      /* GGX roughness alpha for conductors and dielectrics (0: smooth) */
     real eta;        /* relative index of refraction for (thin) dielectrics */
-    int mixFirst;    /* CB_MAT_MIX: the two component materials */
+    int mixFirst;    /* CB_MAT_MIX: the two parts; only the second may be a mix (cbMixEval) */
     int mixSecond;
     real mixAmount; /* probability of mixSecond */
     /* A second spectrum's index, -1 where there is none. CB_MAT_CONDUCTOR given eta and k: k's,

@@ -132,6 +132,8 @@ struct Fixture {
     int white, tint, gold;
     int diffuse, diffuseTint, mirror, rough005, rough03, rough1, glass, glassWater, tiny;
     int mixDiffuseRough, mixDragon, mixDiffuseGlossy, mixDiffuseGlass, mixMirrorGlass;
+    // Mixes of mixes, as the device scene chains them (the second part the rest of the chain).
+    int goldMirror, mixNested, mixNestedGlossy, mixNestedDelta;
     int goldEta, goldK, goldFresnelMirror, goldFresnelRough, mixDiffuseGoldRough;
     int roughGlass01, roughGlass05, roughGlassTiny, mixDiffuseRoughGlass;
     int black, translucent, transmitterOnly, reflectorOnly, mixDiffuseTranslucent;
@@ -155,11 +157,16 @@ struct Fixture {
         glassWater = s.dielectric(1.33f);
         tiny = s.conductor(white, 1e-4f);
         mixDiffuseRough = s.mix(diffuse, rough03, 0.3f);
-        int goldDiffuse = s.diffuse(gold), goldMirror = s.conductor(gold, 0.0f);
+        int goldDiffuse = s.diffuse(gold);
+        goldMirror = s.conductor(gold, 0.0f);
         mixDragon = s.mix(goldDiffuse, goldMirror, 0.3f); // the thesis's dragon: 70% / 30%
         mixDiffuseGlossy = s.mix(diffuseTint, rough005, 0.6f);
         mixDiffuseGlass = s.mix(diffuse, glass, 0.5f);
         mixMirrorGlass = s.mix(mirror, glass, 0.4f);
+        // Weights 0.4 diffuse, 0.3 rough, 0.3 mirror; 0.5, 0.125, 0.375; 0.3, 0.28, 0.42.
+        mixNested = s.mix(diffuseTint, s.mix(rough03, goldMirror, 0.5f), 0.6f);
+        mixNestedGlossy = s.mix(diffuse, s.mix(rough005, rough03, 0.75f), 0.5f);
+        mixNestedDelta = s.mix(mirror, s.mix(glass, goldMirror, 0.6f), 0.7f);
         // Gold's complex index at about 650, 550 and 450 nm (Johnson and Christy 1972).
         goldEta = s.spectrum(0.166f, 0.43f, 1.5f);
         goldK = s.spectrum(3.15f, 2.45f, 1.88f);
@@ -400,6 +407,69 @@ TEST_CASE("mixtures with a delta component: non-delta pdf and delta probability 
     SceneView v = fx.s.view();
     checkNonDelta(v, fx.mixDragon, 0.3, true, {0.7f, 0.05f}, 70);
     checkNonDelta(v, fx.mixDiffuseGlass, 0.5, true, {0.7f, -0.7f}, 80);
+}
+
+TEST_CASE("mixes of mixes: f and pdfs are the leaves' weighted by the amounts' products") {
+    Fixture fx;
+    SceneView v = fx.s.view();
+    struct Leaf {
+        int material;
+        double weight;
+    };
+    const std::vector<std::pair<int, std::vector<Leaf>>> mixes = {
+        {fx.mixNested, {{fx.diffuseTint, 0.4}, {fx.rough03, 0.3}, {fx.goldMirror, 0.3}}},
+        {fx.mixNestedGlossy, {{fx.diffuse, 0.5}, {fx.rough005, 0.125}, {fx.rough03, 0.375}}}};
+    Uniform u(15);
+    for (const auto& [mix, leaves] : mixes) {
+        for (int i = 0; i < 2000; ++i) {
+            const Vec3 wo = frameToWorld(kFrame, sampleUniformSphere(u(), u()));
+            const Vec3 wi = frameToWorld(kFrame, sampleUniformSphere(u(), u()));
+            float pf, pr;
+            const Spectrum f = bsdfEval(&v, mix, kNoUv, kFrame, wo, wi, i % 2, &pf, &pr);
+            double expectedF[3] = {0, 0, 0}, expectedFwd = 0.0, expectedRev = 0.0;
+            for (const Leaf& leaf : leaves) {
+                float lf, lr;
+                const Spectrum g =
+                    bsdfEval(&v, leaf.material, kNoUv, kFrame, wo, wi, i % 2, &lf, &lr);
+                for (int c = 0; c < 3; ++c)
+                    expectedF[c] += leaf.weight * g.c[c];
+                expectedFwd += leaf.weight * lf;
+                expectedRev += leaf.weight * lr;
+            }
+            for (int c = 0; c < 3; ++c)
+                CHECK(f.c[c] == doctest::Approx(expectedF[c]).epsilon(1e-6).scale(1e-30));
+            CHECK(pf == doctest::Approx(expectedFwd).epsilon(1e-6).scale(1e-30));
+            CHECK(pr == doctest::Approx(expectedRev).epsilon(1e-6).scale(1e-30));
+        }
+    }
+    // Sampling: the chain's choices give each leaf its weight (the mirror's as the delta mass).
+    checkNonDelta(v, fx.mixNested, 0.3, false, {0.8f, 0.3f}, 300);
+    checkNonDelta(v, fx.mixNestedGlossy, 0.0, false, {0.9f, 0.2f}, 310);
+    // A chain of delta materials: each leaf chosen by its weight, told apart by its colour
+    // (the tint's mirror red / blue 2, the gold one's 3.8, the glass's 1).
+    const Vec3 wo = worldDir(0.6f, 0.2f);
+    std::array<int, 3> count{}; // tint mirror, gold mirror, glass
+    const int n = 100000;
+    for (int i = 0; i < n; ++i) {
+        BsdfSample s{};
+        REQUIRE(bsdfSample(&v, fx.mixNestedDelta, kNoUv, kFrame, wo, u(), u(), u(), 0, &s));
+        REQUIRE(s.isDelta);
+        const double ratio = s.f.c[0] / s.f.c[2];
+        const size_t leaf = ratio > 3.0 ? 1 : ratio > 1.5 ? 0 : 2;
+        count[leaf] += 1;
+        // A delta sample's pdf is its probability: the leaf's weight times its lobe's.
+        const double fresnel = fresnelRef(0.6, 1.5);
+        const double lobe = leaf < 2 ? 1.0 : vdot(s.wi, kFrame.n) > 0.0f ? fresnel : 1.0 - fresnel;
+        CHECK(s.pdf == doctest::Approx(std::array{0.3, 0.42, 0.28}[leaf] * lobe).epsilon(1e-4));
+    }
+    const std::array<double, 3> share{0.3, 0.7 * 0.6, 0.7 * 0.4};
+    for (size_t k = 0; k < 3; ++k)
+        CHECK(std::fabs(double(count[k]) / n - share[k]) <
+              4.5 * std::sqrt(share[k] * (1 - share[k]) / n));
+    CHECK(materialSpecularity(&v, fx.mixNested) == doctest::Approx(0.6));
+    CHECK(materialSpecularity(&v, fx.mixNestedGlossy) == doctest::Approx(0.5));
+    CHECK(materialHasNonDelta(&v, fx.mixNested));
+    CHECK(!materialHasNonDelta(&v, fx.mixNestedDelta));
 }
 
 TEST_CASE("rough conductor loses mass only by masking, near-normal incidence keeps almost all") {
@@ -746,7 +816,7 @@ TEST_CASE("diffuse transmission: sampling matches pdf on both sides, albedo R + 
         Uniform w(332);
         for (int i = 0; i < 500; ++i) {
             Vec3 wo = worldDir(i % 2 ? 0.6f : -0.3f, 0.2f * i);
-            BsdfSample s;
+            BsdfSample s{};
             REQUIRE(bsdfSample(&v, m, kNoUv, kFrame, wo, w(), w(), w(), 0, &s));
             bool transmitted = vdot(s.wi, kFrame.n) * vdot(wo, kFrame.n) < 0.0f;
             CHECK(transmitted == (m == fx.transmitterOnly));
@@ -816,7 +886,7 @@ TEST_CASE("thin dielectric: the sheet's reflectance from both sides, straight tr
     int reflected = 0;
     const int n = 100000;
     for (int i = 0; i < n; ++i) {
-        BsdfSample s;
+        BsdfSample s{};
         REQUIRE(bsdfSample(&v, fx.thinGlass, kNoUv, kFrame, wo, u(), u(), u(), 0, &s));
         reflected += vdot(s.wi, kFrame.n) > 0.0f ? 1 : 0;
     }
@@ -1444,7 +1514,7 @@ TEST_CASE("dielectric: reflect/refract frequency matches Fresnel") {
         const int n = 100000;
         int reflected = 0;
         for (int i = 0; i < n; ++i) {
-            BsdfSample s;
+            BsdfSample s{};
             REQUIRE(bsdfSample(&v, fx.glass, kNoUv, kFrame, wo, u(), u(), u(), 0, &s));
             if (vdot(s.wi, kFrame.n) > 0.0f) ++reflected;
         }

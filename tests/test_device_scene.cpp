@@ -11,6 +11,7 @@
 #include "cb_lights.h"
 
 #include <cmath>
+#include <map>
 #include <string>
 
 namespace {
@@ -138,4 +139,47 @@ TEST_CASE("device scene: emission times scale beyond the float range is an error
                                       "[3e38 3e38 3e38] \"float scale\" 10\n");
     INFO(point);
     CHECK(point.rfind("t.pbrt:6:1: the light's emission", 0) == 0);
+}
+
+TEST_CASE("device scene: a mix of mixes is a chain whose links weigh its leaves") {
+    // m = 0.75 a + 0.25 n, n = 0.4 b + 0.6 o, o = 1.0 c + 0.0 a: leaves a 0.75, b 0.1, c 0.15.
+    const cb::SceneDesc desc = cb::parseSceneString(
+        kHeader +
+            "LightSource \"point\"\n"
+            "MakeNamedMaterial \"a\" \"string type\" \"diffuse\"\n"
+            "MakeNamedMaterial \"b\" \"string type\" \"conductor\"\n"
+            "MakeNamedMaterial \"c\" \"string type\" \"dielectric\"\n"
+            "MakeNamedMaterial \"o\" \"string type\" \"mix\" \"string materials\" [\"a\" \"c\"] "
+            "\"float amount\" 1\n"
+            "MakeNamedMaterial \"n\" \"string type\" \"mix\" \"string materials\" [\"b\" \"o\"] "
+            "\"float amount\" 0.6\n"
+            "MakeNamedMaterial \"m\" \"string type\" \"mix\" \"string materials\" [\"a\" \"n\"] "
+            "\"float amount\" 0.25\n"
+            "NamedMaterial \"m\"\nShape \"sphere\"\n",
+        "t.pbrt");
+    const cb::DeviceScene scene = cb::buildDeviceScene(desc, cb::ChannelMode::Rgb);
+    auto named = [&](const std::string& name) {
+        for (size_t i = 0; i < desc.materials.size(); ++i)
+            if (desc.materials[i].name == name) return int(i);
+        return -1;
+    };
+    std::map<int, double> weights;
+    double weight = 1.0;
+    int link = named("m"), links = 0;
+    while (scene.materials.at(size_t(link)).kind == CB_MAT_MIX) {
+        const cbk::Material& l = scene.materials[size_t(link)];
+        REQUIRE(scene.materials.at(size_t(l.mixFirst)).kind != CB_MAT_MIX);
+        weights[l.mixFirst] += weight * (1.0 - double(l.mixAmount));
+        weight *= double(l.mixAmount);
+        link = l.mixSecond;
+        REQUIRE(++links < 10);
+    }
+    weights[link] += weight;
+    // a's second appearance weighs 0 and is dropped: two links for three leaves.
+    CHECK(links == 2);
+    CHECK(weights.size() == 3);
+    CHECK(weights[named("a")] == doctest::Approx(0.75).epsilon(1e-6));
+    CHECK(weights[named("b")] == doctest::Approx(0.1).epsilon(1e-6));
+    CHECK(weights[named("c")] == doctest::Approx(0.15).epsilon(1e-6));
+    CHECK((scene.features & CB_FEATURE_DIELECTRIC) != 0); // a leaf only the inner mix names
 }

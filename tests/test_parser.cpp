@@ -629,10 +629,52 @@ TEST_CASE("parser: material errors") {
     expectError(ab + "Material \"mix\"\n", "t.pbrt:4:1", "mix needs \"string materials\"");
     expectError(ab + "Material \"mix\" \"string materials\" [\"a\" \"b\"] \"float amount\" 1.5\n",
                 "t.pbrt:4:45", "[0, 1]");
-    expectError(
-        ab + "MakeNamedMaterial \"m\" \"string type\" \"mix\" \"string materials\" [\"a\" \"b\"]\n"
-             "Material \"mix\" \"string materials\" [\"m\" \"b\"]\n",
-        "t.pbrt:5:36", "mix of mix is not supported");
+    // A mix may hold mixes, but not itself: a part named before its definition closes loops.
+    expectError(ab + "MakeNamedMaterial \"m\" \"string type\" \"mix\" \"string materials\" "
+                     "[\"a\" \"n\"]\n"
+                     "MakeNamedMaterial \"n\" \"string type\" \"mix\" \"string materials\" "
+                     "[\"m\" \"b\"]\n",
+                "t.pbrt:4:1", "mix \"m\" contains itself (\"m\" -> \"n\" -> \"m\")");
+    expectError(ab + "MakeNamedMaterial \"m\" \"string type\" \"mix\" \"string materials\" "
+                     "[\"m\" \"b\"]\n",
+                "t.pbrt:4:1", "mix \"m\" contains itself (\"m\" -> \"m\")");
+    // Reached from a mix outside it, the loop is named alone, at its first member's definition.
+    expectError(ab + "Material \"mix\" \"string materials\" [\"m\" \"b\"]\n"
+                     "MakeNamedMaterial \"m\" \"string type\" \"mix\" \"string materials\" "
+                     "[\"a\" \"n\"]\n"
+                     "MakeNamedMaterial \"n\" \"string type\" \"mix\" \"string materials\" "
+                     "[\"m\" \"b\"]\n",
+                "t.pbrt:5:1", "mix \"m\" contains itself (\"m\" -> \"n\" -> \"m\")");
+    // A mix of the same mix at each of 20 levels has 2^20 paths to its two materials.
+    std::string doubling = ab + "MakeNamedMaterial \"m0\" \"string type\" \"mix\" "
+                                "\"string materials\" [\"a\" \"b\"]\n";
+    for (int level = 1; level <= 20; ++level)
+        doubling += "MakeNamedMaterial \"m" + std::to_string(level) +
+                    "\" \"string type\" \"mix\" \"string materials\" [\"m" +
+                    std::to_string(level - 1) + "\" \"m" + std::to_string(level - 1) + "\"]\n";
+    expectError(doubling, "t.pbrt:19:1", "mix \"m15\" nests mixes into more than 100000 parts");
+}
+
+TEST_CASE("parser: a mix of mixes blends its materials by the product of the amounts") {
+    // pbrt-v4's amount is the second material's probability: m = 0.75 a + 0.25 n, and
+    // n = 0.4 b + 0.6 a, so a weighs 0.75 + 0.25 x 0.6 and b 0.25 x 0.4.
+    const auto s = cb::parseSceneString(
+        std::string(kWorld) +
+            "MakeNamedMaterial \"a\" \"string type\" \"diffuse\"\n"
+            "MakeNamedMaterial \"m\" \"string type\" \"mix\" \"string materials\" [\"a\" \"n\"] "
+            "\"float amount\" 0.25\n"
+            "MakeNamedMaterial \"b\" \"string type\" \"conductor\"\n"
+            "MakeNamedMaterial \"n\" \"string type\" \"mix\" \"string materials\" [\"b\" \"a\"] "
+            "\"float amount\" 0.6\n"
+            "NamedMaterial \"m\"\nShape \"sphere\"\n",
+        "t.pbrt");
+    const auto leaves = cb::mixLeaves(s, 1);
+    REQUIRE(leaves.size() == 2);
+    CHECK(leaves[0].first == 0);
+    CHECK(leaves[0].second == doctest::Approx(0.75 + 0.25 * 0.6).epsilon(1e-7));
+    CHECK(leaves[1].first == 2);
+    CHECK(leaves[1].second == doctest::Approx(0.25 * 0.4).epsilon(1e-7));
+    CHECK(cb::mixLeaves(s, 0) == std::vector<std::pair<int, double>>{{0, 1.0}});
 }
 
 TEST_CASE("parser: block-structure errors") {

@@ -299,15 +299,16 @@ TEST_CASE("pbrt-v4: a mix may name materials defined after it") {
         CHECK(blend.amount == doctest::Approx(0.25f));
     }
     // As pbrt-v4, a part nothing defines is an error even where no shape uses the mix, at the
-    // part's name; and a part that is itself a mix is refused wherever it is defined.
+    // part's name; a part that is a mix defined later is found.
     CHECK(contains(
         errorOf("WorldBegin\nMaterial \"mix\" \"string materials\" [\"red\" \"ghost\"]\n" + parts),
         "t.pbrt:2:42: unknown named material \"ghost\" in mix"));
-    CHECK(contains(errorOf("WorldBegin\nMaterial \"mix\" \"string materials\" [\"red\" \"m\"]\n" +
-                           parts +
-                           "MakeNamedMaterial \"m\" \"string type\" \"mix\" \"string materials\" "
-                           "[\"red\" \"glass\"]\n"),
-                   "t.pbrt:2:42: mix of mix is not supported"));
+    const auto nested = parseSceneString(
+        "WorldBegin\nMaterial \"mix\" \"string materials\" [\"red\" \"m\"]\n" + parts +
+            "MakeNamedMaterial \"m\" \"string type\" \"mix\" \"string materials\" "
+            "[\"red\" \"glass\"]\n",
+        "t.pbrt");
+    CHECK(nested.materials.at(size_t(nested.materials[0].mix[1])).name == "m");
 }
 
 TEST_CASE("pbrt-v4: CoordinateSystem and CoordSysTransform, camera included") {
@@ -1512,6 +1513,35 @@ TEST_CASE("pbrt-v4 diffusetransmission and thindielectric: a lid on a black box 
             cb::buildDeviceScene(parseSceneString(lidSceneText(c.camera, c.material), "t.pbrt"));
         // CPT's and CBDPT's pixels share each estimate's lobe choice: 64 estimates per run.
         checkEveryMethodChannelMeans(scene, runtime, c.expected, 4, 64, 900u);
+    }
+}
+
+// A mix of mixes: m = 0.5 diffuse + 0.5 n, n = 0.6 diffusetransmission + 0.4 thindielectric, so
+// the lid weighs them 0.5, 0.3 and 0.2. From above it reflects L (0.5 rho + 0.3 R + 0.2
+// R(theta)); from inside it transmits L (0.3 T + 0.2 (1 - R(theta))). Every method.
+TEST_CASE("pbrt-v4 mix of mixes: a lid of three materials under a constant sky, every method" *
+          doctest::test_suite("statistical")) {
+    cb::ClRuntime runtime;
+    const double thinR = lidFilmMean([](double c) { return thinSheetReflectance(c, 1.5); }, 400);
+    const std::string lid =
+        "MakeNamedMaterial \"d\" \"string type\" \"diffuse\" \"rgb reflectance\" [0.9 0.5 0.1]\n"
+        "MakeNamedMaterial \"t\" \"string type\" \"diffusetransmission\" \"rgb reflectance\" "
+        "[0.5 0.3 0.2] \"rgb transmittance\" [0.2 0.4 0.6]\n"
+        "MakeNamedMaterial \"g\" \"string type\" \"thindielectric\" \"float eta\" 1.5\n"
+        "MakeNamedMaterial \"n\" \"string type\" \"mix\" \"string materials\" [\"t\" \"g\"] "
+        "\"float amount\" 0.4\n"
+        "MakeNamedMaterial \"m\" \"string type\" \"mix\" \"string materials\" [\"d\" \"n\"]\n"
+        "NamedMaterial \"m\"\n";
+    const double rho[3] = {0.9, 0.5, 0.1}, r[3] = {0.5, 0.3, 0.2}, t[3] = {0.2, 0.4, 0.6};
+    for (const bool above : {true, false}) {
+        CAPTURE(above);
+        std::array<double, 3> expected{};
+        for (size_t c = 0; c < 3; ++c)
+            expected[c] = kLidSky * (above ? 0.5 * rho[c] + 0.3 * r[c] + 0.2 * thinR
+                                           : 0.3 * t[c] + 0.2 * (1 - thinR));
+        const cb::DeviceScene scene = cb::buildDeviceScene(
+            parseSceneString(lidSceneText(above ? kLidAbove : kLidInside, lid), "t.pbrt"));
+        checkEveryMethodChannelMeans(scene, runtime, expected, 4, 64, 910u);
     }
 }
 

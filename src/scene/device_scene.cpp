@@ -445,8 +445,9 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
     auto markUsed = [&](int m) {
         if (m >= 0 && size_t(m) < materialUsed.size()) {
             materialUsed[size_t(m)] = true;
-            for (int c : desc.materials[size_t(m)].mix)
-                if (c >= 0) materialUsed[size_t(c)] = true;
+            if (desc.materials[size_t(m)].kind == MaterialKind::Mix)
+                for (const auto& [leaf, weight] : mixLeaves(desc, m))
+                    materialUsed[size_t(leaf)] = true;
         }
     };
     for (const auto& mesh : desc.meshes)
@@ -475,10 +476,11 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
                    byUv(d.roughnessTexture) || byUv(d.thicknessTexture) || d.normalMap >= 0 ||
                    d.displacement >= 0 || d.vRoughness.has_value();
         };
-        bool any = uses(md);
-        for (int c : md.mix)
-            any = any || (c >= 0 && uses(desc.materials[size_t(c)]));
-        return any;
+        if (md.kind != MaterialKind::Mix) return uses(md);
+        const auto leaves = mixLeaves(desc, m);
+        return std::any_of(leaves.begin(), leaves.end(), [&](const auto& leaf) {
+            return uses(desc.materials[size_t(leaf.first)]);
+        });
     };
     std::vector<float> images;
     std::map<int, int> imageOffset; // SceneDesc::textures index -> offset in `images`
@@ -704,22 +706,23 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
             out.displacement = addTexture(m.displacement);
             scene.features |= CB_FEATURE_TEXTURE | CB_FEATURE_BUMP_MAP;
         }
-        if (materialUsed[i] && m.kind == MaterialKind::Mix)
-            for (int c : m.mix)
-                if (c >= 0 && (desc.materials[size_t(c)].normalMap >= 0 ||
-                               desc.materials[size_t(c)].displacement >= 0))
-                    throw SceneError(m.where,
-                                     "a mix of a material with a \"normalmap\" or a "
-                                     "\"displacement\" is not supported: pbrt-v4 picks one of the "
-                                     "two materials per hit and shades by its normal, cbdpt "
-                                     "blends their BSDFs at one normal");
-        if (materialUsed[i] && m.kind == MaterialKind::Mix)
-            for (int c : m.mix)
-                if (c >= 0 && desc.materials[size_t(c)].etaSpectrum)
-                    throw SceneError(m.where,
-                                     "a mix of a dielectric with \"spectrum eta\" is not "
-                                     "supported: its paths follow one wavelength from the hit on, "
-                                     "which cbdpt chooses for the material the hit finds");
+        const auto leaves = m.kind == MaterialKind::Mix && materialUsed[i]
+                                ? mixLeaves(desc, int(i))
+                                : std::vector<std::pair<int, double>>{};
+        for (const auto& [c, weight] : leaves)
+            if (desc.materials[size_t(c)].normalMap >= 0 ||
+                desc.materials[size_t(c)].displacement >= 0)
+                throw SceneError(m.where,
+                                 "a mix of a material with a \"normalmap\" or a "
+                                 "\"displacement\" is not supported: pbrt-v4 picks one of the "
+                                 "two materials per hit and shades by its normal, cbdpt "
+                                 "blends their BSDFs at one normal");
+        for (const auto& [c, weight] : leaves)
+            if (desc.materials[size_t(c)].etaSpectrum)
+                throw SceneError(m.where,
+                                 "a mix of a dielectric with \"spectrum eta\" is not "
+                                 "supported: its paths follow one wavelength from the hit on, "
+                                 "which cbdpt chooses for the material the hit finds");
         if (m.kind != MaterialKind::Conductor && m.kind != MaterialKind::Dielectric)
             out.alphaV = out.alpha;
         if (materialUsed[i] && out.alphaV != out.alpha) {
@@ -740,6 +743,37 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
                  out.kind == CB_MAT_COATED_CONDUCTOR) &&
                 out.alpha > 0.f)
                 scene.features |= CB_FEATURE_ROUGH_DIELECTRIC;
+        }
+    }
+
+    // A mix of mixes becomes a chain that the kernels walk (cb_bsdf.h, cbMixEval): each link's
+    // first material is one of the mix's leaves (mixLeaves), its second the next link (the last
+    // one's the last leaf), its amount the share of the leaves after its first. The mix's own
+    // entry is the first link; the others follow the scene's materials.
+    for (size_t i = 0; i < desc.materials.size(); ++i) {
+        const MaterialDesc& m = desc.materials[i];
+        if (m.kind != MaterialKind::Mix || !materialUsed[i] ||
+            (desc.materials[size_t(m.mix[0])].kind != MaterialKind::Mix &&
+             desc.materials[size_t(m.mix[1])].kind != MaterialKind::Mix))
+            continue;
+        auto leaves = mixLeaves(desc, int(i));
+        std::erase_if(leaves, [](const auto& leaf) { return !(leaf.second > 0.0); });
+        if (leaves.size() == 1) leaves.push_back({leaves[0].first, 0.0});
+        int link = int(i);
+        for (size_t k = 0; k + 1 < leaves.size(); ++k) {
+            double rest = 0.0; // the weight of leaves k, k + 1, ...
+            for (size_t j = k; j < leaves.size(); ++j)
+                rest += leaves[j].second;
+            int next = leaves[k + 1].first;
+            if (k + 2 < leaves.size()) {
+                scene.materials.push_back(scene.materials[i]);
+                next = int(scene.materials.size()) - 1;
+            }
+            cbk::Material& l = scene.materials[size_t(link)];
+            l.mixFirst = leaves[k].first;
+            l.mixSecond = next;
+            l.mixAmount = float(1.0 - leaves[k].second / rest);
+            link = next;
         }
     }
 

@@ -1591,8 +1591,6 @@ class Parser {
     }
 
     int mixPart(int material, const std::string& name, const SourceLocation& where) const {
-        if (scene_.materials[static_cast<size_t>(material)].kind == MaterialKind::Mix)
-            throw SceneError(where, "mix of mix is not supported (\"" + name + "\" is a mix)");
         // A mix's sample is weighed by the mixture's pdf, which needs each part's exact density;
         // the coat's is an estimate (pbrt-v4 instead picks one part per point).
         const MaterialKind kind = scene_.materials[static_cast<size_t>(material)].kind;
@@ -1733,8 +1731,9 @@ class Parser {
                     ? findNamedMaterial(laterMaterials_[size_t(kLaterMaterial - t.material)].name)
                     : t.material;
             if (m < 0) continue;
-            const MaterialDesc& d = scene_.materials[size_t(m)];
-            if (anisotropic(m) || anisotropic(d.mix[0]) || anisotropic(d.mix[1]))
+            const auto leaves = mixLeaves(scene_, m);
+            if (std::any_of(leaves.begin(), leaves.end(),
+                            [&](const auto& leaf) { return anisotropic(leaf.first); }))
                 throw SceneError(t.where, "\"vector3 S\" (tangents) with an anisotropic material "
                                           "is not supported: cbdpt turns its lobe with dp/du");
         }
@@ -1751,6 +1750,9 @@ class Parser {
             scene_.materials[static_cast<size_t>(part.mix)].mix[part.index] =
                 mixPart(idx, part.name, part.where);
         }
+        // A part named before its definition can close a loop of mixes; mixLeaves names it.
+        for (size_t i = 0; i < scene_.materials.size(); ++i)
+            if (scene_.materials[i].kind == MaterialKind::Mix) mixLeaves(scene_, int(i));
     }
 
     // pbrt-v4's "roughness", or "uroughness" and "vroughness" (defaulting to "roughness", which
@@ -3801,6 +3803,44 @@ std::array<int, 4> cropWindowPixels(int width, int height, const std::array<doub
         throw std::invalid_argument(fmt::format("{} {} {} {} {} holds no pixel of the {}x{} film",
                                                 label, x0, x1, y0, y1, width, height));
     return pixels;
+}
+
+std::vector<std::pair<int, double>> mixLeaves(const SceneDesc& scene, int material) {
+    std::vector<std::pair<int, double>> leaves;
+    std::vector<int> path; // the mixes from `material` down to the one being expanded
+    long steps = 0;        // a mix of the same mix, nested, doubles its expansion each level
+    auto named = [&](int m) {
+        const std::string& name = scene.materials.at(size_t(m)).name;
+        return name.empty() ? std::string("this mix") : "mix \"" + name + "\"";
+    };
+    auto expand = [&](auto&& self, int m, double weight) -> void {
+        const MaterialDesc& d = scene.materials.at(size_t(m));
+        if (++steps > 100000)
+            throw SceneError(scene.materials.at(size_t(material)).where,
+                             named(material) + " nests mixes into more than 100000 parts");
+        if (d.kind != MaterialKind::Mix) {
+            auto same = std::find_if(leaves.begin(), leaves.end(),
+                                     [&](const auto& leaf) { return leaf.first == m; });
+            if (same != leaves.end())
+                same->second += weight;
+            else
+                leaves.emplace_back(m, weight);
+            return;
+        }
+        if (auto loop = std::find(path.begin(), path.end(), m); loop != path.end()) {
+            std::string chain; // the loop alone, from m back to m
+            for (; loop != path.end(); ++loop)
+                chain += "\"" + scene.materials[size_t(*loop)].name + "\" -> ";
+            throw SceneError(d.where,
+                             named(m) + " contains itself (" + chain + "\"" + d.name + "\")");
+        }
+        path.push_back(m);
+        self(self, d.mix[0], weight * (1.0 - double(d.amount)));
+        self(self, d.mix[1], weight * double(d.amount));
+        path.pop_back();
+    };
+    expand(expand, material, 1.0);
+    return leaves;
 }
 
 SceneDesc parseSceneString(const std::string& text, const std::string& virtualPath) {

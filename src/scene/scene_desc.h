@@ -382,6 +382,12 @@ struct SceneDesc {
     long droppedDegenerateTriangles = 0; // zero-area triangles removed at load
 };
 
+// The materials a mix blends, none of them a mix, each with its weight: pbrt-v4's "amount" is
+// the second material's probability, nested mixes multiply theirs, and a material reached twice
+// has its weights summed. A material that is not a mix is itself, of weight 1. Mixes that
+// contain themselves are refused by the parser.
+std::vector<std::pair<int, double>> mixLeaves(const SceneDesc& scene, int material);
+
 // Parse a scene file. Relative paths inside it (plymesh filename) are resolved against the
 // scene file's folder, then each folder of the CBDPT_MODEL_PATH environment variable.
 SceneDesc parseSceneFile(const std::string& path);

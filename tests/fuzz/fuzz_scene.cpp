@@ -85,12 +85,16 @@ void checkScene(const cb::SceneDesc& s) {
         checkIndex(m.normalMap, s.textures.size(), true, "normal map");
         checkIndex(m.roughnessTexture, s.textures.size(), true, "roughness texture");
         checkIndex(m.displacement, s.textures.size(), true, "displacement texture");
-        if (m.kind == cb::MaterialKind::Mix)
-            for (int i : m.mix) {
+        if (m.kind == cb::MaterialKind::Mix) {
+            for (int i : m.mix)
                 checkIndex(i, nm, false, "mix component index");
-                if (s.materials[static_cast<size_t>(i)].kind == cb::MaterialKind::Mix)
-                    broken("mix of mix");
+            double total = 0.0;
+            for (const auto& [leaf, weight] : cb::mixLeaves(s, int(&m - s.materials.data()))) {
+                if (s.materials[size_t(leaf)].kind == cb::MaterialKind::Mix) broken("mix leaf");
+                total += weight;
             }
+            if (std::fabs(total - 1.0) > 1e-9) broken("mix weights");
+        }
     }
     for (const cb::AreaLightDesc& l : s.areaLights) {
         checkSpectrum(l.radiance, false, "area light L");
