@@ -47,6 +47,10 @@
 #define CB_MLT_STAT_LARGE_ACCEPTED 2
 #define CB_MLT_STAT_ZERO_PROPOSALS 3
 #define CB_MLT_STATS 4
+/* The kernel's stages (the host's MltStage). */
+#define CB_MLT_STAGE_BOOTSTRAP 0u
+#define CB_MLT_STAGE_SEED 1u
+#define CB_MLT_STAGE_ADVANCE 2u
 
 typedef struct MltSample {
     int count;
@@ -155,23 +159,6 @@ static void mltBootstrapVector(uint seed, uint index, float* u) {
         u[d] = mltUniform(key, d);
 }
 
-/* Bootstrap: I(u) of independent uniform vectors u_i, i = first .. first + count - 1. Their mean
- * estimates the normalisation b = integral of I over [0,1)^D. */
-__kernel void mltBootstrap(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings), uint first, uint count,
-                           __global float* luminance, CB_COUNTER_PARAMS) {
-    uint i = (uint)get_global_id(0);
-    if (i >= count) return;
-    CB_SCENE_VIEW(scene);
-    BdptSettings settingsCopy = bdptSettingsCopy(settings);
-    float u[CB_MLT_DIMS];
-    mltBootstrapVector(sampler.seed, first + i, u);
-    MltSample sample;
-    int rays = 0, nonFinite = 0;
-    mltEvaluate(&scene, &camera, toRgb, settingsCopy, u, &sample, &rays, &nonFinite);
-    luminance[i] = sample.luminance;
-    cbAddCounts(CB_COUNTERS, nonFinite, rays);
-}
-
 static void mltStoreState(__global float* state, __global float* chainLum, __global int* splatCount,
                           __global int* splatPixel, __global float* splatRaster,
                           __global float* splatRgb, uint chain, const float* u,
@@ -188,26 +175,6 @@ static void mltStoreState(__global float* state, __global float* chainLum, __glo
         for (int c = 0; c < 3; ++c)
             splatRgb[3u * (chain * CB_MLT_MAX_SPLATS + (uint)i) + (uint)c] = s->rgb[3 * i + c];
     }
-}
-
-/* Chain c starts at bootstrap vector bootstrapIndex[c] (resampled on the host in proportion to
- * I, so the chains start close to their stationary distribution). */
-__kernel void mltSeedChains(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings), uint chains,
-                            __global const uint* bootstrapIndex, __global float* state,
-                            __global float* chainLum, __global int* splatCount,
-                            __global int* splatPixel, __global float* splatRaster,
-                            __global float* splatRgb) {
-    uint chain = (uint)get_global_id(0);
-    if (chain >= chains) return;
-    CB_SCENE_VIEW(scene);
-    BdptSettings settingsCopy = bdptSettingsCopy(settings);
-    float u[CB_MLT_DIMS];
-    mltBootstrapVector(sampler.seed, bootstrapIndex[chain], u);
-    MltSample sample;
-    int rays = 0, nonFinite = 0;
-    mltEvaluate(&scene, &camera, toRgb, settingsCopy, u, &sample, &rays, &nonFinite);
-    mltStoreState(state, chainLum, splatCount, splatPixel, splatRaster, splatRgb, chain, u,
-                  &sample);
 }
 
 /* Adds weight * F / I of a state to the image, light-tracing splats through the pixel filter. */
@@ -244,17 +211,13 @@ static void mltSplat(volatile __global float* image, const Camera* camera, const
  * same amounts with fewer atomics). The image receives sum weight * F / I; the host multiplies
  * by b * pixels / mutations. largeSum/largeCount collect I of large-step proposals, which are
  * uniform draws and so refine the estimate of b. */
-__kernel void mltAdvance(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings), uint chains, uint firstStep,
-                         int mutations, float largeStepProbability, float s1, float s2,
-                         __global float* state, __global float* chainLum, __global int* splatCount,
-                         __global int* splatPixel, __global float* splatRaster,
-                         __global float* splatRgb, volatile __global float* image,
-                         __global float* largeSum, __global uint* stats, CB_COUNTER_PARAMS) {
-    uint chain = (uint)get_global_id(0);
-    if (chain >= chains) return;
-    CB_SCENE_VIEW(scene);
-    BdptSettings settingsCopy = bdptSettingsCopy(settings);
-
+static void mltAdvance(const SceneView* scene, const Camera* camera, __global const float* toRgb,
+                       BdptSettings settingsCopy, uint seed, uint chain, uint firstStep,
+                       int mutations, float largeStepProbability, float s1, float s2,
+                       __global float* state, __global float* chainLum, __global int* splatCount,
+                       __global int* splatPixel, __global float* splatRaster,
+                       __global float* splatRgb, volatile __global float* image,
+                       __global float* largeSum, __global uint* stats, int* rays, int* nonFinite) {
     float bufferA[CB_MLT_DIMS], bufferB[CB_MLT_DIMS];
     float* cur = bufferA;
     float* prop = bufferB;
@@ -277,8 +240,7 @@ __kernel void mltAdvance(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings), uint chains,
     uint accepted = 0u, large = 0u, largeAccepted = 0u, zero = 0u;
     float sumLarge = 0.0f;
     float curWeight = 0.0f;
-    int rays = 0, nonFinite = 0;
-    uint chainKey = cbHashCombine(cbHash32(sampler.seed ^ CB_MLT_MUTATION_SALT), chain);
+    uint chainKey = cbHashCombine(cbHash32(seed ^ CB_MLT_MUTATION_SALT), chain);
     for (int m = 0; m < mutations; ++m) {
         uint key = cbHashCombine(chainKey, firstStep + (uint)m);
         bool isLarge = mltUniform(key, 0u) < largeStepProbability;
@@ -294,7 +256,7 @@ __kernel void mltAdvance(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings), uint chains,
                 prop[d] = x < 1.0f ? x : 0.0f; /* rounding of x - 1 + 1 */
             }
         }
-        mltEvaluate(&scene, &camera, toRgb, settingsCopy, prop, &propSample, &rays, &nonFinite);
+        mltEvaluate(scene, camera, toRgb, settingsCopy, prop, &propSample, rays, nonFinite);
         if (isLarge) {
             large += 1u;
             sumLarge += propSample.luminance;
@@ -309,9 +271,9 @@ __kernel void mltAdvance(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings), uint chains,
             a = min(1.0f, propSample.luminance / curSample.luminance);
         }
         curWeight += 1.0f - a;
-        mltSplat(image, &camera, &propSample, a);
+        mltSplat(image, camera, &propSample, a);
         if (mltUniform(key, 1u) < a) {
-            mltSplat(image, &camera, &curSample, curWeight);
+            mltSplat(image, camera, &curSample, curWeight);
             curWeight = 0.0f;
             float* tmp = cur;
             cur = prop;
@@ -321,7 +283,7 @@ __kernel void mltAdvance(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings), uint chains,
             if (isLarge) largeAccepted += 1u;
         }
     }
-    mltSplat(image, &camera, &curSample, curWeight);
+    mltSplat(image, camera, &curSample, curWeight);
     /* A zero current state (only if the bootstrap found nothing) splats nothing either way. */
 
     mltStoreState(state, chainLum, splatCount, splatPixel, splatRaster, splatRgb, chain, cur,
@@ -331,5 +293,45 @@ __kernel void mltAdvance(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings), uint chains,
     stats[CB_MLT_STATS * chain + CB_MLT_STAT_LARGE] = large;
     stats[CB_MLT_STATS * chain + CB_MLT_STAT_LARGE_ACCEPTED] = largeAccepted;
     stats[CB_MLT_STATS * chain + CB_MLT_STAT_ZERO_PROPOSALS] = zero;
-    cbAddCounts(CB_COUNTERS, nonFinite, rays);
+}
+
+/* The three stages in one kernel, chosen by `stage` (the host's MltStage): PoCL compiles each
+ * kernel of a program on its own, each with its own copy of the path code (mltEvaluate), so one
+ * kernel compiles in a third of three's time. A stage's buffers that the others do not use are
+ * passed as null. Bootstrap: I(u) of independent uniform vectors u_i, i = first .. first +
+ * count - 1, into bootstrapLuminance; their mean estimates the normalisation b = integral of I
+ * over [0,1)^D. Seed: chain c < count starts at bootstrap vector bootstrapIndex[c] (resampled on
+ * the host in proportion to I, so the chains start close to their stationary distribution).
+ * Advance: mltAdvance, chains c < count, from step number first. */
+__kernel void mlt(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings), uint stage, uint count, uint first,
+                  int mutations, float largeStepProbability, float s1, float s2,
+                  __global float* bootstrapLuminance, __global const uint* bootstrapIndex,
+                  __global float* state, __global float* chainLum, __global int* splatCount,
+                  __global int* splatPixel, __global float* splatRaster, __global float* splatRgb,
+                  volatile __global float* image, __global float* largeSum, __global uint* stats,
+                  CB_COUNTER_PARAMS) {
+    uint i = (uint)get_global_id(0);
+    if (i >= count) return;
+    CB_SCENE_VIEW(scene);
+    BdptSettings settingsCopy = bdptSettingsCopy(settings);
+    int rays = 0, nonFinite = 0;
+    if (stage == CB_MLT_STAGE_ADVANCE) {
+        mltAdvance(&scene, &camera, toRgb, settingsCopy, sampler.seed, i, first, mutations,
+                   largeStepProbability, s1, s2, state, chainLum, splatCount, splatPixel,
+                   splatRaster, splatRgb, image, largeSum, stats, &rays, &nonFinite);
+        cbAddCounts(CB_COUNTERS, nonFinite, rays);
+        return;
+    }
+    float u[CB_MLT_DIMS];
+    const bool bootstrap = stage == CB_MLT_STAGE_BOOTSTRAP;
+    mltBootstrapVector(sampler.seed, bootstrap ? first + i : bootstrapIndex[i], u);
+    MltSample sample;
+    mltEvaluate(&scene, &camera, toRgb, settingsCopy, u, &sample, &rays, &nonFinite);
+    if (bootstrap) {
+        bootstrapLuminance[i] = sample.luminance;
+        cbAddCounts(CB_COUNTERS, nonFinite, rays);
+    } else {
+        mltStoreState(state, chainLum, splatCount, splatPixel, splatRaster, splatRgb, i, u,
+                      &sample);
+    }
 }

@@ -25,6 +25,8 @@ namespace {
 constexpr size_t kChainGroupSize = 64;
 
 constexpr int kStatsPerChain = 4; // mlt.cl CB_MLT_STATS
+// The stages of mlt.cl's one kernel (CB_MLT_STAGE_*).
+enum class MltStage : cl_uint { Bootstrap = 0, Seed = 1, Advance = 2 };
 constexpr long kBootstrapBatch = 1 << 16;
 
 size_t roundUp(size_t n, size_t multiple) {
@@ -53,9 +55,7 @@ class MltIntegrator final : public KernelIntegrator {
         defines.push_back(fmt::format("CB_MLT_EYE_DIMS={}u", eyeDims_));
         defines.push_back(fmt::format("CB_MLT_LIGHT_DIMS={}u", lightDims_));
         buildProgram("mlt.cl", defines);
-        bootstrapKernel_ = cl::Kernel(program_, "mltBootstrap");
-        seedKernel_ = cl::Kernel(program_, "mltSeedChains");
-        advanceKernel_ = cl::Kernel(program_, "mltAdvance");
+        kernel_ = cl::Kernel(program_, "mlt");
 
         auto& ctx = runtime.context();
         state_ = runtime.createBuffer("MLT chain states (chains x primary samples)",
@@ -85,16 +85,14 @@ class MltIntegrator final : public KernelIntegrator {
         if (!seeded_) bootstrapAndSeed();
 
         queue.enqueueFillBuffer(image_, 0.0f, 0, imageBytes());
-        KernelArguments args = integratorArguments(advanceKernel_, bdpt_);
-        args.add(cl_uint(chains_));
-        args.add(cl_uint(std::uint64_t(estimate) * std::uint64_t(mutationsPerChain_)));
-        args.add(cl_int(mutationsPerChain_));
-        args.add(float(settings_.largeStepProbability));
-        args.add(float(settings_.mutationSize / 16.0)).add(float(settings_.mutationSize));
+        KernelArguments args =
+            stageArguments(MltStage::Advance, chains_,
+                           cl_uint(std::uint64_t(estimate) * std::uint64_t(mutationsPerChain_)));
+        args.add(cl::Buffer()).add(cl::Buffer()); // the bootstrap's luminance and indices
         addStateArguments(args);
         args.add(image_).add(largeSum_).add(stats_);
         addCounterArguments(args);
-        launch(advanceKernel_, cl::NDRange(roundUp(chains_, 64)), cl::NDRange(kChainGroupSize));
+        launch(kernel_, cl::NDRange(roundUp(chains_, 64)), cl::NDRange(kChainGroupSize));
 
         rgb.resize(3 * pixels_);
         queue.enqueueReadBuffer(image_, CL_TRUE, 0, imageBytes(), rgb.data());
@@ -130,7 +128,19 @@ class MltIntegrator final : public KernelIntegrator {
     MltStatistics stats;
 
   private:
-    // The chains' states, as mltSeedChains writes them and mltAdvance reads and writes them.
+    // The kernel's arguments up to its buffers: the stage, the work-items that do something,
+    // the first bootstrap vector or mutation step, and the mutations' settings.
+    KernelArguments stageArguments(MltStage stage, size_t count, cl_uint first) {
+        KernelArguments args = integratorArguments(kernel_, bdpt_);
+        args.add(cl_uint(stage)).add(cl_uint(count)).add(first);
+        args.add(cl_int(mutationsPerChain_));
+        args.add(float(settings_.largeStepProbability));
+        args.add(float(settings_.mutationSize / 16.0)).add(float(settings_.mutationSize));
+        return args;
+    }
+
+    // The chains' states, as the seed stage writes them and the advance stage reads and writes
+    // them.
     void addStateArguments(KernelArguments& args) const {
         args.add(state_)
             .add(chainLum_)
@@ -149,11 +159,13 @@ class MltIntegrator final : public KernelIntegrator {
         cl::Buffer lumBuffer(ctx, CL_MEM_WRITE_ONLY, sizeof(float) * batch);
         for (size_t first = 0; first < n; first += batch) {
             const size_t count = std::min(batch, n - first);
-            KernelArguments args = integratorArguments(bootstrapKernel_, bdpt_);
-            args.add(cl_uint(first)).add(cl_uint(count)).add(lumBuffer);
+            KernelArguments args = stageArguments(MltStage::Bootstrap, count, cl_uint(first));
+            args.add(lumBuffer).add(cl::Buffer());
+            for (int unused = 0; unused < 9;
+                 ++unused) // the six state buffers, image, largeSum, stats
+                args.add(cl::Buffer());
             addCounterArguments(args);
-            queue.enqueueNDRangeKernel(bootstrapKernel_, cl::NullRange,
-                                       cl::NDRange(roundUp(count, 64)),
+            queue.enqueueNDRangeKernel(kernel_, cl::NullRange, cl::NDRange(roundUp(count, 64)),
                                        cl::NDRange(kChainGroupSize));
             queue.enqueueReadBuffer(lumBuffer, CL_TRUE, 0, sizeof(float) * count,
                                     lum.data() + first);
@@ -196,17 +208,19 @@ class MltIntegrator final : public KernelIntegrator {
         }
         cl::Buffer indexBuffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
                                sizeof(std::uint32_t) * chains_, index.data());
-        KernelArguments args = integratorArguments(seedKernel_, bdpt_);
-        args.add(cl_uint(chains_)).add(indexBuffer);
+        KernelArguments args = stageArguments(MltStage::Seed, chains_, 0);
+        args.add(cl::Buffer()).add(indexBuffer);
         addStateArguments(args);
-        queue.enqueueNDRangeKernel(seedKernel_, cl::NullRange, cl::NDRange(roundUp(chains_, 64)),
+        args.add(cl::Buffer()).add(cl::Buffer()).add(cl::Buffer()); // image, largeSum, stats
+        addCounterArguments(args);
+        queue.enqueueNDRangeKernel(kernel_, cl::NullRange, cl::NDRange(roundUp(chains_, 64)),
                                    cl::NDRange(kChainGroupSize));
         queue.finish();
         seeded_ = true;
     }
 
     const cbk::BdptSettings bdpt_;
-    cl::Kernel bootstrapKernel_, seedKernel_, advanceKernel_;
+    cl::Kernel kernel_;
     cl::Buffer state_, chainLum_, splatCount_, splatPixel_, splatRaster_, splatRgb_, image_,
         largeSum_, stats_;
     size_t chains_ = 0, maxSplats_ = 0;
