@@ -332,7 +332,8 @@ CB_FN Spectrum bdptLightEmission(const SceneView* scene, const PathVertex* v, Ve
  * instead, 1 / (pi R^2): times |cos| at the vertex the ray reaches, with no distance falloff, it is
  * that vertex's area density (pbrt-v4's Vertex::PdfLight). */
 CB_FN real bdptLightDirectionPdf(const SceneView* scene, const PathVertex* v, Vec3 w) {
-    if (v->type == CB_VERTEX_POINT_LIGHT) return pointLightDirectionPdf(scene, v->light, w);
+    if (v->type == CB_VERTEX_POINT_LIGHT)
+        return lightDirectionPdf(scene, &scene->lights[v->light], w);
     if (pvAtInfinity(v)) {
         real radius = scene->lights[v->light].sceneRadius;
         return 1.0f / (CB_PI * radius * radius);
@@ -341,6 +342,21 @@ CB_FN real bdptLightDirectionPdf(const SceneView* scene, const PathVertex* v, Ve
     if (scene->lights[v->light].twoSided) return 0.5f * fabs(c) * CB_INV_PI;
     return cosineHemispherePdf(c);
 }
+
+#if CB_HAS(CB_FEATURE_INFINITE_LIGHT)
+/* For an infinite light with a portal, next-event estimation's density at y1 of unit direction
+ * toLight over the light subpaths' (infiniteLightPdfFrom over lightDirectionPdf): the
+ * ratio bdptNeeRatio needs; 0 for other lights (bdptNeeRatio then takes 1). Every MIS weight of
+ * a path through the vertex asks for it, so it is computed once, where the infinite light's
+ * vertex is made, and kept in the vertex's uv[0] (a light vertex has no texture coordinates). */
+CB_FN real bdptSkyNeeRatio(const SceneView* scene, int lightIndex, Vec3 y1, Vec3 toLight) {
+    CB_GLOBAL const Light* light = &scene->lights[lightIndex];
+    if (light->portal < 0) return 0.0f;
+    real skyPdf = lightDirectionPdf(scene, light, toLight);
+    real neePdf = infiniteLightPdfFrom(scene, light, y1, toLight, skyPdf);
+    return skyPdf > 0.0f && neePdf > 0.0f ? neePdf / skyPdf : 0.0f;
+}
+#endif
 
 /* ---- Subpath generation -------------------------------------------------------------------- */
 
@@ -376,6 +392,11 @@ CB_FN int bdptWalkStep(const SceneView* scene, bool found, Hit hit, Ray* ray, Sp
         v->pdfFwd = *pdfW;
         v->pdfRev = 0.0f;
         v->uv[0] = v->uv[1] = 0.0f;
+#if CB_HAS(CB_FEATURE_INFINITE_LIGHT)
+        if (scene->lights[infinite].portal >= 0 &&
+            lightSeenThroughPortal(scene, infinite, pvP(prev), ray->d))
+            v->uv[0] = bdptSkyNeeRatio(scene, infinite, pvP(prev), ray->d);
+#endif
         pvClearTail(v);
         v->medium = medium;
         v->beta = *beta;
@@ -552,7 +573,12 @@ CB_FN int bdptLightSubpath(const SceneView* scene, SampleStream stream, int maxV
         /* Through a portal the light reaches only points that see the sky through it. */
         if (count > 1 && !lightSeenThroughPortal(scene, ls.light, pvP(&light[1]), vneg(w)))
             return 1;
-        if (count > 1) light[1].pdfFwd = ls.pdfArea * pvAbsCos(&light[1], w);
+        if (count > 1) {
+            light[1].pdfFwd = ls.pdfArea * pvAbsCos(&light[1], w);
+#if CB_HAS(CB_FEATURE_INFINITE_LIGHT)
+            light[0].uv[0] = bdptSkyNeeRatio(scene, ls.light, pvP(&light[1]), vneg(w));
+#endif
+        }
         return count;
     }
     if (pvAtInfinity(v)) {
@@ -591,7 +617,7 @@ CB_FN int bdptLightSubpath(const SceneView* scene, SampleStream stream, int maxV
  * next-event estimation chooses it from that vertex (lightSampleFrom: a sphere light by the cone
  * it subtends), from the eye stream's light dimensions of that bounce, so that every eye vertex
  * gets its own light point, as in pbrt-v4's BDPT. pdfFwd keeps the light subpath's origin
- * density (the MIS recursion's convention, see bdptConeRatio) while beta divides by the density
+ * density (the MIS recursion's convention, see bdptNeeRatio) while beta divides by the density
  * the point was really sampled with. False when no point was produced. */
 CB_FN bool bdptNeeLightVertex(const SceneView* scene, SampleStream eyeStream, const PathVertex* eye,
                               int t, PathVertex* out) {
@@ -606,8 +632,22 @@ CB_FN bool bdptNeeLightVertex(const SceneView* scene, SampleStream eyeStream, co
                        : 0.0f; /* one light: lightChoose reads no number */
     if (!lightSampleFrom(scene, pvP(&eye[t - 1]), uChoice, uPoint0, uPoint1, &ls)) return false;
     real pdfFwd = ls.isDelta ? ls.pdfPick : lightPdfArea(scene, ls.light);
-    if (scene->lights[ls.light].kind == CB_LIGHT_INFINITE) pdfFwd = ls.pdfPick * ls.pdfSolidAngle;
+    real skyNeeRatio = 0.0f; /* bdptSkyNeeRatio, from the densities at hand */
+#if CB_HAS(CB_FEATURE_INFINITE_LIGHT)
+    CB_GLOBAL const Light* light = &scene->lights[ls.light];
+    if (light->kind == CB_LIGHT_INFINITE) {
+        /* The light subpaths' density of the direction; through a portal next-event estimation
+         * samples another (infiniteLightSampleFrom), which bdptNeeRatio brings in. */
+        real pdfDir =
+            light->portal < 0
+                ? ls.pdfSolidAngle
+                : lightDirectionPdf(scene, light, vnormalize(vsub(ls.p, pvP(&eye[t - 1]))));
+        pdfFwd = ls.pdfPick * pdfDir;
+        if (light->portal >= 0 && pdfDir > 0.0f) skyNeeRatio = ls.pdfSolidAngle / pdfDir;
+    }
+#endif
     bdptSetLightVertex(scene, out, &ls, pdfFwd);
+    out->uv[0] = skyNeeRatio;
     out->beta = specConst(1.0f / (ls.pdfPick * ls.pdfArea));
     return true;
 }
@@ -618,9 +658,15 @@ CB_FN bool bdptNeeLightVertex(const SceneView* scene, SampleStream eyeStream, co
  * from y1 (bdptNeeLightVertex), by the cone for a sphere seen from outside. The ratio recursion
  * below assumes one density for y0 in every strategy (the area one, stored in pdfFwd), so the
  * s = 1 strategy's pdf is that times this ratio: the cone density converted to area at y0,
- * |cos at y0| / dist^2, over the area density (the light choice cancels). 1 for other lights. */
-CB_FN real bdptConeRatio(const SceneView* scene, const PathVertex* y0, const PathVertex* y1) {
+ * |cos at y0| / dist^2, over the area density (the light choice cancels). Likewise for an
+ * infinite light with a portal, whose y0 stands for a direction: next-event estimation's density
+ * of it at y1 over the light subpaths' (bdptSkyNeeRatio). 1 for other lights. */
+CB_FN real bdptNeeRatio(const SceneView* scene, const PathVertex* y0, const PathVertex* y1) {
     if (pvIsDeltaLight(y0) || y0->light < 0) return 1.0f;
+#if CB_HAS(CB_FEATURE_INFINITE_LIGHT)
+    /* Kept in the vertex when it was made (bdptSkyNeeRatio). */
+    if (y0->type == CB_VERTEX_INFINITE_LIGHT) return y0->uv[0] > 0.0f ? y0->uv[0] : 1.0f;
+#endif
     real conePdf = lightConePdf(scene, y0->light, pvP(y1));
     if (!(conePdf > 0.0f)) return 1.0f;
     Vec3 d = vsub(pvP(y1), pvP(y0));
@@ -654,16 +700,16 @@ CB_FN real cbRemap0(real f) {
  * cameraCount scales the sampling rate of the t = 1 strategy (Veach's heuristics weigh
  * n_i p_i, eq. 9.13): 1 in BDPT and MLT, whose W*H light subpaths per estimate all splat; CBDPT
  * traces fewer light subpaths per estimate than there are pixels and passes their number / (W*H)
- * (docs/cbdpt.md). coneRatio is bdptConeRatio of the full path's y0, y1, and y0FoundByRays
+ * (docs/cbdpt.md). neeRatio is bdptNeeRatio of the full path's y0, y1, and y0FoundByRays
  * pvFoundByRays of y0 (else s = 0 is no strategy). */
 CB_FN real bdptPowerWeight(const PathVertex* light, int s, const PathVertex* eye, int t,
                            real ptPdfRev, real ptMinusPdfRev, real qsPdfRev, real qsMinusPdfRev,
-                           BdptSettings settings, real cameraCount, real coneRatio,
+                           BdptSettings settings, real cameraCount, real neeRatio,
                            bool y0FoundByRays) {
     if (s + t == 2) return 1.0f; /* only (0,2) exists: (1,1) is excluded */
-    /* p_1 carries coneRatio (bdptConeRatio): ratios to s' = 1 gain it, ratios from s = 1 lose it.
+    /* p_1 carries neeRatio (bdptNeeRatio): ratios to s' = 1 gain it, ratios from s = 1 lose it.
      */
-    real fromS = s == 1 ? 1.0f / coneRatio : 1.0f;
+    real fromS = s == 1 ? 1.0f / neeRatio : 1.0f;
     real sumRi = 0.0f;
     real ri = 1.0f;
     for (int i = t - 1; i > 0; --i) {
@@ -674,7 +720,7 @@ CB_FN real bdptPowerWeight(const PathVertex* light, int s, const PathVertex* eye
         int deltaHere = i == t - 1 ? 0 : eye[i].delta;
         int deltaPrev = eye[i - 1].delta; /* i - 1 < t - 1 */
         if (!deltaHere && !deltaPrev && !(sNew == 1 && i == 1)) {
-            real r = ri * fromS * (sNew == 1 ? coneRatio : 1.0f);
+            real r = ri * fromS * (sNew == 1 ? neeRatio : 1.0f);
             sumRi += i == 1 ? r * r * (cameraCount * cameraCount) : r * r;
         }
     }
@@ -691,7 +737,7 @@ CB_FN real bdptPowerWeight(const PathVertex* light, int s, const PathVertex* eye
         else
             deltaPrev = !y0FoundByRays; /* then s = 0 cannot find it */
         if (!deltaHere && !deltaPrev && !(i == 1 && tNew == 1)) {
-            real r = ri * fromS * (i == 1 ? coneRatio : 1.0f);
+            real r = ri * fromS * (i == 1 ? neeRatio : 1.0f);
             sumRi += t == 1 ? r * r / (cameraCount * cameraCount) : r * r;
         }
     }
@@ -759,7 +805,7 @@ CB_FN real bdptMisWeight(const SceneView* scene, const PathVertex* light, int s,
     const PathVertex* y0 = s >= 1 ? &light[0] : &eye[t - 1];
     const PathVertex* y1 = s >= 2 ? &light[1] : (s == 1 ? &eye[t - 1] : &eye[t - 2]);
     return bdptPowerWeight(light, s, eye, t, ptPdfRev, ptMinusPdfRev, qsPdfRev, qsMinusPdfRev,
-                           settings, cameraCount, bdptConeRatio(scene, y0, y1),
+                           settings, cameraCount, bdptNeeRatio(scene, y0, y1),
                            pvFoundByRays(scene, y0));
 }
 

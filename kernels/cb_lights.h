@@ -172,6 +172,109 @@ CB_FN bool lightSeenThroughPortal(const SceneView* scene, int lightIndex, Vec3 p
 #endif
 }
 
+#if CB_HAS(CB_FEATURE_INFINITE_LIGHT)
+/* Spherical rectangles below this solid angle (sr) are sampled by area: the angle sum that gives
+ * S loses about 1e-6 sr to rounding, and so small a window subtends a few degrees, over which the
+ * area density's d^2 / cos is nearly constant. Above the maximum ref is almost in the portal's
+ * plane (S tends to 2 pi), where the parametrisation's angles degenerate (pbrt-v4 uses 3e-4 and
+ * 6.22 alike). */
+#define CB_PORTAL_MIN_SOLID_ANGLE 0.01f
+#define CB_PORTAL_MAX_SOLID_ANGLE 6.2f
+
+/* A portal seen from a point ref, in the frame of Urena, Fajardo and King 2013 ("An
+ * Area-Preserving Parametrization for Spherical Rectangles"): origin ref, axes the rectangle's edge
+ * directions x and y, the third -z (so the rectangle lies at depth z0 < 0), the rectangle
+ * [x0, x1] x [y0, y1]; b0, b1 and k of the parametrisation, S its solid angle. byArea: sampled
+ * uniformly by area instead (S outside the limits above). */
+typedef struct PortalFromPoint {
+    Vec3 x, y, z;
+    real x0, x1, y0, y1, z0;
+    real b0, b1, k, solidAngle, area;
+    int byArea;
+} PortalFromPoint;
+
+/* The portal of lightTables entry t as seen from ref; false where ref is on its outer side or in
+ * its plane, from where no direction crosses it toward the sky (lightSeenThroughPortal). */
+CB_FN bool portalFromPoint(CB_GLOBAL const real* t, Vec3 ref, PortalFromPoint* q) {
+    q->x = vec3FromGlobalArray(t + 3);
+    q->y = vec3FromGlobalArray(t + 6);
+    q->z = vec3FromGlobalArray(t + 9);
+    Vec3 toCorner = vsub(vec3FromGlobalArray(t), ref);
+    real depth = vdot(toCorner, q->z);
+    if (!(depth > 0.0f)) return false;
+    q->x0 = vdot(toCorner, q->x);
+    q->y0 = vdot(toCorner, q->y);
+    q->x1 = q->x0 + t[12];
+    q->y1 = q->y0 + t[13];
+    q->z0 = -depth;
+    q->area = t[12] * t[13];
+    /* The normals of the four planes through ref and an edge (the paper's n0..n3) and the
+     * rectangle's interior angles on the sphere; S = their sum - 2 pi (Girard's theorem). */
+    real z0 = q->z0;
+    Vec3 n0 = vnormalize(vec3(0.0f, z0, -q->y0));
+    Vec3 n1 = vnormalize(vec3(-z0, 0.0f, q->x1));
+    Vec3 n2 = vnormalize(vec3(0.0f, -z0, q->y1));
+    Vec3 n3 = vnormalize(vec3(z0, 0.0f, -q->x0));
+    real g0 = acos(cbClamp(-vdot(n0, n1), -1.0f, 1.0f));
+    real g1 = acos(cbClamp(-vdot(n1, n2), -1.0f, 1.0f));
+    real g2 = acos(cbClamp(-vdot(n2, n3), -1.0f, 1.0f));
+    real g3 = acos(cbClamp(-vdot(n3, n0), -1.0f, 1.0f));
+    q->b0 = n0.z;
+    q->b1 = n2.z;
+    q->k = 2.0f * CB_PI - g2 - g3;
+    q->solidAngle = g0 + g1 - q->k;
+    q->byArea =
+        !(q->solidAngle >= CB_PORTAL_MIN_SOLID_ANGLE && q->solidAngle <= CB_PORTAL_MAX_SOLID_ANGLE);
+    return true;
+}
+
+/* A unit direction from ref through the portal and its solid-angle density: uniform in the
+ * solid angle (the paper's inversion: the solid angle of the sub-rectangle [x0, xu] for xu, then
+ * the height along that column for yu), or uniform over its area. */
+CB_FN Vec3 portalSample(const PortalFromPoint* q, real u0, real u1, real* pdf) {
+    real xu, yu;
+    if (q->byArea) {
+        xu = q->x0 + u0 * (q->x1 - q->x0);
+        yu = q->y0 + u1 * (q->y1 - q->y0);
+    } else {
+        /* The angle au in units of pi: sinpi and cospi skip the general argument reduction. */
+        real auOverPi = (u0 * q->solidAngle + q->k) * CB_INV_PI;
+        real sinAu = cbSinPi(auOverPi);
+        real fu = (cbCosPi(auOverPi) * q->b0 - q->b1) / (sinAu != 0.0f ? sinAu : 1e-20f);
+        real cu = cbClamp((fu > 0.0f ? 1.0f : -1.0f) / sqrt(fu * fu + q->b0 * q->b0), -1.0f, 1.0f);
+        xu = cbClamp(-(cu * q->z0) / cbSafeSqrt(1.0f - cu * cu), q->x0, q->x1);
+        real d2 = xu * xu + q->z0 * q->z0;
+        real h0 = q->y0 / sqrt(d2 + q->y0 * q->y0), h1 = q->y1 / sqrt(d2 + q->y1 * q->y1);
+        real hv = h0 + u1 * (h1 - h0), hv2 = hv * hv;
+        yu = hv2 < 1.0f - 1e-6f ? hv * sqrt(d2) / sqrt(1.0f - hv2) : q->y1;
+        yu = cbClamp(yu, q->y0, q->y1);
+    }
+    /* The point ref + xu x + yu y + depth z, as a direction. */
+    Vec3 toPoint = vadd(vadd(vscale(q->x, xu), vscale(q->y, yu)), vscale(q->z, -q->z0));
+    real dist2 = vlength2(toPoint);
+    Vec3 w = vscale(toPoint, 1.0f / sqrt(dist2));
+    if (q->byArea) {
+        real cosPortal = vdot(w, q->z);
+        *pdf = cosPortal > 0.0f ? dist2 / (q->area * cosPortal) : 0.0f;
+    } else {
+        *pdf = 1.0f / q->solidAngle;
+    }
+    return w;
+}
+
+/* portalSample's density of unit direction w: 0 unless w crosses the rectangle. */
+CB_FN real portalPdf(const PortalFromPoint* q, Vec3 w) {
+    real dz = vdot(w, q->z);
+    if (!(dz > 0.0f)) return 0.0f;
+    /* w meets the portal's plane at distance -z0 / dz, at cosine dz. */
+    real s = -q->z0 / dz;
+    real x = s * vdot(w, q->x), y = s * vdot(w, q->y);
+    if (!(x >= q->x0 && x <= q->x1 && y >= q->y0 && y <= q->y1)) return 0.0f;
+    if (!q->byArea) return 1.0f / q->solidAngle;
+    return s * s / (q->area * dz);
+}
+#endif
+
 /* Radiance the infinite light sends from unit world direction toLight. */
 CB_FN Spectrum infiniteLightRadiance(const SceneView* scene, CB_GLOBAL const Light* light,
                                      Vec3 toLight) {
@@ -216,6 +319,61 @@ CB_FN Vec3 infiniteLightSample(const SceneView* scene, CB_GLOBAL const Light* li
     return sampleUniformSphere(u0, u1);
 }
 
+/* Solid-angle density with which a light's directions are sampled, for unit direction w: by
+ * its image's tables where it has one (a goniometric light's pointLightSampleDirection, an image
+ * sky's infiniteLightSample), else uniformly over the sphere. */
+CB_FN real lightDirectionPdf(const SceneView* scene, CB_GLOBAL const Light* light, Vec3 w) {
+#if CB_HAS(CB_FEATURE_IMAGE_LIGHT)
+    if (light->imageSize > 0) return imageLightPixelPdf(scene, light, imageLightPixel(light, w));
+#else
+    (void)scene;
+    (void)light;
+    (void)w;
+#endif
+    return uniformSpherePdf();
+}
+
+#if CB_HAS(CB_FEATURE_INFINITE_LIGHT)
+/* Next-event estimation's direction toward the infinite light from ref, and its solid-angle
+ * density: infiniteLightSample's, unless the light has a portal. Then a constant sky is sampled
+ * through the portal alone (portalSample: uniform in its solid angle), an image one by an even
+ * mixture of the portal and the image's tables, so that a bright pixel (a sun) seen through the
+ * window stays found with its image density (Veach 1997's one-sample model, ch. 9). The
+ * density is 0 where ref cannot see the sky through the portal. */
+CB_FN Vec3 infiniteLightSampleFrom(const SceneView* scene, CB_GLOBAL const Light* light, Vec3 ref,
+                                   real u0, real u1, real* pdf) {
+    if (light->portal < 0) return infiniteLightSample(scene, light, u0, u1, pdf);
+    PortalFromPoint q;
+    if (!portalFromPoint(scene->lightTables + light->portal, ref, &q)) {
+        *pdf = 0.0f;
+        return vec3(0.0f, 0.0f, 1.0f);
+    }
+    if (light->imageSize <= 0) return portalSample(&q, u0, u1, pdf);
+    Vec3 w;
+    real skyPdf;
+    if (u0 < 0.5f) {
+        real portal;
+        w = portalSample(&q, 2.0f * u0, u1, &portal);
+        skyPdf = lightDirectionPdf(scene, light, w);
+    } else {
+        w = infiniteLightSample(scene, light, 2.0f * u0 - 1.0f, u1, &skyPdf);
+    }
+    *pdf = 0.5f * (skyPdf + portalPdf(&q, w));
+    return w;
+}
+
+/* infiniteLightSampleFrom's density at ref of unit direction toLight; skyPdf is
+ * infiniteLightSample's density of it. */
+CB_FN real infiniteLightPdfFrom(const SceneView* scene, CB_GLOBAL const Light* light, Vec3 ref,
+                                Vec3 toLight, real skyPdf) {
+    if (light->portal < 0) return skyPdf;
+    PortalFromPoint q;
+    if (!portalFromPoint(scene->lightTables + light->portal, ref, &q)) return 0.0f;
+    real portal = portalPdf(&q, toLight);
+    return light->imageSize > 0 ? 0.5f * (skyPdf + portal) : portal;
+}
+#endif
+
 /* The direction a point light's subpath leaves in, and its solid-angle density: uniform, or for
  * a goniometric light by its image's tables (pbrt-v4's GoniometricLight::SampleLe). */
 CB_FN Vec3 pointLightSampleDirection(const SceneView* scene, int lightIndex, real u0, real u1,
@@ -229,19 +387,6 @@ CB_FN Vec3 pointLightSampleDirection(const SceneView* scene, int lightIndex, rea
 #endif
     *pdf = uniformSpherePdf();
     return sampleUniformSphere(u0, u1);
-}
-
-/* Solid-angle density with which pointLightSampleDirection produces unit direction w. */
-CB_FN real pointLightDirectionPdf(const SceneView* scene, int lightIndex, Vec3 w) {
-#if CB_HAS(CB_FEATURE_IMAGE_LIGHT)
-    CB_GLOBAL const Light* light = &scene->lights[lightIndex];
-    if (light->imageSize > 0) return imageLightPixelPdf(scene, light, imageLightPixel(light, w));
-#else
-    (void)scene;
-    (void)lightIndex;
-    (void)w;
-#endif
-    return uniformSpherePdf();
 }
 
 /* Area of the emitting primitive, its uniform point and the point's error bound. */
@@ -380,7 +525,7 @@ CB_FN bool lightSampleFrom(const SceneView* scene, Vec3 ref, real uChoice, real 
          * (pdfArea too, so that 1 / (pdfPick pdfArea) is the sample's weight). */
         CB_GLOBAL const Light* infinite = &scene->lights[lightIndex];
         real pdfW;
-        Vec3 w = infiniteLightSample(scene, infinite, u0, u1, &pdfW);
+        Vec3 w = infiniteLightSampleFrom(scene, infinite, ref, u0, u1, &pdfW);
         out->light = lightIndex;
         out->pdfPick = infinite->pickProbability;
         out->pdfSolidAngle = pdfW;

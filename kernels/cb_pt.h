@@ -88,7 +88,10 @@ CB_FN bool ptPathVertex(const SceneView* scene, PtPath* path, Ray* ray, bool fou
             Spectrum le = infiniteLightRadiancePdf(scene, light, ray->d, &pdfLightW);
             real weight = 1.0f;
             if (!path->previousDelta)
-                weight = powerHeuristic(path->previousPdfW, light->pickProbability * pdfLightW);
+                weight = powerHeuristic(
+                    path->previousPdfW,
+                    light->pickProbability *
+                        infiniteLightPdfFrom(scene, light, path->previousP, ray->d, pdfLightW));
             path->radiance =
                 specAdd(path->radiance, specScale(specMul(path->throughput, le), weight));
         }

@@ -21,6 +21,7 @@
 #include <ImfOutputFile.h>
 #include <ImfStandardAttributes.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <random>
@@ -462,7 +463,7 @@ TEST_CASE("pbrt-v4 goniometric light: its image, frame, power, and what is refus
     }
     // The intensity straight up (world +y, the map's +z, its centre: pixel (2, 2) of 4 x 4).
     CHECK(cbk::pointLightIntensity(&view, 0, cbk::vec3(0, 1, 0)).c[0] == doctest::Approx(11.0));
-    CHECK(cbk::pointLightDirectionPdf(&view, 0, cbk::vec3(0, 1, 0)) ==
+    CHECK(cbk::lightDirectionPdf(&view, &scene.lights[0], cbk::vec3(0, 1, 0)) ==
           doctest::Approx(11.0 / (16 * 8.5) * 16 / (4 * M_PI)));
 
     const std::string none = errorOf("WorldBegin\n\nLightSource \"goniometric\"\n");
@@ -572,7 +573,8 @@ const std::string kPortalCorners = "[-0.25 1 -0.25  0.25 1 -0.25  0.25 1 0.25  -
 
 std::string floorUnderPortal(const std::string& before, const std::string& portal) {
     return "LookAt 0 0.5 0  0 0 0  0 0 1\nCamera \"perspective\" \"float fov\" 90\n"
-           "Film \"rgb\" \"integer xresolution\" 16 \"integer yresolution\" 16\nWorldBegin\n" +
+           "Film \"rgb\" \"integer xresolution\" 16 \"integer yresolution\" 16\n"
+           "PixelFilter \"box\"\nWorldBegin\n" +
            before + "LightSource \"infinite\" \"rgb L\" [2 2 2] \"point3 portal\" " + portal +
            "\nMaterial \"diffuse\" \"rgb reflectance\" [0.5 0.5 0.5]\n"
            "Shape \"bilinearmesh\" \"point3 P\" [-0.6 0 -0.6  0.6 0 -0.6  -0.6 0 0.6  0.6 0 0.6]\n";
@@ -631,6 +633,105 @@ TEST_CASE("pbrt-v4 portal light: the rectangle, which rays it lets through, what
                    "corners 0 and 1 coincide"));
 }
 
+// Next-event estimation through the portal (infiniteLightSampleFrom): from points below the
+// window, near it, far from it (sampled by area: a solid angle under 0.01 sr), below its corner,
+// almost in its plane and far to its side, every direction crosses the window, its density is
+// infiniteLightPdfFrom's, the window's 8 x 8 cells are hit in proportion to their solid angles (by
+// area: equally), and the mean of cos / pdf toward a floor facing up is the window's projected
+// solid angle, both integrated here (64 x 64 points per cell). Beyond the window's plane nothing is
+// sampled.
+TEST_CASE("pbrt-v4 portal light: next-event estimation samples the window's solid angle") {
+    const cb::DeviceScene scene = cb::buildDeviceScene(
+        parseSceneString(floorUnderPortal("", kPortalCorners), "t.pbrt"), cb::ChannelMode::Rgb);
+    const cbk::SceneView view = cbtest::hostView(scene);
+    const int infinite = cbk::lightInfinite(&view);
+    REQUIRE(infinite >= 0);
+    const cbk::Light* light = &scene.lights[size_t(infinite)];
+    auto device = [&](double x, double y, double z) {
+        return cbk::vec3(float(x - scene.origin[0]), float(y - scene.origin[1]),
+                         float(z - scene.origin[2]));
+    };
+    // The window: x and z in [-0.25, 0.25] at y = 1.
+    constexpr int kCells = 8, kSub = 64, kSamples = 200000;
+    struct Ref {
+        double x, y, z;
+    };
+    int byArea = 0;
+    // The fourth is in line with two edges (the parametrisation's b0 = 0).
+    for (const Ref ref : {Ref{0, 0, 0}, Ref{0.4, 0.2, -0.3}, Ref{0.1, -9, 0.05},
+                          Ref{-0.25, 0.6, -0.25}, Ref{0.05, 0.98, 0.1}, Ref{3, 0.7, 0.5}}) {
+        CAPTURE(ref.x);
+        CAPTURE(ref.y);
+        CAPTURE(ref.z);
+        std::vector<double> cellSolidAngle(kCells * kCells, 0.0);
+        double solidAngle = 0.0, projected = 0.0;
+        for (int cell = 0; cell < kCells * kCells; ++cell)
+            for (int j = 0; j < kSub; ++j)
+                for (int i = 0; i < kSub; ++i) {
+                    const double px = -0.25 + 0.5 * ((cell % kCells) + (i + 0.5) / kSub) / kCells;
+                    const double pz = -0.25 + 0.5 * ((cell / kCells) + (j + 0.5) / kSub) / kCells;
+                    const double dx = px - ref.x, dy = 1.0 - ref.y, dz = pz - ref.z;
+                    const double d2 = dx * dx + dy * dy + dz * dz;
+                    // dA cos(window) / d^2, and times cos at the floor (its normal +y).
+                    const double omega =
+                        0.25 / (kCells * kCells * kSub * kSub) * dy / (d2 * std::sqrt(d2));
+                    cellSolidAngle[size_t(cell)] += omega;
+                    solidAngle += omega;
+                    projected += omega * dy / std::sqrt(d2);
+                }
+        // Sampled by area below 0.01 sr (the far point, the one far to the side).
+        const bool sampledByArea = solidAngle < 0.01;
+        byArea += sampledByArea;
+        std::vector<double> expected(kCells * kCells, double(kSamples) / (kCells * kCells));
+        if (!sampledByArea)
+            for (size_t cell = 0; cell < expected.size(); ++cell)
+                expected[cell] = kSamples * cellSolidAngle[cell] / solidAngle;
+        std::mt19937 rng(11);
+        std::uniform_real_distribution<float> uniform(0.f, 1.f);
+        std::vector<double> observed(kCells * kCells, 0.0);
+        double sum = 0.0, sum2 = 0.0;
+        long misses = 0, pdfMismatches = 0;
+        const cbk::Vec3 p = device(ref.x, ref.y, ref.z);
+        for (int k = 0; k < kSamples; ++k) {
+            float pdf = 0.f;
+            const cbk::Vec3 w =
+                cbk::infiniteLightSampleFrom(&view, light, p, uniform(rng), uniform(rng), &pdf);
+            misses += !(pdf > 0.f) || !cbk::lightSeenThroughPortal(&view, infinite, p, w);
+            const float again = cbk::infiniteLightPdfFrom(&view, light, p, w,
+                                                          cbk::lightDirectionPdf(&view, light, w));
+            pdfMismatches += std::fabs(again - pdf) > 1e-6f * pdf;
+            const double s = (1.0 - ref.y) / double(w.y);
+            const double hx = ref.x + s * w.x, hz = ref.z + s * w.z;
+            const int cx = std::clamp(int((hx + 0.25) / 0.5 * kCells), 0, kCells - 1);
+            const int cz = std::clamp(int((hz + 0.25) / 0.5 * kCells), 0, kCells - 1);
+            observed[size_t(cz * kCells + cx)] += 1.0;
+            const double value = double(w.y) / pdf;
+            sum += value;
+            sum2 += value * value;
+        }
+        CHECK(misses == 0);
+        CHECK(pdfMismatches == 0);
+        const auto r = cbtest::chi2Test(observed, expected, 0.001);
+        INFO(r.message);
+        CHECK(r.passed);
+        const double mean = sum / kSamples;
+        const double se = std::sqrt((sum2 / kSamples - mean * mean) / kSamples);
+        CAPTURE(mean);
+        CAPTURE(se);
+        CAPTURE(projected);
+        CHECK(std::fabs(mean - projected) <= 4.5 * se + 2e-5 * projected);
+    }
+    CHECK(byArea == 2);
+    // From beyond the window's plane (or in it) no direction reaches the sky.
+    for (const double y : {1.0, 1.5}) {
+        float pdf = 1.f;
+        cbk::infiniteLightSampleFrom(&view, light, device(0, y, 0), 0.3f, 0.6f, &pdf);
+        CHECK(pdf == 0.f);
+        CHECK(cbk::infiniteLightPdfFrom(&view, light, device(0, y, 0), cbk::vec3(0, 1, 0), 0.1f) ==
+              0.f);
+    }
+}
+
 // The floor under the portal: a point x receives E(x) = L times the integral over the window
 // of cos(floor) cos(window) / d^2 = h^2 / d^4 (parallel planes), and reflects rho / pi E. Every
 // method's image mean against that, integrated here over the camera's view, and each of BDPT's
@@ -641,7 +742,7 @@ TEST_CASE("pbrt-v4 portal light: a floor lit through a window, every method" *
     cb::ClRuntime runtime;
     const cb::DeviceScene scene = cb::buildDeviceScene(
         parseSceneString(floorUnderPortal("", kPortalCorners), "t.pbrt"), cb::ChannelMode::Rgb);
-    const int n = 32, m = 64;
+    const int n = 128, m = 64;
     double mean = 0.0;
     for (int i = 0; i < n; ++i)
         for (int j = 0; j < n; ++j) {
@@ -660,4 +761,54 @@ TEST_CASE("pbrt-v4 portal light: a floor lit through a window, every method" *
     const std::array<double, 3> expected{mean, mean, mean};
     checkEveryMethodChannelMeans(scene, runtime, expected, 8, 128, 40u);
     checkSkyStrategies(scene, runtime, expected, false, 41u);
+}
+
+// An image sky behind the window: next-event estimation mixes the window's solid angle with the
+// image's tables (infiniteLightSampleFrom), and PT's and BDPT's MIS weights take that mixture's
+// density. Next-event estimation alone (BDPT's s = 1), PT and BDPT against the eye paths'
+// escapes alone (s = 0), which sample neither, on a sky with a bright patch around the zenith
+// that the window shows in part. Each strategy alone is unbiased whatever its density; the
+// weighted methods sum to the image only where their weights take the density they sample with.
+TEST_CASE("pbrt-v4 portal light: an image sky through the window, every strategy agrees" *
+          doctest::test_suite("statistical")) {
+    TempDirCleanup cleanup;
+    cb::ClRuntime runtime;
+    writeImage("window-sky.exr", 16, 16, [](int x, int y, int c) {
+        if ((x == 7 || x == 8) && y >= 6 && y <= 8) return c == 2 ? 20.f : 40.f;
+        return float(0.3 + 0.1 * x + 0.05 * y) * (0.5f + 0.25f * float(c));
+    });
+    const cb::DeviceScene scene = cb::buildDeviceScene(
+        parseInTemp(
+            "LookAt 0 0.5 0  0 0 0  0 0 1\nCamera \"perspective\" \"float fov\" 90\n"
+            "Film \"rgb\" \"integer xresolution\" 16 \"integer yresolution\" 16\n"
+            "PixelFilter \"box\"\nWorldBegin\n"
+            "AttributeBegin\nRotate -90 1 0 0\nLightSource \"infinite\" \"string filename\" "
+            "\"window-sky.exr\" \"point3 portal\" " +
+            kPortalCorners +
+            "\nAttributeEnd\nMaterial \"diffuse\" \"rgb reflectance\" [0.5 0.5 0.5]\n"
+            "Shape \"bilinearmesh\" \"point3 P\" [-0.6 0 -0.6  0.6 0 -0.6  -0.6 0 0.6  "
+            "0.6 0 0.6]\n"),
+        cb::ChannelMode::Rgb);
+    REQUIRE(scene.lights.size() == 1);
+    REQUIRE(scene.lights[0].imageSize == 16);
+    REQUIRE(scene.lights[0].portal >= 0);
+    auto strategy = [](int s, int t) {
+        cb::IntegratorSettings settings = methodSettings("bdpt");
+        settings.debugS = s;
+        settings.debugT = t;
+        return settings;
+    };
+    const cbtest::RunStats escapes = channelMeans(scene, runtime, strategy(0, 3), 2048, 60u).stats;
+    CAPTURE(escapes.mean[1]);
+    CAPTURE(escapes.se[1]);
+    for (const auto& [name, settings] : {std::pair{std::string("s = 1"), strategy(1, 2)},
+                                         std::pair{std::string("pt"), methodSettings("pt")},
+                                         std::pair{std::string("bdpt"), methodSettings("bdpt")}}) {
+        CAPTURE(name);
+        const BinnedMeans b = channelMeans(scene, runtime, settings, 64, 61u);
+        CAPTURE(b.stats.mean[1]);
+        CAPTURE(b.stats.se[1]);
+        checkRunsAgree(b.stats, escapes);
+        CHECK(b.nonFinite == 0);
+    }
 }
