@@ -442,12 +442,16 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
 
     // Materials: the scene's, plus a constant-one entry used by kinds without a reflectance.
     std::vector<bool> materialUsed(desc.materials.size(), false);
+    // Each mix's leaves, expanded once: marking (once per shape), texture coordinates, refusals
+    // and the chain below all ask for them, and a mix may have up to 100000.
+    std::vector<std::vector<std::pair<int, double>>> leavesOf(desc.materials.size());
+    for (size_t i = 0; i < desc.materials.size(); ++i)
+        if (desc.materials[i].kind == MaterialKind::Mix) leavesOf[i] = mixLeaves(desc, int(i));
     auto markUsed = [&](int m) {
-        if (m >= 0 && size_t(m) < materialUsed.size()) {
+        if (m >= 0 && size_t(m) < materialUsed.size() && !materialUsed[size_t(m)]) {
             materialUsed[size_t(m)] = true;
-            if (desc.materials[size_t(m)].kind == MaterialKind::Mix)
-                for (const auto& [leaf, weight] : mixLeaves(desc, m))
-                    materialUsed[size_t(leaf)] = true;
+            for (const auto& [leaf, weight] : leavesOf[size_t(m)])
+                materialUsed[size_t(leaf)] = true;
         }
     };
     for (const auto& mesh : desc.meshes)
@@ -477,7 +481,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
                    d.displacement >= 0 || d.vRoughness.has_value();
         };
         if (md.kind != MaterialKind::Mix) return uses(md);
-        const auto leaves = mixLeaves(desc, m);
+        const auto& leaves = leavesOf[size_t(m)];
         return std::any_of(leaves.begin(), leaves.end(), [&](const auto& leaf) {
             return uses(desc.materials[size_t(leaf.first)]);
         });
@@ -706,9 +710,8 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
             out.displacement = addTexture(m.displacement);
             scene.features |= CB_FEATURE_TEXTURE | CB_FEATURE_BUMP_MAP;
         }
-        const auto leaves = m.kind == MaterialKind::Mix && materialUsed[i]
-                                ? mixLeaves(desc, int(i))
-                                : std::vector<std::pair<int, double>>{};
+        static const std::vector<std::pair<int, double>> kNoLeaves;
+        const auto& leaves = materialUsed[i] ? leavesOf[i] : kNoLeaves;
         for (const auto& [c, weight] : leaves)
             if (desc.materials[size_t(c)].normalMap >= 0 ||
                 desc.materials[size_t(c)].displacement >= 0)
@@ -756,7 +759,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
             (desc.materials[size_t(m.mix[0])].kind != MaterialKind::Mix &&
              desc.materials[size_t(m.mix[1])].kind != MaterialKind::Mix))
             continue;
-        auto leaves = mixLeaves(desc, int(i));
+        auto leaves = leavesOf[i];
         std::erase_if(leaves, [](const auto& leaf) { return !(leaf.second > 0.0); });
         if (leaves.size() == 1) leaves.push_back({leaves[0].first, 0.0});
         int link = int(i);
