@@ -94,8 +94,8 @@ with tempfile.TemporaryDirectory() as tmp:
 
     doc = os.path.join(tmp, "results.md")
     r = subprocess.run([sys.executable, os.path.join(root, "scripts", "report"), "--units", units,
-                        "--doc", doc, "--figures", os.path.join(tmp, "fig"), "--scenes",
-                        "cornell-box", "dragon", "grade"], capture_output=True, text=True)
+                        "--doc", doc, "--no-figures", "--scenes", "cornell-box", "dragon",
+                        "grade"], capture_output=True, text=True)
     check(r.returncode == 0, f"report exits 0 ({r.stderr[-1500:]})")
     text = open(doc).read() if os.path.exists(doc) else ""
     check("## The thesis's claims, with our numbers" in text, "the claims section is written")
@@ -140,8 +140,8 @@ with tempfile.TemporaryDirectory() as tmp:
         with open(path, "wb") as f:
             f.write(data[:cut])
         r = subprocess.run([sys.executable, os.path.join(root, "scripts", "report"), "--units",
-                            units, "--doc", doc, "--figures", os.path.join(tmp, "fig"), "--scenes",
-                            "grade"], capture_output=True, text=True)
+                            units, "--doc", doc, "--no-figures", "--scenes", "grade"],
+                           capture_output=True, text=True)
         check(r.returncode != 0 and path in r.stderr and "Traceback" not in r.stderr,
               f"a cut {name} is named ({r.returncode}: {r.stderr[-300:]})")
         with open(path, "wb") as f:

@@ -99,7 +99,7 @@ def make_units(folder, scenes, guided_flip, guided_bias, caps_list=cr.COMBINE_CA
 def report(folder, tmp, scenes):
     doc = os.path.join(tmp, "results.md")
     r = subprocess.run([sys.executable, os.path.join(root, "scripts", "report"), "--units", folder,
-                        "--doc", doc, "--figures", os.path.join(tmp, "fig"), "--scenes"] + scenes +
+                        "--doc", doc, "--no-figures", "--scenes"] + scenes +
                        ["--seeds"] + [str(s) for s in SEEDS],
                        capture_output=True, text=True)
     check(r.returncode == 0, f"report exits 0 ({r.stderr[-1500:]})")
