@@ -1682,13 +1682,14 @@ TEST_CASE("pbrt-v4 coateddiffuse and coatedconductor: a coated lid under a const
         std::function<double(int channel, double cosTheta)> albedo;
     };
     auto coatedDiffuse = [&](double coatEta, double thickness, int maxDepth) {
+        // One reference per channel: each integrates its layer's transmission once.
+        std::vector<cbtest::CoatedDiffuseReference> perChannel;
+        for (int ch = 0; ch < 3; ++ch)
+            perChannel.emplace_back(rho[ch], coatEta, thickness, maxDepth);
         return Case{fmt::format("Material \"coateddiffuse\" \"rgb reflectance\" [0.8 0.5 0.2] "
                                 "\"float eta\" {} \"float thickness\" {} \"integer maxdepth\" {}\n",
                                 coatEta, thickness, maxDepth),
-                    [=](int ch, double c) {
-                        return cbtest::CoatedDiffuseReference(rho[ch], coatEta, thickness, maxDepth)
-                            .albedo(c);
-                    }};
+                    [perChannel](int ch, double c) { return perChannel[size_t(ch)].albedo(c); }};
     };
     const Case cases[] = {
         coatedDiffuse(1.5, 0.25, 10),
