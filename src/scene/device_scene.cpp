@@ -442,14 +442,14 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
 
     // Materials: the scene's, plus a constant-one entry used by kinds without a reflectance.
     std::vector<bool> materialUsed(desc.materials.size(), false);
-    // Each mix's leaves, expanded once: marking (once per shape), texture coordinates, refusals
-    // and the chain below all ask for them, and a mix may have up to 100000.
+    // Each used mix's leaves, expanded once, when a shape first uses it: texture coordinates,
+    // refusals and the chain below ask for them again, and a mix may have up to 100000.
     std::vector<std::vector<std::pair<int, double>>> leavesOf(desc.materials.size());
-    for (size_t i = 0; i < desc.materials.size(); ++i)
-        if (desc.materials[i].kind == MaterialKind::Mix) leavesOf[i] = mixLeaves(desc, int(i));
     auto markUsed = [&](int m) {
         if (m >= 0 && size_t(m) < materialUsed.size() && !materialUsed[size_t(m)]) {
             materialUsed[size_t(m)] = true;
+            if (desc.materials[size_t(m)].kind != MaterialKind::Mix) return;
+            leavesOf[size_t(m)] = mixLeaves(desc, m);
             for (const auto& [leaf, weight] : leavesOf[size_t(m)])
                 materialUsed[size_t(leaf)] = true;
         }
