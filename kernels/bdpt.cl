@@ -56,7 +56,7 @@ static void bdptRenderPixel(const SceneView* scene, const Camera* camera,
                 continue;
             }
             if (t == 1) {
-                Vec3 rgb = specToRgb(c, toRgb);
+                Vec3 rgb = filmClampSample(camera, specToRgb(c, toRgb), 1.0f);
                 /* s >= 1 when t = 1: slot s - 1 of this pixel's light vertices. */
                 const uint slot = splatBase + (uint)(s - 1);
                 splatUsed[slot] = 1;
@@ -70,8 +70,10 @@ static void bdptRenderPixel(const SceneView* scene, const Camera* camera,
             }
         }
     }
-    cbWritePixel(outRgb, CB_COUNTERS, pixel, specToRgb(specScale(radiance, filterWeight), toRgb),
-                 nonFinite, rays);
+    cbWritePixel(
+        outRgb, CB_COUNTERS, pixel,
+        filmClampSample(camera, specToRgb(specScale(radiance, filterWeight), toRgb), filterWeight),
+        nonFinite, rays);
 }
 
 __kernel void renderBdpt(CB_INTEGRATOR_KERNEL_PARAMS(BdptSettings), uint estimate,

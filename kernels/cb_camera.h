@@ -122,6 +122,27 @@ CB_FN bool cameraProjectPoint(const Camera* camera, Vec3 lens, Vec3 p, real* ras
     return filterReaches(camera, *rasterX, *rasterY);
 }
 
+/* pbrt-v4's RGBFilm::AddSample and AddSplat clamp each sample (the film's "maxcomponentvalue"):
+ * its sensor RGB is scaled so that its largest component is at most camera->sampleClamp, before
+ * the pixel filter weighs it. `rgb` is the sample's film RGB already times `weight`, its filter
+ * weight (1 for a light-tracing splat), as the kernels form it; the test is on rgb / weight, so a
+ * negative lobe's weight keeps its sign. A scene without the clamp compiles none of it. */
+CB_FN Vec3 filmClampSample(const Camera* camera, Vec3 rgb, real weight) {
+#if CB_HAS(CB_FEATURE_SAMPLE_CLAMP)
+    if (camera->sampleClamp > 0.0f && weight != 0.0f) {
+        const real* m = camera->sensorFromRgb;
+        const Vec3 sensor = vec3(m[0] * rgb.x + m[1] * rgb.y + m[2] * rgb.z,
+                                 m[3] * rgb.x + m[4] * rgb.y + m[5] * rgb.z,
+                                 m[6] * rgb.x + m[7] * rgb.y + m[8] * rgb.z);
+        const real largest = vmaxComponent(vscale(sensor, 1.0f / weight));
+        if (largest > camera->sampleClamp) return vscale(rgb, camera->sampleClamp / largest);
+    }
+#endif
+    (void)camera;
+    (void)weight;
+    return rgb;
+}
+
 CB_END_NAMESPACE
 
 #endif /* CB_CAMERA_H */

@@ -265,8 +265,12 @@ CB_FN Vec3 ptPixelRgb(const SceneView* scene, CB_GLOBAL const real* toRgb, const
                                          sharedDimensions, camera->width, x, y);
     real filterWeight;
     Ray ray = ptCameraRay(camera, samples, x, y, &filterWeight);
-    return specToRgb(
-        specScale(ptRadiance(scene, ray, camera->medium, samples, settings), filterWeight), toRgb);
+    return filmClampSample(
+        camera,
+        specToRgb(
+            specScale(ptRadiance(scene, ray, camera->medium, samples, settings), filterWeight),
+            toRgb),
+        filterWeight);
 }
 
 CB_END_NAMESPACE

@@ -111,9 +111,12 @@ typedef struct Hit {
 #define CB_FEATURE_ANISOTROPIC (1u << 30)
 /* Absorbing media behind surfaces (pbrt-v4's "homogeneous" media of sigma_s 0, cb_medium.h). */
 #define CB_FEATURE_MEDIUM (1u << 31)
+/* A film that clamps each sample (pbrt-v4's "maxcomponentvalue", filmClampSample). The bits from
+ * 32 on are unsigned long: 64 bits in OpenCL C and on the host (LP64). */
+#define CB_FEATURE_SAMPLE_CLAMP (1ul << 32)
 
 #ifndef CB_FEATURES
-#define CB_FEATURES 0xffffffffu
+#define CB_FEATURES 0xfffffffffffffffful
 #endif
 #define CB_HAS(feature) ((CB_FEATURES & (feature)) != 0u)
 /* Code shared by several kinds: the layered materials' random walk, the GGX reflection lobe and
@@ -329,7 +332,12 @@ typedef struct Camera {
     /* CB_FEATURE_MEDIUM: the absorbing medium the camera sits in (pbrt-v4's CameraMedium, the
      * outside of its MediumInterface: cb_medium.h), -1 vacuum. */
     int medium;
-    int pad[3];
+    /* CB_FEATURE_SAMPLE_CLAMP: pbrt-v4's "maxcomponentvalue", the largest component a sample's
+     * sensor RGB may have (0: no clamp), and the 3 x 3 row-major matrix from the film's output
+     * RGB (specToRgb's) to the sensor's: XYZ times the imaging ratio for the cie1931 sensor. */
+    real sampleClamp;
+    real sensorFromRgb[9];
+    int pad[1];
 } Camera;
 
 CB_FN Vec3 affineTransformPoint(const real* m, Vec3 p) {

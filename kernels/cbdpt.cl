@@ -31,14 +31,17 @@
  * (sampler: a pointer to the kernel's private copy of its sampler settings). */
 #define CB_CBDPT_PIXEL_LIGHT(sampler, x, y, light, nLight, eyeStream)                              \
     do {                                                                                           \
-        const int ti = (y) % streamTile, tj = (x) % streamTile;                                    \
-        const int subpath = ti * tileColumns + tj;                                                 \
+        const int subpath = ((y) % streamTile) * tileColumns + (x) % streamTile;                   \
         nLight = lightCounts[subpath];                                                             \
         for (int i = 0; i < nLight; ++i)                                                           \
             light[i] = lightVertices[subpath * lightVertexStride + i];                             \
-        eyeStream = samplerStreamShared(*(sampler), estimate, (uint)(ti * streamTile + tj),        \
-                                        sharedSamples, sharedDimensions);                          \
+        eyeStream = CB_CBDPT_EYE_STREAM(sampler, x, y);                                            \
     } while (0)
+/* Pixel (x, y)'s eye stream: its tile position's shared sample vector. */
+#define CB_CBDPT_EYE_STREAM(sampler, x, y)                                                         \
+    samplerStreamShared(*(sampler), estimate,                                                      \
+                        (uint)(((y) % streamTile) * streamTile + (x) % streamTile), sharedSamples, \
+                        sharedDimensions)
 
 /* The strategies t = 2 .. nEye, s = 0 .. nLight of a pixel in order (scene: a SceneView
  * pointer), each through CB_CBDPT_STRATEGY(t, s, lightOrNee), which the kernel defines. */
@@ -100,8 +103,9 @@ cbdptRenderPixel(const SceneView* scene, const Camera* camera, const BdptSetting
     } while (0)
     CB_CBDPT_STRATEGIES(scene, eye, nEye, light, nLight, eyeStream)
 #undef CB_CBDPT_STRATEGY
-    cbWritePixel(outRgb, CB_COUNTERS, (uint)(y * camera->width + x), specToRgb(radiance, toRgb),
-                 nonFinite, rays);
+    cbWritePixel(outRgb, CB_COUNTERS, (uint)(y * camera->width + x),
+                 filmClampSample(camera, specToRgb(radiance, toRgb), filterWeight), nonFinite,
+                 rays);
 }
 
 __kernel void renderCbdpt(CB_CBDPT_PARAMS, __global float* outRgb, CB_COUNTER_PARAMS) {

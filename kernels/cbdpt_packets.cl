@@ -153,9 +153,15 @@ __kernel void renderCoherentBdpt(CB_CBDPT_PARAMS, int tile, __global PathVertex*
             Spectrum c = terms[i];
             CB_CBDPT_ADD(radiance, c, nonFinite);
         }
+        /* The filter's weight again, which the clamp takes out (none without a clamp). */
+        const float filterWeight =
+            CB_HAS(CB_FEATURE_SAMPLE_CLAMP)
+                ? cameraSampleWeight(&camera, CB_CBDPT_EYE_STREAM(&samplerCopy, x, y))
+                : 1.0f;
         /* The tile's rays, counted once (countRays: CBDPT_RAY_STATS). */
-        cbWritePixel(outRgb, CB_COUNTERS, (uint)(y * camera.width + x), specToRgb(radiance, toRgb),
-                     nonFinite, p == 0 ? tracedRays : 0);
+        cbWritePixel(outRgb, CB_COUNTERS, (uint)(y * camera.width + x),
+                     filmClampSample(&camera, specToRgb(radiance, toRgb), filterWeight), nonFinite,
+                     p == 0 ? tracedRays : 0);
     }
 #undef CB_CBDPT_PIXEL
 #undef CB_CBDPT_INSIDE

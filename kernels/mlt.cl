@@ -121,13 +121,14 @@ static void mltEvaluate(const SceneView* scene, const Camera* camera, __global c
                 continue;
             }
             if (t == 1) {
-                mltAddSplat(out, -1, rx, ry, specToRgb(c, toRgb));
+                mltAddSplat(out, -1, rx, ry, filmClampSample(camera, specToRgb(c, toRgb), 1.0f));
             } else {
                 radiance = specAdd(radiance, c);
             }
         }
     }
-    Vec3 rgb = specToRgb(specScale(radiance, weightX * weightY), toRgb);
+    Vec3 rgb = filmClampSample(camera, specToRgb(specScale(radiance, weightX * weightY), toRgb),
+                               weightX * weightY);
     if (!(isfinite(rgb.x) && isfinite(rgb.y) && isfinite(rgb.z))) {
         *nonFinite += 1;
         rgb = vec3(0.0f, 0.0f, 0.0f);

@@ -98,8 +98,10 @@ __kernel void renderCoherentPathTracing(CB_INTEGRATOR_KERNEL_PARAMS(PathSettings
         CB_CPT_PIXEL(p, x, y, inside);
         if (!inside) continue;
         const real filterWeight = cameraSampleWeight(&camera, CB_CPT_SAMPLES(x, y));
-        cbWritePixel(outRgb, CB_COUNTERS, (uint)(y * camera.width + x),
-                     specToRgb(specScale(paths[base + p].radiance, filterWeight), toRgb), 0, 0);
+        const Vec3 rgb = filmClampSample(
+            &camera, specToRgb(specScale(paths[base + p].radiance, filterWeight), toRgb),
+            filterWeight);
+        cbWritePixel(outRgb, CB_COUNTERS, (uint)(y * camera.width + x), rgb, 0, 0);
     }
 #undef CB_CPT_PIXEL
 #undef CB_CPT_SAMPLES

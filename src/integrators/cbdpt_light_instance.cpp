@@ -83,7 +83,10 @@ class LightTracer final : public CbdptLightTracer {
                         ++out.nonFinite;
                         continue;
                     }
-                    cbk::Vec3 rgb = cbk::specToRgb(c, scene_.toRgb.data());
+                    // Clamped as one light path's splat, before `scale` spreads it over the
+                    // W x H / (light subpaths) paths it stands for (pbrt-v4's AddSplat).
+                    const cbk::Vec3 rgb = cbk::filmClampSample(
+                        &camera_, cbk::specToRgb(c, scene_.toRgb.data()), 1.0f);
                     const cbk::FilterSplat splat = cbk::filterSplatAt(&camera_, rx, ry);
                     for (int y = splat.y0; y <= splat.y1; ++y) {
                         const cbk::real row = scale * cbk::filterSplatRow(&camera_, &splat, y);

@@ -163,6 +163,8 @@ template <class Visit> void forEachField(cbk::Camera& s, Visit&& visit) {
     visit(s.filterAbsCdf);
     visit(s.filterSampleScale);
     visit(s.medium);
+    visit(s.sampleClamp);
+    visit(s.sensorFromRgb);
     visit(s.pad);
 }
 

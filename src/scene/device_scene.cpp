@@ -20,7 +20,7 @@ namespace cb {
 static_assert(sizeof(cbk::Primitive) == 48, "Primitive must match the OpenCL layout");
 static_assert(sizeof(cbk::Material) == 108, "Material must match the OpenCL layout");
 static_assert(sizeof(cbk::Light) == 116, "Light must match the OpenCL layout");
-static_assert(sizeof(cbk::Camera) == 448, "Camera must match the OpenCL layout");
+static_assert(sizeof(cbk::Camera) == 480, "Camera must match the OpenCL layout");
 
 namespace {
 
@@ -430,6 +430,13 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
     // origin renders like the same scene at the origin.
     scene.origin = deviceOrigin(desc);
     scene.camera = makeCamera(desc, scene.origin);
+    if (desc.film.maxComponentValue) {
+        scene.camera.sampleClamp = float(*desc.film.maxComponentValue);
+        const auto sensor = sensorFromFilmRgb(
+            FilmColour{desc.film.whiteBalance, desc.film.exposureTime * desc.film.iso / 100.0});
+        std::copy(sensor.begin(), sensor.end(), scene.camera.sensorFromRgb);
+        scene.features |= CB_FEATURE_SAMPLE_CLAMP;
+    }
     if (scene.camera.lensRadius > 0.f) scene.features |= CB_FEATURE_THIN_LENS;
     if (!(scene.camera.filterType == CB_FILTER_BOX && scene.camera.filterRadiusX == 0.5f &&
           scene.camera.filterRadiusY == 0.5f))
@@ -1258,7 +1265,7 @@ std::vector<std::string> DeviceScene::kernelDefines() const {
 
 std::string DeviceScene::featureNames() const {
     std::string names;
-    auto add = [&](unsigned bit, const char* name) {
+    auto add = [&](std::uint64_t bit, const char* name) {
         if (!(features & bit)) return;
         if (!names.empty()) names += ' ';
         names += name;
@@ -1295,6 +1302,7 @@ std::string DeviceScene::featureNames() const {
     add(CB_FEATURE_INVISIBLE_LIGHT, "invisible-light");
     add(CB_FEATURE_ANISOTROPIC, "anisotropic");
     add(CB_FEATURE_MEDIUM, "medium");
+    add(CB_FEATURE_SAMPLE_CLAMP, "sample-clamp");
     names += channels == 16 ? " spectral-16" : " rgb";
     return names;
 }

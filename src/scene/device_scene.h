@@ -10,6 +10,7 @@
 #include "cb_types.h"
 
 #include <array>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -41,7 +42,7 @@ struct DeviceScene {
     // Device coordinates are world coordinates minus this point (the camera position, clamped
     // to the scene's bounds): see buildDeviceScene.
     std::array<double, 3> origin{0, 0, 0};
-    unsigned features = 0; // CB_FEATURE_* bits
+    std::uint64_t features = 0; // CB_FEATURE_* bits
     // Statistics for `cbdpt info`.
     long triangleCount = 0;
     long vertexCount = 0;

@@ -1538,12 +1538,21 @@ class Parser {
                  "Film \"float diagonal\" is not used: only pbrt-v4's realistic camera reads the "
                  "sensor's size");
         if (const Param* p = pl.peek("maxcomponentvalue")) {
-            // pbrt-v4 clamps each sample's sensor RGB; cbdpt's estimates sum whole paths per
-            // pixel, so only the default (no clamp) has the same meaning.
+            // pbrt-v4 clamps each sample's sensor RGB to this largest component (its default,
+            // infinity, cannot be written: the value must be a float).
             const double v = *pl.oneFloat("maxcomponentvalue");
-            if (v < std::numeric_limits<float>::max())
-                throw SceneError(p->where, "\"float maxcomponentvalue\" (per-sample clamping) "
-                                           "is not supported; remove it to render unclamped");
+            if (!(v > 0.0))
+                throw SceneError(
+                    p->valueLoc(0),
+                    fmt::format("\"float maxcomponentvalue\" {:g} must be positive (it "
+                                "is the largest sensor RGB component a sample keeps)",
+                                v));
+            f.maxComponentValue = v;
+            note(p->where, "maxcomponentvalue",
+                 fmt::format("Film \"float maxcomponentvalue\" {:g}: each sample is clamped as "
+                             "pbrt-v4 clamps it, which biases the image (darker where samples "
+                             "exceed it); remove the parameter to render without bias",
+                             v));
         }
         pl.finish();
     }

@@ -305,7 +305,10 @@ struct FilmDesc {
     double iso = 100.0;
     double whiteBalance = 0.0; // kelvin; 0: no white balance (the cie1931 default)
     double exposureTime = 1.0; // the camera's shutterclose - shutteropen
-    bool saveFp16 = true;      // pbrt-v4's default: half-float EXR
+    // pbrt-v4's "maxcomponentvalue": each sample's sensor RGB is scaled down to at most this
+    // largest component (kernels' filmClampSample); absent: no clamp (pbrt-v4's infinity).
+    std::optional<double> maxComponentValue;
+    bool saveFp16 = true; // pbrt-v4's default: half-float EXR
     bool saveFp16Given = false;
     // pbrt's pixel bounds x0, x1, y0, y1: only pixels [x0, x1) x [y0, y1) of the film are
     // rendered, into an image of that size (cropWindowPixels). Absent: the whole film.

@@ -485,6 +485,17 @@ std::vector<float> filmMatrix(int channels, const FilmColour& film) {
     return out;
 }
 
+std::array<float, 9> sensorFromFilmRgb(const FilmColour& film) {
+    // Film RGB = filmXyzToRgb * XYZ and sensor RGB = imagingRatio * XYZ (pbrt-v4's
+    // PixelSensor::ToSensorRGB for the XYZ matching functions).
+    const Mat3 m = inverse(filmXyzToRgb(film));
+    std::array<float, 9> out{};
+    for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c)
+            out[size_t(3 * r + c)] = static_cast<float>(film.imagingRatio * m[r][c]);
+    return out;
+}
+
 std::array<float, 3> emissionToRgb(const PiecewiseLinear& s) {
     const auto bins = binSpectrum(s);
     Vec3d xyz{};

@@ -90,6 +90,11 @@ struct FilmColour {
 // 3 channels (RGB scenes) the same white balance and ratio act on linear sRGB.
 std::vector<float> filmMatrix(int channels, const FilmColour& film);
 
+// 3 x 3 row-major matrix from the film's linear sRGB (filmMatrix's output) to pbrt-v4's sensor
+// RGB, on which its film clamps samples ("maxcomponentvalue"): for the cie1931 sensor, XYZ
+// before the white balance, times the imaging ratio.
+std::array<float, 9> sensorFromFilmRgb(const FilmColour& film);
+
 // Film-space linear sRGB (no white balance) of an emission spectrum, binned as the renderer
 // does: the RGB-channel rendering of a spectral light, consistent with filmMatrix(16, {}).
 std::array<float, 3> emissionToRgb(const PiecewiseLinear& s);
