@@ -231,6 +231,11 @@ with tempfile.TemporaryDirectory() as tmp:
     r = subprocess.run([cbdpt, "info", sinc], capture_output=True, text=True)
     check("pixel filter     sinc (Lanczos), radius 4 x 4, tau 3" in r.stdout,
           f"info names the pixel filter and its parameters ({r.stdout.strip()})")
+    clamp = os.path.join(root, "scenes", "pbrt-v4", "sample-clamp.pbrt")
+    r = subprocess.run([cbdpt, "info", clamp], capture_output=True, text=True)
+    check("192x192, each sample clamped to sensor RGB 0.3 (maxcomponentvalue)" in r.stdout
+          and "sample-clamp" in r.stdout and "biases the image" in r.stderr,
+          f"info shows the film's sample clamp, and its note ({r.stdout.strip()} {r.stderr.strip()})")
 
 # Command-line habits (pbrt-v4's names where it has them) and bad input.
 def run(*args, env=None):

@@ -69,7 +69,11 @@ void printScene(const std::string& scenePath) {
                scene.bvh.nodes.size(), scene.bvh.depth, scene.wide.nodes.size(),
                scene.wide.packs.size(), double(scene.wide.bytes()) / 1e6);
     fmt::print("  BVH settings     {}\n", scene.wideSettingsWhy);
-    fmt::print("  film             {}x{}\n", scene.camera.width, scene.camera.height);
+    fmt::print("  film             {}x{}{}\n", scene.camera.width, scene.camera.height,
+               scene.camera.sampleClamp > 0.f
+                   ? fmt::format(", each sample clamped to sensor RGB {:g} (maxcomponentvalue)",
+                                 scene.camera.sampleClamp)
+                   : std::string());
     if (desc.camera.lensRadius > 0.f)
         fmt::print("  camera           fov {:g}, thin lens of radius {:g}, in focus at {:g}\n",
                    desc.camera.fovDegrees, desc.camera.lensRadius, desc.camera.focalDistance);
