@@ -802,6 +802,7 @@ TEST_CASE("pbrt-v4 portal light: an image sky through the window, every strategy
     CAPTURE(escapes.mean[1]);
     CAPTURE(escapes.se[1]);
     for (const auto& [name, settings] : {std::pair{std::string("s = 1"), strategy(1, 2)},
+                                         std::pair{std::string("s = 2, t = 1"), strategy(2, 1)},
                                          std::pair{std::string("pt"), methodSettings("pt")},
                                          std::pair{std::string("bdpt"), methodSettings("bdpt")}}) {
         CAPTURE(name);
