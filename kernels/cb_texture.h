@@ -10,6 +10,7 @@
 #ifndef CB_TEXTURE_H
 #define CB_TEXTURE_H
 
+#include "cb_noise.h"
 #include "cb_rng.h"
 #include "cb_spectrum.h"
 #include "cb_types.h"
@@ -39,6 +40,16 @@ CB_BEGIN_NAMESPACE
  * fills the matrix's first three values and whose parts follow the header, each an image's header
  * and texels (textureReflectance). */
 #define CB_MAPPING_DIRECTION_MIX 4
+/* Not an image: one of pbrt-v4's procedural float textures, at the hit point in texture space
+ * (the matrix, pbrt-v4's PointTransformMapping), with no texels. Its kind (CB_NOISE_*), octaves
+ * and omega (pbrt-v4's "roughness") take the header's (u, v) mapping slots. */
+#define CB_MAPPING_NOISE 5
+#define CB_TEXTURE_NOISE_KIND 4
+#define CB_TEXTURE_NOISE_OCTAVES 5
+#define CB_TEXTURE_NOISE_OMEGA 6
+#define CB_NOISE_FBM 0
+#define CB_NOISE_WRINKLED 1
+#define CB_NOISE_WINDY 2
 
 #define CB_WRAP_REPEAT 0
 #define CB_WRAP_BLACK 1
@@ -194,6 +205,21 @@ CB_FN Vec3 textureRgb(const SceneView* scene, int offset, TexCoord uv) {
 /* A float texture's value at uv: the mean of its texels' channels (the parser stores a float
  * texture's texels as three equal values: the value pbrt-v4's float lookup reads). */
 CB_FN real textureFloat(const SceneView* scene, int offset, TexCoord uv) {
+#if CB_HAS(CB_FEATURE_NOISE_TEXTURE) && CB_HAS(CB_FEATURE_TEXTURE_MAPPING)
+    CB_GLOBAL const real* texture = scene->textures + offset;
+    if ((int)texture[CB_TEXTURE_MAPPING] == CB_MAPPING_NOISE) {
+        CB_GLOBAL const real* m = texture + CB_TEXTURE_MATRIX;
+        const Vec3 q = vec3(m[0] * uv.p.x + m[1] * uv.p.y + m[2] * uv.p.z + m[3],
+                            m[4] * uv.p.x + m[5] * uv.p.y + m[6] * uv.p.z + m[7],
+                            m[8] * uv.p.x + m[9] * uv.p.y + m[10] * uv.p.z + m[11]);
+        const int kind = (int)texture[CB_TEXTURE_NOISE_KIND];
+        const int octaves = (int)texture[CB_TEXTURE_NOISE_OCTAVES];
+        const real omega = texture[CB_TEXTURE_NOISE_OMEGA];
+        if (kind == CB_NOISE_WINDY) return noiseWindy(q);
+        return kind == CB_NOISE_WRINKLED ? noiseTurbulence(q, omega, octaves)
+                                         : noiseFbm(q, omega, octaves);
+    }
+#endif
     Vec3 rgb = textureRgb(scene, offset, uv);
     return (rgb.x + rgb.y + rgb.z) * (1.0f / 3.0f);
 }

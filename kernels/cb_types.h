@@ -114,6 +114,8 @@ typedef struct Hit {
 /* A film that clamps each sample (pbrt-v4's "maxcomponentvalue", filmClampSample). The bits from
  * 32 on are unsigned long: 64 bits in OpenCL C and on the host (LP64). */
 #define CB_FEATURE_SAMPLE_CLAMP (1ul << 32)
+/* pbrt-v4's procedural float textures "fbm", "wrinkled" and "windy" (cb_noise.h). */
+#define CB_FEATURE_NOISE_TEXTURE (1ul << 33)
 
 #ifndef CB_FEATURES
 #define CB_FEATURES 0xfffffffffffffffful

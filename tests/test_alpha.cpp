@@ -95,9 +95,9 @@ TEST_CASE("shape alpha: constants and textures, the shapes that take them, the r
     CHECK(contains(errorOf(head + kQuad + "\"texture alpha\" \"leaf\"\n"),
                    ":4:" + std::to_string(kQuad.size() + 17) +
                        ": \"texture alpha\" names no float texture \"leaf\""));
-    CHECK(contains(errorOf(head + "Texture \"w\" \"float\" \"wrinkled\"\n" + kQuad +
+    CHECK(contains(errorOf(head + "Texture \"w\" \"float\" \"bilerp\"\n" + kQuad +
                            "\"texture alpha\" \"w\"\n"),
-                   "class \"wrinkled\""));
+                   "class \"bilerp\""));
 
     // The device: a material of its own per (material, alpha) pair, alpha-tested triangles in
     // packs of their own, the feature only where a shape has an alpha.

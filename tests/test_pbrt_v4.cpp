@@ -2226,6 +2226,7 @@ TEST_CASE("pbrt-v4: every comparison scene in scenes/pbrt-v4 parses and builds")
         if (name == "thickness-texture") CHECK(contains(scene.featureNames(), "thickness-texture"));
         if (name == "direction-mix") CHECK(contains(scene.featureNames(), "direction-mix"));
         if (name == "sample-clamp") CHECK(contains(scene.featureNames(), "sample-clamp"));
+        if (name == "noise-textures") CHECK(contains(scene.featureNames(), "noise-texture"));
         ++scenes;
     }
     CHECK(scenes >= 9);

@@ -134,10 +134,9 @@ TEST_CASE("image textures: the Texture directive, its parameters and what is ref
     CHECK(s.textures[1].rgb == std::vector<float>(std::begin(hdr), std::end(hdr)));
 
     // Textures cbdpt cannot render are an error only where a material uses one.
-    const std::string unsupportedTextures =
-        "Texture \"c\" \"spectrum\" \"dots\" \"float uscale\" "
-        "4\nTexture \"r\" \"float\" \"wrinkled\" \"float roughness\" "
-        "0.3\n";
+    const std::string unsupportedTextures = "Texture \"c\" \"spectrum\" \"dots\" \"float uscale\" "
+                                            "4\nTexture \"r\" \"float\" \"bilerp\" \"float v00\" "
+                                            "0.3\n";
     CHECK_NOTHROW(parseInTemp("WorldBegin\n" + unsupportedTextures));
     const std::string usedDots = errorOf("WorldBegin\n" + unsupportedTextures +
                                          "Material \"diffuse\" \"texture reflectance\" \"c\"\n");
@@ -1286,7 +1285,7 @@ TEST_CASE("roughness textures: float textures, the materials that take them, the
     CHECK(s.materials[3].roughnessTexture == 0);
 
     const std::string k = "WorldBegin\nTexture \"k\" \"float\" \"constant\" \"float value\" 0.25\n"
-                          "Texture \"w\" \"float\" \"wrinkled\"\n";
+                          "Texture \"w\" \"float\" \"bilerp\"\n";
     for (const auto& [material, message] :
          {std::pair{"\"coatedconductor\" \"texture conductor.roughness\" \"k\"",
                     "a texture as \"conductor.roughness\" is not supported"},
@@ -1296,7 +1295,7 @@ TEST_CASE("roughness textures: float textures, the materials that take them, the
                     "is a number beside the texture"},
           std::pair{"\"conductor\" \"texture roughness\" \"later\"",
                     "no float texture \"later\" is defined before this material"},
-          std::pair{"\"conductor\" \"texture roughness\" \"w\"", "class \"wrinkled\""}}) {
+          std::pair{"\"conductor\" \"texture roughness\" \"w\"", "class \"bilerp\""}}) {
         CAPTURE(material);
         const std::string error = errorOf(k + "Material " + material + "\n");
         CHECK(contains(error, ":4:"));
@@ -1378,11 +1377,11 @@ TEST_CASE("thickness textures: a coat's layer thickness looked up per hit") {
          {std::pair{"\"coateddiffuse\" \"texture thickness\" \"later\"",
                     "no float texture \"later\" is defined before this material (cbdpt reads a "
                     "texture thickness"},
-          std::pair{"\"coatedconductor\" \"texture thickness\" \"w\"", "class \"wrinkled\""},
+          std::pair{"\"coatedconductor\" \"texture thickness\" \"w\"", "class \"bilerp\""},
           std::pair{"\"coateddiffuse\" \"float thickness\" -1", "must be >= 0"}}) {
         CAPTURE(material);
         const std::string error =
-            errorOf("WorldBegin\nTexture \"w\" \"float\" \"wrinkled\"\nMaterial " +
+            errorOf("WorldBegin\nTexture \"w\" \"float\" \"bilerp\"\nMaterial " +
                     std::string(material) + "\n");
         CHECK(contains(error, ":3:"));
         CHECK(contains(error, message));

@@ -520,7 +520,17 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
             float(t.mappingKind == TextureDesc::Mapping::Spherical     ? CB_MAPPING_SPHERICAL
                   : t.mappingKind == TextureDesc::Mapping::Cylindrical ? CB_MAPPING_CYLINDRICAL
                   : t.mappingKind == TextureDesc::Mapping::Planar      ? CB_MAPPING_PLANAR
+                  : t.mappingKind == TextureDesc::Mapping::Point       ? CB_MAPPING_NOISE
                                                                        : CB_MAPPING_UV);
+        if (t.noise != TextureDesc::Noise::None) {
+            header[CB_TEXTURE_NOISE_KIND] =
+                float(t.noise == TextureDesc::Noise::Wrinkled ? CB_NOISE_WRINKLED
+                      : t.noise == TextureDesc::Noise::Windy  ? CB_NOISE_WINDY
+                                                              : CB_NOISE_FBM);
+            header[CB_TEXTURE_NOISE_OCTAVES] = float(t.octaves);
+            header[CB_TEXTURE_NOISE_OMEGA] = float(t.omega);
+            scene.features |= CB_FEATURE_NOISE_TEXTURE;
+        }
         if (t.mappingKind != TextureDesc::Mapping::Uv) {
             // The kernels' points are relative to the device origin: world = device + origin.
             for (size_t row = 0; row < 3; ++row) {
@@ -895,7 +905,8 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
                                          "texture coordinates, and cbdpt gives none to " +
                                              mesh.noTexCoords);
         // The traversal's alpha test has the hit's (u, v), not its point.
-        if (alpha.mappingKind != TextureDesc::Mapping::Uv && (alpha.width > 1 || alpha.height > 1))
+        if (alpha.mappingKind != TextureDesc::Mapping::Uv &&
+            (alpha.width > 1 || alpha.height > 1 || alpha.noise != TextureDesc::Noise::None))
             throw SceneError(mesh.where, "this shape's \"alpha\" texture is mapped by the hit "
                                          "point (" +
                                              alpha.where.str() +
@@ -1303,6 +1314,7 @@ std::string DeviceScene::featureNames() const {
     add(CB_FEATURE_ANISOTROPIC, "anisotropic");
     add(CB_FEATURE_MEDIUM, "medium");
     add(CB_FEATURE_SAMPLE_CLAMP, "sample-clamp");
+    add(CB_FEATURE_NOISE_TEXTURE, "noise-texture");
     names += channels == 16 ? " spectral-16" : " rgb";
     return names;
 }

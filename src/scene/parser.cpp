@@ -2462,8 +2462,10 @@ class Parser {
                                             const std::string& name, const SourceLocation& where,
                                             std::string& why) {
         why = "cbdpt renders \"float\" textures of class \"imagemap\", \"constant\", \"scale\", "
-              "\"mix\" and \"checkerboard\" only";
+              "\"mix\", \"checkerboard\", \"fbm\", \"wrinkled\" and \"windy\" only";
         if (cls == "imagemap") return readImageTexture(pl, name, where, true);
+        if (cls == "fbm" || cls == "wrinkled" || cls == "windy")
+            return noiseTexture(cls, pl, where);
         if (cls == "constant") {
             std::optional<TextureDesc> tex = constantTexture(pl, "value", 1.f, why, true);
             if (tex) pl.finish();
@@ -2473,6 +2475,49 @@ class Parser {
         if (cls == "mix") return mixTexture(pl, why, true);
         if (cls == "checkerboard") return checkerboardTexture(pl, why, true);
         return std::nullopt;
+    }
+
+    // pbrt-v4's procedural float textures FBmTexture ("fbm"), WrinkledTexture ("wrinkled": its
+    // turbulence) and WindyTexture, at the hit point in texture space, the inverse of the CTM
+    // here (pbrt-v4's TextureMapping3D, which takes no "mapping" parameters). "octaves" (8) and
+    // "roughness" (0.5) for the first two; windy has none.
+    TextureDesc noiseTexture(const std::string& cls, ParamList& pl, const SourceLocation& where) {
+        TextureDesc tex;
+        tex.noise = cls == "fbm"        ? TextureDesc::Noise::Fbm
+                    : cls == "wrinkled" ? TextureDesc::Noise::Wrinkled
+                                        : TextureDesc::Noise::Windy;
+        tex.mappingKind = TextureDesc::Mapping::Point;
+        if (cls != "windy") {
+            if (const Param* p = pl.peek("octaves")) {
+                tex.octaves = *pl.oneInt("octaves");
+                if (tex.octaves < 0 || tex.octaves > 32)
+                    throw SceneError(p->valueLoc(0), fmt::format("\"integer octaves\" {} must be "
+                                                                 "in [0, 32]",
+                                                                 tex.octaves));
+            }
+            if (const Param* p = pl.peek("roughness")) {
+                tex.omega = *pl.oneFloat("roughness");
+                if (!(tex.omega >= 0.0 && tex.omega <= 1.0))
+                    throw SceneError(p->valueLoc(0),
+                                     fmt::format("\"float roughness\" {:g} (each octave's weight "
+                                                 "over the last's) must be in [0, 1]",
+                                                 tex.omega));
+            }
+        }
+        const std::optional<Mat4> textureFromWorld = inverse(state_.ctm);
+        if (!textureFromWorld || !textureFromWorld->isAffine())
+            throw SceneError(where, "the \"" + cls +
+                                        "\" texture needs an invertible affine transform (the "
+                                        "CTM here)");
+        for (size_t i = 0; i < 12; ++i)
+            tex.textureFromWorld[i] = textureFromWorld->m[i];
+        pl.finish();
+        if (!textureFilteringDisabled_)
+            note(where, "noise-octaves",
+                 "pbrt-v4 drops the octaves of \"fbm\", \"wrinkled\" and \"windy\" textures "
+                 "finer than each ray's footprint unless Option \"disabletexturefiltering\" is "
+                 "true; cbdpt sums every octave, as pbrt-v4 does with that option");
+        return tex;
     }
 
     // A 1 x 1 image texture of the constant `param` (default `fallback`): an RGB value, or for a
@@ -2555,6 +2600,11 @@ class Parser {
         const TextureDesc& tex = scene_.textures[size_t(it->second.index)];
         if (!tex.mixParts.empty()) {
             why = "its \"texture " + param + "\" names the \"directionmix\" \"" + inner +
+                  "\", which cbdpt evaluates as a material's texture only, not inside another";
+            return std::nullopt;
+        }
+        if (tex.noise != TextureDesc::Noise::None) {
+            why = "its \"texture " + param + "\" names the procedural \"" + inner +
                   "\", which cbdpt evaluates as a material's texture only, not inside another";
             return std::nullopt;
         }

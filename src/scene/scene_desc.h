@@ -267,13 +267,21 @@ struct TextureDesc {
     // pbrt-v4's mapping: (u, v), or the hit point's in texture space (the inverse of the CTM at
     // the Texture directive), by direction ("spherical"), about z ("cylindrical") or along v1, v2
     // ("planar", whose projection rows 0 and 1 hold: s = row 0 . (p, 1) + udelta)
-    enum class Mapping { Uv, Spherical, Cylindrical, Planar };
+    // Point: pbrt-v4's 3D PointTransformMapping of the procedural textures (`noise`)
+    enum class Mapping { Uv, Spherical, Cylindrical, Planar, Point };
     Mapping mappingKind = Mapping::Uv;
     std::array<double, 12> textureFromWorld{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0}; // 3 x 4
     // pbrt-v4's "directionmix" (the fields above unused): its parts tex1 and tex2, images, mixed
     // per hit by |n . mixDirection| (world space, unit) at the geometric normal n; empty: an image.
     std::vector<TextureDesc> mixParts;
     std::array<double, 3> mixDirection{0, 1, 0};
+    // pbrt-v4's procedural float textures (no texels; mappingKind Point): fractional Brownian
+    // motion ("fbm"), turbulence ("wrinkled", both of `octaves` octaves and omega, pbrt-v4's
+    // "roughness") and "windy"; None for an image.
+    enum class Noise { None, Fbm, Wrinkled, Windy };
+    Noise noise = Noise::None;
+    int octaves = 8;
+    double omega = 0.5;
     SourceLocation where;
 };
 
