@@ -134,6 +134,16 @@ CB_FN Vec3 textureTexel(CB_GLOBAL const real* texture, int x, int y) {
     return vec3(rgb[0], rgb[1], rgb[2]);
 }
 
+#if CB_HAS(CB_FEATURE_TEXTURE_MAPPING)
+/* The hit point of uv in the texture's space: its header's 3 x 4 map of device space. */
+CB_FN Vec3 texturePoint(CB_GLOBAL const real* texture, TexCoord uv) {
+    CB_GLOBAL const real* m = texture + CB_TEXTURE_MATRIX;
+    return vec3(m[0] * uv.p.x + m[1] * uv.p.y + m[2] * uv.p.z + m[3],
+                m[4] * uv.p.x + m[5] * uv.p.y + m[6] * uv.p.z + m[7],
+                m[8] * uv.p.x + m[9] * uv.p.y + m[10] * uv.p.z + m[11]);
+}
+#endif
+
 /* The texture's (s, t) at uv, pbrt-v4's TextureMapping2D: the "uv" mapping's (u, v), or the
  * point's in texture space, q, by "spherical" (theta / pi, phi / 2 pi of q's direction),
  * "cylindrical" ((pi + atan2(q.y, q.x)) / 2 pi, q.z) or "planar" (q's first two rows, v1 and v2
@@ -144,10 +154,7 @@ CB_FN void textureST(CB_GLOBAL const real* texture, TexCoord uv, real* s, real* 
 #if CB_HAS(CB_FEATURE_TEXTURE_MAPPING)
     int mapping = (int)texture[CB_TEXTURE_MAPPING];
     if (mapping != CB_MAPPING_UV) {
-        CB_GLOBAL const real* m = texture + CB_TEXTURE_MATRIX;
-        Vec3 q = vec3(m[0] * uv.p.x + m[1] * uv.p.y + m[2] * uv.p.z + m[3],
-                      m[4] * uv.p.x + m[5] * uv.p.y + m[6] * uv.p.z + m[7],
-                      m[8] * uv.p.x + m[9] * uv.p.y + m[10] * uv.p.z + m[11]);
+        Vec3 q = texturePoint(texture, uv);
         if (mapping == CB_MAPPING_SPHERICAL) {
             real r = vlength(q);
             real phi = atan2(q.y, q.x);
@@ -208,10 +215,7 @@ CB_FN real textureFloat(const SceneView* scene, int offset, TexCoord uv) {
 #if CB_HAS(CB_FEATURE_NOISE_TEXTURE) && CB_HAS(CB_FEATURE_TEXTURE_MAPPING)
     CB_GLOBAL const real* texture = scene->textures + offset;
     if ((int)texture[CB_TEXTURE_MAPPING] == CB_MAPPING_NOISE) {
-        CB_GLOBAL const real* m = texture + CB_TEXTURE_MATRIX;
-        const Vec3 q = vec3(m[0] * uv.p.x + m[1] * uv.p.y + m[2] * uv.p.z + m[3],
-                            m[4] * uv.p.x + m[5] * uv.p.y + m[6] * uv.p.z + m[7],
-                            m[8] * uv.p.x + m[9] * uv.p.y + m[10] * uv.p.z + m[11]);
+        const Vec3 q = texturePoint(texture, uv);
         const int kind = (int)texture[CB_TEXTURE_NOISE_KIND];
         const int octaves = (int)texture[CB_TEXTURE_NOISE_OCTAVES];
         const real omega = texture[CB_TEXTURE_NOISE_OMEGA];

@@ -421,9 +421,9 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
     bool spectral =
         mode == ChannelMode::Spectral || (mode == ChannelMode::Auto && desc.usesSpectra);
     scene.channels = spectral ? kSpectralBins : 3;
-    scene.toRgb =
-        filmMatrix(scene.channels, FilmColour{desc.film.whiteBalance,
-                                              desc.film.exposureTime * desc.film.iso / 100.0});
+    const FilmColour filmColour{desc.film.whiteBalance,
+                                desc.film.exposureTime * desc.film.iso / 100.0};
+    scene.toRgb = filmMatrix(scene.channels, filmColour);
     // Camera-relative rendering: positions are made relative to the camera (or, for a camera
     // outside the scene, to the scene point nearest to it: deviceOrigin) in double, then rounded
     // to float, so precision is finest where the image needs it and a scene far from the world
@@ -432,8 +432,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
     scene.camera = makeCamera(desc, scene.origin);
     if (desc.film.maxComponentValue) {
         scene.camera.sampleClamp = float(*desc.film.maxComponentValue);
-        const auto sensor = sensorFromFilmRgb(
-            FilmColour{desc.film.whiteBalance, desc.film.exposureTime * desc.film.iso / 100.0});
+        const auto sensor = sensorFromFilmRgb(filmColour);
         std::copy(sensor.begin(), sensor.end(), scene.camera.sensorFromRgb);
         scene.features |= CB_FEATURE_SAMPLE_CLAMP;
     }
