@@ -548,6 +548,31 @@ CB_FN SurfacePoint surfacePointMapped(const SceneView* scene, SurfacePoint sp, H
 }
 #endif
 
+#if CB_HAS(CB_FEATURE_MIX_AT_POINT)
+/* pbrt-v4's MixMaterial::ChooseMaterial for mixes whose parts cannot join a mixture of f and pdfs
+ * (a coat's estimated density, a normal or bump map's own shading normal, a dispersive
+ * dielectric's one wavelength): one part per surface point, the second with probability amount,
+ * by a hash of the point (pbrt-v4 hashes wo too). A vertex then has one material for every
+ * strategy that connects to it, and a pixel's points take each part in its share. */
+CB_FN int mixPartAtPoint(const SceneView* scene, int material, Vec3 p) {
+    /* (Host views that only trace, such as the BVH choice's, have no materials.) */
+    if (material < 0 || !scene->materials) return material;
+    Material m = scene->materials[material];
+    if (m.kind != CB_MAT_MIX_AT_POINT) return material;
+    uint h = cbHashCombine(cbHash32((uint)material), cbFloatBits(p.x));
+    h = cbHashCombine(cbHashCombine(h, cbFloatBits(p.y)), cbFloatBits(p.z));
+    real u = (real)(h >> 8) * (1.0f / 16777216.0f);
+    while (m.kind == CB_MAT_MIX_AT_POINT) { /* a chain of links, as cbMixEval's */
+        real a = m.mixAmount;
+        bool second = u < a;
+        u = cbClamp(second ? u / a : (u - a) / (1.0f - a), 0.0f, 0.99999994f);
+        material = second ? m.mixSecond : m.mixFirst;
+        m = scene->materials[material];
+    }
+    return material;
+}
+#endif
+
 /* The hit point with a conservative per-axis error bound (pbrt 3rd ed. sec. 3.9.4-3.9.5).
  * The point is not o + t d, whose error grows with t, but recomputed from the primitive. */
 CB_FN SurfacePoint surfacePointFromHit(const SceneView* scene, Ray ray, Hit hit) {
@@ -572,6 +597,9 @@ CB_FN SurfacePoint surfacePointFromHit(const SceneView* scene, Ray ray, Hit hit)
         sp.pError = vadd(vscale(vabs(pLocal), cbGamma(5)), vscale(vabs(sp.p), cbGamma(2)));
         sp.ng = vscale(vnormalize(pLocal), prim->p1[1] < 0.0f ? -1.0f : 1.0f);
         sp.ns = sp.ng;
+#if CB_HAS(CB_FEATURE_MIX_AT_POINT)
+        sp.material = mixPartAtPoint(scene, sp.material, sp.p);
+#endif
 #if CB_HAS(CB_FEATURE_TEXTURE)
         if (scene->textures) sp.uv = sphereTexCoord(scene, hit.primitive, pLocal);
 #endif
@@ -601,6 +629,9 @@ CB_FN SurfacePoint surfacePointFromHit(const SceneView* scene, Ray ray, Hit hit)
     /* pbrt 3rd ed. sec. 3.9.4 (triangles, barycentric interpolation): gamma(7) sum |b_i p_i|. */
     sp.pError = vscale(vadd(vadd(vabs(w0), vabs(w1)), vabs(w2)), cbGamma(7));
     sp.ng = triangleNormal(p0, p1, p2);
+#if CB_HAS(CB_FEATURE_MIX_AT_POINT)
+    sp.material = mixPartAtPoint(scene, sp.material, sp.p);
+#endif
 #if CB_HAS(CB_FEATURE_TEXTURE)
     /* (Host views of untextured scenes, such as the BVH choice's, have no texture buffer.) */
     if (scene->textures) sp.uv = triangleTexCoord(scene, hit.primitive, hit.b1, hit.b2);

@@ -69,6 +69,9 @@ typedef struct Hit {
 #define CB_MAT_THIN_DIELECTRIC 5      /* a thin glass sheet (pbrt-v4's "thindielectric") */
 #define CB_MAT_COATED_DIFFUSE 6       /* Lambertian under a dielectric coat (pbrt-v4's) */
 #define CB_MAT_COATED_CONDUCTOR 7     /* a conductor under a dielectric coat (pbrt-v4's) */
+/* pbrt-v4's mix as one part per surface point, the second with probability amount (for parts
+ * that cannot join a mixture: mixPartAtPoint, cb_intersect.h); hits find the part, never this. */
+#define CB_MAT_MIX_AT_POINT 8
 
 /* Feature bits: the scene's material kinds and light kinds, passed to the kernel build as
  * -DCB_FEATURES=... so that unused code is compiled out (each scene compiles only what it uses). */
@@ -116,6 +119,8 @@ typedef struct Hit {
 #define CB_FEATURE_SAMPLE_CLAMP (1ul << 32)
 /* pbrt-v4's procedural float textures "fbm", "wrinkled" and "windy" (cb_noise.h). */
 #define CB_FEATURE_NOISE_TEXTURE (1ul << 33)
+/* Mixes that pick one part per surface point (CB_MAT_MIX_AT_POINT). */
+#define CB_FEATURE_MIX_AT_POINT (1ul << 34)
 
 #ifndef CB_FEATURES
 #define CB_FEATURES 0xfffffffffffffffful
@@ -175,7 +180,9 @@ typedef struct Material {
     int reflectance; /* index into the spectra table (CB_CHANNELS floats per entry) */
     real alpha;      /* GGX roughness alpha for conductors and dielectrics (0: smooth) */
     real eta;        /* relative index of refraction for (thin) dielectrics */
-    int mixFirst;    /* CB_MAT_MIX: the two parts; only the second may be a mix (cbMixEval) */
+    /* CB_MAT_MIX and CB_MAT_MIX_AT_POINT: the two parts; only the second may be a mix of the
+     * same kind (cbMixEval, mixPartAtPoint) */
+    int mixFirst;
     int mixSecond;
     real mixAmount; /* probability of mixSecond */
     /* A second spectrum's index, -1 where there is none. CB_MAT_CONDUCTOR given eta and k: k's,

@@ -110,11 +110,6 @@ TEST_CASE("dispersion: spectrum eta on (thin) dielectrics, the knots, and what i
     expectError(w + "Material \"thindielectric\" \"spectrum eta\" [400 1.5 700 0]\n",
                 {"t.pbrt:2:", "must be in (0, 100]"});
     expectError(w + "Material \"dielectric\" \"spectrum eta\" \"glass-XY\"\n", {"glass-XY"});
-    CHECK_THROWS_WITH(deviceOf("MakeNamedMaterial \"g\" \"string type\" \"dielectric\" "
-                               "\"spectrum eta\" \"glass-F11\"\n"
-                               "MakeNamedMaterial \"d\" \"string type\" \"diffuse\"\n"
-                               "Material \"mix\" \"string materials\" [\"g\" \"d\"]\n"),
-                      doctest::Contains("a mix of a dielectric with \"spectrum eta\""));
     CHECK_THROWS_WITH(
         deviceOf("Material \"dielectric\" \"spectrum eta\" \"glass-F11\"\n", cb::ChannelMode::Rgb),
         doctest::Contains("needs spectral rendering"));

@@ -1659,10 +1659,6 @@ TEST_CASE("pbrt-v4 coateddiffuse: parameters, defaults, refusals") {
                            "t.pbrt")
               .materials.back()
               .displacement >= 0);
-    expectError(light + "MakeNamedMaterial \"c\" \"string type\" \"coateddiffuse\"\n"
-                        "MakeNamedMaterial \"d\" \"string type\" \"diffuse\"\n"
-                        "Material \"mix\" \"string materials\" [\"c\" \"d\"]\n",
-                {"t.pbrt:5:", "a mix with coateddiffuse is not supported"});
 }
 
 // The closed black box of the lid test above with a coated lid, seen from above under a
@@ -1809,11 +1805,6 @@ TEST_CASE("pbrt-v4 coatedconductor: parameters, defaults, refusals") {
     expectError(light + "Material \"coatedconductor\" \"rgb reflectance\" [0.5 0.5 0.5] "
                         "\"float eta\" 1.5\n",
                 {"t.pbrt:3:", "unknown or unsupported parameter \"float eta\""});
-    expectError(light + "MakeNamedMaterial \"c\" \"string type\" \"coatedconductor\" "
-                        "\"rgb reflectance\" [0.5 0.5 0.5]\n"
-                        "MakeNamedMaterial \"d\" \"string type\" \"diffuse\"\n"
-                        "Material \"mix\" \"string materials\" [\"c\" \"d\"]\n",
-                {"t.pbrt:5:", "a mix with coatedconductor is not supported"});
 }
 
 TEST_CASE("pbrt-v4 coatedconductor: BDPT, CBDPT and MLT agree with PT" *
@@ -2227,6 +2218,7 @@ TEST_CASE("pbrt-v4: every comparison scene in scenes/pbrt-v4 parses and builds")
         if (name == "direction-mix") CHECK(contains(scene.featureNames(), "direction-mix"));
         if (name == "sample-clamp") CHECK(contains(scene.featureNames(), "sample-clamp"));
         if (name == "noise-textures") CHECK(contains(scene.featureNames(), "noise-texture"));
+        if (name == "mix-coated") CHECK(contains(scene.featureNames(), "mix-at-point"));
         ++scenes;
     }
     CHECK(scenes >= 9);

@@ -364,17 +364,13 @@ TEST_CASE("normal maps: the mapped normal at hit points, and what is refused") {
                        1e-5);
     }
 
-    // Refused: a normal map on a disk (its polar (u, v) is not linear over its triangles), in a
-    // mix, a missing file.
+    // Refused: a normal map on a disk (its polar (u, v) is not linear over its triangles), a
+    // missing file. (In a mix: tests/test_mix_at_point.cpp.)
     auto buildError = [](const std::string& body) {
         return bumpyError("\"string normalmap\" \"two.exr\"", body);
     };
     CHECK(contains(buildError("NamedMaterial \"bumpy\"\nShape \"disk\"\n"),
                    "needs texture coordinates"));
-    CHECK(contains(
-        buildError("Material \"mix\" \"string materials\" [\"bumpy\" \"plain\"]\n"
-                   "Shape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0]\n"),
-        "a mix of a material with a \"normalmap\" or a \"displacement\" is not supported"));
     CHECK(contains(errorOf("WorldBegin\nMaterial \"diffuse\" \"string normalmap\" \"none.png\"\n"),
                    "none.png"));
     // "" is pbrt-v4's "no normal map".
@@ -472,9 +468,6 @@ TEST_CASE("bump maps: the bumped normal at hit points, and what is refused") {
     auto buildError = [](const std::string& body) {
         return bumpyError("\"float displacement\" 0.1", body);
     };
-    CHECK(contains(buildError("Material \"mix\" \"string materials\" [\"bumpy\" \"plain\"]\n"
-                              "Shape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0]\n"),
-                   "a mix of a material with a \"normalmap\" or a \"displacement\""));
     CHECK(contains(buildError("NamedMaterial \"bumpy\"\nShape \"disk\"\n"),
                    "needs texture coordinates"));
     CHECK((cb::buildDeviceScene(

@@ -414,6 +414,17 @@ unsigned materialFeature(MaterialKind kind) {
     return 0;
 }
 
+// Whether a mix picks one part per surface point (CB_MAT_MIX_AT_POINT) rather than mixing its
+// parts' f and pdfs: where a part is a coat (whose pdf is an estimate), has its own shading
+// normal (a normal or bump map) or follows one wavelength (a dispersive dielectric).
+bool mixPicksPerPoint(const SceneDesc& desc, const std::vector<std::pair<int, double>>& leaves) {
+    return std::any_of(leaves.begin(), leaves.end(), [&](const auto& leaf) {
+        const MaterialDesc& m = desc.materials[size_t(leaf.first)];
+        return m.kind == MaterialKind::CoatedDiffuse || m.kind == MaterialKind::CoatedConductor ||
+               m.normalMap >= 0 || m.displacement >= 0 || m.etaSpectrum;
+    });
+}
+
 } // namespace
 
 DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
@@ -661,7 +672,8 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
             out.alphaV = out.eta == 1.f ? 0.f : alphaV;
             break;
         case MaterialKind::Mix:
-            out.kind = CB_MAT_MIX;
+            out.kind = materialUsed[i] && mixPicksPerPoint(desc, leavesOf[i]) ? CB_MAT_MIX_AT_POINT
+                                                                              : CB_MAT_MIX;
             out.mixFirst = m.mix[0];
             out.mixSecond = m.mix[1];
             out.mixAmount = m.amount;
@@ -726,22 +738,6 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
             out.displacement = addTexture(m.displacement);
             scene.features |= CB_FEATURE_TEXTURE | CB_FEATURE_BUMP_MAP;
         }
-        static const std::vector<std::pair<int, double>> kNoLeaves;
-        const auto& leaves = materialUsed[i] ? leavesOf[i] : kNoLeaves;
-        for (const auto& [c, weight] : leaves)
-            if (desc.materials[size_t(c)].normalMap >= 0 ||
-                desc.materials[size_t(c)].displacement >= 0)
-                throw SceneError(m.where,
-                                 "a mix of a material with a \"normalmap\" or a "
-                                 "\"displacement\" is not supported: pbrt-v4 picks one of the "
-                                 "two materials per hit and shades by its normal, cbdpt "
-                                 "blends their BSDFs at one normal");
-        for (const auto& [c, weight] : leaves)
-            if (desc.materials[size_t(c)].etaSpectrum)
-                throw SceneError(m.where,
-                                 "a mix of a dielectric with \"spectrum eta\" is not "
-                                 "supported: its paths follow one wavelength from the hit on, "
-                                 "which cbdpt chooses for the material the hit finds");
         if (m.kind != MaterialKind::Conductor && m.kind != MaterialKind::Dielectric)
             out.alphaV = out.alpha;
         if (materialUsed[i] && out.alphaV != out.alpha) {
@@ -754,7 +750,8 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         }
         scene.materials.push_back(out);
         if (materialUsed[i]) {
-            scene.features |= materialFeature(m.kind);
+            scene.features |=
+                out.kind == CB_MAT_MIX_AT_POINT ? CB_FEATURE_MIX_AT_POINT : materialFeature(m.kind);
             if (out.kind == CB_MAT_CONDUCTOR && out.secondSpectrum >= 0)
                 scene.features |= CB_FEATURE_CONDUCTOR_FRESNEL;
             // a rough coat scatters as a rough dielectric interface
@@ -880,11 +877,20 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         if (material < 0) throw SceneError(where, "a shape in a medium needs a material");
         auto [it, added] = mediumMaterials.try_emplace({material, inside, outside}, -1);
         if (added) {
-            cbk::Material m = scene.materials[size_t(material)];
-            m.mediumInside = mediumEntry(inside);
-            m.mediumOutside = mediumEntry(outside);
-            scene.materials.push_back(m);
-            it->second = int(scene.materials.size()) - 1;
+            // A mix picked per point hands the hit its part (mixPartAtPoint), so its chain's
+            // links and parts are copied with the media too.
+            auto copyWithMedia = [&](auto& self, int index) -> int {
+                cbk::Material m = scene.materials[size_t(index)];
+                m.mediumInside = mediumEntry(inside);
+                m.mediumOutside = mediumEntry(outside);
+                if (m.kind == CB_MAT_MIX_AT_POINT) {
+                    m.mixFirst = self(self, m.mixFirst);
+                    m.mixSecond = self(self, m.mixSecond);
+                }
+                scene.materials.push_back(m);
+                return int(scene.materials.size()) - 1;
+            };
+            it->second = copyWithMedia(copyWithMedia, material);
             scene.features |= CB_FEATURE_MEDIUM;
         }
         return it->second;
@@ -1314,6 +1320,7 @@ std::string DeviceScene::featureNames() const {
     add(CB_FEATURE_MEDIUM, "medium");
     add(CB_FEATURE_SAMPLE_CLAMP, "sample-clamp");
     add(CB_FEATURE_NOISE_TEXTURE, "noise-texture");
+    add(CB_FEATURE_MIX_AT_POINT, "mix-at-point");
     names += channels == 16 ? " spectral-16" : " rgb";
     return names;
 }

@@ -1599,19 +1599,6 @@ class Parser {
         return -1;
     }
 
-    int mixPart(int material, const std::string& name, const SourceLocation& where) const {
-        // A mix's sample is weighed by the mixture's pdf, which needs each part's exact density;
-        // the coat's is an estimate (pbrt-v4 instead picks one part per point).
-        const MaterialKind kind = scene_.materials[static_cast<size_t>(material)].kind;
-        if (kind == MaterialKind::CoatedDiffuse || kind == MaterialKind::CoatedConductor) {
-            const char* type =
-                kind == MaterialKind::CoatedDiffuse ? "coateddiffuse" : "coatedconductor";
-            throw SceneError(
-                where, fmt::format("a mix with {0} is not supported (\"{1}\" is {0})", type, name));
-        }
-        return material;
-    }
-
     // ---- Media (pbrt-v4's MakeNamedMedium and MediumInterface) ----------------------------
 
     // The index in scene_.media of the medium `name` (-1 for "", vacuum), made on first mention:
@@ -1756,8 +1743,7 @@ class Parser {
             if (idx < 0)
                 throw SceneError(part.where, "unknown named material \"" + part.name +
                                                  "\" in mix (no MakeNamedMaterial defines it)");
-            scene_.materials[static_cast<size_t>(part.mix)].mix[part.index] =
-                mixPart(idx, part.name, part.where);
+            scene_.materials[static_cast<size_t>(part.mix)].mix[part.index] = idx;
         }
         // A part named before its definition can close a loop of mixes; mixLeaves names it.
         for (size_t i = 0; i < scene_.materials.size(); ++i)
@@ -2034,7 +2020,7 @@ class Parser {
                 if (idx < 0)
                     laterMixParts_.push_back({self, i, mats->strings[i], mats->valueLoc(i)});
                 else
-                    m.mix[i] = mixPart(idx, mats->strings[i], mats->valueLoc(i));
+                    m.mix[i] = idx;
             }
             if (const Param* p = pl.peek("amount")) {
                 const double a = *pl.oneFloat("amount");
