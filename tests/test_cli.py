@@ -237,6 +237,40 @@ with tempfile.TemporaryDirectory() as tmp:
           and "sample-clamp" in r.stdout and "biases the image" in r.stderr,
           f"info shows the film's sample clamp, and its note ({r.stdout.strip()} {r.stderr.strip()})")
 
+    # --max-component-value replaces the file's clamp (inf: none), and is part of the render's
+    # identity: the same value renders the file's bits, combine and --resume refuse a mix.
+    def clamped(out, *extra, seed="1"):
+        return subprocess.run([cbdpt, "render", clamp, "--spp", "2", "--width", "16", "--height",
+                               "16", "--seed", seed, "-q", "-o", out] + list(extra),
+                              capture_output=True, text=True)
+    as_file, same, unclamped = (os.path.join(tmp, n) for n in ("f.exr", "s.exr", "u.exr"))
+    results = [clamped(as_file), clamped(same, "--max-component-value", "0.3"),
+               clamped(unclamped, "--max-component-value", "inf", "--keep-state")]
+    check(all(x.returncode == 0 for x in results), f"clamp overrides render ({results[-1].stderr})")
+    check(same_pixels(as_file, same), "--max-component-value 0.3 renders the file's 0.3 bit for bit")
+    mean_file, mean_free = cr.read_exr(as_file).mean(), cr.read_exr(unclamped).mean()
+    check(mean_free > 1.02 * mean_file,
+          f"without the clamp the image is brighter ({mean_free} vs {mean_file})")
+    attributes = cr.read_exr_attributes(unclamped)
+    check(attributes.get("cbdpt_max_component_value") == "inf"
+          and "cbdpt_max_component_value" not in cr.read_exr_attributes(as_file),
+          f"the override is recorded in the EXR header ({attributes})")
+    other = os.path.join(tmp, "o.exr")
+    clamped(other, "--max-component-value", "inf", seed="2")
+    r = subprocess.run([cbdpt, "combine", as_file, other, "-o", os.path.join(tmp, "c2.exr")],
+                       capture_output=True, text=True)
+    check(r.returncode != 0 and "sample clamp" in r.stderr,
+          f"combine refuses renders of two clamps ({r.returncode}: {r.stderr.strip()})")
+    r = subprocess.run([cbdpt, "render", clamp, "--spp", "4", "--width", "16", "--height", "16",
+                        "--seed", "1", "-q", "-o", unclamped, "--resume"],
+                       capture_output=True, text=True)
+    check(r.returncode != 0 and "max_component_value" in r.stderr,
+          f"--resume without the override is refused ({r.returncode}: {r.stderr.strip()})")
+    for bad in ("0", "-1", "abc", "nan"):
+        r = clamped(other, "--max-component-value", bad)
+        check(r.returncode != 0 and f"--max-component-value {bad}" in r.stderr,
+              f"--max-component-value {bad} is refused by name ({r.returncode}: {r.stderr.strip()})")
+
 # Command-line habits (pbrt-v4's names where it has them) and bad input.
 def run(*args, env=None):
     return subprocess.run([cbdpt, *args], capture_output=True, text=True, env=env,

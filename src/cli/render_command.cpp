@@ -57,6 +57,7 @@ struct RenderOptions {
     int width = 0; // 0: the scene's
     int height = 0;
     std::vector<double> cropWindow; // empty or x0 x1 y0 y1
+    std::string maxComponentValue;  // --max-component-value: empty, the scene's; "inf", none
     bool noRoulette = false;
     bool sppGiven = false;
     bool integratorGiven = false;
@@ -94,6 +95,7 @@ class RenderJob {
     void readShard();
     void checkOutputs() const;
     void applyQuick();
+    void applyMaxComponentValue();
     // --cropwindow's pixel bounds [x0, x1, y0, y1] of the full film, or null.
     nlohmann::json pixelBoundsJson() const {
         return desc_.film.pixelBounds ? nlohmann::json(*desc_.film.pixelBounds) : nlohmann::json();
@@ -215,12 +217,34 @@ void RenderJob::applyQuick() {
     o_.integrator.mltBootstrap = std::max(1L, cb::mltBootstrapSamples(o_.integrator, pixels) / 16);
 }
 
+// --max-component-value: the film's per-sample clamp in place of the file's (pbrt-v4's
+// maxcomponentvalue; inf, its default, clamps nothing), kept in the render's identity and record
+// as its text, since the scene's hash covers only the file's.
+void RenderJob::applyMaxComponentValue() {
+    if (o_.maxComponentValue.empty()) return;
+    double v = 0.0;
+    size_t used = 0;
+    try {
+        v = std::stod(o_.maxComponentValue, &used);
+    } catch (const std::exception&) {
+        used = 0;
+    }
+    if (used != o_.maxComponentValue.size() || !(v > 0.0))
+        throw std::invalid_argument(fmt::format(
+            "--max-component-value {}: expected a positive number (the largest sensor RGB "
+            "component a sample keeps) or inf (no clamp)",
+            o_.maxComponentValue));
+    desc_.film.maxComponentValue = std::isinf(v) ? std::nullopt : std::optional<double>(v);
+    o_.maxComponentValue = fmt::format("{:g}", v);
+}
+
 void RenderJob::readSceneDescription() {
     desc_ = cb::parseSceneFile(o_.scene);
     applySceneDefaults();
     const int fileWidth = desc_.film.width, fileHeight = desc_.film.height;
     if (o_.width > 0) desc_.film.width = o_.width;
     if (o_.height > 0) desc_.film.height = o_.height;
+    applyMaxComponentValue();
     if (o_.quick) applyQuick();
     if (!o_.cropWindow.empty())
         desc_.film.pixelBounds = cb::cropWindowPixels(
@@ -474,6 +498,8 @@ void RenderJob::startAccumulator() {
     // Two independent halves of the estimates, for `cbdpt combine` (image/combine.h).
     accumulator_->trackHalves();
     identity_ = cb::renderIdentity(o_.integrator, desc_, scene_);
+    if (!o_.maxComponentValue.empty())
+        identity_.settings["max_component_value"] = o_.maxComponentValue;
     requireOneRenderOnEveryRank();
     if (o_.resume && root_) resumeOnRoot();
     // A state of an earlier build may hold no halves: every rank's sums must then have none,
@@ -717,6 +743,7 @@ cb::RenderRecord RenderJob::renderRecord(const cb::RenderOutcome& outcome) const
     cb::RenderRecord record = cb::makeRenderRecord(o_.integrator, o_.scene, identity_.sceneHash,
                                                    scene_.channels, outcome);
     if (desc_.film.pixelBounds) record.pixelBounds = cb::pixelBoundsText(*desc_.film.pixelBounds);
+    record.maxComponentValue = o_.maxComponentValue;
     record.renderSeconds += previous_.renderSeconds;
     record.renderCpuSeconds += previous_.renderCpuSeconds;
     return record;
@@ -819,6 +846,10 @@ void addOutputOptions(CLI::App& cmd, RenderOptions& o) {
         ->group(group);
     cmd.add_option("--height", o.height, "film height (default: the scene's)")
         ->check(CLI::Range(1, 32768))
+        ->group(group);
+    cmd.add_option("--max-component-value", o.maxComponentValue,
+                   "clamp each sample's largest sensor RGB component to this, in place of the "
+                   "Film's \"maxcomponentvalue\" (inf: no clamp, an unbiased image)")
         ->group(group);
     cmd.add_option("--cropwindow", o.cropWindow,
                    "x0 x1 y0 y1: render only this part of the film, in [0,1] fractions of it "

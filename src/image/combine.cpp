@@ -175,6 +175,15 @@ void requireCombinable(const std::vector<CombineInput>& inputs) {
         if (ra.sceneHash != rb.sceneHash)
             throw refuse(fmt::format("are of different scenes ({} [{}] vs {} [{}])", ra.sceneFile,
                                      ra.sceneHash, rb.sceneFile, rb.sceneHash));
+        if (ra.maxComponentValue != rb.maxComponentValue) {
+            auto clamp = [](const RenderRecord& r) {
+                return r.maxComponentValue.empty() ? std::string("the scene file's")
+                                                   : "--max-component-value " + r.maxComponentValue;
+            };
+            throw refuse(fmt::format("differ in the film's sample clamp ({} vs {}); render both "
+                                     "with one --max-component-value",
+                                     clamp(ra), clamp(rb)));
+        }
         if (ra.channels != rb.channels)
             throw refuse(fmt::format("differ in colour channels ({} vs {}); render both with one "
                                      "--channels",

@@ -42,6 +42,7 @@ ExrAttributes toExrAttributes(const RenderRecord& r) {
     if (!r.sampler.empty()) a.strings["cbdpt_sampler"] = r.sampler;
     if (!r.pixelBounds.empty()) a.strings["cbdpt_pixel_bounds"] = r.pixelBounds;
     if (!r.strategy.empty()) a.strings["cbdpt_strategy"] = r.strategy;
+    if (!r.maxComponentValue.empty()) a.strings["cbdpt_max_component_value"] = r.maxComponentValue;
     a.ints["cbdpt_eye_vertices"] = r.eyeVertices;
     a.ints["cbdpt_light_vertices"] = r.lightVertices;
     a.ints["cbdpt_max_vertices"] = r.maxVertices;
@@ -93,6 +94,7 @@ RenderRecord renderRecordFromExr(const ExrAttributes& a, const std::string& path
     r.sampler = str("cbdpt_sampler");
     r.pixelBounds = str("cbdpt_pixel_bounds");
     r.strategy = str("cbdpt_strategy");
+    r.maxComponentValue = str("cbdpt_max_component_value");
     r.eyeVertices = integer("cbdpt_eye_vertices");
     r.lightVertices = integer("cbdpt_light_vertices");
     // Absent from files written before the total-length cap was recorded: the caps alone.
@@ -135,6 +137,7 @@ RenderRecord renderRecordFromIdentity(const RenderIdentity& identity) {
         r.pixelBounds = pixelBoundsText(s["pixel_bounds"].get<std::array<int, 4>>());
     if (const auto st = s.value("strategy", std::vector<int>{-1, -1}); st.size() == 2)
         r.strategy = strategyText(st[0], st[1]);
+    r.maxComponentValue = s.value("max_component_value", "");
     r.sceneHash = identity.sceneHash;
     return r;
 }

@@ -29,6 +29,9 @@ struct RenderRecord {
     std::string pixelBounds;
     // --strategy S,T: one BDPT strategy, unweighted (a debugging image); empty otherwise.
     std::string strategy;
+    // --max-component-value V: the film's per-sample clamp given on the command line ("inf":
+    // none); empty where the scene file's holds (its hash covers it).
+    std::string maxComponentValue;
     int channels = 0; // 3 (RGB) or 16 (spectral bins)
     int width = 0, height = 0;
     long estimates = 0;

@@ -1551,7 +1551,7 @@ class Parser {
             note(p->where, "maxcomponentvalue",
                  fmt::format("Film \"float maxcomponentvalue\" {:g}: each sample is clamped as "
                              "pbrt-v4 clamps it, which biases the image (darker where samples "
-                             "exceed it); remove the parameter to render without bias",
+                             "exceed it); render with --max-component-value inf for no clamp",
                              v));
         }
         pl.finish();
