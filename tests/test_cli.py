@@ -245,7 +245,8 @@ with tempfile.TemporaryDirectory() as tmp:
                               capture_output=True, text=True)
     as_file, same, unclamped = (os.path.join(tmp, n) for n in ("f.exr", "s.exr", "u.exr"))
     results = [clamped(as_file), clamped(same, "--max-component-value", "0.3"),
-               clamped(unclamped, "--max-component-value", "inf", "--keep-state")]
+               clamped(unclamped, "--max-component-value", "inf", "--keep-state", "--stats",
+                       stats)]
     check(all(x.returncode == 0 for x in results), f"clamp overrides render ({results[-1].stderr})")
     check(same_pixels(as_file, same), "--max-component-value 0.3 renders the file's 0.3 bit for bit")
     mean_file, mean_free = cr.read_exr(as_file).mean(), cr.read_exr(unclamped).mean()
@@ -255,6 +256,8 @@ with tempfile.TemporaryDirectory() as tmp:
     check(attributes.get("cbdpt_max_component_value") == "inf"
           and "cbdpt_max_component_value" not in cr.read_exr_attributes(as_file),
           f"the override is recorded in the EXR header ({attributes})")
+    check(json.load(open(stats)).get("max_component_value") == "inf",
+          "and in the statistics")
     other = os.path.join(tmp, "o.exr")
     clamped(other, "--max-component-value", "inf", seed="2")
     r = subprocess.run([cbdpt, "combine", as_file, other, "-o", os.path.join(tmp, "c2.exr")],

@@ -579,6 +579,7 @@ nlohmann::json RenderJob::withRenderSettings(nlohmann::json fields) const {
                                  {"width", scene_.camera.width},
                                  {"height", scene_.camera.height},
                                  {"channels", scene_.channels}});
+    if (!o_.maxComponentValue.empty()) fields["max_component_value"] = o_.maxComponentValue;
     return fields;
 }
 
