@@ -1807,6 +1807,26 @@ TEST_CASE("pbrt-v4 coatedconductor: parameters, defaults, refusals") {
                 {"t.pbrt:3:", "unknown or unsupported parameter \"float eta\""});
 }
 
+// pbrt-v4 gives an RGB albedo a sigmoid spectrum fit under D65, so lit by the white of an RGB
+// light it renders as its RGB; cbdpt's spectra (rgbToSpectrum) are fit through its film under
+// that white too. A saturated red plane under a white sky, rendered in spectra: each channel is
+// the albedo, every method.
+TEST_CASE("pbrt-v4 colour: an RGB albedo under a white sky renders as its RGB in spectra" *
+          doctest::test_suite("statistical")) {
+    cb::ClRuntime runtime;
+    const cb::DeviceScene scene = cb::buildDeviceScene(
+        cb::parseSceneString(
+            "LookAt 0 0 3  0 0 0  0 1 0\nCamera \"perspective\" \"float fov\" 20\n"
+            "Film \"rgb\" \"integer xresolution\" 8 \"integer yresolution\" 8\nWorldBegin\n"
+            "LightSource \"infinite\" \"rgb L\" [1 1 1]\n"
+            "Material \"diffuse\" \"rgb reflectance\" [0.7 0.12 0.1]\n"
+            "Shape \"bilinearmesh\" \"point3 P\" [-5 -5 0  5 -5 0  -5 5 0  5 5 0]\n",
+            "t.pbrt"),
+        cb::ChannelMode::Spectral);
+    REQUIRE(scene.channels == 16);
+    checkEveryMethodChannelMeans(scene, runtime, {0.7, 0.12, 0.1}, 16, 64, 700u);
+}
+
 TEST_CASE("pbrt-v4 coatedconductor: BDPT, CBDPT and MLT agree with PT" *
           doctest::test_suite("statistical")) {
     // A floor of rough gold under a smooth coat, a sphere of a smooth conductor under a rough

@@ -234,10 +234,11 @@ bool solveBoxQp(const std::vector<double>& h, const std::vector<double>& g,
     return false;
 }
 
-// The smoothest 16-bin reflectance in [0,1] whose linear sRGB is exactly `target` (Smits 1999
-// asks for the same: smooth, bounded, matching). Smoothness is the squared first difference
-// between adjacent bins; a tiny ridge makes the objective strictly convex. If no bounded
-// spectrum matches exactly, the match becomes a stiff penalty instead.
+// The smoothest 16-bin reflectance in [0,1] whose film colour, lit by the white of RGB lights, is
+// exactly `target` (Smits 1999 asks for the same: smooth, bounded, matching; pbrt-v4 fits its
+// RGB albedo spectra under D65 likewise, so that such a reflectance renders as its RGB). Smoothness
+// is the squared first difference between adjacent bins; a tiny ridge makes the objective strictly
+// convex. If no bounded spectrum matches exactly, the match becomes a stiff penalty instead.
 std::array<float, kSpectralBins> smoothestReflectance(const Vec3d& target) {
     constexpr int n = kSpectralBins;
     std::vector<double> h(n * n, 0.0), g(n, 0.0);
@@ -249,8 +250,12 @@ std::array<float, kSpectralBins> smoothestReflectance(const Vec3d& target) {
     }
     for (int i = 0; i < n; ++i)
         h[i * n + i] += 1e-6;
-    const auto& mm = spectralMatrix();
-    std::vector<double> a(mm.begin(), mm.end()), b(target.begin(), target.end()), s;
+    // The film's matrix times the white (whiteIlluminantBins, whose film colour is (1,1,1)).
+    const std::vector<float> film = filmMatrix(kSpectralBins, FilmColour{});
+    std::vector<double> a(3 * n), b(target.begin(), target.end()), s;
+    for (int c = 0; c < 3; ++c)
+        for (int i = 0; i < n; ++i)
+            a[c * n + i] = double(film[c * n + i]) * whiteIlluminantBins()[i];
     if (!solveBoxQp(h, g, a, b, n, 3, s)) {
         constexpr double w = 1e6;
         for (int i = 0; i < n; ++i) {

@@ -62,9 +62,11 @@ std::array<float, 3> spectrumToRgb(const PiecewiseLinear& s);
 std::array<float, 3> binsToRgb(const std::array<float, kSpectralBins>& bins);
 
 // 16-bin spectrum for an RGB parameter in a spectral scene, after Smits 1999 ("An RGB-to-spectrum
-// conversion for reflectances"): white + one secondary + one primary basis spectrum. (1,1,1)
-// maps to the flat spectrum 1 exactly; rgb in [0,1]^3 gives bins in [0,1]; the map is
-// positively homogeneous, so emission (rgb > 1) scales linearly.
+// conversion for reflectances"): white + one secondary + one primary basis spectrum, each fit so
+// that, lit by the white of RGB lights (whiteIlluminantBins), it renders through the film as its
+// target, as pbrt-v4's albedo spectra do under D65. (1,1,1) maps to the flat spectrum 1 exactly;
+// rgb in [0,1]^3 gives bins in [0,1] and renders as rgb under that white; the map is positively
+// homogeneous, so emission (rgb > 1) scales linearly.
 std::array<float, kSpectralBins> rgbToSpectrum(std::array<float, 3> rgb);
 
 // The seven basis spectra used by rgbToSpectrum, in the order white, cyan, magenta, yellow, red,
