@@ -132,26 +132,36 @@ TEST_CASE("mix at point: which mixes pick a part per point, and the parts' share
 
 TEST_CASE("mix at point: a part found at a boundary keeps the boundary's media") {
     TempDirCleanup cleanup;
-    const cb::DeviceScene scene = cb::buildDeviceScene(parseInTemp(
-        "MakeNamedMedium \"ink\" \"string type\" \"homogeneous\" \"rgb sigma_a\" [1 2 3] "
-        "\"rgb sigma_s\" [0 0 0]\nWorldBegin\nLightSource \"infinite\"\n" +
-        kCoat + kRed +
-        "MakeNamedMaterial \"m\" \"string type\" \"mix\" \"string materials\" [\"coat\" \"red\"]\n"
-        "AttributeBegin\nMediumInterface \"ink\" \"\"\n" +
-        floorOf("m") + "AttributeEnd\n"));
-    const cbk::Material& boundary = scene.materials[size_t(scene.bvh.primitives[0].material)];
-    REQUIRE(boundary.mediumInside >= 0);
-    CHECK(boundary.kind == CB_MAT_MIX_AT_POINT);
-    const std::vector<int> count = partsFound(scene, 2000);
-    int kinds = 0;
-    for (size_t m = 0; m < count.size(); ++m) {
-        if (count[m] == 0) continue;
-        CAPTURE(m);
-        ++kinds;
-        CHECK(scene.materials[m].mediumInside == boundary.mediumInside);
-        CHECK(scene.materials[m].mediumOutside == -1);
+    // A mix of two parts, and one of three, two levels deep (its chain's links copied too).
+    const std::string gold =
+        "MakeNamedMaterial \"gold\" \"string type\" \"conductor\" \"float roughness\" 0.2\n"
+        "MakeNamedMaterial \"inner\" \"string type\" \"mix\" \"string materials\" "
+        "[\"coat\" \"gold\"]\n";
+    for (const auto& [mix, parts] :
+         {std::pair{std::string("[\"coat\" \"red\"]"), 2},
+          std::pair{std::string("[\"red\" \"inner\"] \"float amount\" 0.7"), 3}}) {
+        CAPTURE(mix);
+        const cb::DeviceScene scene = cb::buildDeviceScene(parseInTemp(
+            "MakeNamedMedium \"ink\" \"string type\" \"homogeneous\" \"rgb sigma_a\" [1 2 3] "
+            "\"rgb sigma_s\" [0 0 0]\nWorldBegin\nLightSource \"infinite\"\n" +
+            kCoat + kRed + gold +
+            "MakeNamedMaterial \"m\" \"string type\" \"mix\" \"string materials\" " + mix +
+            "\nAttributeBegin\nMediumInterface \"ink\" \"\"\n" + floorOf("m") + "AttributeEnd\n"));
+        const cbk::Material& boundary = scene.materials[size_t(scene.bvh.primitives[0].material)];
+        REQUIRE(boundary.mediumInside >= 0);
+        CHECK(boundary.kind == CB_MAT_MIX_AT_POINT);
+        const std::vector<int> count = partsFound(scene, 3000);
+        int kinds = 0;
+        for (size_t m = 0; m < count.size(); ++m) {
+            if (count[m] == 0) continue;
+            CAPTURE(m);
+            ++kinds;
+            CHECK(scene.materials[m].kind != CB_MAT_MIX_AT_POINT);
+            CHECK(scene.materials[m].mediumInside == boundary.mediumInside);
+            CHECK(scene.materials[m].mediumOutside == -1);
+        }
+        CHECK(kinds == parts);
     }
-    CHECK(kinds == 2);
 }
 
 // The floor lit by a disk light the camera does not see, nothing else in the scene: every path
