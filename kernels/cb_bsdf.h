@@ -1343,11 +1343,8 @@ CB_FN bool bsdfSample(const SceneView* scene, int material, TexCoord uv, Frame f
         real pick = 1.0f, uRest = uLobe;
         Material c = m;
         while (c.kind == CB_MAT_MIX) {
-            real a = c.mixAmount;
-            bool second = uRest < a;
-            pick *= second ? a : 1.0f - a;
-            uRest = cbClamp(second ? uRest / a : (uRest - a) / (1.0f - a), 0.0f, 0.99999994f);
-            c = scene->materials[second ? c.mixSecond : c.mixFirst];
+            pick *= uRest < c.mixAmount ? c.mixAmount : 1.0f - c.mixAmount;
+            c = scene->materials[mixLinkChoose(c, &uRest)];
         }
         if (!cbLobeSample(scene, c, uv, lo, entering, u0, u1, uRest, adjoint, &s)) return false;
         if (s.isDelta) {

@@ -563,10 +563,7 @@ CB_FN int mixPartAtPoint(const SceneView* scene, int material, Vec3 p) {
     h = cbHashCombine(cbHashCombine(h, cbFloatBits(p.y)), cbFloatBits(p.z));
     real u = (real)(h >> 8) * (1.0f / 16777216.0f);
     while (m.kind == CB_MAT_MIX_AT_POINT) { /* a chain of links, as cbMixEval's */
-        real a = m.mixAmount;
-        bool second = u < a;
-        u = cbClamp(second ? u / a : (u - a) / (1.0f - a), 0.0f, 0.99999994f);
-        material = second ? m.mixSecond : m.mixFirst;
+        material = mixLinkChoose(m, &u);
         m = scene->materials[material];
     }
     return material;

@@ -245,6 +245,16 @@ typedef struct Material {
     int mediumOutside;
 } Material;
 
+/* One link of a mix chain (CB_MAT_MIX, CB_MAT_MIX_AT_POINT) chosen by a uniform u: the second part
+ * where u < amount. Returns that part's index and rescales u to [0,1) within the choice, so the
+ * next link (or the part's own lobe) can use it; the choice stays monotone in u. */
+CB_FN int mixLinkChoose(Material link, real* u) {
+    bool second = *u < link.mixAmount;
+    *u = cbClamp(second ? *u / link.mixAmount : (*u - link.mixAmount) / (1.0f - link.mixAmount),
+                 0.0f, 0.99999994f);
+    return second ? link.mixSecond : link.mixFirst;
+}
+
 #define CB_DISPERSION_KNOTS_PER_BIN 4
 #define CB_DISPERSION_KNOTS (CB_DISPERSION_KNOTS_PER_BIN * CB_CHANNELS + 1)
 
