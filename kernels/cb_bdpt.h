@@ -49,6 +49,10 @@ CB_BEGIN_NAMESPACE
  * light's), or the last eye vertex of an eye subpath that escaped, whose pdfFwd stays the
  * solid-angle density of the escaping direction (pbrt-v4's BDPT). */
 #define CB_VERTEX_INFINITE_LIGHT 5
+/* A point inside a scattering medium (CB_FEATURE_SCATTERING) where the subpath scattered: no
+ * surface (n and ns 0, no cosines), the phase function of its medium (PathVertex.medium) for a
+ * BSDF. */
+#define CB_VERTEX_MEDIUM 6
 
 #define CB_WEIGHTS_POWER 0
 #define CB_WEIGHTS_LAFORTUNE 1
@@ -60,7 +64,7 @@ CB_BEGIN_NAMESPACE
 typedef struct PathVertex {
     real p[3];
     int type;     /* CB_VERTEX_* */
-    real n[3];    /* unit geometric normal; the viewing direction for the camera; 0: point light */
+    real n[3];    /* unit geometric normal; the camera's viewing direction; 0: point light */
     int material; /* surfaces; -1 otherwise */
     real pError[3];
     int light;   /* light index of light[0], or of the area light a surface vertex lies on; -1 */
@@ -223,11 +227,43 @@ CB_FN real pvAbsCos(const PathVertex* v, Vec3 w) {
     return pvOnSurface(v) ? vabsdot(pvN(v), w) : 1.0f;
 }
 
-/* Shading normals (scatterCos): a light subpath vertex's factor |ns . wo| / |ng . wo| toward
- * the vertex it came from. The walk puts it in the next vertex's beta; where the subpath ends in
- * a connection or in light tracing, that step multiplies it in. */
+/* Shading normals (scatterCos): |ns . w| / |ng . w| at a surface vertex, 1 in a medium. */
+CB_FN real pvShadingRatio(const PathVertex* v, Vec3 w) {
+#if CB_HAS(CB_FEATURE_SCATTERING)
+    if (v->type == CB_VERTEX_MEDIUM) return 1.0f;
+#endif
+    return shadingRatio(pvN(v), pvNs(v), w);
+}
+
+/* A light subpath vertex's shading factor toward the vertex it came from. The walk puts it in
+ * the next vertex's beta; where the subpath ends in a connection or in light tracing, that step
+ * multiplies it in. */
 CB_FN real pvLightSideShading(const PathVertex* v) {
-    return shadingRatio(pvN(v), pvNs(v), vec3FromArray(v->wo));
+    return pvShadingRatio(v, vec3FromArray(v->wo));
+}
+
+/* f of scattering at vertex v (a surface's BSDF, or in a medium the phase function) from wo to
+ * wi, unit directions away from v, and its densities both ways (bsdfEval's). */
+CB_FN Spectrum pvScatter(const SceneView* scene, const PathVertex* v, Vec3 wo, Vec3 wi, int adjoint,
+                         real* pdfFwd, real* pdfRev) {
+#if CB_HAS(CB_FEATURE_SCATTERING)
+    if (v->type == CB_VERTEX_MEDIUM) {
+        /* Henyey-Greenstein is symmetric: the reverse density is the same. */
+        real phase = phaseHenyeyGreenstein(vdot(vneg(wo), wi), mediumAsymmetry(scene, v->medium));
+        *pdfFwd = *pdfRev = phase;
+        return specConst(phase);
+    }
+#endif
+    return bsdfEval(scene, v->material, pvUv(v), pvFrame(v), wo, wi, adjoint, pdfFwd, pdfRev);
+}
+
+/* Whether a connection can join vertex v by its non-delta part: a medium's phase function always
+ * can. */
+CB_FN bool pvConnectible(const SceneView* scene, const PathVertex* v) {
+#if CB_HAS(CB_FEATURE_SCATTERING)
+    if (v->type == CB_VERTEX_MEDIUM) return true;
+#endif
+    return materialHasNonDelta(scene, v->material);
 }
 
 /* Solid-angle density at `from` of the direction to `to`, as an area density at `to`
@@ -360,6 +396,46 @@ CB_FN real bdptSkyNeeRatio(const SceneView* scene, int lightIndex, Vec3 y1, Vec3
 
 /* ---- Subpath generation -------------------------------------------------------------------- */
 
+#if CB_HAS(CB_FEATURE_SCATTERING)
+/* bdptWalkStep's vertex where *ray (leaving prev) scattered in `medium` at distance t: a
+ * CB_VERTEX_MEDIUM vertex into *v (vertex count), then, unless the subpath has maxVertices
+ * vertices, the next *ray by the phase function, whose weight f / pdf is 1 (*beta stays).
+ * Returns bdptWalkStep's 1 or 2. */
+CB_FN int bdptMediumStep(const SceneView* scene, Ray* ray, Spectrum* beta, real* pdfW,
+                         SampleStream stream, uint firstBounceDim, PathVertex* prev, PathVertex* v,
+                         int count, int maxVertices, int medium, real t) {
+    Vec3 p = vmadd(ray->o, ray->d, t);
+    cbStore3(v->p, p);
+    cbStore3(v->n, vec3(0.0f, 0.0f, 0.0f));
+    cbStore3(v->ns, vec3(0.0f, 0.0f, 0.0f));
+    v->hero = prev->hero;
+    cbStore3(v->pError, vec3(0.0f, 0.0f, 0.0f));
+    cbStore3(v->wo, vneg(ray->d));
+    v->type = CB_VERTEX_MEDIUM;
+    v->material = -1;
+    v->light = -1;
+    v->delta = 0;
+    v->pdfRev = 0.0f;
+    v->uv[0] = v->uv[1] = 0.0f;
+    pvClearTail(v);
+    v->medium = medium;
+    v->beta = *beta;
+    v->pdfFwd = pvConvertPdf(*pdfW, pvP(prev), v);
+    uint base = firstBounceDim + (uint)(count - 1) * CB_DIMS_PER_BOUNCE;
+    if (count + 1 >= maxVertices) return 1;
+    real u0, u1, pdf;
+    sampleAt2(stream, base + CB_SLOT_BSDF_DIRECTION, &u0, &u1);
+    Vec3 wi = phaseHenyeyGreensteinSample(ray->d, mediumAsymmetry(scene, medium), u0, u1, &pdf);
+    if (!(pdf > 0.0f)) return 1;
+    /* Henyey-Greenstein is symmetric: the reverse density is the same. */
+    prev->pdfRev = pvConvertPdf(pdf, p, prev);
+    *pdfW = pdf;
+    ray->o = p;
+    ray->d = wi;
+    return 2;
+}
+#endif
+
 /* One step of a subpath's random walk: the vertex that *ray (leaving prev, path vertex
  * count - 1, with solid-angle density *pdfW and throughput *beta) found (found, hit), or on an
  * escape the infinite light, written to *v (vertex count); then, unless the subpath has
@@ -371,10 +447,28 @@ CB_FN int bdptWalkStep(const SceneView* scene, bool found, Hit hit, Ray* ray, Sp
                        real* pdfW, int adjoint, SampleStream stream, uint firstBounceDim,
                        PathVertex* prev, PathVertex* v, int count, int maxVertices) {
     int medium = pvMediumToward(scene, prev, ray->d);
-#if CB_HAS(CB_FEATURE_MEDIUM)
-    /* The ray's way through its medium (every subpath ray has a unit direction). */
-    *beta = specMul(*beta, mediumTransmittance(scene, medium, found ? hit.t : CB_INFINITY));
+#if CB_HAS(CB_FEATURE_SCATTERING)
+    if (mediumScatters(scene, medium)) {
+        /* The ray may scatter in the medium before the surface (mediumSampleDistance). */
+        real uChannel, uDistance, t;
+        Spectrum weight;
+        sampleAt2(stream, mediumDistanceDimension(firstBounceDim, maxVertices, count - 1),
+                  &uChannel, &uDistance);
+        bool scattered = mediumSampleDistance(scene, medium, *beta, found ? hit.t : CB_INFINITY,
+                                              uChannel, uDistance, &t, &weight);
+        *beta = specMul(*beta, weight);
+        if (specIsBlack(*beta)) return 0;
+        if (scattered)
+            return bdptMediumStep(scene, ray, beta, pdfW, stream, firstBounceDim, prev, v, count,
+                                  maxVertices, medium, t);
+    } else
 #endif
+    {
+#if CB_HAS(CB_FEATURE_MEDIUM)
+        /* The ray's way through its medium (every subpath ray has a unit direction). */
+        *beta = specMul(*beta, mediumTransmittance(scene, medium, found ? hit.t : CB_INFINITY));
+#endif
+    }
     if (!found) {
         /* An escaped eye ray ends on the infinite light, if the scene has one. */
         int infinite = adjoint ? -1 : lightInfinite(scene);
@@ -759,13 +853,15 @@ CB_FN real bdptLafortuneW(const SceneView* scene, const PathVertex* light, int s
     int k = s + t;
     real w;
     int deltaHere, deltaNext;
-    if (j < t) {
-        w = materialSpecularity(scene, eye[j].material);
-        deltaHere = j == t - 1 ? 0 : eye[j].delta;
-    } else {
-        w = materialSpecularity(scene, light[k - 1 - j].material);
-        deltaHere = j == t ? 0 : light[k - 1 - j].delta;
-    }
+    const PathVertex* v = j < t ? &eye[j] : &light[k - 1 - j];
+#if CB_HAS(CB_FEATURE_SCATTERING)
+    /* A medium's phase function connects as a diffuse surface does. */
+    if (v->type == CB_VERTEX_MEDIUM)
+        w = 0.0f;
+    else
+#endif
+        w = materialSpecularity(scene, v->material);
+    deltaHere = j == t - 1 || j == t ? 0 : v->delta;
     int n = j + 1;
     if (n >= k - 1)
         deltaNext = 0; /* the light point */
@@ -878,8 +974,7 @@ CB_FN bool bdptConnectUnoccluded(const SceneView* scene, const Camera* camera,
         real we = cameraImportance(camera, vneg(w), &pdfCamDir);
         if (!(we > 0.0f)) return false;
         real pdfFwd, pdfRev;
-        Spectrum f = bsdfEval(scene, qs->material, pvUv(qs), pvFrame(qs), vec3FromArray(qs->wo), w,
-                              1, &pdfFwd, &pdfRev);
+        Spectrum f = pvScatter(scene, qs, vec3FromArray(qs->wo), w, 1, &pdfFwd, &pdfRev);
         if (specIsBlack(f)) return false;
         Vec3 forward = pvN(&eye[0]);
         real cosCam = vdot(vneg(w), forward);
@@ -898,14 +993,13 @@ CB_FN bool bdptConnectUnoccluded(const SceneView* scene, const Camera* camera,
         return true;
     }
     const PathVertex* pt = &eye[t - 1];
-    if (pvAtInfinity(pt) || !materialHasNonDelta(scene, pt->material)) return false;
+    if (pvAtInfinity(pt) || !pvConnectible(scene, pt)) return false;
     Vec3 d = vsub(pvP(qs), pvP(pt));
     real dist2 = vlength2(d);
     if (!(dist2 > 0.0f)) return false;
     Vec3 w = vscale(d, 1.0f / sqrt(dist2)); /* pt -> qs */
     real ptFwd, ptRev;
-    Spectrum fPt = bsdfEval(scene, pt->material, pvUv(pt), pvFrame(pt), vec3FromArray(pt->wo), w, 0,
-                            &ptFwd, &ptRev);
+    Spectrum fPt = pvScatter(scene, pt, vec3FromArray(pt->wo), w, 0, &ptFwd, &ptRev);
     if (specIsBlack(fPt)) return false;
     Spectrum fQs;
     real qsFwd, qsRev = 0.0f;
@@ -914,13 +1008,12 @@ CB_FN bool bdptConnectUnoccluded(const SceneView* scene, const Camera* camera,
         fQs = bdptLightEmission(scene, qs, vneg(w));
         qsFwd = bdptLightDirectionPdf(scene, qs, vneg(w));
     } else {
-        fQs = bsdfEval(scene, qs->material, pvUv(qs), pvFrame(qs), vec3FromArray(qs->wo), vneg(w),
-                       1, &qsFwd, &qsRev);
+        fQs = pvScatter(scene, qs, vec3FromArray(qs->wo), vneg(w), 1, &qsFwd, &qsRev);
     }
     if (specIsBlack(fQs)) return false;
     /* A light at infinity has no distance falloff (its radiance arrives undiminished). */
     real invDist2 = pvAtInfinity(qs) ? 1.0f : 1.0f / dist2;
-    real g = pvAbsCos(pt, w) * pvAbsCos(qs, w) * invDist2 * shadingRatio(pvN(pt), pvNs(pt), w);
+    real g = pvAbsCos(pt, w) * pvAbsCos(qs, w) * invDist2 * pvShadingRatio(pt, w);
     if (s >= 2) g *= pvLightSideShading(qs);
     out->contribution = specScale(specMul(specMul(qs->beta, fQs), specMul(fPt, pt->beta)), g);
 #if CB_HAS(CB_FEATURE_MEDIUM)

@@ -601,38 +601,6 @@ CB_FN bool layerBaseSample(LayerBase base, Vec3 wo, real u0, real u1, Vec3* wi, 
     return wi->z > 0.0f;
 }
 
-/* The Henyey-Greenstein phase function of asymmetry g at mu, the cosine between the propagation
- * directions before and after scattering (g > 0 scatters forward; pbrt-v4's HGPhaseFunction). g
- * is kept within 0.99 of 0, as pbrt-v4 keeps it: closer to +-1 the float inversion below drifts
- * from this density. Below 1e-3 it is 0, the uniform sphere the inversion then samples. */
-CB_FN real layerPhaseG(real g) {
-    return fabs(g) < 1e-3f ? 0.0f : cbClamp(g, -0.99f, 0.99f);
-}
-
-CB_FN real layerPhase(real mu, real g) {
-    g = layerPhaseG(g);
-    real denom = 1.0f + g * g - 2.0f * g * mu;
-    return CB_INV_4PI * (1.0f - g * g) / (denom * cbSafeSqrt(denom));
-}
-
-/* A propagation direction after scattering from w, mu by inverting the phase function's
- * distribution, mu = (1 + g^2 - ((1 - g^2) / (1 - g + 2 g u))^2) / (2 g); its density in *pdf. */
-CB_FN Vec3 layerPhaseSample(Vec3 w, real g, real u0, real u1, real* pdf) {
-    real mu;
-    g = layerPhaseG(g);
-    if (g == 0.0f) {
-        mu = 1.0f - 2.0f * u0;
-    } else {
-        real s = (1.0f - g * g) / (1.0f - g + 2.0f * g * u0);
-        mu = (1.0f + g * g - s * s) / (2.0f * g);
-    }
-    mu = cbClamp(mu, -1.0f, 1.0f);
-    real r = cbSafeSqrt(1.0f - mu * mu);
-    *pdf = layerPhase(mu, g);
-    return frameToWorld(frameFromNormal(w),
-                        vec3(r * cbCosPi(2.0f * u1), r * cbSinPi(2.0f * u1), mu));
-}
-
 /* A free flight in the layer (extinction 1 per unit of thickness) from height z along w: where
  * it scatters, or, where that is beyond the layer, the interface it reaches (0 the base,
  * thickness the coat), with the probability of getting there. */
@@ -657,8 +625,8 @@ CB_FN Spectrum layerMirrorChains(LayerBase base, Material m, Vec3 w, Vec3 exit, 
     Spectrum fBase = layerBaseFresnel(base, mu);
     Vec3 up = vneg(exit), down = vec3(-exit.x, -exit.y, exit.z);
     int upRounds = (m.layerDepth - depth + 1) / 2, downRounds = (m.layerDepth - depth) / 2;
-    real viaUp = layerPhase(vdot(w, up), m.layerG) * exp(-(m.thickness - z) / mu);
-    real viaDown = layerPhase(vdot(w, down), m.layerG) * exp(-z / mu) * tau;
+    real viaUp = phaseHenyeyGreenstein(vdot(w, up), m.layerG) * exp(-(m.thickness - z) / mu);
+    real viaDown = phaseHenyeyGreenstein(vdot(w, down), m.layerG) * exp(-z / mu) * tau;
     Spectrum out;
     for (int c = 0; c < CB_CHANNELS; ++c) {
         real q = rIn * fBase.c[c] * tau * tau; /* one round: coat, base, both ways through */
@@ -800,7 +768,7 @@ CB_FN Spectrum layeredEval(LayerBase base, Material m, Vec3 wo, Vec3 wi, int adj
                      * the base. */
                     real pPhase;
                     if (c.hasExit) {
-                        real pNee = layerPhase(vdot(w, vneg(exit)), m.layerG);
+                        real pNee = phaseHenyeyGreenstein(vdot(w, vneg(exit)), m.layerG);
                         real nee = rough ? powerHeuristic(pExit, pNee) : 1.0f;
                         real mu = fabs(exit.z);
                         Spectrum toExit = specConst(pNee * nee * exp(-(m.thickness - next) / mu));
@@ -812,7 +780,7 @@ CB_FN Spectrum layeredEval(LayerBase base, Material m, Vec3 wo, Vec3 wi, int adj
                                                  c.fExit / pExit));
                     }
                     real u0 = layerRngNext(&rng), u1 = layerRngNext(&rng);
-                    w = layerPhaseSample(w, m.layerG, u0, u1, &pPhase);
+                    w = phaseHenyeyGreensteinSample(w, m.layerG, u0, u1, &pPhase);
                     beta = specMul(beta, base.albedo); /* p / pdf = 1 */
                     z = next;
                     if (rough && w.z > 0.0f) {
@@ -921,7 +889,7 @@ CB_FN bool layeredSample(LayerBase base, Material m, Vec3 wo, real u0, real u1, 
                 if (next > 0.0f && next < m.thickness) {
                     real pPhase;
                     real p0 = layerRngNext(&rng), p1 = layerRngNext(&rng);
-                    w = layerPhaseSample(w, m.layerG, p0, p1, &pPhase);
+                    w = phaseHenyeyGreensteinSample(w, m.layerG, p0, p1, &pPhase);
                     f = specScale(specMul(f, base.albedo), pPhase);
                     pdf *= pPhase;
                     specular = false;

@@ -693,13 +693,14 @@ CB_FN Ray spawnRay(SurfacePoint sp, Vec3 dir) {
     return r;
 }
 
-/* pbrt-v4 SpawnRayTo between two interactions: both ends are offset off their surfaces
- * (the target towards the origin), the direction is normalised, and tMax stops just short of
- * the offset target. For a point light pass targetError = targetNormal = 0. */
-CB_FN Ray spawnRayTo(SurfacePoint from, Vec3 target, Vec3 targetError, Vec3 targetNormal,
-                     real* tMax) {
+/* A ray from `origin` (already off its surface, or a point in a medium) to `target`, offset off
+ * its surface towards the origin; the direction normalised, tMax just short of the offset
+ * target; `fallback` the direction where the two meet. For a point light pass targetError =
+ * targetNormal = 0. */
+CB_FN Ray spawnRayFromTo(Vec3 origin, Vec3 fallback, Vec3 target, Vec3 targetError,
+                         Vec3 targetNormal, real* tMax) {
     Ray r;
-    r.o = offsetRayOrigin(from.p, from.pError, from.ng, vsub(target, from.p));
+    r.o = origin;
     Vec3 pt = offsetRayOrigin(target, targetError, targetNormal, vsub(r.o, target));
     Vec3 d = vsub(pt, r.o);
     real len = vlength(d);
@@ -707,10 +708,18 @@ CB_FN Ray spawnRayTo(SurfacePoint from, Vec3 target, Vec3 targetError, Vec3 targ
         r.d = vscale(d, 1.0f / len);
         *tMax = len * (1.0f - CB_SHADOW_EPSILON);
     } else {
-        r.d = from.ng;
+        r.d = fallback;
         *tMax = 0.0f;
     }
     return r;
+}
+
+/* pbrt-v4 SpawnRayTo between two interactions: both ends are offset off their surfaces
+ * (spawnRayFromTo). */
+CB_FN Ray spawnRayTo(SurfacePoint from, Vec3 target, Vec3 targetError, Vec3 targetNormal,
+                     real* tMax) {
+    return spawnRayFromTo(offsetRayOrigin(from.p, from.pError, from.ng, vsub(target, from.p)),
+                          from.ng, target, targetError, targetNormal, tMax);
 }
 
 CB_END_NAMESPACE

@@ -63,20 +63,137 @@ CB_FN PtPath ptPathBegin(int medium) {
     return path;
 }
 
+/* Next-event estimation's light point from p at `bounce`, from that bounce's light dimensions
+ * (lightSampleFrom). With one light lightChoose reads no number, so none is drawn. */
+CB_FN bool ptLightSampleFrom(const SceneView* scene, Vec3 p, SampleStream stream, int bounce,
+                             LightSample* ls) {
+    real uChoice = scene->lightCount > 1
+                       ? sampleAt(stream, bounceDimension(bounce, CB_SLOT_LIGHT_CHOICE))
+                       : 0.0f;
+    real uLight0, uLight1;
+    sampleAt2(stream, bounceDimension(bounce, CB_SLOT_LIGHT_POINT), &uLight0, &uLight1);
+    return lightSampleFrom(scene, p, uChoice, uLight0, uLight1, ls);
+}
+
+/* Next-event estimation's light point *ls seen from p: the radiance arriving from it (black
+ * where the light sends none that way), the unit direction *wi to it, its squared distance
+ * *dist2, the pdf *pdfLightW of choosing it in solid angle at p, and the length *distance of
+ * the shadow ray's way through a medium (CB_INFINITY to a light at infinity). */
+CB_FN Spectrum ptLightArriving(const SceneView* scene, Vec3 p, const LightSample* ls, Vec3* wi,
+                               real* dist2, real* pdfLightW, real* distance) {
+    Vec3 toLight = vsub(ls->p, p);
+    *dist2 = vlength2(toLight);
+    *wi = vscale(toLight, 1.0f / sqrt(*dist2));
+    Spectrum emitted;
+    if (ls->isDelta) {
+        emitted = deltaLightArriving(scene, ls, *wi, *dist2, pdfLightW);
+    } else {
+        emitted = lightSeenThroughPortal(scene, ls->light, p, *wi)
+                      ? lightEmittedRadiance(scene, ls->light, ls->n, vneg(*wi))
+                      : specZero();
+        real cosLight = vabsdot(ls->n, *wi);
+        *pdfLightW = ls->pdfSolidAngle > 0.0f ? ls->pdfPick * ls->pdfSolidAngle
+                                              : ls->pdfPick * ls->pdfArea * *dist2 / cosLight;
+    }
+    int kind = scene->lights[ls->light].kind;
+    *distance = kind == CB_LIGHT_DISTANT || kind == CB_LIGHT_INFINITE ? CB_INFINITY : sqrt(*dist2);
+    if (!(*pdfLightW > 0.0f) || !isfinite(*pdfLightW)) return specZero();
+    return emitted;
+}
+
+/* Russian roulette when leaving `vertex` (rouletteSurvival); returns whether the path survives,
+ * its throughput divided by the survival probability. */
+CB_FN bool ptRoulette(PtPath* path, SampleStream stream, PathSettings settings, int vertex) {
+    if (settings.rouletteVertex <= 0 || vertex < settings.rouletteVertex) return true;
+    real survival = rouletteSurvival(path->throughput);
+    if (sampleAt(stream, bounceDimension(vertex - 1, CB_SLOT_ROULETTE)) >= survival) return false;
+    path->throughput = specScale(path->throughput, 1.0f / survival);
+    return true;
+}
+
+#if CB_HAS(CB_FEATURE_SCATTERING)
+/* Vertex x_k in the medium the path travels in, at p, reached along unit direction d:
+ * next-event estimation through the medium (the phase function for the BSDF, weighed by the
+ * power heuristic against phase sampling) and the next ray by the phase function's sample, whose
+ * weight phase / pdf is 1 (pbrt-v4's volpath). Media emit nothing (pbrt-v4's "Le" is refused). */
+CB_FN bool ptMediumVertex(const SceneView* scene, PtPath* path, Ray* ray, Vec3 p,
+                          SampleStream stream, PathSettings settings, Ray* shadow,
+                          real* shadowTMax) {
+    int vertex = path->vertex;
+    int bounce = vertex - 1;
+    if (vertex + 1 >= settings.eyeVertices) return false;
+    real g = mediumAsymmetry(scene, path->medium);
+    Vec3 d = ray->d;
+
+    LightSample ls;
+    if (ptLightSampleFrom(scene, p, stream, bounce, &ls)) {
+        Vec3 wi;
+        real dist2, pdfLightW, distance;
+        Spectrum emitted = ptLightArriving(scene, p, &ls, &wi, &dist2, &pdfLightW, &distance);
+        if (!specIsBlack(emitted)) {
+            /* The ray leaves a point inside the medium: no surface to offset it from. */
+            *shadow = spawnRayFromTo(p, wi, ls.p, ls.pError, ls.n, shadowTMax);
+            real phase = phaseHenyeyGreenstein(vdot(d, wi), g);
+            real weight =
+                lightFoundByRays(scene, ls.light) ? powerHeuristic(pdfLightW, phase) : 1.0f;
+            path->shadowTerm =
+                specMul(specScale(specMul(path->throughput, emitted), phase * weight / pdfLightW),
+                        mediumTransmittance(scene, path->medium, distance));
+            path->shadowPending = 1;
+        }
+    }
+
+    real u0, u1, pdf;
+    sampleAt2(stream, bounceDimension(bounce, CB_SLOT_BSDF_DIRECTION), &u0, &u1);
+    Vec3 wi = phaseHenyeyGreensteinSample(d, g, u0, u1, &pdf);
+    if (!(pdf > 0.0f)) return false;
+    path->previousPdfW = pdf;
+    path->previousDelta = 0;
+    path->previousP = p;
+    if (!ptRoulette(path, stream, settings, vertex)) return false;
+    ray->o = p;
+    ray->d = wi;
+    path->vertex = vertex + 1;
+    return true;
+}
+#endif
+
 /* The vertex x_k that *ray found (found, hit) or the escape: emission seen there, next-event
  * estimation's shadow ray (*shadow, *shadowTMax, path->shadowPending; the caller traces it and
  * calls ptPathShadow) and the next ray into *ray. Vertex 0 is the camera; the vertex found by the
  * k-th ray is x_k. Emission found at x_k closes a path of k+1 vertices, next-event estimation at
  * x_k closes one of k+2 vertices, so both strategies exist exactly when k+2 <= Ne and are then
- * combined with the power heuristic (Veach 1997, ch. 9). Returns whether the path goes on. */
+ * combined with the power heuristic (Veach 1997, ch. 9). In a scattering medium x_k may be a
+ * point of the medium before the surface (ptMediumVertex). Returns whether the path goes on. */
 CB_FN bool ptPathVertex(const SceneView* scene, PtPath* path, Ray* ray, bool found, Hit hit,
                         SampleStream stream, PathSettings settings, Ray* shadow, real* shadowTMax) {
     path->shadowPending = 0;
-#if CB_HAS(CB_FEATURE_MEDIUM)
-    /* The ray's way through its medium (camera and bounce rays have unit directions). */
-    path->throughput = specMul(
-        path->throughput, mediumTransmittance(scene, path->medium, found ? hit.t : CB_INFINITY));
+#if CB_HAS(CB_FEATURE_SCATTERING)
+    if (mediumScatters(scene, path->medium)) {
+        real uChannel, uDistance, t;
+        Spectrum weight;
+        sampleAt2(
+            stream,
+            mediumDistanceDimension(CB_DIM_FIRST_BOUNCE, settings.eyeVertices, path->vertex - 1),
+            &uChannel, &uDistance);
+        bool scattered =
+            mediumSampleDistance(scene, path->medium, path->throughput, found ? hit.t : CB_INFINITY,
+                                 uChannel, uDistance, &t, &weight);
+        path->throughput = specMul(path->throughput, weight);
+        if (specIsBlack(path->throughput)) return false;
+        if (scattered)
+            return ptMediumVertex(scene, path, ray, vmadd(ray->o, ray->d, t), stream, settings,
+                                  shadow, shadowTMax);
+    } else
 #endif
+    {
+#if CB_HAS(CB_FEATURE_MEDIUM)
+        /* The ray's way through its medium (camera and bounce rays have unit directions). */
+        path->throughput =
+            specMul(path->throughput,
+                    mediumTransmittance(scene, path->medium, found ? hit.t : CB_INFINITY));
+#endif
+    }
     if (!found) {
 #if CB_HAS(CB_FEATURE_INFINITE_LIGHT)
         /* The escaped ray sees the infinite light, weighed against next-event estimation's
@@ -132,29 +249,12 @@ CB_FN bool ptPathVertex(const SceneView* scene, PtPath* path, Ray* ray, bool fou
     /* Next-event estimation: one light point, one shadow ray. */
     if (materialHasNonDelta(scene, sp.material)) {
         LightSample ls;
-        /* With one light lightChoose reads no number, so none is drawn. */
-        real uChoice = scene->lightCount > 1
-                           ? sampleAt(stream, bounceDimension(bounce, CB_SLOT_LIGHT_CHOICE))
-                           : 0.0f;
-        real uLight0, uLight1;
-        sampleAt2(stream, bounceDimension(bounce, CB_SLOT_LIGHT_POINT), &uLight0, &uLight1);
-        if (lightSampleFrom(scene, sp.p, uChoice, uLight0, uLight1, &ls)) {
-            Vec3 toLight = vsub(ls.p, sp.p);
-            real dist2 = vlength2(toLight);
-            Vec3 wi = vscale(toLight, 1.0f / sqrt(dist2));
-            Spectrum emitted;
-            real pdfLightW;
-            if (ls.isDelta) {
-                emitted = deltaLightArriving(scene, &ls, wi, dist2, &pdfLightW);
-            } else {
-                emitted = lightSeenThroughPortal(scene, ls.light, sp.p, wi)
-                              ? lightEmittedRadiance(scene, ls.light, ls.n, vneg(wi))
-                              : specZero();
-                real cosLight = vabsdot(ls.n, wi);
-                pdfLightW = ls.pdfSolidAngle > 0.0f ? ls.pdfPick * ls.pdfSolidAngle
-                                                    : ls.pdfPick * ls.pdfArea * dist2 / cosLight;
-            }
-            if (!specIsBlack(emitted) && pdfLightW > 0.0f && isfinite(pdfLightW)) {
+        if (ptLightSampleFrom(scene, sp.p, stream, bounce, &ls)) {
+            Vec3 wi;
+            real dist2, pdfLightW, distance;
+            Spectrum emitted =
+                ptLightArriving(scene, sp.p, &ls, &wi, &dist2, &pdfLightW, &distance);
+            if (!specIsBlack(emitted)) {
                 real pdfBsdfW, pdfRev;
                 Spectrum f =
                     bsdfEval(scene, sp.material, sp.uv, frame, wo, wi, 0, &pdfBsdfW, &pdfRev);
@@ -169,11 +269,10 @@ CB_FN bool ptPathVertex(const SceneView* scene, PtPath* path, Ray* ray, bool fou
                         specScale(specMul(specMul(path->throughput, f), emitted), factor);
 #if CB_HAS(CB_FEATURE_MEDIUM)
                     int medium = mediumLeaving(scene, sp.material, sp.ng, wi, path->medium);
-                    int kind = scene->lights[ls.light].kind;
-                    bool atInfinity = kind == CB_LIGHT_DISTANT || kind == CB_LIGHT_INFINITE;
-                    real distance = atInfinity ? CB_INFINITY : sqrt(dist2);
                     path->shadowTerm =
                         specMul(path->shadowTerm, mediumTransmittance(scene, medium, distance));
+#else
+                    (void)distance;
 #endif
                     path->shadowPending = 1;
                 }
@@ -195,12 +294,7 @@ CB_FN bool ptPathVertex(const SceneView* scene, PtPath* path, Ray* ray, bool fou
     path->previousPdfW = bs.pdf;
     path->previousDelta = bs.isDelta;
     path->previousP = sp.p;
-
-    if (settings.rouletteVertex > 0 && vertex >= settings.rouletteVertex) {
-        real survival = rouletteSurvival(path->throughput);
-        if (sampleAt(stream, bounceDimension(bounce, CB_SLOT_ROULETTE)) >= survival) return false;
-        path->throughput = specScale(path->throughput, 1.0f / survival);
-    }
+    if (!ptRoulette(path, stream, settings, vertex)) return false;
     *ray = spawnRay(sp, bs.wi);
     path->medium = mediumLeaving(scene, sp.material, sp.ng, bs.wi, path->medium);
     path->vertex = vertex + 1;

@@ -273,6 +273,16 @@ CB_FN uint eyeStreamDimensions(int eyeVertices) {
     return bounceDimension(eyeVertices > 1 ? eyeVertices - 1 : 0, 0u);
 }
 
+/* The pair of dimensions from which the ray to a subpath's vertex path[bounce + 1] samples its
+ * distance in a scattering medium (cb_medium.h, mediumSampleDistance): after every dimension of
+ * the subpath's bounces (its first at firstBounceDim, at most maxVertices vertices), so that
+ * scenes without such media read the layout they always had. PT's eye paths and BDPT's eye
+ * subpaths read the same ones. */
+CB_FN uint mediumDistanceDimension(uint firstBounceDim, int maxVertices, int bounce) {
+    return firstBounceDim + (uint)(maxVertices > 1 ? maxVertices - 1 : 0) * CB_DIMS_PER_BOUNCE +
+           2u * (uint)bounce;
+}
+
 /* Stream `stream` of an estimate whose shared vectors (streams x dimensions values, stream by
  * stream) the host drew into `table` (dimensions = 0: none, every value is computed). */
 CB_FN SampleStream samplerStreamShared(SamplerSettings sampler, uint estimate, uint stream,

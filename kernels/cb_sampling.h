@@ -247,6 +247,39 @@ CB_FN real powerHeuristic(real pdfA, real pdfB) {
     return 1.0f / (1.0f + r * r);
 }
 
+/* The Henyey-Greenstein phase function of asymmetry g at mu, the cosine between the propagation
+ * directions before and after scattering (g > 0 scatters forward; pbrt-v4's HGPhaseFunction). g
+ * is kept within 0.99 of 0, as pbrt-v4 keeps it: closer to +-1 the float inversion below drifts
+ * from this density. Below 1e-3 it is 0, the uniform sphere the inversion then samples. Used by
+ * the layers of coated materials (cb_bsdf.h) and by scattering media (cb_medium.h). */
+CB_FN real phaseHenyeyGreensteinG(real g) {
+    return fabs(g) < 1e-3f ? 0.0f : cbClamp(g, -0.99f, 0.99f);
+}
+
+CB_FN real phaseHenyeyGreenstein(real mu, real g) {
+    g = phaseHenyeyGreensteinG(g);
+    real denom = 1.0f + g * g - 2.0f * g * mu;
+    return CB_INV_4PI * (1.0f - g * g) / (denom * cbSafeSqrt(denom));
+}
+
+/* A propagation direction after scattering from w, mu by inverting the phase function's
+ * distribution, mu = (1 + g^2 - ((1 - g^2) / (1 - g + 2 g u))^2) / (2 g); its density in *pdf. */
+CB_FN Vec3 phaseHenyeyGreensteinSample(Vec3 w, real g, real u0, real u1, real* pdf) {
+    real mu;
+    g = phaseHenyeyGreensteinG(g);
+    if (g == 0.0f) {
+        mu = 1.0f - 2.0f * u0;
+    } else {
+        real s = (1.0f - g * g) / (1.0f - g + 2.0f * g * u0);
+        mu = (1.0f + g * g - s * s) / (2.0f * g);
+    }
+    mu = cbClamp(mu, -1.0f, 1.0f);
+    real r = cbSafeSqrt(1.0f - mu * mu);
+    *pdf = phaseHenyeyGreenstein(mu, g);
+    return frameToWorld(frameFromNormal(w),
+                        vec3(r * cbCosPi(2.0f * u1), r * cbSinPi(2.0f * u1), mu));
+}
+
 CB_END_NAMESPACE
 
 #endif /* CB_SAMPLING_H */

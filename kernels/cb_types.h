@@ -112,7 +112,7 @@ typedef struct Hit {
 /* Conductors or rough dielectrics of two roughnesses (pbrt-v4's "uroughness" != "vroughness"),
  * shaded in frames whose first axis is the surface's dp/du. */
 #define CB_FEATURE_ANISOTROPIC (1u << 30)
-/* Absorbing media behind surfaces (pbrt-v4's "homogeneous" media of sigma_s 0, cb_medium.h). */
+/* Media behind surfaces (pbrt-v4's "homogeneous" media, cb_medium.h). */
 #define CB_FEATURE_MEDIUM (1u << 31)
 /* A film that clamps each sample (pbrt-v4's "maxcomponentvalue", filmClampSample). The bits from
  * 32 on are unsigned long: 64 bits in OpenCL C and on the host (LP64). */
@@ -121,6 +121,8 @@ typedef struct Hit {
 #define CB_FEATURE_NOISE_TEXTURE (1ul << 33)
 /* Mixes that pick one part per surface point (CB_MAT_MIX_AT_POINT). */
 #define CB_FEATURE_MIX_AT_POINT (1ul << 34)
+/* Media that scatter (pbrt-v4's "homogeneous" media of sigma_s above 0, cb_medium.h). */
+#define CB_FEATURE_SCATTERING (1ul << 35)
 
 #ifndef CB_FEATURES
 #define CB_FEATURES 0xfffffffffffffffful
@@ -238,7 +240,7 @@ typedef struct Material {
     /* CB_FEATURE_ANISOTROPIC: a conductor's or rough dielectric's GGX alpha along dp/dv (pbrt-v4's
      * "vroughness"), `alpha` then being the one along dp/du ("uroughness"); `alpha` elsewhere. */
     real alphaV;
-    /* CB_FEATURE_MEDIUM: the absorbing medium on each side of the surface (cb_medium.h: sigma_a's
+    /* CB_FEATURE_MEDIUM: the medium on each side of the surface (cb_medium.h: its entries'
      * index in `spectra`, -1 vacuum), the outside the one ng points into (pbrt-v4's
      * MediumInterface of the shape; equal sides: the surface is no boundary). */
     int mediumInside;
@@ -348,7 +350,7 @@ typedef struct Camera {
      * integral of f1 over [0, r], which turns a sample's density into its weight. */
     real filterAbsCdf[2][CB_FILTER_TABLE_BINS + 1];
     real filterSampleScale[2];
-    /* CB_FEATURE_MEDIUM: the absorbing medium the camera sits in (pbrt-v4's CameraMedium, the
+    /* CB_FEATURE_MEDIUM: the medium the camera sits in (pbrt-v4's CameraMedium, the
      * outside of its MediumInterface: cb_medium.h), -1 vacuum. */
     int medium;
     /* CB_FEATURE_SAMPLE_CLAMP: pbrt-v4's "maxcomponentvalue", the largest component a sample's

@@ -6,6 +6,8 @@
 #include "scene/device_scene.h"
 #include "scene/scene_desc.h"
 
+#include <fmt/format.h>
+
 #include <cmath>
 #include <filesystem>
 #include <string>
@@ -77,6 +79,15 @@ inline std::string deviceErrorOf(const std::string& text) {
 inline double srgbByte(int byte) {
     const double v = byte / 255.0;
     return v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4);
+}
+
+// A closed box from (x0, y0, z0) to (x1, y1, z1), its normals out (a medium's boundary).
+inline std::string boxShape(double x0, double y0, double z0, double x1, double y1, double z1) {
+    return fmt::format("Shape \"trianglemesh\" \"integer indices\" [0 2 1 0 3 2  4 5 6 4 6 7  "
+                       "0 1 5 0 5 4  1 2 6 1 6 5  2 3 7 2 7 6  3 0 4 3 4 7] \"point3 P\" "
+                       "[{0} {1} {2}  {3} {1} {2}  {3} {4} {2}  {0} {4} {2}  {0} {1} {5}  "
+                       "{3} {1} {5}  {3} {4} {5}  {0} {4} {5}]\n",
+                       x0, y0, z0, x1, y1, z1);
 }
 
 inline bool contains(const std::string& s, const std::string& part) {

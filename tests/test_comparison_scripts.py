@@ -2,7 +2,8 @@
 """The comparison scripts' own arithmetic and refusals (docs/pbrt-v4.md, docs/performance.md):
 the emitter mask does not wrap around the image's edges; HDR-FLIP of an image with negative
 values against itself is 0; compare-pbrt fails a non-finite region instead of passing it,
-refuses --grid 0, and reports a --box of the images already there; same-images tells identical renders from different ones and refuses an --only
+refuses --grid 0, reports a --box of the images already there and runs pbrt-v4 again when
+it crashes; same-images tells identical renders from different ones and refuses an --only
 that matches nothing; interleave-render refuses two entries of one name and --rounds 0;
 compare-mitsuba refuses --check-seeds 0 before it needs Mitsuba."""
 import os
@@ -77,6 +78,29 @@ with tempfile.TemporaryDirectory() as tmp:
             "big=0,0,17,8", scene)
     check(r.returncode != 0 and "outside the 16x16 image" in r.stderr + r.stdout,
           f"a box outside the image is refused ({r.stderr[-200:]})")
+    # pbrt-v4 dying of SIGSEGV (as it does at start-up with a camera in a scattering medium) is
+    # run again, up to 10 times; any other failure, or a tenth crash, fails the comparison.
+    flaky = os.path.join(tmp, "flaky-pbrt")
+    with open(flaky, "w") as f:
+        f.write(f"#!{sys.executable}\nimport os, signal, sys\n"
+                f"count = os.path.join({tmp!r}, 'crashes')\n"
+                "n = int(open(count).read()) if os.path.exists(count) else 0\n"
+                "if n < int(os.environ['CRASHES']):\n"
+                "    open(count, 'w').write(str(n + 1))\n"
+                "    os.kill(os.getpid(), signal.SIGSEGV)\n"
+                f"os.execv({fake!r}, [{fake!r}] + sys.argv[1:])\n")
+    os.chmod(flaky, 0o755)
+    flaky_args = ["--pbrt", flaky] + common[2:]
+    for crashes, expect_ok, reruns in ((2, True, 2), (10, False, 9)):
+        if os.path.exists(os.path.join(tmp, "crashes")):
+            os.remove(os.path.join(tmp, "crashes"))
+        r = run(os.path.join(scripts, "compare-pbrt"), *flaky_args, scene,
+                env=dict(os.environ, CRASHES=str(crashes)))
+        retries = r.stdout.count("died of SIGSEGV; running it again")
+        check((r.returncode == 0) == expect_ok and retries == reruns
+              and (expect_ok or "exit status -11" in r.stderr),
+              f"pbrt-v4 crashing {crashes} times: {retries} reruns, exit {r.returncode} "
+              f"({r.stdout[-300:]} {r.stderr[-300:]})")
 
     # same-images: one binary twice is the same; a binary that renders with another sampler
     # is not; an --only that matches no case is an error.

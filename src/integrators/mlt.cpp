@@ -39,11 +39,20 @@ class MltIntegrator final : public KernelIntegrator {
         : KernelIntegrator("mlt", settings, scene, runtime), bdpt_(bdptSettingsFor(settings)) {
         // Dimensions the BDPT subpaths can read (cb_bdpt.h): eye bounce b uses 4 + 8b + {0,1,2}
         // for b <= Ne-3 and the s = 1 light point 4 + 8b + {4,5,6} for b <= Ne-2; light bounce b
-        // uses 8 + 8b + {0,1,2} for b <= Nl-3.
-        eyeDims_ = CB_DIM_FIRST_BOUNCE +
-                   CB_DIMS_PER_BOUNCE * unsigned(std::max(0, settings.eyeVertices - 1));
-        lightDims_ = CB_LIGHT_DIM_FIRST_BOUNCE +
-                     CB_DIMS_PER_BOUNCE * unsigned(std::max(0, settings.lightVertices - 2));
+        // uses 8 + 8b + {0,1,2} for b <= Nl-3. In a scattering medium the ray to vertex b + 1 of
+        // either subpath also samples its distance (mediumDistanceDimension), after them.
+        if ((scene.features & CB_FEATURE_SCATTERING) != 0) {
+            eyeDims_ = cbk::mediumDistanceDimension(CB_DIM_FIRST_BOUNCE, settings.eyeVertices,
+                                                    std::max(0, settings.eyeVertices - 1));
+            lightDims_ =
+                cbk::mediumDistanceDimension(CB_LIGHT_DIM_FIRST_BOUNCE, settings.lightVertices,
+                                             std::max(0, settings.lightVertices - 1));
+        } else {
+            eyeDims_ = CB_DIM_FIRST_BOUNCE +
+                       CB_DIMS_PER_BOUNCE * unsigned(std::max(0, settings.eyeVertices - 1));
+            lightDims_ = CB_LIGHT_DIM_FIRST_BOUNCE +
+                         CB_DIMS_PER_BOUNCE * unsigned(std::max(0, settings.lightVertices - 2));
+        }
         dims_ = eyeDims_ + lightDims_;
         chains_ =
             settings.mltChains > 0 ? size_t(settings.mltChains) : std::max<size_t>(1, pixels_ / 16);

@@ -5,6 +5,7 @@
 #include "spectral/spectral.h"
 
 #include "cb_camera.h"
+#include "cb_medium.h"
 #include "cb_texture.h"
 
 #include <algorithm>
@@ -95,6 +96,12 @@ class SpectraTable {
             for (float c : rgb)
                 data_.push_back(c * scale);
         }
+        return index;
+    }
+    // An entry of `value` in every channel (not a colour: a medium's asymmetry g).
+    int addConstant(float value) {
+        const int index = int(data_.size()) / channels_;
+        data_.insert(data_.end(), size_t(channels_), value);
         return index;
     }
     // A reflectance or transmittance times `scale`, clamped to [0, 1] per channel or bin
@@ -848,7 +855,8 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
     };
     // pbrt-v4's MediumInterface: a shape between media gets a material of its own, its material
     // with the two media set (one per material and pair), which the kernels read where a ray
-    // leaves the surface (mediumLeaving, cb_medium.h). A medium is its sigma_a x scale.
+    // leaves the surface (mediumLeaving, cb_medium.h). A medium is three entries: sigma_t and
+    // sigma_s, each times its scale, and g (cb_medium.h).
     std::vector<int> mediumSpectrum(desc.media.size(), -1);
     auto mediumEntry = [&](int medium) {
         if (medium < 0) return -1;
@@ -856,16 +864,25 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         if (entry < 0) {
             const MediumDesc& md = desc.media[size_t(medium)];
             entry = spectra.add(md.sigmaA, md.scale);
+            const int sigmaS = spectra.add(md.sigmaS, md.scale);
+            spectra.addConstant(md.g);
+            static_assert(CB_MEDIUM_SIGMA_S == 1 && CB_MEDIUM_ENTRIES == 3);
+            bool scatters = false;
             for (int i = 0; i < scene.channels; ++i) {
-                float& v = scene.spectra[size_t(entry * scene.channels + i)];
+                float& a = scene.spectra[size_t(entry * scene.channels + i)];
+                float& s = scene.spectra[size_t(sigmaS * scene.channels + i)];
                 // Smits's RGB basis can dip a hair below 0 between its bins.
-                v = std::max(v, 0.f);
-                if (!std::isfinite(v))
-                    throw SceneError(md.where, fmt::format("medium \"{}\": \"sigma_a\" times "
-                                                           "\"float scale\" {:g} exceeds the float "
-                                                           "range (3.4e38)",
+                a = std::max(a, 0.f);
+                s = std::max(s, 0.f);
+                scatters = scatters || s > 0.f;
+                a += s; // sigma_t
+                if (!std::isfinite(a))
+                    throw SceneError(md.where, fmt::format("medium \"{}\": \"sigma_a\" plus "
+                                                           "\"sigma_s\", times \"float scale\" "
+                                                           "{:g}, exceeds the float range (3.4e38)",
                                                            md.name, md.scale));
             }
+            if (scatters) scene.features |= CB_FEATURE_SCATTERING;
         }
         return entry;
     };
@@ -1321,6 +1338,7 @@ std::string DeviceScene::featureNames() const {
     add(CB_FEATURE_SAMPLE_CLAMP, "sample-clamp");
     add(CB_FEATURE_NOISE_TEXTURE, "noise-texture");
     add(CB_FEATURE_MIX_AT_POINT, "mix-at-point");
+    add(CB_FEATURE_SCATTERING, "scattering");
     names += channels == 16 ? " spectral-16" : " rgb";
     return names;
 }

@@ -1149,15 +1149,15 @@ class Parser {
         const Token type = quoted(t, "an integrator type");
         std::string method;
         if (type.text == "path" || type.text == "volpath")
-            method = "pt"; // without participating media volpath is path
+            method = "pt"; // cbdpt's path tracer renders media as volpath
         else if (type.text == "bdpt")
             method = "bdpt";
         else if (type.text == "mlt")
             method = "mlt";
         else
             throw SceneError(type.where, "unsupported integrator \"" + type.text +
-                                             "\" (cbdpt supports \"path\", \"volpath\" without "
-                                             "media, \"bdpt\" and \"mlt\")");
+                                             "\" (cbdpt supports \"path\", \"volpath\", \"bdpt\" "
+                                             "and \"mlt\")");
         ParamList pl = params("Integrator \"" + type.text + "\"");
         IntegratorDesc& in = scene_.integrator;
         in.type = method;
@@ -1615,9 +1615,9 @@ class Parser {
         return it->second;
     }
 
-    // pbrt-v4's "homogeneous" medium. cbdpt renders the ones that only absorb; any other is kept
-    // with the reason, an error only where something sits in it (checkMedia), as pbrt-v4 creates
-    // media that nothing uses without complaint.
+    // pbrt-v4's "homogeneous" medium, absorbing and scattering. Any other is kept with the
+    // reason, an error only where something sits in it (checkMedia), as pbrt-v4 creates media
+    // that nothing uses without complaint.
     void makeNamedMedium(const Token& t) {
         const Token name = quoted(t, "a medium name");
         ParamList pl = params("MakeNamedMedium \"" + name.text + "\"", "medium");
@@ -1639,19 +1639,22 @@ class Parser {
             return;
         }
         if (const std::optional<std::string> preset = pl.oneString("preset"))
-            m.unsupported = "scatters (its \"preset\" \"" + *preset + "\")";
+            m.unsupported = "names the measured \"preset\" \"" + *preset +
+                            "\", whose table cbdpt does not have";
         if (auto sigmaA = pl.spectrum("sigma_a", SpectrumRole::Coefficient)) m.sigmaA = *sigmaA;
-        // pbrt-v4's default sigma_s is 1: a medium that does not scatter says so.
-        const std::optional<SpectrumValue> sigmaS =
-            pl.spectrum("sigma_s", SpectrumRole::Coefficient);
-        if (m.unsupported.empty() && (!sigmaS || !isZero(*sigmaS)))
-            m.unsupported = sigmaS ? "scatters (its \"sigma_s\" is not 0)"
-                                   : "scatters (pbrt-v4's default \"sigma_s\" is 1)";
+        if (auto sigmaS = pl.spectrum("sigma_s", SpectrumRole::Coefficient)) m.sigmaS = *sigmaS;
         if (const std::optional<SpectrumValue> le = pl.spectrum("Le", SpectrumRole::Emission);
             le && !isZero(*le) && m.unsupported.empty())
             m.unsupported = "emits (its \"Le\" is not 0)";
         pl.ignore("Lescale", {"float"});
-        pl.ignore("g", {"float"}); // the phase function of a medium that does not scatter
+        if (const Param* p = pl.peek("g")) {
+            const double g = *pl.oneFloat("g");
+            // The Henyey-Greenstein phase function has no density at |g| = 1.
+            if (!(g > -1.0 && g < 1.0))
+                throw SceneError(p->valueLoc(0),
+                                 fmt::format("\"float g\" must be in (-1, 1), got {:g}", g));
+            m.g = float(g);
+        }
         if (const Param* p = pl.peek("scale")) {
             const double scale = *pl.oneFloat("scale");
             if (!(scale >= 0.0 && scale <= std::numeric_limits<float>::max()))
@@ -1709,8 +1712,7 @@ class Parser {
             if (!m.unsupported.empty())
                 throw SceneError(m.where, "medium \"" + m.name + "\" " + m.unsupported +
                                               ": cbdpt renders \"homogeneous\" media of "
-                                              "\"sigma_s\" 0 without \"Le\", which only "
-                                              "absorb (" +
+                                              "\"sigma_a\" and \"sigma_s\" without \"Le\" (" +
                                               m.firstUser + " sits in it at " + m.firstUse.str() +
                                               ")");
         }

@@ -112,12 +112,15 @@ struct MaterialDesc {
     SourceLocation where;
 };
 
-// pbrt-v4's MakeNamedMedium of type "homogeneous" that does not scatter (sigma_s 0, no emission):
-// an absorbing medium, each unit of world length passing exp(-sigma_a scale) of the light.
+// pbrt-v4's MakeNamedMedium of type "homogeneous": per unit of world length it absorbs
+// sigma_a scale and scatters sigma_s scale of the light, by the Henyey-Greenstein phase function
+// of asymmetry g.
 struct MediumDesc {
     std::string name;
-    SpectrumValue sigmaA = SpectrumValue::constant(1.f); // pbrt-v4's default
+    SpectrumValue sigmaA = SpectrumValue::constant(1.f); // pbrt-v4's defaults
+    SpectrumValue sigmaS = SpectrumValue::constant(1.f);
     float scale = 1.f;
+    float g = 0.f;
     bool defined = false; // named by a MediumInterface, not (yet) by a MakeNamedMedium
     // Why cbdpt cannot render it ("" where it can): an error once a shape or the camera sits in
     // it.
