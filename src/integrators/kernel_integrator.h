@@ -139,9 +139,10 @@ class PixelKernelIntegrator : public KernelIntegrator {
     // Adds the two arguments of the coherent methods' shared sample vectors (kernels/cb_rng.h,
     // samplerStreamShared): a buffer and its dimensions per stream. With `streams` > 0 the host
     // draws each estimate's `streams` eye streams (keys 0 .. streams - 1), their first
-    // eyeStreamDimensions(Ne) values, before each launch, since every pixel at one tile
-    // position would draw the same; with 0 (PT), or where each vector would serve fewer than
-    // kPixelsPerSharedStream pixels, or under CBDPT_SHARED_SAMPLES=0, the kernel draws them.
+    // eyeStreamDimensions(Ne) values (in scattering media the distances' too), before each launch,
+    // since every pixel at one tile position would draw the same; with 0 (PT), or where each vector
+    // would serve fewer than kPixelsPerSharedStream pixels, or under CBDPT_SHARED_SAMPLES=0, the
+    // kernel draws them.
     void addSharedSampleArguments(KernelArguments& args, std::uint32_t streams);
     static constexpr size_t kPixelsPerSharedStream = 64;
 
