@@ -102,18 +102,17 @@ CB_FN bool mediumSampleDistance(const SceneView* scene, int medium, Spectrum thr
         *weight = specZero();
         return false;
     }
-    /* The channel whose share of the throughput holds uChannel. */
-    int channel = -1;
+    /* The channel whose share of the throughput holds uChannel; where rounding leaves it past
+     * every share, the last channel with one. */
+    int channel = -1, lastWithShare = 0;
     real below = 0.0f, target = uChannel * total;
     for (int i = 0; i < CB_CHANNELS; ++i) {
         real share = fmax(throughput.c[i], 0.0f);
-        if (channel < 0 && share > 0.0f && (below + share > target || i == CB_CHANNELS - 1))
-            channel = i;
+        if (share > 0.0f) lastWithShare = i;
+        if (channel < 0 && share > 0.0f && below + share > target) channel = i;
         below += share;
     }
-    if (channel < 0) /* rounding left uChannel past the last share: take the last with one */
-        for (int i = 0; i < CB_CHANNELS; ++i)
-            if (throughput.c[i] > 0.0f) channel = i;
+    if (channel < 0) channel = lastWithShare;
     real sigma = sigmaT[channel];
     /* -log(1 - u) / sigma: 1 - u is in (0, 1], so the distance is finite where sigma > 0. */
     real distance = sigma > 0.0f ? -log(1.0f - uDistance) / sigma : CB_INFINITY;

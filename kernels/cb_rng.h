@@ -283,6 +283,14 @@ CB_FN uint mediumDistanceDimension(uint firstBounceDim, int maxVertices, int bou
            2u * (uint)bounce;
 }
 
+/* How many dimensions an eye path reads where the scene's media may scatter (`scattering`): its
+ * bounces' and then its distances' (mediumDistanceDimension); eyeStreamDimensions otherwise. */
+CB_FN uint eyeStreamDimensionsWithMedia(int eyeVertices, bool scattering) {
+    return scattering ? mediumDistanceDimension(CB_DIM_FIRST_BOUNCE, eyeVertices,
+                                                eyeVertices > 1 ? eyeVertices - 1 : 0)
+                      : eyeStreamDimensions(eyeVertices);
+}
+
 /* Stream `stream` of an estimate whose shared vectors (streams x dimensions values, stream by
  * stream) the host drew into `table` (dimensions = 0: none, every value is computed). */
 CB_FN SampleStream samplerStreamShared(SamplerSettings sampler, uint estimate, uint stream,

@@ -119,12 +119,8 @@ void PixelKernelIntegrator::addSharedSampleArguments(KernelArguments& args, std:
     const bool disabled = env && std::string(env) == "0";
     if (streams > 0 && !disabled && size_t(streams) * kPixelsPerSharedStream <= pixels_) {
         sharedStreams_ = streams;
-        // The eye bounces' dimensions, and in scattering media the distances' after them.
-        sharedDimensions_ =
-            (scene_.features & CB_FEATURE_SCATTERING) != 0
-                ? cbk::mediumDistanceDimension(CB_DIM_FIRST_BOUNCE, settings_.eyeVertices,
-                                               std::max(0, settings_.eyeVertices - 1))
-                : cbk::eyeStreamDimensions(settings_.eyeVertices);
+        sharedDimensions_ = cbk::eyeStreamDimensionsWithMedia(
+            settings_.eyeVertices, (scene_.features & CB_FEATURE_SCATTERING) != 0);
         sharedSamples_.resize(size_t(sharedStreams_) * sharedDimensions_);
     } else {
         sharedStreams_ = sharedDimensions_ = 0;

@@ -41,18 +41,14 @@ class MltIntegrator final : public KernelIntegrator {
         // for b <= Ne-3 and the s = 1 light point 4 + 8b + {4,5,6} for b <= Ne-2; light bounce b
         // uses 8 + 8b + {0,1,2} for b <= Nl-3. In a scattering medium the ray to vertex b + 1 of
         // either subpath also samples its distance (mediumDistanceDimension), after them.
-        if ((scene.features & CB_FEATURE_SCATTERING) != 0) {
-            eyeDims_ = cbk::mediumDistanceDimension(CB_DIM_FIRST_BOUNCE, settings.eyeVertices,
-                                                    std::max(0, settings.eyeVertices - 1));
-            lightDims_ =
-                cbk::mediumDistanceDimension(CB_LIGHT_DIM_FIRST_BOUNCE, settings.lightVertices,
-                                             std::max(0, settings.lightVertices - 1));
-        } else {
-            eyeDims_ = CB_DIM_FIRST_BOUNCE +
-                       CB_DIMS_PER_BOUNCE * unsigned(std::max(0, settings.eyeVertices - 1));
-            lightDims_ = CB_LIGHT_DIM_FIRST_BOUNCE +
-                         CB_DIMS_PER_BOUNCE * unsigned(std::max(0, settings.lightVertices - 2));
-        }
+        const bool scattering = (scene.features & CB_FEATURE_SCATTERING) != 0;
+        eyeDims_ = cbk::eyeStreamDimensionsWithMedia(settings.eyeVertices, scattering);
+        lightDims_ =
+            scattering
+                ? cbk::mediumDistanceDimension(CB_LIGHT_DIM_FIRST_BOUNCE, settings.lightVertices,
+                                               std::max(0, settings.lightVertices - 1))
+                : CB_LIGHT_DIM_FIRST_BOUNCE +
+                      CB_DIMS_PER_BOUNCE * unsigned(std::max(0, settings.lightVertices - 2));
         dims_ = eyeDims_ + lightDims_;
         chains_ =
             settings.mltChains > 0 ? size_t(settings.mltChains) : std::max<size_t>(1, pixels_ / 16);
