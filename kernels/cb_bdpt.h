@@ -397,13 +397,14 @@ CB_FN real bdptSkyNeeRatio(const SceneView* scene, int lightIndex, Vec3 y1, Vec3
 /* ---- Subpath generation -------------------------------------------------------------------- */
 
 #if CB_HAS(CB_FEATURE_SCATTERING)
-/* bdptWalkStep's vertex where *ray (leaving prev) scattered in `medium` at distance t: a
+/* bdptWalkStep's vertex where *ray (leaving prev) scattered in track->medium at distance t: a
  * CB_VERTEX_MEDIUM vertex into *v (vertex count), then, unless the subpath has maxVertices
- * vertices, the next *ray by the phase function, whose weight f / pdf is 1 (*beta stays).
- * Returns bdptWalkStep's 1 or 2. */
+ * vertices, the next *ray by the phase function, whose weight f / pdf is 1 (*beta stays), and
+ * its *track. Returns bdptWalkStep's 1 or 2. */
 CB_FN int bdptMediumStep(const SceneView* scene, Ray* ray, Spectrum* beta, real* pdfW,
                          SampleStream stream, uint firstBounceDim, PathVertex* prev, PathVertex* v,
-                         int count, int maxVertices, int medium, real t) {
+                         int count, int maxVertices, MediumTrack* track, real t) {
+    int medium = track->medium;
     Vec3 p = vmadd(ray->o, ray->d, t);
     cbStore3(v->p, p);
     cbStore3(v->n, vec3(0.0f, 0.0f, 0.0f));
@@ -432,6 +433,7 @@ CB_FN int bdptMediumStep(const SceneView* scene, Ray* ray, Spectrum* beta, real*
     *pdfW = pdf;
     ray->o = p;
     ray->d = wi;
+    *track = mediumTrackStart(medium);
     return 2;
 }
 #endif
@@ -441,34 +443,28 @@ CB_FN int bdptMediumStep(const SceneView* scene, Ray* ray, Spectrum* beta, real*
  * escape the infinite light, written to *v (vertex count); then, unless the subpath has
  * maxVertices vertices, the scattering there: prev->pdfRev, the next *ray, *beta and *pdfW.
  * Bounce b (the vertex path[b+1] scattering) reads dimensions firstBounceDim + b *
- * CB_DIMS_PER_BOUNCE + slot. Returns 0 when no vertex was added, 1 when *v was added and the
- * walk ends, 2 when it goes on with *ray. */
+ * CB_DIMS_PER_BOUNCE + slot. *track is the ray's way through media (bdptRandomWalk starts it),
+ * set again for the next ray. Returns 0 when no vertex was added, 1 when *v was added and the
+ * walk ends, 2 when it goes on with *ray, 3 when *ray crossed an interface and goes on without a
+ * vertex. */
 CB_FN int bdptWalkStep(const SceneView* scene, bool found, Hit hit, Ray* ray, Spectrum* beta,
                        real* pdfW, int adjoint, SampleStream stream, uint firstBounceDim,
-                       PathVertex* prev, PathVertex* v, int count, int maxVertices) {
-    int medium = pvMediumToward(scene, prev, ray->d);
-#if CB_HAS(CB_FEATURE_SCATTERING)
-    if (mediumScatters(scene, medium)) {
-        /* The ray may scatter in the medium before the surface (mediumSampleDistance). */
-        real uChannel, uDistance, t;
-        Spectrum weight;
-        sampleAt2(stream, mediumDistanceDimension(firstBounceDim, maxVertices, count - 1),
-                  &uChannel, &uDistance);
-        bool scattered = mediumSampleDistance(scene, medium, *beta, found ? hit.t : CB_INFINITY,
-                                              uChannel, uDistance, &t, &weight);
-        *beta = specMul(*beta, weight);
-        if (specIsBlack(*beta)) return 0;
-        if (scattered)
-            return bdptMediumStep(scene, ray, beta, pdfW, stream, firstBounceDim, prev, v, count,
-                                  maxVertices, medium, t);
-    } else
-#endif
-    {
+                       PathVertex* prev, PathVertex* v, int count, int maxVertices,
+                       MediumTrack* track) {
 #if CB_HAS(CB_FEATURE_MEDIUM)
-        /* The ray's way through its medium (every subpath ray has a unit direction). */
-        *beta = specMul(*beta, mediumTransmittance(scene, medium, found ? hit.t : CB_INFINITY));
+    /* The ray's way through its medium (every subpath ray has a unit direction). */
+    real t;
+    int segment = mediumRaySegment(scene, track, beta, stream,
+                                   mediumDistanceDimension(firstBounceDim, maxVertices, count - 1),
+                                   found ? hit.t : CB_INFINITY, &t);
+    if (segment < 0) return 0;
+#if CB_HAS(CB_FEATURE_SCATTERING)
+    if (segment > 0)
+        return bdptMediumStep(scene, ray, beta, pdfW, stream, firstBounceDim, prev, v, count,
+                              maxVertices, track, t);
 #endif
-    }
+#endif
+    int medium = track->medium;
     if (!found) {
         /* An escaped eye ray ends on the infinite light, if the scene has one. */
         int infinite = adjoint ? -1 : lightInfinite(scene);
@@ -497,6 +493,11 @@ CB_FN int bdptWalkStep(const SceneView* scene, bool found, Hit hit, Ray* ray, Sp
         return 1;
     }
     SurfacePoint sp = surfacePointFromHit(scene, *ray, hit);
+#if CB_HAS(CB_FEATURE_INTERFACE)
+    /* No vertex at an interface: the same ray goes on beyond it. */
+    if (materialIsInterface(scene, sp.material))
+        return mediumCrossInterface(scene, sp, ray, track) ? 3 : 0;
+#endif
     uint base = firstBounceDim + (uint)(count - 1) * CB_DIMS_PER_BOUNCE;
     sp.uv.hero = prev->hero;
 #if CB_HAS(CB_FEATURE_DISPERSION)
@@ -548,6 +549,7 @@ CB_FN int bdptWalkStep(const SceneView* scene, bool found, Hit hit, Ray* ray, Sp
     prev->pdfRev = pvConvertPdf(pdfRevW, sp.p, prev);
     *pdfW = pdfFwdW;
     *ray = spawnRay(sp, bs.wi);
+    *track = mediumTrackStart(pvMediumToward(scene, v, bs.wi));
     return 2;
 }
 
@@ -558,14 +560,17 @@ CB_FN int bdptRandomWalk(const SceneView* scene, Ray ray, Spectrum beta, real pd
                          bool coherentFirstRay, SampleStream stream, uint firstBounceDim,
                          PathVertex* path, int count, int maxVertices, int* rays) {
     bool coherent = coherentFirstRay;
+    MediumTrack track = mediumTrackStart(pvMediumToward(scene, &path[count - 1], ray.d));
     while (count < maxVertices) {
         Hit hit = {0.0f, -1, 0.0f, 0.0f};
         *rays += 1;
         bool found = coherent ? sceneIntersectCoherent(scene, ray, CB_INFINITY, &hit)
                               : sceneIntersect(scene, ray, CB_INFINITY, &hit);
         coherent = false;
-        int step = bdptWalkStep(scene, found, hit, &ray, &beta, &pdfW, adjoint, stream,
-                                firstBounceDim, &path[count - 1], &path[count], count, maxVertices);
+        int step =
+            bdptWalkStep(scene, found, hit, &ray, &beta, &pdfW, adjoint, stream, firstBounceDim,
+                         &path[count - 1], &path[count], count, maxVertices, &track);
+        if (step == 3) continue;
         if (step > 0) ++count;
         if (step < 2) break;
     }
@@ -916,8 +921,25 @@ typedef struct BdptConnection {
     real ptPdfRev, ptMinusPdfRev, qsPdfRev, qsMinusPdfRev;
     real rasterX, rasterY;
     int needsShadow;
-    int pad;
+    int shadowMedium; /* CB_FEATURE_INTERFACE: the medium the shadow ray leaves in */
 } BdptConnection;
+
+/* The connection's way through media, `distance` long (CB_INFINITY: to a light at infinity),
+ * leaving in `medium`: its transmittance, or, where interfaces may lie on the way, the medium
+ * its shadow ray starts in (bdptConnectDeferred traces it through them). */
+CB_FN void bdptConnectionMedium(const SceneView* scene, BdptConnection* out, int medium,
+                                real distance) {
+    out->shadowMedium = medium;
+#if CB_HAS(CB_FEATURE_INTERFACE)
+    if (CB_SCENE_HAS(scene, CB_FEATURE_INTERFACE)) return;
+#endif
+#if CB_HAS(CB_FEATURE_MEDIUM)
+    out->contribution = specMul(out->contribution, mediumTransmittance(scene, medium, distance));
+#else
+    (void)scene;
+    (void)distance;
+#endif
+}
 
 CB_FN bool bdptConnectUnoccluded(const SceneView* scene, const Camera* camera,
                                  const PathVertex* light, int s, const PathVertex* eye, int t,
@@ -926,7 +948,7 @@ CB_FN bool bdptConnectUnoccluded(const SceneView* scene, const Camera* camera,
     out->ptPdfRev = out->ptMinusPdfRev = out->qsPdfRev = out->qsMinusPdfRev = 0.0f;
     out->rasterX = out->rasterY = 0.0f;
     out->needsShadow = 0;
-    out->pad = 0;
+    out->shadowMedium = -1;
     if (s == 0) {
         /* The eye subpath found an emitter. */
         const PathVertex* pt = &eye[t - 1];
@@ -980,11 +1002,7 @@ CB_FN bool bdptConnectUnoccluded(const SceneView* scene, const Camera* camera,
         real cosCam = vdot(vneg(w), forward);
         real g = cosCam * pvAbsCos(qs, w) / dist2 * pvLightSideShading(qs);
         out->contribution = specScale(specMul(qs->beta, f), we * g);
-#if CB_HAS(CB_FEATURE_MEDIUM)
-        out->contribution =
-            specMul(out->contribution,
-                    mediumTransmittance(scene, pvMediumToward(scene, qs, w), sqrt(dist2)));
-#endif
+        bdptConnectionMedium(scene, out, pvMediumToward(scene, qs, w), sqrt(dist2));
         out->rasterX = rx;
         out->rasterY = ry;
         out->qsPdfRev = pdfCamDir * pvAbsCos(qs, w) / dist2;
@@ -1016,11 +1034,8 @@ CB_FN bool bdptConnectUnoccluded(const SceneView* scene, const Camera* camera,
     real g = pvAbsCos(pt, w) * pvAbsCos(qs, w) * invDist2 * pvShadingRatio(pt, w);
     if (s >= 2) g *= pvLightSideShading(qs);
     out->contribution = specScale(specMul(specMul(qs->beta, fQs), specMul(fPt, pt->beta)), g);
-#if CB_HAS(CB_FEATURE_MEDIUM)
-    out->contribution = specMul(out->contribution,
-                                mediumTransmittance(scene, pvMediumToward(scene, pt, w),
-                                                    pvAtInfinity(qs) ? CB_INFINITY : sqrt(dist2)));
-#endif
+    bdptConnectionMedium(scene, out, pvMediumToward(scene, pt, w),
+                         pvAtInfinity(qs) ? CB_INFINITY : sqrt(dist2));
     out->ptPdfRev = qsFwd * pvAbsCos(pt, w) * invDist2;
     out->ptMinusPdfRev = pvConvertPdf(ptRev, pvP(pt), &eye[t - 2]);
     out->qsPdfRev = ptFwd * pvAbsCos(qs, w) * invDist2;
@@ -1064,8 +1079,18 @@ CB_FN bool bdptConnectDeferred(const SceneView* scene, const Camera* camera,
     if (!(weight > 0.0f)) return false;
     if (c.needsShadow) {
         *rays += 1;
-        *needsShadow = 1;
         *shadow = bdptConnectionRay(light, s, eye, t, shadowTMax);
+        *needsShadow = 1;
+#if CB_HAS(CB_FEATURE_INTERFACE)
+        if (CB_SCENE_HAS(scene, CB_FEATURE_INTERFACE)) {
+            /* Across interfaces the shadow ray is a walk, traced here at once. */
+            *needsShadow = 0;
+            c.contribution =
+                specMul(c.contribution,
+                        sceneTransmittance(scene, *shadow, *shadowTMax,
+                                           t > 1 && pvAtInfinity(&light[s - 1]), c.shadowMedium));
+        }
+#endif
     }
     *rasterX = c.rasterX;
     *rasterY = c.rasterY;

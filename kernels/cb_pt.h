@@ -43,9 +43,10 @@ typedef struct PtPath {
     int vertex;        /* the vertex the next ray finds */
     int shadowPending; /* a shadow ray for shadowTerm waits */
     real hero;         /* the wavelength the path follows (TexCoord.hero), -1: every bin */
-    int medium;        /* the medium the next ray travels in (cb_medium.h), -1: vacuum */
+    MediumTrack track; /* the next ray's way through media (cb_medium.h), medium -1: vacuum */
 } PtPath;
-#define CB_PT_PATH_BYTES(channels) (4 * (3 * (channels) + 9))
+#define CB_PT_PATH_BYTES(channels, tracked)                                                        \
+    (4 * (3 * (channels) + 8 + CB_MEDIUM_TRACK_WORDS(tracked)))
 
 /* A path from the camera, which sits in `medium` (Camera.medium). */
 CB_FN PtPath ptPathBegin(int medium) {
@@ -59,7 +60,7 @@ CB_FN PtPath ptPathBegin(int medium) {
     path.vertex = 1;
     path.shadowPending = 0;
     path.hero = -1.0f;
-    path.medium = medium;
+    path.track = mediumTrackStart(medium);
     return path;
 }
 
@@ -111,6 +112,34 @@ CB_FN bool ptRoulette(PtPath* path, SampleStream stream, PathSettings settings, 
     return true;
 }
 
+/* Next-event estimation's term `term` (throughput, scattering, light and weight) over the shadow
+ * ray *shadow free up to shadowTMax, which leaves in `medium` toward a light point `distance` away
+ * (CB_INFINITY: at infinity). Without interfaces the caller traces the shadow ray (ptPathShadow),
+ * the term taking the medium's transmittance here; with them the shadow ray crosses the
+ * interfaces on its way (sceneTransmittance), traced here at once. */
+CB_FN void ptShadowTerm(const SceneView* scene, PtPath* path, Spectrum term, Ray shadow,
+                        real shadowTMax, int medium, real distance) {
+#if CB_HAS(CB_FEATURE_INTERFACE)
+    if (CB_SCENE_HAS(scene, CB_FEATURE_INTERFACE)) {
+        path->radiance = specAdd(
+            path->radiance, specMul(term, sceneTransmittance(scene, shadow, shadowTMax,
+                                                             !(distance < CB_INFINITY), medium)));
+        return;
+    }
+#endif
+    (void)shadow;
+    (void)shadowTMax;
+#if CB_HAS(CB_FEATURE_MEDIUM)
+    term = specMul(term, mediumTransmittance(scene, medium, distance));
+#else
+    (void)scene;
+    (void)medium;
+    (void)distance;
+#endif
+    path->shadowTerm = term;
+    path->shadowPending = 1;
+}
+
 #if CB_HAS(CB_FEATURE_SCATTERING)
 /* Vertex x_k in the medium the path travels in, at p, reached along unit direction d:
  * next-event estimation through the medium (the phase function for the BSDF, weighed by the
@@ -122,7 +151,7 @@ CB_FN bool ptMediumVertex(const SceneView* scene, PtPath* path, Ray* ray, Vec3 p
     int vertex = path->vertex;
     int bounce = vertex - 1;
     if (vertex + 1 >= settings.eyeVertices) return false;
-    real g = mediumAsymmetry(scene, path->medium);
+    real g = mediumAsymmetry(scene, path->track.medium);
     Vec3 d = ray->d;
 
     LightSample ls;
@@ -136,10 +165,9 @@ CB_FN bool ptMediumVertex(const SceneView* scene, PtPath* path, Ray* ray, Vec3 p
             real phase = phaseHenyeyGreenstein(vdot(d, wi), g);
             real weight =
                 lightFoundByRays(scene, ls.light) ? powerHeuristic(pdfLightW, phase) : 1.0f;
-            path->shadowTerm =
-                specMul(specScale(specMul(path->throughput, emitted), phase * weight / pdfLightW),
-                        mediumTransmittance(scene, path->medium, distance));
-            path->shadowPending = 1;
+            ptShadowTerm(scene, path,
+                         specScale(specMul(path->throughput, emitted), phase * weight / pdfLightW),
+                         *shadow, *shadowTMax, path->track.medium, distance);
         }
     }
 
@@ -153,6 +181,7 @@ CB_FN bool ptMediumVertex(const SceneView* scene, PtPath* path, Ray* ray, Vec3 p
     if (!ptRoulette(path, stream, settings, vertex)) return false;
     ray->o = p;
     ray->d = wi;
+    path->track = mediumTrackStart(path->track.medium);
     path->vertex = vertex + 1;
     return true;
 }
@@ -164,36 +193,25 @@ CB_FN bool ptMediumVertex(const SceneView* scene, PtPath* path, Ray* ray, Vec3 p
  * k-th ray is x_k. Emission found at x_k closes a path of k+1 vertices, next-event estimation at
  * x_k closes one of k+2 vertices, so both strategies exist exactly when k+2 <= Ne and are then
  * combined with the power heuristic (Veach 1997, ch. 9). In a scattering medium x_k may be a
- * point of the medium before the surface (ptMediumVertex). Returns whether the path goes on. */
+ * point of the medium before the surface (ptMediumVertex); a surface of the interface material is
+ * no vertex: *ray goes on beyond it, still looking for x_k. Returns whether the path goes on. */
 CB_FN bool ptPathVertex(const SceneView* scene, PtPath* path, Ray* ray, bool found, Hit hit,
                         SampleStream stream, PathSettings settings, Ray* shadow, real* shadowTMax) {
     path->shadowPending = 0;
-#if CB_HAS(CB_FEATURE_SCATTERING)
-    if (mediumScatters(scene, path->medium)) {
-        real uChannel, uDistance, t;
-        Spectrum weight;
-        sampleAt2(
-            stream,
-            mediumDistanceDimension(CB_DIM_FIRST_BOUNCE, settings.eyeVertices, path->vertex - 1),
-            &uChannel, &uDistance);
-        bool scattered =
-            mediumSampleDistance(scene, path->medium, path->throughput, found ? hit.t : CB_INFINITY,
-                                 uChannel, uDistance, &t, &weight);
-        path->throughput = specMul(path->throughput, weight);
-        if (specIsBlack(path->throughput)) return false;
-        if (scattered)
-            return ptMediumVertex(scene, path, ray, vmadd(ray->o, ray->d, t), stream, settings,
-                                  shadow, shadowTMax);
-    } else
-#endif
-    {
 #if CB_HAS(CB_FEATURE_MEDIUM)
-        /* The ray's way through its medium (camera and bounce rays have unit directions). */
-        path->throughput =
-            specMul(path->throughput,
-                    mediumTransmittance(scene, path->medium, found ? hit.t : CB_INFINITY));
+    /* The ray's way through its medium (camera and bounce rays have unit directions). */
+    real t;
+    int segment = mediumRaySegment(
+        scene, &path->track, &path->throughput, stream,
+        mediumDistanceDimension(CB_DIM_FIRST_BOUNCE, settings.eyeVertices, path->vertex - 1),
+        found ? hit.t : CB_INFINITY, &t);
+    if (segment < 0) return false;
+#if CB_HAS(CB_FEATURE_SCATTERING)
+    if (segment > 0)
+        return ptMediumVertex(scene, path, ray, vmadd(ray->o, ray->d, t), stream, settings, shadow,
+                              shadowTMax);
 #endif
-    }
+#endif
     if (!found) {
 #if CB_HAS(CB_FEATURE_INFINITE_LIGHT)
         /* The escaped ray sees the infinite light, weighed against next-event estimation's
@@ -216,6 +234,11 @@ CB_FN bool ptPathVertex(const SceneView* scene, PtPath* path, Ray* ray, bool fou
         return false;
     }
     SurfacePoint sp = surfacePointFromHit(scene, *ray, hit);
+#if CB_HAS(CB_FEATURE_INTERFACE)
+    /* No vertex at an interface: the same ray goes on beyond it. */
+    if (materialIsInterface(scene, sp.material))
+        return mediumCrossInterface(scene, sp, ray, &path->track);
+#endif
     Vec3 wo = vneg(ray->d);
     int vertex = path->vertex;
     int bounce = vertex - 1;
@@ -265,16 +288,11 @@ CB_FN bool ptPathVertex(const SceneView* scene, PtPath* path, Ray* ray, bool fou
                                       ? powerHeuristic(pdfLightW, pdfBsdfW)
                                       : 1.0f;
                     real factor = scatterCos(sp.ng, sp.ns, wo, wi, 0) * weight / pdfLightW;
-                    path->shadowTerm =
-                        specScale(specMul(specMul(path->throughput, f), emitted), factor);
-#if CB_HAS(CB_FEATURE_MEDIUM)
-                    int medium = mediumLeaving(scene, sp.material, sp.ng, wi, path->medium);
-                    path->shadowTerm =
-                        specMul(path->shadowTerm, mediumTransmittance(scene, medium, distance));
-#else
-                    (void)distance;
-#endif
-                    path->shadowPending = 1;
+                    ptShadowTerm(scene, path,
+                                 specScale(specMul(specMul(path->throughput, f), emitted), factor),
+                                 *shadow, *shadowTMax,
+                                 mediumLeaving(scene, sp.material, sp.ng, wi, path->track.medium),
+                                 distance);
                 }
             }
         }
@@ -296,7 +314,8 @@ CB_FN bool ptPathVertex(const SceneView* scene, PtPath* path, Ray* ray, bool fou
     path->previousP = sp.p;
     if (!ptRoulette(path, stream, settings, vertex)) return false;
     *ray = spawnRay(sp, bs.wi);
-    path->medium = mediumLeaving(scene, sp.material, sp.ng, bs.wi, path->medium);
+    path->track =
+        mediumTrackStart(mediumLeaving(scene, sp.material, sp.ng, bs.wi, path->track.medium));
     path->vertex = vertex + 1;
     return true;
 }

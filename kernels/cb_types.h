@@ -72,6 +72,9 @@ typedef struct Hit {
 /* pbrt-v4's mix as one part per surface point, the second with probability amount (for parts
  * that cannot join a mixture: mixPartAtPoint, cb_intersect.h); hits find the part, never this. */
 #define CB_MAT_MIX_AT_POINT 8
+/* pbrt-v4's "interface": a boundary between media that scatters nothing; rays cross it without a
+ * vertex (cb_medium.h, mediumCrossInterface). */
+#define CB_MAT_INTERFACE 9
 
 /* Feature bits: the scene's material kinds and light kinds, passed to the kernel build as
  * -DCB_FEATURES=... so that unused code is compiled out (each scene compiles only what it uses). */
@@ -123,6 +126,8 @@ typedef struct Hit {
 #define CB_FEATURE_MIX_AT_POINT (1ul << 34)
 /* Media that scatter (pbrt-v4's "homogeneous" media of sigma_s above 0, cb_medium.h). */
 #define CB_FEATURE_SCATTERING (1ul << 35)
+/* Surfaces of pbrt-v4's "interface" material (CB_MAT_INTERFACE). */
+#define CB_FEATURE_INTERFACE (1ul << 36)
 
 #ifndef CB_FEATURES
 #define CB_FEATURES 0xfffffffffffffffful
@@ -392,7 +397,20 @@ typedef struct SceneView {
     /* CB_FEATURE_SHADING_NORMALS: per primitive 9 values, a triangle's vertex normals */
     CB_GLOBAL const real* shadingNormals;
     int lightCount;
+#ifndef CB_KERNEL_SIDE
+    /* The host compiles every feature; code that a scene without one must not pay for asks the
+     * scene's own bits (CB_SCENE_HAS). */
+    unsigned long features;
+#endif
 } SceneView;
+
+/* Whether `scene` may use `feature`: the kernels compile only their scene's features, so there
+ * the compile-time bit; on the host the scene's bits. */
+#ifdef CB_KERNEL_SIDE
+#define CB_SCENE_HAS(scene, feature) CB_HAS(feature)
+#else
+#define CB_SCENE_HAS(scene, feature) (((scene)->features & (feature)) != 0u)
+#endif
 
 #ifdef CB_KERNEL_SIDE
 /* Every kernel takes the scene as these parameters (in this order; the host sets them with

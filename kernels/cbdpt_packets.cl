@@ -16,6 +16,13 @@
 /* After cbdpt.cl, whose headers define what it needs (CB_HAS). */
 #include "cb_bvh_ray_packet.h"
 
+/* Each round traces one ray per eye subpath, so a ray that crosses an interface (and must be
+ * traced again without a vertex) cannot wait for the next: the host renders scenes with
+ * interfaces with renderCbdpt (PixelKernelIntegrator::packetsWanted). */
+#if CB_HAS(CB_FEATURE_INTERFACE)
+#error "renderCoherentBdpt does not take scenes with interfaces"
+#endif
+
 /* An eye subpath's walk between its rays: bdptRandomWalk's beta, pdfW and vertex count. The host
  * sizes its buffer by CB_CBDPT_WALK_BYTES. */
 typedef struct CbdptWalk {
@@ -86,9 +93,11 @@ __kernel void renderCoherentBdpt(CB_CBDPT_PARAMS, int tile, __global PathVertex*
             PathVertex prev = eyes[i * maxEye + walk.count - 1], v;
             Ray ray = rays[i];
             const Hit hit = hits[i];
+            /* Without interfaces each ray's way through media starts at its vertex. */
+            MediumTrack track = mediumTrackStart(pvMediumToward(&scene, &prev, ray.d));
             const int step =
                 bdptWalkStep(&scene, hit.primitive >= 0, hit, &ray, &walk.beta, &walk.pdfW, 0,
-                             eyeStream, CB_DIM_FIRST_BOUNCE, &prev, &v, walk.count, maxEye);
+                             eyeStream, CB_DIM_FIRST_BOUNCE, &prev, &v, walk.count, maxEye, &track);
             if (step > 0) {
                 eyes[i * maxEye + walk.count - 1] = prev;
                 eyes[i * maxEye + walk.count] = v;

@@ -27,9 +27,16 @@ __kernel void renderPathTracing(CB_INTEGRATOR_KERNEL_PARAMS(PathSettings), uint 
  * traversal. `tile` must be a multiple of 4. */
 #include "cb_bvh_ray_packet.h"
 
+/* Each round traces one ray per path, so a ray that crosses an interface (and must be traced again
+ * at the same vertex) cannot wait for the next, nor can its shadow rays be occlusion tests: the
+ * host renders scenes with interfaces with renderPathTracing (PixelKernelIntegrator::
+ * packetsWanted). */
+#if !CB_HAS(CB_FEATURE_INTERFACE)
+
 /* The host sizes the path buffer by CB_PT_PATH_BYTES (cb_pt.h): a compile error if it is not
  * PtPath's size. */
-typedef char cbPtPathBytesCheck[sizeof(PtPath) == CB_PT_PATH_BYTES(CB_CHANNELS) ? 1 : -1];
+#define CB_PT_PATH_KERNEL_BYTES CB_PT_PATH_BYTES(CB_CHANNELS, CB_HAS_MEDIUM_TRACK)
+typedef char cbPtPathBytesCheck[sizeof(PtPath) == CB_PT_PATH_KERNEL_BYTES ? 1 : -1];
 
 __kernel void renderCoherentPathTracing(CB_INTEGRATOR_KERNEL_PARAMS(PathSettings), uint estimate,
                                         int streamTile, __global const float* sharedSamples,
@@ -106,3 +113,4 @@ __kernel void renderCoherentPathTracing(CB_INTEGRATOR_KERNEL_PARAMS(PathSettings
 #undef CB_CPT_PIXEL
 #undef CB_CPT_SAMPLES
 }
+#endif

@@ -25,6 +25,7 @@ inline cbk::SceneView hostView(const cb::DeviceScene& s) {
     v.textures = s.textures.data();
     v.shadingNormals = s.shadingNormals.data();
     v.lightCount = int(s.lights.size());
+    v.features = s.features;
     return v;
 }
 

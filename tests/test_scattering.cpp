@@ -7,6 +7,7 @@
 #include <doctest/doctest.h>
 
 #include "cb_medium.h"
+#include "fog_checks.h"
 #include "method_checks.h"
 #include "scene/device_scene.h"
 #include "scene_files.h"
@@ -22,77 +23,7 @@
 using namespace cbtest::method_checks;
 using namespace cbtest::scene_files;
 
-namespace {
-
-std::string fogMedium(const std::array<double, 3>& sigmaA, const std::array<double, 3>& sigmaS,
-                      double g) {
-    return fmt::format("MakeNamedMedium \"fog\" \"string type\" \"homogeneous\" \"rgb sigma_a\" "
-                       "[{} {} {}] \"rgb sigma_s\" [{} {} {}] \"float g\" {}\n",
-                       sigmaA[0], sigmaA[1], sigmaA[2], sigmaS[0], sigmaS[1], sigmaS[2], g);
-}
-
-// The camera at the centre of a sphere of `radius` filled with `medium` (named "fog"), whose
-// wall is black and glows with radiance `glow` on both sides. Every camera ray leaves along a
-// radius, so every pixel has the same expected value.
-std::string fogSphereScene(const std::string& medium, double radius, double glow) {
-    return medium +
-           "MediumInterface \"\" \"fog\"\nLookAt 0 0 0  0 0 1  0 1 0\n"
-           "Camera \"perspective\" \"float fov\" 60\n"
-           "Film \"rgb\" \"integer xresolution\" 8 \"integer yresolution\" 8\n"
-           "WorldBegin\nMediumInterface \"fog\" \"\"\n"
-           "Material \"diffuse\" \"rgb reflectance\" [0 0 0]\n" +
-           fmt::format("AreaLightSource \"diffuse\" \"rgb L\" [{0} {0} {0}] \"bool twosided\" "
-                       "true\nShape \"sphere\" \"float radius\" {1}\n",
-                       glow, radius);
-}
-
-// pbrt-v4's Henyey-Greenstein phase function of the cosine between the travel direction and the
-// new one.
-double henyeyGreenstein(double g, double cosTheta) {
-    const double d = 1.0 + g * g - 2.0 * g * cosTheta;
-    return (1.0 - g * g) / (4.0 * M_PI * d * std::sqrt(d));
-}
-
-// Radiance reaching the centre of the fog sphere along a radius, paths of at most two segments:
-// the wall seen through the fog, plus light scattered once, from a point at distance t, off a
-// wall point in direction mu (the cosine to the radius) at distance r(t, mu):
-//   glow exp(-sigma_t R) + glow sigma_s int_0^R exp(-sigma_t t) 2 pi int_-1^1 p(mu)
-//   exp(-sigma_t r(t, mu)) dmu dt.
-double singleScatteringRadiance(double sigmaT, double sigmaS, double g, double radius,
-                                double glow) {
-    const int n = 1500;
-    double sum = 0.0;
-    for (int i = 0; i < n; ++i) {
-        const double t = (i + 0.5) * radius / n;
-        double inner = 0.0;
-        for (int j = 0; j < n; ++j) {
-            const double mu = -1.0 + (j + 0.5) * 2.0 / n;
-            const double r = -t * mu + std::sqrt(radius * radius - t * t * (1.0 - mu * mu));
-            inner += henyeyGreenstein(g, mu) * std::exp(-sigmaT * r);
-        }
-        sum += std::exp(-sigmaT * t) * 2.0 * M_PI * inner * (2.0 / n);
-    }
-    return glow * (std::exp(-sigmaT * radius) + sigmaS * sum * radius / n);
-}
-
-// Per channel, the image mean over 16 runs: with 6 (channelMeans) the runs' spread misjudges the
-// coherent methods' (whose pixels share samples, and CPT's and CBDPT's eye samples are the same
-// for one seed) often enough to fail one of these suites' 60 checks in about 1 of 4 seeds.
-cbtest::method_checks::BinnedMeans channelMeans16(const cb::DeviceScene& scene,
-                                                  cb::ClRuntime& runtime,
-                                                  const cb::IntegratorSettings& settings,
-                                                  int estimates, std::uint32_t seed) {
-    return binnedMeans(scene, runtime, settings, 16, estimates, seed, 3,
-                       [](int, int, int c) { return size_t(c); });
-}
-
-cb::IntegratorSettings pathSettings(const std::string& method, int vertices) {
-    cb::IntegratorSettings s = methodSettings(method);
-    s.maxPathVertices = vertices;
-    return s;
-}
-
-} // namespace
+using namespace cbtest::fog_checks;
 
 TEST_CASE("scattering media: the device scene keeps sigma_t, sigma_s and g") {
     TempDirCleanup cleanup;
@@ -299,21 +230,10 @@ TEST_CASE("scattering media: every method in a glowing sphere of fog, against si
     const cb::DeviceScene scene = cb::buildDeviceScene(
         parseInTemp(fogSphereScene(fogMedium(sigmaA, sigmaS, g), radius, glow)));
     REQUIRE((scene.features & CB_FEATURE_SCATTERING) != 0);
-    std::array<double, 3> direct{}, single{};
-    for (size_t c = 0; c < 3; ++c) {
-        const double sigmaT = sigmaA[c] + sigmaS[c];
-        direct[c] = glow * std::exp(-sigmaT * radius);
-        single[c] = singleScatteringRadiance(sigmaT, sigmaS[c], g, radius, glow);
-    }
-    for (const std::string method : kMethods) {
-        CAPTURE(method);
-        const bool coherent = method == "cpt" || method == "cbdpt";
-        checkChannelMeans(channelMeans16(scene, runtime, pathSettings(method, 2), 4, 31u), direct,
-                          1e-4);
-        checkChannelMeans(
-            channelMeans16(scene, runtime, pathSettings(method, 3), coherent ? 24 : 6, 37u), single,
-            1e-4);
-    }
+    std::array<Shells, 3> shells;
+    for (size_t c = 0; c < 3; ++c)
+        shells[c] = {{radius}, {sigmaA[c] + sigmaS[c]}, {sigmaS[c]}, {g}};
+    checkEveryMethodAgainstSingleScattering(scene, runtime, shells, glow, 31u);
 }
 
 // A fog that does not absorb, inside a wall that glows with radiance L: the radiance is L at
@@ -328,36 +248,14 @@ TEST_CASE("scattering media: every method in a furnace of fog keeps the wall's r
     cb::ClRuntime runtime;
     for (const double g : {-0.5, 0.0, 0.8}) {
         CAPTURE(g);
-        const cb::DeviceScene scene = cb::buildDeviceScene(
-            parseInTemp(fogSphereScene(fogMedium({0, 0, 0}, {1.2, 0.5, 0}, g), 1.0, 1.5)));
-        for (const std::string method : kMethods) {
-            CAPTURE(method);
-            const bool coherent = method == "cpt" || method == "cbdpt";
-            checkChannelMeans(
-                channelMeans16(scene, runtime, pathSettings(method, 24), coherent ? 24 : 4, 41u),
-                {1.5, 1.5, 1.5}, 1e-4);
-        }
+        checkEveryMethodKeepsGlow(cb::buildDeviceScene(parseInTemp(fogSphereScene(
+                                      fogMedium({0, 0, 0}, {1.2, 0.5, 0}, g), 1.0, 1.5))),
+                                  runtime, 1.5, 41u);
     }
 }
 
-// Every strategy in fog: checkMethodsAgreeWithPt's floor, wall, block and light inside a box of
-// coloured fog closed by glass of index 1, which the camera looks into (connections between
-// points in the fog, next-event estimation from them, eye and light subpaths scattering before
-// surfaces), or in which it sits (light tracing from points in the fog too).
+// Every strategy in fog (checkMethodsAgreeWithPtInFogBox), the box closed by glass of index 1.
 TEST_CASE("scattering media: BDPT, CBDPT and MLT agree with PT inside a box of fog" *
           doctest::test_suite("statistical")) {
-    const std::string fog = fogMedium({0.05, 0.1, 0.2}, {0.6, 0.4, 0.3}, 0.3);
-    SUBCASE("the camera outside") {
-        checkMethodsAgreeWithPt(fog + "MediumInterface \"fog\"\n" + kDiskLight,
-                                "AttributeBegin\nMaterial \"dielectric\" \"float eta\" "
-                                "1\nMediumInterface \"fog\" \"\"\n" +
-                                    boxShape(-2.2, -0.2, -2.2, 2.2, 2.2, 1.2) + "AttributeEnd\n");
-    }
-    SUBCASE("the camera in the fog") {
-        checkMethodsAgreeWithPt(fog + "MediumInterface \"fog\"\n" + kDiskLight,
-                                "AttributeBegin\nMaterial \"dielectric\" \"float eta\" 1\n" +
-                                    boxShape(-2.2, -0.2, -3.5, 2.2, 2.2, 1.2) + "AttributeEnd\n",
-                                "", "Material \"diffuse\" \"rgb reflectance\" [0.7 0.7 0.7]\n",
-                                "MediumInterface \"\" \"fog\"\n");
-    }
+    checkMethodsAgreeWithPtInFogBox("Material \"dielectric\" \"float eta\" 1\n");
 }

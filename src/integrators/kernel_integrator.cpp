@@ -162,8 +162,10 @@ void PixelKernelIntegrator::renderEstimate(std::uint32_t estimate, std::vector<f
 
 bool PixelKernelIntegrator::packetsWanted() const {
     const char* env = std::getenv("CBDPT_PACKETS");
+    // Packets trace one ray per path a round; a ray crossing an interface needs another at once.
     return runtime_.info().cpu && settings_.tileSize % 4 == 0 &&
-           settings_.coherenceTile <= kMaxPacketCoherenceTile && !(env && std::string(env) == "0");
+           settings_.coherenceTile <= kMaxPacketCoherenceTile &&
+           (scene_.features & CB_FEATURE_INTERFACE) == 0 && !(env && std::string(env) == "0");
 }
 
 std::vector<std::string> PixelKernelIntegrator::rayPacketDefines() {

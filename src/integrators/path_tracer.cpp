@@ -14,7 +14,7 @@ namespace cb {
 
 namespace {
 
-static_assert(sizeof(cbk::PtPath) == CB_PT_PATH_BYTES(CB_CHANNELS),
+static_assert(sizeof(cbk::PtPath) == CB_PT_PATH_BYTES(CB_CHANNELS, true),
               "CB_PT_PATH_BYTES is PtPath's size");
 
 cbk::PathSettings pathSettingsFor(const IntegratorSettings& settings) {
@@ -45,7 +45,9 @@ class PathTracingIntegrator final : public PixelKernelIntegrator {
             return;
         }
         // A work-item per tile of pixels, one entry per pixel.
-        paths_ = packetScratch("paths", 1, CB_PT_PATH_BYTES(scene.channels));
+        // The kernel's PtPath: its medium's track only where the scene scatters or has interfaces.
+        const bool tracked = (scene.features & (CB_FEATURE_SCATTERING | CB_FEATURE_INTERFACE)) != 0;
+        paths_ = packetScratch("paths", 1, CB_PT_PATH_BYTES(scene.channels, tracked));
         rays_ = packetScratch("rays", 1, sizeof(cbk::Ray));
         tMaxes_ = packetScratch("ray ends", 1, sizeof(float));
         hits_ = packetScratch("hits", 1, sizeof(cbk::Hit));

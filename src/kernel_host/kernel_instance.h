@@ -278,6 +278,7 @@ struct HostScene {
         view.textures = textures.data();
         view.shadingNormals = shadingNormals.data();
         view.lightCount = int(lights.size());
+        view.features = scene.features;
     }
     HostScene(const HostScene&) = delete;
     HostScene& operator=(const HostScene&) = delete;

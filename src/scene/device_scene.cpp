@@ -399,7 +399,7 @@ void requireInFloatRange(const std::array<double, 3>& p, double radius,
                                             what, far, kMaxDeviceCoordinate));
 }
 
-unsigned materialFeature(MaterialKind kind) {
+std::uint64_t materialFeature(MaterialKind kind) {
     switch (kind) {
     case MaterialKind::Diffuse:
         return CB_FEATURE_DIFFUSE;
@@ -417,6 +417,8 @@ unsigned materialFeature(MaterialKind kind) {
         return CB_FEATURE_COATED_DIFFUSE;
     case MaterialKind::CoatedConductor:
         return CB_FEATURE_COATED_CONDUCTOR;
+    case MaterialKind::Interface:
+        return CB_FEATURE_INTERFACE;
     }
     return 0;
 }
@@ -695,6 +697,9 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
             out.kind = CB_MAT_THIN_DIELECTRIC;
             out.eta = m.eta;
             addDispersion();
+            break;
+        case MaterialKind::Interface:
+            out.kind = CB_MAT_INTERFACE;
             break;
         case MaterialKind::CoatedDiffuse:
         case MaterialKind::CoatedConductor: {
@@ -1339,6 +1344,7 @@ std::string DeviceScene::featureNames() const {
     add(CB_FEATURE_NOISE_TEXTURE, "noise-texture");
     add(CB_FEATURE_MIX_AT_POINT, "mix-at-point");
     add(CB_FEATURE_SCATTERING, "scattering");
+    add(CB_FEATURE_INTERFACE, "interface");
     names += channels == 16 ? " spectral-16" : " rgb";
     return names;
 }
@@ -1372,6 +1378,7 @@ SceneBytes sceneBytes(const DeviceScene& scene) {
     raw.camera = &scene.camera;
     raw.cameraBytes = sizeof(cbk::Camera);
     raw.channels = scene.channels;
+    raw.features = scene.features;
     return raw;
 }
 

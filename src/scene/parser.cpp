@@ -632,6 +632,7 @@ class Parser {
         resolveLaterMaterials();
         resolveLaterMixParts();
         resolveLaterTextures();
+        checkInterfaces();
         checkTangents();
         checkMedia();
     }
@@ -1752,6 +1753,31 @@ class Parser {
             if (scene_.materials[i].kind == MaterialKind::Mix) mixLeaves(scene_, int(i));
     }
 
+    // pbrt-v4's "interface" material, once every name is resolved: a shape of it emits nothing
+    // (pbrt-v4 ignores its area light, with a warning), and a mix may not choose it (pbrt-v4
+    // would skip the surface where it does: a stochastic cut-out cbdpt does not have).
+    void checkInterfaces() {
+        auto isInterface = [&](int material) {
+            return material >= 0 &&
+                   scene_.materials[size_t(material)].kind == MaterialKind::Interface;
+        };
+        for (const MaterialDesc& m : scene_.materials)
+            if (m.kind == MaterialKind::Mix && (isInterface(m.mix[0]) || isInterface(m.mix[1])))
+                throw SceneError(m.where, "a mix of an \"interface\" material is not supported "
+                                          "(pbrt-v4 skips the surface where the mix chooses it)");
+        auto dropLight = [&](int& areaLight, int material, const SourceLocation& where) {
+            if (areaLight < 0 || !isInterface(material)) return;
+            areaLight = -1;
+            note(where, "interface-light",
+                 "an area light on a shape of the \"interface\" material emits nothing (as in "
+                 "pbrt-v4, which ignores it)");
+        };
+        for (TriangleMeshDesc& mesh : scene_.meshes)
+            dropLight(mesh.areaLight, mesh.material, mesh.where);
+        for (SphereDesc& sphere : scene_.spheres)
+            dropLight(sphere.areaLight, sphere.material, sphere.where);
+    }
+
     // pbrt-v4's "roughness", or "uroughness" and "vroughness" (defaulting to "roughness", which
     // defaults to 0; they may differ on a conductor or a dielectric, whose GGX lobe is then
     // anisotropic, not on a coat), and "remaproughness"; a coated conductor's names begin with
@@ -2007,6 +2033,9 @@ class Parser {
             readCoatedDiffuse(pl, m);
         } else if (type == "coatedconductor") {
             readCoatedConductor(pl, m);
+        } else if (type == "interface" || type == "none" || type.empty()) {
+            // pbrt-v4 takes "none" and "" as "interface" (deprecated names, with a warning).
+            m.kind = MaterialKind::Interface;
         } else if (type == "mix") {
             m.kind = MaterialKind::Mix;
             const Param* mats = pl.stringList("materials");
@@ -2034,9 +2063,9 @@ class Parser {
             throw SceneError(typeLoc, "unsupported material type \"" + type +
                                           "\" (cbdpt supports diffuse, conductor, dielectric, "
                                           "thindielectric, diffusetransmission, coateddiffuse, "
-                                          "coatedconductor, mix)");
+                                          "coatedconductor, mix, interface)");
         }
-        if (type != "mix") {
+        if (type != "mix" && m.kind != MaterialKind::Interface) {
             m.normalMap = normalMap(pl);
             m.displacement = displacement(pl, m.normalMap >= 0);
         }

@@ -32,6 +32,7 @@ struct SceneBytes {
     const void* camera;
     std::size_t cameraBytes;
     int channels;
+    std::uint64_t features; // CB_FEATURE_* bits
 };
 
 // Points into `scene`, which must outlive the result.

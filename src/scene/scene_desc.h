@@ -56,7 +56,8 @@ enum class MaterialKind {
     DiffuseTransmission,
     ThinDielectric,
     CoatedDiffuse,
-    CoatedConductor
+    CoatedConductor,
+    Interface // pbrt-v4's "interface": a boundary between media that scatters nothing
 };
 
 struct MaterialDesc {
