@@ -272,8 +272,11 @@ CB_FN Spectrum sceneTransmittance(const SceneView* scene, Ray ray, real tMax, bo
         if (!(tMax > 0.0f) || !sceneIntersect(scene, ray, tMax, &hit))
             return specMul(tr, mediumTransmittance(scene, medium,
                                                    toInfinity ? CB_INFINITY : fmax(tMax, 0.0f)));
+        /* Blocked before any shading work: an interface is never a mix's part, so the
+         * primitive's own material tells. */
+        if (!materialIsInterface(scene, scene->primitives[hit.primitive].material))
+            return specZero();
         SurfacePoint sp = surfacePointFromHit(scene, ray, hit);
-        if (!materialIsInterface(scene, sp.material)) return specZero();
         tr = specMul(tr, mediumTransmittance(scene, medium, hit.t));
         medium = mediumLeaving(scene, sp.material, sp.ng, ray.d, medium);
         ray = spawnRay(sp, ray.d);
