@@ -456,7 +456,7 @@ CB_FN int bdptWalkStep(const SceneView* scene, bool found, Hit hit, Ray* ray, Sp
     real t;
     int segment = mediumRaySegment(scene, track, beta, stream,
                                    mediumDistanceDimension(firstBounceDim, maxVertices, count - 1),
-                                   found ? hit.t : CB_INFINITY, &t);
+                                   ray->o, ray->d, found ? hit.t : CB_INFINITY, &t);
     if (segment < 0) return 0;
 #if CB_HAS(CB_FEATURE_SCATTERING)
     if (segment > 0)
@@ -924,19 +924,22 @@ typedef struct BdptConnection {
     int shadowMedium; /* CB_FEATURE_INTERFACE: the medium the shadow ray leaves in */
 } BdptConnection;
 
-/* The connection's way through media, `distance` long (CB_INFINITY: to a light at infinity),
- * leaving in `medium`: its transmittance, or, where interfaces may lie on the way, the medium
- * its shadow ray starts in (bdptConnectDeferred traces it through them). */
-CB_FN void bdptConnectionMedium(const SceneView* scene, BdptConnection* out, int medium,
-                                real distance) {
+/* The connection's way through media from p in unit direction w, `distance` long (CB_INFINITY:
+ * to a light at infinity), leaving in `medium`: its transmittance, or, where interfaces may lie
+ * on the way, the medium its shadow ray starts in (bdptConnectDeferred traces it through them). */
+CB_FN void bdptConnectionMedium(const SceneView* scene, BdptConnection* out, int medium, Vec3 p,
+                                Vec3 w, real distance) {
     out->shadowMedium = medium;
 #if CB_HAS(CB_FEATURE_INTERFACE)
     if (CB_SCENE_HAS(scene, CB_FEATURE_INTERFACE)) return;
 #endif
 #if CB_HAS(CB_FEATURE_MEDIUM)
-    out->contribution = specMul(out->contribution, mediumTransmittance(scene, medium, distance));
+    out->contribution =
+        specMul(out->contribution, mediumTransmittance(scene, medium, p, w, distance));
 #else
     (void)scene;
+    (void)p;
+    (void)w;
     (void)distance;
 #endif
 }
@@ -1002,7 +1005,7 @@ CB_FN bool bdptConnectUnoccluded(const SceneView* scene, const Camera* camera,
         real cosCam = vdot(vneg(w), forward);
         real g = cosCam * pvAbsCos(qs, w) / dist2 * pvLightSideShading(qs);
         out->contribution = specScale(specMul(qs->beta, f), we * g);
-        bdptConnectionMedium(scene, out, pvMediumToward(scene, qs, w), sqrt(dist2));
+        bdptConnectionMedium(scene, out, pvMediumToward(scene, qs, w), pvP(qs), w, sqrt(dist2));
         out->rasterX = rx;
         out->rasterY = ry;
         out->qsPdfRev = pdfCamDir * pvAbsCos(qs, w) / dist2;
@@ -1034,7 +1037,7 @@ CB_FN bool bdptConnectUnoccluded(const SceneView* scene, const Camera* camera,
     real g = pvAbsCos(pt, w) * pvAbsCos(qs, w) * invDist2 * pvShadingRatio(pt, w);
     if (s >= 2) g *= pvLightSideShading(qs);
     out->contribution = specScale(specMul(specMul(qs->beta, fQs), specMul(fPt, pt->beta)), g);
-    bdptConnectionMedium(scene, out, pvMediumToward(scene, pt, w),
+    bdptConnectionMedium(scene, out, pvMediumToward(scene, pt, w), pvP(pt), w,
                          pvAtInfinity(qs) ? CB_INFINITY : sqrt(dist2));
     out->ptPdfRev = qsFwd * pvAbsCos(pt, w) * invDist2;
     out->ptMinusPdfRev = pvConvertPdf(ptRev, pvP(pt), &eye[t - 2]);

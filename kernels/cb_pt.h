@@ -127,12 +127,12 @@ CB_FN void ptShadowTerm(const SceneView* scene, PtPath* path, Spectrum term, Ray
         return;
     }
 #endif
-    (void)shadow;
     (void)shadowTMax;
 #if CB_HAS(CB_FEATURE_MEDIUM)
-    term = specMul(term, mediumTransmittance(scene, medium, distance));
+    term = specMul(term, mediumTransmittance(scene, medium, shadow.o, shadow.d, distance));
 #else
     (void)scene;
+    (void)shadow;
     (void)medium;
     (void)distance;
 #endif
@@ -204,7 +204,7 @@ CB_FN bool ptPathVertex(const SceneView* scene, PtPath* path, Ray* ray, bool fou
     int segment = mediumRaySegment(
         scene, &path->track, &path->throughput, stream,
         mediumDistanceDimension(CB_DIM_FIRST_BOUNCE, settings.eyeVertices, path->vertex - 1),
-        found ? hit.t : CB_INFINITY, &t);
+        ray->o, ray->d, found ? hit.t : CB_INFINITY, &t);
     if (segment < 0) return false;
 #if CB_HAS(CB_FEATURE_SCATTERING)
     if (segment > 0)

@@ -128,6 +128,8 @@ typedef struct Hit {
 #define CB_FEATURE_SCATTERING (1ul << 35)
 /* Surfaces of pbrt-v4's "interface" material (CB_MAT_INTERFACE). */
 #define CB_FEATURE_INTERFACE (1ul << 36)
+/* Media whose coefficients vary over a grid (pbrt-v4's "uniformgrid", cb_medium.h). */
+#define CB_FEATURE_GRID_MEDIUM (1ul << 37)
 
 #ifndef CB_FEATURES
 #define CB_FEATURES 0xfffffffffffffffful

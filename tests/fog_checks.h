@@ -169,9 +169,11 @@ inline void checkEveryMethodKeepsGlow(const cb::DeviceScene& scene, cb::ClRuntim
 // `boundary` (a material directive), which the camera looks into (connections between points in
 // the fog, next-event estimation from them, eye and light subpaths scattering before surfaces,
 // crossing the boundary where it lets them), or in which it sits (light tracing from points in
-// the fog too).
-inline void checkMethodsAgreeWithPtInFogBox(const std::string& boundary) {
-    const std::string fog = fogMedium({0.05, 0.1, 0.2}, {0.6, 0.4, 0.3}, 0.3);
+// the fog too). `fog`: the medium "fog" (homogeneous by default).
+inline void checkMethodsAgreeWithPtInFogBox(const std::string& boundary,
+                                            const std::string& fog = fogMedium({0.05, 0.1, 0.2},
+                                                                               {0.6, 0.4, 0.3},
+                                                                               0.3)) {
     SUBCASE("the camera outside") {
         method_checks::checkMethodsAgreeWithPt(
             fog + "MediumInterface \"fog\"\n" + method_checks::kDiskLight,

@@ -25,6 +25,13 @@ using namespace cbtest::scene_files;
 
 namespace {
 
+// A homogeneous medium's transmittance and distances do not depend on where its segment lies.
+const cbk::Vec3 kOrigin = cbk::vec3(0.0f, 0.0f, 0.0f), kUp = cbk::vec3(0.0f, 0.0f, 1.0f);
+
+} // namespace
+
+namespace {
+
 // pbrt-v4's absorbing medium "ink" of sigma_a per channel times `scale`.
 std::string inkMedium(const std::array<double, 3>& sigma, double scale = 1.0) {
     return fmt::format("MakeNamedMedium \"ink\" \"string type\" \"homogeneous\" \"rgb sigma_a\" "
@@ -194,14 +201,15 @@ TEST_CASE("absorbing media: the kernels' sides and Beer-Lambert transmittance") 
     CHECK(cbk::mediumLeaving(&view, 0, n, down, 7) == 7);
     CHECK(cbk::mediumLeaving(&view, 2, n, down, -1) == -1);
     CHECK(cbk::mediumLeaving(&view, -1, n, down, 5) == 5);
-    const cbk::Spectrum t = cbk::mediumTransmittance(&view, ink, 0.3f);
+    const cbk::Spectrum t = cbk::mediumTransmittance(&view, ink, kOrigin, kUp, 0.3f);
     for (int c = 0; c < 3; ++c)
         CHECK(t.c[c] == doctest::Approx(std::exp(-0.3 * std::array<double, 3>{1, 2, 4}[size_t(c)]))
                             .epsilon(1e-6));
     // To a light at infinity nothing crosses an absorbing medium; vacuum and sigma_a 0 pass all.
-    const cbk::Spectrum far = cbk::mediumTransmittance(&view, ink, CB_INFINITY);
-    const cbk::Spectrum clearFar = cbk::mediumTransmittance(&view, clear, CB_INFINITY);
-    const cbk::Spectrum vacuum = cbk::mediumTransmittance(&view, -1, 10.0f);
+    const cbk::Spectrum far = cbk::mediumTransmittance(&view, ink, kOrigin, kUp, CB_INFINITY);
+    const cbk::Spectrum clearFar =
+        cbk::mediumTransmittance(&view, clear, kOrigin, kUp, CB_INFINITY);
+    const cbk::Spectrum vacuum = cbk::mediumTransmittance(&view, -1, kOrigin, kUp, 10.0f);
     for (int c = 0; c < 3; ++c) {
         CHECK(far.c[c] == 0.0f);
         CHECK(clearFar.c[c] == 1.0f);

@@ -25,6 +25,13 @@ using namespace cbtest::scene_files;
 
 using namespace cbtest::fog_checks;
 
+namespace {
+
+// A homogeneous medium's transmittance and distances do not depend on where its segment lies.
+const cbk::Vec3 kOrigin = cbk::vec3(0.0f, 0.0f, 0.0f), kUp = cbk::vec3(0.0f, 0.0f, 1.0f);
+
+} // namespace
+
 TEST_CASE("scattering media: the device scene keeps sigma_t, sigma_s and g") {
     TempDirCleanup cleanup;
     const cb::DeviceScene scene = cb::buildDeviceScene(
@@ -49,7 +56,7 @@ TEST_CASE("scattering media: the device scene keeps sigma_t, sigma_s and g") {
     CHECK(cbk::mediumAsymmetry(&view, fog) == -0.4f);
     CHECK(!cbk::mediumScatters(&view, -1));
     // Transmittance is exp(-sigma_t d): absorption and out-scattering.
-    const cbk::Spectrum t = cbk::mediumTransmittance(&view, fog, 0.5f);
+    const cbk::Spectrum t = cbk::mediumTransmittance(&view, fog, kOrigin, kUp, 0.5f);
     for (int c = 0; c < 3; ++c)
         CHECK(t.c[c] == doctest::Approx(std::exp(-0.5 * sigmaT[size_t(c)])).epsilon(1e-6));
 
@@ -82,8 +89,8 @@ TEST_CASE("scattering media: what cbdpt refuses, naming the file, line and value
     CHECK(contains(inMedium("\"float g\" -1.5"), "got -1.5"));
     e = inMedium("\"string preset\" \"Wholemilk\"");
     CHECK(contains(e, "medium \"m\" names the measured \"preset\" \"Wholemilk\""));
-    CHECK(contains(e, "cbdpt renders \"homogeneous\" media of \"sigma_a\" and \"sigma_s\" "
-                      "without \"Le\" (a shape sits in it at "));
+    CHECK(contains(e, "cbdpt renders \"homogeneous\" and \"uniformgrid\" media of \"sigma_a\" "
+                      "and \"sigma_s\" without \"Le\" (a shape sits in it at "));
     CHECK(contains(e, "t.pbrt:4")); // the shape in it
     CHECK(contains(inMedium("\"rgb Le\" [1 1 1]"), "emits (its \"Le\" is not 0)"));
     CHECK(contains(inMedium("\"rgb sigma_s\" [1 -1 1]"), "negative value"));
@@ -171,8 +178,8 @@ TEST_CASE("scattering media: distance sampling's weights integrate to the transm
                         float t = 0.0f;
                         cbk::Spectrum w;
                         const bool s = cbk::mediumSampleDistance(
-                            &view, fog, beta, float(tMax), (float(i) + 0.5f) / float(nc),
-                            (float(j) + 0.5f) / float(nd), &t, &w);
+                            &view, fog, beta, kOrigin, kUp, float(tMax),
+                            (float(i) + 0.5f) / float(nc), (float(j) + 0.5f) / float(nd), &t, &w);
                         if (s && !(t < float(tMax))) ++bad; // scattered beyond the surface
                         double after = 0.0;
                         for (int c = 0; c < 3; ++c) {
@@ -211,7 +218,7 @@ TEST_CASE("scattering media: distance sampling's weights integrate to the transm
     float t = 0.0f;
     cbk::Spectrum w;
     CHECK(!cbk::mediumSampleDistance(&view, scene.materials.back().mediumInside, cbk::specZero(),
-                                     2.0f, 0.5f, 0.5f, &t, &w));
+                                     kOrigin, kUp, 2.0f, 0.5f, 0.5f, &t, &w));
     CHECK(cbk::specIsBlack(w));
 }
 

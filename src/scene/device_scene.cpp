@@ -74,6 +74,33 @@ std::array<float, 6> sphereFrameSlot(const std::array<double, 9>& w) {
     return {float(x), float(y), float(z), float(qw), det < 0.0 ? -1.f : 1.f, 0.f};
 }
 
+// A medium's grid after its three entries (cb_medium.h, mediumGrid): nx, ny, nz (0 for a
+// homogeneous medium), the map from device coordinates (world minus `origin`) to the samples'
+// coordinates, pbrt-v4's SampledGrid lookup (the point's offset in the box p0-p1 times n, minus
+// 0.5) after the medium's own transform, and the densities; padded to whole entries of
+// `channels` floats.
+void addMediumGrid(const MediumDesc& medium, const std::array<double, 3>& origin, int channels,
+                   std::vector<float>& spectra) {
+    const size_t header = spectra.size();
+    spectra.resize(header + CB_GRID_HEADER, 0.f);
+    if (!medium.density.empty()) {
+        for (size_t axis = 0; axis < 3; ++axis) {
+            const double n = medium.samples[axis];
+            const double perUnit = n / (medium.p1[axis] - medium.p0[axis]);
+            spectra[header + axis] = float(n);
+            const double* row = &medium.mediumFromWorld[axis * 4];
+            double translation = row[3] + row[0] * origin[0] + row[1] * origin[1] +
+                                 row[2] * origin[2] - medium.p0[axis];
+            for (size_t col = 0; col < 3; ++col)
+                spectra[header + CB_GRID_MAP + axis * 4 + col] = float(row[col] * perUnit);
+            spectra[header + CB_GRID_MAP + axis * 4 + 3] = float(translation * perUnit - 0.5);
+        }
+        spectra.insert(spectra.end(), medium.density.begin(), medium.density.end());
+    }
+    spectra.resize((spectra.size() + size_t(channels) - 1) / size_t(channels) * size_t(channels),
+                   0.f);
+}
+
 class SpectraTable {
   public:
     SpectraTable(int channels, std::vector<float>& data) : channels_(channels), data_(data) {}
@@ -861,8 +888,12 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
     // pbrt-v4's MediumInterface: a shape between media gets a material of its own, its material
     // with the two media set (one per material and pair), which the kernels read where a ray
     // leaves the surface (mediumLeaving, cb_medium.h). A medium is three entries: sigma_t and
-    // sigma_s, each times its scale, and g (cb_medium.h).
+    // sigma_s, each times its scale, and g (cb_medium.h); where a grid medium is used, every
+    // medium's are followed by its grid (mediumGrid).
     std::vector<int> mediumSpectrum(desc.media.size(), -1);
+    const bool gridMedia = std::any_of(desc.media.begin(), desc.media.end(),
+                                       [](const auto& m) { return m.used && !m.density.empty(); });
+    if (gridMedia) scene.features |= CB_FEATURE_GRID_MEDIUM;
     auto mediumEntry = [&](int medium) {
         if (medium < 0) return -1;
         int& entry = mediumSpectrum[size_t(medium)];
@@ -888,6 +919,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
                                                            md.name, md.scale));
             }
             if (scatters) scene.features |= CB_FEATURE_SCATTERING;
+            if (gridMedia) addMediumGrid(md, scene.origin, scene.channels, scene.spectra);
         }
         return entry;
     };
@@ -1345,6 +1377,7 @@ std::string DeviceScene::featureNames() const {
     add(CB_FEATURE_MIX_AT_POINT, "mix-at-point");
     add(CB_FEATURE_SCATTERING, "scattering");
     add(CB_FEATURE_INTERFACE, "interface");
+    add(CB_FEATURE_GRID_MEDIUM, "grid-medium");
     names += channels == 16 ? " spectral-16" : " rgb";
     return names;
 }

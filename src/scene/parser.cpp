@@ -18,6 +18,7 @@
 #include <cctype>
 #include <charconv>
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
 #include <filesystem>
 #include <functional>
@@ -1616,9 +1617,9 @@ class Parser {
         return it->second;
     }
 
-    // pbrt-v4's "homogeneous" medium, absorbing and scattering. Any other is kept with the
-    // reason, an error only where something sits in it (checkMedia), as pbrt-v4 creates media
-    // that nothing uses without complaint.
+    // pbrt-v4's "homogeneous" and "uniformgrid" media, absorbing and scattering. Any other is
+    // kept with the reason, an error only where something sits in it (checkMedia), as pbrt-v4
+    // creates media that nothing uses without complaint.
     void makeNamedMedium(const Token& t) {
         const Token name = quoted(t, "a medium name");
         ParamList pl = params("MakeNamedMedium \"" + name.text + "\"", "medium");
@@ -1633,13 +1634,16 @@ class Parser {
         if (!type)
             throw SceneError(t.where, "MakeNamedMedium \"" + name.text +
                                           "\" needs a \"string type\" parameter");
-        if (*type != "homogeneous") {
+        const bool grid = *type == "uniformgrid";
+        if (*type != "homogeneous" && !grid) {
             m.unsupported = "is of type \"" + *type + "\"";
             pl.takeRest();
             pl.finish();
             return;
         }
-        if (const std::optional<std::string> preset = pl.oneString("preset"))
+        if (grid)
+            gridMedium(t, pl, m);
+        else if (const std::optional<std::string> preset = pl.oneString("preset"))
             m.unsupported = "names the measured \"preset\" \"" + *preset +
                             "\", whose table cbdpt does not have";
         if (auto sigmaA = pl.spectrum("sigma_a", SpectrumRole::Coefficient)) m.sigmaA = *sigmaA;
@@ -1664,6 +1668,71 @@ class Parser {
             m.scale = float(scale);
         }
         pl.finish();
+    }
+
+    // pbrt-v4's GridMedium::Create: "density" (nx ny nz values, x fastest) over the box "p0" to
+    // "p1" of the medium's space (the CTM here). A "temperature" grid emits, which cbdpt does not
+    // render; "Lescale" and the temperature's offset and scale only matter with emission.
+    void gridMedium(const Token& t, ParamList& pl, MediumDesc& m) {
+        const Param* density = pl.numeric("density", "float", 1);
+        if (!density)
+            throw SceneError(t.where, "MakeNamedMedium \"" + m.name +
+                                          "\" of type \"uniformgrid\" needs \"float density\"");
+        std::uint64_t count = 1;
+        for (int axis = 0; axis < 3; ++axis) {
+            const std::string name = std::string(1, "xyz"[axis]);
+            const Param* p = pl.peek("n" + name);
+            const int n = pl.oneInt("n" + name).value_or(1);
+            if (n < 1)
+                throw SceneError(
+                    p->valueLoc(0),
+                    fmt::format("\"integer n{}\" must be at least 1, got {}", name, n));
+            m.samples[size_t(axis)] = n;
+            count *= std::uint64_t(n);
+        }
+        if (density->size() != count)
+            throw SceneError(density->where,
+                             fmt::format("\"float density\" has {} values; nx x ny x nz = {} x {} "
+                                         "x {} = {} expected",
+                                         density->size(), m.samples[0], m.samples[1], m.samples[2],
+                                         count));
+        m.density.reserve(density->size());
+        for (size_t i = 0; i < density->size(); ++i) {
+            const double v = density->numbers[i];
+            if (!(v >= 0.0 && v <= std::numeric_limits<float>::max()))
+                throw SceneError(density->valueLoc(i),
+                                 fmt::format("\"float density\" value {} is {:g}; a density must "
+                                             "be finite and >= 0",
+                                             i, v));
+            m.density.push_back(float(v));
+        }
+        for (auto [name, value] : {std::pair{"p0", &m.p0}, std::pair{"p1", &m.p1}})
+            if (const Param* p = pl.numeric(name, "point3", 3)) {
+                if (p->size() != 3)
+                    throw SceneError(p->where,
+                                     "\"point3 " + std::string(name) + "\" expects 3 values");
+                *value = {p->numbers[0], p->numbers[1], p->numbers[2]};
+            }
+        for (int axis = 0; axis < 3; ++axis) {
+            const double lo = std::min(m.p0[size_t(axis)], m.p1[size_t(axis)]);
+            const double hi = std::max(m.p0[size_t(axis)], m.p1[size_t(axis)]);
+            if (!(hi > lo) || !std::isfinite(hi - lo))
+                throw SceneError(t.where, fmt::format("medium \"{}\": its box \"p0\" to \"p1\" "
+                                                      "has no extent along {} ({:g} to {:g})",
+                                                      m.name, "xyz"[axis], lo, hi));
+            m.p0[size_t(axis)] = lo;
+            m.p1[size_t(axis)] = hi;
+        }
+        const std::optional<Mat4> mediumFromWorld = inverse(state_.ctm);
+        if (!mediumFromWorld || !mediumFromWorld->isAffine())
+            throw SceneError(t.where, "medium \"" + m.name +
+                                          "\" needs an invertible affine transform (the CTM here)");
+        for (size_t i = 0; i < 12; ++i)
+            m.mediumFromWorld[i] = mediumFromWorld->m[i];
+        if (pl.ignore("temperature", {"float"}) && m.unsupported.empty())
+            m.unsupported = "emits (it has a \"temperature\" grid)";
+        for (const char* unused : {"temperatureoffset", "temperaturecutoff", "temperaturescale"})
+            pl.ignore(unused, {"float"});
     }
 
     static bool isZero(const SpectrumValue& s) {
@@ -1712,8 +1781,9 @@ class Parser {
                                               " sits in it at " + m.firstUse.str() + ")");
             if (!m.unsupported.empty())
                 throw SceneError(m.where, "medium \"" + m.name + "\" " + m.unsupported +
-                                              ": cbdpt renders \"homogeneous\" media of "
-                                              "\"sigma_a\" and \"sigma_s\" without \"Le\" (" +
+                                              ": cbdpt renders \"homogeneous\" and "
+                                              "\"uniformgrid\" media of \"sigma_a\" and "
+                                              "\"sigma_s\" without \"Le\" (" +
                                               m.firstUser + " sits in it at " + m.firstUse.str() +
                                               ")");
         }

@@ -122,6 +122,13 @@ struct MediumDesc {
     SpectrumValue sigmaS = SpectrumValue::constant(1.f);
     float scale = 1.f;
     float g = 0.f;
+    // pbrt-v4's "uniformgrid" (empty for "homogeneous"): sigma_a and sigma_s times a density
+    // trilinear between nx x ny x nz samples (x fastest) over the box p0-p1 of the medium's space,
+    // which mediumFromWorld (the inverse of the CTM at MakeNamedMedium, row-major 3 x 4) maps to.
+    std::vector<float> density;
+    std::array<int, 3> samples{0, 0, 0};
+    std::array<double, 3> p0{0, 0, 0}, p1{1, 1, 1};
+    std::array<double, 12> mediumFromWorld{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0};
     bool defined = false; // named by a MediumInterface, not (yet) by a MakeNamedMedium
     // Why cbdpt cannot render it ("" where it can): an error once a shape or the camera sits in
     // it.
