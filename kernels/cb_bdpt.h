@@ -1121,6 +1121,16 @@ CB_FN Spectrum bdptConnect(const SceneView* scene, const Camera* camera, const P
     return weighted;
 }
 
+/* An eye subpath's walk between the rays CBDPT's packet kernel traces (cbdpt_packets.cl):
+ * bdptRandomWalk's beta, pdfW and vertex count. Four-byte members only: CB_CBDPT_WALK_BYTES is
+ * its size, for the host's buffer. */
+typedef struct CbdptWalk {
+    Spectrum beta;
+    real pdfW;
+    int count;
+} CbdptWalk;
+#define CB_CBDPT_WALK_BYTES(channels) (4 * ((channels) + 2))
+
 CB_END_NAMESPACE
 
 #endif /* CB_BDPT_H */

@@ -23,14 +23,7 @@
 #error "renderCoherentBdpt does not take scenes with interfaces"
 #endif
 
-/* An eye subpath's walk between its rays: bdptRandomWalk's beta, pdfW and vertex count. The host
- * sizes its buffer by CB_CBDPT_WALK_BYTES. */
-typedef struct CbdptWalk {
-    Spectrum beta;
-    real pdfW;
-    int count;
-} CbdptWalk;
-#define CB_CBDPT_WALK_BYTES(channels) (4 * ((channels) + 2))
+/* The host sizes the walks' buffer by CB_CBDPT_WALK_BYTES (cb_bdpt.h). */
 typedef char cbCbdptWalkBytesCheck[sizeof(CbdptWalk) == CB_CBDPT_WALK_BYTES(CB_CHANNELS) ? 1 : -1];
 
 __kernel void renderCoherentBdpt(CB_CBDPT_PARAMS, int tile, __global PathVertex* eyes,

@@ -16,6 +16,9 @@
 
 namespace cb {
 
+static_assert(sizeof(cbk::CbdptWalk) == CB_CBDPT_WALK_BYTES(CB_CHANNELS),
+              "CB_CBDPT_WALK_BYTES is CbdptWalk's size");
+
 std::unique_ptr<CbdptLightTracer> makeCbdptLightTracer(const DeviceScene& scene,
                                                        const CbdptLightSettings& settings) {
     SceneBytes raw = sceneBytes(scene);
@@ -67,7 +70,7 @@ class CbdptIntegrator final : public PixelKernelIntegrator {
             const size_t eyeVertices = size_t(settings.eyeVertices);
             const size_t strategies = (eyeVertices - 1) * size_t(settings.lightVertices + 1);
             eyes_ = packetScratch("eye vertices", eyeVertices, tracer_->vertexBytes());
-            walks_ = packetScratch("eye walks", 1, 4 * (size_t(scene.channels) + 2));
+            walks_ = packetScratch("eye walks", 1, CB_CBDPT_WALK_BYTES(size_t(scene.channels)));
             rays_ = packetScratch("eye rays", 1, sizeof(cbk::Ray));
             tMaxes_ = packetScratch("eye ray ends", 1, sizeof(float));
             hits_ = packetScratch("eye hits", 1, sizeof(cbk::Hit));
