@@ -95,6 +95,12 @@ void addMediumGrid(const MediumDesc& medium, const std::array<double, 3>& origin
                 spectra[header + CB_GRID_MAP + axis * 4 + col] = float(row[col] * perUnit);
             spectra[header + CB_GRID_MAP + axis * 4 + 3] = float(translation * perUnit - 0.5);
         }
+        if (spectra.size() + medium.density.size() + size_t(channels) >
+            size_t(std::numeric_limits<int>::max()))
+            throw SceneError(medium.where,
+                             fmt::format("medium \"{}\": its {} densities, with the scene's other "
+                                         "spectra, exceed the 2^31 - 1 floats the kernels index",
+                                         medium.name, medium.density.size()));
         spectra.insert(spectra.end(), medium.density.begin(), medium.density.end());
     }
     spectra.resize((spectra.size() + size_t(channels) - 1) / size_t(channels) * size_t(channels),
