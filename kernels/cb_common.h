@@ -80,6 +80,10 @@ CB_FN real cbGamma(int n) {
 CB_FN real cbClamp(real x, real lo, real hi) {
     return fmin(fmax(x, lo), hi);
 }
+/* pbrt-v4's Lerp: a at t = 0, b at t = 1. */
+CB_FN real cbLerp(real t, real a, real b) {
+    return (1.0f - t) * a + t * b;
+}
 CB_FN real cbSqr(real x) {
     return x * x;
 }

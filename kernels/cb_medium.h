@@ -87,10 +87,9 @@ CB_FN real gridCellDensity(const GridCell* cell, real t) {
     for (int i = 0; i < 3; ++i)
         f[i] = cbClamp(cell->a[i] + cell->v[i] * t - cell->corner[i], 0.0f, 1.0f);
     const real* s = cell->sample;
-    real d00 = s[0] + f[0] * (s[1] - s[0]), d10 = s[2] + f[0] * (s[3] - s[2]);
-    real d01 = s[4] + f[0] * (s[5] - s[4]), d11 = s[6] + f[0] * (s[7] - s[6]);
-    real d0 = d00 + f[1] * (d10 - d00), d1 = d01 + f[1] * (d11 - d01);
-    return d0 + f[2] * (d1 - d0);
+    real d00 = cbLerp(f[0], s[0], s[1]), d10 = cbLerp(f[0], s[2], s[3]);
+    real d01 = cbLerp(f[0], s[4], s[5]), d11 = cbLerp(f[0], s[6], s[7]);
+    return cbLerp(f[2], cbLerp(f[1], d00, d10), cbLerp(f[1], d01, d11));
 }
 
 /* The density's integral over [ta, tb] in `cell`: a cubic's, exact by two-point Gauss-Legendre. */

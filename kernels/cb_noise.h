@@ -48,10 +48,6 @@ CB_FN real noiseBlend(real t) {
     return t * t * t * (t * (6.0f * t - 15.0f) + 10.0f);
 }
 
-CB_FN real noiseLerp(real t, real a, real b) {
-    return (1.0f - t) * a + t * b;
-}
-
 /* The noise at p: 0 at every lattice point, within about [-1, 1]. Coordinates are first brought
  * below 2^30 (the pattern repeats every 256 anyway), as pbrt-v4 does, so that the cell's integer
  * corner fits an int. */
@@ -62,16 +58,15 @@ CB_FN real perlinNoise(Vec3 p) {
     const real dx = x - fx, dy = y - fy, dz = z - fz;
     const int ix = (int)fx & 255, iy = (int)fy & 255, iz = (int)fz & 255;
     const real wx = noiseBlend(dx), wy = noiseBlend(dy), wz = noiseBlend(dz);
-    const real x00 = noiseLerp(wx, noiseGradient(ix, iy, iz, dx, dy, dz),
-                               noiseGradient(ix + 1, iy, iz, dx - 1.0f, dy, dz));
-    const real x10 = noiseLerp(wx, noiseGradient(ix, iy + 1, iz, dx, dy - 1.0f, dz),
-                               noiseGradient(ix + 1, iy + 1, iz, dx - 1.0f, dy - 1.0f, dz));
-    const real x01 = noiseLerp(wx, noiseGradient(ix, iy, iz + 1, dx, dy, dz - 1.0f),
-                               noiseGradient(ix + 1, iy, iz + 1, dx - 1.0f, dy, dz - 1.0f));
-    const real x11 =
-        noiseLerp(wx, noiseGradient(ix, iy + 1, iz + 1, dx, dy - 1.0f, dz - 1.0f),
-                  noiseGradient(ix + 1, iy + 1, iz + 1, dx - 1.0f, dy - 1.0f, dz - 1.0f));
-    return noiseLerp(wz, noiseLerp(wy, x00, x10), noiseLerp(wy, x01, x11));
+    const real x00 = cbLerp(wx, noiseGradient(ix, iy, iz, dx, dy, dz),
+                            noiseGradient(ix + 1, iy, iz, dx - 1.0f, dy, dz));
+    const real x10 = cbLerp(wx, noiseGradient(ix, iy + 1, iz, dx, dy - 1.0f, dz),
+                            noiseGradient(ix + 1, iy + 1, iz, dx - 1.0f, dy - 1.0f, dz));
+    const real x01 = cbLerp(wx, noiseGradient(ix, iy, iz + 1, dx, dy, dz - 1.0f),
+                            noiseGradient(ix + 1, iy, iz + 1, dx - 1.0f, dy, dz - 1.0f));
+    const real x11 = cbLerp(wx, noiseGradient(ix, iy + 1, iz + 1, dx, dy - 1.0f, dz - 1.0f),
+                            noiseGradient(ix + 1, iy + 1, iz + 1, dx - 1.0f, dy - 1.0f, dz - 1.0f));
+    return cbLerp(wz, cbLerp(wy, x00, x10), cbLerp(wy, x01, x11));
 }
 
 /* Fractional Brownian motion: octaves of noise, each at 1.99 times the last's frequency and
