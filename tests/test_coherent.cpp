@@ -7,6 +7,7 @@
 #include "integrators/kernel_integrator.h"
 #include "scene/device_scene.h"
 #include "scene/scene_desc.h"
+#include "source_tree.h"
 
 #include <cmath>
 #include <cstdlib>
@@ -20,7 +21,7 @@
 namespace {
 
 std::string scenePath(const char* name) {
-    return std::string(CBDPT_SOURCE_DIR) + "/scenes/" + name;
+    return cbtest::sourcePath("scenes", name);
 }
 
 cb::ClRuntime& runtime() {

@@ -10,6 +10,7 @@
 
 #include "scene/device_scene.h"
 #include "scene/scene_desc.h"
+#include "source_tree.h"
 
 #include <algorithm>
 #include <cmath>
@@ -25,7 +26,7 @@ cb::ClRuntime& runtime() {
 }
 
 std::string scenePath(const char* name) {
-    return std::string(CBDPT_SOURCE_DIR) + "/scenes/" + name;
+    return cbtest::sourcePath("scenes", name);
 }
 
 constexpr int kGrid = 4;
@@ -302,8 +303,7 @@ TEST_CASE(
     "MLT renders a 16-channel spectral scene (work-group size must not overflow PoCL's stack)") {
     // Regression: with the work-group size left to PoCL (4096), the private vertex arrays of a
     // spectral scene overflowed the worker thread's stack and the process crashed.
-    cb::SceneDesc desc =
-        cb::parseSceneFile(std::string(CBDPT_SOURCE_DIR) + "/scenes/cornell-box.pbrt");
+    cb::SceneDesc desc = cb::parseSceneFile(cbtest::sourcePath("scenes/cornell-box.pbrt"));
     desc.film.width = desc.film.height = 16;
     cb::DeviceScene scene = cb::buildDeviceScene(desc, cb::ChannelMode::Spectral);
     REQUIRE(scene.channels == 16);

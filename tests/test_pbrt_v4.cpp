@@ -10,6 +10,7 @@
 #include "method_checks.h"
 #include "scene/scene_desc.h"
 #include "scene_builders.h"
+#include "source_tree.h"
 #include "spectral/named_spectra.h"
 #include "spectral/spectral.h"
 #include "test_render_util.h"
@@ -451,7 +452,7 @@ TEST_CASE("pbrt-v4: standard illuminants by name, lights normalised") {
 }
 
 TEST_CASE("pbrt-v4: the thesis Cornell box keeps its luminance through the light's scale") {
-    const auto s = cb::parseSceneFile(std::string(CBDPT_SOURCE_DIR) + "/scenes/cornell-box.pbrt");
+    const auto s = cb::parseSceneFile(cbtest::sourcePath("scenes/cornell-box.pbrt"));
     REQUIRE(s.areaLights.size() == 2);
     // Before pbrt-v4's normalisation the spectrum was used as given and the film divided by
     // y-bar's integral over 400-700 nm; "scale" is written so that the product is unchanged.

@@ -20,6 +20,7 @@
 #include "scene/device_scene.h"
 #include "scene/scene_bytes.h"
 #include "scene/scene_desc.h"
+#include "source_tree.h"
 
 #include <algorithm>
 #include <cmath>
@@ -39,7 +40,7 @@ using cb::float64::RayQuery;
 constexpr double kFloatRoundoff = 5.960464477539063e-08; // 2^-24
 
 std::string scenePath(const std::string& name) {
-    return std::string(CBDPT_SOURCE_DIR) + "/scenes/" + name + ".pbrt";
+    return cbtest::sourcePath("scenes", name + ".pbrt");
 }
 
 // `scene` with the camera and film of a pbrt header (camera directives, Film, WorldBegin).

@@ -7,6 +7,7 @@
 #include "integrators/integrator.h"
 #include "scene/device_scene.h"
 #include "scene/scene_desc.h"
+#include "source_tree.h"
 #include "spectral/spectral.h"
 #include "stanford_models.h"
 
@@ -22,7 +23,7 @@
 namespace {
 
 std::string scenePath(const std::string& name) {
-    return std::string(CBDPT_SOURCE_DIR) + "/scenes/" + name + ".pbrt";
+    return cbtest::sourcePath("scenes", name + ".pbrt");
 }
 
 // Expected counts, written from the documented pieces rather than from the code's output:

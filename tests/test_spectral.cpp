@@ -1,6 +1,7 @@
 // Spectral module (src/spectral) and the data of scenes/cornell-box.pbrt.
 #include <doctest/doctest.h>
 
+#include "source_tree.h"
 #include "spectral/named_spectra.h"
 #include "spectral/spectral.h"
 
@@ -215,7 +216,7 @@ TEST_CASE("spectral: rgbToSpectrum") {
 namespace {
 
 std::string readCornell() {
-    const std::string path = std::string(CBDPT_SOURCE_DIR) + "/scenes/cornell-box.pbrt";
+    const std::string path = cbtest::sourcePath("scenes/cornell-box.pbrt");
     std::ifstream in(path);
     REQUIRE_MESSAGE(in.good(), "cannot open " << path);
     std::stringstream ss;

@@ -8,6 +8,7 @@
 #include "image/image.h"
 #include "scene/device_scene.h"
 #include "scene/scene_desc.h"
+#include "source_tree.h"
 
 #include <algorithm>
 #include <cmath>
@@ -51,7 +52,7 @@ cb::IntegratorSettings stressSettings(const std::string& integrator, int vertice
 }
 
 std::string cornellPath() {
-    return std::string(CBDPT_SOURCE_DIR) + "/scenes/cornell-box.pbrt";
+    return cbtest::sourcePath("scenes/cornell-box.pbrt");
 }
 
 std::vector<double> renderMean(const cb::SceneDesc& desc, const std::string& integrator,

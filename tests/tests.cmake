@@ -4,6 +4,17 @@ include(${doctest_DIR}/doctest.cmake)
 file(GLOB CBDPT_TEST_SOURCES CONFIGURE_DEPENDS ${CMAKE_SOURCE_DIR}/tests/*.cpp)
 add_executable(cbdpt_tests ${CBDPT_TEST_SOURCES})
 target_link_libraries(cbdpt_tests PRIVATE cbdpt_core doctest::doctest)
+# The test files at -O1 compile in about 60% of -O3's time (docs/code-tour.md); what they test,
+# cbdpt_core and the kernel headers' host instances, stays built as shipped.
+if(CMAKE_BUILD_TYPE STREQUAL "Release")
+  target_compile_options(cbdpt_tests PRIVATE -O1)
+endif()
+target_precompile_headers(cbdpt_tests PRIVATE <doctest/doctest.h> <fmt/format.h> <algorithm> <array>
+  <cmath> <cstdint> <cstdlib> <filesystem> <fstream> <functional> <map> <memory> <optional>
+  <random> <sstream> <stdexcept> <string> <vector>)
+# test_main.cpp defines doctest's main before including it.
+set_source_files_properties(${CMAKE_SOURCE_DIR}/tests/test_main.cpp PROPERTIES
+                            SKIP_PRECOMPILE_HEADERS ON)
 # A kernel that loops forever (a broken traversal does) fails after 10 minutes, not CTest's 25.
 # Tests that need the Stanford models read them from CBDPT_MODEL_PATH; without them they print
 # "cbdpt-skip:" and CTest counts them as skipped (tests/stanford_models.h; CI fails instead).
