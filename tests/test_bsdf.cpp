@@ -23,6 +23,7 @@
 #include "scene/device_scene.h"
 #include "scene/scene_bytes.h"
 #include "scene/scene_desc.h"
+#include "source_tree.h"
 
 using namespace cbk;
 using cbtest::kPi;
@@ -1896,7 +1897,7 @@ TEST_CASE("cb_bsdf.h built as OpenCL C by PoCL matches the host, with all and wi
             if (m == fx.diffuse || m == fx.diffuseTint)
                 diffuseInputs.insert(diffuseInputs.end(), row.begin(), row.end());
         }
-    const std::string dir = std::string(CBDPT_SOURCE_DIR) + "/kernels";
+    const std::string dir = cbtest::sourcePath("kernels");
     const std::string base = "-cl-std=CL1.2 -I " + dir + " -DCB_CHANNELS=16";
 
     std::vector<float> out = runProbe(cl, base, fx.s, inputs);

@@ -22,6 +22,7 @@
 #include "cl/cl_runtime.h"
 #include "cl/embedded_kernels.h"
 #include "scene/ply.h"
+#include "source_tree.h"
 #include "stanford_models.h"
 
 using cbk::Hit;
@@ -928,8 +929,8 @@ class ClTracer {
         CL_CHECK(err);
         program_ = clCreateProgramWithSource(ctx_, 1, &kTraceKernel, nullptr, &err);
         CL_CHECK(err);
-        std::string options = std::string("-cl-std=CL1.2 -DCB_CHANNELS=3 -I ") + CBDPT_SOURCE_DIR +
-                              "/kernels " + extraOptions;
+        std::string options = "-cl-std=CL1.2 -DCB_CHANNELS=3 -I " + cbtest::sourcePath("kernels") +
+                              " " + extraOptions;
         err = clBuildProgram(program_, 1, &device, options.c_str(), nullptr, nullptr);
         if (err != CL_SUCCESS) {
             size_t size = 0;
