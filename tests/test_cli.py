@@ -48,6 +48,10 @@ with tempfile.TemporaryDirectory() as tmp:
     check(abs(s["seconds_per_estimate"] * 3 + s["first_estimate_seconds"] - s["render_seconds"])
           <= 1e-9 * s["render_seconds"] + 1e-12,
           f"seconds_per_estimate * (n - 1) + first_estimate_seconds = render_seconds ({s})")
+    # The console's rate is the statistics' steady one (3 significant digits), not render / n.
+    m = re.search(r"4 estimates in \S+ \(([0-9.e+-]+) s/estimate", r.stderr)
+    check(m is not None and float(m.group(1)) == float(f"{s['seconds_per_estimate']:.3g}"),
+          f"the summary line's s/estimate is seconds_per_estimate ({r.stderr} {s})")
     check(not any(n.startswith(".") for n in os.listdir(tmp)), "no temporary files left behind")
 
     # A pbrt-v4 file's Sampler and Integrator lines are defaults: pixelsamples 64 -> 64

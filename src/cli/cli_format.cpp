@@ -13,6 +13,14 @@ std::string formatSeconds(double s) {
     return fmt::format("{}h{:02d}m", int(s) / 3600, (int(s) / 60) % 60);
 }
 
+std::string perEstimateSummary(double steadySeconds, double firstSeconds, long rendered) {
+    const std::string rate = fmt::format("{:.3g} s/estimate", steadySeconds);
+    if (rendered < 2 || !(firstSeconds > 2.0 * steadySeconds + 0.1)) return rate;
+    return fmt::format("{} after the first, which took {} with the kernel's compilation at its "
+                       "launch",
+                       rate, formatSeconds(firstSeconds));
+}
+
 nlohmann::json jsonNumber(double v) {
     return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json();
 }

@@ -701,10 +701,11 @@ int RenderJob::finish(const cb::RenderOutcome& outcome) {
         return 1;
     }
     if (!o_.quiet)
-        fmt::print(stderr, "cbdpt: {} estimates in {} ({:.3f} s/estimate); wrote {} and {}\n",
-                   estimates_, formatSeconds(outcome.renderSeconds),
-                   outcome.renderSeconds / double(std::max(1L, outcome.estimatesRendered)), output_,
-                   png_);
+        fmt::print(stderr, "cbdpt: {} estimates in {} ({}); wrote {} and {}\n", estimates_,
+                   formatSeconds(outcome.renderSeconds),
+                   perEstimateSummary(outcome.secondsPerEstimate(), outcome.firstEstimateSeconds,
+                                      outcome.estimatesRendered),
+                   output_, png_);
     if (const cb::MltStatistics* mlt = cb::mltStatistics(*integrator_);
         mlt && mlt->mutations > 0 && !o_.quiet)
         fmt::print(stderr, "{}\n", cb::mltSummary(*mlt));
