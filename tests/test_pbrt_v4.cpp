@@ -340,8 +340,8 @@ TEST_CASE("pbrt-v4: rgb film colour parameters and the camera's shutter") {
     CHECK(s.film.exposureTime == 0.5);
     CHECK_FALSE(s.film.saveFp16);
     CHECK(s.film.saveFp16Given);
-    CHECK(contains(errorOf("Film \"rgb\" \"string sensor\" \"canon_eos_100d\"\nWorldBegin\n"),
-                   "unsupported sensor"));
+    CHECK(contains(errorOf("Film \"rgb\" \"string sensor\" \"canon_eos_10d\"\nWorldBegin\n"),
+                   "unknown sensor"));
     CHECK(contains(errorOf("Film \"rgb\" \"float maxcomponentvalue\" 0\nWorldBegin\n"),
                    "maxcomponentvalue\" 0 must be positive"));
     CHECK(contains(errorOf("Film \"rgb\" \"float iso\" 0\nWorldBegin\n"), "iso"));

@@ -129,8 +129,9 @@ TEST_CASE("sample clamp: the sensor is XYZ times the imaging ratio, whatever the
     // sRGB's linear RGB -> XYZ (IEC 61966-2-1), the inverse of the film's XYZ -> RGB.
     const double srgbToXyz[9] = {0.4124, 0.3576, 0.1805, 0.2126, 0.7152,
                                  0.0722, 0.0193, 0.1192, 0.9505};
-    for (const cb::FilmColour colour : {cb::FilmColour{0.0, 1.0}, cb::FilmColour{0.0, 4.0},
-                                        cb::FilmColour{3200.0, 2.0}, cb::FilmColour{6500.0, 0.5}}) {
+    for (const cb::FilmColour& colour :
+         {cb::FilmColour{0.0, 1.0}, cb::FilmColour{0.0, 4.0}, cb::FilmColour{3200.0, 2.0},
+          cb::FilmColour{6500.0, 0.5}}) {
         CAPTURE(colour.whiteBalanceKelvin);
         CAPTURE(colour.imagingRatio);
         // A path's linear sRGB (an RGB scene's channels) through the film, then to the sensor.

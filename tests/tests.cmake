@@ -86,6 +86,7 @@ set_tests_properties(comparison_scripts PROPERTIES TIMEOUT 300)
 add_test(NAME named_spectra COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_named_spectra.py ${CMAKE_SOURCE_DIR})
 # pbrt-v4's named illuminants are colour-science's CIE tables (docs/pbrt-v4.md, "Named spectra").
 add_test(NAME named_illuminants COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_named_illuminants.py ${CMAKE_SOURCE_DIR})
+add_test(NAME camera_sensors COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_camera_sensors.py ${CMAKE_SOURCE_DIR})
 # Every repository path the README and docs/ name exists (docs describe the present).
 add_test(NAME docs_paths COMMAND python3 ${CMAKE_SOURCE_DIR}/tests/test_docs_paths.py ${CMAKE_SOURCE_DIR})
 # PoCL's default work-group method and "loops" compile the kernels into the same images

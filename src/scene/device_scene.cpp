@@ -474,8 +474,13 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
     bool spectral =
         mode == ChannelMode::Spectral || (mode == ChannelMode::Auto && desc.usesSpectra);
     scene.channels = spectral ? kSpectralBins : 3;
+    if (!desc.film.sensor.empty() && !spectral)
+        throw SceneError(desc.film.sensorWhere,
+                         "the camera sensor \"" + desc.film.sensor +
+                             "\" responds to spectra: render it spectrally (--channels "
+                             "spectral or auto), not in RGB");
     const FilmColour filmColour{desc.film.whiteBalance,
-                                desc.film.exposureTime * desc.film.iso / 100.0};
+                                desc.film.exposureTime * desc.film.iso / 100.0, desc.film.sensor};
     scene.toRgb = filmMatrix(scene.channels, filmColour);
     // Camera-relative rendering: positions are made relative to the camera (or, for a camera
     // outside the scene, to the scene point nearest to it: deviceOrigin) in double, then rounded

@@ -11,6 +11,7 @@
 #include "scene/ply.h"
 #include "scene/scene_desc.h"
 #include "scene/transform.h"
+#include "spectral/camera_sensors.h"
 #include "spectral/named_spectra.h"
 #include "spectral/spectral.h"
 
@@ -1515,10 +1516,16 @@ class Parser {
         }
         if (const Param* p = pl.peek("sensor")) {
             const std::string sensor = *pl.oneString("sensor");
-            if (sensor != "cie1931")
-                throw SceneError(p->valueLoc(0),
-                                 "unsupported sensor \"" + sensor +
-                                     "\" (cbdpt supports \"cie1931\", the default)");
+            if (sensor != "cie1931") {
+                if (!findCameraSensor(sensor))
+                    throw SceneError(p->valueLoc(0), "unknown sensor \"" + sensor +
+                                                         "\" (cbdpt knows " + cameraSensorNames() +
+                                                         ")");
+                // A camera's response is spectral: the scene renders with the 16 bins.
+                f.sensor = sensor;
+                f.sensorWhere = p->valueLoc(0);
+                scene_.usesSpectra = true;
+            }
         }
         if (const Param* p = pl.peek("iso")) {
             f.iso = *pl.oneFloat("iso");

@@ -316,13 +316,17 @@ struct CameraDesc {
     SourceLocation where;
 };
 
-// pbrt-v4's "rgb" film with its "cie1931" sensor (docs/scene-format.md).
+// pbrt-v4's "rgb" film with its "cie1931" sensor or a camera's (docs/scene-format.md).
 struct FilmDesc {
     int width = 1280; // pbrt-v4 defaults
     int height = 720;
     std::string filename = "pbrt.exr";
     double iso = 100.0;
     double whiteBalance = 0.0; // kelvin; 0: no white balance (the cie1931 default)
+    // pbrt-v4's "sensor": empty for "cie1931", else a camera of spectral/camera_sensors.h, whose
+    // white balance is 6500 K where whiteBalance is 0. The scene then renders spectrally.
+    std::string sensor;
+    SourceLocation sensorWhere;
     double exposureTime = 1.0; // the camera's shutterclose - shutteropen
     // pbrt-v4's "maxcomponentvalue": each sample's sensor RGB is scaled down to at most this
     // largest component (kernels' filmClampSample); absent: no clamp (pbrt-v4's infinity).

@@ -1,6 +1,8 @@
 #include "spectral/spectral.h"
 
 #include "cb_spectrum.h"
+#include "spectral/camera_sensors.h"
+#include "spectral/named_spectra.h"
 
 #include <algorithm>
 #include <cmath>
@@ -468,7 +470,146 @@ std::array<double, 2> whiteBalanceChromaticity(double kelvin) {
     return {x, -3.0 * x * x + 2.870 * x - 0.275};
 }
 
+namespace {
+
+// Linear interpolation in a table of rows of `stride` numbers (nm first), column `column`;
+// zero outside the table, as pbrt-v4's PiecewiseLinearSpectrum.
+double tableAt(std::span<const double> table, std::size_t stride, std::size_t column, double nm) {
+    const std::size_t rows = table.size() / stride;
+    if (rows == 0 || nm < table[0] || nm > table[(rows - 1) * stride]) return 0.0;
+    std::size_t i = 0;
+    while (i + 2 < rows && table[(i + 1) * stride] <= nm)
+        ++i;
+    const double a = table[i * stride], b = table[(i + 1) * stride];
+    const double t = std::clamp((nm - a) / (b - a), 0.0, 1.0);
+    return (1.0 - t) * table[i * stride + column] + t * table[(i + 1) * stride + column];
+}
+
+const CameraSensorCurves& cameraCurves(const std::string& name) {
+    const CameraSensorCurves* camera = findCameraSensor(name);
+    if (!camera)
+        throw std::invalid_argument("unknown camera sensor \"" + name + "\" (cbdpt knows " +
+                                    cameraSensorNames() + ")");
+    return *camera;
+}
+
+// pbrt-v4's Spectra::D: the CIE daylight of correlated temperature kelvin * 1.4388 / 1.4380
+// (CIE 15 components), or Planck's law below 4000 K; unnormalised (only ratios are used).
+std::vector<double> daylightEveryNm(double kelvin) {
+    const double cct = kelvin * 1.4388 / 1.4380;
+    std::vector<double> out;
+    if (cct < 4000.0) {
+        for (int nm = 360; nm <= 830; ++nm)
+            out.push_back(planck(nm, cct));
+        return out;
+    }
+    const auto [x, y] = whiteBalanceChromaticity(kelvin);
+    const double m = 0.0241 + 0.2562 * x - 0.7341 * y;
+    const double m1 = (-1.3515 - 1.7703 * x + 5.9114 * y) / m;
+    const double m2 = (0.0300 - 31.4424 * x + 30.0717 * y) / m;
+    const auto table = daylightComponents();
+    for (int nm = 360; nm <= 830; ++nm)
+        out.push_back(tableAt(table, 4, 1, nm) + m1 * tableAt(table, 4, 2, nm) +
+                      m2 * tableAt(table, 4, 3, nm));
+    return out;
+}
+
+} // namespace
+
+std::array<double, 9> xyzFromCameraRgb(const std::string& name, double kelvin) {
+    const CameraSensorCurves& camera = cameraCurves(name);
+    const std::vector<double> sensorIllum = daylightEveryNm(kelvin);
+    const NamedSpectrum* d65Named = findNamedSpectrum("stdillum-D65");
+    if (!d65Named) throw std::logic_error("the built-in stdillum-D65 table is missing");
+    const auto d65 = d65Named->pairs;
+    const auto patches = colorCheckerReflectances();
+    constexpr int kPatches = 24, kPatchSamples = 36;
+    // Sums over pbrt-v4's 1 nm steps (ProjectReflectance, InnerProduct).
+    std::array<Vec3d, kPatches> rgb{}, xyz{};
+    double illumG = 0.0, illumY = 0.0, d65Y = 0.0;
+    // Patches sampled every 10 nm from 380 nm: interpolate them apart (no wavelength column).
+    auto patchAt = [&](int p, double nm) {
+        if (nm < 380.0 || nm > 730.0) return 0.0;
+        const double f = (nm - 380.0) / 10.0;
+        const int i = std::min(int(f), kPatchSamples - 2);
+        const double t = f - i;
+        const double* v = patches.data() + p * kPatchSamples;
+        return (1.0 - t) * v[i] + t * v[i + 1];
+    };
+    for (int nm = 360; nm <= 830; ++nm) {
+        const double li = sensorIllum[size_t(nm - 360)];
+        const double ld = tableAt(d65, 2, 1, nm);
+        const Vec3d cam{tableAt(camera.table, 4, 1, nm), tableAt(camera.table, 4, 2, nm),
+                        tableAt(camera.table, 4, 3, nm)};
+        const auto cmf = cieXyz1931Fit(nm);
+        illumG += cam[1] * li;
+        illumY += cmf[1] * li;
+        d65Y += cmf[1] * ld;
+        for (int p = 0; p < kPatches; ++p) {
+            const double r = patchAt(p, nm);
+            for (int c = 0; c < 3; ++c) {
+                rgb[size_t(p)][size_t(c)] += cam[size_t(c)] * r * li;
+                xyz[size_t(p)][size_t(c)] += cmf[size_t(c)] * r * ld;
+            }
+        }
+    }
+    for (int p = 0; p < kPatches; ++p)
+        for (int c = 0; c < 3; ++c) {
+            rgb[size_t(p)][size_t(c)] /= illumG;
+            xyz[size_t(p)][size_t(c)] *= (illumY / illumG) / d65Y;
+        }
+    // Least squares (pbrt-v4's LinearLeastSquares): M = ((A^T A)^-1 A^T B)^T, A the patches'
+    // camera RGB, B their XYZ, so that XYZ = M * RGB.
+    Mat3 ata{}, atb{};
+    for (int p = 0; p < kPatches; ++p)
+        for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j) {
+                ata[i][j] += rgb[size_t(p)][size_t(i)] * rgb[size_t(p)][size_t(j)];
+                atb[i][j] += rgb[size_t(p)][size_t(i)] * xyz[size_t(p)][size_t(j)];
+            }
+    const Mat3 solved = mul(inverse(ata), atb);
+    std::array<double, 9> out{};
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j)
+            out[size_t(3 * i + j)] = solved[j][i];
+    return out;
+}
+
+namespace {
+
+// pbrt-v4's outputRGBFromSensorRGB times the imaging ratio: linear sRGB from camera RGB.
+Mat3 filmFromCameraRgb(const FilmColour& film) {
+    const auto m = xyzFromCameraRgb(
+        film.sensor, film.whiteBalanceKelvin > 0.0 ? film.whiteBalanceKelvin : 6500.0);
+    Mat3 xyzFromCamera{};
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j)
+            xyzFromCamera[i][j] = m[size_t(3 * i + j)] * film.imagingRatio;
+    return mul(xyzToLinearSrgb(), xyzFromCamera);
+}
+
+} // namespace
+
 std::vector<float> filmMatrix(int channels, const FilmColour& film) {
+    if (!film.sensor.empty()) {
+        if (channels != kSpectralBins)
+            throw std::invalid_argument("the camera sensor \"" + film.sensor +
+                                        "\" needs spectral rendering (16 channels)");
+        const CameraSensorCurves& camera = cameraCurves(film.sensor);
+        const Mat3 toRgb = filmFromCameraRgb(film);
+        std::vector<float> out(3 * kSpectralBins);
+        for (int i = 0; i < kSpectralBins; ++i) {
+            Vec3d response{};
+            for (int c = 0; c < 3; ++c)
+                response[size_t(c)] = integrateFine(
+                    [&](double nm) { return tableAt(camera.table, 4, size_t(c + 1), nm); },
+                    binLambdaLow(i), binLambdaHigh(i));
+            const Vec3d rgb = mul(toRgb, response);
+            for (int c = 0; c < 3; ++c)
+                out[size_t(c * kSpectralBins + i)] = static_cast<float>(rgb[size_t(c)]);
+        }
+        return out;
+    }
     const Mat3 toRgb = filmXyzToRgb(film);
     if (channels == 3) {
         const Mat3 m = mul(toRgb, inverse(xyzToLinearSrgb()));
@@ -492,8 +633,9 @@ std::vector<float> filmMatrix(int channels, const FilmColour& film) {
 
 std::array<float, 9> sensorFromFilmRgb(const FilmColour& film) {
     // Film RGB = filmXyzToRgb * XYZ and sensor RGB = imagingRatio * XYZ (pbrt-v4's
-    // PixelSensor::ToSensorRGB for the XYZ matching functions).
-    const Mat3 m = inverse(filmXyzToRgb(film));
+    // PixelSensor::ToSensorRGB for the XYZ matching functions); for a camera, film RGB =
+    // filmFromCameraRgb * camera RGB and sensor RGB = imagingRatio * camera RGB.
+    const Mat3 m = inverse(film.sensor.empty() ? filmXyzToRgb(film) : filmFromCameraRgb(film));
     std::array<float, 9> out{};
     for (int r = 0; r < 3; ++r)
         for (int c = 0; c < 3; ++c)

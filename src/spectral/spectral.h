@@ -4,6 +4,7 @@
 #pragma once
 
 #include <array>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -78,23 +79,38 @@ const std::array<std::array<float, kSpectralBins>, 7>& smitsBasis();
 // every light's L or I spectrum by it, so that the light's luminance is its "scale".
 double photometricIntegral(const PiecewiseLinear& s);
 
-// Colour settings of pbrt-v4's "rgb" film with its default "cie1931" sensor.
+// Colour settings of pbrt-v4's "rgb" film: its "cie1931" sensor or a camera's.
 struct FilmColour {
     double whiteBalanceKelvin = 0.0; // "whitebalance": 0 = none (the cie1931 default)
     double imagingRatio = 1.0;       // exposure time * "iso" / 100
+    // A camera of camera_sensors.h ("canon_eos_100d"), or empty for the CIE 1931 observer.
+    // A camera's white balance is its sensor illuminant, 6500 K when whiteBalanceKelvin is 0.
+    std::string sensor;
 };
+
+// pbrt-v4's XYZFromSensorRGB for a camera (film.h, PixelSensor), row-major: the linear least
+// squares fit of the 24 ColorChecker patches' XYZ under the colour space's D65 (times the
+// sensor illuminant's Y over its G) from their camera RGB under the sensor illuminant, the CIE
+// daylight of `kelvin` (Planck's law below a correlated 4000 K, as pbrt-v4's Spectra::D); each
+// camera RGB and XYZ divided by the illuminant's G or Y (pbrt-v4's ProjectReflectance), sums
+// over pbrt-v4's 1 nm steps from 360 to 830 nm. Throws std::invalid_argument for an unknown
+// camera.
+std::array<double, 9> xyzFromCameraRgb(const std::string& camera, double kelvin);
 
 // 3 x channels row-major matrix M with linear sRGB = M * channels, as pbrt-v4's RGB film
 // computes pixel values (film.h, PixelSensor::ToSensorRGB, RGBFilm): XYZ = integral of L times the
 // CMFs (absolute, no normalisation; for 16 channels each bin weighted by the CMF integral over
 // it), then the Bradford white balance from the CIE daylight illuminant of whiteBalanceKelvin
 // (Planckian below 4000 K) to D65 when given, then XYZ -> linear sRGB, times imagingRatio. For
-// 3 channels (RGB scenes) the same white balance and ratio act on linear sRGB.
+// 3 channels (RGB scenes) the same white balance and ratio act on linear sRGB. With a camera
+// sensor, camera RGB = the integral of L times its sensitivities (each bin weighted by their
+// integral over it), then XYZ by xyzFromCameraRgb, linear sRGB, times imagingRatio; a camera
+// needs the 16 channels (std::invalid_argument for 3).
 std::vector<float> filmMatrix(int channels, const FilmColour& film);
 
 // 3 x 3 row-major matrix from the film's linear sRGB (filmMatrix's output) to pbrt-v4's sensor
 // RGB, on which its film clamps samples ("maxcomponentvalue"): for the cie1931 sensor, XYZ
-// before the white balance, times the imaging ratio.
+// before the white balance, times the imaging ratio; for a camera, its RGB times the ratio.
 std::array<float, 9> sensorFromFilmRgb(const FilmColour& film);
 
 // Film-space linear sRGB (no white balance) of an emission spectrum, binned as the renderer
