@@ -237,9 +237,22 @@ with tempfile.TemporaryDirectory() as tmp:
           f"info names the pixel filter and its parameters ({r.stdout.strip()})")
     clamp = os.path.join(root, "scenes", "pbrt-v4", "sample-clamp.pbrt")
     r = subprocess.run([cbdpt, "info", clamp], capture_output=True, text=True)
-    check("192x192, each sample clamped to sensor RGB 0.3 (maxcomponentvalue)" in r.stdout
+    check("192x192, sensor cie1931, imaging ratio 1, each sample clamped to sensor RGB 0.3 "
+          "(maxcomponentvalue)" in r.stdout
           and "sample-clamp" in r.stdout and "biases the image" in r.stderr,
           f"info shows the film's sample clamp, and its note ({r.stdout.strip()} {r.stderr.strip()})")
+
+    # A camera sensor: its name, its white balance (6500 K unless the file says) and ratio.
+    camera = os.path.join(tmp, "camera.pbrt")
+    with open(lens) as f:
+        text = f.read()
+    with open(camera, "w") as f:
+        f.write(re.sub(r'Film "rgb"', 'Film "rgb" "string sensor" "sony_ilce_9" "float iso" 200',
+                       text, count=1))
+    r = subprocess.run([cbdpt, "info", camera], capture_output=True, text=True)
+    check("sensor sony_ilce_9 white-balanced at 6500 K, imaging ratio 2" in r.stdout
+          and "spectral-16" in r.stdout,
+          f"info names the camera sensor, rendered spectrally ({r.stdout.strip()} {r.stderr.strip()})")
 
     # --max-component-value replaces the file's clamp (inf: none), and is part of the render's
     # identity: the same value renders the file's bits, combine and --resume refuse a mix.

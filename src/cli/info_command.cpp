@@ -69,7 +69,14 @@ void printScene(const std::string& scenePath) {
                scene.bvh.nodes.size(), scene.bvh.depth, scene.wide.nodes.size(),
                scene.wide.packs.size(), double(scene.wide.bytes()) / 1e6);
     fmt::print("  BVH settings     {}\n", scene.wideSettingsWhy);
-    fmt::print("  film             {}x{}{}\n", scene.camera.width, scene.camera.height,
+    // The sensor's colour: a camera's white balance is 6500 K where the file gives none.
+    const double kelvin = desc.film.whiteBalance > 0.0 ? desc.film.whiteBalance
+                          : desc.film.sensor.empty()   ? 0.0
+                                                       : 6500.0;
+    fmt::print("  film             {}x{}, sensor {}{}, imaging ratio {:g}{}\n", scene.camera.width,
+               scene.camera.height, desc.film.sensor.empty() ? "cie1931" : desc.film.sensor,
+               kelvin > 0.0 ? fmt::format(" white-balanced at {:g} K", kelvin) : std::string(),
+               desc.film.exposureTime * desc.film.iso / 100.0,
                scene.camera.sampleClamp > 0.f
                    ? fmt::format(", each sample clamped to sensor RGB {:g} (maxcomponentvalue)",
                                  scene.camera.sampleClamp)
