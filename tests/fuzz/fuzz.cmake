@@ -13,6 +13,8 @@ add_library(cbdpt_fuzz_scene OBJECT ${CMAKE_SOURCE_DIR}/src/scene/parser.cpp
                                     ${CMAKE_SOURCE_DIR}/src/scene/scene_error.cpp
                                     ${CMAKE_SOURCE_DIR}/src/io/files.cpp
                                     ${CMAKE_SOURCE_DIR}/src/image/image.cpp
+                                    ${CMAKE_SOURCE_DIR}/src/spectral/camera_sensors.cpp
+                                    ${CMAKE_SOURCE_DIR}/src/spectral/camera_sensors_data.cpp
                                     ${CMAKE_SOURCE_DIR}/src/spectral/named_spectra.cpp
                                     ${CMAKE_SOURCE_DIR}/src/spectral/named_spectra_data.cpp
                                     ${CMAKE_SOURCE_DIR}/src/spectral/named_illuminants_data.cpp
