@@ -53,17 +53,21 @@ CB_FN int mediumLeaving(const SceneView* scene, int material, Vec3 ng, Vec3 w, i
 /* pbrt-v4's "uniformgrid" medium (GridMedium): its sigma_a and sigma_s times a density that is
  * trilinear between nx x ny x nz samples over a box of the medium's space and 0 outside it. In a
  * scene with one, every medium's three entries are followed by CB_GRID_HEADER floats: nx, ny, nz
- * (0: the medium is homogeneous) and the 3 x 4 affine map from the kernels' coordinates to the
+ * (0: the medium is homogeneous), the 3 x 4 affine map from the kernels' coordinates to the
  * samples' (pbrt-v4's SampledGrid::Lookup: the point's offset in the box times n, minus 0.5, so
- * that sample (i, j, k) sits at (i, j, k)); then the nx ny nz densities, x fastest; the whole
- * padded to entries (addMediumGrid, src/scene/device_scene.cpp). Along a ray the density is a cubic
- * in t within each cell of the samples' lattice, so a segment's integral of it is exact (two-point
- * Gauss-Legendre per cell), and so is the distance at which it reaches a given value (Newton's
- * method within the cell): distances are sampled by inverting the exact transmittance, from the one
- * number a homogeneous medium uses, where pbrt-v4 draws null collisions against a majorant (delta
- * tracking). */
+ * that sample (i, j, k) sits at (i, j, k)) and the clip (CB_GRID_CLIP); then the nx ny nz
+ * densities, x fastest; the whole padded to entries (addMediumGrid, src/scene/device_scene.cpp).
+ * Along a ray the density is a cubic in t within each cell of the samples' lattice, so a segment's
+ * integral of it is exact (two-point Gauss-Legendre per cell), and so is the distance at which it
+ * reaches a given value (Newton's method within the cell): distances are sampled by inverting the
+ * exact transmittance, from the one number a homogeneous medium uses, where pbrt-v4 draws null
+ * collisions against a majorant (delta tracking). */
 #define CB_GRID_HEADER 16
 #define CB_GRID_MAP 3
+/* The header's last float: how far inside the box of the samples' cells the density ends, in
+ * samples (0 for pbrt-v4's uniformgrid; 0.5 for its nanovdb media, which it clips to the grid's
+ * world bounds: the first and last samples). */
+#define CB_GRID_CLIP 15
 
 /* The offset in `spectra` of medium's grid header, -1 where the medium is homogeneous. */
 CB_FN int mediumGrid(const SceneView* scene, int medium) {
@@ -131,12 +135,13 @@ CB_FN bool gridDensityWalk(const SceneView* scene, int grid, Vec3 o, Vec3 dir, r
     CB_GLOBAL const real* densities = header + CB_GRID_HEADER;
     CB_GLOBAL const real* m = header + CB_GRID_MAP;
     int n[3] = {(int)header[0], (int)header[1], (int)header[2]};
+    real clip = header[CB_GRID_CLIP];
     GridCell cell;
     real t0 = 0.0f, t1 = tMax;
     for (int i = 0; i < 3; ++i) {
         cell.a[i] = m[4 * i] * o.x + m[4 * i + 1] * o.y + m[4 * i + 2] * o.z + m[4 * i + 3];
         cell.v[i] = m[4 * i] * dir.x + m[4 * i + 1] * dir.y + m[4 * i + 2] * dir.z;
-        real lo = -0.5f, hi = (real)n[i] - 0.5f;
+        real lo = -0.5f + clip, hi = (real)n[i] - 0.5f - clip;
         if (cell.v[i] == 0.0f) {
             if (cell.a[i] < lo || cell.a[i] > hi) t1 = -1.0f;
         } else {

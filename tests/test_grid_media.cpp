@@ -10,7 +10,9 @@
 #include "fog_checks.h"
 #include "method_checks.h"
 #include "scene/device_scene.h"
+#include "scene/nanovdb.h"
 #include "scene_files.h"
+#include "source_tree.h"
 #include "test_render_util.h"
 
 #include <fmt/format.h>
@@ -19,7 +21,9 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <fstream>
 #include <random>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -41,6 +45,7 @@ struct Grid {
     Point translation{0, 0, 0};
     double angle = 0.0; // degrees
     Point scale{1, 1, 1};
+    double clip = 0.0; // samples: where the density ends inside the box (0.5 for nanovdb)
 
     // MakeNamedMedium "name" of this grid, sigma_a, sigma_s and g, and the CTM reset after it.
     std::string text(const std::string& name, const Rgb& sigmaA, const Rgb& sigmaS,
@@ -61,8 +66,8 @@ struct Grid {
     }
 
     // pbrt-v4's density at world point p (GridMedium::SamplePoint, SampledGrid::Lookup): 0
-    // outside the box, else trilinear in the samples at (i + 0.5) / n of the box, samples
-    // outside the grid 0.
+    // outside the box (its sides moved `clip` samples in), else trilinear in the samples at (i +
+    // 0.5) / n of the box, samples outside the grid 0.
     double at(const Point& p) const {
         const double c = std::cos(angle * M_PI / 180.0), s = std::sin(angle * M_PI / 180.0);
         const Point d{p[0] - translation[0], p[1] - translation[1], p[2] - translation[2]};
@@ -72,8 +77,8 @@ struct Grid {
         Point f{};
         for (size_t a = 0; a < 3; ++a) {
             const double u = (q[a] - p0[a]) / (p1[a] - p0[a]);
-            if (u < 0.0 || u > 1.0) return 0.0;
             const double sample = u * n[a] - 0.5;
+            if (sample < clip - 0.5 || sample > n[a] - 0.5 - clip) return 0.0;
             i0[a] = int(std::floor(sample));
             f[a] = sample - i0[a];
         }
@@ -280,7 +285,8 @@ TEST_CASE("grid media: the parser keeps the grid and refuses, naming the file, l
     CHECK(errorOf(grid("\"float density\" [1]")).empty());
     CHECK(contains(errorOf(grid("\"float density\" [1] \"rgb Le\" [1 1 1]")),
                    "t.pbrt:1:1: medium \"g\" emits (its \"Le\" is not 0): cbdpt renders "
-                   "\"homogeneous\" and \"uniformgrid\" media of \"sigma_a\" and \"sigma_s\" "
+                   "\"homogeneous\", \"uniformgrid\" and \"nanovdb\" media of \"sigma_a\" and "
+                   "\"sigma_s\" "
                    "without \"Le\" (the camera sits in it at "));
     CHECK(contains(errorOf(grid("\"float density\" [1] \"float temperature\" [900]")),
                    "medium \"g\" emits (it has a \"temperature\" grid)"));
@@ -289,6 +295,99 @@ TEST_CASE("grid media: the parser keeps the grid and refuses, naming the file, l
                    "of type \"uniformgrid\" needs \"float density\""));
     CHECK(errorOf("MakeNamedMedium \"g\" \"string type\" \"uniformgrid\" \"float density\" [1] "
                   "\"float temperature\" [900]\nWorldBegin\n") == "");
+}
+
+// pbrt-v4's "nanovdb" media: scenes/pbrt-v4/volumes/ball.nvdb, written by NanoVDB's own builder
+// (tests/nanovdb/make_ball.cpp), holds a "temperature" and a "density" grid, each a ball beside
+// a block of constant leaves pruned into tiles; tests/nanovdb/ball-samples.txt, NanoVDB's
+// trilinear sampler at 400 world points in and around the density grid. The grid as a
+// "nanovdb" medium, looked up as pbrt-v4's uniformgrid (Grid::at, written apart), must give
+// NanoVDB's values everywhere, tiles and leaves alike.
+TEST_CASE("grid media: a NanoVDB file's grid samples as NanoVDB's own sampler") {
+    TempDirCleanup cleanup;
+    const std::string file = cbtest::sourcePath("scenes", "pbrt-v4", "volumes", "ball.nvdb");
+    CHECK(cb::nanoVdbGridNames(file) == std::vector<std::string>{"temperature", "density"});
+    const cb::NanoVdbGrid raw = cb::readNanoVdbGrid(file, "density");
+    CHECK(raw.indexMin == std::array<int, 3>{2, 1, 1}); // NanoVDB's index bounds
+    CHECK(raw.indexMax == std::array<int, 3>{39, 23, 19});
+    CHECK(raw.matrix == std::array<double, 9>{0.25, 0, 0, 0, 0.25, 0, 0, 0, 0.25});
+    CHECK(raw.translation == std::array<double, 3>{1.0, 2.0, -0.5});
+
+    // The density grid alone (a file whose temperature grid has another name than the one
+    // asked for): pbrt-v4 would emit from "temperature".
+    const std::string medium = fmt::format(
+        "MakeNamedMedium \"g\" \"string type\" \"nanovdb\" \"string filename\" \"{}\" "
+        "\"string temperaturename\" \"heat\" \"rgb sigma_a\" [1 1 1] \"rgb sigma_s\" [1 1 1]\n",
+        file);
+    const cb::SceneDesc desc = parseInTemp(hostScene(medium));
+    const cb::MediumDesc& m = desc.media.at(0);
+    Grid g;
+    g.n = m.samples;
+    g.density.assign(m.density.begin(), m.density.end());
+    g.p0 = m.p0;
+    g.p1 = m.p1;
+    std::ifstream samples(cbtest::sourcePath("tests", "nanovdb", "ball-samples.txt"));
+    REQUIRE(samples);
+    g.clip = m.clipSamples;
+    std::string line;
+    int count = 0, nonZero = 0;
+    while (std::getline(samples, line)) {
+        if (line.empty() || line[0] == '#') continue;
+        std::istringstream in(line);
+        Point p{};
+        double expected = 0.0;
+        in >> p[0] >> p[1] >> p[2] >> expected;
+        CAPTURE(line);
+        ++count;
+        nonZero += expected > 0.0;
+        // pbrt-v4 clips the grid to its world bounds, index points indexMin to indexMax + 1
+        // (NanoVDB's sampler goes on beyond them, towards the background).
+        bool inBounds = true;
+        for (size_t a = 0; a < 3; ++a) {
+            const double u = (p[a] - raw.translation[a]) / 0.25;
+            inBounds &= u >= raw.indexMin[a] && u <= raw.indexMax[a] + 1;
+        }
+        CHECK(g.at(p) == doctest::Approx(inBounds ? expected : 0.0).epsilon(1e-6).scale(1.0));
+    }
+    CHECK(count == 400);
+    CHECK(nonZero > 100);
+    // The kernels' walk along rays through it, clipped as pbrt-v4 clips it.
+    const cb::DeviceScene scene = cb::buildDeviceScene(desc);
+    const cbk::SceneView view = cbtest::hostView(scene);
+    const int grid = cbk::mediumGrid(&view, scene.camera.medium);
+    REQUIRE(grid >= 0);
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<double> x(1.0, 11.5), y(1.8, 8.5), z(-0.7, 5.0);
+    for (int k = 0; k < 100; ++k) {
+        CAPTURE(k);
+        const Point o{x(rng), y(rng), z(rng)};
+        const Point d = unitVector(rng);
+        float length = 0.0f, t = 0.0f;
+        CHECK(!cbk::gridDensityWalk(&view, grid, toDevice(scene, o),
+                                    cbk::vec3(float(d[0]), float(d[1]), float(d[2])), CB_INFINITY,
+                                    CB_INFINITY, &length, &t));
+        CHECK(length == doctest::Approx(g.integral(o, d, 16.0)).epsilon(2e-4).scale(1.0));
+    }
+
+    // The file's "temperature" grid emits: refused where something sits in the medium.
+    const std::string emitting = fmt::format(
+        "MakeNamedMedium \"g\" \"string type\" \"nanovdb\" \"string filename\" \"{}\"\n", file);
+    CHECK(contains(errorOf(hostScene(emitting)),
+                   "medium \"g\" emits (its file holds a \"temperature\" grid)"));
+    // A missing grid, a missing file, a file that is not NanoVDB: errors naming them.
+    auto nanovdb = [](const std::string& parameters) {
+        return hostScene("MakeNamedMedium \"g\" \"string type\" \"nanovdb\" " + parameters + "\n");
+    };
+    const std::string named = fmt::format("\"string filename\" \"{}\" ", file);
+    CHECK(contains(errorOf(nanovdb(named + "\"string gridname\" \"smoke\" "
+                                           "\"string temperaturename\" \"heat\"")),
+                   "no grid \"smoke\" (the file holds \"temperature\", \"density\")"));
+    CHECK(contains(errorOf(nanovdb("\"string filename\" \"nowhere.nvdb\"")),
+                   "t.pbrt:1:63: no NanoVDB file \"nowhere.nvdb\""));
+    CHECK(contains(errorOf(nanovdb("")), "of type \"nanovdb\" needs \"string filename\""));
+    const std::string notNanoVdb = writeImage("not.exr", 2, 2, [](int, int, int) { return 1.f; });
+    CHECK(contains(errorOf(nanovdb("\"string filename\" \"not.exr\"")), "not a NanoVDB file"));
+    (void)notNanoVdb;
 }
 
 // Every method's image through a sphere of grid fog, paths of 2 vertices (the camera at the

@@ -147,9 +147,8 @@ TEST_CASE("absorbing media: what cbdpt refuses, naming the file and line") {
         CHECK(contains(e, message));
         CHECK(contains(e, "t.pbrt:1"));
     }
-    e = inMedium("MakeNamedMedium \"m\" \"string type\" \"nanovdb\" \"string filename\" "
-                 "\"cloud.nvdb\"\n");
-    CHECK(contains(e, "medium \"m\" is of type \"nanovdb\""));
+    e = inMedium("MakeNamedMedium \"m\" \"string type\" \"rgbgrid\" \"integer nx\" 1\n");
+    CHECK(contains(e, "medium \"m\" is of type \"rgbgrid\""));
     e = errorOf("MakeNamedMedium \"m\" \"string type\" \"homogeneous\" \"rgb sigma_s\" [0 0 0]\n"
                 "MakeNamedMedium \"m\" \"string type\" \"homogeneous\" \"rgb sigma_s\" [0 0 0]\n"
                 "WorldBegin\n");

@@ -89,8 +89,8 @@ TEST_CASE("scattering media: what cbdpt refuses, naming the file, line and value
     CHECK(contains(inMedium("\"float g\" -1.5"), "got -1.5"));
     e = inMedium("\"string preset\" \"Wholemilk\"");
     CHECK(contains(e, "medium \"m\" names the measured \"preset\" \"Wholemilk\""));
-    CHECK(contains(e, "cbdpt renders \"homogeneous\" and \"uniformgrid\" media of \"sigma_a\" "
-                      "and \"sigma_s\" without \"Le\" (a shape sits in it at "));
+    CHECK(contains(e, "cbdpt renders \"homogeneous\", \"uniformgrid\" and \"nanovdb\" media "
+                      "of \"sigma_a\" and \"sigma_s\" without \"Le\" (a shape sits in it at "));
     CHECK(contains(e, "t.pbrt:4")); // the shape in it
     CHECK(contains(inMedium("\"rgb Le\" [1 1 1]"), "emits (its \"Le\" is not 0)"));
     CHECK(contains(inMedium("\"rgb sigma_s\" [1 -1 1]"), "negative value"));

@@ -77,7 +77,7 @@ std::array<float, 6> sphereFrameSlot(const std::array<double, 9>& w) {
 // A medium's grid after its three entries (cb_medium.h, mediumGrid): nx, ny, nz (0 for a
 // homogeneous medium), the map from device coordinates (world minus `origin`) to the samples'
 // coordinates, pbrt-v4's SampledGrid lookup (the point's offset in the box p0-p1 times n, minus
-// 0.5) after the medium's own transform, and the densities; padded to whole entries of
+// 0.5) after the medium's own transform, the clip, and the densities; padded to whole entries of
 // `channels` floats.
 void addMediumGrid(const MediumDesc& medium, const std::array<double, 3>& origin, int channels,
                    std::vector<float>& spectra) {
@@ -95,6 +95,7 @@ void addMediumGrid(const MediumDesc& medium, const std::array<double, 3>& origin
                 spectra[header + CB_GRID_MAP + axis * 4 + col] = float(row[col] * perUnit);
             spectra[header + CB_GRID_MAP + axis * 4 + 3] = float(translation * perUnit - 0.5);
         }
+        spectra[header + CB_GRID_CLIP] = float(medium.clipSamples);
         if (spectra.size() + medium.density.size() + size_t(channels) >
             size_t(std::numeric_limits<int>::max()))
             throw SceneError(medium.where,

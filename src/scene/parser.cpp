@@ -8,6 +8,7 @@
 #include "image/image.h"
 #include "io/files.h"
 #include "scene/loop_subdivision.h"
+#include "scene/nanovdb.h"
 #include "scene/ply.h"
 #include "scene/scene_desc.h"
 #include "scene/transform.h"
@@ -1641,8 +1642,8 @@ class Parser {
         if (!type)
             throw SceneError(t.where, "MakeNamedMedium \"" + name.text +
                                           "\" needs a \"string type\" parameter");
-        const bool grid = *type == "uniformgrid";
-        if (*type != "homogeneous" && !grid) {
+        const bool grid = *type == "uniformgrid", vdb = *type == "nanovdb";
+        if (*type != "homogeneous" && !grid && !vdb) {
             m.unsupported = "is of type \"" + *type + "\"";
             pl.takeRest();
             pl.finish();
@@ -1650,6 +1651,8 @@ class Parser {
         }
         if (grid)
             gridMedium(t, pl, m);
+        else if (vdb)
+            nanoVdbMedium(t, pl, m);
         else if (const std::optional<std::string> preset = pl.oneString("preset"))
             m.unsupported = "names the measured \"preset\" \"" + *preset +
                             "\", whose table cbdpt does not have";
@@ -1730,16 +1733,85 @@ class Parser {
             m.p0[size_t(axis)] = lo;
             m.p1[size_t(axis)] = hi;
         }
+        mediumSpace(t, m);
+        if (pl.ignore("temperature", {"float"}) && m.unsupported.empty())
+            m.unsupported = "emits (it has a \"temperature\" grid)";
+        for (const char* unused : {"temperatureoffset", "temperaturecutoff", "temperaturescale"})
+            pl.ignore(unused, {"float"});
+    }
+
+    // A grid medium's space: the CTM at its MakeNamedMedium.
+    void mediumSpace(const Token& t, MediumDesc& m) const {
         const std::optional<Mat4> mediumFromWorld = inverse(state_.ctm);
         if (!mediumFromWorld || !mediumFromWorld->isAffine())
             throw SceneError(t.where, "medium \"" + m.name +
                                           "\" needs an invertible affine transform (the CTM here)");
         for (size_t i = 0; i < 12; ++i)
             m.mediumFromWorld[i] = mediumFromWorld->m[i];
-        if (pl.ignore("temperature", {"float"}) && m.unsupported.empty())
-            m.unsupported = "emits (it has a \"temperature\" grid)";
+    }
+
+    // pbrt-v4's NanoVDBMedium::Create: the float grid "gridname" ("density") of the NanoVDB file
+    // "filename", trilinear between the voxels' integer index points (NanoVDB's sampler), in the
+    // medium's space through the grid's index-to-world map. It becomes a "uniformgrid" of those
+    // points, the cells' centres, over indexMin - 0.5 to indexMax + 1.5, clipped half a sample
+    // inside as pbrt-v4 clips the grid to its world bounds, indexMin to indexMax + 1. A
+    // "temperaturename" grid emits, which cbdpt does not render.
+    void nanoVdbMedium(const Token& t, ParamList& pl, MediumDesc& m) {
+        const Param* fileParam = pl.peek("filename");
+        const std::string file = fileParam ? *pl.oneString("filename") : std::string();
+        if (file.empty())
+            throw SceneError(t.where, "MakeNamedMedium \"" + m.name +
+                                          "\" of type \"nanovdb\" needs \"string filename\"");
+        const std::string gridName = pl.oneString("gridname").value_or("density");
+        const std::string temperatureName = pl.oneString("temperaturename").value_or("temperature");
         for (const char* unused : {"temperatureoffset", "temperaturecutoff", "temperaturescale"})
             pl.ignore(unused, {"float"});
+        const SourceLocation where = fileParam->valueLoc(0);
+        const std::string path = findSceneFile(file, where, "NanoVDB file");
+        NanoVdbGrid grid;
+        try {
+            const std::vector<std::string> names = nanoVdbGridNames(path);
+            if (std::find(names.begin(), names.end(), temperatureName) != names.end()) {
+                m.unsupported = "emits (its file holds a \"" + temperatureName + "\" grid)";
+                return;
+            }
+            grid = readNanoVdbGrid(path, gridName);
+        } catch (const std::runtime_error& e) {
+            throw SceneError(where, e.what());
+        }
+        if (grid.background != 0.f)
+            throw SceneError(where, fmt::format("{}: grid \"{}\" has the background value {:g}, a "
+                                                "density everywhere outside its voxels; cbdpt's "
+                                                "grid media are 0 outside their grid",
+                                                path, gridName, grid.background));
+        for (int r = 0; r < 3; ++r)
+            for (int c = 0; c < 3; ++c) {
+                const double v = grid.matrix[size_t(3 * r + c)];
+                if (r == c ? !(v > 0.0) : v != 0.0)
+                    throw SceneError(where,
+                                     fmt::format("{}: grid \"{}\" turns or mirrors its "
+                                                 "voxels (index-to-world matrix row {}: "
+                                                 "{:g} {:g} {:g}); cbdpt takes grids "
+                                                 "whose map only scales and translates",
+                                                 path, gridName, r, grid.matrix[size_t(3 * r)],
+                                                 grid.matrix[size_t(3 * r + 1)],
+                                                 grid.matrix[size_t(3 * r + 2)]));
+            }
+        for (size_t i = 0; i < grid.values.size(); ++i)
+            if (!(grid.values[i] >= 0.f && grid.values[i] <= std::numeric_limits<float>::max()))
+                throw SceneError(where, fmt::format("{}: grid \"{}\" value {} is {:g}; a "
+                                                    "density must be finite and >= 0",
+                                                    path, gridName, i, grid.values[i]));
+        const auto dims = grid.dims();
+        for (size_t k = 0; k < 3; ++k) {
+            const double scale = grid.matrix[4 * k], shift = grid.translation[k];
+            m.samples[k] = dims[k];
+            m.p0[k] = scale * (grid.indexMin[k] - 0.5) + shift;
+            m.p1[k] = scale * (grid.indexMax[k] + 1.5) + shift;
+        }
+        m.density = std::move(grid.values);
+        m.clipSamples = 0.5;
+        mediumSpace(t, m);
     }
 
     static bool isZero(const SpectrumValue& s) {
@@ -1788,8 +1860,9 @@ class Parser {
                                               " sits in it at " + m.firstUse.str() + ")");
             if (!m.unsupported.empty())
                 throw SceneError(m.where, "medium \"" + m.name + "\" " + m.unsupported +
-                                              ": cbdpt renders \"homogeneous\" and "
-                                              "\"uniformgrid\" media of \"sigma_a\" and "
+                                              ": cbdpt renders \"homogeneous\", "
+                                              "\"uniformgrid\" and \"nanovdb\" media of "
+                                              "\"sigma_a\" and "
                                               "\"sigma_s\" without \"Le\" (" +
                                               m.firstUser + " sits in it at " + m.firstUse.str() +
                                               ")");
@@ -2435,6 +2508,12 @@ class Parser {
     // The path of image file `file` (relative to the scene file's folder, then the models'), an
     // error naming the places tried when there is none; the file joins the scene's sources.
     std::string findImageFile(const std::string& file, const SourceLocation& where) {
+        return findSceneFile(file, where, "image file");
+    }
+
+    // The path of the `what` `file` a scene names, as findImageFile.
+    std::string findSceneFile(const std::string& file, const SourceLocation& where,
+                              const std::string& what) {
         const std::vector<std::string> candidates = nearbyPaths(file);
         auto found = std::find_if(candidates.begin(), candidates.end(),
                                   [](const std::string& c) { return fs::is_regular_file(c); });
@@ -2442,7 +2521,7 @@ class Parser {
             std::string tried;
             for (const std::string& c : candidates)
                 tried += " " + c;
-            throw SceneError(where, "no image file \"" + file + "\" (tried" + tried + ")");
+            throw SceneError(where, "no " + what + " \"" + file + "\" (tried" + tried + ")");
         }
         scene_.sourceFiles.push_back(*found);
         return *found;

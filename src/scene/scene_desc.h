@@ -129,6 +129,9 @@ struct MediumDesc {
     std::array<int, 3> samples{0, 0, 0};
     std::array<double, 3> p0{0, 0, 0}, p1{1, 1, 1};
     std::array<double, 12> mediumFromWorld{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0};
+    // How far inside the box the density ends, in samples on every side: 0 for "uniformgrid",
+    // 0.5 for "nanovdb", which pbrt-v4 clips to the grid's bounds, its first and last samples.
+    double clipSamples = 0.0;
     bool defined = false; // named by a MediumInterface, not (yet) by a MakeNamedMedium
     // Why cbdpt cannot render it ("" where it can): an error once a shape or the camera sits in
     // it.

@@ -1,7 +1,8 @@
 # libFuzzer targets for the scene parser and the PLY reader (docs/robustness.md). Included from
 # the root CMakeLists.txt when CBDPT_FUZZ=ON; scripts/fuzz configures and runs them.
-# Only the parser's sources and the file, image and spectra reading they use are compiled,
-# instrumented for coverage, so the fuzz build does not need OpenCL or the rest of cbdpt_core.
+# Only the parser's sources and the file, image, NanoVDB and spectra reading they use are
+# compiled, instrumented for coverage, so the fuzz build needs neither OpenCL nor the rest of
+# cbdpt_core.
 if(NOT CMAKE_CXX_COMPILER_ID MATCHES "Clang")
   message(FATAL_ERROR "CBDPT_FUZZ=ON needs clang (libFuzzer), e.g. CC=clang-14 CXX=clang++-14")
 endif()
@@ -9,6 +10,7 @@ set(CBDPT_FUZZ_FLAGS -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=a
                      -fno-omit-frame-pointer -g)
 add_library(cbdpt_fuzz_scene OBJECT ${CMAKE_SOURCE_DIR}/src/scene/parser.cpp
                                     ${CMAKE_SOURCE_DIR}/src/scene/loop_subdivision.cpp
+                                    ${CMAKE_SOURCE_DIR}/src/scene/nanovdb.cpp
                                     ${CMAKE_SOURCE_DIR}/src/scene/ply.cpp
                                     ${CMAKE_SOURCE_DIR}/src/scene/scene_error.cpp
                                     ${CMAKE_SOURCE_DIR}/src/io/files.cpp
