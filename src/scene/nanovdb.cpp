@@ -125,17 +125,19 @@ bool maskBit(const Reader& r, std::size_t mask, std::uint32_t n) {
 }
 
 // Writes `value` over the index box [lo, lo + edge) clipped to the dense box.
-void fillBox(NanoVdbGrid& g, std::array<int, 3> lo, int edge, float value) {
+// Coordinates are 64-bit here: a malformed file's may be anywhere in int32.
+using Coord = std::array<long long, 3>;
+
+void fillBox(NanoVdbGrid& g, Coord lo, long long edge, float value) {
     const auto d = g.dims();
-    std::array<int, 3> a{}, b{};
-    for (int k = 0; k < 3; ++k) {
-        a[size_t(k)] = std::max(lo[size_t(k)], g.indexMin[size_t(k)]) - g.indexMin[size_t(k)];
-        b[size_t(k)] = std::min(lo[size_t(k)] + edge, g.indexMin[size_t(k)] + d[size_t(k)]) -
-                       g.indexMin[size_t(k)];
-        if (a[size_t(k)] >= b[size_t(k)]) return;
+    std::array<long long, 3> a{}, b{};
+    for (size_t k = 0; k < 3; ++k) {
+        a[k] = std::max<long long>(lo[k], g.indexMin[k]) - g.indexMin[k];
+        b[k] = std::min<long long>(lo[k] + edge, (long long)g.indexMin[k] + d[k]) - g.indexMin[k];
+        if (a[k] >= b[k]) return;
     }
-    for (int z = a[2]; z < b[2]; ++z)
-        for (int y = a[1]; y < b[1]; ++y)
+    for (long long z = a[2]; z < b[2]; ++z)
+        for (long long y = a[1]; y < b[1]; ++y)
             std::fill_n(g.values.begin() +
                             std::ptrdiff_t((std::size_t(z) * std::size_t(d[1]) + std::size_t(y)) *
                                                std::size_t(d[0]) +
@@ -144,14 +146,14 @@ void fillBox(NanoVdbGrid& g, std::array<int, 3> lo, int edge, float value) {
 }
 
 // A leaf's 8 x 8 x 8 values, voxel n at (n >> 6, (n >> 3) & 7, n & 7) from its origin.
-void fillLeaf(const Reader& r, std::size_t leaf, std::array<int, 3> origin, NanoVdbGrid& g) {
+void fillLeaf(const Reader& r, std::size_t leaf, Coord origin, NanoVdbGrid& g) {
     const auto d = g.dims();
     const float* values = reinterpret_cast<const float*>(r.bytes.data() + leaf + kLeafValues);
     (void)r.at<float>(leaf + kLeafValues + 4 * 511); // the whole leaf is inside the grid's bytes
     for (std::uint32_t n = 0; n < 512; ++n) {
-        const int x = origin[0] + int(n >> 6) - g.indexMin[0];
-        const int y = origin[1] + int((n >> 3) & 7) - g.indexMin[1];
-        const int z = origin[2] + int(n & 7) - g.indexMin[2];
+        const long long x = origin[0] + (n >> 6) - g.indexMin[0];
+        const long long y = origin[1] + ((n >> 3) & 7) - g.indexMin[1];
+        const long long z = origin[2] + (n & 7) - g.indexMin[2];
         if (x < 0 || y < 0 || z < 0 || x >= d[0] || y >= d[1] || z >= d[2]) continue;
         float v;
         std::memcpy(&v, values + n, sizeof v);
@@ -160,18 +162,17 @@ void fillLeaf(const Reader& r, std::size_t leaf, std::array<int, 3> origin, Nano
     }
 }
 
-void fillInternal(const Reader& r, std::size_t node, const InternalLayout& layout,
-                  std::array<int, 3> origin, NanoVdbGrid& g) {
+void fillInternal(const Reader& r, std::size_t node, const InternalLayout& layout, Coord origin,
+                  NanoVdbGrid& g) {
     const int dim = 1 << layout.log2Dim;
     const std::uint32_t count = 1u << (3 * layout.log2Dim);
     const std::size_t maskBytes = std::size_t(count) / 8;
     const std::size_t childMask = 32 + maskBytes; // after the value mask
     for (std::uint32_t n = 0; n < count; ++n) {
-        const int x = int(n >> (2 * layout.log2Dim)), y = int((n >> layout.log2Dim) & (dim - 1)),
-                  z = int(n & std::uint32_t(dim - 1));
-        const std::array<int, 3> at{origin[0] + (x << layout.childTotal),
-                                    origin[1] + (y << layout.childTotal),
-                                    origin[2] + (z << layout.childTotal)};
+        const long long x = n >> (2 * layout.log2Dim), y = (n >> layout.log2Dim) & (dim - 1),
+                        z = n & std::uint32_t(dim - 1);
+        const Coord at{origin[0] + (x << layout.childTotal), origin[1] + (y << layout.childTotal),
+                       origin[2] + (z << layout.childTotal)};
         const std::size_t entry = node + layout.table + 8 * n;
         if (!maskBit(r, node + childMask, n)) {
             fillBox(g, at, 1 << layout.childTotal, r.at<float>(entry));
@@ -220,6 +221,10 @@ NanoVdbGrid readNanoVdbGrid(const std::string& path, const std::string& name,
     if (it->type != kGridTypeFloat)
         throw std::runtime_error(fmt::format(
             "{}: grid \"{}\" holds values of NanoVDB type {}, not floats", path, name, it->type));
+    if (it->gridSize != it->fileSize)
+        throw std::runtime_error(fmt::format("{}: malformed NanoVDB file (grid \"{}\": {} bytes in "
+                                             "memory, {} in the file, uncompressed)",
+                                             path, name, it->gridSize, it->fileSize));
     std::ifstream in(path, std::ios::binary);
     const std::vector<char> bytes = readRange(in, path, it->offset, it->gridSize);
     const Reader r{path, bytes};
@@ -241,22 +246,24 @@ NanoVdbGrid readNanoVdbGrid(const std::string& path, const std::string& name,
     }
     const auto tableSize = r.at<std::uint32_t>(root + 24);
     g.background = r.at<float>(root + 28);
-    const auto d = g.dims();
-    const std::uint64_t total = std::uint64_t(d[0]) * std::uint64_t(d[1]) * std::uint64_t(d[2]);
-    if (total > maxValues)
-        r.fail(fmt::format("grid \"{}\" spans {} x {} x {} voxels, {} dense values; cbdpt expands "
-                           "a grid to dense samples and takes at most {}",
+    std::array<long long, 3> d{};
+    for (size_t k = 0; k < 3; ++k)
+        d[k] = (long long)g.indexMax[k] - g.indexMin[k] + 2;
+    const double total = double(d[0]) * double(d[1]) * double(d[2]);
+    if (total > double(maxValues) || std::max({d[0], d[1], d[2]}) > (1LL << 30))
+        r.fail(fmt::format("grid \"{}\" spans {} x {} x {} voxels, {:g} dense values; cbdpt "
+                           "expands a grid to dense samples and takes at most {}",
                            name, d[0], d[1], d[2], total, maxValues));
-    g.values.assign(total, g.background);
+    g.values.assign(std::size_t(total), g.background);
     for (std::uint32_t t = 0; t < tableSize; ++t) {
         const std::size_t tile = root + kRootBytes + kRootTileBytes * t;
         const auto key = r.at<std::uint64_t>(tile);
         const auto child = r.at<std::int64_t>(tile + 8);
         // The key packs each coordinate's top 21 bits (an upper node spans 2^12 voxels).
         constexpr std::uint64_t kMask = (1u << 21) - 1;
-        const std::array<int, 3> origin{int(std::uint32_t(((key >> 42) & kMask) << 12)),
-                                        int(std::uint32_t(((key >> 21) & kMask) << 12)),
-                                        int(std::uint32_t((key & kMask) << 12))};
+        const Coord origin{std::int32_t(std::uint32_t(((key >> 42) & kMask) << 12)),
+                           std::int32_t(std::uint32_t(((key >> 21) & kMask) << 12)),
+                           std::int32_t(std::uint32_t((key & kMask) << 12))};
         if (child == 0) {
             fillBox(g, origin, 1 << 12, r.at<float>(tile + 20));
             continue;
