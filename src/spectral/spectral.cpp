@@ -472,17 +472,18 @@ std::array<double, 2> whiteBalanceChromaticity(double kelvin) {
 
 namespace {
 
-// Linear interpolation in a table of rows of `stride` numbers (nm first), column `column`;
-// zero outside the table, as pbrt-v4's PiecewiseLinearSpectrum.
-double tableAt(std::span<const double> table, std::size_t stride, std::size_t column, double nm) {
-    const std::size_t rows = table.size() / stride;
-    if (rows == 0 || nm < table[0] || nm > table[(rows - 1) * stride]) return 0.0;
-    std::size_t i = 0;
-    while (i + 2 < rows && table[(i + 1) * stride] <= nm)
-        ++i;
-    const double a = table[i * stride], b = table[(i + 1) * stride];
-    const double t = std::clamp((nm - a) / (b - a), 0.0, 1.0);
-    return (1.0 - t) * table[i * stride + column] + t * table[(i + 1) * stride + column];
+// Column `column` of a table of rows of `stride` numbers (nm first) as a spectrum.
+PiecewiseLinear tableColumn(std::span<const double> table, std::size_t stride, std::size_t column) {
+    PiecewiseLinear out;
+    for (std::size_t row = 0; row + stride <= table.size(); row += stride)
+        out.emplace_back(static_cast<float>(table[row]), static_cast<float>(table[row + column]));
+    return out;
+}
+
+// A camera's R, G, B sensitivities as spectra.
+std::array<PiecewiseLinear, 3> cameraResponse(const CameraSensorCurves& camera) {
+    return {tableColumn(camera.table, 4, 1), tableColumn(camera.table, 4, 2),
+            tableColumn(camera.table, 4, 3)};
 }
 
 const CameraSensorCurves& cameraCurves(const std::string& name) {
@@ -508,9 +509,11 @@ std::vector<double> daylightEveryNm(double kelvin) {
     const double m1 = (-1.3515 - 1.7703 * x + 5.9114 * y) / m;
     const double m2 = (0.0300 - 31.4424 * x + 30.0717 * y) / m;
     const auto table = daylightComponents();
+    const PiecewiseLinear s0 = tableColumn(table, 4, 1), s1 = tableColumn(table, 4, 2),
+                          s2 = tableColumn(table, 4, 3);
     for (int nm = 360; nm <= 830; ++nm)
-        out.push_back(tableAt(table, 4, 1, nm) + m1 * tableAt(table, 4, 2, nm) +
-                      m2 * tableAt(table, 4, 3, nm));
+        out.push_back(evalPiecewiseLinear(s0, nm) + m1 * evalPiecewiseLinear(s1, nm) +
+                      m2 * evalPiecewiseLinear(s2, nm));
     return out;
 }
 
@@ -521,32 +524,30 @@ std::array<double, 9> xyzFromCameraRgb(const std::string& name, double kelvin) {
     const std::vector<double> sensorIllum = daylightEveryNm(kelvin);
     const NamedSpectrum* d65Named = findNamedSpectrum("stdillum-D65");
     if (!d65Named) throw std::logic_error("the built-in stdillum-D65 table is missing");
-    const auto d65 = d65Named->pairs;
-    const auto patches = colorCheckerReflectances();
+    const PiecewiseLinear d65 = tableColumn(d65Named->pairs, 2, 1);
+    const std::array<PiecewiseLinear, 3> response = cameraResponse(camera);
+    // The patches every 10 nm from 380 nm.
     constexpr int kPatches = 24, kPatchSamples = 36;
+    const auto table = colorCheckerReflectances();
+    std::array<PiecewiseLinear, kPatches> patches;
+    for (int p = 0; p < kPatches; ++p)
+        for (int i = 0; i < kPatchSamples; ++i)
+            patches[size_t(p)].emplace_back(380.f + 10.f * float(i),
+                                            float(table[size_t(p * kPatchSamples + i)]));
     // Sums over pbrt-v4's 1 nm steps (ProjectReflectance, InnerProduct).
     std::array<Vec3d, kPatches> rgb{}, xyz{};
     double illumG = 0.0, illumY = 0.0, d65Y = 0.0;
-    // Patches sampled every 10 nm from 380 nm: interpolate them apart (no wavelength column).
-    auto patchAt = [&](int p, double nm) {
-        if (nm < 380.0 || nm > 730.0) return 0.0;
-        const double f = (nm - 380.0) / 10.0;
-        const int i = std::min(int(f), kPatchSamples - 2);
-        const double t = f - i;
-        const double* v = patches.data() + p * kPatchSamples;
-        return (1.0 - t) * v[i] + t * v[i + 1];
-    };
     for (int nm = 360; nm <= 830; ++nm) {
         const double li = sensorIllum[size_t(nm - 360)];
-        const double ld = tableAt(d65, 2, 1, nm);
-        const Vec3d cam{tableAt(camera.table, 4, 1, nm), tableAt(camera.table, 4, 2, nm),
-                        tableAt(camera.table, 4, 3, nm)};
+        const double ld = evalPiecewiseLinear(d65, nm);
+        const Vec3d cam{evalPiecewiseLinear(response[0], nm), evalPiecewiseLinear(response[1], nm),
+                        evalPiecewiseLinear(response[2], nm)};
         const auto cmf = cieXyz1931Fit(nm);
         illumG += cam[1] * li;
         illumY += cmf[1] * li;
         d65Y += cmf[1] * ld;
         for (int p = 0; p < kPatches; ++p) {
-            const double r = patchAt(p, nm);
+            const double r = evalPiecewiseLinear(patches[size_t(p)], nm);
             for (int c = 0; c < 3; ++c) {
                 rgb[size_t(p)][size_t(c)] += cam[size_t(c)] * r * li;
                 xyz[size_t(p)][size_t(c)] += cmf[size_t(c)] * r * ld;
@@ -595,15 +596,14 @@ std::vector<float> filmMatrix(int channels, const FilmColour& film) {
         if (channels != kSpectralBins)
             throw std::invalid_argument("the camera sensor \"" + film.sensor +
                                         "\" needs spectral rendering (16 channels)");
-        const CameraSensorCurves& camera = cameraCurves(film.sensor);
+        const std::array<PiecewiseLinear, 3> curves = cameraResponse(cameraCurves(film.sensor));
         const Mat3 toRgb = filmFromCameraRgb(film);
         std::vector<float> out(3 * kSpectralBins);
         for (int i = 0; i < kSpectralBins; ++i) {
             Vec3d response{};
             for (int c = 0; c < 3; ++c)
-                response[size_t(c)] = integrateFine(
-                    [&](double nm) { return tableAt(camera.table, 4, size_t(c + 1), nm); },
-                    binLambdaLow(i), binLambdaHigh(i));
+                response[size_t(c)] =
+                    integratePiecewiseLinear(curves[size_t(c)], binLambdaLow(i), binLambdaHigh(i));
             const Vec3d rgb = mul(toRgb, response);
             for (int c = 0; c < 3; ++c)
                 out[size_t(c * kSpectralBins + i)] = static_cast<float>(rgb[size_t(c)]);
