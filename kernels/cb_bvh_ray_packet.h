@@ -223,14 +223,14 @@ CB_FN void rayPacketRecord(int j, Hit h, bool closestHit, RayPacketReal* closest
  * differ: there each ray's own pack test, which stops at its first hit, was faster. Triangles are
  * taken in order, each against the closest hit so far, so the nearest hit wins and the first
  * triangle among equal distances, as in intersectPack; an alpha-tested triangle's hits count
- * where alphaKeepsHit keeps them (alphaScene, as intersectPack's). A ray that is done (an any-hit
+ * where alphaKeepsHit keeps them (hitScene, as intersectPack's). A ray that is done (an any-hit
  * query that hit) gets closest -1 and takes no further part. */
 CB_FN __attribute__((always_inline)) void
 rayPacketLeaf(CB_GLOBAL const TrianglePack* packs, CB_GLOBAL const Primitive* prims,
               CB_GLOBAL const Ray* rays, RayPacketInt index, uint first, uint count, uint rayBits,
               const RayPacketSheared* sh, bool closestHit, RayPacketReal* closest,
               RayPacketInt* found, RayPacketInt* hitPrim, RayPacketReal* hitB1,
-              RayPacketReal* hitB2, const SceneView* alphaScene) {
+              RayPacketReal* hitB2, const SceneView* hitScene) {
     const RayPacketInt mask = ((RayPacketInt)((int)rayBits) &
                                ((RayPacketInt)(1) << CB_RAY_PACKET_LANES)) != (RayPacketInt)(0);
     for (uint p = first; p < first + count; ++p) {
@@ -244,7 +244,7 @@ rayPacketLeaf(CB_GLOBAL const TrianglePack* packs, CB_GLOBAL const Primitive* pr
                 const Ray ray = rays[rayPacketLaneInt(index, j)];
                 Hit h;
                 if (intersectPack(pack, prims, ray, triangleRayOf(ray),
-                                  rayPacketLaneReal(*closest, j), closestHit, &h, alphaScene))
+                                  rayPacketLaneReal(*closest, j), closestHit, &h, hitScene))
                     rayPacketRecord(j, h, closestHit, closest, found, hitPrim, hitB1, hitB2);
             }
             continue;
@@ -267,7 +267,7 @@ rayPacketLeaf(CB_GLOBAL const TrianglePack* packs, CB_GLOBAL const Primitive* pr
                 uint kept = rayPacketBits(exact);
                 for (uint bits = kept; bits != 0u; bits &= bits - 1u) {
                     const int j = 31 - (int)clz(bits & (0u - bits));
-                    if (!alphaKeepsHit(alphaScene, pack->prim[l], rays[rayPacketLaneInt(index, j)],
+                    if (!alphaKeepsHit(hitScene, pack->prim[l], rays[rayPacketLaneInt(index, j)],
                                        rayPacketLaneReal(b1, j), rayPacketLaneReal(b2, j)))
                         kept &= ~(1u << j);
                 }
@@ -293,9 +293,9 @@ rayPacketLeaf(CB_GLOBAL const TrianglePack* packs, CB_GLOBAL const Primitive* pr
                 /* intersectPrimitiveSheared leaves the primitive to its caller. */
                 Hit h = {rayClosest, pack->prim[l], 0.0f, 0.0f};
                 if (intersectPrimitiveSheared(prims + pack->prim[l], ray, triangleRayOf(ray),
-                                              rayClosest, &h) &&
+                                              rayClosest, &h, hitScene) &&
                     (!CB_HAS(CB_FEATURE_ALPHA) || !pack->alphaTested ||
-                     alphaKeepsHit(alphaScene, pack->prim[l], ray, h.b1, h.b2)))
+                     alphaKeepsHit(hitScene, pack->prim[l], ray, h.b1, h.b2)))
                     rayPacketRecord(j, h, closestHit, closest, found, hitPrim, hitB1, hitB2);
             }
         }
@@ -312,7 +312,7 @@ rayPacketTraverse(CB_GLOBAL const BvhNodeWide* nodes, CB_GLOBAL const TrianglePa
                   CB_GLOBAL const Primitive* prims, CB_GLOBAL const Ray* rays,
                   CB_GLOBAL const float* tMaxes, RayPacketInt index, bool closestHit,
                   RayPacketReal* hitT, RayPacketInt* hitPrim, RayPacketReal* hitB1,
-                  RayPacketReal* hitB2, const SceneView* alphaScene) {
+                  RayPacketReal* hitB2, const SceneView* hitScene) {
     /* index < 0: no ray (padding of the last packet), an inactive lane. */
     const RayPacketInt valid = index >= (RayPacketInt)(0);
     index = select((RayPacketInt)(0), index, valid);
@@ -414,7 +414,7 @@ rayPacketTraverse(CB_GLOBAL const BvhNodeWide* nodes, CB_GLOBAL const TrianglePa
              * kept in a private array, which PoCL would copy per work-item. */
             const uint rayBits = rayPacketBits(rayPacketBox(node, k, &s, closest));
             rayPacketLeaf(packs, prims, rays, index, node->child[k], count, rayBits, &sh,
-                          closestHit, &closest, &found, hitPrim, hitB1, hitB2, alphaScene);
+                          closestHit, &closest, &found, hitPrim, hitB1, hitB2, hitScene);
             if (!closestHit && rayPacketBits(closest >= (RayPacketReal)(0.0f)) == 0u) break;
             if (more) {
                 fromLane = k;
@@ -433,11 +433,11 @@ CB_FN __attribute__((always_inline)) void
 rayPacketTrace(CB_GLOBAL const BvhNodeWide* nodes, CB_GLOBAL const TrianglePack* packs,
                CB_GLOBAL const Primitive* prims, CB_GLOBAL const Ray* rays,
                CB_GLOBAL const float* tMaxes, RayPacketInt index, bool closestHit,
-               CB_GLOBAL Hit* hits, CB_GLOBAL int* occluded, const SceneView* alphaScene) {
+               CB_GLOBAL Hit* hits, CB_GLOBAL int* occluded, const SceneView* hitScene) {
     RayPacketReal t, b1, b2;
     RayPacketInt prim;
     const RayPacketInt hit = rayPacketTraverse(nodes, packs, prims, rays, tMaxes, index, closestHit,
-                                               &t, &prim, &b1, &b2, alphaScene);
+                                               &t, &prim, &b1, &b2, hitScene);
     /* Lane by lane, each a constant (a loop over lane numbers kept 6% more instructions). */
 #define CB_RAY_PACKET_OUT(L)                                                                       \
     do {                                                                                           \

@@ -504,13 +504,13 @@ CB_FN __attribute__((always_inline)) void bvhWidePrefetch(CB_GLOBAL const BvhNod
 
 /* Closest hit (closestHit) or any hit (!closestHit: returns at the first one found, in the
  * same near-first order) with t in (0, tMax). `coherent`: see bvhWideNext; it changes how
- * the next child is found, never which, so the answer is the same either way. alphaScene: as
+ * the next child is found, never which, so the answer is the same either way. hitScene: as
  * intersectPack's. */
 CB_FN CB_BVHW_SPECIALISE bool bvhWideTraverse(CB_GLOBAL const BvhNodeWide* nodes,
                                               CB_GLOBAL const TrianglePack* packs,
                                               CB_GLOBAL const Primitive* prims, Ray ray, real tMax,
                                               bool closestHit, bool coherent, Hit* hit,
-                                              const SceneView* alphaScene) {
+                                              const SceneView* hitScene) {
     hit->t = tMax;
     hit->primitive = -1;
     hit->b1 = 0.0f;
@@ -593,7 +593,7 @@ CB_FN CB_BVHW_SPECIALISE bool bvhWideTraverse(CB_GLOBAL const BvhNodeWide* nodes
             for (uint p = first; p < first + count; ++p) {
                 Hit h;
                 if (intersectPack(packs + p, prims, ray, sheared, closest, closestHit, &h,
-                                  alphaScene)) {
+                                  hitScene)) {
                     if (!closestHit) return true;
                     *hit = h;
                     closest = h.t;

@@ -7,6 +7,7 @@
 #ifndef CB_INTERSECT_H
 #define CB_INTERSECT_H
 
+#include "cb_curve.h"
 #include "cb_texture.h"
 #include "cb_types.h"
 
@@ -265,10 +266,16 @@ CB_FN bool intersectSphere(Ray ray, real tMax, Vec3 center, real radius, real* t
     return false;
 }
 
-/* Fills hit->t, b1, b2 (b1 = b2 = 0 for spheres); the caller sets hit->primitive. `sheared` is
- * triangleRayOf(ray). */
+/* Fills hit->t, b1, b2 (b1 = b2 = 0 for spheres, a curve's (u, v)); the caller sets
+ * hit->primitive. `sheared` is triangleRayOf(ray); `scene` holds the curve pieces (null where
+ * there are none). */
 CB_FN bool intersectPrimitiveSheared(CB_GLOBAL const Primitive* prim, Ray ray, TriangleRay sheared,
-                                     real tMax, Hit* hit) {
+                                     real tMax, Hit* hit, const SceneView* scene) {
+    (void)scene;
+#if CB_HAS(CB_FEATURE_CURVES)
+    if (prim->kind == CB_PRIM_CURVE)
+        return intersectCurve(scene->curves + (int)prim->p2[0], ray, tMax, true, hit);
+#endif
 #if CB_HAS(CB_FEATURE_SPHERES)
     if (prim->kind == CB_PRIM_SPHERE) {
         real t;
@@ -291,16 +298,18 @@ CB_FN bool intersectPrimitiveSheared(CB_GLOBAL const Primitive* prim, Ray ray, T
     return true;
 }
 
+/* Triangles and spheres (curves need their scene: intersectPrimitiveSheared). */
 CB_FN bool intersectPrimitive(CB_GLOBAL const Primitive* prim, Ray ray, real tMax, Hit* hit) {
-    return intersectPrimitiveSheared(prim, ray, triangleRayOf(ray), tMax, hit);
+    return intersectPrimitiveSheared(prim, ray, triangleRayOf(ray), tMax, hit, 0);
 }
 
 /* The lanes of a TrianglePack against `ray` for t in (0, tMax), each lane decided as
  * intersectPrimitive decides its primitive alone, all against the same tMax. Returns whether
  * any lane is hit; *hit: the nearest, the lowest lane among equal t, primitive set. With
  * !closestHit it may return at the first hit found, *hit then unset. `sheared` is
- * triangleRayOf(ray). alphaScene: the scene whose materials and textures decide the hits on
- * alpha-tested triangles (alphaKeepsHit); null where the primitives have none. */
+ * triangleRayOf(ray). hitScene: the scene whose materials and textures decide the hits on
+ * alpha-tested triangles (alphaKeepsHit) and whose curve pieces the curves index; null where
+ * the primitives have neither. */
 #ifdef CB_KERNEL_SIDE
 /* Whether any lane of a mask (lanes 0 or -1) is set. PoCL's any() tests the sign bits one
  * by one; an OR across the lanes is a few instructions fewer. */
@@ -398,7 +407,7 @@ CB_FN float cbPackLaneValue(float4 v, int4 lane) {
  * addresses once per ray, though most primary rays never reach a pack (docs/performance.md). */
 CB_FN bool intersectPack(CB_GLOBAL const TrianglePack* pack, CB_GLOBAL const Primitive* prims,
                          Ray ray, TriangleRay sheared, real tMax, bool closestHit, Hit* hit,
-                         const SceneView* alphaScene) {
+                         const SceneView* hitScene) {
     const int4 lanes = (int4)(0, 1, 2, 3);
     float4 tLane = (float4)(INFINITY), b1Lane = (float4)(0.0f), b2Lane = (float4)(0.0f);
     int4 slow;
@@ -420,9 +429,10 @@ CB_FN bool intersectPack(CB_GLOBAL const TrianglePack* pack, CB_GLOBAL const Pri
             int4 at = lanes == (int4)(k);
             if (!cbAnyLane(slow & at)) continue;
             Hit h = {tMax, -1, 0.0f, 0.0f};
-            if (!intersectPrimitiveSheared(prims + pack->prim[k], ray, sheared, tMax, &h)) continue;
+            if (!intersectPrimitiveSheared(prims + pack->prim[k], ray, sheared, tMax, &h, hitScene))
+                continue;
 #if CB_HAS(CB_FEATURE_ALPHA)
-            if (alphaTested && !alphaKeepsHit(alphaScene, pack->prim[k], ray, h.b1, h.b2)) continue;
+            if (alphaTested && !alphaKeepsHit(hitScene, pack->prim[k], ray, h.b1, h.b2)) continue;
 #endif
             if (!closestHit) return true;
             tLane = select(tLane, (float4)(h.t), at);
@@ -446,7 +456,7 @@ CB_FN bool intersectPack(CB_GLOBAL const TrianglePack* pack, CB_GLOBAL const Pri
         at = lanes == (int4)(best);
 #if CB_HAS(CB_FEATURE_ALPHA)
         if (alphaTested &&
-            !alphaKeepsHit(alphaScene, pack->prim[best], ray, cbPackLaneValue(b1Lane, at),
+            !alphaKeepsHit(hitScene, pack->prim[best], ray, cbPackLaneValue(b1Lane, at),
                            cbPackLaneValue(b2Lane, at))) {
             tLane = select(tLane, (float4)(INFINITY), at);
             continue;
@@ -465,15 +475,15 @@ CB_FN bool intersectPack(CB_GLOBAL const TrianglePack* pack, CB_GLOBAL const Pri
 /* The host: the lanes one by one, from the primitives. */
 CB_FN bool intersectPack(CB_GLOBAL const TrianglePack* pack, CB_GLOBAL const Primitive* prims,
                          Ray ray, TriangleRay sheared, real tMax, bool closestHit, Hit* hit,
-                         const SceneView* alphaScene) {
+                         const SceneView* hitScene) {
     bool found = false;
     real bestT = tMax;
     for (int k = 0; k < pack->count; ++k) {
         Hit h;
         h.t = tMax;
-        if (!intersectPrimitiveSheared(prims + pack->prim[k], ray, sheared, tMax, &h)) continue;
-        if (pack->alphaTested && !alphaKeepsHit(alphaScene, pack->prim[k], ray, h.b1, h.b2))
+        if (!intersectPrimitiveSheared(prims + pack->prim[k], ray, sheared, tMax, &h, hitScene))
             continue;
+        if (pack->alphaTested && !alphaKeepsHit(hitScene, pack->prim[k], ray, h.b1, h.b2)) continue;
         if (!closestHit) return true;
         if (h.t < bestT) {
             bestT = h.t;
@@ -612,6 +622,33 @@ CB_FN SurfacePoint surfacePointFromHit(const SceneView* scene, Ray ray, Hit hit)
 #if CB_HAS(CB_FEATURE_ANISOTROPIC)
         sp = surfacePointTangent(scene, sp, hit, pLocal, pLocal, pLocal);
 #endif
+        return sp;
+    }
+#endif
+#if CB_HAS(CB_FEATURE_CURVES)
+    if (prim->kind == CB_PRIM_CURVE) {
+        Vec3 dpdu;
+        real width;
+        curveSurface(scene->curves + (int)prim->p2[0], ray, hit, &sp.p, &sp.ng, &dpdu, &width);
+        /* pbrt-v4's bound: the width, which lifts rays that leave the curve off its surface
+         * that faces every ray. */
+        sp.pError = vec3(width, width, width);
+        sp.ns = sp.ng;
+#if CB_HAS(CB_FEATURE_MIX_AT_POINT)
+        sp.material = mixPartAtPoint(scene, sp.material, sp.p);
+#endif
+        sp.uv.u = hit.b1; /* pbrt-v4's (u, v): along the curve and across its width */
+        sp.uv.v = hit.b2;
+#if CB_HAS(CB_FEATURE_TEXTURE_MAPPING)
+        sp.uv.p = sp.p;
+#endif
+#if CB_HAS(CB_FEATURE_DIRECTION_MIX)
+        sp.uv.n = sp.ng;
+#endif
+#if CB_HAS(CB_FEATURE_ANISOTROPIC)
+        sp.tangent = dpdu;
+#endif
+        (void)dpdu;
         return sp;
     }
 #endif

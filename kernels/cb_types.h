@@ -16,6 +16,9 @@ CB_BEGIN_NAMESPACE
 /* A triangle whose hits count only where its material's alpha test keeps them (pbrt-v4's shape
  * "alpha", CB_FEATURE_ALPHA): in packs of their own (`alphaTested`). */
 #define CB_PRIM_ALPHA_TRIANGLE 2
+/* A piece of one of pbrt-v4's curves (CB_FEATURE_CURVES): p0 and p1 its bounding box's corners,
+ * p2[0] its index in the scene's `curves` (CurveSegment, cb_curve.h). */
+#define CB_PRIM_CURVE 3
 
 /* One primitive of the BVH. Triangle: world-space vertices p0, p1, p2 (counter-clockwise seen
  * from the side the geometric normal cross(p1-p0, p2-p0) points to). Sphere: centre p0, radius
@@ -45,6 +48,32 @@ typedef struct TrianglePack {
 } TrianglePack;
 
 CB_STATIC_ASSERT(sizeof(TrianglePack) == 176, "TrianglePack must be 176 bytes");
+
+/* pbrt-v4's curve types: a flat ribbon that faces each ray, a ribbon oriented by normals given at
+ * its ends, and a flat one whose normal turns across its width as a cylinder's would. */
+#define CB_CURVE_FLAT 0
+#define CB_CURVE_RIBBON 1
+#define CB_CURVE_CYLINDER 2
+
+/* One piece of a cubic Bezier curve of pbrt-v4 (its Curve: a CurveCommon's [uMin, uMax]),
+ * in world space. cp: the piece's own control points (the curve's blossomed over [uMin, uMax]);
+ * width: the whole curve's at u = 0 and 1; n: a ribbon's unit normals at u = 0 and 1, turned
+ * between them by spherical interpolation over normalAngle; mirrored: the CTM mirrors (the
+ * kernels then find v and dp/dv as pbrt-v4 finds them in object space); reverse: pbrt-v4's
+ * ReverseOrientation (the normal negated). */
+typedef struct CurveSegment {
+    real cp[4][3];
+    real n[2][3];
+    real width[2];
+    real uMin, uMax;
+    real normalAngle, invSinNormalAngle;
+    int type; /* CB_CURVE_* */
+    int mirrored;
+    int reverse;
+    int pad;
+} CurveSegment;
+
+CB_STATIC_ASSERT(sizeof(CurveSegment) == 112, "CurveSegment must be 112 bytes");
 
 typedef struct Ray {
     Vec3 o;
@@ -130,6 +159,8 @@ typedef struct Hit {
 #define CB_FEATURE_INTERFACE (1ul << 36)
 /* Media whose coefficients vary over a grid (pbrt-v4's "uniformgrid", cb_medium.h). */
 #define CB_FEATURE_GRID_MEDIUM (1ul << 37)
+/* pbrt-v4's "curve" shapes (CB_PRIM_CURVE, cb_curve.h). */
+#define CB_FEATURE_CURVES (1ul << 39)
 
 #ifndef CB_FEATURES
 #define CB_FEATURES 0xfffffffffffffffful
@@ -398,6 +429,8 @@ typedef struct SceneView {
     CB_GLOBAL const real* textures;
     /* CB_FEATURE_SHADING_NORMALS: per primitive 9 values, a triangle's vertex normals */
     CB_GLOBAL const real* shadingNormals;
+    /* CB_FEATURE_CURVES: the curve pieces that primitives of kind CB_PRIM_CURVE index */
+    CB_GLOBAL const CurveSegment* curves;
     int lightCount;
 #ifndef CB_KERNEL_SIDE
     /* The host compiles every feature; code that a scene without one must not pay for asks the
@@ -422,7 +455,7 @@ typedef struct SceneView {
         __global const Primitive *primitives, __global const Material *materials,                  \
         __global const Light *lights, __global const real *spectra,                                \
         __global const real *lightTables, __global const real *textures,                           \
-        __global const real *shadingNormals, int lightCount
+        __global const real *shadingNormals, __global const CurveSegment *curves, int lightCount
 #define CB_SCENE_VIEW(view)                                                                        \
     SceneView view;                                                                                \
     view.nodes = nodes;                                                                            \
@@ -434,6 +467,7 @@ typedef struct SceneView {
     view.lightTables = lightTables;                                                                \
     view.textures = textures;                                                                      \
     view.shadingNormals = shadingNormals;                                                          \
+    view.curves = curves;                                                                          \
     view.lightCount = lightCount
 #endif
 

@@ -24,6 +24,7 @@ inline cbk::SceneView hostView(const cb::DeviceScene& s) {
     v.lightTables = s.lightTables.data();
     v.textures = s.textures.data();
     v.shadingNormals = s.shadingNormals.data();
+    v.curves = s.curves.data();
     v.lightCount = int(s.lights.size());
     v.features = s.features;
     return v;

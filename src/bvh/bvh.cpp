@@ -115,6 +115,13 @@ Split findSplit(const std::vector<PrimRef>& refs, int begin, int end, const Box&
 } // namespace
 
 void primitiveBounds(const cbk::Primitive& prim, float lo[3], float hi[3]) {
+    if (prim.kind == CB_PRIM_CURVE) { // its box, kept in p0 and p1
+        for (int a = 0; a < 3; ++a) {
+            lo[a] = prim.p0[a];
+            hi[a] = prim.p1[a];
+        }
+        return;
+    }
     if (prim.kind == CB_PRIM_SPHERE) {
         float r = std::fabs(prim.p1[0]);
         for (int a = 0; a < 3; ++a) {

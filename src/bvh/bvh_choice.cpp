@@ -25,8 +25,9 @@ struct SampleSequence {
     }
 };
 
-cbk::SceneView viewOf(const Bvh& bvh, const BvhWide& wide) {
+cbk::SceneView viewOf(const Bvh& bvh, const BvhWide& wide, const cbk::CurveSegment* curves) {
     cbk::SceneView view{};
+    view.curves = curves;
     view.nodes = wide.nodes.data();
     view.packs = wide.packs.data();
     view.primitives = bvh.primitives.data();
@@ -56,10 +57,11 @@ std::vector<WideBvhSettings> wideBvhCandidates() {
 }
 
 TraversalWork measureTraversalWork(const Bvh& bvh, const BvhWide& wide,
-                                   const std::vector<cbk::Ray>& rays) {
+                                   const std::vector<cbk::Ray>& rays,
+                                   const cbk::CurveSegment* curves) {
     TraversalWork work;
     if (rays.empty()) return work;
-    const cbk::SceneView view = viewOf(bvh, wide);
+    const cbk::SceneView view = viewOf(bvh, wide, curves);
     std::vector<uint32_t> todo;
     double nodes = 0.0, packs = 0.0;
     for (const cbk::Ray& ray : rays) {
@@ -91,8 +93,9 @@ TraversalWork measureTraversalWork(const Bvh& bvh, const BvhWide& wide,
 }
 
 std::vector<cbk::Ray> sampleBounceRays(const Bvh& bvh, const BvhWide& wide,
-                                       const std::vector<cbk::Ray>& cameraRays, int bounces) {
-    const cbk::SceneView view = viewOf(bvh, wide);
+                                       const std::vector<cbk::Ray>& cameraRays, int bounces,
+                                       const cbk::CurveSegment* curves) {
+    const cbk::SceneView view = viewOf(bvh, wide, curves);
     SampleSequence random{0x5eedu};
     std::vector<cbk::Ray> rays;
     rays.reserve(cameraRays.size() * size_t(bounces + 1));
@@ -115,7 +118,8 @@ std::vector<cbk::Ray> sampleBounceRays(const Bvh& bvh, const BvhWide& wide,
 
 WideBvhChoice buildWideBvhForRays(const std::vector<cbk::Primitive>& primitives,
                                   const std::vector<cbk::Ray>& cameraRays,
-                                  const std::vector<WideBvhSettings>& candidates) {
+                                  const std::vector<WideBvhSettings>& candidates,
+                                  const cbk::CurveSegment* curves) {
     if (candidates.empty())
         throw std::invalid_argument("buildWideBvhForRays: no candidate BVH settings");
     auto build = [&](const WideBvhSettings& s) {
@@ -132,12 +136,12 @@ WideBvhChoice buildWideBvhForRays(const std::vector<cbk::Primitive>& primitives,
     for (size_t i = 1; i < candidates.size(); ++i)
         others.push_back(std::async(std::launch::async, build, candidates[i]));
     WideBvhChoice best = build(candidates[0]);
-    const std::vector<cbk::Ray> rays = sampleBounceRays(best.bvh, best.wide, cameraRays);
-    std::vector<TraversalWork> work{measureTraversalWork(best.bvh, best.wide, rays)};
+    const std::vector<cbk::Ray> rays = sampleBounceRays(best.bvh, best.wide, cameraRays, 3, curves);
+    std::vector<TraversalWork> work{measureTraversalWork(best.bvh, best.wide, rays, curves)};
     int chosen = 0;
     for (size_t i = 1; i < candidates.size(); ++i) {
         WideBvhChoice c = others[i - 1].get();
-        work.push_back(measureTraversalWork(c.bvh, c.wide, rays));
+        work.push_back(measureTraversalWork(c.bvh, c.wide, rays, curves));
         if (work.back().cost() < work[size_t(chosen)].cost()) {
             best = std::move(c);
             chosen = int(i);

@@ -46,13 +46,16 @@ struct TraversalWork {
     double cost() const { return nodeVisits + kPackWeight * packTests; }
 };
 
+// `curves`: the curve pieces that the primitives of kind CB_PRIM_CURVE index (null: none).
 TraversalWork measureTraversalWork(const Bvh& bvh, const BvhWide& wide,
-                                   const std::vector<cbk::Ray>& rays);
+                                   const std::vector<cbk::Ray>& rays,
+                                   const cbk::CurveSegment* curves = nullptr);
 
 // Rays that stand for a path tracer's: the camera rays, each followed by up to `bounces`
 // diffuse (cosine-distributed) bounces off the geometric surfaces it hits. Deterministic.
 std::vector<cbk::Ray> sampleBounceRays(const Bvh& bvh, const BvhWide& wide,
-                                       const std::vector<cbk::Ray>& cameraRays, int bounces = 3);
+                                       const std::vector<cbk::Ray>& cameraRays, int bounces = 3,
+                                       const cbk::CurveSegment* curves = nullptr);
 
 struct WideBvhChoice {
     Bvh bvh;
@@ -69,7 +72,8 @@ struct WideBvhChoice {
 WideBvhChoice
 buildWideBvhForRays(const std::vector<cbk::Primitive>& primitives,
                     const std::vector<cbk::Ray>& cameraRays,
-                    const std::vector<WideBvhSettings>& candidates = wideBvhCandidates());
+                    const std::vector<WideBvhSettings>& candidates = wideBvhCandidates(),
+                    const cbk::CurveSegment* curves = nullptr);
 
 // "SAH block 4, leaves <= 8 (cost per sample ray 31.2; block 2, leaves <= 4: 40.5)".
 std::string describeChoice(const WideBvhChoice& choice);

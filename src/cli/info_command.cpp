@@ -45,6 +45,9 @@ void printScene(const std::string& scenePath) {
     fmt::print("  triangles        {}\n", scene.triangleCount);
     fmt::print("  vertices         {}\n", scene.vertexCount);
     fmt::print("  spheres          {}\n", scene.sphereCount);
+    if (scene.curveCount > 0)
+        fmt::print("  curves           {} Bezier segments in {} pieces\n", scene.curveCount,
+                   scene.curves.size());
     const auto spots = std::count_if(desc.pointLights.begin(), desc.pointLights.end(),
                                      [](const cb::PointLightDesc& l) { return l.spot; });
     fmt::print("  lights           {} ({} area-light primitives, {} point lights, {} spot, {} "

@@ -13,6 +13,7 @@ SceneBuffers::SceneBuffers(ClRuntime& runtime, const DeviceScene& scene)
       lightTables(uploadArray(runtime, "image lights' sampling tables", scene.lightTables)),
       textures(uploadArray(runtime, "texture coordinates and image textures", scene.textures)),
       shadingNormals(uploadArray(runtime, "vertex normals", scene.shadingNormals)),
+      curves(uploadArray(runtime, "curve pieces", scene.curves)),
       toRgb(uploadArray(runtime, "spectrum-to-RGB matrix", scene.toRgb)),
       lightCount(int(scene.lights.size())) {}
 
@@ -25,7 +26,8 @@ void SceneBuffers::addKernelArguments(KernelArguments& args) const {
         .add(spectra)
         .add(lightTables)
         .add(textures)
-        .add(shadingNormals);
+        .add(shadingNormals)
+        .add(curves);
     args.add(lightCount);
 }
 

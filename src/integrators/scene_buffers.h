@@ -40,11 +40,11 @@ class KernelArguments {
 struct SceneBuffers {
     SceneBuffers(ClRuntime& runtime, const DeviceScene& scene);
 
-    // Adds the ten CB_SCENE_KERNEL_PARAMS arguments.
+    // Adds the eleven CB_SCENE_KERNEL_PARAMS arguments.
     void addKernelArguments(KernelArguments& args) const;
 
     cl::Buffer nodes, packs, primitives, materials, lights, spectra, lightTables, textures,
-        shadingNormals;
+        shadingNormals, curves;
     cl::Buffer toRgb; // 3 x channels matrix, passed separately by the kernels that need it
     int lightCount = 0;
 };

@@ -93,6 +93,19 @@ template <class Visit> void forEachField(cbk::Primitive& s, Visit&& visit) {
     visit(s.p2);
     visit(s.light);
 }
+template <class Visit> void forEachField(cbk::CurveSegment& s, Visit&& visit) {
+    visit(s.cp);
+    visit(s.n);
+    visit(s.width);
+    visit(s.uMin);
+    visit(s.uMax);
+    visit(s.normalAngle);
+    visit(s.invSinNormalAngle);
+    visit(s.type);
+    visit(s.mirrored);
+    visit(s.reverse);
+    visit(s.pad);
+}
 template <class Visit> void forEachField(cbk::Material& s, Visit&& visit) {
     visit(s.kind);
     visit(s.reflectance);
@@ -242,6 +255,7 @@ struct HostScene {
     std::vector<cbk::real> lightTables;
     std::vector<cbk::real> textures;
     std::vector<cbk::real> shadingNormals;
+    std::vector<cbk::CurveSegment> curves;
     std::vector<cbk::real> toRgb; // 3 x CB_CHANNELS
     cbk::Camera camera{};
     cbk::SceneView view{}; // points into the vectors above
@@ -267,6 +281,8 @@ struct HostScene {
         textures.assign(scene.textures, scene.textures + scene.textureCount);
         shadingNormals.assign(scene.shadingNormals,
                               scene.shadingNormals + scene.shadingNormalCount);
+        curves = loadSceneArray<cbk::CurveSegment>(scene.curves, scene.curveCount, scene.curveBytes,
+                                                   "CurveSegment");
         toRgb.assign(scene.toRgb, scene.toRgb + 3 * CB_CHANNELS);
         view.nodes = nodes.data();
         view.packs = packs.data();
@@ -277,6 +293,7 @@ struct HostScene {
         view.lightTables = lightTables.data();
         view.textures = textures.data();
         view.shadingNormals = shadingNormals.data();
+        view.curves = curves.data();
         view.lightCount = int(lights.size());
         view.features = scene.features;
     }

@@ -276,6 +276,9 @@ std::array<double, 3> deviceOrigin(const SceneDesc& desc) {
             grow(p, 0.0);
     for (const auto& sphere : desc.spheres)
         grow(sphere.center, double(sphere.radius));
+    for (const auto& curve : desc.curves)
+        for (const auto& p : curve.cp)
+            grow(p, 0.5 * std::max(curve.width0, curve.width1));
     for (const auto& light : desc.pointLights)
         grow(light.position, 0.0);
     std::array<double, 3> origin = cameraPosition(desc);
@@ -523,6 +526,8 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         markUsed(mesh.material);
     for (const auto& sphere : desc.spheres)
         markUsed(sphere.material);
+    for (const auto& curve : desc.curves)
+        markUsed(curve.material);
 
     // Image textures (cb_texture.h): each one a material uses, once, at an offset into the
     // images that follow the primitives' texture coordinates in `textures` (fixed up below).
@@ -1079,6 +1084,98 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         scene.features |= CB_FEATURE_SPHERES;
         ++scene.sphereCount;
     }
+    for (const auto& curve : desc.curves) {
+        // pbrt-v4's Curve pieces: the segment's [i, i + 1] / 2^splitDepth, each its own
+        // primitive with the blossomed control points and a box grown by half its widest.
+        if (curve.material >= 0) {
+            const cbk::Material& m = scene.materials[size_t(curve.material)];
+            if (m.normalMap >= 0 || m.displacement >= 0)
+                throw SceneError(curve.where, "a curve's material has a \"normalmap\" or a "
+                                              "\"displacement\", which cbdpt applies on "
+                                              "triangles and spheres only");
+        }
+        const int material =
+            withMedia(curve.material, curve.mediumInside, curve.mediumOutside, curve.where);
+        for (const auto& p : curve.cp) {
+            grow(p, 0.5 * std::max(curve.width0, curve.width1));
+            requireInFloatRange(p, 0.5 * std::max(curve.width0, curve.width1), scene.origin,
+                                curve.where, "a curve control point");
+        }
+        const int pieces = 1 << curve.splitDepth;
+        auto blossom = [&](double a, double b, double c) {
+            std::array<double, 3> out{};
+            for (int k = 0; k < 3; ++k) {
+                auto at = [&](int i) { return curve.cp[size_t(i)][size_t(k)]; };
+                const double a0 = at(0) + a * (at(1) - at(0)), a1 = at(1) + a * (at(2) - at(1)),
+                             a2 = at(2) + a * (at(3) - at(2));
+                const double b0 = a0 + b * (a1 - a0), b1 = a1 + b * (a2 - a1);
+                out[size_t(k)] = b0 + c * (b1 - b0);
+            }
+            return out;
+        };
+        double normalAngle = 0.0;
+        if (curve.type == CurveDesc::Type::Ribbon) {
+            // pbrt-v4's AngleBetween: accurate for nearly equal and nearly opposite normals.
+            const auto& n0 = curve.normals[0];
+            const auto& n1 = curve.normals[1];
+            const double dot = n0[0] * n1[0] + n0[1] * n1[1] + n0[2] * n1[2];
+            auto halfChord = [&](double sign) {
+                const double x = n1[0] + sign * n0[0], y = n1[1] + sign * n0[1],
+                             z = n1[2] + sign * n0[2];
+                return 2.0 * std::asin(std::min(1.0, 0.5 * std::sqrt(x * x + y * y + z * z)));
+            };
+            normalAngle = dot < 0.0 ? M_PI - halfChord(1.0) : halfChord(-1.0);
+        }
+        for (int piece = 0; piece < pieces; ++piece) {
+            const double u0 = double(piece) / pieces, u1 = double(piece + 1) / pieces;
+            cbk::CurveSegment seg{};
+            const std::array<std::array<double, 3>, 4> cp{blossom(u0, u0, u0), blossom(u0, u0, u1),
+                                                          blossom(u0, u1, u1), blossom(u1, u1, u1)};
+            for (int i = 0; i < 4; ++i)
+                toDevice(cp[size_t(i)], seg.cp[i]);
+            for (int i = 0; i < 2; ++i)
+                for (int a = 0; a < 3; ++a)
+                    seg.n[i][a] = float(curve.normals[size_t(i)][size_t(a)]);
+            seg.width[0] = curve.width0;
+            seg.width[1] = curve.width1;
+            seg.uMin = float(u0);
+            seg.uMax = float(u1);
+            seg.normalAngle = float(normalAngle);
+            seg.invSinNormalAngle = normalAngle > 0.0 ? float(1.0 / std::sin(normalAngle)) : 0.f;
+            seg.type = curve.type == CurveDesc::Type::Ribbon     ? CB_CURVE_RIBBON
+                       : curve.type == CurveDesc::Type::Cylinder ? CB_CURVE_CYLINDER
+                                                                 : CB_CURVE_FLAT;
+            seg.mirrored = curve.mirrored ? 1 : 0;
+            seg.reverse = curve.reverseOrientation ? 1 : 0;
+            cbk::Primitive prim{};
+            prim.kind = CB_PRIM_CURVE;
+            prim.material = material;
+            prim.light = -1;
+            const float halfWidth =
+                0.5f * std::max(curve.width0 + float(u0) * (curve.width1 - curve.width0),
+                                curve.width0 + float(u1) * (curve.width1 - curve.width0));
+            for (int a = 0; a < 3; ++a) {
+                float least = seg.cp[0][a], most = seg.cp[0][a];
+                for (int i = 1; i < 4; ++i) {
+                    least = std::min(least, seg.cp[i][a]);
+                    most = std::max(most, seg.cp[i][a]);
+                }
+                // Rounded outwards, so that the box holds the piece the kernels test.
+                prim.p0[a] = std::nextafter(least - halfWidth, -INFINITY);
+                prim.p1[a] = std::nextafter(most + halfWidth, INFINITY);
+            }
+            if (scene.curves.size() >= (size_t(1) << 24))
+                throw SceneError(curve.where, "more than 2^24 curve pieces (the kernels index "
+                                              "them by a float); lower \"splitdepth\"");
+            prim.p2[0] = float(scene.curves.size());
+            scene.curves.push_back(seg);
+            primitives.push_back(prim);
+            if (texturing) primitiveUv.push_back({});    // a curve's (u, v) comes from its hit
+            if (shading) primitiveNormals.push_back({}); // shaded by its normal
+        }
+        scene.features |= CB_FEATURE_CURVES;
+        ++scene.curveCount;
+    }
     for (const auto& pl : desc.pointLights) {
         cbk::Light light{};
         light.kind = CB_LIGHT_POINT;
@@ -1280,7 +1377,8 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         for (int i : tracedIndex)
             traced.push_back(primitives[size_t(i)]);
     WideBvhChoice choice =
-        buildWideBvhForRays(invisibleIndex.empty() ? primitives : traced, cameraRays);
+        buildWideBvhForRays(invisibleIndex.empty() ? primitives : traced, cameraRays,
+                            wideBvhCandidates(), scene.curves.data());
     scene.wideSettings = choice.settings;
     scene.wideSettingsWhy = describeChoice(choice);
     scene.bvh = std::move(choice.bvh);
@@ -1390,6 +1488,7 @@ std::string DeviceScene::featureNames() const {
     add(CB_FEATURE_SCATTERING, "scattering");
     add(CB_FEATURE_INTERFACE, "interface");
     add(CB_FEATURE_GRID_MEDIUM, "grid-medium");
+    add(CB_FEATURE_CURVES, "curves");
     names += channels == 16 ? " spectral-16" : " rgb";
     return names;
 }
@@ -1418,6 +1517,9 @@ SceneBytes sceneBytes(const DeviceScene& scene) {
     raw.textureCount = scene.textures.size();
     raw.shadingNormals = scene.shadingNormals.data();
     raw.shadingNormalCount = scene.shadingNormals.size();
+    raw.curves = scene.curves.data();
+    raw.curveCount = scene.curves.size();
+    raw.curveBytes = sizeof(cbk::CurveSegment);
     raw.spectraCount = scene.spectra.size();
     raw.toRgb = scene.toRgb.data();
     raw.camera = &scene.camera;

@@ -37,6 +37,8 @@ struct DeviceScene {
     // Scenes with vertex normals: per primitive (leaf order) its vertices' normals, zeros for a
     // primitive without; empty otherwise.
     std::vector<float> shadingNormals;
+    // The pieces of pbrt-v4's curves, indexed by their primitives (cb_curve.h).
+    std::vector<cbk::CurveSegment> curves;
     std::vector<float> toRgb; // 3 x channels, row-major: linear sRGB from channels
     cbk::Camera camera{};
     // Device coordinates are world coordinates minus this point (the camera position, clamped
@@ -47,6 +49,7 @@ struct DeviceScene {
     long triangleCount = 0;
     long vertexCount = 0;
     long sphereCount = 0;
+    long curveCount = 0; // pbrt-v4's curves' Bezier segments (each split into pieces)
     long droppedDegenerateTriangles = 0;      // zero area once made camera-relative and rounded
     std::array<double, 3> boundsMin{0, 0, 0}; // world space
     std::array<double, 3> boundsMax{0, 0, 0};

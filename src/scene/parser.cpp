@@ -1371,6 +1371,7 @@ class Parser {
     struct ObjectDef {
         std::vector<TriangleMeshDesc> meshes;
         std::vector<SphereDesc> spheres;
+        std::vector<CurveDesc> curves;
         SourceLocation where;
     };
 
@@ -1385,8 +1386,8 @@ class Parser {
         stack_.push_back(state_); // ObjectBegin implies AttributeBegin, as in pbrt-v4
         stack_.back().openedAt = t.where;
         stack_.back().openedBy = "ObjectBegin";
-        openObject_ =
-            OpenObject{name.text, scene_.meshes.size(), scene_.spheres.size(), stack_.size()};
+        openObject_ = OpenObject{name.text, scene_.meshes.size(), scene_.spheres.size(),
+                                 scene_.curves.size(), stack_.size()};
     }
 
     void objectEnd(const Token& t) {
@@ -1406,6 +1407,9 @@ class Parser {
             def.spheres.push_back(scene_.spheres[i]);
         scene_.meshes.resize(openObject_->firstMesh);
         scene_.spheres.resize(openObject_->firstSphere);
+        def.curves.assign(scene_.curves.begin() + long(openObject_->firstCurve),
+                          scene_.curves.end());
+        scene_.curves.resize(openObject_->firstCurve);
         bool hadLight = false;
         for (auto& m : def.meshes)
             hadLight |= std::exchange(m.areaLight, -1) >= 0;
@@ -1475,6 +1479,18 @@ class Parser {
                     sp.worldFromObject[size_t(row * 3 + c)] = sum;
                 }
             scene_.spheres.push_back(sp);
+        }
+        for (const CurveDesc& src : object.curves) {
+            const double scale = similarityScale(m, where, "an instanced curve's");
+            CurveDesc c = src;
+            for (auto& p : c.cp)
+                p = checkedPoint(m.point(p), where, "an instanced curve's control point");
+            for (auto& n : c.normals)
+                n = unit(m.normal(n));
+            c.width0 = float(src.width0 * scale);
+            c.width1 = float(src.width1 * scale);
+            c.mirrored = src.mirrored != (m.det3() < 0.0);
+            scene_.curves.push_back(c);
         }
     }
 
@@ -3315,6 +3331,8 @@ class Parser {
             disk(t);
         } else if (type.text == "cylinder") {
             cylinder(t);
+        } else if (type.text == "curve") {
+            curve(t);
         } else if (type.text == "plymesh") {
             ParamList pl = params("Shape \"plymesh\"", "shape");
             const Param* fp = pl.peek("filename");
@@ -3350,7 +3368,7 @@ class Parser {
             throw SceneError(type.where, "unsupported shape \"" + type.text +
                                              "\" (cbdpt supports trianglemesh, bilinearmesh "
                                              "(planar patches), plymesh, loopsubdiv, sphere, "
-                                             "disk, cylinder)");
+                                             "disk, cylinder, curve)");
         }
     }
 
@@ -3742,6 +3760,159 @@ class Parser {
         return std::sqrt(s2);
     }
 
+    static std::array<double, 3> unit(const std::array<double, 3>& v) {
+        const double length = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+        return {v[0] / length, v[1] / length, v[2] / length};
+    }
+
+    // pbrt-v4's "curve" (its Curve::Create): cubic or quadratic, Bezier or uniform B-spline
+    // control points "P", each segment made a cubic Bezier (degree elevated, B-spline blossomed)
+    // of widths interpolated along the whole curve from "width0" to "width1", hit in its
+    // 2^"splitdepth" pieces (cb_curve.h). The widths are the object's, scaled by the CTM, which
+    // must be a similarity, as pbrt-v4 intersects curves in object space.
+    void curve(const Token& t) {
+        ParamList pl = params("Shape \"curve\"", "shape");
+        const auto [width, wp] = floatOr(pl, "width", 1.0);
+        const auto [width0, w0p] = floatOr(pl, "width0", width);
+        const auto [width1, w1p] = floatOr(pl, "width1", width);
+        for (const auto& [value, param] :
+             {std::pair{width0, w0p ? w0p : wp}, std::pair{width1, w1p ? w1p : wp}})
+            if (!(value >= 0.0) || !std::isfinite(value))
+                throw SceneError(
+                    param ? param->where : t.where,
+                    fmt::format("a curve's width must be finite and >= 0, got {:g}", value));
+        if (!(std::max(width0, width1) > 0.0))
+            throw SceneError(wp ? wp->where : t.where, "a curve's widths must not both be 0");
+        int degree = 3;
+        if (const Param* p = pl.peek("degree")) {
+            degree = *pl.oneInt("degree");
+            if (degree != 2 && degree != 3)
+                throw SceneError(p->valueLoc(0),
+                                 fmt::format("invalid degree {}: only degree 2 and 3 curves are "
+                                             "supported (as in pbrt-v4)",
+                                             degree));
+        }
+        std::string basis = "bezier";
+        if (const Param* p = pl.peek("basis")) {
+            basis = *pl.oneString("basis");
+            if (basis != "bezier" && basis != "bspline")
+                throw SceneError(p->valueLoc(0), "invalid basis \"" + basis +
+                                                     "\": only \"bezier\" and \"bspline\" are "
+                                                     "supported (as in pbrt-v4)");
+        }
+        const Param* P = pl.numeric("P", "point3", 3);
+        if (!P) throw SceneError(t.where, "a curve needs \"point3 P\"");
+        const std::vector<std::array<double, 3>> cp = pointsOf(*P);
+        const int n = int(cp.size());
+        int segments = 0;
+        if (basis == "bezier") {
+            // After the first segment's degree + 1 points, each reuses the last one.
+            if (n < degree + 1 || (n - 1 - degree) % degree != 0)
+                throw SceneError(P->where, fmt::format("{} control points: a degree {} Bezier "
+                                                       "curve needs {} + n * {} (n >= 0)",
+                                                       n, degree, degree + 1, degree));
+            segments = (n - 1) / degree;
+        } else {
+            if (n < degree + 1)
+                throw SceneError(P->where, fmt::format("{} control points: a degree {} "
+                                                       "B-spline needs at least {}",
+                                                       n, degree, degree + 1));
+            segments = n - degree;
+        }
+        CurveDesc::Type type = CurveDesc::Type::Flat;
+        if (const Param* p = pl.peek("type")) {
+            const std::string name = *pl.oneString("type");
+            if (name == "ribbon")
+                type = CurveDesc::Type::Ribbon;
+            else if (name == "cylinder")
+                type = CurveDesc::Type::Cylinder;
+            else if (name != "flat")
+                throw SceneError(p->valueLoc(0), "unknown curve type \"" + name +
+                                                     "\" (pbrt-v4's are \"flat\", \"ribbon\" "
+                                                     "and \"cylinder\")");
+        }
+        std::vector<std::array<double, 3>> normals;
+        if (const Param* N = pl.numeric("N", "normal", 3)) {
+            if (type != CurveDesc::Type::Ribbon) {
+                note(N->where, "curve-normals",
+                     "curve normals \"N\" are only used by \"ribbon\" curves (as in pbrt-v4): "
+                     "ignored");
+            } else {
+                normals = pointsOf(*N);
+                if (int(normals.size()) != segments + 1)
+                    throw SceneError(N->where, fmt::format("{} normals: a ribbon curve of {} "
+                                                           "segments needs {}",
+                                                           normals.size(), segments, segments + 1));
+            }
+        }
+        if (type == CurveDesc::Type::Ribbon && normals.empty())
+            throw SceneError(t.where, "a \"ribbon\" curve needs normals \"N\" at its segments' "
+                                      "ends");
+        int splitDepth = 3;
+        if (const Param* p = pl.peek("splitdepth")) {
+            splitDepth = *pl.oneInt("splitdepth");
+            if (splitDepth < 0 || splitDepth > 10)
+                throw SceneError(
+                    p->valueLoc(0),
+                    fmt::format("\"integer splitdepth\" must be in [0, 10], got {}", splitDepth));
+        }
+        const ShapeAlpha alpha = shapeAlpha(pl, t, "curve");
+        pl.finish();
+        if (alpha.hidden) return;
+        if (state_.areaLight >= 0)
+            throw SceneError(t.where, "a curve cannot be an area light (pbrt-v4 cannot sample "
+                                      "curves either)");
+        const double scale = similarityScale(t.where, "a curve's");
+        const Mat4& m = state_.ctm;
+        for (const auto& nv : normals)
+            if (!(nv[0] * nv[0] + nv[1] * nv[1] + nv[2] * nv[2] > 0.0))
+                throw SceneError(t.where, "a ribbon curve's normal \"N\" is zero");
+        const auto lerp = [](double s, const std::array<double, 3>& a,
+                             const std::array<double, 3>& b) {
+            return std::array<double, 3>{a[0] + s * (b[0] - a[0]), a[1] + s * (b[1] - a[1]),
+                                         a[2] + s * (b[2] - a[2])};
+        };
+        for (int seg = 0; seg < segments; ++seg) {
+            std::array<std::array<double, 3>, 4> bezier;
+            if (basis == "bezier") {
+                const auto* c = &cp[size_t(seg * degree)];
+                if (degree == 2) // elevated to degree 3
+                    bezier = {c[0], lerp(2.0 / 3.0, c[0], c[1]), lerp(1.0 / 3.0, c[1], c[2]), c[2]};
+                else
+                    bezier = {c[0], c[1], c[2], c[3]};
+            } else if (degree == 2) {
+                // The uniform quadratic B-spline's Bezier points by blossoming, then elevated.
+                const auto* c = &cp[size_t(seg)];
+                const auto q0 = lerp(0.5, c[0], c[1]), q2 = lerp(0.5, c[1], c[2]);
+                bezier = {q0, lerp(2.0 / 3.0, q0, c[1]), lerp(1.0 / 3.0, c[1], q2), q2};
+            } else {
+                // The uniform cubic B-spline's: p222, p223, p233, p333 from p012 .. p345.
+                const auto* c = &cp[size_t(seg)];
+                const auto p122 = lerp(2.0 / 3.0, c[0], c[1]), p223 = lerp(1.0 / 3.0, c[1], c[2]);
+                const auto p233 = lerp(2.0 / 3.0, c[1], c[2]), p334 = lerp(1.0 / 3.0, c[2], c[3]);
+                bezier = {lerp(0.5, p122, p223), p223, p233, lerp(0.5, p233, p334)};
+            }
+            CurveDesc curve;
+            curve.where = t.where;
+            for (int i = 0; i < 4; ++i)
+                curve.cp[size_t(i)] =
+                    checkedPoint(m.point(bezier[size_t(i)]), t.where, "a curve control point");
+            curve.width0 = float(scale * (width0 + (width1 - width0) * seg / segments));
+            curve.width1 = float(scale * (width0 + (width1 - width0) * (seg + 1) / segments));
+            curve.type = type;
+            if (!normals.empty())
+                for (int i = 0; i < 2; ++i)
+                    curve.normals[size_t(i)] = unit(m.normal(unit(normals[size_t(seg + i)])));
+            curve.splitDepth = splitDepth;
+            curve.mirrored = m.det3() < 0.0;
+            curve.reverseOrientation = state_.reverseOrientation;
+            curve.material = currentMaterial();
+            curve.mediumInside = mediumUsed(state_.mediumInside, t.where, "a shape");
+            curve.mediumOutside = mediumUsed(state_.mediumOutside, t.where, "a shape");
+            scene_.curves.push_back(curve);
+        }
+    }
+
     void sphere(const SourceLocation& where, double radius, bool invisible) {
         const double scale = similarityScale(where);
         const Mat4& m = state_.ctm;
@@ -4006,7 +4177,7 @@ class Parser {
     std::map<std::string, SourceLocation> importedCoordinateSystems_; // defined inside an Import
     struct OpenObject {
         std::string name;
-        size_t firstMesh = 0, firstSphere = 0, depth = 0;
+        size_t firstMesh = 0, firstSphere = 0, firstCurve = 0, depth = 0;
     };
     std::map<std::string, ObjectDef> objects_;
     std::optional<OpenObject> openObject_;

@@ -28,6 +28,8 @@ struct SceneBytes {
     std::size_t textureCount;
     const float* shadingNormals;
     std::size_t shadingNormalCount;
+    const void* curves; // CurveSegment
+    std::size_t curveCount, curveBytes;
     const float* toRgb; // 3 x channels
     const void* camera;
     std::size_t cameraBytes;

@@ -217,6 +217,22 @@ struct SphereDesc {
     SourceLocation where;
 };
 
+// One cubic Bezier segment of pbrt-v4's "curve" shape (its CurveCommon), in world space: the
+// kernels hit its 2^splitDepth pieces (cb_curve.h).
+struct CurveDesc {
+    enum class Type { Flat, Ribbon, Cylinder }; // pbrt-v4's CurveType
+    std::array<std::array<double, 3>, 4> cp{};  // control points, world space
+    float width0 = 1.f, width1 = 1.f;           // at u = 0 and 1, world space
+    Type type = Type::Flat;
+    std::array<std::array<double, 3>, 2> normals{}; // a ribbon's at u = 0 and 1, unit, world
+    int splitDepth = 3;
+    bool mirrored = false; // the CTM mirrors
+    bool reverseOrientation = false;
+    int material = -1;
+    int mediumInside = -1, mediumOutside = -1; // as TriangleMeshDesc's
+    SourceLocation where;
+};
+
 // An image of pbrt-v4's lights ("infinite", "goniometric"): square, in pbrt-v4's equal-area
 // octahedral layout, linear RGB, row-major, top row first (pbrt-v4's v = 0).
 struct LightImage {
@@ -402,6 +418,7 @@ struct SceneDesc {
     std::vector<AreaLightDesc> areaLights;
     std::vector<TriangleMeshDesc> meshes;
     std::vector<SphereDesc> spheres;
+    std::vector<CurveDesc> curves;
     std::vector<PointLightDesc> pointLights;
     std::vector<DistantLightDesc> distantLights;
     std::vector<InfiniteLightDesc> infiniteLights; // at most one
