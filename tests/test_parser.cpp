@@ -352,14 +352,14 @@ TEST_CASE("parser: Include resolves relative to the including file and reports i
     CHECK(s.spheres[1].where.line == 4);
 
     // Errors inside an included file name that file.
-    writeFile(d / "parts/b.pbrt", "\n  Shape \"curve\"\n");
+    writeFile(d / "parts/b.pbrt", "\n  Shape \"nurbs\"\n");
     std::string e;
     try {
         cb::parseSceneFile((d / "main.pbrt").string());
     } catch (const cb::SceneError& err) {
         e = err.what();
     }
-    CHECK(e.rfind((d / "parts/b.pbrt").string() + ":2:9: unsupported shape \"curve\"", 0) == 0);
+    CHECK(e.rfind((d / "parts/b.pbrt").string() + ":2:9: unsupported shape \"nurbs\"", 0) == 0);
 
     // Recursion is detected.
     writeFile(d / "parts/b.pbrt", "Include \"../main.pbrt\"\n");
@@ -567,7 +567,7 @@ TEST_CASE("parser: spectrum parameter errors") {
 
 TEST_CASE("parser: unsupported types are rejected") {
     const std::string w = kWorld;
-    expectError(w + "Shape \"curve\"\n", "t.pbrt:2:7", "unsupported shape \"curve\"");
+    expectError(w + "Shape \"nurbs\"\n", "t.pbrt:2:7", "unsupported shape \"nurbs\"");
     expectError("Camera \"orthographic\"\n", "t.pbrt:1:8", "unsupported camera \"orthographic\"");
     expectError(w + "LightSource \"projection\"\n", "t.pbrt:2:13",
                 "unsupported light \"projection\"");
