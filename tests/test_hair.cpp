@@ -203,6 +203,12 @@ TEST_CASE("hair: parameters as pbrt-v4's HairMaterial::Create, refusals with fil
     e = errorOf(kWorld + "Material \"hair\"\n \"float displacement\" 0.1\n" + kQuad);
     CHECK(contains(e, "t.pbrt:4"));
     CHECK(contains(e, "unknown or unsupported parameter \"float displacement\""));
+    // pbrt-v4 turns the fibre by a mesh's tangents "S", cbdpt by dp/du.
+    e = errorOf(kWorld + "Material \"hair\"\n" +
+                "Shape \"trianglemesh\" \"point3 P\" [0 0 0  1 0 0  0 1 0] \"integer indices\" "
+                "[0 1 2]\n    \"vector3 S\" [1 0 0  1 0 0  1 0 0]\n");
+    CHECK(contains(e, "t.pbrt:4"));
+    CHECK(contains(e, "is not supported (nor with hair)"));
     // A disk's (u, v) is not linear over the triangles cbdpt renders it as: no h.
     e = deviceErrorOf(kWorld + "Material \"hair\"\nShape \"disk\"\n");
     CHECK(contains(e, "hair (along dp/du, across v), which needs texture coordinates"));

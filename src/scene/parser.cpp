@@ -1872,7 +1872,8 @@ class Parser {
     // A mesh's tangents beside an anisotropic material (or a mix with one): an error.
     void checkTangents() const {
         auto anisotropic = [&](int i) {
-            return i >= 0 && scene_.materials[size_t(i)].vRoughness.has_value();
+            return i >= 0 && (scene_.materials[size_t(i)].vRoughness.has_value() ||
+                              scene_.materials[size_t(i)].kind == MaterialKind::Hair);
         };
         for (const TangentsBeside& t : tangentsBeside_) {
             const int m =
@@ -1884,7 +1885,8 @@ class Parser {
             if (std::any_of(leaves.begin(), leaves.end(),
                             [&](const auto& leaf) { return anisotropic(leaf.first); }))
                 throw SceneError(t.where, "\"vector3 S\" (tangents) with an anisotropic material "
-                                          "is not supported: cbdpt turns its lobe with dp/du");
+                                          "is not supported (nor with hair): cbdpt turns its "
+                                          "lobe with dp/du");
         }
     }
 
