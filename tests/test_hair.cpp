@@ -207,11 +207,12 @@ TEST_CASE("hair: parameters as pbrt-v4's HairMaterial::Create, refusals with fil
     e = errorOf(kWorld + "Material \"hair\"\n" +
                 "Shape \"trianglemesh\" \"point3 P\" [0 0 0  1 0 0  0 1 0] \"integer indices\" "
                 "[0 1 2]\n    \"vector3 S\" [1 0 0  1 0 0  1 0 0]\n");
-    CHECK(contains(e, "t.pbrt:4"));
+    CHECK(contains(e, "t.pbrt:5"));
     CHECK(contains(e, "is not supported (nor with hair)"));
     // A disk's (u, v) is not linear over the triangles cbdpt renders it as: no h.
     e = deviceErrorOf(kWorld + "Material \"hair\"\nShape \"disk\"\n");
-    CHECK(contains(e, "hair (along dp/du, across v), which needs texture coordinates"));
+    CHECK(contains(e, "hair (along dp/du, across v)"));
+    CHECK(contains(e, "which needs texture coordinates"));
 }
 
 // pbrt-v4's Hair.WhiteFurnace with a quadrature in place of its Monte Carlo: with sigma_a = 0

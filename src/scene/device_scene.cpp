@@ -1040,8 +1040,8 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         if (!texturing || !needsTexCoords(material) || none.empty()) return;
         throw SceneError(where, "this shape's material has a texture mapped by (u, v) (its "
                                 "reflectance, its transmittance, its roughness, a \"normalmap\" "
-                                "or a \"displacement\"), an anisotropic roughness (turned by "
-                                "dp/du) or hair (along dp/du, across v), which needs texture "
+                                "or a \"displacement\"), hair (along dp/du, across v) or an "
+                                "anisotropic roughness (turned by dp/du), which needs texture "
                                 "coordinates, and cbdpt gives none "
                                 "to " +
                                     none);
