@@ -17,6 +17,8 @@
  *   (1-a) p1 + a p2 over the non-delta components, so bsdfEval's pdfFwd is exactly the density
  *   of bsdfSample's non-delta directions. A delta sample (a delta component was picked) returns
  *   f and pdf of that component, both multiplied by the probability of picking it; pdfRev alike.
+ * - Hair (pbrt-v4's HairBxDF) is not reciprocal: adjoint evaluation and sampling return f(wi, wo)
+ *   (the adjoint BSDF), with the pdfs of its own sampler (hairLobeEval).
  *
  * Each material kind is compiled only if its feature bit is in CB_FEATURES. */
 #ifndef CB_BSDF_H
@@ -948,6 +950,212 @@ CB_FN bool layeredSample(LayerBase base, Material m, Vec3 wo, real u0, real u1, 
 }
 #endif
 
+#if CB_HAS(CB_FEATURE_HAIR)
+/* ---- Hair (Chiang, Bitterli, Tappan and Burley 2016; pbrt-v3 sec. 9.9, pbrt-v4's HairBxDF) ----
+ *
+ * In the hair's frame x runs along the fibre (the surface's dp/du), so sin(theta) = w.x and phi =
+ * atan2(w.z, w.y); h in [-1, 1] is where across the fibre the ray hit it (pbrt-v4: -1 + 2 v).
+ * Scattering sums the lobes p = 0 (R), 1 (TT), 2 (TRT) and the rest (p = 3), each a longitudinal
+ * Mp times an attenuation Ap times an azimuthal Np. Like pbrt's, f(wo, wi) takes gamma_t and Ap
+ * from wo's angle only, so it is not reciprocal: the adjoint is f(wi, wo) (hairLobeEval). */
+#define CB_HAIR_PMAX 3
+
+/* The modified Bessel function of the first kind, I0(x) = sum (x^2 / 4)^i / (i!)^2 (pbrt-v3 eq.
+ * 9.43's), and its logarithm for x > 12, where I0 nears float's range: x - log(2 pi x) / 2 + log(1
+ * + 1 / (8x) + 9 / (128 x^2) + 225 / (3072 x^3)) (Abramowitz & Stegun 9.7.1). pbrt's ten terms and
+ * one-term asymptote are off by up to 2% and 0.5% near x = 12 (where R lands at beta_m 0.3);
+ * these keep Mp the normalised density that hairSample draws. */
+CB_FN real hairI0(real x) {
+    real sum = 1.0f, term = 1.0f, q = 0.25f * x * x;
+    for (int i = 1; i < 40 && term > 1e-9f * sum; ++i) {
+        term *= q / (real)(i * i);
+        sum += term;
+    }
+    return sum;
+}
+CB_FN real hairLogI0(real x) {
+    if (x <= 12.0f) return log(hairI0(x));
+    real r = 1.0f / x;
+    return x - 0.5f * log(2.0f * CB_PI * x) +
+           log(1.0f + r * (0.125f + r * (0.0703125f + r * 0.0732421875f)));
+}
+
+/* Longitudinal scattering of variance v (d'Eon et al. 2011, pbrt-v3 eq. 9.43); its log form for
+ * small v, where sinh(1 / v) and I0 overflow. Normalised: the integral of Mp cos(theta_i) over
+ * theta_i is 1. */
+CB_FN real hairMp(real cosI, real cosO, real sinI, real sinO, real v) {
+    real a = cosI * cosO / v, b = sinI * sinO / v;
+    if (v <= 0.1f) return exp(hairLogI0(a) - b - 1.0f / v + 0.69314718f + log(1.0f / (2.0f * v)));
+    return exp(-b) * hairI0(a) / (sinh(1.0f / v) * 2.0f * v);
+}
+
+/* The logistic distribution of scale s restricted to [-pi, pi] (pbrt-v3 eq. 9.48), and its
+ * inverse-CDF sample at u. */
+CB_FN real hairLogistic(real x, real s) {
+    x = fabs(x);
+    real e = exp(-x / s);
+    return e / (s * cbSqr(1.0f + e));
+}
+CB_FN real hairLogisticCdf(real x, real s) {
+    return 1.0f / (1.0f + exp(-x / s));
+}
+CB_FN real hairTrimmedLogistic(real x, real s) {
+    return hairLogistic(x, s) / (hairLogisticCdf(CB_PI, s) - hairLogisticCdf(-CB_PI, s));
+}
+CB_FN real hairSampleTrimmedLogistic(real u, real s) {
+    real k = hairLogisticCdf(CB_PI, s) - hairLogisticCdf(-CB_PI, s);
+    real x = -s * log(1.0f / (u * k + hairLogisticCdf(-CB_PI, s)) - 1.0f);
+    return cbClamp(x, -CB_PI, CB_PI);
+}
+
+/* What one direction w (as wo) fixes for every lobe: its longitudinal angle, the refracted ray's
+ * azimuth gamma_t inside the fibre, and the lobes' attenuations Ap (pbrt-v3 eqs. 9.40-9.42: the
+ * Fresnel factor at cos(theta) cos(gamma_o), the transmittance exp(-sigma_a 2 cos(gamma_t) /
+ * cos(theta_t)) of one pass, the rest p >= 3 summed as a geometric series) with the shares of
+ * their channel means by which a lobe is sampled. */
+typedef struct HairFrom {
+    real sinO, cosO, phiO;
+    real gammaO, gammaT;
+    Spectrum ap[CB_HAIR_PMAX + 1];
+    real apPdf[CB_HAIR_PMAX + 1];
+} HairFrom;
+
+CB_FN HairFrom hairFrom(Material m, Spectrum sigmaA, real h, Vec3 w) {
+    HairFrom o;
+    o.sinO = cbClamp(w.x, -1.0f, 1.0f);
+    o.cosO = cbSafeSqrt(1.0f - o.sinO * o.sinO);
+    o.phiO = atan2(w.z, w.y);
+    o.gammaO = asin(cbClamp(h, -1.0f, 1.0f));
+    real sinT = o.sinO / m.eta;
+    real cosT = cbSafeSqrt(1.0f - sinT * sinT);
+    /* The modified index for the azimuthal refraction (Bravais; pbrt-v3 eq. 9.37). */
+    real etap = o.cosO > 0.0f ? cbSafeSqrt(m.eta * m.eta - o.sinO * o.sinO) / o.cosO : CB_INFINITY;
+    real sinGammaT = cbClamp(h / etap, -1.0f, 1.0f);
+    real cosGammaT = cbSafeSqrt(1.0f - sinGammaT * sinGammaT);
+    o.gammaT = asin(sinGammaT);
+    real length = 2.0f * cosGammaT / cosT;
+    real cosTheta;
+    real f = fresnelDielectric(o.cosO * cbSafeSqrt(1.0f - h * h), m.eta, &cosTheta);
+    real sum = 0.0f;
+    for (int c = 0; c < CB_CHANNELS; ++c) {
+        /* A clear channel transmits all even where the path is infinite (cos theta_t = 0). */
+        real t = sigmaA.c[c] > 0.0f ? exp(-sigmaA.c[c] * length) : 1.0f;
+        o.ap[0].c[c] = f;
+        o.ap[1].c[c] = cbSqr(1.0f - f) * t;
+        o.ap[2].c[c] = o.ap[1].c[c] * t * f;
+        o.ap[3].c[c] = 1.0f - t * f > 0.0f ? o.ap[2].c[c] * f * t / (1.0f - t * f) : 0.0f;
+    }
+    for (int p = 0; p <= CB_HAIR_PMAX; ++p) {
+        o.apPdf[p] = specAverage(o.ap[p]);
+        sum += o.apPdf[p];
+    }
+    for (int p = 0; p <= CB_HAIR_PMAX; ++p)
+        o.apPdf[p] = sum > 0.0f ? o.apPdf[p] / sum : 0.0f;
+    return o;
+}
+
+/* Lobe p's longitudinal variance and wo's angle tilted by the cuticle's scales: R by -2 alpha,
+ * TT by alpha, TRT by 4 alpha (pbrt-v3 sec. 9.9.5), cos kept positive as pbrt does. */
+CB_FN real hairLobeTilt(Material m, int p, real sinO, real cosO, real* sinP, real* cosP) {
+    real s1 = m.hairSinAlpha, c1 = m.hairCosAlpha;
+    real s2 = 2.0f * c1 * s1, c2 = c1 * c1 - s1 * s1;
+    real s4 = 2.0f * c2 * s2, c4 = c2 * c2 - s2 * s2;
+    real s = p == 0 ? -s2 : p == 1 ? s1 : p == 2 ? s4 : 0.0f;
+    real c = p == 0 ? c2 : p == 1 ? c1 : p == 2 ? c4 : 1.0f;
+    *sinP = sinO * c + cosO * s;
+    *cosP = fabs(cosO * c - sinO * s);
+    return p == 0 ? m.hairV : p == 1 ? 0.25f * m.hairV : 4.0f * m.hairV;
+}
+
+/* pbrt-v3 eq. 9.45: the azimuthal deflection of lobe p. */
+CB_FN real hairPhi(int p, real gammaO, real gammaT) {
+    return 2.0f * (real)p * gammaT - 2.0f * gammaO + (real)p * CB_PI;
+}
+
+/* f(wo, wi) of pbrt-v4's HairBxDF::f, in the unflipped hair frame, with *pdf the density of
+ * hairSample's directions wi from wo (HairBxDF::PDF): the same lobes with Ap replaced by its
+ * sampling shares. */
+CB_FN Spectrum hairEvalFrom(Material m, const HairFrom* o, Vec3 wi, real* pdf) {
+    real sinI = cbClamp(wi.x, -1.0f, 1.0f);
+    real cosI = cbSafeSqrt(1.0f - sinI * sinI);
+    real phi = atan2(wi.z, wi.y) - o->phiO;
+    Spectrum f = specZero();
+    *pdf = 0.0f;
+    for (int p = 0; p < CB_HAIR_PMAX; ++p) {
+        real sinP, cosP;
+        real v = hairLobeTilt(m, p, o->sinO, o->cosO, &sinP, &cosP);
+        real dphi = phi - hairPhi(p, o->gammaO, o->gammaT);
+        dphi -= 2.0f * CB_PI * floor((dphi + CB_PI) * CB_INV_2PI); /* into [-pi, pi) */
+        real lobe = hairMp(cosI, cosP, sinI, sinP, v) * hairTrimmedLogistic(dphi, m.hairS);
+        f = specMadd(f, o->ap[p], lobe);
+        *pdf += o->apPdf[p] * lobe;
+    }
+    real rest = hairMp(cosI, o->cosO, sinI, o->sinO, 4.0f * m.hairV) * CB_INV_2PI;
+    f = specMadd(f, o->ap[CB_HAIR_PMAX], rest);
+    *pdf += o->apPdf[CB_HAIR_PMAX] * rest;
+    /* pbrt's convention: f |cos theta_i| (the surface's normal, z) is the fibre's scattering. */
+    return fabs(wi.z) > 0.0f ? specScale(f, 1.0f / fabs(wi.z)) : specZero();
+}
+
+/* Where across the fibre a hit at uv lies (pbrt-v4's HairMaterial::GetBxDF: h = -1 + 2 v). */
+CB_FN real hairOffset(TexCoord uv) {
+    return cbClamp(-1.0f + 2.0f * uv.v, -1.0f, 1.0f);
+}
+
+/* The hair lobe between unflipped local wo and wi: f, and the pdfs of sampling wi from wo and wo
+ * from wi with hairSample. f(wo, wi) is pbrt's for radiance (wi toward the light); importance
+ * (adjoint, wo toward the light) scatters by the adjoint BSDF f*(wo, wi) = f(wi, wo) (Veach 1997,
+ * sec. 3.7.1), so that light and eye subpaths estimate one integral of a non-reciprocal f. */
+CB_FN Spectrum hairLobeEvalFrom(Material m, Spectrum sigmaA, real h, const HairFrom* fromO, Vec3 wo,
+                                Vec3 wi, int adjoint, real* pdfFwd, real* pdfRev) {
+    HairFrom fromI = hairFrom(m, sigmaA, h, wi);
+    Spectrum fFwd = hairEvalFrom(m, fromO, wi, pdfFwd);
+    Spectrum fRev = hairEvalFrom(m, &fromI, wo, pdfRev);
+    return adjoint ? fRev : fFwd;
+}
+CB_FN Spectrum hairLobeEval(const SceneView* scene, Material m, TexCoord uv, Vec3 wo, Vec3 wi,
+                            int adjoint, real* pdfFwd, real* pdfRev) {
+    Spectrum sigmaA = specLoad(scene->spectra, m.reflectance);
+    real h = hairOffset(uv);
+    HairFrom fromO = hairFrom(m, sigmaA, h, wo);
+    return hairLobeEvalFrom(m, sigmaA, h, &fromO, wo, wi, adjoint, pdfFwd, pdfRev);
+}
+
+/* pbrt-v4's HairBxDF::Sample_f from unflipped local wo: uLobe picks the lobe by Ap's shares and,
+ * rescaled, the azimuth; u0 the longitudinal angle about the tilted mirror of theta_o, u1 its
+ * spread (pbrt-v3 sec. 9.9.7). f and both pdfs as hairLobeEval's at the direction found. */
+CB_FN bool hairSample(const SceneView* scene, Material m, TexCoord uv, Vec3 wo, real u0, real u1,
+                      real uLobe, int adjoint, BsdfSample* out) {
+    Spectrum sigmaA = specLoad(scene->spectra, m.reflectance);
+    real h = hairOffset(uv);
+    HairFrom o = hairFrom(m, sigmaA, h, wo);
+    int p = 0;
+    real uc = uLobe;
+    while (p < CB_HAIR_PMAX && (uc >= o.apPdf[p] || !(o.apPdf[p] > 0.0f))) {
+        uc -= o.apPdf[p];
+        ++p;
+    }
+    if (!(o.apPdf[p] > 0.0f)) return false;
+    uc = cbClamp(uc / o.apPdf[p], 0.0f, 0.99999994f);
+    real sinP, cosP;
+    real v = hairLobeTilt(m, p, o.sinO, o.cosO, &sinP, &cosP);
+    u0 = fmax(u0, 1e-5f);
+    real cosTheta = 1.0f + v * log(u0 + (1.0f - u0) * exp(-2.0f / v));
+    real sinTheta = cbSafeSqrt(1.0f - cosTheta * cosTheta);
+    real sinI = cbClamp(-cosTheta * sinP + sinTheta * cbCosPi(2.0f * u1) * cosP, -1.0f, 1.0f);
+    real cosI = cbSafeSqrt(1.0f - sinI * sinI);
+    real dphi = p < CB_HAIR_PMAX
+                    ? hairPhi(p, o.gammaO, o.gammaT) + hairSampleTrimmedLogistic(uc, m.hairS)
+                    : 2.0f * CB_PI * uc;
+    real phiI = o.phiO + dphi;
+    Vec3 wi = vec3(sinI, cosI * cos(phiI), cosI * sin(phiI));
+    if (wi.z == 0.0f) return false;
+    out->wi = wi;
+    out->f = hairLobeEvalFrom(m, sigmaA, h, &o, wo, wi, adjoint, &out->pdf, &out->pdfRev);
+    return out->pdf > 0.0f && specIsFinite(out->f);
+}
+#endif
+
 /* Non-delta part of a non-mix material. wo.z > 0 (flipped local frame); `entering` says whether
  * wo is on the side frame.n points to, adjoint as bsdfEval's. */
 CB_FN Spectrum cbLobeEval(const SceneView* scene, Material m, TexCoord uv, Vec3 wo, Vec3 wi,
@@ -1006,6 +1214,14 @@ CB_FN Spectrum cbLobeEval(const SceneView* scene, Material m, TexCoord uv, Vec3 
         real value = cbGgxReflection(wo, wi, wm, materialGgxAlpha(m), pdfFwd, pdfRev);
         Spectrum r = specLoad(scene->spectra, m.reflectance);
         return specScale(cbConductorFresnel(scene, m, r, vdot(wo, wm)), value);
+    }
+#endif
+#if CB_HAS(CB_FEATURE_HAIR)
+    if (m.kind == CB_MAT_HAIR) {
+        /* The fibre's azimuth tells its sides apart: back to the frame's own z. */
+        real flip = entering ? 1.0f : -1.0f;
+        return hairLobeEval(scene, m, uv, vec3(wo.x, wo.y, wo.z * flip),
+                            vec3(wi.x, wi.y, wi.z * flip), adjoint, pdfFwd, pdfRev);
     }
 #endif
 #if CB_HAS(CB_FEATURE_ROUGH_DIELECTRIC)
@@ -1111,6 +1327,15 @@ CB_FN bool cbLobeSample(const SceneView* scene, Material m, TexCoord uv, Vec3 wo
 #if CB_HAS_LAYERED
     if (m.kind == CB_MAT_COATED_DIFFUSE || m.kind == CB_MAT_COATED_CONDUCTOR)
         return layeredSample(layerBaseLoad(scene, m, uv), m, wo, u0, u1, uLobe, adjoint, out);
+#endif
+#if CB_HAS(CB_FEATURE_HAIR)
+    if (m.kind == CB_MAT_HAIR) {
+        real flip = entering ? 1.0f : -1.0f;
+        if (!hairSample(scene, m, uv, vec3(wo.x, wo.y, wo.z * flip), u0, u1, uLobe, adjoint, out))
+            return false;
+        out->wi.z *= flip;
+        return true;
+    }
 #endif
 #if CB_HAS(CB_FEATURE_THIN_DIELECTRIC)
     if (m.kind == CB_MAT_THIN_DIELECTRIC) {
@@ -1278,7 +1503,7 @@ CB_FN Spectrum cbMixEval(const SceneView* scene, Material m, TexCoord uv, Vec3 l
  * reflectance's) and shading frame `frame`. */
 CB_FN Spectrum bsdfEval(const SceneView* scene, int material, TexCoord uv, Frame frame, Vec3 wo,
                         Vec3 wi, int adjoint, real* pdfFwd, real* pdfRev) {
-    /* adjoint: only dielectric transmission (its radiance scaling) depends on it */
+    /* adjoint: dielectric transmission (its radiance scaling) and hair (f(wi, wo)) depend on it */
     *pdfFwd = 0.0f;
     *pdfRev = 0.0f;
     real cosO = vdot(wo, frame.n);
@@ -1347,7 +1572,8 @@ CB_FN bool materialHasNonDelta(const SceneView* scene, int material) {
 }
 
 /* Whether bsdfSample reads its uLobe, which only chooses between lobes (a mix's components, a
- * (thin) dielectric's, a diffuse transmitter's or a coat's reflection and transmission): otherwise
+ * (thin) dielectric's, a diffuse transmitter's or a coat's reflection and transmission, a hair's
+ * lobe p): otherwise
  * the caller need not draw it. A scene compiled without those materials reads none. */
 CB_FN bool bsdfReadsLobeSample(const SceneView* scene, int material) {
     int kind = scene->materials[material].kind;
@@ -1366,6 +1592,9 @@ CB_FN bool bsdfReadsLobeSample(const SceneView* scene, int material) {
 #endif
 #if CB_HAS_LAYERED
     if (kind == CB_MAT_COATED_DIFFUSE || kind == CB_MAT_COATED_CONDUCTOR) return true;
+#endif
+#if CB_HAS(CB_FEATURE_HAIR)
+    if (kind == CB_MAT_HAIR) return true; /* the lobe p */
 #endif
     return false;
 }

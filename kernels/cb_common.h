@@ -46,6 +46,7 @@ typedef CB_REAL real;
 #ifndef CB_KERNEL_SIDE
 typedef std::uint32_t uint;
 typedef std::uint64_t ulong;
+using std::asin;
 using std::atan2;
 using std::copysign;
 using std::cos;
@@ -60,6 +61,7 @@ using std::hypot;
 using std::isfinite;
 using std::log;
 using std::sin;
+using std::sinh;
 using std::sqrt;
 #endif
 

@@ -497,18 +497,19 @@ CB_FN bool intersectPack(CB_GLOBAL const TrianglePack* pack, CB_GLOBAL const Pri
 #endif
 
 #if CB_HAS(CB_FEATURE_ANISOTROPIC)
-/* Whether a material's lobe (or a lobe of its mix) is anisotropic: only those turn with dp/du.
- * The others keep frameFromNormal's frame, so that a scene's isotropic materials (and the host,
- * which compiles every feature) shade as where no material is anisotropic. */
+/* Whether a material's lobe (or a lobe of its mix) is anisotropic or hair: only those turn with
+ * dp/du. The others keep frameFromNormal's frame, so that a scene's isotropic materials (and the
+ * host, which compiles every feature) shade as where no material is anisotropic. */
 CB_FN bool materialTurnsWithTangent(const SceneView* scene, int material) {
     if (material < 0) return false;
     Material m = scene->materials[material];
     while (m.kind == CB_MAT_MIX) { /* a chain of links (cbMixEval) */
         Material first = scene->materials[m.mixFirst];
-        if (first.alphaV != first.alpha) return true;
+        if (first.alphaV != first.alpha || first.kind == CB_MAT_HAIR) return true;
         m = scene->materials[m.mixSecond];
     }
-    return m.alphaV != m.alpha;
+    /* Hair's frame runs along the fibre (pbrt-v4: Frame::FromXZ(dpdu, ns)). */
+    return m.alphaV != m.alpha || m.kind == CB_MAT_HAIR;
 }
 
 /* sp's shading tangent (SurfacePoint.tangent): its shape's dp/du, as surfacePointMapped takes it,

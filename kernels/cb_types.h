@@ -104,6 +104,9 @@ typedef struct Hit {
 /* pbrt-v4's "interface": a boundary between media that scatters nothing; rays cross it without a
  * vertex (cb_medium.h, mediumCrossInterface). */
 #define CB_MAT_INTERFACE 9
+/* pbrt-v4's "hair": Chiang, Bitterli, Tappan and Burley 2016's hair BSDF (pbrt-v4's HairBxDF),
+ * the surface's dp/du along the fibre and its v across it (cb_bsdf.h, hairEval). */
+#define CB_MAT_HAIR 10
 
 /* Feature bits: the scene's material kinds and light kinds, passed to the kernel build as
  * -DCB_FEATURES=... so that unused code is compiled out (each scene compiles only what it uses). */
@@ -159,6 +162,9 @@ typedef struct Hit {
 #define CB_FEATURE_INTERFACE (1ul << 36)
 /* Media whose coefficients vary over a grid (pbrt-v4's "uniformgrid", cb_medium.h). */
 #define CB_FEATURE_GRID_MEDIUM (1ul << 37)
+/* pbrt-v4's "hair" material (CB_MAT_HAIR), shaded in frames along dp/du (CB_FEATURE_ANISOTROPIC)
+ * at the hit's (u, v) (CB_FEATURE_TEXTURE). */
+#define CB_FEATURE_HAIR (1ul << 38)
 /* pbrt-v4's "curve" shapes (CB_PRIM_CURVE, cb_curve.h). */
 #define CB_FEATURE_CURVES (1ul << 39)
 
@@ -283,6 +289,15 @@ typedef struct Material {
      * MediumInterface of the shape; equal sides: the surface is no boundary). */
     int mediumInside;
     int mediumOutside;
+    /* CB_MAT_HAIR (pbrt-v4's HairBxDF; `reflectance` its sigma_a, `eta` its index): the variance
+     * v of the R lobe's longitudinal scattering (from beta_m; TT's is v / 4, TRT's and the rest's
+     * 4 v), the logistic scale s of the azimuthal scattering (from beta_n), and the sine and
+     * cosine of the scales' tilt alpha (Chiang et al. 2016, sec. 4). */
+    real hairV;
+    real hairS;
+    real hairSinAlpha;
+    real hairCosAlpha;
+    int pad;
 } Material;
 
 /* One link of a mix chain (CB_MAT_MIX, CB_MAT_MIX_AT_POINT) chosen by a uniform u: the second part

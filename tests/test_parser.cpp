@@ -575,8 +575,8 @@ TEST_CASE("parser: unsupported types are rejected") {
     expectError("Film \"spectral\"\n", "t.pbrt:1:6", "unsupported film \"spectral\"");
     expectError(w + "Material \"measured\"\n", "t.pbrt:2:10",
                 "unsupported material type \"measured\"");
-    expectError(w + "MakeNamedMaterial \"a\" \"string type\" \"hair\"\n", "t.pbrt:2:37",
-                "unsupported material type \"hair\"");
+    expectError(w + "MakeNamedMaterial \"a\" \"string type\" \"subsurface\"\n", "t.pbrt:2:37",
+                "unsupported material type \"subsurface\"");
 }
 
 TEST_CASE("parser: material errors") {

@@ -134,6 +134,11 @@ template <class Visit> void forEachField(cbk::Material& s, Visit&& visit) {
     visit(s.alphaV);
     visit(s.mediumInside);
     visit(s.mediumOutside);
+    visit(s.hairV);
+    visit(s.hairS);
+    visit(s.hairSinAlpha);
+    visit(s.hairCosAlpha);
+    visit(s.pad);
 }
 template <class Visit> void forEachField(cbk::Light& s, Visit&& visit) {
     visit(s.kind);

@@ -19,7 +19,7 @@
 namespace cb {
 
 static_assert(sizeof(cbk::Primitive) == 48, "Primitive must match the OpenCL layout");
-static_assert(sizeof(cbk::Material) == 108, "Material must match the OpenCL layout");
+static_assert(sizeof(cbk::Material) == 128, "Material must match the OpenCL layout");
 static_assert(sizeof(cbk::Light) == 116, "Light must match the OpenCL layout");
 static_assert(sizeof(cbk::Camera) == 480, "Camera must match the OpenCL layout");
 
@@ -456,6 +456,8 @@ std::uint64_t materialFeature(MaterialKind kind) {
         return CB_FEATURE_COATED_CONDUCTOR;
     case MaterialKind::Interface:
         return CB_FEATURE_INTERFACE;
+    case MaterialKind::Hair:
+        return CB_FEATURE_HAIR;
     }
     return 0;
 }
@@ -548,7 +550,7 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         auto uses = [&](const MaterialDesc& d) {
             return byUv(d.reflectanceTexture) || byUv(d.transmittanceTexture) ||
                    byUv(d.roughnessTexture) || byUv(d.thicknessTexture) || d.normalMap >= 0 ||
-                   d.displacement >= 0 || d.vRoughness.has_value();
+                   d.displacement >= 0 || d.vRoughness.has_value() || d.kind == MaterialKind::Hair;
         };
         if (md.kind != MaterialKind::Mix) return uses(md);
         const auto& leaves = leavesOf[size_t(m)];
@@ -745,6 +747,43 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         case MaterialKind::Interface:
             out.kind = CB_MAT_INTERFACE;
             break;
+        case MaterialKind::Hair: {
+            out.kind = CB_MAT_HAIR;
+            out.eta = m.eta;
+            // pbrt-v4's HairMaterial::GetBxDF keeps both roughnesses in [0.01, 1].
+            const double betaM = std::clamp(double(m.hairBetaM), 0.01, 1.0);
+            const double betaN = std::clamp(double(m.hairBetaN), 0.01, 1.0);
+            if (m.hairReflectance) {
+                // HairBxDF::SigmaAFromReflectance (Chiang et al. 2016, eq. 9), per channel or
+                // bin: the absorption whose multiple scattering gives that colour.
+                out.reflectance = spectra.addAlbedo(*m.hairReflectance, 1.f);
+                const double d = 5.969 - 0.215 * betaN + 2.532 * std::pow(betaN, 2) -
+                                 10.73 * std::pow(betaN, 3) + 5.574 * std::pow(betaN, 4) +
+                                 0.245 * std::pow(betaN, 5);
+                for (int c = 0; c < scene.channels; ++c) {
+                    float& v = scene.spectra[size_t(out.reflectance * scene.channels + c)];
+                    const double sigma = std::pow(std::log(double(v)) / d, 2);
+                    v = float(std::min(sigma, double(std::numeric_limits<float>::max())));
+                }
+            } else {
+                out.reflectance = spectra.add(*m.hairSigmaA, 1.f);
+                for (int c = 0; c < scene.channels; ++c) {
+                    // Smits's RGB basis can dip a hair below 0 between its bins.
+                    float& v = scene.spectra[size_t(out.reflectance * scene.channels + c)];
+                    v = std::max(v, 0.f);
+                }
+            }
+            // Chiang et al. 2016, eqs. 7 and 8: the longitudinal variance of R and the azimuthal
+            // logistic scale that match their path-traced fibres' roughness.
+            out.hairV = float(
+                std::pow(0.726 * betaM + 0.812 * betaM * betaM + 3.7 * std::pow(betaM, 20), 2));
+            out.hairS = float(0.626657069 * (0.265 * betaN + 1.194 * betaN * betaN +
+                                             5.372 * std::pow(betaN, 22)));
+            const double sinAlpha = std::sin(double(m.hairAlpha) * M_PI / 180.0);
+            out.hairSinAlpha = float(sinAlpha);
+            out.hairCosAlpha = float(std::sqrt(std::max(0.0, 1.0 - sinAlpha * sinAlpha)));
+            break;
+        }
         case MaterialKind::CoatedDiffuse:
         case MaterialKind::CoatedConductor: {
             const bool conductor = m.kind == MaterialKind::CoatedConductor;
@@ -796,6 +835,10 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         }
         if (m.kind != MaterialKind::Conductor && m.kind != MaterialKind::Dielectric)
             out.alphaV = out.alpha;
+        if (materialUsed[i] && out.kind == CB_MAT_HAIR) {
+            // Shaded in frames along dp/du at h = -1 + 2 v: the texture buffer's (u, v) give both.
+            scene.features |= CB_FEATURE_TEXTURE | CB_FEATURE_ANISOTROPIC;
+        }
         if (materialUsed[i] && out.alphaV != out.alpha) {
             // Shaded in frames along dp/du, which the texture buffer's (u, v) give.
             if (m.normalMap >= 0 || m.displacement >= 0)
@@ -1002,8 +1045,9 @@ DeviceScene buildDeviceScene(const SceneDesc& desc, ChannelMode mode) {
         if (!texturing || !needsTexCoords(material) || none.empty()) return;
         throw SceneError(where, "this shape's material has a texture mapped by (u, v) (its "
                                 "reflectance, its transmittance, its roughness, a \"normalmap\" "
-                                "or a \"displacement\") or an anisotropic roughness (turned by "
-                                "dp/du), which needs texture coordinates, and cbdpt gives none "
+                                "or a \"displacement\"), hair (along dp/du, across v) or an "
+                                "anisotropic roughness (turned by dp/du), which needs texture "
+                                "coordinates, and cbdpt gives none "
                                 "to " +
                                     none);
     };
@@ -1488,6 +1532,7 @@ std::string DeviceScene::featureNames() const {
     add(CB_FEATURE_SCATTERING, "scattering");
     add(CB_FEATURE_INTERFACE, "interface");
     add(CB_FEATURE_GRID_MEDIUM, "grid-medium");
+    add(CB_FEATURE_HAIR, "hair");
     add(CB_FEATURE_CURVES, "curves");
     names += channels == 16 ? " spectral-16" : " rgb";
     return names;

@@ -1888,7 +1888,8 @@ class Parser {
     // A mesh's tangents beside an anisotropic material (or a mix with one): an error.
     void checkTangents() const {
         auto anisotropic = [&](int i) {
-            return i >= 0 && scene_.materials[size_t(i)].vRoughness.has_value();
+            return i >= 0 && (scene_.materials[size_t(i)].vRoughness.has_value() ||
+                              scene_.materials[size_t(i)].kind == MaterialKind::Hair);
         };
         for (const TangentsBeside& t : tangentsBeside_) {
             const int m =
@@ -1900,7 +1901,8 @@ class Parser {
             if (std::any_of(leaves.begin(), leaves.end(),
                             [&](const auto& leaf) { return anisotropic(leaf.first); }))
                 throw SceneError(t.where, "\"vector3 S\" (tangents) with an anisotropic material "
-                                          "is not supported: cbdpt turns its lobe with dp/du");
+                                          "is not supported (nor with hair): cbdpt turns its "
+                                          "lobe with dp/du");
         }
     }
 
@@ -2156,6 +2158,79 @@ class Parser {
         }
     }
 
+    // pbrt-v4's "hair" (HairMaterial::Create): the absorption from "sigma_a", else "reflectance"
+    // (or "color"), else "eumelanin" and "pheomelanin" (eumelanin 1.3 where none of them is
+    // given), the others ignored with a note as pbrt-v4 warns; "eta", "beta_m", "beta_n" and
+    // "alpha". cbdpt's hair is the same at every point of the surface: a texture is an error,
+    // but for a float texture of class "constant", which counts as its number.
+    void readHair(ParamList& pl, MaterialDesc& m) {
+        m.kind = MaterialKind::Hair;
+        m.eta = 1.55f;
+        auto number = [&](const std::string& name) -> std::optional<double> {
+            const Param* p = pl.peek(name);
+            if (!p || p->type != "texture") return pl.oneFloat(name);
+            const std::string texture = *pl.oneTexture(name);
+            const auto it = floatTextures_.find(texture);
+            if (it == floatTextures_.end() || !it->second.constant)
+                throw SceneError(p->valueLoc(0),
+                                 "hair's \"texture " + name +
+                                     "\" must name a float texture of "
+                                     "class \"constant\" defined before the material (cbdpt's hair "
+                                     "is the same at every point)");
+            return *it->second.constant;
+        };
+        auto spectrum = [&](const std::string& name,
+                            SpectrumRole role) -> std::optional<SpectrumValue> {
+            if (const Param* p = pl.peek(name); p && p->type == "texture")
+                throw SceneError(p->where, "a texture as hair's \"" + name +
+                                               "\" is not supported (cbdpt's hair is the same at "
+                                               "every point): give \"rgb " +
+                                               name + "\" or \"spectrum " + name + "\"");
+            return pl.spectrum(name, role);
+        };
+        std::optional<SpectrumValue> sigmaA = spectrum("sigma_a", SpectrumRole::Coefficient);
+        std::optional<SpectrumValue> reflectance =
+            spectrum("reflectance", SpectrumRole::Reflectance);
+        if (!reflectance) reflectance = spectrum("color", SpectrumRole::Reflectance);
+        const std::optional<double> eumelanin = number("eumelanin");
+        const std::optional<double> pheomelanin = number("pheomelanin");
+        const bool melanin = eumelanin || pheomelanin;
+        if (sigmaA && (reflectance || melanin))
+            note(m.where, "hair-ignored",
+                 "hair given \"sigma_a\" ignores \"reflectance\", \"eumelanin\" and "
+                 "\"pheomelanin\" (as pbrt-v4)");
+        else if (reflectance && melanin)
+            note(m.where, "hair-ignored",
+                 "hair given \"reflectance\" ignores \"eumelanin\" and \"pheomelanin\" (as "
+                 "pbrt-v4)");
+        if (sigmaA) {
+            m.hairSigmaA = std::move(sigmaA);
+        } else if (reflectance) {
+            m.hairReflectance = std::move(reflectance);
+        } else {
+            // HairBxDF::SigmaAFromConcentration: the pigments' absorption in sRGB per unit
+            // concentration, negative concentrations taken as 0; brown-ish hair by default.
+            const double ce = melanin ? std::max(eumelanin.value_or(0.0), 0.0) : 1.3;
+            const double cp = melanin ? std::max(pheomelanin.value_or(0.0), 0.0) : 0.0;
+            const std::array<double, 3> eu{0.419, 0.697, 1.37}, pheo{0.187, 0.4, 1.05};
+            SpectrumValue s;
+            for (size_t c = 0; c < 3; ++c)
+                s.rgb[c] = static_cast<float>(ce * eu[c] + cp * pheo[c]);
+            m.hairSigmaA = s;
+        }
+        if (const Param* p = pl.peek("eta")) {
+            const double eta = *number("eta");
+            if (!(eta > 0.0 && eta <= kMaxDielectricIndex))
+                throw SceneError(p->valueLoc(0),
+                                 fmt::format("hair's \"eta\" must be in (0, {:g}], got {:g}",
+                                             kMaxDielectricIndex, eta));
+            m.eta = static_cast<float>(eta);
+        }
+        if (auto b = number("beta_m")) m.hairBetaM = static_cast<float>(*b);
+        if (auto b = number("beta_n")) m.hairBetaN = static_cast<float>(*b);
+        if (auto a = number("alpha")) m.hairAlpha = static_cast<float>(*a);
+    }
+
     int makeMaterial(const std::string& type, const SourceLocation& typeLoc, ParamList& pl,
                      const std::string& name, const SourceLocation& where) {
         MaterialDesc m;
@@ -2199,6 +2274,8 @@ class Parser {
             readCoatedDiffuse(pl, m);
         } else if (type == "coatedconductor") {
             readCoatedConductor(pl, m);
+        } else if (type == "hair") {
+            readHair(pl, m);
         } else if (type == "interface" || type == "none" || type.empty()) {
             // pbrt-v4 takes "none" and "" as "interface" (deprecated names, with a warning).
             m.kind = MaterialKind::Interface;
@@ -2229,9 +2306,10 @@ class Parser {
             throw SceneError(typeLoc, "unsupported material type \"" + type +
                                           "\" (cbdpt supports diffuse, conductor, dielectric, "
                                           "thindielectric, diffusetransmission, coateddiffuse, "
-                                          "coatedconductor, mix, interface)");
+                                          "coatedconductor, hair, mix, interface)");
         }
-        if (type != "mix" && m.kind != MaterialKind::Interface) {
+        // (pbrt-v4's hair reads neither map)
+        if (type != "mix" && m.kind != MaterialKind::Interface && m.kind != MaterialKind::Hair) {
             m.normalMap = normalMap(pl);
             m.displacement = displacement(pl, m.normalMap >= 0);
         }

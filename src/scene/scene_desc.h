@@ -57,7 +57,8 @@ enum class MaterialKind {
     ThinDielectric,
     CoatedDiffuse,
     CoatedConductor,
-    Interface // pbrt-v4's "interface": a boundary between media that scatters nothing
+    Interface, // pbrt-v4's "interface": a boundary between media that scatters nothing
+    Hair       // pbrt-v4's "hair": Chiang et al. 2016's fibre BSDF (cb_bsdf.h, hairEval)
 };
 
 struct MaterialDesc {
@@ -108,6 +109,13 @@ struct MaterialDesc {
     // SceneDesc::textures; -1: none (also where the material has a normal map, which pbrt-v4 uses
     // instead)
     int displacement = -1;
+    // hair (pbrt-v4's HairMaterial; `eta` its index, 1.55 by default): the absorption per unit of
+    // the fibre's radius, as given by "sigma_a" or made from "eumelanin" and "pheomelanin" (RGB),
+    // or else the "reflectance" it is made from per channel or bin with beta_n
+    // (HairBxDF::SigmaAFromReflectance); the roughnesses beta_m and beta_n as written (the device
+    // scene clamps them to [0.01, 1] as pbrt-v4), and the scales' tilt alpha in degrees
+    std::optional<SpectrumValue> hairSigmaA, hairReflectance;
+    float hairBetaM = 0.3f, hairBetaN = 0.3f, hairAlpha = 2.f;
     std::array<int, 2> mix{-1, -1}; // mix: indices into SceneDesc::materials
     float amount = 0.5f;            // mix: probability of choosing mix[1] (pbrt-v4 semantics)
     SourceLocation where;
