@@ -2235,6 +2235,11 @@ TEST_CASE("pbrt-v4: every comparison scene in scenes/pbrt-v4 parses and builds")
         if (name == "dispersion") CHECK(contains(scene.featureNames(), "dispersion"));
         if (name == "loopsubdiv") CHECK(contains(scene.featureNames(), "shading-normals"));
         if (name == "invisible-light") CHECK(contains(scene.featureNames(), "invisible-light"));
+        if (name == "curves") CHECK(contains(scene.featureNames(), "curves"));
+        if (name == "hair-curves") {
+            CHECK(contains(scene.featureNames(), "curves"));
+            CHECK(contains(scene.featureNames(), "hair"));
+        }
         if (name == "thickness-texture") CHECK(contains(scene.featureNames(), "thickness-texture"));
         if (name == "direction-mix") CHECK(contains(scene.featureNames(), "direction-mix"));
         if (name == "sample-clamp") CHECK(contains(scene.featureNames(), "sample-clamp"));
