@@ -293,7 +293,7 @@ rayPacketLeaf(CB_GLOBAL const TrianglePack* packs, CB_GLOBAL const Primitive* pr
                 /* intersectPrimitiveSheared leaves the primitive to its caller. */
                 Hit h = {rayClosest, pack->prim[l], 0.0f, 0.0f};
                 if (intersectPrimitiveSheared(prims + pack->prim[l], ray, triangleRayOf(ray),
-                                              rayClosest, &h, hitScene) &&
+                                              rayClosest, &h, hitScene, true) &&
                     (!CB_HAS(CB_FEATURE_ALPHA) || !pack->alphaTested ||
                      alphaKeepsHit(hitScene, pack->prim[l], ray, h.b1, h.b2)))
                     rayPacketRecord(j, h, closestHit, closest, found, hitPrim, hitB1, hitB2);

@@ -16,14 +16,6 @@ CB_FN Vec3 curveLerp(real t, Vec3 a, Vec3 b) {
     return vadd(vscale(a, 1.0f - t), vscale(b, t));
 }
 
-/* The blossom of a cubic Bezier (pbrt 3rd ed. sec. 3.7.1): (u, u, u) is its point at u,
- * (a, a, a), (a, a, b), (a, b, b), (b, b, b) the control points of its piece over [a, b]. */
-CB_FN Vec3 curveBlossom(const Vec3* cp, real u0, real u1, real u2) {
-    Vec3 a0 = curveLerp(u0, cp[0], cp[1]), a1 = curveLerp(u0, cp[1], cp[2]);
-    Vec3 a2 = curveLerp(u0, cp[2], cp[3]);
-    return curveLerp(u2, curveLerp(u1, a0, a1), curveLerp(u1, a1, a2));
-}
-
 /* The point at s and its derivative d/ds (pbrt-v4's EvaluateCubicBezier: the chord where the
  * derivative vanishes). */
 CB_FN Vec3 curveEvaluate(const Vec3* cp, real s, Vec3* deriv) {
@@ -35,10 +27,19 @@ CB_FN Vec3 curveEvaluate(const Vec3* cp, real s, Vec3* deriv) {
     return curveLerp(s, b0, b1);
 }
 
-/* round(log2 v) as pbrt-v4's Log2Int(float) rounds it (up from 2^(k + 1/2)); v > 0. */
+/* The point at s of the cubic a + b s + c s^2 + d s^3 (power[0..3]) and its derivative. */
+CB_FN Vec3 curvePower(const Vec3* power, real s, Vec3* deriv) {
+    *deriv = vmadd(power[1], vmadd(vscale(power[2], 2.0f), power[3], 3.0f * s), s);
+    return vmadd(power[0], vmadd(power[1], vmadd(power[2], power[3], s), s), s);
+}
+
+/* round(log2 v) as pbrt-v4's Log2Int(float) rounds it: the float's exponent, plus 1 where its
+ * significand is at least sqrt(2)'s; v > 0. From the bits: a logarithm per curve test (or
+ * PoCL's ilogb) took a tenth of a hair scene's time. */
 CB_FN int curveRoundLog2(real v) {
-    real l = log(v) * 1.44269504088896340736f;
-    return (int)floor(l + 0.5f);
+    uint bits = cbFloatBits(v);
+    int e = (int)((bits >> 23) & 255u) - 127;
+    return (bits & 0x7fffffu) >= 0x3504f3u ? e + 1 : e;
 }
 
 /* The ribbon's normal at u: n[0] and n[1] interpolated spherically (pbrt-v4's Curve). */
@@ -98,6 +99,12 @@ CB_FN bool intersectCurve(CB_GLOBAL const CurveSegment* c, Ray ray, real tMax, b
     Vec3 cp[4];
     for (int i = 0; i < 4; ++i)
         cp[i] = curveToRay(f, world[i]);
+    /* cp as a + b s + c s^2 + d s^3. */
+    Vec3 power[4];
+    power[0] = cp[0];
+    power[1] = vscale(vsub(cp[1], cp[0]), 3.0f);
+    power[2] = vscale(vadd(vsub(cp[0], vscale(cp[1], 2.0f)), cp[2]), 3.0f);
+    power[3] = vadd(vsub(vscale(vsub(cp[1], cp[2]), 3.0f), cp[0]), cp[3]);
     real rayLength = vlength(ray.d);
     real zMax = rayLength * tMax;
     /* Subdivision depth (pbrt-v4): pieces flat to within a twentieth of the width. */
@@ -122,11 +129,14 @@ CB_FN bool intersectCurve(CB_GLOBAL const CurveSegment* c, Ray ray, real tMax, b
     for (;;) {
         real scale = 1.0f / (real)(1u << level);
         real s0 = (real)index * scale, s1 = (real)(index + 1u) * scale;
+        /* The node's control points from the piece's power basis: its ends and, a third of
+         * the span along the tangents, the inner two (cheaper than four blossoms). */
         Vec3 node[4];
-        node[0] = curveBlossom(cp, s0, s0, s0);
-        node[1] = curveBlossom(cp, s0, s0, s1);
-        node[2] = curveBlossom(cp, s0, s1, s1);
-        node[3] = curveBlossom(cp, s1, s1, s1);
+        Vec3 d0, d1;
+        node[0] = curvePower(power, s0, &d0);
+        node[3] = curvePower(power, s1, &d1);
+        node[1] = vmadd(node[0], d0, scale * (1.0f / 3.0f));
+        node[2] = vmadd(node[3], d1, -scale * (1.0f / 3.0f));
         real u0 = uMin + s0 * uSpan, u1 = uMin + s1 * uSpan;
         real maxWidth = fmax(curveWidthAt(c, u0), curveWidthAt(c, u1));
         if (curveBoxMeetsRay(node, maxWidth, zMax)) {

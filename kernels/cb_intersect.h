@@ -268,13 +268,14 @@ CB_FN bool intersectSphere(Ray ray, real tMax, Vec3 center, real radius, real* t
 
 /* Fills hit->t, b1, b2 (b1 = b2 = 0 for spheres, a curve's (u, v)); the caller sets
  * hit->primitive. `sheared` is triangleRayOf(ray); `scene` holds the curve pieces (null where
- * there are none). */
+ * there are none). With !closestHit a curve returns at its first hit, *hit then unset. */
 CB_FN bool intersectPrimitiveSheared(CB_GLOBAL const Primitive* prim, Ray ray, TriangleRay sheared,
-                                     real tMax, Hit* hit, const SceneView* scene) {
+                                     real tMax, Hit* hit, const SceneView* scene, bool closestHit) {
     (void)scene;
+    (void)closestHit;
 #if CB_HAS(CB_FEATURE_CURVES)
     if (prim->kind == CB_PRIM_CURVE)
-        return intersectCurve(scene->curves + (int)prim->p2[0], ray, tMax, true, hit);
+        return intersectCurve(scene->curves + (int)prim->p2[0], ray, tMax, closestHit, hit);
 #endif
 #if CB_HAS(CB_FEATURE_SPHERES)
     if (prim->kind == CB_PRIM_SPHERE) {
@@ -300,7 +301,7 @@ CB_FN bool intersectPrimitiveSheared(CB_GLOBAL const Primitive* prim, Ray ray, T
 
 /* Triangles and spheres (curves need their scene: intersectPrimitiveSheared). */
 CB_FN bool intersectPrimitive(CB_GLOBAL const Primitive* prim, Ray ray, real tMax, Hit* hit) {
-    return intersectPrimitiveSheared(prim, ray, triangleRayOf(ray), tMax, hit, 0);
+    return intersectPrimitiveSheared(prim, ray, triangleRayOf(ray), tMax, hit, 0, true);
 }
 
 /* The lanes of a TrianglePack against `ray` for t in (0, tMax), each lane decided as
@@ -429,7 +430,8 @@ CB_FN bool intersectPack(CB_GLOBAL const TrianglePack* pack, CB_GLOBAL const Pri
             int4 at = lanes == (int4)(k);
             if (!cbAnyLane(slow & at)) continue;
             Hit h = {tMax, -1, 0.0f, 0.0f};
-            if (!intersectPrimitiveSheared(prims + pack->prim[k], ray, sheared, tMax, &h, hitScene))
+            if (!intersectPrimitiveSheared(prims + pack->prim[k], ray, sheared, tMax, &h, hitScene,
+                                           closestHit))
                 continue;
 #if CB_HAS(CB_FEATURE_ALPHA)
             if (alphaTested && !alphaKeepsHit(hitScene, pack->prim[k], ray, h.b1, h.b2)) continue;
@@ -481,7 +483,8 @@ CB_FN bool intersectPack(CB_GLOBAL const TrianglePack* pack, CB_GLOBAL const Pri
     for (int k = 0; k < pack->count; ++k) {
         Hit h;
         h.t = tMax;
-        if (!intersectPrimitiveSheared(prims + pack->prim[k], ray, sheared, tMax, &h, hitScene))
+        if (!intersectPrimitiveSheared(prims + pack->prim[k], ray, sheared, tMax, &h, hitScene,
+                                       closestHit))
             continue;
         if (pack->alphaTested && !alphaKeepsHit(hitScene, pack->prim[k], ray, h.b1, h.b2)) continue;
         if (!closestHit) return true;
