@@ -584,6 +584,18 @@ CB_FN int mixPartAtPoint(const SceneView* scene, int material, Vec3 p) {
 }
 #endif
 
+/* The point and the geometric normal that textures mapped by the hit point and mixed by the
+ * normal's direction read (|n . dir|: the side ng ends up facing does not matter). */
+CB_FN void surfacePointForTextures(SurfacePoint* sp) {
+#if CB_HAS(CB_FEATURE_TEXTURE_MAPPING)
+    sp->uv.p = sp->p;
+#endif
+#if CB_HAS(CB_FEATURE_DIRECTION_MIX)
+    sp->uv.n = sp->ng;
+#endif
+    (void)sp;
+}
+
 /* The hit point with a conservative per-axis error bound (pbrt 3rd ed. sec. 3.9.4-3.9.5).
  * The point is not o + t d, whose error grows with t, but recomputed from the primitive. */
 CB_FN SurfacePoint surfacePointFromHit(const SceneView* scene, Ray ray, Hit hit) {
@@ -614,12 +626,7 @@ CB_FN SurfacePoint surfacePointFromHit(const SceneView* scene, Ray ray, Hit hit)
 #if CB_HAS(CB_FEATURE_TEXTURE)
         if (scene->textures) sp.uv = sphereTexCoord(scene, hit.primitive, pLocal);
 #endif
-#if CB_HAS(CB_FEATURE_TEXTURE_MAPPING)
-        sp.uv.p = sp.p;
-#endif
-#if CB_HAS(CB_FEATURE_DIRECTION_MIX)
-        sp.uv.n = sp.ng;
-#endif
+        surfacePointForTextures(&sp);
 #if CB_HAS(CB_FEATURE_NORMAL_MAP) || CB_HAS(CB_FEATURE_BUMP_MAP)
         sp = surfacePointMapped(scene, sp, hit, pLocal, pLocal, pLocal);
 #endif
@@ -643,12 +650,7 @@ CB_FN SurfacePoint surfacePointFromHit(const SceneView* scene, Ray ray, Hit hit)
 #endif
         sp.uv.u = hit.b1; /* pbrt-v4's (u, v): along the curve and across its width */
         sp.uv.v = hit.b2;
-#if CB_HAS(CB_FEATURE_TEXTURE_MAPPING)
-        sp.uv.p = sp.p;
-#endif
-#if CB_HAS(CB_FEATURE_DIRECTION_MIX)
-        sp.uv.n = sp.ng;
-#endif
+        surfacePointForTextures(&sp);
 #if CB_HAS(CB_FEATURE_ANISOTROPIC)
         sp.tangent = dpdu;
 #endif
@@ -674,12 +676,7 @@ CB_FN SurfacePoint surfacePointFromHit(const SceneView* scene, Ray ray, Hit hit)
     /* (Host views of untextured scenes, such as the BVH choice's, have no texture buffer.) */
     if (scene->textures) sp.uv = triangleTexCoord(scene, hit.primitive, hit.b1, hit.b2);
 #endif
-#if CB_HAS(CB_FEATURE_TEXTURE_MAPPING)
-    sp.uv.p = sp.p;
-#endif
-#if CB_HAS(CB_FEATURE_DIRECTION_MIX)
-    sp.uv.n = sp.ng; /* |n . dir|: the side ng ends up facing does not matter */
-#endif
+    surfacePointForTextures(&sp);
     sp.ns = sp.ng;
 #if CB_HAS(CB_FEATURE_SHADING_NORMALS)
     if (scene->shadingNormals) {

@@ -4,6 +4,7 @@
 #include <doctest/doctest.h>
 
 #include "cb_bvh_wide.h"
+#include "double_vectors.h"
 #include "method_checks.h"
 #include "scene/device_scene.h"
 #include "scene_files.h"
@@ -21,25 +22,7 @@ using namespace cbtest::scene_files;
 
 namespace {
 
-using V3 = std::array<double, 3>;
-V3 add(V3 a, V3 b) {
-    return {a[0] + b[0], a[1] + b[1], a[2] + b[2]};
-}
-V3 sub(V3 a, V3 b) {
-    return {a[0] - b[0], a[1] - b[1], a[2] - b[2]};
-}
-V3 mul(V3 a, double s) {
-    return {a[0] * s, a[1] * s, a[2] * s};
-}
-double dot(V3 a, V3 b) {
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
-V3 cross(V3 a, V3 b) {
-    return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
-}
-V3 unit(V3 a) {
-    return mul(a, 1.0 / std::sqrt(dot(a, a)));
-}
+using namespace cbtest::double_vectors;
 
 // A cubic Bezier's point (Bernstein form, written apart from the kernels' blossoms).
 V3 bezier(const std::array<V3, 4>& cp, double s) {

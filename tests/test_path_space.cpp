@@ -22,6 +22,8 @@
 #include "cb_bdpt.h"
 #include "cb_camera.h"
 
+#include "double_vectors.h"
+
 #include <array>
 #include <cmath>
 #include <doctest/doctest.h>
@@ -32,26 +34,7 @@
 
 namespace {
 
-using V3 = std::array<double, 3>;
-
-V3 sub(V3 a, V3 b) {
-    return {a[0] - b[0], a[1] - b[1], a[2] - b[2]};
-}
-V3 add(V3 a, V3 b) {
-    return {a[0] + b[0], a[1] + b[1], a[2] + b[2]};
-}
-V3 mul(V3 a, double s) {
-    return {a[0] * s, a[1] * s, a[2] * s};
-}
-double dot(V3 a, V3 b) {
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
-V3 cross(V3 a, V3 b) {
-    return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
-}
-V3 unit(V3 a) {
-    return mul(a, 1.0 / std::sqrt(dot(a, a)));
-}
+using namespace cbtest::double_vectors;
 
 // A parallelogram corner + u * edgeU + v * edgeV, u, v in [0, 1].
 struct Quad {
