@@ -134,6 +134,8 @@ TEST_CASE("curves: the parser makes each basis and degree a cubic Bezier, and re
     CHECK(contains(error("Shape \"curve\" \"string type\" \"ribbon\" \"normal N\" [0 0 1] " + four),
                    "1 normals: a ribbon curve of 1 segments needs 2"));
     CHECK(contains(error("Shape \"curve\" \"float width\" -1 " + four), "width must be finite"));
+    CHECK(contains(error("Scale 1e30 1e30 1e30\nShape \"curve\" \"float width\" 1e20 " + four),
+                   "width exceeds the float range"));
     CHECK(contains(error("Scale 1 2 1\nShape \"curve\" " + four), "a curve's transformation"));
     CHECK(contains(error("AreaLightSource \"diffuse\" \"rgb L\" [1 1 1]\nShape \"curve\" " + four),
                    "a curve cannot be an area light"));

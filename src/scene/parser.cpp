@@ -1489,6 +1489,7 @@ class Parser {
                 n = unit(m.normal(n));
             c.width0 = float(src.width0 * scale);
             c.width1 = float(src.width1 * scale);
+            requireCurveWidths(c, where);
             c.mirrored = src.mirrored != (m.det3() < 0.0);
             scene_.curves.push_back(c);
         }
@@ -3843,6 +3844,13 @@ class Parser {
         return {v[0] / length, v[1] / length, v[2] / length};
     }
 
+    // A width that the CTM's scale took beyond float's range would make every box infinite.
+    static void requireCurveWidths(const CurveDesc& c, const SourceLocation& where) {
+        if (!std::isfinite(c.width0) || !std::isfinite(c.width1))
+            throw SceneError(where, "a curve's width exceeds the float range (3.4e38) once "
+                                    "scaled by its transformation");
+    }
+
     // pbrt-v4's "curve" (its Curve::Create): cubic or quadratic, Bezier or uniform B-spline
     // control points "P", each segment made a cubic Bezier (degree elevated, B-spline blossomed)
     // of widths interpolated along the whole curve from "width0" to "width1", hit in its
@@ -3977,6 +3985,7 @@ class Parser {
                     checkedPoint(m.point(bezier[size_t(i)]), t.where, "a curve control point");
             curve.width0 = float(scale * (width0 + (width1 - width0) * seg / segments));
             curve.width1 = float(scale * (width0 + (width1 - width0) * (seg + 1) / segments));
+            requireCurveWidths(curve, t.where);
             curve.type = type;
             if (!normals.empty())
                 for (int i = 0; i < 2; ++i)

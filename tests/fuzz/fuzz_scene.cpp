@@ -5,6 +5,7 @@
 // e.g. a parameter that is finite as written but overflows to Inf once stored as a float.
 #include "scene/scene_desc.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -130,6 +131,20 @@ void checkScene(const cb::SceneDesc& s) {
         if (!std::isfinite(sp.radius) || !(sp.radius > 0.f)) broken("sphere radius");
         checkIndex(sp.material, nm, false, "sphere material");
         checkIndex(sp.areaLight, nl, true, "sphere area light");
+    }
+    for (const cb::CurveDesc& c : s.curves) {
+        for (const auto& p : c.cp)
+            for (double v : p)
+                if (!finiteFloat(v)) broken("curve control point");
+        if (!std::isfinite(c.width0) || !std::isfinite(c.width1) || c.width0 < 0.f ||
+            c.width1 < 0.f || !(std::max(c.width0, c.width1) > 0.f))
+            broken("curve width");
+        if (c.type == cb::CurveDesc::Type::Ribbon)
+            for (const auto& n : c.normals)
+                if (!(std::fabs(n[0] * n[0] + n[1] * n[1] + n[2] * n[2] - 1.0) < 1e-6))
+                    broken("ribbon normal not unit");
+        if (c.splitDepth < 0 || c.splitDepth > 10) broken("curve split depth");
+        checkIndex(c.material, nm, false, "curve material");
     }
     for (const cb::TriangleMeshDesc& m : s.meshes) {
         for (const auto& p : m.positions)
