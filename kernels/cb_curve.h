@@ -1,7 +1,7 @@
 /* cb_curve.h - pbrt-v4's curves: cubic Bezier pieces of a width that varies linearly along them,
  * hit as pbrt-v4's Curve hits them (pbrt-v4's shapes.cpp, Curve::IntersectRay; pbrt 3rd ed.
  * sec. 3.7). The ray is taken to a frame where it runs along +z from the origin; the piece is
- * subdivided (de Casteljau) to a depth set by its flatness, boxes that miss the ray pruned, and
+ * subdivided in halves to a depth set by its flatness, boxes that miss the ray pruned, and
  * each leaf tested as a line of the width, the hit being the curve's point nearest the ray.
  * Every test in that frame is a dot product in its xy plane, so only the pruning boxes, never
  * a hit, depend on the frame's turn about the ray. */
@@ -12,19 +12,13 @@
 
 CB_BEGIN_NAMESPACE
 
-CB_FN Vec3 curveLerp(real t, Vec3 a, Vec3 b) {
-    return vadd(vscale(a, 1.0f - t), vscale(b, t));
-}
-
-/* The point at s and its derivative d/ds (pbrt-v4's EvaluateCubicBezier: the chord where the
- * derivative vanishes). */
-CB_FN Vec3 curveEvaluate(const Vec3* cp, real s, Vec3* deriv) {
-    Vec3 a0 = curveLerp(s, cp[0], cp[1]), a1 = curveLerp(s, cp[1], cp[2]);
-    Vec3 a2 = curveLerp(s, cp[2], cp[3]);
-    Vec3 b0 = curveLerp(s, a0, a1), b1 = curveLerp(s, a1, a2);
-    Vec3 d = vsub(b1, b0);
-    *deriv = vlength2(d) > 0.0f ? vscale(d, 3.0f) : vsub(cp[3], cp[0]);
-    return curveLerp(s, b0, b1);
+/* cp[0..3] as the cubic a + b s + c s^2 + d s^3 (power[0..3]), the one form in which the
+ * kernels evaluate a piece: its nodes' control points, its leaves' points and dp/du. */
+CB_FN void curvePowerBasis(const Vec3* cp, Vec3* power) {
+    power[0] = cp[0];
+    power[1] = vscale(vsub(cp[1], cp[0]), 3.0f);
+    power[2] = vscale(vadd(vsub(cp[0], vscale(cp[1], 2.0f)), cp[2]), 3.0f);
+    power[3] = vadd(vsub(vscale(vsub(cp[1], cp[2]), 3.0f), cp[0]), cp[3]);
 }
 
 /* The point at s of the cubic a + b s + c s^2 + d s^3 (power[0..3]) and its derivative. */
@@ -99,12 +93,8 @@ CB_FN bool intersectCurve(CB_GLOBAL const CurveSegment* c, Ray ray, real tMax, b
     Vec3 cp[4];
     for (int i = 0; i < 4; ++i)
         cp[i] = curveToRay(f, world[i]);
-    /* cp as a + b s + c s^2 + d s^3. */
     Vec3 power[4];
-    power[0] = cp[0];
-    power[1] = vscale(vsub(cp[1], cp[0]), 3.0f);
-    power[2] = vscale(vadd(vsub(cp[0], vscale(cp[1], 2.0f)), cp[2]), 3.0f);
-    power[3] = vadd(vsub(vscale(vsub(cp[1], cp[2]), 3.0f), cp[0]), cp[3]);
+    curvePowerBasis(cp, power);
     real rayLength = vlength(ray.d);
     real zMax = rayLength * tMax;
     /* Subdivision depth (pbrt-v4): pieces flat to within a twentieth of the width. */
@@ -159,8 +149,9 @@ CB_FN bool intersectCurve(CB_GLOBAL const CurveSegment* c, Ray ray, real tMax, b
                 real hitWidth = curveWidthAt(c, u);
                 if (c->type == CB_CURVE_RIBBON)
                     hitWidth *= vabsdot(curveRibbonNormal(c, u), ray.d) / rayLength;
+                /* The node's point at w (its tangent's direction is all the side needs). */
                 Vec3 dpc;
-                Vec3 pc = curveEvaluate(node, fmin(fmax(w, 0.0f), 1.0f), &dpc);
+                Vec3 pc = curvePower(power, s0 + fmin(fmax(w, 0.0f), 1.0f) * scale, &dpc);
                 real dist2 = pc.x * pc.x + pc.y * pc.y;
                 real t = pc.z / rayLength;
                 if (dist2 <= hitWidth * hitWidth * 0.25f && pc.z >= 0.0f && pc.z <= zMax &&
@@ -194,12 +185,15 @@ CB_FN bool intersectCurve(CB_GLOBAL const CurveSegment* c, Ray ray, real tMax, b
 CB_FN void curveSurface(CB_GLOBAL const CurveSegment* c, Ray ray, Hit hit, Vec3* p, Vec3* ng,
                         Vec3* dpdu, real* hitWidth) {
     real u = hit.b1, v = c->mirrored ? 1.0f - hit.b2 : hit.b2;
-    Vec3 cp[4];
+    Vec3 cp[4], power[4];
     for (int i = 0; i < 4; ++i)
         cp[i] = vec3FromGlobalArray(c->cp[i]);
+    curvePowerBasis(cp, power);
     real span = c->uMax - c->uMin;
     Vec3 deriv;
-    curveEvaluate(cp, span > 0.0f ? (u - c->uMin) / span : 0.0f, &deriv);
+    curvePower(power, span > 0.0f ? (u - c->uMin) / span : 0.0f, &deriv);
+    /* pbrt-v4's EvaluateCubicBezier: the chord where the derivative vanishes. */
+    if (!(vlength2(deriv) > 0.0f)) deriv = vsub(cp[3], cp[0]);
     *dpdu = deriv;
     *p = vmadd(ray.o, ray.d, hit.t);
     real width = curveWidthAt(c, u);
